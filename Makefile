@@ -1,0 +1,62 @@
+# crease: a thin front over CMake. `make run` and `make check` are the README's two commands.
+JOBS    ?= $(shell nproc)
+RELEASE := build/release
+ASAN    := build/asan
+FUZZ    := build/fuzz
+OUT     ?= out
+FUZZ_SMOKE_S ?= 10
+FUZZ_LONG_S  ?= 300
+PREFIX  ?= /usr/local
+
+.PHONY: all deps build run check test test-asan fuzz-smoke fuzz bench install clean
+
+all: build
+
+deps:
+	@bash scripts/deps.sh
+
+$(RELEASE)/CMakeCache.txt:
+	cmake -S . -B $(RELEASE) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_INSTALL_PREFIX=$(PREFIX) >/dev/null
+
+build: deps $(RELEASE)/CMakeCache.txt
+	cmake --build $(RELEASE) -j $(JOBS)
+
+# The main job on built-in defaults.
+run: build
+	@bash scripts/run_demo.sh $(RELEASE)/crease $(OUT)
+
+test: build
+	cd $(RELEASE) && ctest --output-on-failure -j $(JOBS)
+
+test-asan: deps
+	cmake -S . -B $(ASAN) -DCMAKE_BUILD_TYPE=Debug -DCREASE_SANITIZE=ON \
+	      -DCMAKE_C_FLAGS_DEBUG="-O1 -g" >/dev/null
+	cmake --build $(ASAN) -j $(JOBS)
+	cd $(ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	      ctest --output-on-failure -j $(JOBS)
+
+$(FUZZ)/CMakeCache.txt:
+	CC=clang cmake -S . -B $(FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCREASE_FUZZ=ON -DCREASE_OPENMP=OFF \
+	      -DCMAKE_C_FLAGS="-O1 -g -fsanitize=address,undefined -fsanitize=fuzzer-no-link" \
+	      -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
+
+fuzz-build: deps $(FUZZ)/CMakeCache.txt
+	cmake --build $(FUZZ) -j $(JOBS)
+
+fuzz-smoke: fuzz-build
+	@bash scripts/fuzz.sh $(FUZZ) $(FUZZ_SMOKE_S)
+
+fuzz: fuzz-build
+	@bash scripts/fuzz.sh $(FUZZ) $(FUZZ_LONG_S)
+
+check: test test-asan fuzz-smoke
+	@echo "check: all tests passed (release, sanitizers, fuzz smoke)"
+
+bench: build
+	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done
+
+install: build
+	cmake --install $(RELEASE)
+
+clean:
+	rm -rf build

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Install the Debian packages crease needs, when they are missing.
+# As root: apt-get update once, then apt-get install -y. Otherwise: print the
+# exact command to run and stop with exit 1.
+set -euo pipefail
+
+packages=(
+  build-essential   # gcc, make, libgomp (OpenMP)
+  cmake
+  pkg-config
+  libpng-dev        # PNG pictures
+  zlib1g-dev        # PNG and .npz
+  libcjson-dev      # JSON configs and manifests
+  clang             # fuzz targets (libFuzzer)
+  libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+
+if [[ $(id -u) -ne 0 ]]; then
+  echo "crease needs these Debian packages: ${missing[*]}" >&2
+  echo "run: sudo apt-get update && sudo apt-get install -y ${missing[*]}" >&2
+  exit 1
+fi
+echo "deps: installing ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2

@@ -1,0 +1,118 @@
+/* config.c: fill a typed struct from a JSON object (cJSON), refusing unknown
+ * keys, wrong types and out-of-range values by name. Keys absent from the
+ * JSON keep the values the caller put in the struct (its defaults). */
+#include "crease/base.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int line_of(const char *text, const char *at) {
+    int line = 1;
+    for (const char *c = text; c < at && *c; c++) line += *c == '\n';
+    return line;
+}
+
+static const cr_config_key *find_key(const cr_config_key *keys, int nkeys, const char *name) {
+    for (int i = 0; i < nkeys; i++)
+        if (strcmp(keys[i].name, name) == 0) return &keys[i];
+    return NULL;
+}
+
+static cr_status set_number(const cr_config_key *k, const cJSON *item, const char *source,
+                            void *out, cr_error *err) {
+    double v = item->valuedouble;
+    if (!isfinite(v))
+        return CR_FAIL(err, CR_ERR_CONFIG, "%s: key '%s' must be finite", source, k->name);
+    if (k->min <= k->max && (v < k->min || v > k->max))
+        return CR_FAIL(err, CR_ERR_CONFIG, "%s: key '%s' = %g is outside [%g, %g]", source,
+                       k->name, v, k->min, k->max);
+    char *field = (char *)out + k->offset;
+    switch (k->type) {
+    case CR_CFG_FLOAT: *(float *)field = (float)v; break;
+    case CR_CFG_DOUBLE: *(double *)field = v; break;
+    case CR_CFG_INT:
+        if (v != floor(v) || fabs(v) > 2147483647.0)
+            return CR_FAIL(err, CR_ERR_CONFIG, "%s: key '%s' must be an integer, got %g", source,
+                           k->name, v);
+        *(int *)field = (int)v;
+        break;
+    default: CR_ASSERT(0);
+    }
+    return CR_OK;
+}
+
+static const char *type_name(cr_config_type t) {
+    switch (t) {
+    case CR_CFG_FLOAT:
+    case CR_CFG_DOUBLE: return "a number";
+    case CR_CFG_INT: return "an integer";
+    case CR_CFG_BOOL: return "true or false";
+    case CR_CFG_STRING: return "a string";
+    }
+    return "?";
+}
+
+static cr_status set_key(const cr_config_key *k, const cJSON *item, const char *source, void *out,
+                         cr_error *err) {
+    char *field = (char *)out + k->offset;
+    switch (k->type) {
+    case CR_CFG_FLOAT:
+    case CR_CFG_DOUBLE:
+    case CR_CFG_INT:
+        if (cJSON_IsNumber(item)) return set_number(k, item, source, out, err);
+        break;
+    case CR_CFG_BOOL:
+        if (cJSON_IsBool(item)) {
+            *(int *)field = cJSON_IsTrue(item);
+            return CR_OK;
+        }
+        break;
+    case CR_CFG_STRING:
+        if (cJSON_IsString(item)) {
+            if (strlen(item->valuestring) >= k->size)
+                return CR_FAIL(err, CR_ERR_CONFIG, "%s: key '%s' is longer than %zu characters",
+                               source, k->name, k->size - 1);
+            memcpy(field, item->valuestring, strlen(item->valuestring) + 1);
+            return CR_OK;
+        }
+        break;
+    }
+    return CR_FAIL(err, CR_ERR_CONFIG, "%s: key '%s' must be %s", source, k->name,
+                   type_name(k->type));
+}
+
+cr_status cr_config_parse(const char *json_text, const char *source, const cr_config_key *keys,
+                          int nkeys, void *out, cr_error *err) {
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithOpts(json_text, &end, 1);
+    if (!root) {
+        const char *at = cJSON_GetErrorPtr();
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%d: malformed JSON", source,
+                       at ? line_of(json_text, at) : 1);
+    }
+    cr_status st = CR_OK;
+    if (!cJSON_IsObject(root)) {
+        st = CR_FAIL(err, CR_ERR_CONFIG, "%s: expected a JSON object at the top level", source);
+    } else {
+        for (const cJSON *item = root->child; item && st == CR_OK; item = item->next) {
+            const cr_config_key *k = find_key(keys, nkeys, item->string);
+            if (!k)
+                st = CR_FAIL(err, CR_ERR_CONFIG, "%s: unknown key '%s'", source, item->string);
+            else
+                st = set_key(k, item, source, out, err);
+        }
+    }
+    cJSON_Delete(root);
+    return st;
+}
+
+cr_status cr_config_load(const char *path, const cr_config_key *keys, int nkeys, void *out,
+                         cr_error *err) {
+    char *text = NULL;
+    CR_TRY(cr_file_read_all(path, &text, NULL, err));
+    cr_status st = cr_config_parse(text, path, keys, nkeys, out, err);
+    free(text);
+    return st;
+}

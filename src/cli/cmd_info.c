@@ -1,0 +1,4 @@
+/* cmd_info.c: placeholder until the geometry modules land (replaced in this change). */
+#include "cli.h"
+int cmd_info(int argc, char **argv) { (void)argc; (void)argv; return CLI_USAGE; }
+void help_info(void) {}

@@ -1,0 +1,59 @@
+/* main.c: `crease <command> ...`: dispatch to one file per command. */
+#include "cli.h"
+
+#include <string.h>
+
+static const cli_command commands[] = {
+    {"info", "counts, bounds, manifoldness, UVs and triangle quality of a mesh", cmd_info,
+     help_info},
+    {"convert", "convert a mesh between OBJ, PLY, glb and PC2 by extension", cmd_convert,
+     help_convert},
+    {"render", "render meshes to PNG (wireframe, colour maps, turntables)", cmd_render,
+     help_render},
+    {"primitive", "write a primitive mesh with UVs (sphere, torus, prism, plane, ...)",
+     cmd_primitive, help_primitive},
+};
+enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
+
+static void usage(FILE *to) {
+    fprintf(to, "crease %s: neural garment simulation with fine and persistent wrinkles\n\n"
+                "usage: crease <command> [options]\n\ncommands:\n",
+            "0.1.0");
+    for (int i = 0; i < COMMAND_COUNT; i++)
+        fprintf(to, "  %-12s %s\n", commands[i].name, commands[i].summary);
+    fprintf(to, "\nEvery command takes --help, and --json to end with one JSON summary on "
+                "stdout.\nExit codes: 0 success, 1 bad input, 2 usage error.\n");
+}
+
+int main(int argc, char **argv) {
+    if (argc < 2) {
+        usage(stderr);
+        return CLI_USAGE;
+    }
+    if (cli_is_help(argv[1]) || strcmp(argv[1], "help") == 0) {
+        if (argc > 2)
+            for (int i = 0; i < COMMAND_COUNT; i++)
+                if (strcmp(argv[2], commands[i].name) == 0) {
+                    commands[i].help();
+                    return CLI_OK;
+                }
+        usage(stdout);
+        return CLI_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("crease 0.1.0\n");
+        return CLI_OK;
+    }
+    for (int i = 0; i < COMMAND_COUNT; i++)
+        if (strcmp(argv[1], commands[i].name) == 0) {
+            for (int k = 2; k < argc; k++)
+                if (cli_is_help(argv[k])) {
+                    commands[i].help();
+                    return CLI_OK;
+                }
+            return commands[i].run(argc - 1, argv + 1);
+        }
+    fprintf(stderr, "crease: unknown command '%s'\n\n", argv[1]);
+    usage(stderr);
+    return CLI_USAGE;
+}

@@ -1,0 +1,156 @@
+/* test_base.c: status messages, arena, RNG, parallel-for, config, atomic files. */
+#include "crease/base.h"
+#include "test.h"
+
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+CR_TEST(base, error_message_names_file_and_line) {
+    cr_error err = {0};
+    cr_status st = CR_FAIL(&err, CR_ERR_PARSE, "%s:%d: expected a number", "cloth.obj", 12);
+    CR_CHECK(st == CR_ERR_PARSE);
+    CR_CHECK(strstr(err.msg, "cloth.obj:12") != NULL);
+    CR_CHECK(err.src_line > 0);
+    CR_CHECK(strcmp(cr_status_str(CR_ERR_PARSE), "parse error") == 0);
+}
+
+CR_TEST(base, arena_alignment_and_exhaustion) {
+    cr_arena a;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_arena_init(&a, 1024, &err), &err);
+    void *p = cr_arena_alloc(&a, 10, &err);
+    void *q = cr_arena_alloc(&a, 10, &err);
+    CR_CHECK(p && q && ((uintptr_t)q % 64) == 0 && (char *)q - (char *)p == 64);
+    size_t mark = cr_arena_mark(&a);
+    CR_CHECK(cr_arena_alloc(&a, 800, &err) != NULL);
+    cr_arena_rewind(&a, mark);
+    CR_CHECK(a.used == mark);
+    CR_CHECK(cr_arena_alloc(&a, 5000, &err) == NULL);
+    CR_CHECK(err.status == CR_ERR_MEMORY && strstr(err.msg, "need 5000") != NULL);
+    cr_arena_reset(&a);
+    CR_CHECK(a.used == 0 && a.peak >= 928);
+    cr_arena_free(&a);
+}
+
+CR_TEST(base, philox_is_counter_based_and_uniform) {
+    /* Same (seed, stream, counter) -> same block; a different stream differs. */
+    uint32_t a[4], b[4], c[4];
+    cr_philox4x32(42, 7, 1000, a);
+    cr_philox4x32(42, 7, 1000, b);
+    cr_philox4x32(42, 8, 1000, c);
+    CR_CHECK(memcmp(a, b, sizeof a) == 0);
+    CR_CHECK(memcmp(a, c, sizeof a) != 0);
+    /* Known-answer test from the Random123 distribution (philox4x32_10, zero key and counter). */
+    uint32_t zero[4];
+    cr_philox4x32(0, 0, 0, zero);
+    CR_CHECK(zero[0] == 0x6627e8d5u && zero[1] == 0xe169c58du && zero[2] == 0xbc57ac4cu &&
+             zero[3] == 0x9b00dbd8u);
+    cr_rng r = cr_rng_make(1, 0);
+    double sum = 0, sum2 = 0;
+    int n = 200000, below[10] = {0};
+    for (int i = 0; i < n; i++) {
+        double u = cr_rng_uniform(&r);
+        CR_REQUIRE(u >= 0 && u < 1);
+        sum += u;
+        below[cr_rng_below(&r, 10)]++;
+        double g = cr_rng_normal(&r);
+        sum2 += g * g;
+    }
+    CR_CHECK_NEAR(sum / n, 0.5, 0.005);
+    CR_CHECK_NEAR(sum2 / n, 1.0, 0.02);
+    for (int k = 0; k < 10; k++) CR_CHECK_NEAR(below[k] / (double)n, 0.1, 0.005);
+}
+
+CR_TEST(base, shuffle_is_a_permutation) {
+    int32_t a[100];
+    for (int i = 0; i < 100; i++) a[i] = i;
+    cr_rng r = cr_rng_make(3, 1);
+    cr_rng_shuffle_i32(&r, a, 100);
+    int seen[100] = {0}, moved = 0;
+    for (int i = 0; i < 100; i++) seen[a[i]]++, moved += a[i] != i;
+    for (int i = 0; i < 100; i++) CR_CHECK(seen[i] == 1);
+    CR_CHECK(moved > 50);
+}
+
+typedef struct {
+    int64_t *out;
+} square_ctx;
+
+static void square_range(void *ctx, int64_t begin, int64_t end) {
+    square_ctx *c = ctx;
+    for (int64_t i = begin; i < end; i++) c->out[i] += i * i;
+}
+
+CR_TEST(base, parallel_for_covers_every_index_once) {
+    for (int64_t n = 0; n < 5000; n = n * 3 + 1) {
+        int64_t *out = calloc((size_t)n + 1, sizeof *out);
+        square_ctx c = {out};
+        cr_parallel_for(n, 7, square_range, &c);
+        for (int64_t i = 0; i < n; i++) CR_CHECK(out[i] == i * i);
+        free(out);
+    }
+}
+
+typedef struct {
+    float stiffness;
+    int steps;
+    int plastic;
+    char name[16];
+} demo_config;
+
+static const cr_config_key demo_keys[] = {
+    {"stiffness", CR_CFG_FLOAT, offsetof(demo_config, stiffness), 0, 0, 1e6, "N/m"},
+    {"steps", CR_CFG_INT, offsetof(demo_config, steps), 0, 1, 1000, "count"},
+    {"plastic", CR_CFG_BOOL, offsetof(demo_config, plastic), 0, 1, 0, ""},
+    {"name", CR_CFG_STRING, offsetof(demo_config, name), 16, 1, 0, ""},
+};
+
+CR_TEST(base, config_fills_and_rejects_by_key) {
+    demo_config c = {.stiffness = 1, .steps = 10};
+    cr_error err = {0};
+    CR_CHECK_OK(cr_config_parse("{\"stiffness\": 250.5, \"plastic\": true, \"name\": \"denim\"}",
+                                "m.json", demo_keys, 4, &c, &err),
+                &err);
+    CR_CHECK_NEAR(c.stiffness, 250.5, 1e-6);
+    CR_CHECK(c.steps == 10 && c.plastic == 1 && strcmp(c.name, "denim") == 0);
+
+    CR_CHECK(cr_config_parse("{\"stiffnes\": 1}", "m.json", demo_keys, 4, &c, &err) ==
+             CR_ERR_CONFIG);
+    CR_CHECK(strstr(err.msg, "unknown key 'stiffnes'") && strstr(err.msg, "m.json"));
+    CR_CHECK(cr_config_parse("{\"steps\": 2.5}", "m.json", demo_keys, 4, &c, &err) ==
+             CR_ERR_CONFIG);
+    CR_CHECK(strstr(err.msg, "'steps'") != NULL);
+    CR_CHECK(cr_config_parse("{\"steps\": 5000}", "m.json", demo_keys, 4, &c, &err) ==
+             CR_ERR_CONFIG);
+    CR_CHECK(cr_config_parse("{\"name\": 3}", "m.json", demo_keys, 4, &c, &err) == CR_ERR_CONFIG);
+    CR_CHECK(cr_config_parse("{\n\"steps\": 1,\n oops}", "m.json", demo_keys, 4, &c, &err) ==
+             CR_ERR_PARSE);
+    CR_CHECK(strstr(err.msg, "m.json:3") != NULL);
+}
+
+CR_TEST(base, atomic_write_commits_or_leaves_nothing) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/sub/dir/file.txt", cr_test_tmpdir());
+    cr_error err = {0};
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/sub/dir", cr_test_tmpdir());
+    CR_CHECK_OK(cr_mkdir_p(dir, &err), &err);
+    cr_atomic_file f;
+    CR_CHECK_OK(cr_atomic_open(&f, path, &err), &err);
+    fputs("first", f.fp);
+    cr_atomic_abort(&f);
+    char *text = NULL;
+    CR_CHECK(cr_file_read_all(path, &text, NULL, &err) == CR_ERR_IO);
+    CR_CHECK_OK(cr_atomic_open(&f, path, &err), &err);
+    fputs("second", f.fp);
+    CR_CHECK_OK(cr_atomic_commit(&f, &err), &err);
+    CR_CHECK_OK(cr_file_read_all(path, &text, NULL, &err), &err);
+    CR_CHECK(text && strcmp(text, "second") == 0);
+    free(text);
+    char ext[8];
+    cr_path_ext("a/b.c/Mesh.GLB", ext, sizeof ext);
+    CR_CHECK(strcmp(ext, "glb") == 0);
+    cr_path_ext("a/b.c/mesh", ext, sizeof ext);
+    CR_CHECK(ext[0] == 0);
+}
