@@ -11,6 +11,7 @@ packages=(
   libpng-dev        # PNG pictures
   zlib1g-dev        # PNG and .npz
   libcjson-dev      # JSON configs and manifests
+  libopenblas-dev   # GEMM for the neural engine (cblas.h)
   clang             # fuzz targets (libFuzzer)
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
 )

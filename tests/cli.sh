@@ -1,2 +1,92 @@
-#!/bin/bash
-exit 0
+#!/usr/bin/env bash
+# cli.sh: the `crease` tool end to end: outputs, --json summaries, exit codes
+# (0 ok, 1 bad input naming file and line, 2 usage) and atomic outputs.
+# Usage: cli.sh PATH_TO_CREASE
+set -u
+crease=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+check() { # check NAME COMMAND... : the command must succeed
+  local name=$1; shift
+  if "$@" >/dev/null; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name" >&2; fi
+}
+
+# expect_exit CODE PATTERN ARGS...: crease ARGS exits with CODE and stderr matches PATTERN
+expect_exit() {
+  local code=$1 pattern=$2; shift 2
+  "$crease" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local got=$?
+  if [[ $got -eq $code ]] && grep -Eq -- "$pattern" "$tmp/stderr"; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1))
+    echo "FAIL: crease $* -> exit $got (want $code), stderr: $(head -c 300 "$tmp/stderr")" >&2
+  fi
+}
+
+json_has() { # json_has FILE KEY...: the last stdout line is one JSON object with these keys
+  local line; line=$(tail -n 1 "$1")
+  [[ $line == \{*\} ]] || return 1
+  shift
+  for k in "$@"; do grep -q "\"$k\":" <<<"$line" || return 1; done
+}
+
+# --- help and usage -------------------------------------------------------------------
+check "top-level help" "$crease" --help
+for c in info convert render primitive; do
+  check "$c --help" bash -c "'$crease' $c --help | grep -q usage"
+done
+expect_exit 2 "unknown command" frobnicate
+expect_exit 2 "unknown option" info --bogus x.obj
+expect_exit 2 "missing -o" primitive sphere
+expect_exit 2 "expects an integer" primitive sphere --res abc -o "$tmp/s.obj"
+expect_exit 2 "unknown primitive" primitive teapot -o "$tmp/t.obj"
+
+# --- primitives, info, convert ----------------------------------------------------------
+for k in plane sphere icosphere torus prism box capsule cylinder; do
+  check "primitive $k" bash -c "'$crease' primitive $k -o '$tmp/$k.obj' --json > '$tmp/$k.json'"
+  check "primitive $k json" json_has "$tmp/$k.json" kind vertices faces output
+done
+check "info json" bash -c "'$crease' info '$tmp/sphere.obj' --json > '$tmp/info.json'"
+check "info fields" json_has "$tmp/info.json" vertices faces bounds manifold boundary_loops has_uv \
+  min_angle_deg
+check "info closed sphere" grep -q '"boundary_loops":0' "$tmp/info.json"
+check "info plane has one boundary loop" bash -c \
+  "'$crease' info '$tmp/plane.obj' --json | grep -q '\"boundary_loops\":1'"
+check "convert obj->ply" "$crease" convert "$tmp/torus.obj" "$tmp/torus.ply"
+check "convert ply->glb" "$crease" convert "$tmp/torus.ply" "$tmp/torus.glb"
+check "convert glb->obj" "$crease" convert "$tmp/torus.glb" "$tmp/torus2.obj" --json
+check "round trip keeps counts" bash -c \
+  "[[ \$('$crease' info '$tmp/torus.obj' --json | grep -o '\"faces\":[0-9]*') == \
+     \$('$crease' info '$tmp/torus2.obj' --json | grep -o '\"faces\":[0-9]*') ]]"
+
+# --- render ---------------------------------------------------------------------------
+check "render" "$crease" render "$tmp/torus.obj" "$tmp/sphere.obj" --wire -o "$tmp/r.png" --size 256
+check "render png magic" bash -c "head -c 4 '$tmp/r.png' | grep -q PNG"
+check "render colour map" bash -c \
+  "'$crease' render '$tmp/torus.obj' --color-by curvature --size 128 -o '$tmp/c.png' --json | grep -q '\"output\"'"
+check "turntable" "$crease" render "$tmp/sphere.obj" --turntable 3 --size 64 -o "$tmp/turn.png"
+check "turntable frames" test -f "$tmp/turn_002.png"
+
+# --- bad input: exit 1 with the file (and line) named, nothing written -------------------
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n' > "$tmp/short_face.obj"
+expect_exit 1 "short_face.obj:4" info "$tmp/short_face.obj"
+printf 'v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n' > "$tmp/nan.obj"
+expect_exit 1 "nan.obj:2" info "$tmp/nan.obj"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n' > "$tmp/range.obj"
+expect_exit 1 "range.obj:4" convert "$tmp/range.obj" "$tmp/range.ply"
+check "no output after failed convert" test ! -e "$tmp/range.ply"
+: > "$tmp/empty.obj"
+expect_exit 1 "empty.obj" info "$tmp/empty.obj"
+printf 'ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n' > "$tmp/huge.ply"
+expect_exit 1 "huge.ply" info "$tmp/huge.ply"
+printf 'v 0 0 0\n\xff\xfe\x80\x01garbage\x00\n' > "$tmp/garbage.obj"
+expect_exit 1 "garbage.obj:2" info "$tmp/garbage.obj"
+expect_exit 1 "missing.obj" info "$tmp/missing.obj"
+expect_exit 1 "xyz" convert "$tmp/sphere.obj" "$tmp/sphere.xyz"
+
+echo "cli: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]

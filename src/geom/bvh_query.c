@@ -1,0 +1,456 @@
+/* bvh_query.c: closest point, signed distance, nearest vertex and ray queries
+ * on the BVH of bvh.c, single and batched.
+ *
+ * Distance queries walk the tree depth first with an explicit stack, visiting
+ * the nearer child first and skipping any node whose box lies farther than
+ * the best distance found so far. Exact per-triangle work is in double:
+ * closest point by Voronoi regions (Ericson, Real-Time Collision Detection,
+ * 2005, sec. 5.1.5), ray-triangle by Moller & Trumbore (JGT 1997). The sign of
+ * the distance uses angle-weighted pseudo-normals (Baerentzen & Aanaes, IEEE
+ * TVCG 2005) of the feature (face, edge, vertex) holding the closest point.
+ *
+ * Left out: packet/SIMD traversal, any-hit (shadow) rays, winding numbers.
+ */
+#include "bvh_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+typedef struct stack_item {
+    int32_t node;
+    float key; /* squared box distance, or ray entry t */
+} stack_item;
+
+static float box_dist2(const bvh_node *n, const float p[3]) {
+    float d2 = 0;
+    for (int d = 0; d < 3; d++) {
+        float e = fmaxf(fmaxf(n->lo[d] - p[d], p[d] - n->hi[d]), 0.0f);
+        d2 += e * e;
+    }
+    return d2;
+}
+
+/* -------------------------------------------------- point-triangle -- */
+
+typedef struct tri_closest {
+    double point[3];
+    double bary[3];
+    double d2;
+    cr_bvh_feature feature;
+    int local;
+} tri_closest;
+
+static double dot3(const double a[3], const double b[3]) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void set_closest(tri_closest *r, const double *a, const double *ab, const double *ac,
+                        double w1, double w2, const double p[3], cr_bvh_feature feature,
+                        int local) {
+    r->bary[0] = 1.0 - w1 - w2, r->bary[1] = w1, r->bary[2] = w2;
+    double d2 = 0;
+    for (int d = 0; d < 3; d++) {
+        r->point[d] = a[d] + w1 * ab[d] + w2 * ac[d];
+        double e = p[d] - r->point[d];
+        d2 += e * e;
+    }
+    r->d2 = d2;
+    r->feature = feature;
+    r->local = local;
+}
+
+/* Closest point of a degenerate (zero-area) triangle: the best of its three
+ * edges as segments. */
+static void closest_degenerate(const double *a, const double *ab, const double *ac,
+                               const double p[3], tri_closest *r) {
+    r->d2 = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        /* Edge k from corner k to corner k+1 in (w1, w2) coordinates. */
+        static const double from[3][2] = {{0, 0}, {1, 0}, {0, 1}}, to[3][2] = {{1, 0}, {0, 1}, {0, 0}};
+        double s[3], q[3], e[3];
+        for (int d = 0; d < 3; d++) {
+            s[d] = a[d] + from[k][0] * ab[d] + from[k][1] * ac[d];
+            e[d] = a[d] + to[k][0] * ab[d] + to[k][1] * ac[d] - s[d];
+            q[d] = p[d] - s[d];
+        }
+        double ee = dot3(e, e), t = ee > 0 ? dot3(q, e) / ee : 0.0;
+        t = t < 0 ? 0 : (t > 1 ? 1 : t);
+        tri_closest c;
+        double w1 = from[k][0] + t * (to[k][0] - from[k][0]);
+        double w2 = from[k][1] + t * (to[k][1] - from[k][1]);
+        if (t == 0) set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, k);
+        else if (t == 1) set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, (k + 1) % 3);
+        else set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_EDGE, k);
+        if (k == 0 || c.d2 < r->d2) *r = c; /* k == 0 first: a NaN stays NaN */
+    }
+}
+
+/* Ericson 5.1.5: classify p against the Voronoi regions of the vertices,
+ * edges and face of triangle (a, b, c). Edges: 0 = ab, 1 = bc, 2 = ca. */
+static void closest_on_triangle(const float *fa, const float *fb, const float *fc,
+                                const double p[3], tri_closest *r) {
+    double a[3], ab[3], ac[3], ap[3], bp[3], cp[3];
+    for (int d = 0; d < 3; d++) {
+        a[d] = fa[d];
+        ab[d] = (double)fb[d] - fa[d];
+        ac[d] = (double)fc[d] - fa[d];
+        ap[d] = p[d] - fa[d];
+        bp[d] = p[d] - fb[d];
+        cp[d] = p[d] - fc[d];
+    }
+    double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+    double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
+    if (d1 <= 0 && d2 <= 0) {
+        set_closest(r, a, ab, ac, 0, 0, p, CR_BVH_VERTEX, 0);
+    } else if (d3 >= 0 && d4 <= d3) {
+        set_closest(r, a, ab, ac, 1, 0, p, CR_BVH_VERTEX, 1);
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        set_closest(r, a, ab, ac, d1 / (d1 - d3), 0, p, CR_BVH_EDGE, 0);
+    } else if (d6 >= 0 && d5 <= d6) {
+        set_closest(r, a, ab, ac, 0, 1, p, CR_BVH_VERTEX, 2);
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        set_closest(r, a, ab, ac, 0, d2 / (d2 - d6), p, CR_BVH_EDGE, 2);
+    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+        double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        set_closest(r, a, ab, ac, 1 - w, w, p, CR_BVH_EDGE, 1);
+    } else if (va + vb + vc > 0) {
+        set_closest(r, a, ab, ac, vb / (va + vb + vc), vc / (va + vb + vc), p, CR_BVH_FACE, 0);
+    } else {
+        closest_degenerate(a, ab, ac, p, r);
+    }
+}
+
+/* ----------------------------------------------------- closest point -- */
+
+/* Closest point within sqrt(best->d2) (initialised by the caller); returns the face or -1. */
+static int32_t closest_search(const cr_bvh *b, const float p[3], tri_closest *best) {
+    double pd[3] = {p[0], p[1], p[2]};
+    int32_t best_face = -1;
+    stack_item stack[BVH_STACK];
+    int top = 0;
+    stack[top++] = (stack_item){0, box_dist2(&b->nodes[0], p)};
+    while (top > 0) {
+        stack_item it = stack[--top];
+        if (!(it.key <= best->d2)) continue;
+        const bvh_node *n = &b->nodes[it.node];
+        if (n->count > 0) {
+            for (int32_t k = 0; k < n->count; k++) {
+                int32_t f = b->order[n->start + k];
+                const int32_t *t = &b->tri[3 * (size_t)f];
+                tri_closest c;
+                closest_on_triangle(&b->pos[3 * (size_t)t[0]], &b->pos[3 * (size_t)t[1]],
+                                    &b->pos[3 * (size_t)t[2]], pd, &c);
+                if (c.d2 < best->d2 || (best_face < 0 && c.d2 == best->d2)) {
+                    *best = c;
+                    best_face = f;
+                }
+            }
+            continue;
+        }
+        int32_t l = n->start, r = n->start + 1;
+        float dl = box_dist2(&b->nodes[l], p), dr = box_dist2(&b->nodes[r], p);
+        /* Push the far child first so the near one is searched first. */
+        if (dl <= dr) {
+            stack[top++] = (stack_item){r, dr};
+            stack[top++] = (stack_item){l, dl};
+        } else {
+            stack[top++] = (stack_item){l, dl};
+            stack[top++] = (stack_item){r, dr};
+        }
+    }
+    return best_face;
+}
+
+static double max_dist2(float max_dist) {
+    return isinf(max_dist) ? INFINITY : (double)max_dist * max_dist;
+}
+
+int cr_bvh_closest(const cr_bvh *b, const float p[3], float max_dist, cr_bvh_hit *hit) {
+    tri_closest best = {.d2 = max_dist2(max_dist)};
+    int32_t f = closest_search(b, p, &best);
+    memset(hit, 0, sizeof *hit);
+    hit->face = f;
+    if (f < 0) {
+        hit->distance = max_dist;
+        return 0;
+    }
+    for (int d = 0; d < 3; d++) {
+        hit->point[d] = (float)best.point[d];
+        hit->bary[d] = (float)best.bary[d];
+    }
+    hit->distance = (float)sqrt(best.d2);
+    hit->feature = best.feature;
+    hit->local = best.local;
+    return 1;
+}
+
+/* --------------------------------------------------- signed distance -- */
+
+/* Pseudo-normal of the feature holding the closest point (unnormalised for edges). */
+static void pseudo_normal(const cr_bvh *b, int32_t f, const tri_closest *c, double n[3]) {
+    const float *src = &b->fnormal[3 * (size_t)f];
+    if (c->feature == CR_BVH_VERTEX) src = &b->vnormal[3 * (size_t)b->tri[3 * (size_t)f + c->local]];
+    for (int d = 0; d < 3; d++) n[d] = src[d];
+    if (c->feature == CR_BVH_EDGE) {
+        int32_t g = b->adj[3 * (size_t)f + c->local];
+        if (g >= 0)
+            for (int d = 0; d < 3; d++) n[d] += b->fnormal[3 * (size_t)g + d];
+    }
+    double len = sqrt(dot3(n, n));
+    if (len > 0)
+        for (int d = 0; d < 3; d++) n[d] /= len;
+}
+
+int cr_bvh_signed_distance(const cr_bvh *b, const float p[3], float max_dist, float *dist,
+                           float normal[3], cr_bvh_hit *hit) {
+    tri_closest best = {.d2 = max_dist2(max_dist)};
+    int32_t f = closest_search(b, p, &best);
+    if (hit) {
+        memset(hit, 0, sizeof *hit);
+        hit->face = f;
+        hit->distance = max_dist;
+    }
+    if (f < 0) {
+        *dist = max_dist;
+        if (normal) normal[0] = normal[1] = normal[2] = 0.0f;
+        return 0;
+    }
+    double n[3], away = 0;
+    pseudo_normal(b, f, &best, n);
+    for (int d = 0; d < 3; d++) away += ((double)p[d] - best.point[d]) * n[d];
+    double dd = sqrt(best.d2);
+    *dist = (float)(away < 0 ? -dd : dd);
+    if (normal)
+        for (int d = 0; d < 3; d++) normal[d] = (float)n[d];
+    if (hit) {
+        for (int d = 0; d < 3; d++) {
+            hit->point[d] = (float)best.point[d];
+            hit->bary[d] = (float)best.bary[d];
+        }
+        hit->distance = (float)dd;
+        hit->feature = best.feature;
+        hit->local = best.local;
+    }
+    return 1;
+}
+
+/* ---------------------------------------------------- nearest vertex -- */
+
+/* Every used vertex lies in the boxes of its faces, so the face tree serves:
+ * a leaf tests its faces' corners. */
+int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist, float *dist) {
+    double best = max_dist2(max_dist);
+    int32_t best_v = -1;
+    stack_item stack[BVH_STACK];
+    int top = 0;
+    stack[top++] = (stack_item){0, box_dist2(&b->nodes[0], p)};
+    while (top > 0) {
+        stack_item it = stack[--top];
+        if (!(it.key <= best)) continue;
+        const bvh_node *n = &b->nodes[it.node];
+        if (n->count > 0) {
+            for (int32_t k = 0; k < n->count; k++) {
+                const int32_t *t = &b->tri[3 * (size_t)b->order[n->start + k]];
+                for (int c = 0; c < 3; c++) {
+                    const float *q = &b->pos[3 * (size_t)t[c]];
+                    double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1],
+                           dz = (double)p[2] - q[2];
+                    double d2 = dx * dx + dy * dy + dz * dz;
+                    if (d2 < best || (best_v < 0 && d2 == best)) best = d2, best_v = t[c];
+                }
+            }
+            continue;
+        }
+        int32_t l = n->start, r = n->start + 1;
+        float dl = box_dist2(&b->nodes[l], p), dr = box_dist2(&b->nodes[r], p);
+        if (dl <= dr) {
+            stack[top++] = (stack_item){r, dr};
+            stack[top++] = (stack_item){l, dl};
+        } else {
+            stack[top++] = (stack_item){l, dl};
+            stack[top++] = (stack_item){r, dr};
+        }
+    }
+    if (dist) *dist = best_v < 0 ? max_dist : (float)sqrt(best);
+    return best_v;
+}
+
+/* ---------------------------------------------------------- raycast -- */
+
+/* Entry t of the ray into the box, or INFINITY when it misses within [0, t_far].
+ * Division by a zero direction gives +-inf slabs; a NaN from 0 * inf is
+ * dropped by fminf/fmaxf, which keeps the test conservative. The far bound
+ * is padded by a few ulps so rounding cannot miss a face on a box wall
+ * (Pharr, Jakob & Humphreys, PBRT 3rd ed., sec. 3.9.2). */
+static float ray_box(const bvh_node *n, const float o[3], const float inv[3], float t_far) {
+    float tn = 0.0f, tf = t_far;
+    for (int d = 0; d < 3; d++) {
+        float t1 = (n->lo[d] - o[d]) * inv[d], t2 = (n->hi[d] - o[d]) * inv[d];
+        tn = fmaxf(tn, fminf(t1, t2));
+        tf = fminf(tf, fmaxf(t1, t2) * (1.0f + 4e-7f));
+    }
+    return tn <= tf ? tn : INFINITY;
+}
+
+/* Moller-Trumbore: t of the hit in [0, t_best], or -1. */
+static double ray_triangle(const float *fa, const float *fb, const float *fc, const double o[3],
+                           const double dir[3], double t_best, double *u_out, double *v_out) {
+    double e1[3], e2[3], tv[3], pv[3], qv[3];
+    for (int d = 0; d < 3; d++) {
+        e1[d] = (double)fb[d] - fa[d];
+        e2[d] = (double)fc[d] - fa[d];
+        tv[d] = o[d] - fa[d];
+    }
+    pv[0] = dir[1] * e2[2] - dir[2] * e2[1];
+    pv[1] = dir[2] * e2[0] - dir[0] * e2[2];
+    pv[2] = dir[0] * e2[1] - dir[1] * e2[0];
+    double det = dot3(e1, pv);
+    if (det == 0.0) return -1;
+    double inv = 1.0 / det;
+    double u = dot3(tv, pv) * inv;
+    if (u < 0 || u > 1) return -1;
+    qv[0] = tv[1] * e1[2] - tv[2] * e1[1];
+    qv[1] = tv[2] * e1[0] - tv[0] * e1[2];
+    qv[2] = tv[0] * e1[1] - tv[1] * e1[0];
+    double v = dot3(dir, qv) * inv;
+    if (v < 0 || u + v > 1) return -1;
+    double t = dot3(e2, qv) * inv;
+    if (t < 0 || t > t_best) return -1;
+    *u_out = u, *v_out = v;
+    return t;
+}
+
+int cr_bvh_raycast(const cr_bvh *b, const float origin[3], const float dir[3], float t_max,
+                   cr_bvh_ray_hit *hit) {
+    memset(hit, 0, sizeof *hit);
+    hit->face = -1;
+    hit->t = t_max;
+    if (dir[0] == 0 && dir[1] == 0 && dir[2] == 0) return 0;
+    float inv[3] = {1.0f / dir[0], 1.0f / dir[1], 1.0f / dir[2]};
+    double o[3] = {origin[0], origin[1], origin[2]}, dd[3] = {dir[0], dir[1], dir[2]};
+    double best_t = t_max, bu = 0, bv = 0;
+    stack_item stack[BVH_STACK];
+    int top = 0;
+    float t0 = ray_box(&b->nodes[0], origin, inv, t_max);
+    if (t0 != INFINITY) stack[top++] = (stack_item){0, t0};
+    while (top > 0) {
+        stack_item it = stack[--top];
+        if (!(it.key <= best_t)) continue;
+        const bvh_node *n = &b->nodes[it.node];
+        if (n->count > 0) {
+            for (int32_t k = 0; k < n->count; k++) {
+                int32_t f = b->order[n->start + k];
+                const int32_t *t = &b->tri[3 * (size_t)f];
+                double u, v;
+                double th = ray_triangle(&b->pos[3 * (size_t)t[0]], &b->pos[3 * (size_t)t[1]],
+                                         &b->pos[3 * (size_t)t[2]], o, dd, best_t, &u, &v);
+                if (th >= 0) best_t = th, bu = u, bv = v, hit->face = f;
+            }
+            continue;
+        }
+        float tf = (float)fmin(best_t, (double)t_max);
+        int32_t l = n->start, r = n->start + 1;
+        float tl = ray_box(&b->nodes[l], origin, inv, tf), tr = ray_box(&b->nodes[r], origin, inv, tf);
+        if (tl <= tr) {
+            if (tr != INFINITY) stack[top++] = (stack_item){r, tr};
+            if (tl != INFINITY) stack[top++] = (stack_item){l, tl};
+        } else {
+            if (tl != INFINITY) stack[top++] = (stack_item){l, tl};
+            if (tr != INFINITY) stack[top++] = (stack_item){r, tr};
+        }
+    }
+    if (hit->face < 0) return 0;
+    hit->t = (float)best_t;
+    hit->bary[0] = (float)(1 - bu - bv), hit->bary[1] = (float)bu, hit->bary[2] = (float)bv;
+    return 1;
+}
+
+/* ----------------------------------------------------------- batches -- */
+
+typedef struct batch_ctx {
+    const cr_bvh *b;
+    const float *pts, *dirs;
+    float limit; /* max_dist or t_max */
+    int32_t *index;
+    float *point, *bary, *dist, *normal;
+} batch_ctx;
+
+enum { BATCH_GRAIN = 64 };
+
+static void put3(float *dst, int64_t i, const float *src) {
+    if (dst) memcpy(&dst[3 * i], src, 3 * sizeof(float));
+}
+
+static void closest_range(void *ctx, int64_t begin, int64_t end) {
+    const batch_ctx *c = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        cr_bvh_hit h;
+        cr_bvh_closest(c->b, &c->pts[3 * i], c->limit, &h);
+        if (c->index) c->index[i] = h.face;
+        put3(c->point, i, h.point);
+        put3(c->bary, i, h.bary);
+        if (c->dist) c->dist[i] = h.distance;
+    }
+}
+
+void cr_bvh_closest_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
+                          int32_t *face, float *point, float *bary, float *dist) {
+    batch_ctx c = {.b = b, .pts = pts, .limit = max_dist, .index = face, .point = point,
+                   .bary = bary, .dist = dist};
+    cr_parallel_for(n, BATCH_GRAIN, closest_range, &c);
+}
+
+static void signed_range(void *ctx, int64_t begin, int64_t end) {
+    const batch_ctx *c = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        cr_bvh_hit h;
+        float d, nrm[3];
+        cr_bvh_signed_distance(c->b, &c->pts[3 * i], c->limit, &d, nrm, c->point ? &h : NULL);
+        if (c->dist) c->dist[i] = d;
+        put3(c->normal, i, nrm);
+        if (c->point) put3(c->point, i, h.point);
+    }
+}
+
+void cr_bvh_signed_distance_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
+                                  float *dist, float *normal, float *point) {
+    batch_ctx c = {.b = b, .pts = pts, .limit = max_dist, .dist = dist, .normal = normal,
+                   .point = point};
+    cr_parallel_for(n, BATCH_GRAIN, signed_range, &c);
+}
+
+static void vertex_range(void *ctx, int64_t begin, int64_t end) {
+    const batch_ctx *c = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        float d;
+        int32_t v = cr_bvh_nearest_vertex(c->b, &c->pts[3 * i], c->limit, &d);
+        if (c->index) c->index[i] = v;
+        if (c->dist) c->dist[i] = d;
+    }
+}
+
+void cr_bvh_nearest_vertex_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
+                                 int32_t *vertex, float *dist) {
+    batch_ctx c = {.b = b, .pts = pts, .limit = max_dist, .index = vertex, .dist = dist};
+    cr_parallel_for(n, BATCH_GRAIN, vertex_range, &c);
+}
+
+static void ray_range(void *ctx, int64_t begin, int64_t end) {
+    const batch_ctx *c = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        cr_bvh_ray_hit h;
+        cr_bvh_raycast(c->b, &c->pts[3 * i], &c->dirs[3 * i], c->limit, &h);
+        if (c->index) c->index[i] = h.face;
+        if (c->dist) c->dist[i] = h.t;
+        put3(c->bary, i, h.bary);
+    }
+}
+
+void cr_bvh_raycast_batch(const cr_bvh *b, const float *origins, const float *dirs, int64_t n,
+                          float t_max, int32_t *face, float *t, float *bary) {
+    batch_ctx c = {.b = b, .pts = origins, .dirs = dirs, .limit = t_max, .index = face,
+                   .dist = t, .bary = bary};
+    cr_parallel_for(n, BATCH_GRAIN, ray_range, &c);
+}

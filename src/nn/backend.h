@@ -1,0 +1,127 @@
+/* backend.h (private): the table of kernels the tape calls.
+ *
+ * The tape (tape.c, ops_*.c) decides shapes, allocates from the arena and
+ * records nodes; it never loops over tensor elements. All element work goes
+ * through one of these function pointers, which take raw pointers and sizes,
+ * so a CUDA backend is a second table (src/nn/cuda/) with the same entries.
+ *
+ * Conventions for every entry:
+ *   - pointers are device pointers of the backend's device;
+ *   - `acc` (accumulate) means dst += result, otherwise dst = result;
+ *   - backward kernels always accumulate into input grads (the tape zeroes
+ *     grad buffers when it allocates them);
+ *   - padded shapes are 4 entries, right-aligned with leading 1s (numpy
+ *     broadcasting order).
+ * Index arrays (int32) live in host memory on every backend.
+ */
+#ifndef CREASE_NN_BACKEND_H
+#define CREASE_NN_BACKEND_H
+
+#include "crease/nn.h"
+
+/* Which result a broadcast binary loop writes (see binary below). */
+typedef enum nn_binary_mode {
+    NN_BINARY_VALUE,  /* out = f(a, b) */
+    NN_BINARY_GRAD_A, /* out = dy * df/da */
+    NN_BINARY_GRAD_B  /* out = dy * df/db */
+} nn_binary_mode;
+
+typedef struct cr_nn_backend {
+    const char *name;
+
+    /* ---- memory */
+    void (*fill)(float *x, int64_t n, float value);
+    void (*copy)(float *dst, const float *src, int64_t n);
+
+    /* ---- elementwise (op is one of the unary cr_op values; p its parameter:
+     * constant, exponent, slope or beta) */
+    void (*unary_forward)(cr_op op, float p, const float *x, float *y, int64_t n);
+    /* dx += dy * f'(x); y is the forward output (tanh, sigmoid use it). */
+    void (*unary_backward)(cr_op op, float p, const float *x, const float *y, const float *dy,
+                           float *dx, int64_t n);
+    /* op in ADD..DIV. out has shape ys; a, b broadcast to it. dy is read in
+     * the GRAD modes (shape ys). */
+    void (*binary)(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
+                   const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
+                   float *out, int acc);
+
+    /* ---- reductions (double accumulation, fixed order) */
+    double (*sum_all)(const float *x, int64_t n);
+    /* x viewed as (outer, len, inner): y[o,i] (+)= scale * sum_l x[o,l,i]. */
+    void (*sum_axis)(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
+                     float *y, int acc);
+    /* dx[o,l,i] += scale * dy[o,i] (the backward of sum_axis). */
+    void (*expand_axis_acc)(const float *dy, int64_t outer, int64_t len, int64_t inner,
+                            float scale, float *dx);
+    /* dst (shape ds) += src (shape ys) summed over the axes where ds is 1. */
+    void (*reduce_to_shape_acc)(const float *src, const int64_t ys[4], float *dst,
+                                const int64_t ds[4]);
+
+    /* ---- matrix products, row-major, cblas semantics:
+     * C (M,N) = alpha op(A) op(B) + beta C, op(A) (M,K), op(B) (K,N). */
+    void (*gemm)(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
+                 int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
+    /* The same for `batch` products at fixed strides (floats) between them. */
+    void (*gemm_batched)(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
+                         int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
+                         int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
+                         int64_t batch);
+    /* Grouped products on rows sorted by group (off: (G+1) row offsets):
+     * ys[off[g]:off[g+1]] = xs[off[g]:off[g+1]] op(w[g]); w (G,K,N) or
+     * (G,N,K) when trans_w. */
+    void (*grouped_forward)(const float *xs, int64_t K, const float *w, int trans_w, int64_t N,
+                            const int64_t *off, int64_t G, float *ys);
+    /* dxs = dys op(w[g])^T (assigned, may be NULL), dw[g] += xs^T dys (may be NULL). */
+    void (*grouped_backward)(const float *xs, const float *dys, int64_t K, const float *w,
+                             int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
+                             float *dw);
+
+    /* ---- indexing */
+    /* rows x cols block copy between row strides (src_stride 0 repeats one row). */
+    void (*copy2d)(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
+                   int64_t rows, int64_t cols, int acc);
+    /* y[i] (+)= x[idx[i]], rows of C floats, i in [0,n). */
+    void (*gather_rows)(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                        int acc);
+    /* y[idx[i]] (+)= x[i]; idx must be a permutation (no repeats). */
+    void (*scatter_rows)(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                         int acc);
+    /* Position of the first idx outside [0,limit), or -1. */
+    int64_t (*index_check)(const int32_t *idx, int64_t n, int64_t limit);
+    /* Counting sort of positions by bucket (stable): off (nb+1), perm (n);
+     * positions with idx == b are perm[off[b]..off[b+1]). idx checked first. */
+    void (*csr_build)(const int32_t *idx, int64_t n, int64_t nb, int64_t *off, int32_t *perm);
+    /* y[s] (+)= sum of x[perm[j]] for j in [off[s],off[s+1]), rows of C floats. */
+    void (*segment_sum_rows)(const float *x, int64_t C, const int64_t *off, const int32_t *perm,
+                             int64_t nseg, float *y, int acc);
+    void (*segment_softmax_forward)(const float *x, int64_t H, const int64_t *off,
+                                    const int32_t *perm, int64_t nseg, float *y);
+    void (*segment_softmax_backward)(const float *y, const float *dy, int64_t H,
+                                     const int64_t *off, const int32_t *perm, int64_t nseg,
+                                     float *dx);
+
+    /* ---- row-wise vector ops over rows of C floats */
+    /* mean, rstd: (R) saved for backward; w, b may be NULL. */
+    void (*layer_norm_forward)(const float *x, int64_t R, int64_t C, const float *w,
+                               const float *b, float eps, float *y, float *mean, float *rstd);
+    void (*layer_norm_backward)(const float *x, const float *dy, int64_t R, int64_t C,
+                                const float *w, const float *mean, const float *rstd, float *dx,
+                                float *dw, float *db);
+    void (*cross_forward)(const float *a, const float *b, int64_t R, float *y);
+    void (*cross_backward)(const float *a, const float *b, const float *dy, int64_t R,
+                           float *da, float *db);
+    void (*dot_forward)(const float *a, const float *b, int64_t R, int64_t C, float *y);
+    void (*dot_backward)(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
+                         float *da, float *db);
+    void (*norm_forward)(const float *x, int64_t R, int64_t C, float *y);
+    void (*norm_backward)(const float *x, const float *y, const float *dy, int64_t R, int64_t C,
+                          float eps, float *dx);
+    void (*normalize_forward)(const float *x, int64_t R, int64_t C, float eps, float *y);
+    void (*normalize_backward)(const float *x, const float *y, const float *dy, int64_t R,
+                               int64_t C, float eps, float *dx);
+} cr_nn_backend;
+
+/* The CPU table (src/nn/cpu/cpu_backend.c). */
+const cr_nn_backend *nn_backend_cpu(void);
+
+#endif
