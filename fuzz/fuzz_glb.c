@@ -1,5 +1,5 @@
-/* fuzz_glb.c: libFuzzer target for the glb reader (container, JSON, accessors). Any input must give a
- * status, never a crash, leak or undefined behaviour; seeds in fuzz/corpus/fuzz_glb/. */
+/* fuzz_glb.c: libFuzzer target for the glb reader (container, JSON, accessors). Any input must give
+ * a status, never a crash, leak or undefined behaviour; seeds in fuzz/corpus/fuzz_glb/. */
 #include "crease/mesh_io.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

@@ -11,7 +11,7 @@ packages=(
   libpng-dev        # PNG pictures
   zlib1g-dev        # PNG and .npz
   libcjson-dev      # JSON configs and manifests
-  libopenblas-dev   # GEMM for the neural engine (cblas.h)
+  libopenblas-openmp-dev  # GEMM for the neural engine, on the OpenMP thread pool
   clang             # fuzz targets (libFuzzer)
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
 )

@@ -4,9 +4,11 @@
  * triangle distance by projection onto the plane or else the nearest edge,
  * inside/outside by the generalised winding number (solid angles, van
  * Oosterom & Strackee 1983), rays by a plain loop over all faces. Meshes: an
- * icosphere and a torus (also against their analytic SDFs) and a non-convex
- * "crater box" whose top face is pushed deep inside, giving sharp concave
- * edges and vertices where pseudo-normals matter. */
+ * icosphere and a torus (also against their analytic SDFs), a non-convex
+ * "crater box" whose top face is pushed deep inside (concave edges and
+ * corners), and the triangular prism, whose 120-degree edge turns make a
+ * face-normal sign test fail where pseudo-normals succeed (checked by hand
+ * by disabling the edge and vertex pseudo-normals: this test then fails). */
 #include "crease/bvh.h"
 #include "crease/diffgeo.h"
 #include "crease/primitives.h"
@@ -21,7 +23,8 @@ static const double PI = 3.14159265358979323846;
 /* --------------------------------------------------------- references -- */
 
 static void sub(const float *a, const float *b, double out[3]) {
-    for (int d = 0; d < 3; d++) out[d] = (double)a[d] - b[d];
+    for (int d = 0; d < 3; d++)
+        out[d] = (double)a[d] - b[d];
 }
 static double dot(const double *a, const double *b) {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -35,11 +38,13 @@ static void cross(const double *a, const double *b, double out[3]) {
 static double seg_dist2(const float *a, const float *b, const double p[3]) {
     double e[3], q[3];
     sub(b, a, e);
-    for (int d = 0; d < 3; d++) q[d] = p[d] - a[d];
+    for (int d = 0; d < 3; d++)
+        q[d] = p[d] - a[d];
     double ee = dot(e, e), t = ee > 0 ? dot(q, e) / ee : 0;
     t = t < 0 ? 0 : (t > 1 ? 1 : t);
     double r = 0;
-    for (int d = 0; d < 3; d++) r += (q[d] - t * e[d]) * (q[d] - t * e[d]);
+    for (int d = 0; d < 3; d++)
+        r += (q[d] - t * e[d]) * (q[d] - t * e[d]);
     return r;
 }
 
@@ -52,13 +57,15 @@ static double ref_tri_dist2(const float *a, const float *b, const float *c, cons
     if (nn > 0) {
         double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
         double h = dot(ap, n) / nn, q[3];
-        for (int d = 0; d < 3; d++) q[d] = p[d] - h * n[d];
+        for (int d = 0; d < 3; d++)
+            q[d] = p[d] - h * n[d];
         const float *v[3] = {a, b, c};
         int inside = 1;
         for (int k = 0; k < 3; k++) {
             double e[3], w[3], x[3];
             sub(v[(k + 1) % 3], v[k], e);
-            for (int d = 0; d < 3; d++) w[d] = q[d] - v[k][d];
+            for (int d = 0; d < 3; d++)
+                w[d] = q[d] - v[k][d];
             cross(e, w, x);
             if (dot(x, n) < 0) inside = 0;
         }
@@ -73,7 +80,8 @@ static double ref_dist(const cr_mesh *m, const double p[3]) {
     double best = INFINITY;
     for (int32_t f = 0; f < m->nf; f++) {
         const int32_t *t = &m->tri[3 * f];
-        best = fmin(best, ref_tri_dist2(&m->pos[3 * t[0]], &m->pos[3 * t[1]], &m->pos[3 * t[2]], p));
+        best =
+            fmin(best, ref_tri_dist2(&m->pos[3 * t[0]], &m->pos[3 * t[1]], &m->pos[3 * t[2]], p));
     }
     return sqrt(best);
 }
@@ -207,8 +215,9 @@ static void check_signed_distance(const cr_mesh *m, const char *name, uint64_t s
             }
         }
         if (sdf && !(fabs(dist[i] - sdf(p)) <= sdf_tol)) bad_sdf++;
-        double len = sqrt((double)nrm[3 * i] * nrm[3 * i] + (double)nrm[3 * i + 1] * nrm[3 * i + 1] +
-                          (double)nrm[3 * i + 2] * nrm[3 * i + 2]);
+        double len =
+            sqrt((double)nrm[3 * i] * nrm[3 * i] + (double)nrm[3 * i + 1] * nrm[3 * i + 1] +
+                 (double)nrm[3 * i + 2] * nrm[3 * i + 2]);
         if (fabs(len - 1) > 1e-5) bad_normal++;
     }
     CR_CHECK(bad_dist == 0);
@@ -235,8 +244,9 @@ CR_TEST(bvh, signed_distance_sphere) {
     /* The inscribed mesh is within its deepest face-plane distance of the sphere. */
     double sag = 0;
     for (int32_t f = 0; f < m->nf; f++) {
-        double ab[3], ac[3], n[3], a[3] = {m->pos[3 * m->tri[3 * f]], m->pos[3 * m->tri[3 * f] + 1],
-                                          m->pos[3 * m->tri[3 * f] + 2]};
+        double ab[3], ac[3], n[3],
+            a[3] = {m->pos[3 * m->tri[3 * f]], m->pos[3 * m->tri[3 * f] + 1],
+                    m->pos[3 * m->tri[3 * f] + 2]};
         sub(&m->pos[3 * m->tri[3 * f + 1]], &m->pos[3 * m->tri[3 * f]], ab);
         sub(&m->pos[3 * m->tri[3 * f + 2]], &m->pos[3 * m->tri[3 * f]], ac);
         cross(ab, ac, n);
@@ -356,7 +366,8 @@ CR_TEST(bvh, refit_matches_rebuild) {
     float *vn = malloc((size_t)m->nv * 3 * sizeof(float));
     cr_mesh_vertex_normals(m, CR_NORMAL_ANGLE, vn);
     double worst = 0;
-    for (int32_t i = 0; i < 3 * m->nv; i++) worst = fmax(worst, fabs(vn[i] - cr_bvh_vertex_normals(b)[i]));
+    for (int32_t i = 0; i < 3 * m->nv; i++)
+        worst = fmax(worst, fabs(vn[i] - cr_bvh_vertex_normals(b)[i]));
     CR_CHECK(worst < 1e-5);
     free(vn);
 
@@ -372,7 +383,8 @@ CR_TEST(bvh, refit_matches_rebuild) {
         cr_bvh_nearest_vertex(fresh, p, INFINITY, &vd2);
         const float dir[3] = {-p[0], 0.3f, -p[2]};
         cr_bvh_ray_hit r1, r2;
-        int h1 = cr_bvh_raycast(b, p, dir, INFINITY, &r1), h2 = cr_bvh_raycast(fresh, p, dir, INFINITY, &r2);
+        int h1 = cr_bvh_raycast(b, p, dir, INFINITY, &r1),
+            h2 = cr_bvh_raycast(fresh, p, dir, INFINITY, &r2);
         if (d1 != d2 || vd1 != vd2 || h1 != h2 || r1.t != r2.t || fabsf(n1[0] - n2[0]) > 1e-6f ||
             fabsf(n1[1] - n2[1]) > 1e-6f || fabsf(n1[2] - n2[2]) > 1e-6f)
             mismatches++;
@@ -391,7 +403,8 @@ CR_TEST(bvh, refit_matches_rebuild) {
 }
 
 /* Brute-force first hit over all faces, t in [0, t_max]. */
-static double ref_ray(const cr_mesh *m, const float *o, const float *dir, double t_max, int32_t *face) {
+static double ref_ray(const cr_mesh *m, const float *o, const float *dir, double t_max,
+                      int32_t *face) {
     double best = t_max;
     *face = -1;
     double dd[3] = {dir[0], dir[1], dir[2]};
@@ -431,7 +444,8 @@ CR_TEST(bvh, raycast_and_nearest_vertex_match_brute_force) {
         int64_t bad_ray = 0, bad_vertex = 0, hits = 0;
         for (int64_t i = 0; i < n; i++) {
             const float *o = &pts[3 * i];
-            float dir[3] = {(float)cr_rng_normal(&r), (float)cr_rng_normal(&r), (float)cr_rng_normal(&r)};
+            float dir[3] = {(float)cr_rng_normal(&r), (float)cr_rng_normal(&r),
+                            (float)cr_rng_normal(&r)};
             double t_max = (i % 3 == 0) ? 0.5 : INFINITY;
             int32_t rf;
             double rt = ref_ray(m, o, dir, t_max, &rf);

@@ -44,9 +44,9 @@ CR_TEST(io, obj_positions_polygons_negative_indices) {
                        "v 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nv 0.5 1.5 0\r\nv 0 0 0\r\n"
                        "s off\r\nusemtl red\r\n"
                        "f 1 2 3\r\n"
-                       "f -6 -4 -3\r\n"       /* relative: 1 3 4 */
-                       "f 1 2 3 4\r\n"        /* quad */
-                       "f 1 2 3 5 4\r\n"      /* pentagon */
+                       "f -6 -4 -3\r\n"  /* relative: 1 3 4 */
+                       "f 1 2 3 4\r\n"   /* quad */
+                       "f 1 2 3 5 4\r\n" /* pentagon */
                        "l 1 2\r\n";
     cr_error err = {0};
     cr_mesh *m = NULL;
@@ -87,7 +87,8 @@ CR_TEST(io, obj_uv_and_normal_index_forms) {
     CR_CHECK(m->nuv == 0);
     const float h = (float)(1.0 / sqrt(2.0));
     const float want_n[12] = {0, h, h, 0, 0, 1, 0, h, h, 0, 0, 1};
-    for (int i = 0; i < 12; i++) CR_CHECK_NEAR(m->normal[i], want_n[i], 1e-7);
+    for (int i = 0; i < 12; i++)
+        CR_CHECK_NEAR(m->normal[i], want_n[i], 1e-7);
     cr_mesh_destroy(m);
 
     /* v/vt/vn with relative indices, then a face without vn: normals dropped */
@@ -137,8 +138,7 @@ static cr_mesh *make_ring(cr_error *err) {
         for (int j = 0; j < RING_N; j++) {
             int v00 = i * RING_N + j, v01 = i * RING_N + (j + 1) % RING_N;
             int v10 = v00 + RING_N, v11 = v01 + RING_N;
-            int t00 = i * (RING_N + 1) + j, t01 = t00 + 1, t10 = t00 + RING_N + 1,
-                t11 = t10 + 1;
+            int t00 = i * (RING_N + 1) + j, t01 = t00 + 1, t10 = t00 + RING_N + 1, t11 = t10 + 1;
             const int q[2][6] = {{v00, v01, v11, t00, t01, t11}, {v00, v11, v10, t00, t11, t10}};
             for (int k = 0; k < 2; k++, f++)
                 for (int c = 0; c < 3; c++) {
@@ -223,7 +223,8 @@ CR_TEST(io, ply_foreign_ascii_skips_what_it_does_not_read) {
 }
 
 static unsigned char *put_be(unsigned char *p, uint64_t v, int size) {
-    for (int i = 0; i < size; i++) p[i] = (unsigned char)(v >> (8 * (size - 1 - i)));
+    for (int i = 0; i < size; i++)
+        p[i] = (unsigned char)(v >> (8 * (size - 1 - i)));
     return p + size;
 }
 
@@ -254,7 +255,8 @@ CR_TEST(io, ply_big_endian_doubles_and_extra_lists) {
     CR_CHECK_OK(cr_ply_read_mem(buf, (size_t)(p - buf), "be.ply", &m, &err), &err);
     CR_REQUIRE(m);
     CR_CHECK(m->nv == 3 && m->nf == 1 && tri_is(m, 0, 2, 0, 1) && !m->normal && !m->uv);
-    for (int i = 0; i < 9; i++) CR_CHECK(m->pos[i] == (float)xyz[i]);
+    for (int i = 0; i < 9; i++)
+        CR_CHECK(m->pos[i] == (float)xyz[i]);
     cr_mesh_destroy(m);
     /* one byte short: the message names the byte offset and the element */
     CR_CHECK(cr_ply_read_mem(buf, (size_t)(p - buf) - 1, "be.ply", &m, &err) == CR_ERR_PARSE);
@@ -318,8 +320,8 @@ CR_TEST(io, glb_sequence_declares_targets_and_animation) {
     CR_REQUIRE(cJSON_GetArraySize(targets) == T);
     CR_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(mesh, "weights")) == T);
     for (int t = 0; t < T; t++) {
-        const cJSON *a = cJSON_GetArrayItem(
-            accessors, json_int(cJSON_GetArrayItem(targets, t), "POSITION"));
+        const cJSON *a =
+            cJSON_GetArrayItem(accessors, json_int(cJSON_GetArrayItem(targets, t), "POSITION"));
         CR_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(a, "min")) == 3);
         CR_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(a, "max")) == 3);
         CR_CHECK(cJSON_GetObjectItem(cJSON_GetArrayItem(targets, t), "NORMAL") != NULL);
@@ -339,8 +341,8 @@ CR_TEST(io, glb_sequence_declares_targets_and_animation) {
 
     /* Decode target 3: base + displacement is frame 3 (original vertices come
      * first in the split, in order), and min/max match the data. */
-    const cJSON *a3 = cJSON_GetArrayItem(accessors,
-                                         json_int(cJSON_GetArrayItem(targets, 3), "POSITION"));
+    const cJSON *a3 =
+        cJSON_GetArrayItem(accessors, json_int(cJSON_GetArrayItem(targets, 3), "POSITION"));
     const cJSON *v3 = cJSON_GetArrayItem(views, json_int(a3, "bufferView"));
     int count = json_int(a3, "count");
     CR_CHECK(count == nv + RING_M);
@@ -355,8 +357,10 @@ CR_TEST(io, glb_sequence_declares_targets_and_animation) {
             if (i < nv) CR_CHECK_NEAR(rest->pos[3 * i + k] + x, frames[(3 * nv + i) * 3 + k], 1e-6);
         }
     for (int k = 0; k < 3; k++) {
-        CR_CHECK(cJSON_GetNumberValue(cJSON_GetArrayItem(cJSON_GetObjectItem(a3, "min"), k)) == lo[k]);
-        CR_CHECK(cJSON_GetNumberValue(cJSON_GetArrayItem(cJSON_GetObjectItem(a3, "max"), k)) == hi[k]);
+        CR_CHECK(cJSON_GetNumberValue(cJSON_GetArrayItem(cJSON_GetObjectItem(a3, "min"), k)) ==
+                 lo[k]);
+        CR_CHECK(cJSON_GetNumberValue(cJSON_GetArrayItem(cJSON_GetObjectItem(a3, "max"), k)) ==
+                 hi[k]);
     }
     cJSON_Delete(root);
     free(file);
@@ -368,7 +372,8 @@ CR_TEST(io, pc2_round_trip_is_exact) {
     enum { V = 7, T = 4 };
     float frames[T * V * 3];
     cr_rng r = cr_rng_make(11, 0);
-    for (int i = 0; i < T * V * 3; i++) frames[i] = (float)cr_rng_normal(&r);
+    for (int i = 0; i < T * V * 3; i++)
+        frames[i] = (float)cr_rng_normal(&r);
     cr_error err = {0};
     const char *path = tmp("cache.pc2");
     CR_CHECK_OK(cr_pc2_write(path, frames, V, T, 3.0f, 0.5f, &err), &err);
@@ -408,22 +413,28 @@ static void expect_obj_error(const char *text, size_t len, const char *name, cr_
 #define TRI3 "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
 
 CR_TEST(io, bad_obj_inputs_name_file_and_line) {
-    expect_obj_error(TRI3 "f 1 2\n", strlen(TRI3 "f 1 2\n"), "trunc.obj", CR_ERR_PARSE, "trunc.obj:4:");
+    expect_obj_error(TRI3 "f 1 2\n", strlen(TRI3 "f 1 2\n"), "trunc.obj", CR_ERR_PARSE,
+                     "trunc.obj:4:");
     const char *nan = "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";
     expect_obj_error(nan, strlen(nan), "nan.obj", CR_ERR_NAN, "nan.obj:2:");
     const char *inf = "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n";
     expect_obj_error(inf, strlen(inf), "inf.obj", CR_ERR_NAN, "inf.obj:3:");
-    expect_obj_error(TRI3 "f 1 2 4\n", strlen(TRI3 "f 1 2 4\n"), "range.obj", CR_ERR_RANGE, "range.obj:4:");
-    expect_obj_error(TRI3 "f 1 -4 3\n", strlen(TRI3 "f 1 -4 3\n"), "neg.obj", CR_ERR_RANGE, "neg.obj:4:");
-    expect_obj_error(TRI3 "\n\nf 0 1 2\n", strlen(TRI3 "\n\nf 0 1 2\n"), "zero.obj", CR_ERR_RANGE, "zero.obj:6:");
+    expect_obj_error(TRI3 "f 1 2 4\n", strlen(TRI3 "f 1 2 4\n"), "range.obj", CR_ERR_RANGE,
+                     "range.obj:4:");
+    expect_obj_error(TRI3 "f 1 -4 3\n", strlen(TRI3 "f 1 -4 3\n"), "neg.obj", CR_ERR_RANGE,
+                     "neg.obj:4:");
+    expect_obj_error(TRI3 "\n\nf 0 1 2\n", strlen(TRI3 "\n\nf 0 1 2\n"), "zero.obj", CR_ERR_RANGE,
+                     "zero.obj:6:");
     expect_obj_error("", 0, "empty.obj", CR_ERR_TOPOLOGY, "empty.obj:1: no faces");
     expect_obj_error(TRI3, strlen(TRI3), "nofaces.obj", CR_ERR_TOPOLOGY, "nofaces.obj:3: no faces");
     const char garbage[] = "\x7f\x45\x4c\x46\x02\x01\x01\x00\x00\xff\xfe";
     expect_obj_error(garbage, sizeof garbage - 1, "garbage.obj", CR_ERR_PARSE, "garbage.obj:1:");
-    expect_obj_error(TRI3 "# caf\xe9\nf 1 2 3\n", strlen(TRI3 "# caf\xe9\nf 1 2 3\n"), "latin1.obj", CR_ERR_PARSE,
-                     "latin1.obj:4:");
-    expect_obj_error(TRI3 "f 1 2 3\nfoo 1\n", strlen(TRI3 "f 1 2 3\nfoo 1\n"), "kw.obj", CR_ERR_PARSE, "kw.obj:5:");
-    expect_obj_error(TRI3 "f 1 2 x\n", strlen(TRI3 "f 1 2 x\n"), "tok.obj", CR_ERR_PARSE, "tok.obj:4:");
+    expect_obj_error(TRI3 "# caf\xe9\nf 1 2 3\n", strlen(TRI3 "# caf\xe9\nf 1 2 3\n"), "latin1.obj",
+                     CR_ERR_PARSE, "latin1.obj:4:");
+    expect_obj_error(TRI3 "f 1 2 3\nfoo 1\n", strlen(TRI3 "f 1 2 3\nfoo 1\n"), "kw.obj",
+                     CR_ERR_PARSE, "kw.obj:5:");
+    expect_obj_error(TRI3 "f 1 2 x\n", strlen(TRI3 "f 1 2 x\n"), "tok.obj", CR_ERR_PARSE,
+                     "tok.obj:4:");
     /* UTF-8 in a comment is text */
     cr_error err = {0};
     cr_mesh *m = NULL;
@@ -449,9 +460,10 @@ CR_TEST(io, bad_ply_inputs) {
     CR_CHECK(ply_text(big, "big.ply", &m, &err) == CR_ERR_PARSE && !m);
     CR_CHECK(cr_time_now() - t0 < 0.1);
     CR_CHECK(has(&err, "big.ply:3:") && has(&err, "2000000000"));
-    const char *bigascii = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-                           "property float y\nproperty float z\nelement face 2000000000\n"
-                           "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+    const char *bigascii =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 2000000000\n"
+        "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
     CR_CHECK(ply_text(bigascii, "biga.ply", &m, &err) == CR_ERR_PARSE && has(&err, "biga.ply:7:"));
     const char *fmt = "ply\nformat binary_middle_endian 1.0\nend_header\n";
     CR_CHECK(ply_text(fmt, "fmt.ply", &m, &err) == CR_ERR_UNSUPPORTED && has(&err, "fmt.ply:2:"));
@@ -469,8 +481,7 @@ CR_TEST(io, bad_ply_inputs) {
     CR_CHECK(ply_text(range, "range.ply", &m, &err) == CR_ERR_RANGE && has(&err, "range.ply:13:"));
     const char *noface = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                          "property float y\nproperty float z\nend_header\n0 0 0\n";
-    CR_CHECK(ply_text(noface, "noface.ply", &m, &err) == CR_ERR_TOPOLOGY &&
-             has(&err, "no faces"));
+    CR_CHECK(ply_text(noface, "noface.ply", &m, &err) == CR_ERR_TOPOLOGY && has(&err, "no faces"));
 
     /* a valid binary file cut short */
     cr_mesh *ring = make_ring(&err);
@@ -497,12 +508,14 @@ static unsigned char *make_glb(const char *json, const unsigned char *bin, uint3
     unsigned char *g = calloc(1, *len);
     const uint32_t head[5] = {0x46546c67u, 2, (uint32_t)*len, jp, 0x4e4f534au};
     for (int i = 0; i < 5; i++)
-        for (int k = 0; k < 4; k++) g[4 * i + k] = (unsigned char)(head[i] >> (8 * k));
+        for (int k = 0; k < 4; k++)
+            g[4 * i + k] = (unsigned char)(head[i] >> (8 * k));
     memcpy(g + 20, json, jl);
     memset(g + 20 + jl, ' ', jp - jl);
     const uint32_t bh[2] = {bin_len, 0x004e4942u};
     for (int i = 0; i < 2; i++)
-        for (int k = 0; k < 4; k++) g[20 + jp + 4 * i + k] = (unsigned char)(bh[i] >> (8 * k));
+        for (int k = 0; k < 4; k++)
+            g[20 + jp + 4 * i + k] = (unsigned char)(bh[i] >> (8 * k));
     memcpy(g + 28 + jp, bin, bin_len);
     return g;
 }
@@ -524,9 +537,10 @@ CR_TEST(io, glb_texcoord_and_bad_glb_pc2_extension) {
     uint32_t bin_len = le32(file + 20 + jlen);
     /* POSITION claims more elements than its buffer view holds */
     cJSON *attrs = cJSON_GetObjectItem(
-        cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
-                                               "primitives"),
-                           0),
+        cJSON_GetArrayItem(
+            cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "meshes"), 0),
+                                "primitives"),
+            0),
         "attributes");
     /* without the exact copy, UVs come from TEXCOORD_0 = (u, 1 - v) flipped back */
     cJSON *exact = cJSON_DetachItemFromObject(attrs, "_CREASE_UV");
@@ -555,8 +569,8 @@ CR_TEST(io, glb_texcoord_and_bad_glb_pc2_extension) {
     free(bad), cJSON_free(json);
     /* a buffer view reaching past the buffer */
     cJSON_SetNumberValue(cJSON_GetObjectItem(acc, "count"), ring->nv + RING_M);
-    cJSON *view = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "bufferViews"),
-                                     json_int(acc, "bufferView"));
+    cJSON *view =
+        cJSON_GetArrayItem(cJSON_GetObjectItem(root, "bufferViews"), json_int(acc, "bufferView"));
     cJSON_SetNumberValue(cJSON_GetObjectItem(view, "byteOffset"), bin_len);
     json = cJSON_PrintUnformatted(root);
     bad = make_glb(json, bin, bin_len, &blen);
@@ -575,7 +589,8 @@ CR_TEST(io, glb_texcoord_and_bad_glb_pc2_extension) {
     unsigned char pc2[44] = "POINTCACHE2";
     const uint32_t fields[5] = {1, 1000000, 0, 0x3f800000u, 1000};
     for (int i = 0; i < 5; i++)
-        for (int k = 0; k < 4; k++) pc2[12 + 4 * i + k] = (unsigned char)(fields[i] >> (8 * k));
+        for (int k = 0; k < 4; k++)
+            pc2[12 + 4 * i + k] = (unsigned char)(fields[i] >> (8 * k));
     cr_pc2 pc;
     CR_CHECK(cr_pc2_read_mem(pc2, sizeof pc2, "big.pc2", &pc, &err) == CR_ERR_PARSE);
     CR_CHECK(!pc.frames && has(&err, "big.pc2: byte 32") && has(&err, "1000000 points"));

@@ -66,7 +66,8 @@ static int32_t count_edges(const cr_mesh *m) { /* closed meshes: every edge twic
  * has positive area: no flipped or collapsed triangles across the seams. */
 static void check_uvs(const cr_mesh *m, int expect_ccw) {
     CR_REQUIRE(cr_mesh_has_uv(m));
-    for (int32_t i = 0; i < 2 * m->nuv; i++) CR_REQUIRE(m->uv[i] >= 0.0f && m->uv[i] <= 1.0f);
+    for (int32_t i = 0; i < 2 * m->nuv; i++)
+        CR_REQUIRE(m->uv[i] >= 0.0f && m->uv[i] <= 1.0f);
     int32_t flipped = 0;
     for (int32_t f = 0; f < m->nf; f++) {
         const float *a = &m->uv[2 * m->tri_uv[3 * f]], *b = &m->uv[2 * m->tri_uv[3 * f + 1]],
@@ -93,11 +94,13 @@ static void check_closed(const cr_mesh *m, double volume, double rel_tol, int eu
             const float *a = &m->pos[3 * m->tri[3 * f]], *b = &m->pos[3 * m->tri[3 * f + 1]],
                         *c = &m->pos[3 * m->tri[3 * f + 2]];
             double e1[3], e2[3], n[3], g[3];
-            for (int d = 0; d < 3; d++) e1[d] = b[d] - a[d], e2[d] = c[d] - a[d];
+            for (int d = 0; d < 3; d++)
+                e1[d] = b[d] - a[d], e2[d] = c[d] - a[d];
             n[0] = e1[1] * e2[2] - e1[2] * e2[1];
             n[1] = e1[2] * e2[0] - e1[0] * e2[2];
             n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-            for (int d = 0; d < 3; d++) g[d] = (a[d] + b[d] + c[d]) / 3.0;
+            for (int d = 0; d < 3; d++)
+                g[d] = (a[d] + b[d] + c[d]) / 3.0;
             if (!(n[0] * g[0] + n[1] * g[1] + n[2] * g[2] > 0)) inward++;
         }
         CR_CHECK(inward == 0);
@@ -239,8 +242,8 @@ CR_TEST(primitives, prism_exact_volume_ridge_up) {
     check_uvs(m, 1);
     float lo[3], hi[3];
     cr_mesh_bounds(m, lo, hi);
-    CR_CHECK_NEAR(hi[0] - lo[0], 2.0, 1e-6);       /* axis along X */
-    CR_CHECK_NEAR(hi[2] - lo[2], 0.5, 1e-6);       /* base edge across Z */
+    CR_CHECK_NEAR(hi[0] - lo[0], 2.0, 1e-6);             /* axis along X */
+    CR_CHECK_NEAR(hi[2] - lo[2], 0.5, 1e-6);             /* base edge across Z */
     CR_CHECK_NEAR(hi[1], sqrt(3.0) / 6 * 0.5 * 2, 1e-6); /* ridge at 2h/3 */
     int32_t ridge = 0; /* two vertices at the top, on the z = 0 line */
     for (int32_t v = 0; v < m->nv; v++)

@@ -54,12 +54,12 @@ typedef enum cr_bvh_feature {
 } cr_bvh_feature;
 
 typedef struct cr_bvh_hit {
-    int32_t face;            /* closest face, -1 when none within max_dist */
-    float point[3];          /* closest point on the surface, m */
-    float bary[3];           /* its barycentric weights for tri[3*face + 0..2], sum 1 */
-    float distance;          /* |p - point|, m */
-    cr_bvh_feature feature;  /* face interior, edge or vertex */
-    int32_t local;           /* which edge or corner of the face (0..2); 0 for CR_BVH_FACE */
+    int32_t face;           /* closest face, -1 when none within max_dist */
+    float point[3];         /* closest point on the surface, m */
+    float bary[3];          /* its barycentric weights for tri[3*face + 0..2], sum 1 */
+    float distance;         /* |p - point|, m */
+    cr_bvh_feature feature; /* face interior, edge or vertex */
+    int32_t local;          /* which edge or corner of the face (0..2); 0 for CR_BVH_FACE */
 } cr_bvh_hit;
 
 typedef struct cr_bvh_ray_hit {
@@ -85,7 +85,7 @@ void cr_bvh_destroy(cr_bvh *b);
 int32_t cr_bvh_vertex_count(const cr_bvh *b);
 int32_t cr_bvh_face_count(const cr_bvh *b);
 int32_t cr_bvh_node_count(const cr_bvh *b);
-int32_t cr_bvh_depth(const cr_bvh *b); /* levels below the root */
+int32_t cr_bvh_depth(const cr_bvh *b);               /* levels below the root */
 const float *cr_bvh_positions(const cr_bvh *b);      /* (V,3) the BVH's copy, m */
 const int32_t *cr_bvh_triangles(const cr_bvh *b);    /* (F,3) */
 const float *cr_bvh_face_normals(const cr_bvh *b);   /* (F,3) unit; zero for degenerate faces */

@@ -72,7 +72,8 @@ cr_status cr_mesh_write(const char *path, const cr_mesh *m, cr_error *err);
  * lack it. When every face has vn, mesh->normal is the normalised mean of
  * the vn each vertex is given; otherwise it stays NULL. g, o, s, usemtl,
  * mtllib, l, p, comments and the free-form statements are skipped; an
- * unknown statement is an error. CRLF line ends are fine. */
+ * unknown statement is an error. Extra numbers on v lines (w, or vertex
+ * colours) are checked and dropped. CRLF line ends are fine. */
 cr_status cr_obj_read(const char *path, cr_mesh **out, cr_error *err);
 cr_status cr_obj_read_mem(const void *data, size_t len, const char *source, cr_mesh **out,
                           cr_error *err);
@@ -86,7 +87,8 @@ cr_status cr_obj_write(const char *path, const cr_mesh *m, cr_error *err);
  * u v, texture_u texture_v or texture_s texture_t; element "face" with a
  * list property vertex_indices or vertex_index (any count and index types),
  * polygons fan-triangulated. Other elements and properties (lists
- * included) are skipped. Welds at UV seams (see the top of this file). */
+ * included) are skipped. Bytes or values after the last declared element
+ * are refused. Welds at UV seams (see the top of this file). */
 cr_status cr_ply_read(const char *path, cr_mesh **out, cr_error *err);
 cr_status cr_ply_read_mem(const void *data, size_t len, const char *source, cr_mesh **out,
                           cr_error *err);
@@ -103,9 +105,9 @@ cr_status cr_ply_write(const char *path, const cr_mesh *m, cr_ply_format format,
 /* ------------------------------------------------------------------ glb -- */
 
 /* glTF 2.0 binary: one mesh with one triangle primitive; POSITION (float
- * VEC3), optional NORMAL (float VEC3), TEXCOORD_0 (float VEC2) and
- * _CREASE_UV; indices u8, u16 or u32, or none (then every three vertices
- * make a triangle). Every accessor and buffer view is checked against the
+ * VEC3), optional NORMAL (float VEC3), TEXCOORD_0 (float or normalised
+ * u8/u16 VEC2) and _CREASE_UV; indices u8, u16 or u32, or none (then every
+ * three vertices make a triangle). Every accessor and buffer view is checked against the
  * binary chunk. Welds at UV seams (see the top of this file). */
 cr_status cr_glb_read(const char *path, cr_mesh **out, cr_error *err);
 cr_status cr_glb_read_mem(const void *data, size_t len, const char *source, cr_mesh **out,
@@ -165,13 +167,14 @@ typedef struct cr_mesh_seams {
     int32_t *tri; /* (F,3) triangles over split vertices */
 } cr_mesh_seams;
 
+/* `m` must be valid (cr_mesh_validate); `out` is freed with cr_mesh_seams_free. */
 cr_status cr_mesh_split_seams(const cr_mesh *m, cr_mesh_seams *out, cr_error *err);
 void cr_mesh_seams_free(cr_mesh_seams *s);
 
 /* Merge vertices whose positions are bit-identical into the first of them
  * (order of first appearance kept); triangles are renumbered, UVs and their
  * per-corner indices are untouched, normals and attributes are those of the
- * first copy. */
+ * first copy. `m` must be valid. O(V) expected time, 4 V to 8 V bytes of scratch. */
 cr_status cr_mesh_weld(cr_mesh *m, cr_error *err);
 
 #ifdef __cplusplus

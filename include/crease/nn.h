@@ -63,7 +63,10 @@
  * Threads: a context is used by one thread at a time. Kernels run on the
  * OpenMP pool (cr_parallel_for) when a tensor has about 16k elements or more;
  * matmuls use OpenBLAS. Reductions are blocked in a fixed order, so results
- * do not depend on the thread count (except inside the BLAS).
+ * do not depend on the thread count (except inside the BLAS). OpenMP's idle
+ * threads spin after each parallel region and then compete with OpenBLAS's
+ * own threads: run with OMP_WAIT_POLICY=passive (bench_nn_gemm measured a
+ * width-64 linear step 8x faster with it on a busy 2-core machine).
  *
  * Shapes in comments: N rows, C columns (features), B batch, E edges (rows of
  * a message-passing layer), H heads, G groups.
@@ -145,15 +148,15 @@ typedef enum cr_op {
 const char *cr_op_name(cr_op op);
 
 typedef struct cr_tensor {
-    int ndim;                        /* 0 (scalar) to CR_NN_MAX_DIMS */
-    int64_t shape[CR_NN_MAX_DIMS];   /* entries past ndim are 1 */
-    int64_t numel;                   /* product of shape; 1 for a scalar */
-    float *data;                     /* (numel) row-major, contiguous */
-    float *grad;                     /* (numel) dL/d(data); NULL until a gradient reaches it */
-    cr_device device;                /* where data and grad live */
-    uint8_t requires_grad;           /* leaves: set before use in ops; op outputs: derived */
-    uint8_t persistent;              /* owned by a cr_nn_params store, survives resets */
-    cr_op op;                        /* op that produced it; CR_OP_NONE for leaves and views */
+    int ndim;                      /* 0 (scalar) to CR_NN_MAX_DIMS */
+    int64_t shape[CR_NN_MAX_DIMS]; /* entries past ndim are 1 */
+    int64_t numel;                 /* product of shape; 1 for a scalar */
+    float *data;                   /* (numel) row-major, contiguous */
+    float *grad;                   /* (numel) dL/d(data); NULL until a gradient reaches it */
+    cr_device device;              /* where data and grad live */
+    uint8_t requires_grad;         /* leaves: set before use in ops; op outputs: derived */
+    uint8_t persistent;            /* owned by a cr_nn_params store, survives resets */
+    cr_op op;                      /* op that produced it; CR_OP_NONE for leaves and views */
 } cr_tensor;
 
 /* A shape by value, for fused-op outputs. */
@@ -233,8 +236,8 @@ cr_tensor *cr_nn_matmul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b, int trans_a,
 /* Per-group weights (hyper-networks): x (M,K), w (G,K,N) (or (G,N,K) with
  * trans_w), group (M) int32 in [0,G) names each row's weight:
  * y[i] = x[i] w[group[i]] -> (M,N). Rows need not be sorted by group. */
-cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w,
-                                const int32_t *group, int trans_w);
+cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, const int32_t *group,
+                                int trans_w);
 /* Affine layer in PyTorch's layout, so checkpoints map one to one onto
  * torch.nn.Linear: y = x W^T + b with x (...,IN), W (OUT,IN), b (OUT) or
  * NULL -> (...,OUT). Leading axes of x are flattened into rows. */
@@ -248,9 +251,9 @@ cr_tensor *cr_nn_mul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b);
 cr_tensor *cr_nn_div(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b);
 
 /* Unary elementwise; the output has x's shape. */
-cr_tensor *cr_nn_add_scalar(cr_nn_ctx *ctx, cr_tensor *x, float c);  /* x + c */
-cr_tensor *cr_nn_mul_scalar(cr_nn_ctx *ctx, cr_tensor *x, float c);  /* c x */
-cr_tensor *cr_nn_pow(cr_nn_ctx *ctx, cr_tensor *x, float p);         /* x^p (x > 0 unless p integral) */
+cr_tensor *cr_nn_add_scalar(cr_nn_ctx *ctx, cr_tensor *x, float c); /* x + c */
+cr_tensor *cr_nn_mul_scalar(cr_nn_ctx *ctx, cr_tensor *x, float c); /* c x */
+cr_tensor *cr_nn_pow(cr_nn_ctx *ctx, cr_tensor *x, float p); /* x^p (x > 0 unless p integral) */
 cr_tensor *cr_nn_relu(cr_nn_ctx *ctx, cr_tensor *x);
 cr_tensor *cr_nn_leaky_relu(cr_nn_ctx *ctx, cr_tensor *x, float slope); /* x<0: slope x */
 cr_tensor *cr_nn_tanh(cr_nn_ctx *ctx, cr_tensor *x);
@@ -295,8 +298,7 @@ cr_tensor *cr_nn_slice(cr_nn_ctx *ctx, cr_tensor *x, int axis, int64_t start, in
 cr_tensor *cr_nn_gather_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index, int64_t n);
 /* y[index[e]] += x[e]: x (E,...), index (E) in [0,rows) -> (rows,...), zero
  * where nothing lands. Message-passing aggregation; deterministic. */
-cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index,
-                                  int64_t rows);
+cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index, int64_t rows);
 /* Softmax over the rows sharing a segment id, separately for each column:
  * x (E,H) (or (E)), segment (E) in [0,nseg) -> same shape. Shifted by the
  * segment maximum, so large logits do not overflow (attention over
@@ -384,7 +386,7 @@ int cr_nn_params_count(const cr_nn_params *p);
 /* i-th parameter in order of addition; *name (may be NULL) gets its name. */
 cr_tensor *cr_nn_params_at(const cr_nn_params *p, int i, const char **name);
 cr_tensor *cr_nn_params_find(const cr_nn_params *p, const char *name); /* NULL if absent */
-int64_t cr_nn_params_numel(const cr_nn_params *p); /* sum of parameter sizes */
+int64_t cr_nn_params_numel(const cr_nn_params *p);                     /* sum of parameter sizes */
 /* The whole blocks, padding included (*n floats); NULL before the first add. */
 float *cr_nn_params_data(cr_nn_params *p, int64_t *n);
 float *cr_nn_params_grad(cr_nn_params *p, int64_t *n);

@@ -57,8 +57,8 @@ cr_status cr_prim_prism(float side, float length, cr_mesh **out, cr_error *err);
 /* Closed axis-aligned box, each face split into subdivisions x subdivisions
  * quads (subdivisions >= 1), welded along the edges. Each face gets its own
  * tile of a 3x2 UV atlas. */
-cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivisions,
-                      cr_mesh **out, cr_error *err);
+cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivisions, cr_mesh **out,
+                      cr_error *err);
 
 /* Capsule around Y: a cylinder of `length` (>= 0; 0 gives a sphere) capped by
  * two hemispheres of `radius`. `segments` (>= 3) around Y, `rings` (>= 1)

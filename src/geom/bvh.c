@@ -10,9 +10,12 @@
  * angle-weighted vertex normals, gathered per vertex so they parallelise) and
  * face adjacency across each edge (for the edge pseudo-normals).
  *
- * Refit: copies new positions, recomputes normals, leaf boxes (in parallel)
- * and then internal boxes in one reverse sweep, since children always sit
- * after their parent. The tree is not restructured.
+ * Leaves read their triangles from leaf_pos, a copy of the corner positions
+ * in leaf order, which saves two dependent loads per triangle in queries.
+ *
+ * Refit: copies new positions, regathers leaf_pos, recomputes normals and
+ * leaf boxes (in parallel), then internal boxes in one reverse sweep, since
+ * children always sit after their parent. The tree is not restructured.
  *
  * Left out: parallel build, spatial splits, tree rotations after refit.
  */
@@ -29,14 +32,16 @@ enum { SAH_BINS = 16 };
 /* ------------------------------------------------------------ helpers -- */
 
 static void box_empty(float lo[3], float hi[3]) {
-    for (int d = 0; d < 3; d++) lo[d] = INFINITY, hi[d] = -INFINITY;
+    for (int d = 0; d < 3; d++)
+        lo[d] = INFINITY, hi[d] = -INFINITY;
 }
 
+/* Written out per axis: gcc -O2 keeps a 3-trip loop here as a loop, and this
+ * is the inner statement of the build. */
 static void box_grow(float lo[3], float hi[3], const float blo[3], const float bhi[3]) {
-    for (int d = 0; d < 3; d++) {
-        lo[d] = fminf(lo[d], blo[d]);
-        hi[d] = fmaxf(hi[d], bhi[d]);
-    }
+    lo[0] = bvh_minf(lo[0], blo[0]), hi[0] = bvh_maxf(hi[0], bhi[0]);
+    lo[1] = bvh_minf(lo[1], blo[1]), hi[1] = bvh_maxf(hi[1], bhi[1]);
+    lo[2] = bvh_minf(lo[2], blo[2]), hi[2] = bvh_maxf(hi[2], bhi[2]);
 }
 
 static double box_half_area(const float lo[3], const float hi[3]) {
@@ -44,13 +49,11 @@ static double box_half_area(const float lo[3], const float hi[3]) {
     return ex * ey + ey * ez + ez * ex;
 }
 
-static void face_box(const cr_bvh *b, int32_t f, float lo[3], float hi[3]) {
-    const int32_t *t = &b->tri[3 * (size_t)f];
-    const float *p0 = &b->pos[3 * (size_t)t[0]], *p1 = &b->pos[3 * (size_t)t[1]],
-                *p2 = &b->pos[3 * (size_t)t[2]];
+static void corners_box(const float *p0, const float *p1, const float *p2, float lo[3],
+                        float hi[3]) {
     for (int d = 0; d < 3; d++) {
-        lo[d] = fminf(p0[d], fminf(p1[d], p2[d]));
-        hi[d] = fmaxf(p0[d], fmaxf(p1[d], p2[d]));
+        lo[d] = bvh_minf(p0[d], bvh_minf(p1[d], p2[d]));
+        hi[d] = bvh_maxf(p0[d], bvh_maxf(p1[d], p2[d]));
     }
 }
 
@@ -61,7 +64,7 @@ static void face_normals_range(void *ctx, int64_t begin, int64_t end) {
     for (int64_t f = begin; f < end; f++) {
         const int32_t *t = &b->tri[3 * f];
         cr_triangle_normal(&b->pos[3 * (size_t)t[0]], &b->pos[3 * (size_t)t[1]],
-                               &b->pos[3 * (size_t)t[2]], &b->fnormal[3 * f]);
+                           &b->pos[3 * (size_t)t[2]], &b->fnormal[3 * f]);
     }
 }
 
@@ -80,21 +83,34 @@ static void vertex_normals_range(void *ctx, int64_t begin, int64_t end) {
             const float *pa = &b->pos[3 * (size_t)t[(k + 1) % 3]],
                         *pb = &b->pos[3 * (size_t)t[(k + 2) % 3]];
             double u[3], w[3];
-            for (int d = 0; d < 3; d++) u[d] = (double)pa[d] - pv[d], w[d] = (double)pb[d] - pv[d];
+            for (int d = 0; d < 3; d++)
+                u[d] = (double)pa[d] - pv[d], w[d] = (double)pb[d] - pv[d];
             double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
                    cz = u[0] * w[1] - u[1] * w[0];
-            double angle = atan2(sqrt(cx * cx + cy * cy + cz * cz),
-                                 u[0] * w[0] + u[1] * w[1] + u[2] * w[2]);
-            for (int d = 0; d < 3; d++) acc[d] += angle * b->fnormal[3 * (size_t)f + d];
+            double angle =
+                atan2(sqrt(cx * cx + cy * cy + cz * cz), u[0] * w[0] + u[1] * w[1] + u[2] * w[2]);
+            for (int d = 0; d < 3; d++)
+                acc[d] += angle * b->fnormal[3 * (size_t)f + d];
         }
         double len = sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2]);
-        for (int d = 0; d < 3; d++) b->vnormal[3 * v + d] = len > 0 ? (float)(acc[d] / len) : 0.0f;
+        for (int d = 0; d < 3; d++)
+            b->vnormal[3 * v + d] = len > 0 ? (float)(acc[d] / len) : 0.0f;
     }
 }
 
 static void update_normals(cr_bvh *b) {
     cr_parallel_for(b->nf, 1024, face_normals_range, b);
     cr_parallel_for(b->nv, 1024, vertex_normals_range, b);
+}
+
+/* Copy each face's corners into leaf order (build and refit). */
+static void gather_leaf_pos_range(void *ctx, int64_t begin, int64_t end) {
+    cr_bvh *b = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        const int32_t *t = &b->tri[3 * (size_t)b->order[i]];
+        for (int c = 0; c < 3; c++)
+            memcpy(&b->leaf_pos[9 * i + 3 * c], &b->pos[3 * (size_t)t[c]], 12);
+    }
 }
 
 /* --------------------------------------------------------- topology -- */
@@ -106,15 +122,18 @@ static cr_status build_topology(cr_bvh *b, cr_error *err) {
     b->vf = cr_malloc((size_t)b->nf * 3 * sizeof(int32_t), err);
     b->adj = cr_malloc((size_t)b->nf * 3 * sizeof(int32_t), err);
     if (!b->vf_start || !b->vf || !b->adj) return CR_ERR_MEMORY;
-    for (size_t i = 0; i < 3 * (size_t)b->nf; i++) b->vf_start[b->tri[i] + 1]++;
-    for (int32_t v = 0; v < b->nv; v++) b->vf_start[v + 1] += b->vf_start[v];
+    for (size_t i = 0; i < 3 * (size_t)b->nf; i++)
+        b->vf_start[b->tri[i] + 1]++;
+    for (int32_t v = 0; v < b->nv; v++)
+        b->vf_start[v + 1] += b->vf_start[v];
     for (int32_t f = 0; f < b->nf; f++)
         for (int k = 0; k < 3; k++) {
             int32_t v = b->tri[3 * (size_t)f + k];
             b->vf[b->vf_start[v]++] = f;
         }
     /* The fill advanced each start to the next vertex's start: shift back. */
-    for (int32_t v = b->nv; v > 0; v--) b->vf_start[v] = b->vf_start[v - 1];
+    for (int32_t v = b->nv; v > 0; v--)
+        b->vf_start[v] = b->vf_start[v - 1];
     b->vf_start[0] = 0;
 
     for (int32_t f = 0; f < b->nf; f++) {
@@ -136,11 +155,10 @@ static cr_status build_topology(cr_bvh *b, cr_error *err) {
 
 /* ------------------------------------------------------------- build -- */
 
-typedef struct build_ctx {
-    cr_bvh *b;
-    const float *fbox; /* (F,6) face lo, hi */
-    const float *cen;  /* (F,3) face box centres */
-} build_ctx;
+/* Per-face build record: box and box centre, read together while binning. */
+typedef struct face_rec {
+    float lo[3], hi[3], c[3];
+} face_rec;
 
 static void swap_i32(int32_t *a, int32_t *b) {
     int32_t t = *a;
@@ -149,88 +167,104 @@ static void swap_i32(int32_t *a, int32_t *b) {
 
 /* Rearrange order[lo, hi) so that order[nth] has the key it would have when
  * sorted, smaller keys before it and larger after (three-way quickselect). */
-static void select_nth(int32_t *a, int64_t lo, int64_t hi, int64_t nth, const float *cen,
+static void select_nth(int32_t *a, int64_t lo, int64_t hi, int64_t nth, const face_rec *rec,
                        int axis) {
     while (hi - lo > 1) {
-        float pivot = cen[3 * (size_t)a[lo + (hi - lo) / 2] + axis];
+        float pivot = rec[a[lo + (hi - lo) / 2]].c[axis];
         int64_t lt = lo, i = lo, gt = hi;
         while (i < gt) {
-            float k = cen[3 * (size_t)a[i] + axis];
-            if (k < pivot) swap_i32(&a[lt++], &a[i++]);
-            else if (k > pivot) swap_i32(&a[i], &a[--gt]);
-            else i++;
+            float k = rec[a[i]].c[axis];
+            if (k < pivot)
+                swap_i32(&a[lt++], &a[i++]);
+            else if (k > pivot)
+                swap_i32(&a[i], &a[--gt]);
+            else
+                i++;
         }
-        if (nth < lt) hi = lt;
-        else if (nth >= gt) lo = gt;
-        else return;
+        if (nth < lt)
+            hi = lt;
+        else if (nth >= gt)
+            lo = gt;
+        else
+            return;
     }
 }
 
-static int bin_of(float c, float clo, double scale) {
-    int i = (int)(((double)c - clo) * scale);
+static int bin_of(float c, float clo, float scale) {
+    int i = (int)((c - clo) * scale);
     return i < 0 ? 0 : (i >= SAH_BINS ? SAH_BINS - 1 : i);
 }
 
+typedef struct sah_bin {
+    float lo[3], hi[3];
+    int64_t count;
+} sah_bin;
+
 /* Best SAH split of order[begin, end): returns the split position, or -1
- * when no binned split separates the faces. */
-static int64_t sah_split(build_ctx *c, int64_t begin, int64_t end, const float clo[3],
-                         const float chi[3]) {
-    int32_t *order = c->b->order;
+ * when no binned split separates the faces. All three axes are binned in one
+ * pass over the faces; an axis without centroid spread gets scale 0, so all
+ * its faces share bin 0 and it offers no split. */
+static int64_t sah_split(const face_rec *rec, int32_t *order, int64_t begin, int64_t end,
+                         const float clo[3], const float chi[3]) {
+    float scale[3];
+    sah_bin bins[3][SAH_BINS];
+    for (int axis = 0; axis < 3; axis++) {
+        float extent = chi[axis] - clo[axis];
+        scale[axis] = extent > 0 ? SAH_BINS / extent : 0.0f;
+        for (int i = 0; i < SAH_BINS; i++) {
+            box_empty(bins[axis][i].lo, bins[axis][i].hi);
+            bins[axis][i].count = 0;
+        }
+    }
+    for (int64_t i = begin; i < end; i++) {
+        const face_rec *r = &rec[order[i]];
+        for (int axis = 0; axis < 3; axis++) {
+            sah_bin *bn = &bins[axis][bin_of(r->c[axis], clo[axis], scale[axis])];
+            bn->count++;
+            box_grow(bn->lo, bn->hi, r->lo, r->hi);
+        }
+    }
     double best_cost = INFINITY;
     int best_axis = -1, best_bin = -1;
     for (int axis = 0; axis < 3; axis++) {
-        double extent = (double)chi[axis] - clo[axis];
-        if (!(extent > 0)) continue;
-        double scale = SAH_BINS / extent;
-        int64_t count[SAH_BINS] = {0};
-        float blo[SAH_BINS][3], bhi[SAH_BINS][3];
-        for (int i = 0; i < SAH_BINS; i++) box_empty(blo[i], bhi[i]);
-        for (int64_t i = begin; i < end; i++) {
-            int32_t f = order[i];
-            int k = bin_of(c->cen[3 * (size_t)f + axis], clo[axis], scale);
-            count[k]++;
-            box_grow(blo[k], bhi[k], &c->fbox[6 * (size_t)f], &c->fbox[6 * (size_t)f + 3]);
-        }
         /* Right-to-left sweep: cost of everything right of each bin boundary. */
         double right_cost[SAH_BINS];
-        float rlo[3], rhi[3];
-        box_empty(rlo, rhi);
-        int64_t nright = 0;
+        float lo[3], hi[3];
+        box_empty(lo, hi);
+        int64_t n = 0;
         for (int i = SAH_BINS - 1; i > 0; i--) {
-            box_grow(rlo, rhi, blo[i], bhi[i]);
-            nright += count[i];
-            right_cost[i] = nright ? box_half_area(rlo, rhi) * (double)nright : 0;
+            box_grow(lo, hi, bins[axis][i].lo, bins[axis][i].hi);
+            n += bins[axis][i].count;
+            right_cost[i] = n ? box_half_area(lo, hi) * (double)n : 0;
         }
-        float llo[3], lhi[3];
-        box_empty(llo, lhi);
-        int64_t nleft = 0;
+        box_empty(lo, hi);
+        n = 0;
         for (int i = 0; i < SAH_BINS - 1; i++) {
-            box_grow(llo, lhi, blo[i], bhi[i]);
-            nleft += count[i];
-            if (nleft == 0 || nleft == end - begin) continue;
-            double cost = box_half_area(llo, lhi) * (double)nleft + right_cost[i + 1];
+            box_grow(lo, hi, bins[axis][i].lo, bins[axis][i].hi);
+            n += bins[axis][i].count;
+            if (n == 0 || n == end - begin) continue;
+            double cost = box_half_area(lo, hi) * (double)n + right_cost[i + 1];
             if (cost < best_cost) best_cost = cost, best_axis = axis, best_bin = i;
         }
     }
     if (best_axis < 0) return -1;
-    double scale = SAH_BINS / ((double)chi[best_axis] - clo[best_axis]);
     int64_t mid = begin;
     for (int64_t i = begin; i < end; i++)
-        if (bin_of(c->cen[3 * (size_t)order[i] + best_axis], clo[best_axis], scale) <= best_bin)
+        if (bin_of(rec[order[i]].c[best_axis], clo[best_axis], scale[best_axis]) <= best_bin)
             swap_i32(&order[i], &order[mid++]);
     return mid;
 }
 
-static void build_node(build_ctx *c, int32_t idx, int64_t begin, int64_t end, int32_t depth) {
-    cr_bvh *b = c->b;
+static void build_node(cr_bvh *b, const face_rec *rec, int32_t idx, int64_t begin, int64_t end,
+                       int32_t depth) {
     bvh_node *node = &b->nodes[idx];
     float clo[3], chi[3];
     box_empty(node->lo, node->hi);
     box_empty(clo, chi);
     for (int64_t i = begin; i < end; i++) {
-        int32_t f = b->order[i];
-        box_grow(node->lo, node->hi, &c->fbox[6 * (size_t)f], &c->fbox[6 * (size_t)f + 3]);
-        box_grow(clo, chi, &c->cen[3 * (size_t)f], &c->cen[3 * (size_t)f]);
+        const face_rec *r = &rec[b->order[i]];
+        box_grow(node->lo, node->hi, r->lo, r->hi);
+        box_grow(clo, chi, r->c, r->c);
     }
     if (depth > b->depth) b->depth = depth;
     if (end - begin <= BVH_LEAF_MAX) {
@@ -238,20 +272,20 @@ static void build_node(build_ctx *c, int32_t idx, int64_t begin, int64_t end, in
         node->count = (int32_t)(end - begin);
         return;
     }
-    int64_t mid = depth < BVH_MEDIAN_DEPTH ? sah_split(c, begin, end, clo, chi) : -1;
+    int64_t mid = depth < BVH_MEDIAN_DEPTH ? sah_split(rec, b->order, begin, end, clo, chi) : -1;
     if (mid < 0) {
         int axis = 0;
         for (int d = 1; d < 3; d++)
             if (chi[d] - clo[d] > chi[axis] - clo[axis]) axis = d;
         mid = begin + (end - begin) / 2;
-        select_nth(b->order, begin, end, mid, c->cen, axis);
+        select_nth(b->order, begin, end, mid, rec, axis);
     }
     int32_t left = b->nnodes;
     b->nnodes += 2;
     node->start = left;
     node->count = 0;
-    build_node(c, left, begin, mid, depth + 1);
-    build_node(c, left + 1, mid, end, depth + 1);
+    build_node(b, rec, left, begin, mid, depth + 1);
+    build_node(b, rec, left + 1, mid, end, depth + 1);
 }
 
 cr_status cr_bvh_build(const float *pos, int32_t nv, const int32_t *tri, int32_t nf, cr_bvh **out,
@@ -259,6 +293,8 @@ cr_status cr_bvh_build(const float *pos, int32_t nv, const int32_t *tri, int32_t
     *out = NULL;
     if (nf < 1) return CR_FAIL(err, CR_ERR_TOPOLOGY, "bvh: need at least one triangle, got %d", nf);
     if (nv < 1) return CR_FAIL(err, CR_ERR_TOPOLOGY, "bvh: need vertices, got %d", nv);
+    if (nf > INT32_MAX / 2)
+        return CR_FAIL(err, CR_ERR_INVALID, "bvh: %d faces exceed the int32 node index range", nf);
     CR_ASSERT(pos && tri);
     for (size_t i = 0; i < 3 * (size_t)nf; i++)
         if (tri[i] < 0 || tri[i] >= nv)
@@ -276,10 +312,12 @@ cr_status cr_bvh_build(const float *pos, int32_t nv, const int32_t *tri, int32_t
     b->fnormal = cr_malloc((size_t)nf * 3 * sizeof(float), err);
     b->vnormal = cr_malloc((size_t)nv * 3 * sizeof(float), err);
     b->order = cr_malloc((size_t)nf * sizeof(int32_t), err);
+    b->leaf_pos = cr_malloc((size_t)nf * 9 * sizeof(float), err);
     b->nodes = cr_malloc((2 * (size_t)nf - 1) * sizeof(bvh_node), err);
-    float *fbox = cr_malloc((size_t)nf * 9 * sizeof(float), err); /* (F,6) boxes + (F,3) centres */
+    face_rec *rec = cr_malloc((size_t)nf * sizeof(face_rec), err);
     cr_status st = CR_OK;
-    if (!b->pos || !b->tri || !b->fnormal || !b->vnormal || !b->order || !b->nodes || !fbox)
+    if (!b->pos || !b->tri || !b->fnormal || !b->vnormal || !b->order || !b->leaf_pos ||
+        !b->nodes || !rec)
         st = CR_ERR_MEMORY;
     if (st == CR_OK) {
         memcpy(b->pos, pos, (size_t)nv * 3 * sizeof(float));
@@ -287,22 +325,24 @@ cr_status cr_bvh_build(const float *pos, int32_t nv, const int32_t *tri, int32_t
         st = build_topology(b, err);
     }
     if (st != CR_OK) {
-        free(fbox);
+        free(rec);
         cr_bvh_destroy(b);
         return st;
     }
-    float *cen = fbox + 6 * (size_t)nf;
     for (int32_t f = 0; f < nf; f++) {
-        float *bx = &fbox[6 * (size_t)f];
-        face_box(b, f, bx, bx + 3);
-        for (int d = 0; d < 3; d++) cen[3 * (size_t)f + d] = 0.5f * (bx[d] + bx[3 + d]);
+        face_rec *r = &rec[f];
+        const int32_t *t = &b->tri[3 * (size_t)f];
+        corners_box(&pos[3 * (size_t)t[0]], &pos[3 * (size_t)t[1]], &pos[3 * (size_t)t[2]], r->lo,
+                    r->hi);
+        for (int d = 0; d < 3; d++)
+            r->c[d] = 0.5f * (r->lo[d] + r->hi[d]);
         b->order[f] = f;
     }
-    build_ctx c = {b, fbox, cen};
     b->nnodes = 1;
-    build_node(&c, 0, 0, nf, 0);
+    build_node(b, rec, 0, 0, nf, 0);
     CR_ASSERT(b->nnodes <= 2 * nf - 1 && b->depth < BVH_STACK - 1);
-    free(fbox);
+    free(rec);
+    cr_parallel_for(nf, 4096, gather_leaf_pos_range, b);
     update_normals(b);
     *out = b;
     return CR_OK;
@@ -317,8 +357,9 @@ static void refit_leaves_range(void *ctx, int64_t begin, int64_t end) {
         if (n->count == 0) continue;
         box_empty(n->lo, n->hi);
         for (int32_t k = 0; k < n->count; k++) {
+            const float *v = &b->leaf_pos[9 * (size_t)(n->start + k)];
             float lo[3], hi[3];
-            face_box(b, b->order[n->start + k], lo, hi);
+            corners_box(v, v + 3, v + 6, lo, hi);
             box_grow(n->lo, n->hi, lo, hi);
         }
     }
@@ -331,14 +372,15 @@ cr_status cr_bvh_refit(cr_bvh *b, const float *pos, cr_error *err) {
             return CR_FAIL(err, CR_ERR_NAN, "bvh refit: vertex %zu has a non-finite coordinate",
                            i / 3);
     memcpy(b->pos, pos, (size_t)b->nv * 3 * sizeof(float));
+    cr_parallel_for(b->nf, 4096, gather_leaf_pos_range, b);
     cr_parallel_for(b->nnodes, 1024, refit_leaves_range, b);
     for (int32_t i = b->nnodes - 1; i >= 0; i--) {
         bvh_node *n = &b->nodes[i];
         if (n->count > 0) continue;
         const bvh_node *l = &b->nodes[n->start], *r = &b->nodes[n->start + 1];
         for (int d = 0; d < 3; d++) {
-            n->lo[d] = fminf(l->lo[d], r->lo[d]);
-            n->hi[d] = fmaxf(l->hi[d], r->hi[d]);
+            n->lo[d] = bvh_minf(l->lo[d], r->lo[d]);
+            n->hi[d] = bvh_maxf(l->hi[d], r->hi[d]);
         }
     }
     update_normals(b);
@@ -355,15 +397,32 @@ void cr_bvh_destroy(cr_bvh *b) {
     free(b->vf_start);
     free(b->vf);
     free(b->order);
+    free(b->leaf_pos);
     free(b->nodes);
     free(b);
 }
 
-int32_t cr_bvh_vertex_count(const cr_bvh *b) { return b->nv; }
-int32_t cr_bvh_face_count(const cr_bvh *b) { return b->nf; }
-int32_t cr_bvh_node_count(const cr_bvh *b) { return b->nnodes; }
-int32_t cr_bvh_depth(const cr_bvh *b) { return b->depth; }
-const float *cr_bvh_positions(const cr_bvh *b) { return b->pos; }
-const int32_t *cr_bvh_triangles(const cr_bvh *b) { return b->tri; }
-const float *cr_bvh_face_normals(const cr_bvh *b) { return b->fnormal; }
-const float *cr_bvh_vertex_normals(const cr_bvh *b) { return b->vnormal; }
+int32_t cr_bvh_vertex_count(const cr_bvh *b) {
+    return b->nv;
+}
+int32_t cr_bvh_face_count(const cr_bvh *b) {
+    return b->nf;
+}
+int32_t cr_bvh_node_count(const cr_bvh *b) {
+    return b->nnodes;
+}
+int32_t cr_bvh_depth(const cr_bvh *b) {
+    return b->depth;
+}
+const float *cr_bvh_positions(const cr_bvh *b) {
+    return b->pos;
+}
+const int32_t *cr_bvh_triangles(const cr_bvh *b) {
+    return b->tri;
+}
+const float *cr_bvh_face_normals(const cr_bvh *b) {
+    return b->fnormal;
+}
+const float *cr_bvh_vertex_normals(const cr_bvh *b) {
+    return b->vnormal;
+}

@@ -22,21 +22,33 @@ typedef struct bvh_node {
     int32_t count;
 } bvh_node;
 
+/* min/max as plain compares: fminf/fmaxf are library calls on x86 (they must
+ * honour NaN), which cost the build and traversal loops several times over.
+ * Positions are checked finite, so boxes never hold a NaN. */
+static inline float bvh_minf(float a, float b) {
+    return a < b ? a : b;
+}
+static inline float bvh_maxf(float a, float b) {
+    return a > b ? a : b;
+}
+
 struct cr_bvh {
-    int32_t nv;       /* V */
-    int32_t nf;       /* F */
+    int32_t nv; /* V */
+    int32_t nf; /* F */
     int32_t nnodes;
     int32_t depth;
-    float *pos;       /* (V,3) own copy of the positions, m */
-    int32_t *tri;     /* (F,3) */
-    int32_t *adj;     /* (F,3) face across edge k (corner k to k+1), -1 on a boundary or
-                         non-manifold edge */
-    float *fnormal;   /* (F,3) unit face normals */
-    float *vnormal;   /* (V,3) unit angle-weighted vertex normals */
+    float *pos;        /* (V,3) own copy of the positions, m */
+    int32_t *tri;      /* (F,3) */
+    int32_t *adj;      /* (F,3) face across edge k (corner k to k+1), -1 on a boundary or
+                          non-manifold edge */
+    float *fnormal;    /* (F,3) unit face normals */
+    float *vnormal;    /* (V,3) unit angle-weighted vertex normals */
     int64_t *vf_start; /* (V+1) faces around vertex v are vf[vf_start[v] .. vf_start[v+1]) */
-    int32_t *vf;      /* (3F) vertex-to-face incidence */
-    int32_t *order;   /* (F) faces in leaf order */
-    bvh_node *nodes;  /* (nnodes), root first */
+    int32_t *vf;       /* (3F) vertex-to-face incidence */
+    int32_t *order;    /* (F) faces in leaf order */
+    float *leaf_pos;   /* (F,9) corner positions of face order[i] at 9 i: leaves read their
+                          triangles from one contiguous run instead of via tri and pos */
+    bvh_node *nodes;   /* (nnodes), root first */
 };
 
 #endif

@@ -21,13 +21,13 @@ typedef struct stack_item {
     float key; /* squared box distance, or ray entry t */
 } stack_item;
 
+/* Squared distance from p to the box (0 inside), written out per axis since
+ * gcc -O2 leaves a 3-trip loop rolled and this is the traversal's inner step. */
 static float box_dist2(const bvh_node *n, const float p[3]) {
-    float d2 = 0;
-    for (int d = 0; d < 3; d++) {
-        float e = fmaxf(fmaxf(n->lo[d] - p[d], p[d] - n->hi[d]), 0.0f);
-        d2 += e * e;
-    }
-    return d2;
+    float ex = bvh_maxf(bvh_maxf(n->lo[0] - p[0], p[0] - n->hi[0]), 0.0f);
+    float ey = bvh_maxf(bvh_maxf(n->lo[1] - p[1], p[1] - n->hi[1]), 0.0f);
+    float ez = bvh_maxf(bvh_maxf(n->lo[2] - p[2], p[2] - n->hi[2]), 0.0f);
+    return ex * ex + ey * ey + ez * ez;
 }
 
 /* -------------------------------------------------- point-triangle -- */
@@ -66,7 +66,8 @@ static void closest_degenerate(const double *a, const double *ab, const double *
     r->d2 = INFINITY;
     for (int k = 0; k < 3; k++) {
         /* Edge k from corner k to corner k+1 in (w1, w2) coordinates. */
-        static const double from[3][2] = {{0, 0}, {1, 0}, {0, 1}}, to[3][2] = {{1, 0}, {0, 1}, {0, 0}};
+        static const double from[3][2] = {{0, 0}, {1, 0}, {0, 1}},
+                            to[3][2] = {{1, 0}, {0, 1}, {0, 0}};
         double s[3], q[3], e[3];
         for (int d = 0; d < 3; d++) {
             s[d] = a[d] + from[k][0] * ab[d] + from[k][1] * ac[d];
@@ -78,9 +79,12 @@ static void closest_degenerate(const double *a, const double *ab, const double *
         tri_closest c;
         double w1 = from[k][0] + t * (to[k][0] - from[k][0]);
         double w2 = from[k][1] + t * (to[k][1] - from[k][1]);
-        if (t == 0) set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, k);
-        else if (t == 1) set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, (k + 1) % 3);
-        else set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_EDGE, k);
+        if (t == 0)
+            set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, k);
+        else if (t == 1)
+            set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_VERTEX, (k + 1) % 3);
+        else
+            set_closest(&c, a, ab, ac, w1, w2, p, CR_BVH_EDGE, k);
         if (k == 0 || c.d2 < r->d2) *r = c; /* k == 0 first: a NaN stays NaN */
     }
 }
@@ -137,14 +141,12 @@ static int32_t closest_search(const cr_bvh *b, const float p[3], tri_closest *be
         const bvh_node *n = &b->nodes[it.node];
         if (n->count > 0) {
             for (int32_t k = 0; k < n->count; k++) {
-                int32_t f = b->order[n->start + k];
-                const int32_t *t = &b->tri[3 * (size_t)f];
+                const float *v = &b->leaf_pos[9 * (size_t)(n->start + k)];
                 tri_closest c;
-                closest_on_triangle(&b->pos[3 * (size_t)t[0]], &b->pos[3 * (size_t)t[1]],
-                                    &b->pos[3 * (size_t)t[2]], pd, &c);
+                closest_on_triangle(v, v + 3, v + 6, pd, &c);
                 if (c.d2 < best->d2 || (best_face < 0 && c.d2 == best->d2)) {
                     *best = c;
-                    best_face = f;
+                    best_face = b->order[n->start + k];
                 }
             }
             continue;
@@ -191,16 +193,20 @@ int cr_bvh_closest(const cr_bvh *b, const float p[3], float max_dist, cr_bvh_hit
 /* Pseudo-normal of the feature holding the closest point (unnormalised for edges). */
 static void pseudo_normal(const cr_bvh *b, int32_t f, const tri_closest *c, double n[3]) {
     const float *src = &b->fnormal[3 * (size_t)f];
-    if (c->feature == CR_BVH_VERTEX) src = &b->vnormal[3 * (size_t)b->tri[3 * (size_t)f + c->local]];
-    for (int d = 0; d < 3; d++) n[d] = src[d];
+    if (c->feature == CR_BVH_VERTEX)
+        src = &b->vnormal[3 * (size_t)b->tri[3 * (size_t)f + c->local]];
+    for (int d = 0; d < 3; d++)
+        n[d] = src[d];
     if (c->feature == CR_BVH_EDGE) {
         int32_t g = b->adj[3 * (size_t)f + c->local];
         if (g >= 0)
-            for (int d = 0; d < 3; d++) n[d] += b->fnormal[3 * (size_t)g + d];
+            for (int d = 0; d < 3; d++)
+                n[d] += b->fnormal[3 * (size_t)g + d];
     }
     double len = sqrt(dot3(n, n));
     if (len > 0)
-        for (int d = 0; d < 3; d++) n[d] /= len;
+        for (int d = 0; d < 3; d++)
+            n[d] /= len;
 }
 
 int cr_bvh_signed_distance(const cr_bvh *b, const float p[3], float max_dist, float *dist,
@@ -219,11 +225,13 @@ int cr_bvh_signed_distance(const cr_bvh *b, const float p[3], float max_dist, fl
     }
     double n[3], away = 0;
     pseudo_normal(b, f, &best, n);
-    for (int d = 0; d < 3; d++) away += ((double)p[d] - best.point[d]) * n[d];
+    for (int d = 0; d < 3; d++)
+        away += ((double)p[d] - best.point[d]) * n[d];
     double dd = sqrt(best.d2);
     *dist = (float)(away < 0 ? -dd : dd);
     if (normal)
-        for (int d = 0; d < 3; d++) normal[d] = (float)n[d];
+        for (int d = 0; d < 3; d++)
+            normal[d] = (float)n[d];
     if (hit) {
         for (int d = 0; d < 3; d++) {
             hit->point[d] = (float)best.point[d];
@@ -279,17 +287,21 @@ int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist,
 
 /* ---------------------------------------------------------- raycast -- */
 
-/* Entry t of the ray into the box, or INFINITY when it misses within [0, t_far].
- * Division by a zero direction gives +-inf slabs; a NaN from 0 * inf is
- * dropped by fminf/fmaxf, which keeps the test conservative. The far bound
- * is padded by a few ulps so rounding cannot miss a face on a box wall
- * (Pharr, Jakob & Humphreys, PBRT 3rd ed., sec. 3.9.2). */
+/* Entry t of the ray into the box, or INFINITY when it misses within
+ * [0, t_far]. An axis the ray runs parallel to (inv = +-inf) only asks whether
+ * the origin lies within that slab, avoiding 0 * inf. The far bound is padded
+ * by a few ulps so rounding cannot miss a face lying on a box wall (Pharr,
+ * Jakob & Humphreys, PBRT 3rd ed., sec. 3.9.2). */
 static float ray_box(const bvh_node *n, const float o[3], const float inv[3], float t_far) {
     float tn = 0.0f, tf = t_far;
     for (int d = 0; d < 3; d++) {
+        if (isinf(inv[d])) {
+            if (o[d] < n->lo[d] || o[d] > n->hi[d]) return INFINITY;
+            continue;
+        }
         float t1 = (n->lo[d] - o[d]) * inv[d], t2 = (n->hi[d] - o[d]) * inv[d];
-        tn = fmaxf(tn, fminf(t1, t2));
-        tf = fminf(tf, fmaxf(t1, t2) * (1.0f + 4e-7f));
+        tn = bvh_maxf(tn, bvh_minf(t1, t2));
+        tf = bvh_minf(tf, bvh_maxf(t1, t2) * (1.0f + 4e-7f));
     }
     return tn <= tf ? tn : INFINITY;
 }
@@ -341,18 +353,17 @@ int cr_bvh_raycast(const cr_bvh *b, const float origin[3], const float dir[3], f
         const bvh_node *n = &b->nodes[it.node];
         if (n->count > 0) {
             for (int32_t k = 0; k < n->count; k++) {
-                int32_t f = b->order[n->start + k];
-                const int32_t *t = &b->tri[3 * (size_t)f];
+                const float *q = &b->leaf_pos[9 * (size_t)(n->start + k)];
                 double u, v;
-                double th = ray_triangle(&b->pos[3 * (size_t)t[0]], &b->pos[3 * (size_t)t[1]],
-                                         &b->pos[3 * (size_t)t[2]], o, dd, best_t, &u, &v);
-                if (th >= 0) best_t = th, bu = u, bv = v, hit->face = f;
+                double th = ray_triangle(q, q + 3, q + 6, o, dd, best_t, &u, &v);
+                if (th >= 0) best_t = th, bu = u, bv = v, hit->face = b->order[n->start + k];
             }
             continue;
         }
-        float tf = (float)fmin(best_t, (double)t_max);
+        float tf = (float)best_t;
         int32_t l = n->start, r = n->start + 1;
-        float tl = ray_box(&b->nodes[l], origin, inv, tf), tr = ray_box(&b->nodes[r], origin, inv, tf);
+        float tl = ray_box(&b->nodes[l], origin, inv, tf),
+              tr = ray_box(&b->nodes[r], origin, inv, tf);
         if (tl <= tr) {
             if (tr != INFINITY) stack[top++] = (stack_item){r, tr};
             if (tl != INFINITY) stack[top++] = (stack_item){l, tl};
@@ -397,8 +408,13 @@ static void closest_range(void *ctx, int64_t begin, int64_t end) {
 
 void cr_bvh_closest_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
                           int32_t *face, float *point, float *bary, float *dist) {
-    batch_ctx c = {.b = b, .pts = pts, .limit = max_dist, .index = face, .point = point,
-                   .bary = bary, .dist = dist};
+    batch_ctx c = {.b = b,
+                   .pts = pts,
+                   .limit = max_dist,
+                   .index = face,
+                   .point = point,
+                   .bary = bary,
+                   .dist = dist};
     cr_parallel_for(n, BATCH_GRAIN, closest_range, &c);
 }
 
@@ -416,8 +432,8 @@ static void signed_range(void *ctx, int64_t begin, int64_t end) {
 
 void cr_bvh_signed_distance_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
                                   float *dist, float *normal, float *point) {
-    batch_ctx c = {.b = b, .pts = pts, .limit = max_dist, .dist = dist, .normal = normal,
-                   .point = point};
+    batch_ctx c = {
+        .b = b, .pts = pts, .limit = max_dist, .dist = dist, .normal = normal, .point = point};
     cr_parallel_for(n, BATCH_GRAIN, signed_range, &c);
 }
 
@@ -450,7 +466,12 @@ static void ray_range(void *ctx, int64_t begin, int64_t end) {
 
 void cr_bvh_raycast_batch(const cr_bvh *b, const float *origins, const float *dirs, int64_t n,
                           float t_max, int32_t *face, float *t, float *bary) {
-    batch_ctx c = {.b = b, .pts = origins, .dirs = dirs, .limit = t_max, .index = face,
-                   .dist = t, .bary = bary};
+    batch_ctx c = {.b = b,
+                   .pts = origins,
+                   .dirs = dirs,
+                   .limit = t_max,
+                   .index = face,
+                   .dist = t,
+                   .bary = bary};
     cr_parallel_for(n, BATCH_GRAIN, ray_range, &c);
 }

@@ -49,15 +49,16 @@ void cr_mesh_seams_free(cr_mesh_seams *s) {
 cr_status cr_mesh_split_seams(const cr_mesh *m, cr_mesh_seams *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     int uv = cr_mesh_has_uv(m);
-    int64_t nc = 3 * (int64_t)m->nf;         /* corners */
-    int64_t cap = m->nv + (uv ? nc : 0);     /* at most one new vertex per corner */
+    int64_t nc = 3 * (int64_t)m->nf;     /* corners */
+    int64_t cap = m->nv + (uv ? nc : 0); /* at most one new vertex per corner */
     out->src = cr_malloc((size_t)cap * sizeof(int32_t), err);
     out->tri = cr_malloc((size_t)nc * sizeof(int32_t), err);
     if (!out->src || !out->tri) {
         cr_mesh_seams_free(out);
         return CR_ERR_MEMORY;
     }
-    for (int32_t i = 0; i < m->nv; i++) out->src[i] = i;
+    for (int32_t i = 0; i < m->nv; i++)
+        out->src[i] = i;
     out->nv = m->nv;
     if (!uv) {
         memcpy(out->tri, m->tri, (size_t)nc * sizeof(int32_t));
@@ -131,7 +132,8 @@ static void compact_rows(float *a, int32_t dim, const int32_t *map, int32_t nv) 
 cr_status cr_mesh_weld(cr_mesh *m, cr_error *err) {
     if (m->nv == 0) return CR_OK;
     size_t cap = 1;
-    while (cap < 2 * (size_t)m->nv) cap *= 2;
+    while (cap < 2 * (size_t)m->nv)
+        cap *= 2;
     int32_t *table = cr_malloc(cap * sizeof(int32_t), err);
     int32_t *map = cr_malloc((size_t)m->nv * sizeof(int32_t), err);
     if (!table || !map) {
@@ -158,7 +160,8 @@ cr_status cr_mesh_weld(cr_mesh *m, cr_error *err) {
         if (m->normal) compact_rows(m->normal, 3, map, m->nv);
         for (int32_t a = 0; a < m->nattr; a++)
             compact_rows(m->attr[a].data, m->attr[a].dim, map, m->nv);
-        for (int64_t c = 0; c < 3 * (int64_t)m->nf; c++) m->tri[c] = map[m->tri[c]];
+        for (int64_t c = 0; c < 3 * (int64_t)m->nf; c++)
+            m->tri[c] = map[m->tri[c]];
         m->nv = nnew;
     }
     free(map);

@@ -43,8 +43,14 @@ enum {
     GLB_MAGIC = 0x46546c67,      /* "glTF" */
     GLB_CHUNK_JSON = 0x4e4f534a, /* "JSON" */
     GLB_CHUNK_BIN = 0x004e4942,  /* "BIN\0" */
-    CT_I8 = 5120, CT_U8 = 5121, CT_I16 = 5122, CT_U16 = 5123, CT_U32 = 5125, CT_F32 = 5126,
-    TARGET_ARRAY = 34962, TARGET_ELEMENTS = 34963,
+    CT_I8 = 5120,
+    CT_U8 = 5121,
+    CT_I16 = 5122,
+    CT_U16 = 5123,
+    CT_U32 = 5125,
+    CT_F32 = 5126,
+    TARGET_ARRAY = 34962,
+    TARGET_ELEMENTS = 34963,
     MODE_TRIANGLES = 4
 };
 
@@ -83,8 +89,8 @@ static cr_status json_uint(const glb_in *g, const cJSON *obj, const char *where,
     }
     if (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > (double)max ||
         v->valuedouble != floor(v->valuedouble))
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: %s.%s: expected an integer in [0, %llu]",
-                       g->source, where, key, (unsigned long long)max);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: %s.%s: expected an integer in [0, %llu]", g->source,
+                       where, key, (unsigned long long)max);
     *out = (uint64_t)v->valuedouble;
     return CR_OK;
 }
@@ -102,10 +108,17 @@ static int type_components(const char *type) {
 
 static int ctype_size(int ctype) {
     switch (ctype) {
-    case CT_I8: case CT_U8: return 1;
-    case CT_I16: case CT_U16: return 2;
-    case CT_U32: case CT_F32: return 4;
-    default: return 0;
+    case CT_I8:
+    case CT_U8:
+        return 1;
+    case CT_I16:
+    case CT_U16:
+        return 2;
+    case CT_U32:
+    case CT_F32:
+        return 4;
+    default:
+        return 0;
     }
 }
 
@@ -131,13 +144,13 @@ static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_
     int csize = ctype_size((int)ctype);
     if (!ncomp || !csize || count == 0)
         return CR_FAIL(err, CR_ERR_PARSE,
-                       "%s: %s: expected a known type and componentType and count >= 1",
-                       g->source, where);
+                       "%s: %s: expected a known type and componentType and count >= 1", g->source,
+                       where);
     snprintf(vwhere, sizeof vwhere, "bufferViews[%llu]", (unsigned long long)view_i);
     const cJSON *view = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "bufferViews"), view_i);
     if (!cJSON_IsObject(view))
-        return CR_FAIL(err, CR_ERR_RANGE, "%s: %s refers to %s, which does not exist",
-                       g->source, where, vwhere);
+        return CR_FAIL(err, CR_ERR_RANGE, "%s: %s refers to %s, which does not exist", g->source,
+                       where, vwhere);
     uint64_t buf, voff, vlen, vstride;
     CR_TRY(json_uint(g, view, vwhere, "buffer", 1, 0, INT32_MAX, &buf, err));
     CR_TRY(json_uint(g, view, vwhere, "byteOffset", 0, 0, UINT32_MAX, &voff, err));
@@ -154,9 +167,10 @@ static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_
     uint64_t elem = (uint64_t)csize * (uint64_t)ncomp;
     uint64_t stride = vstride ? vstride : elem;
     if (stride < elem)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: %s: byteStride %llu is smaller than an element "
-                       "(%llu bytes)", g->source, vwhere, (unsigned long long)stride,
-                       (unsigned long long)elem);
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: %s: byteStride %llu is smaller than an element "
+                       "(%llu bytes)",
+                       g->source, vwhere, (unsigned long long)stride, (unsigned long long)elem);
     uint64_t last = off + stride * (count - 1) + elem; /* < 2^41: no overflow */
     if (last > vlen)
         return CR_FAIL(err, CR_ERR_RANGE,
@@ -172,8 +186,8 @@ static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_
 }
 
 /* The attribute accessor `name` of the primitive, or found = 0. */
-static cr_status get_attribute(const glb_in *g, const cJSON *attrs, const char *name,
-                               glb_acc *out, int *found, cr_error *err) {
+static cr_status get_attribute(const glb_in *g, const cJSON *attrs, const char *name, glb_acc *out,
+                               int *found, cr_error *err) {
     *found = 0;
     if (!cJSON_GetObjectItemCaseSensitive(attrs, name)) return CR_OK;
     char where[64];
@@ -191,8 +205,8 @@ static cr_status expect_float(const glb_in *g, const glb_acc *a, const char *nam
         return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: %s: expected float VEC%d", g->source, name,
                        ncomp);
     if (count >= 0 && a->count != count)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: %s has %lld elements, POSITION has %lld",
-                       g->source, name, (long long)a->count, (long long)count);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: %s has %lld elements, POSITION has %lld", g->source,
+                       name, (long long)a->count, (long long)count);
     return CR_OK;
 }
 
@@ -224,9 +238,9 @@ static cr_status read_texcoord(const glb_in *g, const glb_acc *a, int64_t nv, fl
     double scale = a->ctype == CT_U8 ? 255.0 : 65535.0;
     for (int64_t i = 0; i < nv; i++)
         for (int k = 0; k < 2; k++)
-            uv[2 * i + k] = (float)(io_load(a->base + (uint64_t)i * a->stride + (uint64_t)(k * size),
-                                            size, 0) /
-                                    scale);
+            uv[2 * i + k] =
+                (float)(io_load(a->base + (uint64_t)i * a->stride + (uint64_t)(k * size), size, 0) /
+                        scale);
     return CR_OK;
 }
 
@@ -256,10 +270,13 @@ static cr_status read_indices(const glb_in *g, const cJSON *prim, int64_t nv, in
     int size = indexed ? ctype_size(a.ctype) : 0;
     for (int64_t c = 0; c < n; c++) {
         uint64_t v = indexed ? io_load(a.base + (uint64_t)c * a.stride, size, 0) : (uint64_t)c;
-        if (v >= (uint64_t)nv)
+        if (v >= (uint64_t)nv) {
+            free(*tri);
+            *tri = NULL;
             return CR_FAIL(err, CR_ERR_RANGE,
                            "%s: indices element %lld is %llu, but POSITION has %lld vertices",
                            g->source, (long long)c, (unsigned long long)v, (long long)nv);
+        }
         (*tri)[c] = (int32_t)v;
     }
     *ntri = n / 3;
@@ -277,20 +294,23 @@ static void unflip_uvs(float *uv, const float *exact, int64_t nv) {
         memcpy(uv, exact, (size_t)nv * 2 * sizeof(float));
         return;
     }
-    for (int64_t i = 0; i < nv; i++) uv[2 * i + 1] = (float)(1.0 - (double)uv[2 * i + 1]);
+    for (int64_t i = 0; i < nv; i++)
+        uv[2 * i + 1] = (float)(1.0 - (double)uv[2 * i + 1]);
 }
 
 /* Split the container into the parsed JSON and the BIN chunk. */
 static cr_status open_container(glb_in *g, const unsigned char *d, size_t len, cr_error *err) {
     if (len < 20)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: %zu bytes, expected a 12-byte GLB header and a "
-                       "JSON chunk", g->source, len);
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: %zu bytes, expected a 12-byte GLB header and a "
+                       "JSON chunk",
+                       g->source, len);
     if (io_le32(d) != GLB_MAGIC)
         return CR_FAIL(err, CR_ERR_PARSE, "%s: byte 0: expected magic 'glTF' (not a glb file)",
                        g->source);
     if (io_le32(d + 4) != 2)
-        return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: byte 4: glb version %u, expected 2",
-                       g->source, io_le32(d + 4));
+        return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: byte 4: glb version %u, expected 2", g->source,
+                       io_le32(d + 4));
     if (io_le32(d + 8) != len)
         return CR_FAIL(err, CR_ERR_PARSE, "%s: byte 8: header says %u bytes, the file has %zu",
                        g->source, io_le32(d + 8), len);
@@ -310,18 +330,20 @@ static cr_status open_container(glb_in *g, const unsigned char *d, size_t len, c
         uint64_t blen = io_le32(d + at);
         if (io_le32(d + at + 4) != GLB_CHUNK_BIN || at + 8 + blen > len)
             return CR_FAIL(err, CR_ERR_PARSE,
-                           "%s: byte %llu: expected a BIN chunk of at most %llu bytes",
-                           g->source, (unsigned long long)at, (unsigned long long)(len - at - 8));
+                           "%s: byte %llu: expected a BIN chunk of at most %llu bytes", g->source,
+                           (unsigned long long)at, (unsigned long long)(len - at - 8));
         g->bin = d + at + 8;
         g->bin_len = blen;
     }
     const cJSON *buffer = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "buffers"), 0);
     if (buffer) {
         if (cJSON_GetObjectItemCaseSensitive(buffer, "uri"))
-            return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: buffers[0] is external (uri); expected "
-                           "the GLB BIN chunk", g->source);
-        CR_TRY(json_uint(g, buffer, "buffers[0]", "byteLength", 1, 0, g->bin_len, &g->buf_len,
-                         err));
+            return CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                           "%s: buffers[0] is external (uri); expected "
+                           "the GLB BIN chunk",
+                           g->source);
+        CR_TRY(
+            json_uint(g, buffer, "buffers[0]", "byteLength", 1, 0, g->bin_len, &g->buf_len, err));
     }
     return CR_OK;
 }
@@ -342,8 +364,7 @@ static cr_status get_primitive(const glb_in *g, const cJSON **out, cr_error *err
                        "%s: meshes[0].primitives: expected exactly one primitive", g->source);
     const cJSON *prim = json_at(prims, 0);
     uint64_t mode;
-    CR_TRY(json_uint(g, prim, "meshes[0].primitives[0]", "mode", 0, MODE_TRIANGLES, 6, &mode,
-                     err));
+    CR_TRY(json_uint(g, prim, "meshes[0].primitives[0]", "mode", 0, MODE_TRIANGLES, 6, &mode, err));
     if (mode != MODE_TRIANGLES)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: meshes[0].primitives[0].mode is %llu, expected 4 (triangles)",
@@ -360,8 +381,7 @@ static cr_status read_mesh(const glb_in *g, cr_mesh **out, cr_error *err) {
     int has_p, has_n, has_t, has_x;
     CR_TRY(get_attribute(g, attrs, "POSITION", &pa, &has_p, err));
     if (!has_p)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: meshes[0].primitives[0] has no POSITION",
-                       g->source);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: meshes[0].primitives[0] has no POSITION", g->source);
     CR_TRY(expect_float(g, &pa, "POSITION", 3, -1, err));
     if (pa.count > INT32_MAX)
         return CR_FAIL(err, CR_ERR_RANGE, "%s: POSITION: %lld vertices exceed 32-bit indices",
@@ -388,8 +408,10 @@ static cr_status read_mesh(const glb_in *g, cr_mesh **out, cr_error *err) {
     if (has_t) {
         free(m->tri_uv);
         m->tri_uv = cr_malloc((size_t)ntri * 3 * sizeof(int32_t), err);
-        if (!m->tri_uv) st = CR_ERR_MEMORY;
-        else memcpy(m->tri_uv, tri, (size_t)ntri * 3 * sizeof(int32_t));
+        if (!m->tri_uv)
+            st = CR_ERR_MEMORY;
+        else
+            memcpy(m->tri_uv, tri, (size_t)ntri * 3 * sizeof(int32_t));
     }
     if (st == CR_OK) st = read_floats(g, &pa, "POSITION", m->pos, err);
     if (st == CR_OK && has_n) {
@@ -446,8 +468,8 @@ typedef struct glb_out {
 } glb_out;
 
 static cJSON *add(glb_out *g, cJSON *parent, const char *key, cJSON *item) {
-    int ok = item && (key ? cJSON_AddItemToObject(parent, key, item)
-                          : cJSON_AddItemToArray(parent, item));
+    int ok = item &&
+             (key ? cJSON_AddItemToObject(parent, key, item) : cJSON_AddItemToArray(parent, item));
     if (!ok) {
         cJSON_Delete(item);
         g->oom = 1;
@@ -488,9 +510,9 @@ typedef struct glb_job {
     float fps;
     glb_out *g;
     FILE *fp;
-    float *buf;          /* (V',3) scratch */
-    float *nrm;          /* (V,3) scratch for frame normals */
-    cJSON *targets;      /* plan pass: primitive.targets */
+    float *buf;     /* (V',3) scratch */
+    float *nrm;     /* (V,3) scratch for frame normals */
+    cJSON *targets; /* plan pass: primitive.targets */
     int acc_pos, acc_nrm, acc_tex, acc_xuv, acc_idx, acc_time, acc_weight;
 } glb_job;
 
@@ -522,7 +544,8 @@ static int piece(glb_job *j, const void *data, int64_t n, int ncomp, int u32, in
     if (minmax && data) {
         const float *x = data;
         float lo[3], hi[3];
-        for (int k = 0; k < ncomp; k++) lo[k] = hi[k] = x[k];
+        for (int k = 0; k < ncomp; k++)
+            lo[k] = hi[k] = x[k];
         for (int64_t i = 1; i < n; i++)
             for (int k = 0; k < ncomp; k++) {
                 lo[k] = fminf(lo[k], x[i * ncomp + k]);
@@ -542,8 +565,10 @@ static cr_status gather3(const glb_job *j, const float *a, const float *b, float
         for (int k = 0; k < 3; k++) {
             float x = b ? a[3 * v + k] - b[3 * v + k] : a[3 * v + k];
             if (!isfinite(x))
-                return CR_FAIL(err, CR_ERR_RANGE, "glb: vertex %lld: displacement overflows a "
-                               "float", (long long)v);
+                return CR_FAIL(err, CR_ERR_RANGE,
+                               "glb: vertex %lld: displacement overflows a "
+                               "float",
+                               (long long)v);
             out[3 * s + k] = x;
         }
     }
@@ -572,7 +597,8 @@ static cr_status emit_targets(glb_job *j, cr_error *err) {
     /* Animation: key i at t = i / fps with weights one-hot on target i. */
     float *times = cr_malloc((size_t)j->nframes * sizeof(float), err);
     if (!times) return CR_ERR_MEMORY;
-    for (int32_t t = 0; t < j->nframes; t++) times[t] = (float)((double)t / j->fps);
+    for (int32_t t = 0; t < j->nframes; t++)
+        times[t] = (float)((double)t / j->fps);
     j->acc_time = piece(j, times, j->nframes, 1, 0, 1, 0, &st, err);
     free(times);
     int64_t T = j->nframes;
@@ -610,8 +636,8 @@ static cr_status emit_all(glb_job *j, cr_error *err) {
         j->acc_tex = piece(j, j->buf, s->nv, 2, 0, 0, TARGET_ARRAY, &st, err);
         if (st == CR_OK) j->acc_xuv = piece(j, s->uv, s->nv, 2, 0, 0, TARGET_ARRAY, &st, err);
     }
-    if (st == CR_OK) j->acc_idx = piece(j, s->tri, 3 * (int64_t)m->nf, 1, 1, 0, TARGET_ELEMENTS,
-                                        &st, err);
+    if (st == CR_OK)
+        j->acc_idx = piece(j, s->tri, 3 * (int64_t)m->nf, 1, 1, 0, TARGET_ELEMENTS, &st, err);
     if (st == CR_OK && j->frames) st = emit_targets(j, err);
     return st;
 }
@@ -630,8 +656,8 @@ static void build_document(glb_job *j) {
     add(g, node, "name", cJSON_CreateString("crease"));
     add_num(g, node, "mesh", 0);
     cJSON *mesh = add(g, add(g, root, "meshes", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    cJSON *prim = add(g, add(g, mesh, "primitives", cJSON_CreateArray()), NULL,
-                      cJSON_CreateObject());
+    cJSON *prim =
+        add(g, add(g, mesh, "primitives", cJSON_CreateArray()), NULL, cJSON_CreateObject());
     cJSON *attrs = add(g, prim, "attributes", cJSON_CreateObject());
     add_num(g, attrs, "POSITION", j->acc_pos);
     if (j->m->normal) add_num(g, attrs, "NORMAL", j->acc_nrm);
@@ -653,23 +679,23 @@ static void build_document(glb_job *j) {
             add_num(g, weights, NULL, t == 0);
             add(g, names, NULL, cJSON_CreateString(name));
         }
-        cJSON *anim = add(g, add(g, root, "animations", cJSON_CreateArray()), NULL,
-                          cJSON_CreateObject());
+        cJSON *anim =
+            add(g, add(g, root, "animations", cJSON_CreateArray()), NULL, cJSON_CreateObject());
         add(g, anim, "name", cJSON_CreateString("sequence"));
-        cJSON *sampler = add(g, add(g, anim, "samplers", cJSON_CreateArray()), NULL,
-                             cJSON_CreateObject());
+        cJSON *sampler =
+            add(g, add(g, anim, "samplers", cJSON_CreateArray()), NULL, cJSON_CreateObject());
         add_num(g, sampler, "input", j->acc_time);
         add_num(g, sampler, "output", j->acc_weight);
         add(g, sampler, "interpolation", cJSON_CreateString("LINEAR"));
-        cJSON *channel = add(g, add(g, anim, "channels", cJSON_CreateArray()), NULL,
-                             cJSON_CreateObject());
+        cJSON *channel =
+            add(g, add(g, anim, "channels", cJSON_CreateArray()), NULL, cJSON_CreateObject());
         add_num(g, channel, "sampler", 0);
         cJSON *target = add(g, channel, "target", cJSON_CreateObject());
         add_num(g, target, "node", 0);
         add(g, target, "path", cJSON_CreateString("weights"));
     }
-    cJSON *buffer = add(g, add(g, root, "buffers", cJSON_CreateArray()), NULL,
-                        cJSON_CreateObject());
+    cJSON *buffer =
+        add(g, add(g, root, "buffers", cJSON_CreateArray()), NULL, cJSON_CreateObject());
     add_num(g, buffer, "byteLength", (double)g->bin_len);
     add(g, root, "bufferViews", g->views);
     add(g, root, "accessors", g->accessors);
@@ -690,7 +716,8 @@ static cr_status write_container(const char *path, glb_job *j, const char *json,
     io_put_le32(head + 12, (uint32_t)jpad);
     io_put_le32(head + 16, GLB_CHUNK_JSON);
     int ok = fwrite(head, 1, 20, f.fp) == 20 && fwrite(json, 1, jlen, f.fp) == jlen;
-    for (uint64_t i = jlen; i < jpad && ok; i++) ok = fputc(' ', f.fp) != EOF;
+    for (uint64_t i = jlen; i < jpad && ok; i++)
+        ok = fputc(' ', f.fp) != EOF;
     io_put_le32(head, (uint32_t)j->g->bin_len);
     io_put_le32(head + 4, GLB_CHUNK_BIN);
     ok = ok && fwrite(head, 1, 8, f.fp) == 8;
@@ -703,8 +730,8 @@ static cr_status write_container(const char *path, glb_job *j, const char *json,
     return cr_atomic_commit(&f, err);
 }
 
-static cr_status write_glb(const char *path, const cr_mesh *m, const float *frames,
-                           int32_t nframes, float fps, cr_error *err) {
+static cr_status write_glb(const char *path, const cr_mesh *m, const float *frames, int32_t nframes,
+                           float fps, cr_error *err) {
     CR_TRY(cr_mesh_validate(m, path, err));
     if (m->nf == 0) return CR_FAIL(err, CR_ERR_TOPOLOGY, "%s: mesh has no faces", path);
     cr_mesh_seams s;
@@ -755,7 +782,6 @@ cr_status cr_glb_write_sequence(const char *path, const cr_mesh *rest, const flo
     for (int64_t i = 0; i < (int64_t)nframes * rest->nv * 3; i++)
         if (!isfinite(frames[i]))
             return CR_FAIL(err, CR_ERR_NAN, "%s: frame %lld vertex %lld is not finite", path,
-                           (long long)(i / (3 * (int64_t)rest->nv)),
-                           (long long)(i / 3 % rest->nv));
+                           (long long)(i / (3 * (int64_t)rest->nv)), (long long)(i / 3 % rest->nv));
     return write_glb(path, rest, frames, nframes, fps, err);
 }

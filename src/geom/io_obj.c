@@ -23,31 +23,32 @@
 /* Statements we accept and skip: grouping, display, materials and the
  * free-form geometry we do not read. */
 static const char *const skipped[] = {
-    "g",       "o",       "s",     "usemtl",  "mtllib",     "l",         "p",
-    "vp",      "cstype",  "deg",   "bmat",    "step",       "curv",      "curv2",
-    "surf",    "parm",    "trim",  "hole",    "scrv",       "sp",        "end",
-    "con",     "mg",      "lod",   "usemap",  "maplib",     "shadow_obj", "trace_obj",
-    "ctech",   "stech",   "bevel", "c_interp", "d_interp",  "call",      "csh",
+    "g",     "o",      "s",     "usemtl",   "mtllib",   "l",          "p",
+    "vp",    "cstype", "deg",   "bmat",     "step",     "curv",       "curv2",
+    "surf",  "parm",   "trim",  "hole",     "scrv",     "sp",         "end",
+    "con",   "mg",     "lod",   "usemap",   "maplib",   "shadow_obj", "trace_obj",
+    "ctech", "stech",  "bevel", "c_interp", "d_interp", "call",       "csh",
 };
 
 typedef struct obj_state {
     io_text t;
-    float *v, *vt, *vn;      /* (nv,3), (nvt,2), (nvn,3) */
+    float *v, *vt, *vn; /* (nv,3), (nvt,2), (nvn,3) */
     int64_t nv, nvt, nvn, cap_v, cap_vt, cap_vn;
-    int32_t *tv, *tt, *tn;   /* (ntri,3) vertex, uv and normal indices per corner */
+    int32_t *tv, *tt, *tn; /* (ntri,3) vertex, uv and normal indices per corner */
     int64_t ntri, cap_tri;
-    int64_t *corner;         /* (ncorner,3) scratch for one polygon: v, vt, vn (-1 absent) */
+    int32_t *corner; /* (ncorner,3) scratch for one polygon: v, vt, vn (-1 absent) */
     int64_t cap_corner;
-    int face_vt;             /* -1 before the first face, then 0 or 1 */
-    int64_t face_vt_line;    /* line of the face that fixed face_vt */
-    int all_vn;              /* every face so far had vn on every corner */
+    int face_vt;          /* -1 before the first face, then 0 or 1 */
+    int64_t face_vt_line; /* line of the face that fixed face_vt */
+    int all_vn;           /* every face so far had vn on every corner */
 } obj_state;
 
 /* Make room for `need` elements of `elem` bytes in *p (capacity *cap). */
 static cr_status reserve(void **p, int64_t *cap, int64_t need, size_t elem, cr_error *err) {
     if (need <= *cap) return CR_OK;
     int64_t c = *cap ? *cap : 64;
-    while (c < need) c *= 2;
+    while (c < need)
+        c *= 2;
     void *q = realloc(*p, (size_t)c * elem);
     if (!q) return CR_FAIL(err, CR_ERR_MEMORY, "obj: out of memory (%lld elements)", (long long)c);
     *p = q;
@@ -68,21 +69,22 @@ static cr_status parse_floats(obj_state *s, const char *stmt, int lo, int hi, fl
     float extra;
     while (io_text_token(&s->t, &b, &e)) {
         if (n >= hi)
-            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: '%s' takes at most %d numbers",
-                           s->t.source, (long long)s->t.line, stmt, hi);
+            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: '%s' takes at most %d numbers", s->t.source,
+                           (long long)s->t.line, stmt, hi);
         CR_TRY(io_text_float(&s->t, b, e, "a coordinate", n < 3 ? &out[n] : &extra, err));
         n++;
     }
     if (n < lo)
         return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: '%s' needs at least %d numbers, got %d",
                        s->t.source, (long long)s->t.line, stmt, lo, n);
-    for (int k = n; k < 3; k++) out[k] = 0.0f;
+    for (int k = n; k < 3; k++)
+        out[k] = 0.0f;
     return CR_OK;
 }
 
 /* One index of a face corner: 1-based, or negative relative to `count`. */
 static cr_status resolve_index(obj_state *s, const char *b, const char *e, int64_t count,
-                               const char *kind, int64_t *out, cr_error *err) {
+                               const char *kind, int32_t *out, cr_error *err) {
     int64_t idx;
     CR_TRY(io_text_int(&s->t, b, e, kind, &idx, err));
     if (idx == 0)
@@ -92,14 +94,13 @@ static cr_status resolve_index(obj_state *s, const char *b, const char *e, int64
     if (r < 0 || r >= count)
         return CR_FAIL(err, CR_ERR_RANGE,
                        "%s:%lld: %s index %lld is out of range: %lld defined above this line",
-                       s->t.source, (long long)s->t.line, kind, (long long)idx,
-                       (long long)count);
-    *out = r;
+                       s->t.source, (long long)s->t.line, kind, (long long)idx, (long long)count);
+    *out = (int32_t)r; /* counts stay below INT32_MAX */
     return CR_OK;
 }
 
 /* "a", "a/b", "a//c" or "a/b/c" into c[0..2] (-1 where absent). */
-static cr_status parse_corner(obj_state *s, const char *b, const char *e, int64_t c[3],
+static cr_status parse_corner(obj_state *s, const char *b, const char *e, int32_t c[3],
                               cr_error *err) {
     const char *part[3], *pend[3];
     int np = 0;
@@ -110,8 +111,9 @@ static cr_status parse_corner(obj_state *s, const char *b, const char *e, int64_
         if (np == 3) {
             char snip[48];
             io_text_snippet(b, e, snip, sizeof snip);
-            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected v, v/vt, v//vn or v/vt/vn, got '%s'",
-                           s->t.source, (long long)s->t.line, snip);
+            return CR_FAIL(err, CR_ERR_PARSE,
+                           "%s:%lld: expected v, v/vt, v//vn or v/vt/vn, got '%s'", s->t.source,
+                           (long long)s->t.line, snip);
         }
         part[np] = q, pend[np] = pe, np++;
         if (!slash) break;
@@ -131,7 +133,7 @@ static cr_status parse_face(obj_state *s, cr_error *err) {
     const char *b, *e;
     int64_t n = 0;
     while (io_text_token(&s->t, &b, &e)) {
-        CR_TRY(reserve((void **)&s->corner, &s->cap_corner, n + 1, 3 * sizeof(int64_t), err));
+        CR_TRY(reserve((void **)&s->corner, &s->cap_corner, n + 1, 3 * sizeof(int32_t), err));
         CR_TRY(parse_corner(s, b, e, &s->corner[3 * n], err));
         n++;
     }
@@ -164,10 +166,14 @@ static cr_status parse_face(obj_state *s, cr_error *err) {
     if (s->ntri + (n - 2) > INT32_MAX)
         return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: more than %d triangles", s->t.source,
                        (long long)s->t.line, INT32_MAX);
+    /* The three index arrays share one capacity; tt and tn exist only while
+     * faces have vt and vn, which keeps memory near 6 bytes per file byte. */
     int64_t need = s->ntri + n - 2, cap = s->cap_tri;
     CR_TRY(reserve((void **)&s->tv, &cap, need, 3 * sizeof(int32_t), err));
-    cap = s->cap_tri;
-    CR_TRY(reserve((void **)&s->tt, &cap, need, 3 * sizeof(int32_t), err));
+    if (s->face_vt) {
+        cap = s->cap_tri;
+        CR_TRY(reserve((void **)&s->tt, &cap, need, 3 * sizeof(int32_t), err));
+    }
     if (s->all_vn) {
         cap = s->cap_tri;
         CR_TRY(reserve((void **)&s->tn, &cap, need, 3 * sizeof(int32_t), err));
@@ -177,10 +183,10 @@ static cr_status parse_face(obj_state *s, cr_error *err) {
     for (int64_t k = 1; k + 1 < n; k++) {
         const int64_t idx[3] = {0, k, k + 1};
         for (int j = 0; j < 3; j++) {
-            const int64_t *c = &s->corner[3 * idx[j]];
-            s->tv[3 * s->ntri + j] = (int32_t)c[0];
-            s->tt[3 * s->ntri + j] = (int32_t)c[1];
-            if (s->all_vn) s->tn[3 * s->ntri + j] = (int32_t)c[2];
+            const int32_t *c = &s->corner[3 * idx[j]];
+            s->tv[3 * s->ntri + j] = c[0];
+            if (s->face_vt) s->tt[3 * s->ntri + j] = c[1];
+            if (s->all_vn) s->tn[3 * s->ntri + j] = c[2];
         }
         s->ntri++;
     }
@@ -237,12 +243,14 @@ static cr_status average_normals(const obj_state *s, cr_mesh *m, cr_error *err) 
         return CR_ERR_MEMORY;
     }
     for (int64_t c = 0; c < 3 * s->ntri; c++)
-        for (int k = 0; k < 3; k++) sum[3 * (int64_t)m->tri[c] + k] += s->vn[3 * (int64_t)s->tn[c] + k];
+        for (int k = 0; k < 3; k++)
+            sum[3 * (int64_t)m->tri[c] + k] += s->vn[3 * (int64_t)s->tn[c] + k];
     for (int64_t i = 0; i < m->nv; i++) {
         double *n = &sum[3 * i];
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         /* Opposite or zero vn leave no direction: the normal stays zero. */
-        for (int k = 0; len > 0 && k < 3; k++) m->normal[3 * i + k] = (float)(n[k] / len);
+        for (int k = 0; len > 0 && k < 3; k++)
+            m->normal[3 * i + k] = (float)(n[k] / len);
     }
     free(sum);
     return CR_OK;

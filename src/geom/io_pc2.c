@@ -66,9 +66,8 @@ cr_status cr_pc2_read_mem(const void *data, size_t len, const char *source, cr_p
         if (!isfinite(f[i])) {
             free(f);
             uint64_t p = i / 3;
-            return CR_FAIL(err, CR_ERR_NAN,
-                           "%s: byte %llu: sample %llu point %llu is not finite", source,
-                           (unsigned long long)(PC2_HEADER + 4 * i),
+            return CR_FAIL(err, CR_ERR_NAN, "%s: byte %llu: sample %llu point %llu is not finite",
+                           source, (unsigned long long)(PC2_HEADER + 4 * i),
                            (unsigned long long)(p / (uint64_t)nv),
                            (unsigned long long)(p % (uint64_t)nv));
         }
@@ -94,8 +93,10 @@ cr_status cr_pc2_read(const char *path, cr_pc2 *out, cr_error *err) {
 cr_status cr_pc2_write(const char *path, const float *frames, int32_t nv, int32_t nframes,
                        float start_frame, float sample_rate, cr_error *err) {
     if (nv < 1 || nframes < 1 || !frames)
-        return CR_FAIL(err, CR_ERR_INVALID, "%s: expected at least one point and one frame, got "
-                       "V=%d, T=%d", path, nv, nframes);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "%s: expected at least one point and one frame, got "
+                       "V=%d, T=%d",
+                       path, nv, nframes);
     if (!isfinite(start_frame) || !isfinite(sample_rate) || sample_rate <= 0)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "%s: start frame %g and sample rate %g: expected finite and a positive "

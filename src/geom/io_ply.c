@@ -66,8 +66,8 @@ typedef struct ply_reader {
     size_t len;
     const char *source;
     int format;
-    io_text t;     /* header, then the ascii body */
-    size_t off;    /* binary cursor (byte offset in data) */
+    io_text t;  /* header, then the ascii body */
+    size_t off; /* binary cursor (byte offset in data) */
     ply_elem *elems;
     int nelems, cap_elems;
     int vertex_elem, face_elem;
@@ -142,8 +142,7 @@ static cr_status parse_element(ply_reader *r, cr_error *err) {
 
 static cr_status parse_property(ply_reader *r, cr_error *err) {
     const char *b, *e;
-    if (r->nelems == 0)
-        return header_fail(r, CR_ERR_PARSE, "'property' before any 'element'", err);
+    if (r->nelems == 0) return header_fail(r, CR_ERR_PARSE, "'property' before any 'element'", err);
     ply_elem *el = &r->elems[r->nelems - 1];
     if (el->nprops == el->cap) {
         int cap = el->cap ? 2 * el->cap : 8;
@@ -189,12 +188,13 @@ static cr_status assign_roles(ply_reader *r, cr_error *err) {
         return CR_FAIL(err, CR_ERR_PARSE, "%s: header has no element 'vertex'", r->source);
     ply_elem *ve = &r->elems[r->vertex_elem];
     if (ve->count > INT32_MAX)
-        return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: %lld vertices exceed 32-bit indices",
-                       r->source, (long long)ve->line, (long long)ve->count);
+        return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: %lld vertices exceed 32-bit indices", r->source,
+                       (long long)ve->line, (long long)ve->count);
     r->nv = ve->count;
     static const char *const xyz[6] = {"x", "y", "z", "nx", "ny", "nz"};
     int idx[6];
-    for (int k = 0; k < 6; k++) idx[k] = find_prop(ve, xyz[k]);
+    for (int k = 0; k < 6; k++)
+        idx[k] = find_prop(ve, xyz[k]);
     for (int k = 0; k < 3; k++)
         if (idx[k] < 0)
             return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: element 'vertex' has no property '%s'",
@@ -213,12 +213,14 @@ static cr_status assign_roles(ply_reader *r, cr_error *err) {
     if (r->has_uv) ve->props[iu].role = R_U, ve->props[iv].role = R_V;
     for (int i = 0; i < ve->nprops; i++)
         if (ve->props[i].role != R_SKIP && ve->props[i].count_type != T_NONE)
-            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: vertex property '%s' is a list, expected a "
-                           "number", r->source, (long long)ve->line, ve->props[i].name);
+            return CR_FAIL(err, CR_ERR_PARSE,
+                           "%s:%lld: vertex property '%s' is a list, expected a "
+                           "number",
+                           r->source, (long long)ve->line, ve->props[i].name);
     if (r->face_elem < 0 || r->elems[r->face_elem].count == 0)
         return CR_FAIL(err, CR_ERR_TOPOLOGY, "%s:%lld: no faces (expected element 'face')",
-                       r->source, (long long)(r->face_elem < 0 ? r->t.line
-                                                                : r->elems[r->face_elem].line));
+                       r->source,
+                       (long long)(r->face_elem < 0 ? r->t.line : r->elems[r->face_elem].line));
     ply_elem *fe = &r->elems[r->face_elem];
     int li = find_prop(fe, "vertex_indices");
     if (li < 0) li = find_prop(fe, "vertex_index");
@@ -274,9 +276,12 @@ static cr_status parse_header(ply_reader *r, cr_error *err) {
         if (token_is(b, e, "format")) {
             if (!io_text_token(&r->t, &b, &e))
                 return header_fail(r, CR_ERR_PARSE, "expected 'format <type> 1.0'", err);
-            if (token_is(b, e, "ascii")) r->format = FMT_ASCII;
-            else if (token_is(b, e, "binary_little_endian")) r->format = FMT_LE;
-            else if (token_is(b, e, "binary_big_endian")) r->format = FMT_BE;
+            if (token_is(b, e, "ascii"))
+                r->format = FMT_ASCII;
+            else if (token_is(b, e, "binary_little_endian"))
+                r->format = FMT_LE;
+            else if (token_is(b, e, "binary_big_endian"))
+                r->format = FMT_BE;
             else {
                 char snip[48];
                 io_text_snippet(b, e, snip, sizeof snip);
@@ -299,8 +304,7 @@ static cr_status parse_header(ply_reader *r, cr_error *err) {
                            r->source, (long long)r->t.line, snip);
         }
     }
-    if (!have_format)
-        return header_fail(r, CR_ERR_PARSE, "header has no 'format' line", err);
+    if (!have_format) return header_fail(r, CR_ERR_PARSE, "header has no 'format' line", err);
     r->off = (size_t)(r->t.p - (const char *)r->data);
     CR_TRY(assign_roles(r, err));
     return check_counts(r, err);
@@ -310,18 +314,22 @@ static cr_status parse_header(ply_reader *r, cr_error *err) {
 
 /* Where a value sits, for messages: "<source>:<line>: " (ascii) or
  * "<source>: byte <offset> " (binary), then the element and item. */
-static void where(const ply_reader *r, const ply_elem *el, int64_t item, char *out, size_t cap) {
+static void where_at(const ply_reader *r, const ply_elem *el, int64_t item, size_t off, char *out,
+                     size_t cap) {
     if (r->format == FMT_ASCII)
         snprintf(out, cap, "%s:%lld: %s %lld", r->source, (long long)r->t.line, el->name,
                  (long long)item);
     else
-        snprintf(out, cap, "%s: byte %zu (%s %lld)", r->source, r->off, el->name,
-                 (long long)item);
+        snprintf(out, cap, "%s: byte %zu (%s %lld)", r->source, off, el->name, (long long)item);
+}
+
+static void where(const ply_reader *r, const ply_elem *el, int64_t item, char *out, size_t cap) {
+    where_at(r, el, item, r->off, out, cap);
 }
 
 static const int64_t int_lo[] = {0, INT8_MIN, 0, INT16_MIN, 0, INT32_MIN, 0};
-static const int64_t int_hi[] = {0, INT8_MAX, UINT8_MAX, INT16_MAX, UINT16_MAX, INT32_MAX,
-                                 UINT32_MAX};
+static const int64_t int_hi[] = {0,          INT8_MAX,  UINT8_MAX, INT16_MAX,
+                                 UINT16_MAX, INT32_MAX, UINT32_MAX};
 
 /* One value of type `type` as a double (integers up to 32 bits are exact). */
 static cr_status read_value(ply_reader *r, const ply_elem *el, int64_t item, ptype type,
@@ -349,24 +357,36 @@ static cr_status read_value(ply_reader *r, const ply_elem *el, int64_t item, pty
     int size = type_size[type];
     if (r->len - r->off < (size_t)size) {
         where(r, el, item, at, sizeof at);
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: file ends, expected %d more bytes for %s", at,
-                       size, what);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: file ends, expected %d more bytes for %s", at, size,
+                       what);
     }
     uint64_t u = io_load(r->data + r->off, size, r->format == FMT_BE);
     switch (type) {
-    case T_I8: *out = (double)(int8_t)u; break;
-    case T_I16: *out = (double)(int16_t)u; break;
-    case T_I32: *out = (double)(int32_t)u; break;
-    case T_F32: *out = (double)io_f32((uint32_t)u); break;
-    case T_F64: *out = io_f64(u); break;
-    default: *out = (double)u; break;
+    case T_I8:
+        *out = (double)(int8_t)u;
+        break;
+    case T_I16:
+        *out = (double)(int16_t)u;
+        break;
+    case T_I32:
+        *out = (double)(int32_t)u;
+        break;
+    case T_F32:
+        *out = (double)io_f32((uint32_t)u);
+        break;
+    case T_F64:
+        *out = io_f64(u);
+        break;
+    default:
+        *out = (double)u;
+        break;
     }
     r->off += (size_t)size;
     return CR_OK;
 }
 
-static cr_status read_list_count(ply_reader *r, const ply_elem *el, int64_t item,
-                                 const ply_prop *p, int64_t *n, cr_error *err) {
+static cr_status read_list_count(ply_reader *r, const ply_elem *el, int64_t item, const ply_prop *p,
+                                 int64_t *n, cr_error *err) {
     double v;
     CR_TRY(read_value(r, el, item, p->count_type, "a list length", &v, err));
     if (v < 0) {
@@ -378,18 +398,21 @@ static cr_status read_list_count(ply_reader *r, const ply_elem *el, int64_t item
     return CR_OK;
 }
 
-static cr_status store_vertex_value(ply_reader *r, const ply_elem *el, int64_t i,
-                                    const ply_prop *p, double v, cr_error *err) {
+static cr_status store_vertex_value(ply_reader *r, const ply_elem *el, int64_t i, const ply_prop *p,
+                                    double v, cr_error *err) {
     int role = p->role;
     /* Binary values arrive unchecked; ascii ones were refused if not finite. */
     if (!isfinite(v) || fabs(v) > FLT_MAX) {
         char at[160];
-        where(r, el, i, at, sizeof at);
+        where_at(r, el, i, r->off - (size_t)type_size[p->type], at, sizeof at);
         return CR_FAIL(err, CR_ERR_NAN, "%s: %s = %g, expected a finite float", at, p->name, v);
     }
-    if (role <= R_Z) r->pos[3 * i + role] = (float)v;
-    else if (role <= R_NZ) r->normal[3 * i + role - R_NX] = (float)v;
-    else r->uv[2 * i + role - R_U] = (float)v;
+    if (role <= R_Z)
+        r->pos[3 * i + role] = (float)v;
+    else if (role <= R_NZ)
+        r->normal[3 * i + role - R_NX] = (float)v;
+    else
+        r->uv[2 * i + role - R_U] = (float)v;
     return CR_OK;
 }
 
@@ -410,8 +433,8 @@ static cr_status read_face(ply_reader *r, const ply_elem *el, int64_t i, const p
         if (v < 0 || v >= (double)r->nv) {
             where(r, el, i, at, sizeof at);
             return CR_FAIL(err, CR_ERR_RANGE,
-                           "%s: vertex index %.0f is out of range (the file has %lld vertices)",
-                           at, v, (long long)r->nv);
+                           "%s: vertex index %.0f is out of range (the file has %lld vertices)", at,
+                           v, (long long)r->nv);
         }
         int64_t idx = (int64_t)v;
         if (k == 0) first = idx;
@@ -477,7 +500,8 @@ static cr_status read_body(ply_reader *r, cr_error *err) {
 }
 
 static void reader_free(ply_reader *r) {
-    for (int i = 0; i < r->nelems; i++) free(r->elems[i].props);
+    for (int i = 0; i < r->nelems; i++)
+        free(r->elems[i].props);
     free(r->elems);
     free(r->pos), free(r->normal), free(r->uv), free(r->tri);
 }
@@ -545,10 +569,8 @@ cr_status cr_ply_read(const char *path, cr_mesh **out, cr_error *err) {
 /* ---------------------------------------------------------------- writer -- */
 
 static void write_header(FILE *fp, const cr_mesh *m, const cr_mesh_seams *s, int ascii) {
-    fprintf(fp, "ply\nformat %s 1.0\ncomment crease\n",
-            ascii ? "ascii" : "binary_little_endian");
-    fprintf(fp, "element vertex %d\nproperty float x\nproperty float y\nproperty float z\n",
-            s->nv);
+    fprintf(fp, "ply\nformat %s 1.0\ncomment crease\n", ascii ? "ascii" : "binary_little_endian");
+    fprintf(fp, "element vertex %d\nproperty float x\nproperty float y\nproperty float z\n", s->nv);
     if (m->normal) fprintf(fp, "property float nx\nproperty float ny\nproperty float nz\n");
     if (s->uv) fprintf(fp, "property float s\nproperty float t\n");
     fprintf(fp, "element face %d\nproperty list uchar int vertex_indices\nend_header\n", m->nf);
@@ -575,11 +597,15 @@ cr_status cr_ply_write(const char *path, const cr_mesh *m, cr_ply_format format,
         float row[8];
         int n = 0;
         int64_t v = s.src[i];
-        for (int k = 0; k < 3; k++) row[n++] = m->pos[3 * v + k];
-        for (int k = 0; m->normal && k < 3; k++) row[n++] = m->normal[3 * v + k];
-        for (int k = 0; s.uv && k < 2; k++) row[n++] = s.uv[2 * i + k];
+        for (int k = 0; k < 3; k++)
+            row[n++] = m->pos[3 * v + k];
+        for (int k = 0; m->normal && k < 3; k++)
+            row[n++] = m->normal[3 * v + k];
+        for (int k = 0; s.uv && k < 2; k++)
+            row[n++] = s.uv[2 * i + k];
         if (ascii) {
-            for (int k = 0; k < n; k++) fprintf(fp, k ? " %.9g" : "%.9g", row[k]);
+            for (int k = 0; k < n; k++)
+                fprintf(fp, k ? " %.9g" : "%.9g", row[k]);
             ok = fputc('\n', fp) != EOF;
         } else {
             ok = io_write_f32le(fp, row, (size_t)n);

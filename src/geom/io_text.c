@@ -30,7 +30,8 @@ static int utf8_len(const unsigned char *s, const unsigned char *e) {
     unsigned c = s[0];
     int n;
     unsigned lo = 0x80, hi = 0xbf;
-    if (c >= 0xc2 && c <= 0xdf) n = 2;
+    if (c >= 0xc2 && c <= 0xdf)
+        n = 2;
     else if (c >= 0xe0 && c <= 0xef) {
         n = 3;
         if (c == 0xe0) lo = 0xa0;
@@ -65,7 +66,8 @@ static cr_status check_text(const io_text *t, const char *b, const char *e, cr_e
             return CR_FAIL(err, CR_ERR_PARSE,
                            "%s:%lld: expected text, found byte 0x%02x at column %lld "
                            "(binary data or not UTF-8)",
-                           t->source, (long long)t->line, c, (long long)(s - (const unsigned char *)b) + 1);
+                           t->source, (long long)t->line, c,
+                           (long long)(s - (const unsigned char *)b) + 1);
         s += n;
     }
     return CR_OK;
@@ -96,13 +98,15 @@ static int is_space(char c) {
 
 int io_text_token(io_text *t, const char **b, const char **e) {
     const char *s = t->cur;
-    while (s < t->le && is_space(*s)) s++;
+    while (s < t->le && is_space(*s))
+        s++;
     if (s >= t->le) {
         t->cur = t->le;
         return 0;
     }
     const char *f = s;
-    while (f < t->le && !is_space(*f)) f++;
+    while (f < t->le && !is_space(*f))
+        f++;
     *b = s;
     *e = f;
     t->cur = f;
@@ -177,10 +181,11 @@ cr_status io_text_int(const io_text *t, const char *b, const char *e, const char
     io_text_snippet(b, e, snip, sizeof snip);
     const char *s = b + (b < e && (*b == '-' || *b == '+'));
     int digits = s < e;
-    for (const char *c = s; c < e; c++) digits &= *c >= '0' && *c <= '9';
+    for (const char *c = s; c < e; c++)
+        digits &= *c >= '0' && *c <= '9';
     if (!digits || !token_copy(b, e, buf))
-        return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %s (an integer), got '%s'",
-                       t->source, (long long)t->line, what, snip);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %s (an integer), got '%s'", t->source,
+                       (long long)t->line, what, snip);
     errno = 0;
     long long v = strtoll(buf, NULL, 10);
     if (errno == ERANGE)
@@ -197,7 +202,8 @@ int io_write_f32le(FILE *fp, const float *x, size_t n) {
     unsigned char buf[4 * WRITE_CHUNK];
     for (size_t i = 0; i < n; i += WRITE_CHUNK) {
         size_t k = n - i < WRITE_CHUNK ? n - i : WRITE_CHUNK;
-        for (size_t j = 0; j < k; j++) io_put_le32(buf + 4 * j, io_f32_bits(x[i + j]));
+        for (size_t j = 0; j < k; j++)
+            io_put_le32(buf + 4 * j, io_f32_bits(x[i + j]));
         if (fwrite(buf, 4, k, fp) != k) return 0;
     }
     return 1;
@@ -207,7 +213,8 @@ int io_write_i32le(FILE *fp, const int32_t *x, size_t n) {
     unsigned char buf[4 * WRITE_CHUNK];
     for (size_t i = 0; i < n; i += WRITE_CHUNK) {
         size_t k = n - i < WRITE_CHUNK ? n - i : WRITE_CHUNK;
-        for (size_t j = 0; j < k; j++) io_put_le32(buf + 4 * j, (uint32_t)x[i + j]);
+        for (size_t j = 0; j < k; j++)
+            io_put_le32(buf + 4 * j, (uint32_t)x[i + j]);
         if (fwrite(buf, 4, k, fp) != k) return 0;
     }
     return 1;

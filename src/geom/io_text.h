@@ -81,7 +81,8 @@ static inline double io_f64(uint64_t bits) {
 }
 
 static inline void io_put_le32(unsigned char *p, uint32_t v) {
-    for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(v >> (8 * i));
 }
 
 static inline uint32_t io_f32_bits(float f) {

@@ -29,7 +29,8 @@ static cr_status check_length(double v, const char *fn, const char *name, cr_err
 
 static cr_status check_count(int32_t v, int32_t min, const char *fn, const char *name,
                              cr_error *err) {
-    if (v < min) return CR_FAIL(err, CR_ERR_INVALID, "%s: %s must be >= %d, got %d", fn, name, min, v);
+    if (v < min)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: %s must be >= %d, got %d", fn, name, min, v);
     return CR_OK;
 }
 
@@ -57,7 +58,8 @@ static const uint64_t EMPTY_KEY = UINT64_MAX;
 
 static cr_status map_init(u64_map *m, int64_t n, cr_error *err) {
     uint64_t cap = 16;
-    while (cap < (uint64_t)n * 2) cap <<= 1;
+    while (cap < (uint64_t)n * 2)
+        cap <<= 1;
     m->mask = cap - 1;
     m->keys = cr_malloc(cap * sizeof *m->keys, err);
     m->vals = cr_malloc(cap * sizeof *m->vals, err);
@@ -157,8 +159,8 @@ static cr_status revolve(const double *r, const double *y, int32_t K, int closed
     int64_t nuv = (int64_t)uv_rows * (segments + 1) - (pole0 + pole1);
     cr_mesh *m;
     CR_TRY(cr_mesh_create((int32_t)nv, (int32_t)nf, (int32_t)nuv, &m, err));
-    int32_t *row = cr_malloc((size_t)(uv_rows) * 2 * sizeof(int32_t), err);
-    double *v_of = cr_malloc((size_t)(uv_rows) * sizeof(double), err);
+    int32_t *row = cr_malloc((size_t)uv_rows * 2 * sizeof(int32_t), err);
+    double *v_of = cr_malloc((size_t)uv_rows * sizeof(double), err);
     if (!row || !v_of) {
         free(row), free(v_of);
         cr_mesh_destroy(m);
@@ -173,7 +175,8 @@ static cr_status revolve(const double *r, const double *y, int32_t K, int closed
         v_of[k] = v_of[k - 1] + hypot(r[b] - r[a], y[b] - y[a]);
     }
     double total = v_of[uv_rows - 1];
-    for (int32_t k = 0; k < uv_rows; k++) v_of[k] = 1.0 - v_of[k] / total;
+    for (int32_t k = 0; k < uv_rows; k++)
+        v_of[k] = 1.0 - v_of[k] / total;
 
     int32_t nvtx = 0, nuvs = 0;
     for (int32_t k = 0; k < uv_rows; k++) {
@@ -190,7 +193,8 @@ static cr_status revolve(const double *r, const double *y, int32_t K, int closed
         /* A pole gets one UV per adjacent triangle, centred on its column. */
         uv_row[k] = nuvs;
         for (int32_t j = 0; j < (pole ? segments : segments + 1); j++, nuvs++) {
-            m->uv[2 * (size_t)nuvs + 0] = (float)(pole ? (j + 0.5) / segments : (double)j / segments);
+            m->uv[2 * (size_t)nuvs + 0] =
+                (float)(pole ? (j + 0.5) / segments : (double)j / segments);
             m->uv[2 * (size_t)nuvs + 1] = (float)v_of[k];
         }
     }
@@ -268,8 +272,8 @@ cr_status cr_prim_torus(float major_radius, float minor_radius, int32_t major_se
     CR_TRY(check_length(major_radius, fn, "major_radius", err));
     CR_TRY(check_length(minor_radius, fn, "minor_radius", err));
     if (minor_radius >= major_radius)
-        return CR_FAIL(err, CR_ERR_INVALID, "%s: minor_radius (%g) must be < major_radius (%g)",
-                       fn, minor_radius, major_radius);
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: minor_radius (%g) must be < major_radius (%g)", fn,
+                       minor_radius, major_radius);
     CR_TRY(check_count(major_segments, 3, fn, "major_segments", err));
     CR_TRY(check_count(minor_segments, 3, fn, "minor_segments", err));
     double nv = (double)major_segments * minor_segments;
@@ -300,8 +304,8 @@ cr_status cr_prim_capsule(float radius, float length, int32_t segments, int32_t 
     double band = PI * radius / (2.0 * rings);
     double nb = length > 0 ? ceil(length / band - 1e-9) : 0;
     double K = 2.0 * rings + 1 + nb;
-    CR_TRY(check_size((K - 2) * segments + 2, 2 * (K - 2) * segments, (K + 1) * (segments + 1),
-                      fn, "radius, length, segments, rings", err));
+    CR_TRY(check_size((K - 2) * segments + 2, 2 * (K - 2) * segments, (K + 1) * (segments + 1), fn,
+                      "radius, length, segments, rings", err));
     int32_t ncyl = (int32_t)nb, nk = (int32_t)K;
     double *r, *y;
     CR_TRY(profile_alloc(nk, &r, &y, err));
@@ -368,7 +372,8 @@ static cr_status icosphere_uvs(const double *unit, int32_t nv, const int32_t *tr
         free(uv), free(idx), free(tri_uv);
         return CR_ERR_MEMORY;
     }
-    for (size_t i = 0; i < 2 * (size_t)nv; i++) idx[i] = -1;
+    for (size_t i = 0; i < 2 * (size_t)nv; i++)
+        idx[i] = -1;
     int32_t nuv = 0;
     double umax = 1.0;
     for (int32_t f = 0; f < nf; f++) {
@@ -461,19 +466,22 @@ cr_status cr_prim_icosphere(float radius, int32_t subdivisions, cr_mesh **out, c
             int32_t m[3];
             for (int e = 0; e < 3; e++) {
                 int32_t a = t[e], b = t[(e + 1) % 3];
-                uint64_t key = a < b ? ((uint64_t)a << 32 | (uint32_t)b)
-                                     : ((uint64_t)b << 32 | (uint32_t)a);
+                uint64_t key =
+                    a < b ? ((uint64_t)a << 32 | (uint32_t)b) : ((uint64_t)b << 32 | (uint32_t)a);
                 int inserted;
                 m[e] = map_get_or_put(&mid, key, nv, &inserted);
                 if (inserted) {
                     double *q = &p[3 * (size_t)nv];
-                    for (int d = 0; d < 3; d++) q[d] = p[3 * (size_t)a + d] + p[3 * (size_t)b + d];
+                    for (int d = 0; d < 3; d++)
+                        q[d] = p[3 * (size_t)a + d] + p[3 * (size_t)b + d];
                     double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
-                    for (int d = 0; d < 3; d++) q[d] /= len;
+                    for (int d = 0; d < 3; d++)
+                        q[d] /= len;
                     nv++;
                 }
             }
-            int32_t kids[12] = {t[0], m[0], m[2], m[0], t[1], m[1], m[2], m[1], t[2], m[0], m[1], m[2]};
+            int32_t kids[12] = {t[0], m[0], m[2], m[0], t[1], m[1],
+                                m[2], m[1], t[2], m[0], m[1], m[2]};
             memcpy(&tb[12 * (size_t)f], kids, sizeof kids);
         }
         map_free(&mid);
@@ -486,7 +494,8 @@ cr_status cr_prim_icosphere(float radius, int32_t subdivisions, cr_mesh **out, c
         st = icosphere_uvs(p, nv, ta, nf, out, err);
     }
     if (st == CR_OK) {
-        for (size_t i = 0; i < 3 * (size_t)nv; i++) (*out)->pos[i] = (float)(radius * p[i]);
+        for (size_t i = 0; i < 3 * (size_t)nv; i++)
+            (*out)->pos[i] = (float)(radius * p[i]);
         memcpy((*out)->tri, ta, (size_t)nf * 3 * sizeof(int32_t));
     }
     free(p), free(ta), free(tb);
@@ -504,19 +513,19 @@ cr_status cr_prim_prism(float side, float length, cr_mesh **out, cr_error *err) 
     double h = side * sqrt(3.0) / 2;
     float hx = 0.5f * length, top = (float)(2 * h / 3), bot = (float)(-h / 3), hz = 0.5f * side;
     /* 0,1,2 at x = -L/2 and 3,4,5 at x = +L/2: ridge, base +z, base -z. */
-    const float pos[18] = {-hx, top, 0, -hx, bot, hz,  -hx, bot, -hz,
+    const float pos[18] = {-hx, top, 0, -hx, bot, hz, -hx, bot, -hz,
                            hx,  top, 0, hx,  bot, hz, hx,  bot, -hz};
-    const int32_t tri[24] = {0, 2, 1,  3, 4, 5,          /* end caps -X, +X */
-                             0, 1, 4,  0, 4, 3,          /* upper face +z */
-                             0, 3, 5,  0, 5, 2,          /* upper face -z */
-                             1, 2, 5,  1, 5, 4};         /* base, -Y */
+    const int32_t tri[24] = {0, 2, 1, 3, 4, 5,  /* end caps -X, +X */
+                             0, 1, 4, 0, 4, 3,  /* upper face +z */
+                             0, 3, 5, 0, 5, 2,  /* upper face -z */
+                             1, 2, 5, 1, 5, 4}; /* base, -Y */
     /* UV atlas: the three sides as one strip going round the section (u: ridge,
      * +z face, base, -z face, ridge; v along x), the caps above it, each seen
      * from outside. */
-    const float uv[28] = {0,     0,     0,     0.5f,  1.0f / 3, 0,     1.0f / 3, 0.5f,
-                          2.0f / 3, 0,  2.0f / 3, 0.5f, 1,     0,     1,        0.5f,
-                          0.25f, 0.95f, 0.05f, 0.6f,  0.45f, 0.6f,                /* -X cap */
-                          0.75f, 0.95f, 0.55f, 0.6f,  0.95f, 0.6f};               /* +X cap */
+    const float uv[28] = {0,        0,     0,        0.5f, 1.0f / 3, 0,    1.0f / 3, 0.5f,
+                          2.0f / 3, 0,     2.0f / 3, 0.5f, 1,        0,    1,        0.5f,
+                          0.25f,    0.95f, 0.05f,    0.6f, 0.45f,    0.6f,  /* -X cap */
+                          0.75f,    0.95f, 0.55f,    0.6f, 0.95f,    0.6f}; /* +X cap */
     const int32_t tri_uv[24] = {8, 9, 10, 11, 12, 13, 0, 2, 3, 0, 3, 1,
                                 6, 7, 5,  6,  5,  4,  2, 4, 5, 2, 5, 3};
     cr_mesh *m;
@@ -531,8 +540,8 @@ cr_status cr_prim_prism(float side, float length, cr_mesh **out, cr_error *err) 
 
 /* ------------------------------------------------------------------ box -- */
 
-cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivisions,
-                      cr_mesh **out, cr_error *err) {
+cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivisions, cr_mesh **out,
+                      cr_error *err) {
     static const char *fn = "cr_prim_box";
     *out = NULL;
     CR_TRY(check_length(size_x, fn, "size_x", err));
@@ -554,12 +563,12 @@ cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivis
     /* Per face: lattice origin and two unit steps a, b with a x b = outward
      * normal, and the face's tile in the 3x2 UV atlas. */
     static const int face[6][9] = {
-        {1, 0, 0, 0, 1, 0, 0, 0, 1},  /* +X: origin (n,0,0), a = +Y, b = +Z */
-        {0, 0, 0, 0, 0, 1, 0, 1, 0},  /* -X */
-        {0, 1, 0, 0, 0, 1, 1, 0, 0},  /* +Y */
-        {0, 0, 0, 1, 0, 0, 0, 0, 1},  /* -Y */
-        {0, 0, 1, 1, 0, 0, 0, 1, 0},  /* +Z */
-        {0, 0, 0, 0, 1, 0, 1, 0, 0},  /* -Z */
+        {1, 0, 0, 0, 1, 0, 0, 0, 1}, /* +X: origin (n,0,0), a = +Y, b = +Z */
+        {0, 0, 0, 0, 0, 1, 0, 1, 0}, /* -X */
+        {0, 1, 0, 0, 0, 1, 1, 0, 0}, /* +Y */
+        {0, 0, 0, 1, 0, 0, 0, 0, 1}, /* -Y */
+        {0, 0, 1, 1, 0, 0, 0, 1, 0}, /* +Z */
+        {0, 0, 0, 0, 1, 0, 1, 0, 0}, /* -Z */
     };
     const float size[3] = {size_x, size_y, size_z};
     int32_t nvtx = 0;
@@ -576,7 +585,8 @@ cr_status cr_prim_box(float size_x, float size_y, float size_z, int32_t subdivis
         for (int32_t q = 0; q <= n; q++) {
             for (int32_t p = 0; p <= n; p++) {
                 int64_t l[3];
-                for (int d = 0; d < 3; d++) l[d] = (int64_t)o[d] * n + (int64_t)a[d] * p + (int64_t)b[d] * q;
+                for (int d = 0; d < 3; d++)
+                    l[d] = (int64_t)o[d] * n + (int64_t)a[d] * p + (int64_t)b[d] * q;
                 uint64_t key = (uint64_t)l[0] << 42 | (uint64_t)l[1] << 21 | (uint64_t)l[2];
                 int inserted;
                 int32_t v = map_get_or_put(&map, key, nvtx, &inserted);

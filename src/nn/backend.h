@@ -51,8 +51,8 @@ typedef struct cr_nn_backend {
     void (*sum_axis)(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
                      float *y, int acc);
     /* dx[o,l,i] += scale * dy[o,i] (the backward of sum_axis). */
-    void (*expand_axis_acc)(const float *dy, int64_t outer, int64_t len, int64_t inner,
-                            float scale, float *dx);
+    void (*expand_axis_acc)(const float *dy, int64_t outer, int64_t len, int64_t inner, float scale,
+                            float *dx);
     /* dst (shape ds) += src (shape ys) summed over the axes where ds is 1. */
     void (*reduce_to_shape_acc)(const float *src, const int64_t ys[4], float *dst,
                                 const int64_t ds[4]);
@@ -96,20 +96,19 @@ typedef struct cr_nn_backend {
                              int64_t nseg, float *y, int acc);
     void (*segment_softmax_forward)(const float *x, int64_t H, const int64_t *off,
                                     const int32_t *perm, int64_t nseg, float *y);
-    void (*segment_softmax_backward)(const float *y, const float *dy, int64_t H,
-                                     const int64_t *off, const int32_t *perm, int64_t nseg,
-                                     float *dx);
+    void (*segment_softmax_backward)(const float *y, const float *dy, int64_t H, const int64_t *off,
+                                     const int32_t *perm, int64_t nseg, float *dx);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */
-    void (*layer_norm_forward)(const float *x, int64_t R, int64_t C, const float *w,
-                               const float *b, float eps, float *y, float *mean, float *rstd);
+    void (*layer_norm_forward)(const float *x, int64_t R, int64_t C, const float *w, const float *b,
+                               float eps, float *y, float *mean, float *rstd);
     void (*layer_norm_backward)(const float *x, const float *dy, int64_t R, int64_t C,
                                 const float *w, const float *mean, const float *rstd, float *dx,
                                 float *dw, float *db);
     void (*cross_forward)(const float *a, const float *b, int64_t R, float *y);
-    void (*cross_backward)(const float *a, const float *b, const float *dy, int64_t R,
-                           float *da, float *db);
+    void (*cross_backward)(const float *a, const float *b, const float *dy, int64_t R, float *da,
+                           float *db);
     void (*dot_forward)(const float *a, const float *b, int64_t R, int64_t C, float *y);
     void (*dot_backward)(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
                          float *da, float *db);

@@ -20,16 +20,18 @@ cr_tensor *cr_nn_concat(cr_nn_ctx *ctx, int n, cr_tensor *const *ts, int axis) {
     int a;
     if (!nn_axis(ctx, "concat", ts[0], axis, &a)) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int d = 0; d < ts[0]->ndim; d++) shape[d] = ts[0]->shape[d];
+    for (int d = 0; d < ts[0]->ndim; d++)
+        shape[d] = ts[0]->shape[d];
     for (int i = 1; i < n; i++) {
         int same = ts[i]->ndim == ts[0]->ndim;
         for (int d = 0; same && d < ts[0]->ndim; d++)
             same = d == a || ts[i]->shape[d] == ts[0]->shape[d];
         if (!same) {
             char s0[64], si[64];
-            NN_FAIL(ctx, CR_ERR_SHAPE, "concat: shapes differ outside axis %d: %s and %s (input %d)",
-                    axis, cr_nn_shape_str(ts[0], s0, sizeof s0),
-                    cr_nn_shape_str(ts[i], si, sizeof si), i);
+            NN_FAIL(ctx, CR_ERR_SHAPE,
+                    "concat: shapes differ outside axis %d: %s and %s (input %d)", axis,
+                    cr_nn_shape_str(ts[0], s0, sizeof s0), cr_nn_shape_str(ts[i], si, sizeof si),
+                    i);
             return NULL;
         }
         shape[a] += ts[i]->shape[a];
@@ -85,7 +87,8 @@ cr_tensor *cr_nn_slice(cr_nn_ctx *ctx, cr_tensor *x, int axis, int64_t start, in
     }
     if (a == 0) return nn_slice_view(ctx, x, start, len);
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int d = 0; d < x->ndim; d++) shape[d] = x->shape[d];
+    for (int d = 0; d < x->ndim; d++)
+        shape[d] = x->shape[d];
     shape[a] = len;
     cr_tensor *y = nn_tensor(ctx, "slice", x->ndim, shape);
     if (!y) return NULL;
@@ -120,21 +123,21 @@ void nn_slice_backward(cr_nn_ctx *ctx, nn_node *n) {
 /* ------------------------------------------------------ row index ops -- */
 
 /* Rows and row length (C) of x; x must have at least one axis. */
-static int rows_of(cr_nn_ctx *ctx, const char *op, const cr_tensor *x, int64_t *rows,
-                   int64_t *C) {
+static int rows_of(cr_nn_ctx *ctx, const char *op, const cr_tensor *x, int64_t *rows, int64_t *C) {
     if (x->ndim < 1) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "%s: expects a tensor with rows, got a scalar", op);
         return 0;
     }
     *rows = x->shape[0];
     *C = 1;
-    for (int d = 1; d < x->ndim; d++) *C *= x->shape[d];
+    for (int d = 1; d < x->ndim; d++)
+        *C *= x->shape[d];
     return 1;
 }
 
 /* Range-check an index array, copy it into the arena. */
-static int32_t *checked_index(cr_nn_ctx *ctx, const char *op, const char *what,
-                              const int32_t *idx, int64_t n, int64_t limit) {
+static int32_t *checked_index(cr_nn_ctx *ctx, const char *op, const char *what, const int32_t *idx,
+                              int64_t n, int64_t limit) {
     CR_ASSERT(idx || n == 0);
     int64_t bad = ctx->be->index_check(idx, n, limit);
     if (bad >= 0) {
@@ -167,7 +170,8 @@ cr_tensor *cr_nn_gather_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index,
     int32_t *idx = checked_index(ctx, name, "index", index, n, rows);
     if (!idx) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int d = 0; d < x->ndim; d++) shape[d] = x->shape[d];
+    for (int d = 0; d < x->ndim; d++)
+        shape[d] = x->shape[d];
     shape[0] = n;
     cr_tensor *y = nn_tensor(ctx, name, x->ndim, shape);
     if (!y) return NULL;
@@ -216,7 +220,8 @@ cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *i
     int32_t *perm;
     if (!idx || !group_by(ctx, name, idx, E, rows, &off, &perm)) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int d = 0; d < x->ndim; d++) shape[d] = x->shape[d];
+    for (int d = 0; d < x->ndim; d++)
+        shape[d] = x->shape[d];
     shape[0] = rows;
     cr_tensor *y = nn_tensor(ctx, name, x->ndim, shape);
     if (!y) return NULL;

@@ -57,8 +57,8 @@ cr_tensor *cr_nn_matmul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b, int trans_a,
     }
     if (!blas_sizes_ok(ctx, "matmul", M, N, Ka)) return NULL;
     int64_t shape[3] = {a->shape[0], M, N};
-    cr_tensor *y = batched ? nn_tensor(ctx, "matmul", 3, shape)
-                           : nn_tensor(ctx, "matmul", 2, shape + 1);
+    cr_tensor *y =
+        batched ? nn_tensor(ctx, "matmul", 3, shape) : nn_tensor(ctx, "matmul", 2, shape + 1);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = batched ? CR_OP_MATMUL_BATCHED : CR_OP_MATMUL,
@@ -106,23 +106,23 @@ void nn_matmul_backward(cr_nn_ctx *ctx, nn_node *n) {
     int64_t sa = d.M * d.K, sb = d.K * d.N, sy = d.M * d.N;
     const cr_nn_backend *be = ctx->be;
     if (ga && !ta) /* dA (M,K) += dC op(B)^T */
-        be->gemm_batched(0, !tb, d.M, d.K, d.N, y->grad, d.N, sy, b->data, d.ldb, sb, 1.0f, ga,
-                         d.K, sa, d.batch);
+        be->gemm_batched(0, !tb, d.M, d.K, d.N, y->grad, d.N, sy, b->data, d.ldb, sb, 1.0f, ga, d.K,
+                         sa, d.batch);
     if (ga && ta) /* dA^T (K,M) += op(B) dC^T */
-        be->gemm_batched(tb, 1, d.K, d.M, d.N, b->data, d.ldb, sb, y->grad, d.N, sy, 1.0f, ga,
-                         d.M, sa, d.batch);
+        be->gemm_batched(tb, 1, d.K, d.M, d.N, b->data, d.ldb, sb, y->grad, d.N, sy, 1.0f, ga, d.M,
+                         sa, d.batch);
     if (gb && !tb) /* dB (K,N) += op(A)^T dC */
-        be->gemm_batched(!ta, 0, d.K, d.N, d.M, a->data, d.lda, sa, y->grad, d.N, sy, 1.0f, gb,
-                         d.N, sb, d.batch);
+        be->gemm_batched(!ta, 0, d.K, d.N, d.M, a->data, d.lda, sa, y->grad, d.N, sy, 1.0f, gb, d.N,
+                         sb, d.batch);
     if (gb && tb) /* dB^T (N,K) += dC^T op(A) */
-        be->gemm_batched(1, ta, d.N, d.K, d.M, y->grad, d.N, sy, a->data, d.lda, sa, 1.0f, gb,
-                         d.K, sb, d.batch);
+        be->gemm_batched(1, ta, d.N, d.K, d.M, y->grad, d.N, sy, a->data, d.lda, sa, 1.0f, gb, d.K,
+                         sb, d.batch);
 }
 
 /* ------------------------------------------------------------ grouped -- */
 
-cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w,
-                                const int32_t *group, int trans_w) {
+cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, const int32_t *group,
+                                int trans_w) {
     const char *name = "matmul_grouped";
     cr_tensor *src[2] = {x, w};
     if (!nn_begin(ctx, name, 2, src)) return NULL;
@@ -154,13 +154,13 @@ cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w,
     if (!off || !perm || !xs || !y) return NULL;
     ctx->be->csr_build(group, M, G, off, perm);
     cr_tensor *out[1] = {y};
-    nn_node n = {.op = CR_OP_MATMUL_GROUPED,
-                 .nsrc = 2,
-                 .src = src,
-                 .nout = 1,
-                 .out = out,
-                 .p.grouped = {.trans_w = trans_w != 0, .groups = G, .off = off, .perm = perm,
-                               .xs = xs}};
+    nn_node n = {
+        .op = CR_OP_MATMUL_GROUPED,
+        .nsrc = 2,
+        .src = src,
+        .nout = 1,
+        .out = out,
+        .p.grouped = {.trans_w = trans_w != 0, .groups = G, .off = off, .perm = perm, .xs = xs}};
     return nn_run(ctx, &n);
 }
 
@@ -183,6 +183,7 @@ void nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *y = n->out[0];
     const nn_grouped_params *p = &n->p.grouped;
     float *gx = nn_gout(x), *gw = nn_gout(w);
+    if (!gx && !gw) return;
     int64_t M = x->shape[0], K = x->shape[1], N = y->shape[1];
     const cr_nn_backend *be = ctx->be;
     size_t mark = cr_arena_mark(&ctx->arena);
@@ -215,7 +216,8 @@ cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b
     nn_rows_cols(x, &rows, &in);
     if (!blas_sizes_ok(ctx, "linear", rows, w->shape[0], in)) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int i = 0; i < x->ndim; i++) shape[i] = x->shape[i];
+    for (int i = 0; i < x->ndim; i++)
+        shape[i] = x->shape[i];
     shape[x->ndim - 1] = w->shape[0];
     cr_tensor *y = nn_tensor(ctx, "linear", x->ndim, shape);
     if (!y) return NULL;
@@ -231,8 +233,7 @@ void nn_linear_forward(cr_nn_ctx *ctx, nn_node *n) {
     nn_rows_cols(x, &R, &in);
     if (b) ctx->be->copy2d(b->data, 0, y->data, out, R, out, 0);
     /* y (R,OUT) = x (R,IN) W^T (IN,OUT) [+ y holding the bias rows] */
-    ctx->be->gemm(0, 1, R, out, in, 1.0f, x->data, in, w->data, in, b ? 1.0f : 0.0f, y->data,
-                  out);
+    ctx->be->gemm(0, 1, R, out, in, 1.0f, x->data, in, w->data, in, b ? 1.0f : 0.0f, y->data, out);
 }
 
 void nn_linear_backward(cr_nn_ctx *ctx, nn_node *n) {

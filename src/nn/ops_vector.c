@@ -99,7 +99,8 @@ static cr_tensor *rowwise(cr_nn_ctx *ctx, cr_op op, cr_tensor *a, cr_tensor *b, 
         return NULL;
     }
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int d = 0; d < a->ndim; d++) shape[d] = a->shape[d];
+    for (int d = 0; d < a->ndim; d++)
+        shape[d] = a->shape[d];
     if (op == CR_OP_DOT || op == CR_OP_NORM) shape[a->ndim - 1] = 1;
     cr_tensor *y = nn_tensor(ctx, name, a->ndim, shape);
     if (!y) return NULL;
@@ -115,10 +116,18 @@ void nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n) {
     nn_rows_cols(a, &R, &C);
     const cr_nn_backend *be = ctx->be;
     switch (n->op) {
-    case CR_OP_CROSS: be->cross_forward(a->data, b->data, R, y->data); break;
-    case CR_OP_DOT: be->dot_forward(a->data, b->data, R, C, y->data); break;
-    case CR_OP_NORM: be->norm_forward(a->data, R, C, y->data); break;
-    case CR_OP_NORMALIZE: be->normalize_forward(a->data, R, C, n->p.eps.eps, y->data); break;
+    case CR_OP_CROSS:
+        be->cross_forward(a->data, b->data, R, y->data);
+        break;
+    case CR_OP_DOT:
+        be->dot_forward(a->data, b->data, R, C, y->data);
+        break;
+    case CR_OP_NORM:
+        be->norm_forward(a->data, R, C, y->data);
+        break;
+    case CR_OP_NORMALIZE:
+        be->normalize_forward(a->data, R, C, n->p.eps.eps, y->data);
+        break;
     default:
         NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "rowwise forward: op %s is not row-wise",
                 cr_op_name(n->op));
@@ -133,8 +142,12 @@ void nn_rowwise_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_nn_backend *be = ctx->be;
     float eps = n->p.eps.eps;
     switch (n->op) {
-    case CR_OP_CROSS: be->cross_backward(a->data, b->data, y->grad, R, ga, gb); break;
-    case CR_OP_DOT: be->dot_backward(a->data, b->data, y->grad, R, C, ga, gb); break;
+    case CR_OP_CROSS:
+        be->cross_backward(a->data, b->data, y->grad, R, ga, gb);
+        break;
+    case CR_OP_DOT:
+        be->dot_backward(a->data, b->data, y->grad, R, C, ga, gb);
+        break;
     case CR_OP_NORM:
         if (ga) be->norm_backward(a->data, y->data, y->grad, R, C, eps, ga);
         break;

@@ -42,7 +42,8 @@ cr_status cr_nn_params_create(cr_nn_params **out, cr_error *err) {
 
 void cr_nn_params_destroy(cr_nn_params *p) {
     if (!p) return;
-    for (int i = 0; i < p->count; i++) free(p->entries[i]);
+    for (int i = 0; i < p->count; i++)
+        free(p->entries[i]);
     free(p->entries);
     free(p->data);
     free(p->grad);
@@ -63,7 +64,8 @@ static float *block(int64_t n, cr_error *err) {
 
 static cr_status grow(cr_nn_params *p, int64_t need, cr_error *err) {
     int64_t cap = p->capacity > 0 ? p->capacity : FIRST_CAPACITY;
-    while (cap < need) cap *= 2;
+    while (cap < need)
+        cap *= 2;
     float *data = block(cap, err);
     float *grad = data ? block(cap, err) : NULL;
     if (!grad) {
@@ -92,7 +94,8 @@ cr_status cr_nn_params_add(cr_nn_params *p, const char *name, int ndim, const in
     *out = NULL;
     size_t len = name ? strlen(name) : 0;
     if (len == 0 || len >= NAME_CAP)
-        return CR_FAIL(err, CR_ERR_INVALID, "params: name must have 1 to %d characters", NAME_CAP - 1);
+        return CR_FAIL(err, CR_ERR_INVALID, "params: name must have 1 to %d characters",
+                       NAME_CAP - 1);
     if (cr_nn_params_find(p, name))
         return CR_FAIL(err, CR_ERR_INVALID, "params: '%s' is already defined", name);
     if (ndim < 0 || ndim > CR_NN_MAX_DIMS)
@@ -119,7 +122,8 @@ cr_status cr_nn_params_add(cr_nn_params *p, const char *name, int ndim, const in
     memcpy(e->name, name, len + 1);
     e->offset = offset;
     e->t.ndim = ndim;
-    for (int i = 0; i < CR_NN_MAX_DIMS; i++) e->t.shape[i] = i < ndim ? shape[i] : 1;
+    for (int i = 0; i < CR_NN_MAX_DIMS; i++)
+        e->t.shape[i] = i < ndim ? shape[i] : 1;
     e->t.numel = numel;
     e->t.data = p->data + offset;
     e->t.grad = p->grad + offset;

@@ -71,13 +71,21 @@ static const char *node_name(const nn_node *n) {
 static void forward(cr_nn_ctx *ctx, nn_node *n) {
     switch (n->op) {
     case CR_OP_MATMUL:
-    case CR_OP_MATMUL_BATCHED: nn_matmul_forward(ctx, n); break;
-    case CR_OP_MATMUL_GROUPED: nn_grouped_forward(ctx, n); break;
-    case CR_OP_LINEAR: nn_linear_forward(ctx, n); break;
+    case CR_OP_MATMUL_BATCHED:
+        nn_matmul_forward(ctx, n);
+        break;
+    case CR_OP_MATMUL_GROUPED:
+        nn_grouped_forward(ctx, n);
+        break;
+    case CR_OP_LINEAR:
+        nn_linear_forward(ctx, n);
+        break;
     case CR_OP_ADD:
     case CR_OP_SUB:
     case CR_OP_MUL:
-    case CR_OP_DIV: nn_binary_forward(ctx, n); break;
+    case CR_OP_DIV:
+        nn_binary_forward(ctx, n);
+        break;
     case CR_OP_ADD_SCALAR:
     case CR_OP_MUL_SCALAR:
     case CR_OP_POW:
@@ -93,22 +101,42 @@ static void forward(cr_nn_ctx *ctx, nn_node *n) {
     case CR_OP_LOG:
     case CR_OP_SQRT:
     case CR_OP_ABS:
-    case CR_OP_SQUARE: nn_unary_forward(ctx, n); break;
+    case CR_OP_SQUARE:
+        nn_unary_forward(ctx, n);
+        break;
     case CR_OP_SUM:
     case CR_OP_MEAN:
     case CR_OP_SUM_AXIS:
-    case CR_OP_MEAN_AXIS: nn_reduce_forward(ctx, n); break;
-    case CR_OP_CONCAT: nn_concat_forward(ctx, n); break;
-    case CR_OP_SLICE: nn_slice_forward(ctx, n); break;
-    case CR_OP_GATHER_ROWS: nn_gather_forward(ctx, n); break;
-    case CR_OP_SCATTER_ADD_ROWS: nn_scatter_add_forward(ctx, n); break;
-    case CR_OP_SEGMENT_SOFTMAX: nn_segment_softmax_forward(ctx, n); break;
-    case CR_OP_LAYER_NORM: nn_layer_norm_forward(ctx, n); break;
+    case CR_OP_MEAN_AXIS:
+        nn_reduce_forward(ctx, n);
+        break;
+    case CR_OP_CONCAT:
+        nn_concat_forward(ctx, n);
+        break;
+    case CR_OP_SLICE:
+        nn_slice_forward(ctx, n);
+        break;
+    case CR_OP_GATHER_ROWS:
+        nn_gather_forward(ctx, n);
+        break;
+    case CR_OP_SCATTER_ADD_ROWS:
+        nn_scatter_add_forward(ctx, n);
+        break;
+    case CR_OP_SEGMENT_SOFTMAX:
+        nn_segment_softmax_forward(ctx, n);
+        break;
+    case CR_OP_LAYER_NORM:
+        nn_layer_norm_forward(ctx, n);
+        break;
     case CR_OP_CROSS:
     case CR_OP_DOT:
     case CR_OP_NORM:
-    case CR_OP_NORMALIZE: nn_rowwise_forward(ctx, n); break;
-    case CR_OP_FUSED: nn_fused_forward(ctx, n); break;
+    case CR_OP_NORMALIZE:
+        nn_rowwise_forward(ctx, n);
+        break;
+    case CR_OP_FUSED:
+        nn_fused_forward(ctx, n);
+        break;
     default:
         NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "forward: op %s (%d) has no forward", cr_op_name(n->op),
                 (int)n->op);
@@ -118,13 +146,21 @@ static void forward(cr_nn_ctx *ctx, nn_node *n) {
 static void backward(cr_nn_ctx *ctx, nn_node *n) {
     switch (n->op) {
     case CR_OP_MATMUL:
-    case CR_OP_MATMUL_BATCHED: nn_matmul_backward(ctx, n); break;
-    case CR_OP_MATMUL_GROUPED: nn_grouped_backward(ctx, n); break;
-    case CR_OP_LINEAR: nn_linear_backward(ctx, n); break;
+    case CR_OP_MATMUL_BATCHED:
+        nn_matmul_backward(ctx, n);
+        break;
+    case CR_OP_MATMUL_GROUPED:
+        nn_grouped_backward(ctx, n);
+        break;
+    case CR_OP_LINEAR:
+        nn_linear_backward(ctx, n);
+        break;
     case CR_OP_ADD:
     case CR_OP_SUB:
     case CR_OP_MUL:
-    case CR_OP_DIV: nn_binary_backward(ctx, n); break;
+    case CR_OP_DIV:
+        nn_binary_backward(ctx, n);
+        break;
     case CR_OP_ADD_SCALAR:
     case CR_OP_MUL_SCALAR:
     case CR_OP_POW:
@@ -140,25 +176,45 @@ static void backward(cr_nn_ctx *ctx, nn_node *n) {
     case CR_OP_LOG:
     case CR_OP_SQRT:
     case CR_OP_ABS:
-    case CR_OP_SQUARE: nn_unary_backward(ctx, n); break;
+    case CR_OP_SQUARE:
+        nn_unary_backward(ctx, n);
+        break;
     case CR_OP_SUM:
     case CR_OP_MEAN:
     case CR_OP_SUM_AXIS:
-    case CR_OP_MEAN_AXIS: nn_reduce_backward(ctx, n); break;
-    case CR_OP_CONCAT: nn_concat_backward(ctx, n); break;
-    case CR_OP_SLICE: nn_slice_backward(ctx, n); break;
-    case CR_OP_GATHER_ROWS: nn_gather_backward(ctx, n); break;
-    case CR_OP_SCATTER_ADD_ROWS: nn_scatter_add_backward(ctx, n); break;
-    case CR_OP_SEGMENT_SOFTMAX: nn_segment_softmax_backward(ctx, n); break;
-    case CR_OP_LAYER_NORM: nn_layer_norm_backward(ctx, n); break;
+    case CR_OP_MEAN_AXIS:
+        nn_reduce_backward(ctx, n);
+        break;
+    case CR_OP_CONCAT:
+        nn_concat_backward(ctx, n);
+        break;
+    case CR_OP_SLICE:
+        nn_slice_backward(ctx, n);
+        break;
+    case CR_OP_GATHER_ROWS:
+        nn_gather_backward(ctx, n);
+        break;
+    case CR_OP_SCATTER_ADD_ROWS:
+        nn_scatter_add_backward(ctx, n);
+        break;
+    case CR_OP_SEGMENT_SOFTMAX:
+        nn_segment_softmax_backward(ctx, n);
+        break;
+    case CR_OP_LAYER_NORM:
+        nn_layer_norm_backward(ctx, n);
+        break;
     case CR_OP_CROSS:
     case CR_OP_DOT:
     case CR_OP_NORM:
-    case CR_OP_NORMALIZE: nn_rowwise_backward(ctx, n); break;
-    case CR_OP_FUSED: nn_fused_backward(ctx, n); break;
+    case CR_OP_NORMALIZE:
+        nn_rowwise_backward(ctx, n);
+        break;
+    case CR_OP_FUSED:
+        nn_fused_backward(ctx, n);
+        break;
     default:
-        NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "backward: op %s (%d) has no backward",
-                cr_op_name(n->op), (int)n->op);
+        NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "backward: op %s (%d) has no backward", cr_op_name(n->op),
+                (int)n->op);
     }
 }
 
@@ -167,7 +223,8 @@ cr_tensor *nn_run(cr_nn_ctx *ctx, nn_node *n) {
     if (ctx->err.status != CR_OK) return NULL;
     int wants_grad = 0;
     if (ctx->grad_enabled)
-        for (int i = 0; i < n->nsrc; i++) wants_grad |= n->src[i] && n->src[i]->requires_grad;
+        for (int i = 0; i < n->nsrc; i++)
+            wants_grad |= n->src[i] && n->src[i]->requires_grad;
     for (int k = 0; k < n->nout; k++) {
         n->out[k]->requires_grad = (uint8_t)wants_grad;
         n->out[k]->op = n->op;
@@ -200,7 +257,8 @@ static void prepare_grads(cr_nn_ctx *ctx, nn_node *n) {
     for (int i = 0; i < n->nsrc; i++)
         if (n->src[i] && n->src[i]->requires_grad) nn_grad(ctx, n->src[i], who);
     if (n->op == CR_OP_FUSED)
-        for (int k = 0; k < n->nout; k++) nn_grad(ctx, n->out[k], who);
+        for (int k = 0; k < n->nout; k++)
+            nn_grad(ctx, n->out[k], who);
 }
 
 cr_status cr_nn_backward(cr_nn_ctx *ctx, cr_tensor *loss, cr_error *err) {
@@ -225,7 +283,8 @@ cr_status cr_nn_backward(cr_nn_ctx *ctx, cr_tensor *loss, cr_error *err) {
     seed[0] += 1.0f;
     for (nn_node *n = ctx->tail; n; n = n->prev) {
         int reached = 0;
-        for (int k = 0; k < n->nout; k++) reached |= n->out[k]->grad != NULL;
+        for (int k = 0; k < n->nout; k++)
+            reached |= n->out[k]->grad != NULL;
         if (!reached) continue;
         prepare_grads(ctx, n);
         if (ctx->err.status == CR_OK) backward(ctx, n);
@@ -264,7 +323,8 @@ cr_tensor *cr_nn_fused(cr_nn_ctx *ctx, const cr_fused_op *def, int nin, cr_tenso
                        int nout, const cr_nn_shape *out_shapes, cr_tensor **out) {
     CR_ASSERT(def && def->name && def->forward);
     CR_ASSERT(nin >= 0 && nout >= 1 && out_shapes && (out || nout == 1) && (in || nin == 0));
-    for (int k = 0; out && k < nout; k++) out[k] = NULL;
+    for (int k = 0; out && k < nout; k++)
+        out[k] = NULL;
     if (ctx->err.status != CR_OK) return NULL;
     cr_tensor **outs = nn_alloc(ctx, def->name, (size_t)nout * sizeof(cr_tensor *));
     if (!outs) return NULL;
@@ -281,6 +341,7 @@ cr_tensor *cr_nn_fused(cr_nn_ctx *ctx, const cr_fused_op *def, int nin, cr_tenso
                  .p.fused = {.def = def, .stash = NULL}};
     cr_tensor *first = nn_run(ctx, &n);
     if (first && out)
-        for (int k = 0; k < nout; k++) out[k] = outs[k];
+        for (int k = 0; k < nout; k++)
+            out[k] = outs[k];
     return first;
 }

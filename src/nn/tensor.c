@@ -161,7 +161,8 @@ static int64_t shape_numel(cr_nn_ctx *ctx, const char *who, int ndim, const int6
 
 static void set_shape(cr_tensor *t, int ndim, const int64_t *shape, int64_t numel) {
     t->ndim = ndim;
-    for (int i = 0; i < CR_NN_MAX_DIMS; i++) t->shape[i] = i < ndim ? shape[i] : 1;
+    for (int i = 0; i < CR_NN_MAX_DIMS; i++)
+        t->shape[i] = i < ndim ? shape[i] : 1;
     t->numel = numel;
 }
 
@@ -215,8 +216,10 @@ int nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *o
 
 void nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, int64_t *inner) {
     int64_t o = 1, in = 1;
-    for (int i = 0; i < axis; i++) o *= t->shape[i];
-    for (int i = axis + 1; i < t->ndim; i++) in *= t->shape[i];
+    for (int i = 0; i < axis; i++)
+        o *= t->shape[i];
+    for (int i = axis + 1; i < t->ndim; i++)
+        in *= t->shape[i];
     *outer = o;
     *len = t->shape[axis];
     *inner = in;
@@ -224,14 +227,16 @@ void nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, i
 
 void nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols) {
     int64_t r = 1;
-    for (int i = 0; i + 1 < t->ndim; i++) r *= t->shape[i];
+    for (int i = 0; i + 1 < t->ndim; i++)
+        r *= t->shape[i];
     *rows = r;
     *cols = t->ndim > 0 ? t->shape[t->ndim - 1] : 1;
 }
 
 void nn_pad_shape(const cr_tensor *t, int64_t out[4]) {
     int lead = CR_NN_MAX_DIMS - t->ndim;
-    for (int i = 0; i < CR_NN_MAX_DIMS; i++) out[i] = i < lead ? 1 : t->shape[i - lead];
+    for (int i = 0; i < CR_NN_MAX_DIMS; i++)
+        out[i] = i < lead ? 1 : t->shape[i - lead];
 }
 
 /* ------------------------------------------------------------- shapes -- */
@@ -239,7 +244,8 @@ void nn_pad_shape(const cr_tensor *t, int64_t out[4]) {
 cr_nn_shape cr_nn_shape_of(const cr_tensor *t) {
     cr_nn_shape s;
     s.ndim = t->ndim;
-    for (int i = 0; i < CR_NN_MAX_DIMS; i++) s.d[i] = t->shape[i];
+    for (int i = 0; i < CR_NN_MAX_DIMS; i++)
+        s.d[i] = t->shape[i];
     return s;
 }
 
@@ -284,6 +290,7 @@ cr_tensor *cr_nn_scalar(cr_nn_ctx *ctx, float value) {
 
 cr_tensor *cr_nn_from(cr_nn_ctx *ctx, int ndim, const int64_t *shape, const float *data) {
     cr_tensor *t = cr_nn_new(ctx, ndim, shape);
+    CR_ASSERT(!t || data || t->numel == 0);
     if (t && t->numel > 0) ctx->be->copy(t->data, data, t->numel);
     return t;
 }
@@ -291,6 +298,7 @@ cr_tensor *cr_nn_from(cr_nn_ctx *ctx, int ndim, const int64_t *shape, const floa
 cr_tensor *cr_nn_wrap(cr_nn_ctx *ctx, int ndim, const int64_t *shape, float *data) {
     if (ctx->err.status != CR_OK) return NULL;
     cr_tensor *t = alloc_tensor(ctx, "wrap", ndim, shape, 0);
+    CR_ASSERT(!t || data || t->numel == 0);
     if (t) t->data = data;
     return t;
 }
@@ -324,8 +332,8 @@ cr_tensor *cr_nn_reshape(cr_nn_ctx *ctx, cr_tensor *t, int ndim, const int64_t *
         if (s[i] == -1 && infer < 0) {
             infer = i;
         } else if (s[i] < 0) {
-            NN_FAIL(ctx, CR_ERR_SHAPE, "reshape: bad size %lld in dimension %d",
-                    (long long)s[i], i);
+            NN_FAIL(ctx, CR_ERR_SHAPE, "reshape: bad size %lld in dimension %d", (long long)s[i],
+                    i);
             return NULL;
         } else {
             known *= s[i];
@@ -333,7 +341,8 @@ cr_tensor *cr_nn_reshape(cr_nn_ctx *ctx, cr_tensor *t, int ndim, const int64_t *
     }
     if (infer >= 0) s[infer] = known > 0 ? t->numel / known : 0;
     int64_t n = 1;
-    for (int i = 0; i < ndim; i++) n *= s[i];
+    for (int i = 0; i < ndim; i++)
+        n *= s[i];
     if (n != t->numel) {
         char a[64];
         NN_FAIL(ctx, CR_ERR_SHAPE, "reshape: %s has %lld elements, the new shape %lld",
@@ -350,7 +359,8 @@ cr_tensor *cr_nn_detach(cr_nn_ctx *ctx, cr_tensor *t) {
 
 cr_tensor *nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t len) {
     int64_t s[CR_NN_MAX_DIMS];
-    for (int i = 0; i < x->ndim; i++) s[i] = x->shape[i];
+    for (int i = 0; i < x->ndim; i++)
+        s[i] = x->shape[i];
     int64_t row = x->shape[0] > 0 ? x->numel / x->shape[0] : 0;
     s[0] = len;
     return make_view(ctx, "slice", x, x->ndim, s, start * row, 1);
@@ -359,7 +369,8 @@ cr_tensor *nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t le
 /* --------------------------------------------------------------- fills -- */
 
 void cr_nn_fill(cr_tensor *t, float value) {
-    for (int64_t i = 0; i < t->numel; i++) t->data[i] = value;
+    for (int64_t i = 0; i < t->numel; i++)
+        t->data[i] = value;
 }
 
 void cr_nn_fill_uniform(cr_tensor *t, cr_rng *rng, float lo, float hi) {

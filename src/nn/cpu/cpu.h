@@ -19,6 +19,11 @@ static inline int64_t nn_cpu_row_grain(int64_t cols) {
     return cols >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / (cols > 0 ? cols : 1);
 }
 
+/* A kernel was handed an op it has no case for: a bug in the tape, so abort
+ * naming the kernel and the op. */
+void nn_cpu_bad_op(const char *kernel, cr_op op, const char *file, int line)
+    __attribute__((noreturn));
+
 /* cpu_elementwise.c */
 void nn_cpu_fill(float *x, int64_t n, float value);
 void nn_cpu_copy(float *dst, const float *src, int64_t n);
@@ -33,8 +38,8 @@ void nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t 
 double nn_cpu_sum_all(const float *x, int64_t n);
 void nn_cpu_sum_axis(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
                      float *y, int acc);
-void nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner,
-                            float scale, float *dx);
+void nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner, float scale,
+                            float *dx);
 void nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *dst,
                                 const int64_t ds[4]);
 
@@ -42,9 +47,8 @@ void nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *ds
 void nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
                  int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
 /* Triple loop with double accumulation: the reference for nn_cpu_gemm. */
-void nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
-                       const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
-                       float *C, int64_t ldc);
+void nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
+                       int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
 void nn_cpu_gemm_batched(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
                          int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
                          int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
@@ -68,13 +72,12 @@ void nn_cpu_segment_sum_rows(const float *x, int64_t C, const int64_t *off, cons
                              int64_t nseg, float *y, int acc);
 void nn_cpu_segment_softmax_forward(const float *x, int64_t H, const int64_t *off,
                                     const int32_t *perm, int64_t nseg, float *y);
-void nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H,
-                                     const int64_t *off, const int32_t *perm, int64_t nseg,
-                                     float *dx);
+void nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H, const int64_t *off,
+                                     const int32_t *perm, int64_t nseg, float *dx);
 
 /* cpu_vector.c */
-void nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,
-                               const float *b, float eps, float *y, float *mean, float *rstd);
+void nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w, const float *b,
+                               float eps, float *y, float *mean, float *rstd);
 void nn_cpu_layer_norm_backward(const float *x, const float *dy, int64_t R, int64_t C,
                                 const float *w, const float *mean, const float *rstd, float *dx,
                                 float *dw, float *db);

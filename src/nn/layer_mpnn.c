@@ -1,0 +1,230 @@
+/* layer_mpnn.c: the encode-process-decode message-passing network of
+ * MeshGraphNets (Pfaff et al., "Learning mesh-based simulation with graph
+ * networks", ICLR 2021), in the form GDSR writes it (paper 001, sec. 4.2,
+ * eq. 6-7: residual edge update from [e_ij, q_i, q_j], residual node update
+ * from [q_i, sum_j e_ij, sum_l e_il] over several edge sets).
+ *
+ * Shapes: N nodes, E_s edges of set s, S edge sets, L latent width, K steps.
+ * Gathers of the endpoint latents and the sum over received edges are the
+ * engine's gather_rows and scatter_add_rows, so backward is their adjoint
+ * pair and the result is deterministic whatever the thread count.
+ *
+ * Leaves out: hierarchical graphs (HOOD's multi-level edges are ordinary
+ * edge sets here; building the levels is geometry's job), weight sharing
+ * across steps, mean or max aggregation.
+ */
+#include "crease/nn_graph.h"
+
+#include "nn/tape.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum {
+    MPNN_COOKIE = 0x6d706e31u, /* "mpn1" */
+    NAME_CAP = 256,
+};
+
+/* LayerNorm epsilon (PyTorch's default). */
+static const float LN_EPS = 1e-5f;
+
+/* An MLP with an optional LayerNorm on its output. */
+typedef struct block {
+    cr_mlp *mlp;
+    cr_tensor *ln_w, *ln_b; /* (OUT) or NULL */
+} block;
+
+struct cr_mpnn {
+    cr_mpnn_def def;
+    block node_enc;
+    block edge_enc[CR_MPNN_MAX_EDGE_SETS];
+    block *edge_proc; /* (K S): step k, set s at k S + s */
+    block *node_proc; /* (K) */
+    block dec;
+};
+
+cr_mpnn_def cr_mpnn_default_def(void) {
+    cr_mpnn_def d;
+    memset(&d, 0, sizeof d);
+    d.edge_sets = 1;
+    d.latent = 128;
+    d.steps = 3;
+    d.hidden_layers = 2;
+    d.act = CR_ACT_RELU;
+    d.layer_norm = 1;
+    d.cookie = MPNN_COOKIE;
+    return d;
+}
+
+static cr_status block_create(const cr_mpnn_def *d, int in, int out, int norm, cr_nn_params *P,
+                              const char *name, cr_rng *rng, block *b, cr_error *err) {
+    cr_mlp_def md = cr_mlp_default_def();
+    md.nlayers = d->hidden_layers + 1;
+    md.widths[0] = in;
+    for (int i = 1; i < md.nlayers; i++) md.widths[i] = d->latent;
+    md.widths[md.nlayers] = out;
+    md.act = d->act;
+    CR_TRY(cr_mlp_create(&md, P, name, rng, &b->mlp, err));
+    if (!norm) return CR_OK;
+    char ln[NAME_CAP + 16];
+    snprintf(ln, sizeof ln, "%s.ln.weight", name);
+    CR_TRY(cr_nn_params_add(P, ln, 1, (int64_t[]){out}, &b->ln_w, err));
+    snprintf(ln, sizeof ln, "%s.ln.bias", name);
+    CR_TRY(cr_nn_params_add(P, ln, 1, (int64_t[]){out}, &b->ln_b, err));
+    cr_nn_fill(b->ln_w, 1.0f); /* the bias starts at zero, as the store leaves it */
+    return CR_OK;
+}
+
+static cr_tensor *block_forward(cr_nn_ctx *ctx, const block *b, cr_tensor *x) {
+    cr_tensor *y = cr_mlp_forward(ctx, b->mlp, x);
+    return b->ln_w ? cr_nn_layer_norm(ctx, y, b->ln_w, b->ln_b, LN_EPS) : y;
+}
+
+static cr_status check_def(const cr_mpnn_def *d, cr_error *err) {
+    if (d->node_in < 1 || d->node_out < 1 || d->latent < 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "mpnn: node_in (%d), node_out (%d), latent (%d) "
+                       "must be >= 1", d->node_in, d->node_out, d->latent);
+    if (d->edge_sets < 1 || d->edge_sets > CR_MPNN_MAX_EDGE_SETS)
+        return CR_FAIL(err, CR_ERR_INVALID, "mpnn: edge_sets %d outside [1,%d]", d->edge_sets,
+                       CR_MPNN_MAX_EDGE_SETS);
+    for (int s = 0; s < d->edge_sets; s++)
+        if (d->edge_in[s] < 1)
+            return CR_FAIL(err, CR_ERR_INVALID, "mpnn: edge_in[%d] = %d must be >= 1", s,
+                           d->edge_in[s]);
+    if (d->steps < 0 || d->hidden_layers < 0 || d->hidden_layers > CR_MLP_MAX_LAYERS - 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "mpnn: steps (%d) must be >= 0 and hidden_layers "
+                       "(%d) in [0,%d]", d->steps, d->hidden_layers, CR_MLP_MAX_LAYERS - 1);
+    return CR_OK;
+}
+
+/* Everything after allocation; on failure the caller destroys the net. */
+static cr_status mpnn_build(cr_mpnn *net, cr_nn_params *P, const char *prefix, cr_rng *rng,
+                            cr_error *err) {
+    const cr_mpnn_def *d = &net->def;
+    int S = d->edge_sets, L = d->latent, ln = d->layer_norm;
+    const char *p = prefix ? prefix : "";
+    const char *dot = p[0] ? "." : "";
+    char name[NAME_CAP];
+    /* Longest name part appended here is ".processor.<k>.edge<s>". */
+    if (strlen(p) > NAME_CAP - 48)
+        return CR_FAIL(err, CR_ERR_INVALID, "mpnn: prefix \"%s\" too long", p);
+    snprintf(name, sizeof name, "%s%sencoder.node", p, dot);
+    CR_TRY(block_create(d, d->node_in, L, ln, P, name, rng, &net->node_enc, err));
+    for (int s = 0; s < S; s++) {
+        snprintf(name, sizeof name, "%s%sencoder.edge%d", p, dot, s);
+        CR_TRY(block_create(d, d->edge_in[s], L, ln, P, name, rng, &net->edge_enc[s], err));
+    }
+    for (int k = 0; k < d->steps; k++) {
+        for (int s = 0; s < S; s++) {
+            snprintf(name, sizeof name, "%s%sprocessor.%d.edge%d", p, dot, k, s);
+            CR_TRY(block_create(d, 3 * L, L, ln, P, name, rng, &net->edge_proc[k * S + s], err));
+        }
+        snprintf(name, sizeof name, "%s%sprocessor.%d.node", p, dot, k);
+        CR_TRY(block_create(d, (1 + S) * L, L, ln, P, name, rng, &net->node_proc[k], err));
+    }
+    snprintf(name, sizeof name, "%s%sdecoder", p, dot);
+    return block_create(d, L, d->node_out, 0, P, name, rng, &net->dec, err);
+}
+
+cr_status cr_mpnn_create(const cr_mpnn_def *def, cr_nn_params *params, const char *prefix,
+                         cr_rng *rng, cr_mpnn **out, cr_error *err) {
+    CR_ASSERT(def && params && rng && out && def->cookie == MPNN_COOKIE);
+    *out = NULL;
+    CR_TRY(check_def(def, err));
+    cr_mpnn *net = cr_calloc(1, sizeof *net, err);
+    if (!net) return CR_ERR_MEMORY;
+    net->def = *def;
+    size_t K = (size_t)def->steps;
+    net->edge_proc = cr_calloc(K * (size_t)def->edge_sets + 1, sizeof *net->edge_proc, err);
+    net->node_proc = cr_calloc(K + 1, sizeof *net->node_proc, err);
+    cr_status st = net->edge_proc && net->node_proc ? mpnn_build(net, params, prefix, rng, err)
+                                                    : CR_ERR_MEMORY;
+    if (st != CR_OK) {
+        cr_mpnn_destroy(net);
+        return st;
+    }
+    *out = net;
+    return CR_OK;
+}
+
+void cr_mpnn_destroy(cr_mpnn *net) {
+    if (!net) return;
+    const cr_mpnn_def *d = &net->def;
+    cr_mlp_destroy(net->node_enc.mlp);
+    for (int s = 0; s < d->edge_sets; s++) cr_mlp_destroy(net->edge_enc[s].mlp);
+    for (int k = 0; k < d->steps; k++) {
+        for (int s = 0; net->edge_proc && s < d->edge_sets; s++)
+            cr_mlp_destroy(net->edge_proc[k * d->edge_sets + s].mlp);
+        if (net->node_proc) cr_mlp_destroy(net->node_proc[k].mlp);
+    }
+    cr_mlp_destroy(net->dec.mlp);
+    free(net->edge_proc);
+    free(net->node_proc);
+    free(net);
+}
+
+/* 1 when t is (rows, cols); else a context error naming `what`. */
+static int check_shape(cr_nn_ctx *ctx, const char *what, const cr_tensor *t, int64_t rows,
+                       int64_t cols) {
+    if (t && t->ndim == 2 && t->shape[0] == rows && t->shape[1] == cols) return 1;
+    char s[64];
+    NN_FAIL(ctx, t ? CR_ERR_SHAPE : CR_ERR_INVALID, "mpnn: %s: expected (%lld,%lld), got %s",
+            what, (long long)rows, (long long)cols, t ? cr_nn_shape_str(t, s, sizeof s) : "NULL");
+    return 0;
+}
+
+cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
+                           const cr_nn_graph *graphs, cr_tensor *const *edge_x,
+                           cr_tensor **latent) {
+    CR_ASSERT(net && graphs && edge_x);
+    if (latent) *latent = NULL;
+    if (!nn_begin(ctx, "mpnn", 1, &x)) return NULL;
+    const cr_mpnn_def *d = &net->def;
+    int S = d->edge_sets;
+    int64_t N = x->shape[0], L = d->latent;
+    if (!check_shape(ctx, "x", x, N, d->node_in)) return NULL;
+    cr_tensor *e[CR_MPNN_MAX_EDGE_SETS] = {NULL};
+    cr_tensor *h = block_forward(ctx, &net->node_enc, x);
+    for (int s = 0; s < S; s++) {
+        const cr_nn_graph *g = &graphs[s];
+        if (g->nodes != N || g->edges < 0 || (g->edges > 0 && (!g->senders || !g->receivers))) {
+            NN_FAIL(ctx, CR_ERR_INVALID, "mpnn: edge set %d: %lld nodes and %lld edges for "
+                    "%lld node rows (or missing index arrays)", s, (long long)g->nodes,
+                    (long long)g->edges, (long long)N);
+            return NULL;
+        }
+        if (g->edges == 0) continue;
+        char what[32];
+        snprintf(what, sizeof what, "edge_x[%d]", s);
+        if (!check_shape(ctx, what, edge_x[s], g->edges, d->edge_in[s])) return NULL;
+        e[s] = block_forward(ctx, &net->edge_enc[s], edge_x[s]);
+    }
+    cr_tensor *zero_agg = NULL; /* shared sum for edge sets with no edges */
+    for (int k = 0; k < d->steps; k++) {
+        cr_tensor *node_in[1 + CR_MPNN_MAX_EDGE_SETS] = {h};
+        for (int s = 0; s < S; s++) {
+            const cr_nn_graph *g = &graphs[s];
+            if (g->edges == 0) {
+                if (!zero_agg) zero_agg = cr_nn_zeros(ctx, 2, (int64_t[]){N, L});
+                node_in[1 + s] = zero_agg;
+                continue;
+            }
+            /* GDSR eq. 6: e_ij += MLP([e_ij, q_i, q_j]), i the receiver. */
+            cr_tensor *cat[3] = {e[s], cr_nn_gather_rows(ctx, h, g->receivers, g->edges),
+                                 cr_nn_gather_rows(ctx, h, g->senders, g->edges)};
+            e[s] = cr_nn_add(ctx, e[s],
+                             block_forward(ctx, &net->edge_proc[k * S + s],
+                                           cr_nn_concat(ctx, 3, cat, 1)));
+            node_in[1 + s] = cr_nn_scatter_add_rows(ctx, e[s], g->receivers, N);
+        }
+        /* GDSR eq. 7: q_i += MLP([q_i, sum_j e_ij, ...]). A NULL left by a
+         * failed op makes concat return NULL quietly. */
+        cr_tensor *upd = block_forward(ctx, &net->node_proc[k], cr_nn_concat(ctx, 1 + S, node_in, 1));
+        h = cr_nn_add(ctx, h, upd);
+    }
+    cr_tensor *y = block_forward(ctx, &net->dec, h);
+    if (!y) return NULL;
+    if (latent) *latent = h;
+    return y;
+}
