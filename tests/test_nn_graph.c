@@ -43,11 +43,13 @@ static double sigm(double z) {
 /* W x + b for row-major W (rows, cols), in double. */
 static double affine(const float *W, const float *b, int row, int cols, const float *x) {
     double s = b ? b[row] : 0.0;
-    for (int k = 0; k < cols; k++) s += (double)W[row * cols + k] * x[k];
+    for (int k = 0; k < cols; k++)
+        s += (double)W[row * cols + k] * x[k];
     return s;
 }
 
-CR_TEST(nn_graph, lstm_cell_matches_hand_step) {
+/* One LSTM and one GRU step against torch's formulas written out. */
+CR_TEST(nn_graph, cells_match_hand_steps) {
     enum { B = 2, IN = 3, H = 2 };
     cr_nn_params *P = NULL;
     cr_error err = {0};
@@ -56,11 +58,14 @@ CR_TEST(nn_graph, lstm_cell_matches_hand_step) {
     d.input = IN;
     d.hidden = H;
     cr_rng rng = cr_rng_make(5, 0);
-    cr_rnn_cell cell;
-    CR_CHECK_OK(cr_lstm_cell_create(&d, P, "enc", &rng, &cell, &err), &err);
+    cr_rnn_cell lstm, gru;
+    CR_CHECK_OK(cr_lstm_cell_create(&d, P, "enc", &rng, &lstm, &err), &err);
+    CR_CHECK_OK(cr_gru_cell_create(&d, P, "", &rng, &gru, &err), &err);
     cr_tensor *w = cr_nn_params_find(P, "enc.weight_ih");
-    CR_REQUIRE(w && w->shape[0] == 4 * H && w->shape[1] == IN && cell.weight_ih == w);
+    CR_REQUIRE(w && w->shape[0] == 4 * H && w->shape[1] == IN && lstm.weight_ih == w);
     CR_CHECK(cr_nn_params_find(P, "enc.bias_hh") != NULL);
+    CR_REQUIRE(cr_nn_params_find(P, "weight_hh") == gru.weight_hh &&
+               gru.weight_hh->shape[0] == 3 * H);
     randomise(P, 0.8f, 9);
     float x[B * IN], h[B * H], c[B * H];
     nn_gradcheck_fill(x, B * IN, -1, 1, 0, 1);
@@ -68,72 +73,31 @@ CR_TEST(nn_graph, lstm_cell_matches_hand_step) {
     nn_gradcheck_fill(c, B * H, -1, 1, 0, 3);
     cr_nn_ctx *ctx = nn_gradcheck_ctx(1 << 20);
     CR_REQUIRE(ctx);
+    cr_tensor *xt = cr_nn_from(ctx, 2, (int64_t[]){B, IN}, x);
+    cr_tensor *ht = cr_nn_from(ctx, 2, (int64_t[]){B, H}, h);
     cr_tensor *c1 = NULL;
-    cr_tensor *h1 = cr_lstm_cell_forward(ctx, &cell, cr_nn_from(ctx, 2, (int64_t[]){B, IN}, x),
-                                         cr_nn_from(ctx, 2, (int64_t[]){B, H}, h),
-                                         cr_nn_from(ctx, 2, (int64_t[]){B, H}, c), &c1);
-    CR_REQUIRE(h1 && c1);
-    const float *Wi = cell.weight_ih->data, *Wh = cell.weight_hh->data;
-    const float *bi = cell.bias_ih->data, *bh = cell.bias_hh->data;
+    cr_tensor *h1 =
+        cr_lstm_cell_forward(ctx, &lstm, xt, ht, cr_nn_from(ctx, 2, (int64_t[]){B, H}, c), &c1);
+    cr_tensor *g1 = cr_gru_cell_forward(ctx, &gru, xt, ht);
+    CR_REQUIRE(h1 && c1 && g1);
     for (int b = 0; b < B; b++)
         for (int j = 0; j < H; j++) {
+            const float *xb = x + b * IN, *hb = h + b * H;
             double z[4]; /* torch order i, f, g, o */
             for (int q = 0; q < 4; q++)
-                z[q] = affine(Wi, bi, q * H + j, IN, x + b * IN) +
-                       affine(Wh, bh, q * H + j, H, h + b * H);
+                z[q] = affine(lstm.weight_ih->data, lstm.bias_ih->data, q * H + j, IN, xb) +
+                       affine(lstm.weight_hh->data, lstm.bias_hh->data, q * H + j, H, hb);
             double cn = sigm(z[1]) * c[b * H + j] + sigm(z[0]) * tanh(z[2]);
-            double hn = sigm(z[3]) * tanh(cn);
             CR_CHECK_NEAR(c1->data[b * H + j], cn, 1e-5);
-            CR_CHECK_NEAR(h1->data[b * H + j], hn, 1e-5);
-        }
-    /* A NULL state is the zero state. */
-    cr_tensor *c0 = NULL;
-    cr_tensor *h0 = cr_lstm_cell_forward(ctx, &cell, cr_nn_from(ctx, 2, (int64_t[]){B, IN}, x),
-                                         NULL, NULL, &c0);
-    CR_REQUIRE(h0 && c0);
-    for (int j = 0; j < H; j++) {
-        double z[4];
-        for (int q = 0; q < 4; q++)
-            z[q] = affine(Wi, bi, q * H + j, IN, x) + bh[q * H + j];
-        CR_CHECK_NEAR(h0->data[j], sigm(z[3]) * tanh(sigm(z[0]) * tanh(z[2])), 1e-5);
-    }
-    cr_nn_ctx_destroy(ctx);
-    cr_nn_params_destroy(P);
-}
-
-CR_TEST(nn_graph, gru_cell_matches_hand_step) {
-    enum { B = 2, IN = 3, H = 2 };
-    cr_nn_params *P = NULL;
-    cr_error err = {0};
-    CR_REQUIRE(cr_nn_params_create(&P, &err) == CR_OK);
-    cr_rnn_def d = cr_rnn_default_def();
-    d.input = IN;
-    d.hidden = H;
-    cr_rng rng = cr_rng_make(6, 0);
-    cr_rnn_cell cell;
-    CR_CHECK_OK(cr_gru_cell_create(&d, P, "", &rng, &cell, &err), &err);
-    CR_REQUIRE(cr_nn_params_find(P, "weight_hh") && cell.weight_hh->shape[0] == 3 * H);
-    randomise(P, 0.8f, 10);
-    float x[B * IN], h[B * H];
-    nn_gradcheck_fill(x, B * IN, -1, 1, 0, 4);
-    nn_gradcheck_fill(h, B * H, -1, 1, 0, 5);
-    cr_nn_ctx *ctx = nn_gradcheck_ctx(1 << 20);
-    CR_REQUIRE(ctx);
-    cr_tensor *h1 = cr_gru_cell_forward(ctx, &cell, cr_nn_from(ctx, 2, (int64_t[]){B, IN}, x),
-                                        cr_nn_from(ctx, 2, (int64_t[]){B, H}, h));
-    CR_REQUIRE(h1);
-    const float *Wi = cell.weight_ih->data, *Wh = cell.weight_hh->data;
-    const float *bi = cell.bias_ih->data, *bh = cell.bias_hh->data;
-    for (int b = 0; b < B; b++)
-        for (int j = 0; j < H; j++) {
+            CR_CHECK_NEAR(h1->data[b * H + j], sigm(z[3]) * tanh(cn), 1e-5);
             double gi[3], gh[3]; /* torch order r, z, n */
             for (int q = 0; q < 3; q++) {
-                gi[q] = affine(Wi, bi, q * H + j, IN, x + b * IN);
-                gh[q] = affine(Wh, bh, q * H + j, H, h + b * H);
+                gi[q] = affine(gru.weight_ih->data, gru.bias_ih->data, q * H + j, IN, xb);
+                gh[q] = affine(gru.weight_hh->data, gru.bias_hh->data, q * H + j, H, hb);
             }
-            double r = sigm(gi[0] + gh[0]), z = sigm(gi[1] + gh[1]);
+            double r = sigm(gi[0] + gh[0]), u = sigm(gi[1] + gh[1]);
             double n = tanh(gi[2] + r * gh[2]);
-            CR_CHECK_NEAR(h1->data[b * H + j], (1 - z) * n + z * h[b * H + j], 1e-5);
+            CR_CHECK_NEAR(g1->data[b * H + j], (1 - u) * n + u * hb[j], 1e-5);
         }
     cr_nn_ctx_destroy(ctx);
     cr_nn_params_destroy(P);
@@ -183,9 +147,10 @@ static void rnn_gradcheck(int lstm, int seq) {
     nn_gradcheck_fill(x, T * B * IN, -1, 1, 0, 21);
     nn_gradcheck_fill(h, B * H, -1, 1, 0, 22);
     nn_gradcheck_fill(c, B * H, -1, 1, 0, 23);
-    nn_gradcheck_input in[3] = {
-        seq ? nn_gradcheck_in(3, (int64_t[]){T, B, IN}, x) : nn_gradcheck_in(2, (int64_t[]){B, IN}, x),
-        nn_gradcheck_in(2, (int64_t[]){B, H}, h), nn_gradcheck_in(2, (int64_t[]){B, H}, c)};
+    nn_gradcheck_input in[3] = {seq ? nn_gradcheck_in(3, (int64_t[]){T, B, IN}, x)
+                                    : nn_gradcheck_in(2, (int64_t[]){B, IN}, x),
+                                nn_gradcheck_in(2, (int64_t[]){B, H}, h),
+                                nn_gradcheck_in(2, (int64_t[]){B, H}, c)};
     nn_gradcheck_def gd = nn_gradcheck_default_def();
     gd.name = lstm ? (seq ? "lstm sequence" : "lstm cell") : (seq ? "gru sequence" : "gru cell");
     nn_gradcheck_result res;
@@ -330,7 +295,8 @@ static void gat_reference(const cr_gat *gat, const float *x, double *out) {
     double p[GN][MAXH][MAXF], ss[GN][MAXH], sd[GN][MAXH], xn[GN], xmax = 0;
     for (int n = 0; n < GN; n++) {
         double q = 0;
-        for (int i = 0; i < IN; i++) q += (double)x[n * IN + i] * x[n * IN + i];
+        for (int i = 0; i < IN; i++)
+            q += (double)x[n * IN + i] * x[n * IN + i];
         xn[n] = sqrt(q);
         xmax = fmax(xmax, xn[n]);
         for (int k = 0; k < H; k++) {
@@ -342,7 +308,8 @@ static void gat_reference(const cr_gat *gat, const float *x, double *out) {
             }
         }
     }
-    for (int i = 0; i < GN * cr_gat_out_dim(d); i++) out[i] = 0;
+    for (int i = 0; i < GN * cr_gat_out_dim(d); i++)
+        out[i] = 0;
     for (int k = 0; k < H; k++) {
         double u2 = 0, w2 = 0; /* |W_k^T a_dst|^2, |W_k^T a_src|^2 */
         for (int i = 0; i < IN; i++) {
@@ -360,9 +327,11 @@ static void gat_reference(const cr_gat *gat, const float *x, double *out) {
             row[rcv[e]] += g[e] * g[e];
             near[rcv[e]] = fmax(near[rcv[e]], fmax(xn[snd[e]], xn[rcv[e]]));
         }
-        for (int n = 0; n < GN; n++) gmax = fmax(gmax, sqrt(row[n]));
+        for (int n = 0; n < GN; n++)
+            gmax = fmax(gmax, sqrt(row[n]));
         double logit[EE], zmax[GN], zsum[GN];
-        for (int n = 0; n < GN; n++) zmax[n] = -1e300, zsum[n] = 0;
+        for (int n = 0; n < GN; n++)
+            zmax[n] = -1e300, zsum[n] = 0;
         for (int e = 0; e < EE; e++) {
             double den = 1;
             if (d->norm == CR_GAT_NORM_GLOBAL) den = fmax(gmax, xmax * lip);
@@ -371,7 +340,8 @@ static void gat_reference(const cr_gat *gat, const float *x, double *out) {
             logit[e] = s > 0 ? s : d->negative_slope * s;
             zmax[rcv[e]] = fmax(zmax[rcv[e]], logit[e]);
         }
-        for (int e = 0; e < EE; e++) zsum[rcv[e]] += exp(logit[e] - zmax[rcv[e]]);
+        for (int e = 0; e < EE; e++)
+            zsum[rcv[e]] += exp(logit[e] - zmax[rcv[e]]);
         for (int e = 0; e < EE; e++) {
             double a = exp(logit[e] - zmax[rcv[e]]) / zsum[rcv[e]];
             for (int f = 0; f < F; f++) {
@@ -399,10 +369,11 @@ CR_TEST(nn_graph, gat_matches_loop_reference) {
             double ref[GN * 6];
             gat_reference(&k.gat, x, ref);
             cr_nn_ctx_reset(ctx);
-            cr_tensor *y = cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x),
-                                          &k.g, NULL);
+            cr_tensor *y =
+                cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x), &k.g, NULL);
             CR_REQUIRE(y && y->shape[0] == GN && y->shape[1] == cr_gat_out_dim(&d));
-            for (int i = 0; i < y->numel; i++) CR_CHECK_NEAR(y->data[i], ref[i], 2e-5);
+            for (int i = 0; i < y->numel; i++)
+                CR_CHECK_NEAR(y->data[i], ref[i], 2e-5);
             cr_nn_params_destroy(P);
         }
     cr_nn_ctx_destroy(ctx);
@@ -423,13 +394,14 @@ CR_TEST(nn_graph, gat_lipschitz_bound_and_scale_invariance) {
         CR_REQUIRE(make_gat(&d, &P, &k, 80));
         float x[GN * 4], x100[GN * 4];
         nn_gradcheck_fill(x, GN * 4, -1, 1, 0, 81);
-        for (int i = 0; i < GN * 4; i++) x100[i] = 100.0f * x[i];
+        for (int i = 0; i < GN * 4; i++)
+            x100[i] = 100.0f * x[i];
         cr_nn_ctx_reset(ctx);
         cr_gat_attention a1, a2;
-        CR_REQUIRE(cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x), &k.g,
-                                  &a1));
-        CR_REQUIRE(cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x100), &k.g,
-                                  &a2));
+        CR_REQUIRE(
+            cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x), &k.g, &a1));
+        CR_REQUIRE(
+            cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x100), &k.g, &a2));
         CR_REQUIRE(a1.edges == GE + GN && a2.edges == a1.edges && a1.weights && a2.scores);
         int H = d.heads;
         double wsum[GN][3] = {{0}}, row2[GN][3] = {{0}}, max_w100 = 0, min_w100 = 1;
@@ -529,8 +501,8 @@ CR_TEST(nn_graph, mpnn_gradcheck) {
     gd.name = "mpnn";
     nn_gradcheck_result res;
     CR_CHECK(nn_gradcheck(&gd, 3, in, P, build_mpnn, &k, &res) == 0);
-    CR_CHECK(res.checked == GN * MP_NODE_IN + GE * MP_EDGE_IN + MP_LE * MP_LAYER_IN +
-                                cr_nn_params_numel(P));
+    CR_CHECK(res.checked ==
+             GN * MP_NODE_IN + GE * MP_EDGE_IN + MP_LE * MP_LAYER_IN + cr_nn_params_numel(P));
     cr_mpnn_destroy(k.net);
     cr_nn_params_destroy(P);
 }
@@ -544,15 +516,30 @@ static void ref_linear(cr_nn_params *P, const char *name, const double *x, int i
     CR_ASSERT(W && B && W->shape[1] == in);
     for (int o = 0; o < W->shape[0]; o++) {
         y[o] = B->data[o];
-        for (int i = 0; i < in; i++) y[o] += (double)W->data[o * in + i] * x[i];
+        for (int i = 0; i < in; i++)
+            y[o] += (double)W->data[o * in + i] * x[i];
     }
 }
 
-/* With no hidden layers and no LayerNorm every MLP is one linear map, so
- * eq. 6-7 of GDSR can be written out: edge input [e_ij, h_i, h_j] with i
- * the receiver, node input [h_i, sum over set 0, sum over set 1]. */
+/* y = W1 tanh(W0 x + b0) + b1: an MLP "<base>.0", "<base>.1" with one
+ * hidden layer of width RL. */
+enum { RL = 5 };
+static void ref_mlp(cr_nn_params *P, const char *base, const double *x, int in, double *y) {
+    char name[96];
+    double hid[RL];
+    snprintf(name, sizeof name, "%s.0", base);
+    ref_linear(P, name, x, in, hid);
+    for (int i = 0; i < RL; i++)
+        hid[i] = tanh(hid[i]);
+    snprintf(name, sizeof name, "%s.1", base);
+    ref_linear(P, name, hid, RL, y);
+}
+
+/* Without LayerNorm, eq. 6-7 of GDSR written out with one-hidden-layer tanh
+ * MLPs: edge input [e_ij, h_i, h_j] with i the receiver, node input
+ * [h_i, sum over set 0, sum over set 1]. */
 CR_TEST(nn_graph, mpnn_matches_loop_reference) {
-    enum { L = 5, K = 2 };
+    enum { L = RL, K = 2 };
     cr_nn_params *P = NULL;
     cr_error err = {0};
     CR_REQUIRE(cr_nn_params_create(&P, &err) == CR_OK);
@@ -564,7 +551,8 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
     d.node_out = MP_OUT;
     d.latent = L;
     d.steps = K;
-    d.hidden_layers = 0;
+    d.hidden_layers = 1;
+    d.act = CR_ACT_TANH;
     d.layer_norm = 0;
     cr_rng rng = cr_rng_make(95, 0);
     cr_mpnn *net = NULL;
@@ -580,13 +568,15 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
     const float *exs[2] = {ex, lx};
     double h[GN][L], e[2][GE][L], in[3 * L], upd[L];
     for (int n = 0; n < GN; n++) {
-        for (int i = 0; i < MP_NODE_IN; i++) in[i] = x[n * MP_NODE_IN + i];
-        ref_linear(P, "mp.encoder.node.0", in, MP_NODE_IN, h[n]);
+        for (int i = 0; i < MP_NODE_IN; i++)
+            in[i] = x[n * MP_NODE_IN + i];
+        ref_mlp(P, "mp.encoder.node", in, MP_NODE_IN, h[n]);
     }
     for (int s = 0; s < 2; s++)
         for (int j = 0; j < ne[s]; j++) {
-            for (int i = 0; i < nin[s]; i++) in[i] = exs[s][j * nin[s] + i];
-            ref_linear(P, s ? "mp.encoder.edge1.0" : "mp.encoder.edge0.0", in, nin[s], e[s][j]);
+            for (int i = 0; i < nin[s]; i++)
+                in[i] = exs[s][j * nin[s] + i];
+            ref_mlp(P, s ? "mp.encoder.edge1" : "mp.encoder.edge0", in, nin[s], e[s][j]);
         }
     for (int k = 0; k < K; k++) {
         double agg[2][GN][L] = {{{0}}};
@@ -598,8 +588,8 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
                     in[2 * L + c] = h[snd[s][j]][c];
                 }
                 char name[64];
-                snprintf(name, sizeof name, "mp.processor.%d.edge%d.0", k, s);
-                ref_linear(P, name, in, 3 * L, upd);
+                snprintf(name, sizeof name, "mp.processor.%d.edge%d", k, s);
+                ref_mlp(P, name, in, 3 * L, upd);
                 for (int c = 0; c < L; c++) {
                     e[s][j][c] += upd[c];
                     agg[s][rcv[s][j]][c] += e[s][j][c];
@@ -613,9 +603,10 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
                 in[2 * L + c] = agg[1][n][c];
             }
             char name[64];
-            snprintf(name, sizeof name, "mp.processor.%d.node.0", k);
-            ref_linear(P, name, in, 3 * L, upd);
-            for (int c = 0; c < L; c++) hn[n][c] = h[n][c] + upd[c];
+            snprintf(name, sizeof name, "mp.processor.%d.node", k);
+            ref_mlp(P, name, in, 3 * L, upd);
+            for (int c = 0; c < L; c++)
+                hn[n][c] = h[n][c] + upd[c];
         }
         memcpy(h, hn, sizeof h);
     }
@@ -625,13 +616,14 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
                         cr_nn_from(ctx, 2, (int64_t[]){MP_LE, 1}, lx)};
     cr_nn_graph g[2] = {test_graph(),
                         {.nodes = GN, .edges = MP_LE, .senders = mp_lsnd, .receivers = mp_lrcv}};
-    cr_tensor *y = cr_mpnn_forward(ctx, net, cr_nn_from(ctx, 2, (int64_t[]){GN, MP_NODE_IN}, x),
-                                   g, ea, NULL);
+    cr_tensor *y =
+        cr_mpnn_forward(ctx, net, cr_nn_from(ctx, 2, (int64_t[]){GN, MP_NODE_IN}, x), g, ea, NULL);
     CR_REQUIRE(y && y->shape[0] == GN && y->shape[1] == MP_OUT);
     for (int n = 0; n < GN; n++) {
         double out[MP_OUT];
-        ref_linear(P, "mp.decoder.0", h[n], L, out);
-        for (int c = 0; c < MP_OUT; c++) CR_CHECK_NEAR(y->data[n * MP_OUT + c], out[c], 1e-5);
+        ref_mlp(P, "mp.decoder", h[n], L, out);
+        for (int c = 0; c < MP_OUT; c++)
+            CR_CHECK_NEAR(y->data[n * MP_OUT + c], out[c], 1e-5);
     }
     cr_nn_ctx_destroy(ctx);
     cr_mpnn_destroy(net);
@@ -650,7 +642,8 @@ static void permute_graph(const int32_t *perm, const int32_t *s, const int32_t *
 }
 
 static void permute_rows(const int32_t *perm, const float *x, int n, int c, float *px) {
-    for (int i = 0; i < n; i++) memcpy(px + perm[i] * c, x + i * c, (size_t)c * sizeof *x);
+    for (int i = 0; i < n; i++)
+        memcpy(px + perm[i] * c, x + i * c, (size_t)c * sizeof *x);
 }
 
 CR_TEST(nn_graph, graph_layers_are_permutation_equivariant) {
@@ -666,9 +659,10 @@ CR_TEST(nn_graph, graph_layers_are_permutation_equivariant) {
     nn_gradcheck_fill(ex, GE * MP_EDGE_IN, -1, 1, 0, 102);
     nn_gradcheck_fill(lx, MP_LE, -1, 1, 0, 103);
     permute_rows(perm, x, GN, 4, px);
-    for (int e = 0; e < GE; e++) memcpy(pex + (GE - 1 - e) * MP_EDGE_IN, ex + e * MP_EDGE_IN,
-                                        MP_EDGE_IN * sizeof(float));
-    for (int e = 0; e < MP_LE; e++) plx[MP_LE - 1 - e] = lx[e];
+    for (int e = 0; e < GE; e++)
+        memcpy(pex + (GE - 1 - e) * MP_EDGE_IN, ex + e * MP_EDGE_IN, MP_EDGE_IN * sizeof(float));
+    for (int e = 0; e < MP_LE; e++)
+        plx[MP_LE - 1 - e] = lx[e];
     cr_nn_ctx *ctx = nn_gradcheck_ctx(4 << 20);
     CR_REQUIRE(ctx);
     /* GAT, every normalisation. */
@@ -680,10 +674,10 @@ CR_TEST(nn_graph, graph_layers_are_permutation_equivariant) {
         CR_REQUIRE(make_gat(&d, &P, &k, 110 + (uint64_t)m));
         cr_nn_graph pg = {.nodes = GN, .edges = GE, .senders = ps, .receivers = pr};
         cr_nn_ctx_reset(ctx);
-        cr_tensor *y = cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x),
-                                      &k.g, NULL);
-        cr_tensor *py = cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, px),
-                                       &pg, NULL);
+        cr_tensor *y =
+            cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, x), &k.g, NULL);
+        cr_tensor *py =
+            cr_gat_forward(ctx, &k.gat, cr_nn_from(ctx, 2, (int64_t[]){GN, 4}, px), &pg, NULL);
         CR_REQUIRE(y && py);
         int C = (int)y->shape[1];
         for (int i = 0; i < GN; i++)
@@ -696,7 +690,8 @@ CR_TEST(nn_graph, graph_layers_are_permutation_equivariant) {
     mpnn_case k;
     CR_REQUIRE(make_mpnn(CR_ACT_RELU, &P, &k));
     float xm[GN * MP_NODE_IN], pxm[GN * MP_NODE_IN];
-    for (int i = 0; i < GN * MP_NODE_IN; i++) xm[i] = x[i];
+    for (int i = 0; i < GN * MP_NODE_IN; i++)
+        xm[i] = x[i];
     permute_rows(perm, xm, GN, MP_NODE_IN, pxm);
     cr_nn_ctx_reset(ctx);
     cr_tensor *ea[2] = {cr_nn_from(ctx, 2, (int64_t[]){GE, MP_EDGE_IN}, ex),
@@ -708,9 +703,8 @@ CR_TEST(nn_graph, graph_layers_are_permutation_equivariant) {
     cr_tensor *lat = NULL;
     cr_tensor *y = cr_mpnn_forward(ctx, k.net, cr_nn_from(ctx, 2, (int64_t[]){GN, MP_NODE_IN}, xm),
                                    k.g, ea, &lat);
-    cr_tensor *py = cr_mpnn_forward(ctx, k.net,
-                                    cr_nn_from(ctx, 2, (int64_t[]){GN, MP_NODE_IN}, pxm), pg, pea,
-                                    NULL);
+    cr_tensor *py = cr_mpnn_forward(
+        ctx, k.net, cr_nn_from(ctx, 2, (int64_t[]){GN, MP_NODE_IN}, pxm), pg, pea, NULL);
     CR_REQUIRE(y && py && lat && lat->shape[1] == 6);
     double spread = 0;
     for (int i = 0; i < GN; i++)
@@ -794,7 +788,8 @@ CR_TEST(nn_graph, bad_graphs_are_reported) {
     cr_nn_ctx_reset(ctx);
     cr_tensor *z = cr_gat_forward(ctx, &k.gat, cr_nn_zeros(ctx, 2, (int64_t[]){GN, 4}), &k.g, NULL);
     CR_REQUIRE(z);
-    for (int i = 0; i < z->numel; i++) CR_CHECK(isfinite(z->data[i]));
+    for (int i = 0; i < z->numel; i++)
+        CR_CHECK(isfinite(z->data[i]));
     cr_nn_params_destroy(P);
 
     mpnn_case m;

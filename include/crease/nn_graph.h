@@ -65,10 +65,9 @@ cr_status cr_gru_cell_create(const cr_rnn_def *def, cr_nn_params *params, const 
 
 /* One step. x (B,IN), h and c (B,H) or NULL for a zero state. Returns the
  * new h (B,H); the LSTM also gives the new cell state in *c_out. */
-cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x,
-                                cr_tensor *h, cr_tensor *c, cr_tensor **c_out);
-cr_tensor *cr_gru_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x,
-                               cr_tensor *h);
+cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x, cr_tensor *h,
+                                cr_tensor *c, cr_tensor **c_out);
+cr_tensor *cr_gru_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x, cr_tensor *h);
 
 /* Run over a sequence: x (T,B,IN), time first as torch.nn.LSTM's default.
  * Returns every hidden state (T,B,H); *h_last (B,H) and *c_last (B,H) (each
@@ -107,11 +106,15 @@ typedef struct cr_nn_graph {
  * feature vector) and Lip(g) = sqrt(|W_k^T a_dst|^2 + |W_k^T a_src|^2), the
  * spectral norm of the linear map (x_i, x_j) -> g_ij (a 1 x 2 IN matrix).
  * Because |g_ij| <= ||g||_(2,inf), every normalised score obeys
- * |g*_ij| <= alpha: the softmax cannot saturate (within one receiver, weights
- * differ by at most a factor exp(2 alpha)), and g* is unchanged when the
- * input features are scaled by any s > 0. alpha is the paper's frequency
- * control (it uses 2; 1..3 in its ablation). See layer_gat.c for the
- * reading of the paper's norms. */
+ * |g*_ij| <= alpha (per receiver, even sqrt(sum_j g*_ij^2) <= alpha): the
+ * softmax cannot saturate (with a LeakyReLU slope in [0,1], weights of one
+ * receiver differ by at most a factor exp(2 alpha)), and g* is unchanged
+ * when the input features are scaled by any s > 0. alpha is the paper's
+ * frequency control (it uses 2; 1..3 in its ablation). With
+ * CR_GAT_NORM_GLOBAL the normaliser couples all nodes of one call, so
+ * disjoint graphs batched together influence each other's attention; use
+ * CR_GAT_NORM_RECEIVER (or one call per graph) when that matters. See
+ * layer_gat.c for the reading of the paper's norms. */
 typedef enum cr_gat_norm {
     CR_GAT_NORM_NONE = 0, /* plain GAT scores (the paper's ablation baseline) */
     CR_GAT_NORM_GLOBAL,   /* eq. 4 as written: norms over the whole graph (default) */
@@ -184,11 +187,12 @@ int cr_gat_out_dim(const cr_gat_def *def); /* H F or F */
  * Eq. 6 writes one f_AttLN for all gates: here each transform is one GAT-LN
  * layer with 4H outputs, sliced into the gates. */
 typedef struct cr_gat_lstm_def {
-    int input;       /* IN per node; must be set */
-    int hidden;      /* H per node (default 64, SwinGar's) */
+    int input;  /* IN per node; must be set */
+    int hidden; /* H per node (default 64, SwinGar's) */
     /* Attention settings shared by both transforms (heads, concat,
      * self_loops, negative_slope, norm, alpha). create fills input, out
-     * (4H / heads when concatenating, else 4H; 4H must then divide), bias
+     * (4H / heads when concatenating, which needs 4H to be a multiple of
+     * heads; else 4H), bias
      * (on GAT_x only) and act (none). */
     cr_gat_def gat;
     int peephole;    /* 1: the w C terms (default) */
@@ -204,8 +208,8 @@ typedef struct cr_gat_lstm {
 } cr_gat_lstm;
 
 cr_gat_lstm_def cr_gat_lstm_default_def(void);
-cr_status cr_gat_lstm_create(const cr_gat_lstm_def *def, cr_nn_params *params,
-                             const char *prefix, cr_rng *rng, cr_gat_lstm *out, cr_error *err);
+cr_status cr_gat_lstm_create(const cr_gat_lstm_def *def, cr_nn_params *params, const char *prefix,
+                             cr_rng *rng, cr_gat_lstm *out, cr_error *err);
 /* One step on graph g: x (N,IN), h and c (N,H) or NULL (zero state).
  * Returns H^t; *c_out gets C^t. */
 cr_tensor *cr_gat_lstm_cell_forward(cr_nn_ctx *ctx, const cr_gat_lstm *cell, cr_tensor *x,
@@ -261,8 +265,7 @@ void cr_mpnn_destroy(cr_mpnn *net); /* NULL is a no-op; the parameters stay in t
  * each of the S edge sets (edge_x[s] may be NULL when E_s is 0). Returns
  * (N, node_out); *latent (may be NULL) gets the processed h (N,L). */
 cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
-                           const cr_nn_graph *graphs, cr_tensor *const *edge_x,
-                           cr_tensor **latent);
+                           const cr_nn_graph *graphs, cr_tensor *const *edge_x, cr_tensor **latent);
 
 #ifdef __cplusplus
 }

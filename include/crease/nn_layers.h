@@ -33,13 +33,13 @@ extern "C" {
 /* ---------------------------------------------------------- activations -- */
 
 typedef enum cr_act {
-    CR_ACT_NONE = 0,   /* identity */
+    CR_ACT_NONE = 0, /* identity */
     CR_ACT_RELU,
     CR_ACT_LEAKY_RELU, /* param: negative-side slope */
     CR_ACT_TANH,
     CR_ACT_SIGMOID,
-    CR_ACT_SOFTPLUS,   /* param: beta, log(1 + exp(beta z)) / beta */
-    CR_ACT_SIN,        /* param: omega, sin(omega z) (SIREN, Sitzmann et al. 2020) */
+    CR_ACT_SOFTPLUS, /* param: beta, log(1 + exp(beta z)) / beta */
+    CR_ACT_SIN,      /* param: omega, sin(omega z) (SIREN, Sitzmann et al. 2020) */
     CR_ACT_COUNT
 } cr_act;
 
@@ -55,7 +55,7 @@ cr_tensor *cr_act_deriv(cr_nn_ctx *ctx, cr_act act, float param, cr_tensor *z);
 /* Initialisers fill t->data from a seeded generator (same seed, same
  * numbers). fan_in is the last axis, fan_out the rest: a (OUT,IN) weight. */
 typedef enum cr_init {
-    CR_INIT_AUTO = 0,        /* MLP: chosen from the activation (see cr_mlp_def.init) */
+    CR_INIT_AUTO = 0, /* MLP: chosen from the activation (see cr_mlp_def.init) */
     CR_INIT_ZERO,
     CR_INIT_GLOROT_UNIFORM,  /* U(+-gain sqrt(6/(in+out))), Glorot & Bengio 2010 */
     CR_INIT_KAIMING_UNIFORM, /* U(+-gain sqrt(3/in)), He et al. 2015 */
@@ -79,11 +79,11 @@ float cr_init_gain(cr_act act, float param);
 /* ------------------------------------------------------------- linear -- */
 
 typedef struct cr_linear_def {
-    int in, out;  /* features, >= 1 */
-    int bias;     /* 1: add "<prefix>.bias" (default 1) */
-    cr_init init; /* weights (default CR_INIT_GLOROT_UNIFORM; AUTO means the same here) */
-    float gain;   /* glorot and kaiming gain (default 1) */
-    float omega;  /* CR_INIT_SIREN frequency (default 30, SIREN's omega_0) */
+    int in, out;     /* features, >= 1 */
+    int bias;        /* 1: add "<prefix>.bias" (default 1) */
+    cr_init init;    /* weights (default CR_INIT_GLOROT_UNIFORM; AUTO means the same here) */
+    float gain;      /* glorot and kaiming gain (default 1) */
+    float omega;     /* CR_INIT_SIREN frequency (default 30, SIREN's omega_0) */
     uint32_t cookie; /* set by cr_linear_default_def; a hand-zeroed def is a bug */
 } cr_linear_def;
 
@@ -130,9 +130,9 @@ typedef struct cr_mlp_def {
 
 typedef struct cr_mlp {
     cr_mlp_def def;
-    cr_linear layer[CR_MLP_MAX_LAYERS];          /* "<prefix>.<i>.weight" / ".bias" */
-    cr_tensor *ln_weight[CR_MLP_MAX_LAYERS];     /* (C) "<prefix>.<i>.ln.weight" (ones) or NULL */
-    cr_tensor *ln_bias[CR_MLP_MAX_LAYERS];       /* (C) "<prefix>.<i>.ln.bias" (zeros) or NULL */
+    cr_linear layer[CR_MLP_MAX_LAYERS];      /* "<prefix>.<i>.weight" / ".bias" */
+    cr_tensor *ln_weight[CR_MLP_MAX_LAYERS]; /* (C) "<prefix>.<i>.ln.weight" (ones) or NULL */
+    cr_tensor *ln_bias[CR_MLP_MAX_LAYERS];   /* (C) "<prefix>.<i>.ln.bias" (zeros) or NULL */
 } cr_mlp;
 
 cr_mlp_def cr_mlp_default_def(void);
@@ -186,7 +186,7 @@ enum { CR_GRID_MAX_LEVELS = 8, CR_GRID_MAX_FEATURES = 64 };
  * nodes of F features: resolution 100 with 2 levels gives the paper's
  * 101x101x3 and 51x51x3 grids (38,406 floats). */
 typedef struct cr_grid_encoding_def {
-    int levels;       /* L, 1..CR_GRID_MAX_LEVELS, with floor(resolution / 2^(L-1)) >= 1 (default 2) */
+    int levels; /* L, 1..CR_GRID_MAX_LEVELS, with floor(resolution / 2^(L-1)) >= 1 (default 2) */
     int resolution;   /* cells per side of the finest level (default 100) */
     int features;     /* F per node, 1..CR_GRID_MAX_FEATURES (default 3) */
     float init_range; /* nodes start U(-r, r) (default 1e-4, Instant-NGP's) */
@@ -195,9 +195,9 @@ typedef struct cr_grid_encoding_def {
 
 typedef struct cr_grid_encoding {
     cr_grid_encoding_def def;
-    int cells[CR_GRID_MAX_LEVELS];             /* r_l */
-    cr_tensor *level[CR_GRID_MAX_LEVELS];      /* (r_l+1, r_l+1, F) "<prefix>.level<l>", [iv][iu][f] */
-    cr_fused_op op;                            /* the fused op (user = this struct) */
+    int cells[CR_GRID_MAX_LEVELS];        /* r_l */
+    cr_tensor *level[CR_GRID_MAX_LEVELS]; /* (r_l+1, r_l+1, F) "<prefix>.level<l>", [iv][iu][f] */
+    cr_fused_op op;                       /* the fused op (user = this struct) */
 } cr_grid_encoding;
 
 cr_grid_encoding_def cr_grid_encoding_default_def(void);
@@ -229,8 +229,8 @@ int cr_grid_encoding_out_dim(const cr_grid_encoding_def *def); /* L F */
 
 /* One fused node with a hand-written backward. im may be NULL (real input,
  * the first layer). Returns *out_re (NULL on error); out_im may be NULL. */
-cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, float omega0,
-                              float s0, cr_tensor **out_re, cr_tensor **out_im);
+cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, float omega0, float s0,
+                              cr_tensor **out_re, cr_tensor **out_im);
 /* (x_re + j x_im)(W_re + j W_im)^T + (b_re + j b_im): x (...,IN), W (OUT,IN),
  * b (OUT). x_im NULL means real input; b_re, b_im may be NULL. Returns *y_re. */
 cr_tensor *cr_complex_linear(cr_nn_ctx *ctx, cr_tensor *x_re, cr_tensor *x_im, cr_tensor *w_re,
@@ -250,8 +250,9 @@ typedef struct cr_wire_mlp_def {
 
 typedef struct cr_wire_mlp {
     cr_wire_mlp_def def;
-    cr_linear first;                               /* "<prefix>.0.weight" / ".bias" */
-    cr_tensor *w_re[CR_MLP_MAX_LAYERS], *w_im[CR_MLP_MAX_LAYERS]; /* (OUT,IN) ".<i>.weight_re/_im" */
+    cr_linear first; /* "<prefix>.0.weight" / ".bias" */
+    cr_tensor *w_re[CR_MLP_MAX_LAYERS],
+        *w_im[CR_MLP_MAX_LAYERS]; /* (OUT,IN) ".<i>.weight_re/_im" */
     cr_tensor *b_re[CR_MLP_MAX_LAYERS], *b_im[CR_MLP_MAX_LAYERS]; /* (OUT) ".<i>.bias_re/_im" */
 } cr_wire_mlp;
 
@@ -291,7 +292,7 @@ typedef struct cr_hyper_def {
 } cr_hyper_def;
 
 typedef struct cr_hyper {
-    cr_hyper_def def; /* generator.widths[nlayers] = P */
+    cr_hyper_def def;  /* generator.widths[nlayers] = P */
     cr_mlp *generator; /* "<prefix>.gen.<i>.weight", ... */
     int64_t nparams;   /* P */
 } cr_hyper;

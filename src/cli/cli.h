@@ -55,5 +55,7 @@ int cmd_render(int argc, char **argv);
 void help_render(void);
 int cmd_primitive(int argc, char **argv);
 void help_primitive(void);
+int cmd_fit(int argc, char **argv);
+void help_fit(void);
 
 #endif

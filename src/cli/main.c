@@ -12,6 +12,8 @@ static const cli_command commands[] = {
      help_render},
     {"primitive", "write a primitive mesh with UVs (sphere, torus, prism, plane, ...)",
      cmd_primitive, help_primitive},
+    {"fit", "regress a deformation over UV with mlp, pe or grid models (drape paper, Table 1)",
+     cmd_fit, help_fit},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

@@ -48,19 +48,21 @@ cr_tensor *cr_fourier_encoding_forward(cr_nn_ctx *ctx, cr_tensor *x, int nfreq) 
     if (!x || nfreq == 0) return x ? x : cr_nn_reshape(ctx, x, 0, NULL);
     int64_t d = x->ndim > 0 ? x->shape[x->ndim - 1] : 1, n = d > 0 ? x->numel / d : 0;
     float freq[30];
-    for (int k = 0; k < nfreq; k++) freq[k] = (float)(ldexp(M_PI, k)); /* 2^k pi */
+    for (int k = 0; k < nfreq; k++)
+        freq[k] = (float)(ldexp(M_PI, k)); /* 2^k pi */
     cr_tensor *f = cr_nn_from(ctx, 3, (int64_t[]){1, nfreq, 1}, freq);
     cr_tensor *a = cr_nn_mul(ctx, cr_nn_reshape(ctx, x, 3, (int64_t[]){n, 1, d}), f); /* (N,K,D) */
     int64_t s4[4] = {n, nfreq, 1, d};
     cr_tensor *sc[2] = {cr_nn_reshape(ctx, cr_nn_sin(ctx, a), 4, s4),
                         cr_nn_reshape(ctx, cr_nn_cos(ctx, a), 4, s4)};
-    cr_tensor *parts[2] = {cr_nn_reshape(ctx, x, 2, (int64_t[]){n, d}),
-                           cr_nn_reshape(ctx, cr_nn_concat(ctx, 2, sc, 2), 2,
-                                         (int64_t[]){n, 2 * nfreq * d})};
+    cr_tensor *parts[2] = {
+        cr_nn_reshape(ctx, x, 2, (int64_t[]){n, d}),
+        cr_nn_reshape(ctx, cr_nn_concat(ctx, 2, sc, 2), 2, (int64_t[]){n, 2 * nfreq * d})};
     cr_tensor *y = cr_nn_concat(ctx, 2, parts, 1); /* (N, D + 2KD) */
     if (!y || x->ndim <= 1) return y;
     int64_t shape[CR_NN_MAX_DIMS];
-    for (int i = 0; i < x->ndim; i++) shape[i] = x->shape[i];
+    for (int i = 0; i < x->ndim; i++)
+        shape[i] = x->shape[i];
     shape[x->ndim - 1] = cr_fourier_encoding_dim(d, nfreq);
     return cr_nn_reshape(ctx, y, x->ndim, shape);
 }
@@ -110,16 +112,16 @@ static inline float clamp01(float c) {
 
 typedef struct grid_job {
     const cr_grid_encoding *g;
-    const float *uv;        /* (N,2) */
-    float *uv_grad;         /* (N,2) or NULL */
-    float *out;             /* (N,L*F) forward output */
-    const float *gout;      /* (N,L*F) backward: dL/d(out) */
-    float *const *lv;       /* (L) level grids */
-    float *lv_grad;         /* backward, one level: (s,s,F) */
-    int level;              /* backward, the level being gathered */
-    const int64_t *off;     /* (r*r+1) points of each cell in sorted order */
-    const int32_t *perm;    /* (N) sorted position -> point */
-    const float *frac;      /* (N,2) fx, fy of each point on this level */
+    const float *uv;     /* (N,2) */
+    float *uv_grad;      /* (N,2) or NULL */
+    float *out;          /* (N,L*F) forward output */
+    const float *gout;   /* (N,L*F) backward: dL/d(out) */
+    float *const *lv;    /* (L) level grids */
+    float *lv_grad;      /* backward, one level: (s,s,F) */
+    int level;           /* backward, the level being gathered */
+    const int64_t *off;  /* (r*r+1) points of each cell in sorted order */
+    const int32_t *perm; /* (N) sorted position -> point */
+    const float *frac;   /* (N,2) fx, fy of each point on this level */
 } grid_job;
 
 static void grid_forward_range(void *arg, int64_t begin, int64_t end) {
@@ -136,7 +138,8 @@ static void grid_forward_range(void *arg, int64_t begin, int64_t end) {
             locate(v, r, &j, &fy);
             const float *g00 = job->lv[l] + ((int64_t)j * s + i) * F, *g10 = g00 + F;
             const float *g01 = g00 + (int64_t)s * F, *g11 = g01 + F;
-            float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
+            float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy,
+                  w11 = fx * fy;
             for (int f = 0; f < F; f++)
                 o[l * F + f] = w00 * g00[f] + w10 * g10[f] + w01 * g01[f] + w11 * g11[f];
         }
@@ -184,7 +187,8 @@ static void grid_gather_rows(void *arg, int64_t begin, int64_t end) {
     double acc[CR_GRID_MAX_FEATURES];
     for (int64_t jn = begin; jn < end; jn++) {
         for (int in = 0; in < s; in++) {
-            for (int f = 0; f < F; f++) acc[f] = 0.0;
+            for (int f = 0; f < F; f++)
+                acc[f] = 0.0;
             for (int cj = (int)jn - 1; cj <= (int)jn; cj++) {
                 if (cj < 0 || cj >= r) continue;
                 for (int ci = in - 1; ci <= in; ci++) {
@@ -195,12 +199,14 @@ static void grid_gather_rows(void *arg, int64_t begin, int64_t end) {
                         float fx = job->frac[2 * p], fy = job->frac[2 * p + 1];
                         double w = (ci == in ? 1 - fx : fx) * (double)(cj == jn ? 1 - fy : fy);
                         const float *go = job->gout + (int64_t)p * L * F + l * F;
-                        for (int f = 0; f < F; f++) acc[f] += w * go[f];
+                        for (int f = 0; f < F; f++)
+                            acc[f] += w * go[f];
                     }
                 }
             }
             float *gg = job->lv_grad + (jn * s + in) * F;
-            for (int f = 0; f < F; f++) gg[f] += (float)acc[f];
+            for (int f = 0; f < F; f++)
+                gg[f] += (float)acc[f];
         }
     }
 }
@@ -223,27 +229,27 @@ static cr_status grid_check(const cr_grid_encoding *g, cr_tensor *const *in, int
     return CR_OK;
 }
 
-static cr_status grid_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in,
-                              int nin, cr_tensor *const *out, int nout, void **stash,
-                              cr_error *err) {
+static cr_status grid_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
+                              cr_tensor *const *out, int nout, void **stash, cr_error *err) {
     (void)ctx, (void)nout, (void)stash;
     const cr_grid_encoding *g = op->user;
     CR_TRY(grid_check(g, in, nin, err));
     float *lv[CR_GRID_MAX_LEVELS];
-    for (int l = 0; l < g->def.levels; l++) lv[l] = in[1 + l]->data;
+    for (int l = 0; l < g->def.levels; l++)
+        lv[l] = in[1 + l]->data;
     grid_job job = {.g = g, .uv = in[0]->data, .out = out[0]->data, .lv = lv};
     cr_parallel_for(in[0]->shape[0], 256, grid_forward_range, &job);
     return CR_OK;
 }
 
-static cr_status grid_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in,
-                               int nin, cr_tensor *const *out, int nout, void *stash,
-                               cr_error *err) {
+static cr_status grid_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
+                               cr_tensor *const *out, int nout, void *stash, cr_error *err) {
     (void)nin, (void)nout, (void)stash;
     const cr_grid_encoding *g = op->user;
     int64_t n = in[0]->shape[0];
     float *lv[CR_GRID_MAX_LEVELS];
-    for (int l = 0; l < g->def.levels; l++) lv[l] = in[1 + l]->data;
+    for (int l = 0; l < g->def.levels; l++)
+        lv[l] = in[1 + l]->data;
     grid_job job = {.g = g, .uv = in[0]->data, .gout = out[0]->grad, .lv = lv};
     if (in[0]->requires_grad) {
         job.uv_grad = in[0]->grad;
@@ -268,9 +274,12 @@ static cr_status grid_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
             cell[p] = j * r + i;
             off[cell[p] + 1]++;
         }
-        for (int64_t c = 0; c < cells; c++) off[c + 1] += off[c];
-        for (int64_t p = 0; p < n; p++) perm[off[cell[p]]++] = (int32_t)p;
-        for (int64_t c = cells; c > 0; c--) off[c] = off[c - 1]; /* undo the fill's advance */
+        for (int64_t c = 0; c < cells; c++)
+            off[c + 1] += off[c];
+        for (int64_t p = 0; p < n; p++)
+            perm[off[cell[p]]++] = (int32_t)p;
+        for (int64_t c = cells; c > 0; c--)
+            off[c] = off[c - 1]; /* undo the fill's advance */
         off[0] = 0;
         job.level = l;
         job.lv_grad = in[1 + l]->grad;
@@ -308,10 +317,8 @@ cr_status cr_grid_encoding_create(const cr_grid_encoding_def *def, cr_nn_params 
     cr_grid_encoding *g = cr_calloc(1, sizeof *g, err);
     if (!g) return CR_ERR_MEMORY;
     g->def = *def;
-    g->op = (cr_fused_op){.name = "grid_encoding",
-                          .forward = grid_forward,
-                          .backward = grid_backward,
-                          .user = g};
+    g->op = (cr_fused_op){
+        .name = "grid_encoding", .forward = grid_forward, .backward = grid_backward, .user = g};
     for (int l = 0; l < def->levels; l++) {
         g->cells[l] = level_cells(def, l);
         int64_t s = g->cells[l] + 1;
@@ -339,7 +346,8 @@ void cr_grid_encoding_destroy(cr_grid_encoding *g) {
 cr_tensor *cr_grid_encoding_forward(cr_nn_ctx *ctx, const cr_grid_encoding *g, cr_tensor *uv) {
     cr_tensor *in[1 + CR_GRID_MAX_LEVELS];
     in[0] = uv;
-    for (int l = 0; l < g->def.levels; l++) in[1 + l] = g->level[l];
+    for (int l = 0; l < g->def.levels; l++)
+        in[1 + l] = g->level[l];
     if (!uv) return cr_nn_reshape(ctx, uv, 0, NULL); /* records the NULL input */
     cr_nn_shape shape = {.ndim = 2, .d = {uv->shape[0], cr_grid_encoding_out_dim(&g->def)}};
     return cr_nn_fused(ctx, &g->op, 1 + g->def.levels, in, 1, &shape, NULL);

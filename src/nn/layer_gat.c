@@ -176,7 +176,8 @@ static cr_tensor *seg_max(cr_nn_ctx *ctx, cr_tensor *t, const int32_t *seg, int6
     int64_t nidx = seg ? R * C : C;
     int32_t *idx = cr_nn_scratch(ctx, "gat", (size_t)nidx * sizeof *idx);
     if (!best || !idx) return NULL;
-    for (int64_t k = 0; k < S * C; k++) best[k] = -1;
+    for (int64_t k = 0; k < S * C; k++)
+        best[k] = -1;
     for (int64_t r = 0; r < R; r++) {
         int32_t *b = best + (seg ? seg[r] : 0) * C;
         for (int64_t c = 0; c < C; c++)
@@ -197,7 +198,8 @@ static cr_tensor *select_max(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b) {
     CR_ASSERT(cr_nn_same_shape(a, b));
     cr_tensor *m = cr_nn_new(ctx, a->ndim, a->shape);
     if (!m) return NULL;
-    for (int64_t i = 0; i < a->numel; i++) m->data[i] = a->data[i] >= b->data[i] ? 1.0f : 0.0f;
+    for (int64_t i = 0; i < a->numel; i++)
+        m->data[i] = a->data[i] >= b->data[i] ? 1.0f : 0.0f;
     return cr_nn_add(ctx, b, cr_nn_mul(ctx, m, cr_nn_sub(ctx, a, b)));
 }
 
@@ -215,11 +217,11 @@ static cr_tensor *score_lipschitz(cr_nn_ctx *ctx, const cr_gat *gat) {
 }
 
 /* Eq. 4: alpha g / max{ ||g||_(2,inf), ||X^T||_(inf,2) Lip(g) }, g (E,H). */
-static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
-                                      cr_tensor *g, const int32_t *snd, const int32_t *rcv,
-                                      int64_t E, int64_t N) {
-    cr_tensor *L = score_lipschitz(ctx, gat);                    /* (1,H) */
-    cr_tensor *xn = cr_nn_norm(ctx, x, NORM_EPS);                /* (N,1) */
+static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, cr_tensor *g,
+                                      const int32_t *snd, const int32_t *rcv, int64_t E,
+                                      int64_t N) {
+    cr_tensor *L = score_lipschitz(ctx, gat);                                    /* (1,H) */
+    cr_tensor *xn = cr_nn_norm(ctx, x, NORM_EPS);                                /* (N,1) */
     cr_tensor *rows = cr_nn_scatter_add_rows(ctx, cr_nn_square(ctx, g), rcv, N); /* (N,H) */
     cr_tensor *row_norm, *x_max;
     if (gat->def.norm == CR_GAT_NORM_GLOBAL) {
@@ -227,8 +229,8 @@ static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tens
         x_max = seg_max(ctx, xn, NULL, 0); /* (1,1) */
     } else {
         /* Per edge, the terms of its receiver's neighbourhood. */
-        row_norm = cr_nn_sqrt(ctx, cr_nn_add_scalar(ctx, cr_nn_gather_rows(ctx, rows, rcv, E),
-                                                    ROW_TINY)); /* (E,H) */
+        row_norm = cr_nn_sqrt(
+            ctx, cr_nn_add_scalar(ctx, cr_nn_gather_rows(ctx, rows, rcv, E), ROW_TINY)); /* (E,H) */
         cr_tensor *ends = select_max(ctx, cr_nn_gather_rows(ctx, xn, snd, E),
                                      cr_nn_gather_rows(ctx, xn, rcv, E)); /* (E,1) */
         x_max = seg_max(ctx, ends, rcv, N);                               /* (E,1) */
@@ -268,9 +270,9 @@ cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const
             score = lipschitz_normalise(ctx, gat, x, score, snd, rcv, E, N);
         cr_tensor *w = cr_nn_segment_softmax(ctx, cr_nn_leaky_relu(ctx, score, d->negative_slope),
                                              rcv, N); /* (E,H) */
-        cr_tensor *msg = cr_nn_mul(ctx, cr_nn_reshape(ctx, cr_nn_gather_rows(ctx, p, snd, E), 3,
-                                                      (int64_t[]){E, H, F}),
-                                   cr_nn_reshape(ctx, w, 3, (int64_t[]){E, H, 1}));
+        cr_tensor *msg = cr_nn_mul(
+            ctx, cr_nn_reshape(ctx, cr_nn_gather_rows(ctx, p, snd, E), 3, (int64_t[]){E, H, F}),
+            cr_nn_reshape(ctx, w, 3, (int64_t[]){E, H, 1}));
         out = cr_nn_scatter_add_rows(ctx, msg, rcv, N); /* (N,H,F) */
         out = d->concat ? cr_nn_reshape(ctx, out, 2, (int64_t[]){N, H * F})
                         : cr_nn_mean_axis(ctx, out, 1, 0);

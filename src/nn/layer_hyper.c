@@ -55,7 +55,8 @@ static cr_status init_head(const cr_hyper_def *def, cr_linear *head, cr_rng *rng
             off += t->numel;
         }
         CR_ASSERT(off == head->bias->numel);
-        for (int64_t k = 0; k < head->weight->numel; k++) head->weight->data[k] *= def->head_scale;
+        for (int64_t k = 0; k < head->weight->numel; k++)
+            head->weight->data[k] *= def->head_scale;
     }
     cr_mlp_destroy(target);
     cr_nn_params_destroy(tmp);
@@ -87,8 +88,7 @@ cr_status cr_hyper_create(const cr_hyper_def *def, cr_nn_params *params, const c
     if (n < 0 || n >= (int)sizeof name)
         st = CR_FAIL(err, CR_ERR_INVALID, "hyper: prefix \"%s\" is too long", prefix);
     if (st == CR_OK) st = cr_mlp_create(gen, params, name, rng, &hn->generator, err);
-    if (st == CR_OK)
-        st = init_head(def, &hn->generator->layer[gen->nlayers - 1], rng, err);
+    if (st == CR_OK) st = init_head(def, &hn->generator->layer[gen->nlayers - 1], rng, err);
     if (st != CR_OK) {
         cr_hyper_destroy(hn);
         return st;
@@ -105,8 +105,8 @@ void cr_hyper_destroy(cr_hyper *hn) {
 
 cr_tensor *cr_hyper_eval_target(cr_nn_ctx *ctx, const cr_mlp_def *target, cr_tensor *theta,
                                 cr_tensor *x, const int32_t *group) {
-    CR_ASSERT(target->nlayers >= 1 && target->nlayers <= CR_MLP_MAX_LAYERS &&
-              !target->layer_norm && !target->residual);
+    CR_ASSERT(target->nlayers >= 1 && target->nlayers <= CR_MLP_MAX_LAYERS && !target->layer_norm &&
+              !target->residual);
     if (!theta || !x) return cr_nn_add(ctx, theta, x); /* records the NULL input */
     int64_t G = theta->shape[0], M = x->shape[0];
     /* A theta of the wrong width fails here with both shapes in the message. */

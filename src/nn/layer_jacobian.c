@@ -28,21 +28,21 @@
  *   xhat = (z - mean) rstd,  rstd = (var + eps)^(-1/2),
  *   d xhat = rstd (t - mean(t) - xhat mean(xhat t))   (means over C),
  *   y = xhat w + b,  d y = w d xhat. */
-static void layer_norm_jvp(cr_nn_ctx *ctx, cr_tensor *z, cr_tensor *tz, cr_tensor *w,
-                           cr_tensor *b, float eps, cr_tensor **y, cr_tensor **ty) {
+static void layer_norm_jvp(cr_nn_ctx *ctx, cr_tensor *z, cr_tensor *tz, cr_tensor *w, cr_tensor *b,
+                           float eps, cr_tensor **y, cr_tensor **ty) {
     *y = *ty = NULL;
     if (!z) return;
     int64_t n = z->shape[0], c = z->shape[1];
     cr_tensor *mean = cr_nn_mean_axis(ctx, z, -1, 1);                         /* (N,1) */
-    cr_tensor *d = cr_nn_sub(ctx, z, mean);                                     /* (N,C) */
-    cr_tensor *var = cr_nn_mean_axis(ctx, cr_nn_square(ctx, d), -1, 1);         /* (N,1) */
-    cr_tensor *rstd = cr_nn_pow(ctx, cr_nn_add_scalar(ctx, var, eps), -0.5f);   /* (N,1) */
-    cr_tensor *xhat = cr_nn_mul(ctx, d, rstd);                                  /* (N,C) */
+    cr_tensor *d = cr_nn_sub(ctx, z, mean);                                   /* (N,C) */
+    cr_tensor *var = cr_nn_mean_axis(ctx, cr_nn_square(ctx, d), -1, 1);       /* (N,1) */
+    cr_tensor *rstd = cr_nn_pow(ctx, cr_nn_add_scalar(ctx, var, eps), -0.5f); /* (N,1) */
+    cr_tensor *xhat = cr_nn_mul(ctx, d, rstd);                                /* (N,C) */
     *y = cr_nn_add(ctx, cr_nn_mul(ctx, xhat, w), b);
     cr_tensor *x3 = cr_nn_reshape(ctx, xhat, 3, (int64_t[]){n, 1, c});
     cr_tensor *r3 = cr_nn_reshape(ctx, rstd, 3, (int64_t[]){n, 1, 1});
-    cr_tensor *tc = cr_nn_sub(ctx, tz, cr_nn_mean_axis(ctx, tz, -1, 1));       /* (B,IN,C) */
-    cr_tensor *proj = cr_nn_mean_axis(ctx, cr_nn_mul(ctx, x3, tz), -1, 1);     /* (N,IN,1) */
+    cr_tensor *tc = cr_nn_sub(ctx, tz, cr_nn_mean_axis(ctx, tz, -1, 1));   /* (B,IN,C) */
+    cr_tensor *proj = cr_nn_mean_axis(ctx, cr_nn_mul(ctx, x3, tz), -1, 1); /* (N,IN,1) */
     cr_tensor *tx = cr_nn_mul(ctx, cr_nn_sub(ctx, tc, cr_nn_mul(ctx, x3, proj)), r3);
     *ty = cr_nn_mul(ctx, tx, w);
 }
@@ -60,7 +60,8 @@ cr_tensor *cr_mlp_input_jacobian(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x
     z0 = cr_nn_reshape(ctx, z0, 2, (int64_t[]){n, def->widths[1]});
     cr_tensor *eye = cr_nn_zeros(ctx, 2, (int64_t[]){in, in});
     if (!eye) return NULL;
-    for (int64_t i = 0; i < in; i++) eye->data[i * in + i] = 1.0f;
+    for (int64_t i = 0; i < in; i++)
+        eye->data[i * in + i] = 1.0f;
     /* T_0 W_0^T = W_0^T, broadcast over the points: (1,IN,C1). */
     cr_tensor *t = cr_nn_reshape(ctx, cr_nn_linear(ctx, eye, mlp->layer[0].weight, NULL), 3,
                                  (int64_t[]){1, in, def->widths[1]});

@@ -30,8 +30,8 @@ static const float SIREN_OMEGA = 30.0f;
 /* ---------------------------------------------------------- activations -- */
 
 static const char *const act_names[CR_ACT_COUNT] = {
-    [CR_ACT_NONE] = "none",       [CR_ACT_RELU] = "relu",         [CR_ACT_LEAKY_RELU] = "leaky_relu",
-    [CR_ACT_TANH] = "tanh",       [CR_ACT_SIGMOID] = "sigmoid",   [CR_ACT_SOFTPLUS] = "softplus",
+    [CR_ACT_NONE] = "none", [CR_ACT_RELU] = "relu",       [CR_ACT_LEAKY_RELU] = "leaky_relu",
+    [CR_ACT_TANH] = "tanh", [CR_ACT_SIGMOID] = "sigmoid", [CR_ACT_SOFTPLUS] = "softplus",
     [CR_ACT_SIN] = "sin",
 };
 
@@ -42,28 +42,45 @@ const char *cr_act_name(cr_act act) {
 
 cr_tensor *cr_act_forward(cr_nn_ctx *ctx, cr_act act, float param, cr_tensor *z) {
     switch (act) {
-    case CR_ACT_NONE: return z;
-    case CR_ACT_RELU: return cr_nn_relu(ctx, z);
-    case CR_ACT_LEAKY_RELU: return cr_nn_leaky_relu(ctx, z, param);
-    case CR_ACT_TANH: return cr_nn_tanh(ctx, z);
-    case CR_ACT_SIGMOID: return cr_nn_sigmoid(ctx, z);
-    case CR_ACT_SOFTPLUS: return cr_nn_softplus(ctx, z, param);
-    case CR_ACT_SIN: return cr_nn_sin(ctx, cr_nn_mul_scalar(ctx, z, param));
-    default: CR_ASSERT(!"cr_act_forward: unknown activation"); return NULL;
+    case CR_ACT_NONE:
+        return z;
+    case CR_ACT_RELU:
+        return cr_nn_relu(ctx, z);
+    case CR_ACT_LEAKY_RELU:
+        return cr_nn_leaky_relu(ctx, z, param);
+    case CR_ACT_TANH:
+        return cr_nn_tanh(ctx, z);
+    case CR_ACT_SIGMOID:
+        return cr_nn_sigmoid(ctx, z);
+    case CR_ACT_SOFTPLUS:
+        return cr_nn_softplus(ctx, z, param);
+    case CR_ACT_SIN:
+        return cr_nn_sin(ctx, cr_nn_mul_scalar(ctx, z, param));
+    default:
+        CR_ASSERT(!"cr_act_forward: unknown activation");
+        return NULL;
     }
 }
 
 cr_tensor *cr_act_deriv(cr_nn_ctx *ctx, cr_act act, float param, cr_tensor *z) {
     switch (act) {
-    case CR_ACT_NONE: return z ? cr_nn_full(ctx, z->ndim, z->shape, 1.0f) : NULL;
-    case CR_ACT_RELU: return cr_nn_leaky_relu_deriv(ctx, z, 0.0f);
-    case CR_ACT_LEAKY_RELU: return cr_nn_leaky_relu_deriv(ctx, z, param);
-    case CR_ACT_TANH: return cr_nn_tanh_deriv(ctx, z);
-    case CR_ACT_SIGMOID: return cr_nn_sigmoid_deriv(ctx, z);
-    case CR_ACT_SOFTPLUS: return cr_nn_softplus_deriv(ctx, z, param);
+    case CR_ACT_NONE:
+        return z ? cr_nn_full(ctx, z->ndim, z->shape, 1.0f) : NULL;
+    case CR_ACT_RELU:
+        return cr_nn_leaky_relu_deriv(ctx, z, 0.0f);
+    case CR_ACT_LEAKY_RELU:
+        return cr_nn_leaky_relu_deriv(ctx, z, param);
+    case CR_ACT_TANH:
+        return cr_nn_tanh_deriv(ctx, z);
+    case CR_ACT_SIGMOID:
+        return cr_nn_sigmoid_deriv(ctx, z);
+    case CR_ACT_SOFTPLUS:
+        return cr_nn_softplus_deriv(ctx, z, param);
     case CR_ACT_SIN: /* d/dz sin(omega z) = omega cos(omega z) */
         return cr_nn_mul_scalar(ctx, cr_nn_cos(ctx, cr_nn_mul_scalar(ctx, z, param)), param);
-    default: CR_ASSERT(!"cr_act_deriv: unknown activation"); return NULL;
+    default:
+        CR_ASSERT(!"cr_act_deriv: unknown activation");
+        return NULL;
     }
 }
 
@@ -111,10 +128,14 @@ void cr_init_siren(cr_tensor *w, cr_rng *rng, int first, float omega) {
 float cr_init_gain(cr_act act, float param) {
     switch (act) {
     case CR_ACT_RELU:
-    case CR_ACT_SOFTPLUS: return sqrtf(2.0f);
-    case CR_ACT_LEAKY_RELU: return sqrtf(2.0f / (1.0f + param * param));
-    case CR_ACT_TANH: return 5.0f / 3.0f;
-    default: return 1.0f;
+    case CR_ACT_SOFTPLUS:
+        return sqrtf(2.0f);
+    case CR_ACT_LEAKY_RELU:
+        return sqrtf(2.0f / (1.0f + param * param));
+    case CR_ACT_TANH:
+        return 5.0f / 3.0f;
+    default:
+        return 1.0f;
     }
 }
 
@@ -143,15 +164,30 @@ static cr_status param_name(char *buf, const char *prefix, const char *suffix, c
 
 static void init_weight(cr_tensor *w, const cr_linear_def *def, cr_rng *rng) {
     switch (def->init) {
-    case CR_INIT_ZERO: cr_init_zero(w); break;
+    case CR_INIT_ZERO:
+        cr_init_zero(w);
+        break;
     case CR_INIT_AUTO:
-    case CR_INIT_GLOROT_UNIFORM: cr_init_glorot_uniform(w, rng, def->gain); break;
-    case CR_INIT_KAIMING_UNIFORM: cr_init_kaiming_uniform(w, rng, def->gain); break;
-    case CR_INIT_KAIMING_NORMAL: cr_init_kaiming_normal(w, rng, def->gain); break;
-    case CR_INIT_SIREN_FIRST: cr_init_siren(w, rng, 1, def->omega); break;
-    case CR_INIT_SIREN: cr_init_siren(w, rng, 0, def->omega); break;
-    case CR_INIT_TORCH: fill_symmetric(w, rng, 1.0 / sqrt((double)def->in)); break;
-    default: CR_ASSERT(!"linear: unknown init");
+    case CR_INIT_GLOROT_UNIFORM:
+        cr_init_glorot_uniform(w, rng, def->gain);
+        break;
+    case CR_INIT_KAIMING_UNIFORM:
+        cr_init_kaiming_uniform(w, rng, def->gain);
+        break;
+    case CR_INIT_KAIMING_NORMAL:
+        cr_init_kaiming_normal(w, rng, def->gain);
+        break;
+    case CR_INIT_SIREN_FIRST:
+        cr_init_siren(w, rng, 1, def->omega);
+        break;
+    case CR_INIT_SIREN:
+        cr_init_siren(w, rng, 0, def->omega);
+        break;
+    case CR_INIT_TORCH:
+        fill_symmetric(w, rng, 1.0 / sqrt((double)def->in));
+        break;
+    default:
+        CR_ASSERT(!"linear: unknown init");
     }
 }
 
@@ -207,10 +243,14 @@ cr_mlp_def cr_mlp_default_def(void) {
 
 static float act_param(const cr_mlp_def *def, cr_act act, int i) {
     switch (act) {
-    case CR_ACT_LEAKY_RELU: return def->leaky_slope;
-    case CR_ACT_SOFTPLUS: return def->softplus_beta;
-    case CR_ACT_SIN: return i == 0 ? def->first_omega : def->hidden_omega;
-    default: return 0.0f;
+    case CR_ACT_LEAKY_RELU:
+        return def->leaky_slope;
+    case CR_ACT_SOFTPLUS:
+        return def->softplus_beta;
+    case CR_ACT_SIN:
+        return i == 0 ? def->first_omega : def->hidden_omega;
+    default:
+        return 0.0f;
     }
 }
 
@@ -247,8 +287,7 @@ cr_status cr_mlp_def_validate(const cr_mlp_def *def, cr_error *err) {
         return CR_FAIL(err, CR_ERR_INVALID, "mlp: softplus_beta must be > 0, got %g",
                        (double)def->softplus_beta);
     if (def->layer_norm && !(def->ln_eps > 0.0f))
-        return CR_FAIL(err, CR_ERR_INVALID, "mlp: ln_eps must be > 0, got %g",
-                       (double)def->ln_eps);
+        return CR_FAIL(err, CR_ERR_INVALID, "mlp: ln_eps must be > 0, got %g", (double)def->ln_eps);
     return CR_OK;
 }
 

@@ -29,8 +29,8 @@
 #include <string.h>
 
 enum {
-    RNN_COOKIE = 0x726e6e31u,     /* "rnn1" */
-    GLSTM_COOKIE = 0x676c7331u,   /* "gls1" */
+    RNN_COOKIE = 0x726e6e31u,   /* "rnn1" */
+    GLSTM_COOKIE = 0x676c7331u, /* "gls1" */
     LSTM_GATES = 4,
     GRU_GATES = 3,
 };
@@ -56,9 +56,8 @@ static cr_status add_param(cr_nn_params *P, const char *prefix, const char *leaf
     return cr_nn_params_add(P, name, ndim, shape, out, err);
 }
 
-static cr_status cell_create(const cr_rnn_def *def, int gates, const char *what,
-                             cr_nn_params *P, const char *prefix, cr_rng *rng, cr_rnn_cell *out,
-                             cr_error *err) {
+static cr_status cell_create(const cr_rnn_def *def, int gates, const char *what, cr_nn_params *P,
+                             const char *prefix, cr_rng *rng, cr_rnn_cell *out, cr_error *err) {
     CR_ASSERT(def && P && rng && out && def->cookie == RNN_COOKIE);
     memset(out, 0, sizeof *out);
     if (def->input < 1 || def->hidden < 1)
@@ -133,8 +132,8 @@ static cr_tensor *lstm_gates(cr_nn_ctx *ctx, cr_tensor *z, cr_tensor *c, int64_t
 }
 
 /* One LSTM step from the input projection xi = x W_ih^T + b_ih (B,4H). */
-static cr_tensor *lstm_step(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *xi,
-                            cr_tensor *h, cr_tensor *c, cr_tensor **c_out) {
+static cr_tensor *lstm_step(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *xi, cr_tensor *h,
+                            cr_tensor *c, cr_tensor **c_out) {
     cr_tensor *z = cr_nn_add(ctx, xi, cr_nn_linear(ctx, h, cell->weight_hh, cell->bias_hh));
     return lstm_gates(ctx, z, c, cell->hidden, NULL, c_out);
 }
@@ -152,8 +151,8 @@ static cr_tensor *gru_step(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x
     return cr_nn_add(ctx, n, cr_nn_mul(ctx, z, cr_nn_sub(ctx, h, n))); /* (1-z) n + z h */
 }
 
-cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x,
-                                cr_tensor *h, cr_tensor *c, cr_tensor **c_out) {
+cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x, cr_tensor *h,
+                                cr_tensor *c, cr_tensor **c_out) {
     CR_ASSERT(cell && cell->gates == LSTM_GATES && c_out);
     *c_out = NULL;
     if (!nn_begin(ctx, "lstm_cell", 1, &x)) return NULL;
@@ -187,8 +186,8 @@ static cr_tensor *run_sequence(cr_nn_ctx *ctx, const char *op, const cr_rnn_cell
     if (!nn_begin(ctx, op, 1, &x)) return NULL;
     if (x->ndim != 3 || x->shape[2] != cell->input || x->shape[0] < 1) {
         char s[64];
-        NN_FAIL(ctx, CR_ERR_SHAPE, "%s: x: expected (T,B,%d) with T >= 1, got %s", op,
-                cell->input, cr_nn_shape_str(x, s, sizeof s));
+        NN_FAIL(ctx, CR_ERR_SHAPE, "%s: x: expected (T,B,%d) with T >= 1, got %s", op, cell->input,
+                cr_nn_shape_str(x, s, sizeof s));
         return NULL;
     }
     int64_t T = x->shape[0], B = x->shape[1], H = cell->hidden, GH = cell->gates * H;
@@ -239,17 +238,21 @@ cr_gat_lstm_def cr_gat_lstm_default_def(void) {
     return d;
 }
 
-cr_status cr_gat_lstm_create(const cr_gat_lstm_def *def, cr_nn_params *params,
-                             const char *prefix, cr_rng *rng, cr_gat_lstm *out, cr_error *err) {
+cr_status cr_gat_lstm_create(const cr_gat_lstm_def *def, cr_nn_params *params, const char *prefix,
+                             cr_rng *rng, cr_gat_lstm *out, cr_error *err) {
     CR_ASSERT(def && params && rng && out && def->cookie == GLSTM_COOKIE);
     memset(out, 0, sizeof *out);
     int H = def->hidden, heads = def->gat.heads;
     if (def->input < 1 || H < 1 || heads < 1)
-        return CR_FAIL(err, CR_ERR_INVALID, "gat_lstm: input (%d), hidden (%d), heads (%d) "
-                       "must be >= 1", def->input, H, heads);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gat_lstm: input (%d), hidden (%d), heads (%d) "
+                       "must be >= 1",
+                       def->input, H, heads);
     if (def->gat.concat && (LSTM_GATES * H) % heads != 0)
-        return CR_FAIL(err, CR_ERR_INVALID, "gat_lstm: 4 hidden (%d) is not a multiple of the "
-                       "%d concatenated heads", LSTM_GATES * H, heads);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gat_lstm: 4 hidden (%d) is not a multiple of the "
+                       "%d concatenated heads",
+                       LSTM_GATES * H, heads);
     cr_gat_lstm c = {.def = *def};
     cr_gat_def gd = def->gat;
     gd.out = gd.concat ? LSTM_GATES * H / heads : LSTM_GATES * H;
@@ -315,16 +318,15 @@ cr_tensor *cr_gat_lstm_forward(cr_nn_ctx *ctx, const cr_gat_lstm *cell, cr_tenso
                 (long long)N, cell->def.input, cr_nn_shape_str(x, s, sizeof s));
         return NULL;
     }
-    if (!check_2d(ctx, op, "h0", h0, N, H, 1) || !check_2d(ctx, op, "c0", c0, N, H, 1))
-        return NULL;
+    if (!check_2d(ctx, op, "h0", h0, N, H, 1) || !check_2d(ctx, op, "c0", c0, N, H, 1)) return NULL;
     int64_t T = x->shape[0];
     cr_tensor *rows = cr_nn_reshape(ctx, x, 2, (int64_t[]){T * N, cell->def.input});
     cr_tensor **hs = cr_nn_scratch(ctx, op, (size_t)T * sizeof *hs);
     if (!rows || !hs) return NULL;
     cr_tensor *h = h0, *c = c0;
     for (int64_t t = 0; t < T; t++) {
-        cr_tensor *zx = cr_gat_forward(ctx, &cell->gx, cr_nn_slice(ctx, rows, 0, t * N, N), g,
-                                       NULL);
+        cr_tensor *zx =
+            cr_gat_forward(ctx, &cell->gx, cr_nn_slice(ctx, rows, 0, t * N, N), g, NULL);
         h = gat_lstm_step(ctx, cell, g, zx, h, c, &c);
         hs[t] = cr_nn_reshape(ctx, h, 3, (int64_t[]){1, N, H});
         if (!hs[t]) return NULL;

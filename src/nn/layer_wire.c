@@ -35,10 +35,10 @@ typedef struct wire_op {
 
 typedef struct wire_job {
     const wire_op *w;
-    const float *a, *b;       /* (n) input re, im (b may be NULL) */
-    float *re, *im;           /* (n) outputs */
-    const float *gre, *gim;   /* (n) dL/d(outputs) */
-    float *ga, *gb;           /* (n) dL/d(inputs), either may be NULL */
+    const float *a, *b;     /* (n) input re, im (b may be NULL) */
+    float *re, *im;         /* (n) outputs */
+    const float *gre, *gim; /* (n) dL/d(outputs) */
+    float *ga, *gb;         /* (n) dL/d(inputs), either may be NULL */
 } wire_job;
 
 static void wire_forward_range(void *arg, int64_t begin, int64_t end) {
@@ -58,29 +58,31 @@ static void wire_backward_range(void *arg, int64_t begin, int64_t end) {
     for (int64_t k = begin; k < end; k++) {
         float a = j->a[k], b = j->b ? j->b[k] : 0.0f;
         float R = j->re[k], I = j->im[k], gR = j->gre[k], gI = j->gim[k];
-        if (j->ga) j->ga[k] += gR * (-2.0f * s2 * a * R - w0 * I) + gI * (-2.0f * s2 * a * I + w0 * R);
+        if (j->ga)
+            j->ga[k] += gR * (-2.0f * s2 * a * R - w0 * I) + gI * (-2.0f * s2 * a * I + w0 * R);
         if (j->gb) j->gb[k] += (gR * R + gI * I) * (-w0 - 2.0f * s2 * b);
     }
 }
 
-static cr_status wire_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in,
-                              int nin, cr_tensor *const *out, int nout, void **stash,
-                              cr_error *err) {
+static cr_status wire_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
+                              cr_tensor *const *out, int nout, void **stash, cr_error *err) {
     (void)ctx, (void)nin, (void)nout, (void)stash;
     if (in[1] && !cr_nn_same_shape(in[0], in[1])) {
         char a[64], b[64];
         return CR_FAIL(err, CR_ERR_SHAPE, "wire: re %s and im %s differ",
                        cr_nn_shape_str(in[0], a, sizeof a), cr_nn_shape_str(in[1], b, sizeof b));
     }
-    wire_job j = {.w = op->user, .a = in[0]->data, .b = in[1] ? in[1]->data : NULL,
-                  .re = out[0]->data, .im = out[1]->data};
+    wire_job j = {.w = op->user,
+                  .a = in[0]->data,
+                  .b = in[1] ? in[1]->data : NULL,
+                  .re = out[0]->data,
+                  .im = out[1]->data};
     cr_parallel_for(in[0]->numel, 4096, wire_forward_range, &j);
     return CR_OK;
 }
 
-static cr_status wire_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in,
-                               int nin, cr_tensor *const *out, int nout, void *stash,
-                               cr_error *err) {
+static cr_status wire_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
+                               cr_tensor *const *out, int nout, void *stash, cr_error *err) {
     (void)ctx, (void)nin, (void)nout, (void)stash, (void)err;
     wire_job j = {.w = op->user,
                   .a = in[0]->data,
@@ -95,8 +97,8 @@ static cr_status wire_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
     return CR_OK;
 }
 
-cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, float omega0,
-                              float s0, cr_tensor **out_re, cr_tensor **out_im) {
+cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, float omega0, float s0,
+                              cr_tensor **out_re, cr_tensor **out_im) {
     if (out_re) *out_re = NULL;
     if (out_im) *out_im = NULL;
     if (!re) return cr_nn_reshape(ctx, re, 0, NULL); /* records the NULL input */
