@@ -189,6 +189,9 @@ typedef struct fit_run {
 static cr_status train_epoch(fit_run *r, double *loss, cr_error *err) {
     const cr_fit_def *def = r->def;
     int64_t n = (int64_t)def->train_res * def->train_res;
+    /* Shuffle from the identity, so an epoch's order depends on the generator
+     * state alone and a resumed run draws the same batches. */
+    for (int64_t i = 0; i < n; i++) r->order[i] = (int32_t)i;
     cr_rng_shuffle_i32(&r->rng, r->order, n);
     double sum = 0;
     int batches = 0;
@@ -350,7 +353,6 @@ static cr_status run_setup(fit_run *r, cr_error *err) {
     r->batch_target = cr_malloc((size_t)def->batch * 3 * sizeof(float), err);
     r->order = cr_malloc((size_t)n * sizeof(int32_t), err);
     if (!r->eval_pred || !r->batch_uv || !r->batch_target || !r->order) return CR_ERR_MEMORY;
-    for (int64_t i = 0; i < n; i++) r->order[i] = (int32_t)i;
     if (def->out_dir) {
         CR_TRY(cr_mkdir_p(def->out_dir, err));
         snprintf(r->ckpt_path, sizeof r->ckpt_path, "%s/checkpoint.safetensors", def->out_dir);
