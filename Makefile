@@ -56,7 +56,7 @@ bench: build
 	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done
 
 install: build
-	cmake --install $(RELEASE)
+	cmake --install $(RELEASE) --prefix $(PREFIX)
 
 clean:
 	rm -rf build

@@ -71,6 +71,19 @@ check "render colour map" bash -c \
 check "turntable" "$crease" render "$tmp/sphere.obj" --turntable 3 --size 64 -o "$tmp/turn.png"
 check "turntable frames" test -f "$tmp/turn_002.png"
 
+# --- fit (drape paper, Table 1), tiny --------------------------------------------------
+small_fit=(--epochs 2 --train-res 16 --eval-res 16 --batch 64 --quiet)
+check "fit grid" bash -c "'$crease' fit --model grid -o '$tmp/fit' ${small_fit[*]} --json > '$tmp/fit.json'"
+check "fit fields" json_has "$tmp/fit.json" model params epochs seconds rel_l2 epochs_to_target \
+  seconds_to_target surface_png
+check "fit params" grep -q '"params":47369' "$tmp/fit.json"
+check "fit outputs" test -s "$tmp/fit/checkpoint.safetensors" -a -s "$tmp/fit/surface.png" \
+  -a -s "$tmp/fit/log.jsonl"
+check "fit resume" bash -c "'$crease' fit --model grid -o '$tmp/fit' --resume --epochs 4 --train-res 16 --eval-res 16 --batch 64 --quiet --json | grep -q '\"resumed_from_epoch\":2'"
+expect_exit 1 "checkpoint.safetensors: .*not a parameter" fit --model mlp -o "$tmp/fit" --resume "${small_fit[@]}"
+expect_exit 2 "unknown model" fit --model siren -o "$tmp/fit2"
+expect_exit 2 "missing -o" fit --model grid
+
 # --- bad input: exit 1 with the file (and line) named, nothing written -------------------
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n' > "$tmp/short_face.obj"
 expect_exit 1 "short_face.obj:4" info "$tmp/short_face.obj"
