@@ -12,6 +12,7 @@ packages=(
   zlib1g-dev        # PNG and .npz
   libcjson-dev      # JSON configs and manifests
   libopenblas-openmp-dev  # GEMM for the neural engine, on the OpenMP thread pool
+  libsuitesparse-dev      # CHOLMOD: sparse Cholesky for the simulator's Newton solves
   clang             # fuzz targets (libFuzzer)
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
 )

@@ -21,6 +21,9 @@ extern "C" {
  * Returns twice the area. */
 float cr_triangle_normal(const float a[3], const float b[3], const float c[3], float n[3]);
 
+/* Interior angle at corner a of triangle (a, b, c), radians, computed in double. */
+double cr_triangle_corner_angle(const float a[3], const float b[3], const float c[3]);
+
 /* Per-face unit normals (F,3) and areas (F) in m^2; either output may be NULL. */
 void cr_mesh_face_normals(const cr_mesh *m, float *normals, float *areas);
 

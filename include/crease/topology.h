@@ -100,6 +100,10 @@ cr_status cr_topology_require_manifold(const cr_topology *t, const char *source,
  * closed sphere-like surface, 1 for a disk, 0 for a torus or an open tube. */
 int64_t cr_topology_euler_characteristic(const cr_topology *t);
 
+/* CR_ERR_SHAPE, naming `what`, unless t was built for a mesh of m's vertex and face counts. */
+cr_status cr_topology_check_mesh(const cr_topology *t, const cr_mesh *m, const char *what,
+                                 cr_error *err);
+
 #ifdef __cplusplus
 }
 #endif

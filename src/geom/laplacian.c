@@ -80,18 +80,9 @@ static int64_t csr_find(const cr_csr *a, int32_t i, int32_t j) {
     return -1;
 }
 
-static cr_status check_match(const cr_mesh *m, const cr_topology *t, const char *what,
-                             cr_error *err) {
-    if (t->nv != m->nv || t->nf != m->nf)
-        return CR_FAIL(err, CR_ERR_SHAPE,
-                       "%s: topology built for V=%d, F=%d but the mesh has V=%d, F=%d", what, t->nv,
-                       t->nf, m->nv, m->nf);
-    return CR_OK;
-}
-
 cr_status cr_cotan_laplacian(const cr_mesh *m, const cr_topology *t, cr_csr *out, cr_error *err) {
     memset(out, 0, sizeof *out);
-    CR_TRY(check_match(m, t, "cotan Laplacian", err));
+    CR_TRY(cr_topology_check_mesh(t, m, "cotan Laplacian", err));
     cr_csr a = {0};
     a.n = m->nv;
     a.nnz = (int64_t)m->nv + 2 * (int64_t)t->ne;
@@ -165,7 +156,7 @@ void cr_mesh_vertex_areas(const cr_mesh *m, cr_vertex_area kind, float *area) {
 }
 
 cr_status cr_mesh_mean_curvature(const cr_mesh *m, const cr_topology *t, float *H, cr_error *err) {
-    CR_TRY(check_match(m, t, "mean curvature", err));
+    CR_TRY(cr_topology_check_mesh(t, m, "mean curvature", err));
     /* lx (V,3) then area (V), both accumulated in double. */
     double *acc = cr_calloc((size_t)m->nv * 4 + 1, sizeof(double), err);
     if (!acc) return CR_ERR_MEMORY;

@@ -30,16 +30,15 @@ void cr_mesh_face_normals(const cr_mesh *m, float *normals, float *areas) {
     for (int32_t f = 0; f < m->nf; f++) {
         const int32_t *t = &m->tri[3 * f];
         float n[3];
-        float twice_area = cr_triangle_normal(&m->pos[3 * t[0]], &m->pos[3 * t[1]],
-                                              &m->pos[3 * t[2]], n);
+        float twice_area =
+            cr_triangle_normal(&m->pos[3 * t[0]], &m->pos[3 * t[1]], &m->pos[3 * t[2]], n);
         if (normals) memcpy(&normals[3 * f], n, sizeof n);
         if (areas) areas[f] = 0.5f * twice_area;
     }
 }
 
-/* Interior angle at corner a of triangle (a, b, c), radians. atan2 keeps it
- * accurate for angles near 0 and pi, where acos of a dot product is not. */
-static double corner_angle(const float a[3], const float b[3], const float c[3]) {
+/* atan2 keeps the angle accurate near 0 and pi, where acos of a dot product is not. */
+double cr_triangle_corner_angle(const float a[3], const float b[3], const float c[3]) {
     float u[3], v[3];
     sub3(b, a, u);
     sub3(c, a, v);
@@ -56,20 +55,23 @@ void cr_mesh_vertex_normals(const cr_mesh *m, cr_normal_weight weight, float *no
     for (int32_t f = 0; f < m->nf; f++) {
         const int32_t *t = &m->tri[3 * f];
         float n[3];
-        float twice_area = cr_triangle_normal(&m->pos[3 * t[0]], &m->pos[3 * t[1]],
-                                              &m->pos[3 * t[2]], n);
+        float twice_area =
+            cr_triangle_normal(&m->pos[3 * t[0]], &m->pos[3 * t[1]], &m->pos[3 * t[2]], n);
         for (int k = 0; k < 3; k++) {
-            double w = weight == CR_NORMAL_AREA
-                           ? 0.5 * twice_area
-                           : corner_angle(&m->pos[3 * t[k]], &m->pos[3 * t[(k + 1) % 3]],
-                                          &m->pos[3 * t[(k + 2) % 3]]);
-            for (int d = 0; d < 3; d++) acc[3 * (size_t)t[k] + d] += w * n[d];
+            double w =
+                weight == CR_NORMAL_AREA
+                    ? 0.5 * twice_area
+                    : cr_triangle_corner_angle(&m->pos[3 * t[k]], &m->pos[3 * t[(k + 1) % 3]],
+                                               &m->pos[3 * t[(k + 2) % 3]]);
+            for (int d = 0; d < 3; d++)
+                acc[3 * (size_t)t[k] + d] += w * n[d];
         }
     }
     for (int32_t v = 0; v < m->nv; v++) {
         double *a = &acc[3 * (size_t)v];
         double len = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-        for (int d = 0; d < 3; d++) normals[3 * (size_t)v + d] = len > 0 ? (float)(a[d] / len) : 0.0f;
+        for (int d = 0; d < 3; d++)
+            normals[3 * (size_t)v + d] = len > 0 ? (float)(a[d] / len) : 0.0f;
     }
     free(acc);
 }

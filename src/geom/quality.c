@@ -15,18 +15,6 @@
 static const double RAD_TO_DEG = 57.29577951308232;
 static const double QUALITY_GOOD_DEG = 20.0; /* Ruppert/Chew guarantee, see above */
 
-/* Angle at corner a of (a, b, c) in radians; atan2 is accurate near 0 and pi. */
-static double corner_angle(const float a[3], const float b[3], const float c[3]) {
-    double u[3], v[3];
-    for (int d = 0; d < 3; d++)
-        u[d] = (double)b[d] - a[d], v[d] = (double)c[d] - a[d];
-    double cx = u[1] * v[2] - u[2] * v[1];
-    double cy = u[2] * v[0] - u[0] * v[2];
-    double cz = u[0] * v[1] - u[1] * v[0];
-    double dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    return atan2(sqrt(cx * cx + cy * cy + cz * cz), dot);
-}
-
 void cr_mesh_face_min_angles(const cr_mesh *m, float *deg) {
     for (int32_t f = 0; f < m->nf; f++) {
         const int32_t *t = &m->tri[3 * f];
@@ -34,7 +22,7 @@ void cr_mesh_face_min_angles(const cr_mesh *m, float *deg) {
                              &m->pos[3 * (size_t)t[2]]};
         double lo = INFINITY;
         for (int k = 0; k < 3; k++) {
-            double a = corner_angle(p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+            double a = cr_triangle_corner_angle(p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
             if (a < lo) lo = a;
         }
         deg[f] = (float)(lo * RAD_TO_DEG);

@@ -106,18 +106,9 @@ static void dijkstra_run(const float *pos, const cr_topology *t, heap *h, double
     }
 }
 
-static cr_status check_mesh_topology(const cr_mesh *m, const cr_topology *t, const char *what,
-                                     cr_error *err) {
-    if (t->nv != m->nv || t->nf != m->nf)
-        return CR_FAIL(err, CR_ERR_SHAPE,
-                       "%s: topology built for V=%d, F=%d but the mesh has V=%d, F=%d", what, t->nv,
-                       t->nf, m->nv, m->nf);
-    return CR_OK;
-}
-
 cr_status cr_geodesic_dijkstra(const cr_mesh *m, const cr_topology *t, const int32_t *sources,
                                int32_t nsrc, float *dist, cr_error *err) {
-    CR_TRY(check_mesh_topology(m, t, "geodesic", err));
+    CR_TRY(cr_topology_check_mesh(t, m, "geodesic", err));
     if (nsrc < 1) return CR_FAIL(err, CR_ERR_INVALID, "geodesic: nsrc = %d, need >= 1", nsrc);
     for (int32_t i = 0; i < nsrc; i++)
         if (sources[i] < 0 || sources[i] >= m->nv)
@@ -192,7 +183,7 @@ cr_status cr_fps_euclidean(const float *pts, int32_t n, int32_t k, int32_t first
 
 cr_status cr_fps_geodesic(const cr_mesh *m, const cr_topology *t, int32_t k, int32_t first,
                           int32_t *out_idx, cr_error *err) {
-    CR_TRY(check_mesh_topology(m, t, "geodesic fps", err));
+    CR_TRY(cr_topology_check_mesh(t, m, "geodesic fps", err));
     CR_TRY(check_fps_args("geodesic fps", m->nv, k, first, err));
     double *d = cr_malloc((size_t)m->nv * sizeof(double), err); /* distance to the samples */
     uint8_t *picked = cr_calloc((size_t)m->nv, 1, err);

@@ -435,3 +435,12 @@ cr_status cr_topology_require_manifold(const cr_topology *t, const char *source,
 int64_t cr_topology_euler_characteristic(const cr_topology *t) {
     return (int64_t)(t->nv - t->n_isolated_vertices) - t->ne + (t->nf - t->n_degenerate_faces);
 }
+
+cr_status cr_topology_check_mesh(const cr_topology *t, const cr_mesh *m, const char *what,
+                                 cr_error *err) {
+    if (t->nv != m->nv || t->nf != m->nf)
+        return CR_FAIL(err, CR_ERR_SHAPE,
+                       "%s: topology built for V=%d, F=%d but the mesh has V=%d, F=%d", what, t->nv,
+                       t->nf, m->nv, m->nf);
+    return CR_OK;
+}
