@@ -1,0 +1,160 @@
+/* crease/phys_energies.h: the cloth energies, each a cr_energy_term.
+ *
+ * Every energy is a small struct built once from the rest mesh (its _create),
+ * destroyed by its _destroy (NULL is a no-op), and exposed to the simulator,
+ * the neural losses and the metrics through a cr_energy_term filled by its
+ * _term: a per-element kernel that returns the element's value, gradient and
+ * PSD-projected Hessian (phys_energy.h). The term borrows the struct: keep it
+ * alive while the term is used. Formulas and sources: docs/physics.md.
+ *
+ *   energy     element   E per element                                        file
+ *   membrane   triangle  A0 psi(F), F = Ds Dm^-1; StVK or Baraff-Witkin       membrane_stvk.c, _bw.c
+ *   bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
+ *   gravity    vertex    -m_i g . x_i                                         gravity.c
+ *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
+ *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
+ *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
+ *
+ * Threading: _create/_update/_set mutate and must not overlap a kernel call;
+ * kernels are pure and may run on many threads at once.
+ * Units: positions m, energies J, gradients N, Hessians N/m.
+ */
+#ifndef CREASE_PHYS_ENERGIES_H
+#define CREASE_PHYS_ENERGIES_H
+
+#include "crease/mesh.h"
+#include "crease/phys_energy.h"
+#include "crease/phys_material.h"
+#include "crease/topology.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* How a kernel makes its local Hessian positive semi-definite. */
+typedef enum cr_hessian_mode {
+    CR_HESSIAN_PROJECTED = 0, /* exact Hessian, negative eigenvalues clamped to 0 (dsyev) */
+    CR_HESSIAN_GAUSS_NEWTON   /* drop the curvature term: PSD by construction, no eigensolve */
+} cr_hessian_mode;
+
+/* ------------------------------------------------------------ membrane -- */
+
+/* Triangles of the rest mesh with their rest shape: the 3-D rest positions
+ * laid flat in each triangle's plane, or (use_uv_rest) the triangle's UVs
+ * times uv_scale (m per UV unit; needs UVs). Stores per triangle Dm^-1 (2x2)
+ * and the rest area A0. StVK or Baraff-Witkin by mat->membrane. Fails with
+ * CR_ERR_TOPOLOGY naming the first triangle whose rest shape is degenerate. */
+typedef struct cr_membrane cr_membrane;
+cr_status cr_membrane_create(const cr_mesh *rest, int use_uv_rest, float uv_scale,
+                             const cr_material *mat, cr_membrane **out, cr_error *err);
+void cr_membrane_destroy(cr_membrane *e);
+/* Default CR_HESSIAN_PROJECTED: the 6x6 Hessian in F is eigen-clamped (split
+ * into a 4x4 in-plane and a 2x2 normal block), which makes the 9x9 one PSD
+ * (it is A^T H_F A with A of full row rank); skipped for StVK under tension,
+ * where it is PSD already. CR_HESSIAN_GAUSS_NEWTON drops the stress term. */
+void cr_membrane_set_hessian(cr_membrane *e, cr_hessian_mode mode);
+const double *cr_membrane_rest_areas(const cr_membrane *e); /* (F) m^2 */
+void cr_membrane_term(const cr_membrane *e, cr_energy_term *out);
+
+/* ------------------------------------------------------------- bending -- */
+
+/* Interior hinges of `t` (built from `rest`) with per-hinge stiffness
+ * k_e = k_b l^2 / (4 (A1 + A2)) from the rest edge length l and rest face
+ * areas (HOOD/SNUG form) and rest angles theta_rest: the rest mesh's dihedral
+ * angles when rest_angles_from_mesh, else 0 (flat). */
+typedef struct cr_bending cr_bending;
+cr_status cr_bending_create(const cr_mesh *rest, const cr_topology *t, const cr_material *mat,
+                            int rest_angles_from_mesh, cr_bending **out, cr_error *err);
+void cr_bending_destroy(cr_bending *b);
+/* Default CR_HESSIAN_GAUSS_NEWTON: k_e grad(theta) grad(theta)^T only, PSD
+ * by construction (ARCSim's choice; ~0.35 us per hinge). CR_HESSIAN_PROJECTED:
+ * the exact Hessian eigen-clamped (the reference; a 9x9 dsyev per hinge,
+ * ~8 us). */
+void cr_bending_set_hessian(cr_bending *b, cr_hessian_mode mode);
+int32_t cr_bending_count(const cr_bending *b);           /* H */
+const int32_t *cr_bending_hinges(const cr_bending *b);   /* (H,4) x0, x1, x2, x3 as topology.h */
+const double *cr_bending_stiffness(const cr_bending *b); /* (H) k_e, J/rad^2 */
+/* (H) rad, mutable: the plasticity update writes here. Owned by b. */
+double *cr_bending_rest_angles(cr_bending *b);
+/* Current dihedral angles at positions x (V,3) into theta (H), rad, in double
+ * with diffgeo.h's sign convention. */
+void cr_bending_angles(const cr_bending *b, const double *x, double *theta);
+void cr_bending_term(const cr_bending *b, cr_energy_term *out);
+
+/* ------------------------------------------------------------- gravity -- */
+
+/* Lumped vertex masses m_i = density * (sum of the 3-D rest areas of the
+ * faces around i) / 3, and the acceleration g (m/s^2, e.g. 0, -9.81, 0). */
+typedef struct cr_gravity cr_gravity;
+cr_status cr_gravity_create(const cr_mesh *rest, const cr_material *mat, const double g[3],
+                            cr_gravity **out, cr_error *err);
+void cr_gravity_destroy(cr_gravity *g);
+const double *cr_gravity_masses(const cr_gravity *g); /* (V) kg */
+void cr_gravity_term(const cr_gravity *g, cr_energy_term *out);
+
+/* ------------------------------------------------------------- inertia -- */
+
+/* E = 1/(2 h^2) sum_i m_i |x_i - xpred_i|^2: implicit Euler's inertia as an
+ * incremental potential, xpred = x_t + h v_t. Copies the masses. */
+typedef struct cr_inertia cr_inertia;
+cr_status cr_inertia_create(const double *masses /* (V) kg */, int32_t nv, cr_inertia **out,
+                            cr_error *err);
+void cr_inertia_destroy(cr_inertia *in);
+/* Copy the predicted positions (V,3) m, and the step h (s, > 0). */
+void cr_inertia_set(cr_inertia *in, const double *x_pred, double h);
+void cr_inertia_term(const cr_inertia *in, cr_energy_term *out);
+
+/* ----------------------------------------------------------- collision -- */
+
+/* Penalty against a collider, per cloth vertex: E_i = k max(eps - d_i(x), 0)^3
+ * (HOOD/SNUG's cubic), with d_i linearised around the iterate last given to
+ * cr_collision_update: d_i(x) = dist_i + n_i . (x - x_i). Gradient
+ * -3 k (eps - d)^2 n_i, Hessian 6 k (eps - d) n_i n_i^T (PSD). */
+typedef struct cr_collision cr_collision;
+cr_status cr_collision_create(int32_t nv, const cr_material *mat, cr_collision **out,
+                              cr_error *err);
+void cr_collision_destroy(cr_collision *c);
+/* Per Newton iterate: x (V,3) the cloth positions, m; dist (V) the signed
+ * distance to the collider at x, m, negative inside; normal (V,3) the unit
+ * outward normal at the closest point. A vertex the query did not reach may
+ * carry any dist >= eps (e.g. the query's max_dist) and a zero normal. */
+void cr_collision_update(cr_collision *c, const double *x, const float *dist,
+                         const float *normal);
+void cr_collision_term(const cr_collision *c, cr_energy_term *out);
+/* max(0, -min_i dist_i) at the last update, m. */
+double cr_collision_max_penetration(const cr_collision *c);
+/* 1 when vertex i lay within the thickness (dist_i < eps) at the last update;
+ * then normal (3) gets n_i and *force the penalty's normal force magnitude
+ * 3 k (eps - dist_i)^2, N. Else 0 and nothing is written. */
+int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], double *force);
+
+/* ------------------------------------------------------------ friction -- */
+
+/* Lagged, smoothed Coulomb friction (IPC, Li et al. 2020, sec. 5): for each
+ * vertex in contact at the step start, with normal force lambda_i and a
+ * tangent basis T_i (3x2) of the contact normal frozen there, and the
+ * tangential slip u_i = T_i^T (x_i - x_start_i - db_i) (db_i: the collider
+ * surface's displacement under the vertex over the step),
+ *     D_i = mu lambda_i f0(|u_i|),
+ * f0 C^1 with f0'(y) = f1(y) = 2y/eps_v - y^2/eps_v^2 below eps_v and 1
+ * above: static friction is a stiff spring over slips under eps_v, kinetic
+ * friction a constant force mu lambda_i opposing the slip. PSD Hessian by
+ * construction (no eigensolve). */
+typedef struct cr_friction cr_friction;
+/* eps_v: slip (m over one step) below which friction acts as static (IPC's
+ * eps_v h; 1e-4 m is a fair start at h = 1/30 s). */
+cr_status cr_friction_create(int32_t nv, const cr_material *mat, double eps_v,
+                             cr_friction **out, cr_error *err);
+void cr_friction_destroy(cr_friction *f);
+/* Once per step, after cr_collision_update at the step-start positions:
+ * freeze lambda_i and T_i from c's contacts, and the anchors x_start + db.
+ * x_start (V,3) m; collider_disp (V,3) m, NULL for a static collider. */
+void cr_friction_update(cr_friction *f, const cr_collision *c, const double *x_start,
+                        const double *collider_disp);
+int32_t cr_friction_contact_count(const cr_friction *f);
+void cr_friction_term(const cr_friction *f, cr_energy_term *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

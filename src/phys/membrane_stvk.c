@@ -1,0 +1,244 @@
+/* membrane_stvk.c: the membrane energy's rest shape, its term, and the
+ * St. Venant-Kirchhoff kernel.
+ *
+ * Per triangle, with F = Ds Dm^-1 (3x2) and the Green strain
+ * E = (F^T F - I)/2 (2x2),
+ *     E_tri = A0 psi(F),   psi = mu |E|_F^2 + lambda/2 tr(E)^2,
+ * mu and lambda per rest area with the thickness folded in (Santesteban et al.
+ * 2022 (SNUG), Grigorev et al. 2023 (HOOD); the constitutive model of
+ * Volino et al. 2009, "A simple approach to nonlinear tensile stiffness for
+ * accurate cloth simulation"). Writing a = f0.f0, b = f1.f1, c = f0.f1,
+ *     psi = mu ((a-1)^2/4 + (b-1)^2/4 + c^2/2) + lambda/8 (a + b - 2)^2,
+ * its gradient is P = F S with the second Piola-Kirchhoff stress
+ * S = 2 mu E + lambda tr(E) I, and its Hessian in F is a Gauss-Newton part
+ * (PSD: psi is a PSD quadratic of (a, b, c)) plus S (x) I3, so it is PSD
+ * whenever S is; only then is the eigensolve skipped.
+ *
+ * The rest shape is the 3-D rest triangle laid flat in its own plane (first
+ * edge along the local u axis) or the triangle's UVs times a scale.
+ * Left out: anisotropy, strain limiting, damping.
+ */
+#include "phys/membrane.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+cr_status cr_membrane_create(const cr_mesh *rest, int use_uv_rest, float uv_scale,
+                             const cr_material *mat, cr_membrane **out, cr_error *err) {
+    CR_ASSERT(rest && mat && out);
+    CR_ASSERT(mat->cookie == CR_MATERIAL_COOKIE);
+    *out = NULL;
+    if (use_uv_rest && !cr_mesh_has_uv(rest))
+        return CR_FAIL(err, CR_ERR_INVALID, "membrane: rest shape from UVs, but the mesh has none");
+    if (use_uv_rest && !(uv_scale > 0.0f && isfinite(uv_scale)))
+        return CR_FAIL(err, CR_ERR_INVALID, "membrane: uv_scale = %g must be positive",
+                       (double)uv_scale);
+    cr_membrane *m = cr_calloc(1, sizeof *m, err);
+    if (!m) return err ? err->status : CR_ERR_MEMORY;
+    const int32_t F = rest->nf;
+    const size_t nalloc = (size_t)(F > 0 ? F : 1);
+    m->nf = F;
+    m->model = mat->membrane;
+    m->mu = mat->lame_mu;
+    m->lambda = mat->lame_lambda;
+    m->k_stretch = mat->bw_stretch;
+    m->k_shear = mat->bw_shear;
+    m->mode = CR_HESSIAN_PROJECTED;
+    m->tri = cr_malloc(sizeof(int32_t) * 3 * nalloc, err);
+    m->dminv = cr_malloc(sizeof(double) * 4 * nalloc, err);
+    m->area = cr_malloc(sizeof(double) * nalloc, err);
+    if (!m->tri || !m->dminv || !m->area) {
+        cr_membrane_destroy(m);
+        return err ? err->status : CR_ERR_MEMORY;
+    }
+    if (F > 0) memcpy(m->tri, rest->tri, sizeof(int32_t) * 3 * (size_t)F);
+    for (int32_t f = 0; f < F; f++) {
+        double D[4]; /* Dm, row-major 2x2: columns are the two rest edges in 2-D */
+        if (use_uv_rest) {
+            const float *u0 = rest->uv + 2 * (int64_t)rest->tri_uv[3 * f];
+            const float *u1 = rest->uv + 2 * (int64_t)rest->tri_uv[3 * f + 1];
+            const float *u2 = rest->uv + 2 * (int64_t)rest->tri_uv[3 * f + 2];
+            D[0] = ((double)u1[0] - u0[0]) * uv_scale, D[1] = ((double)u2[0] - u0[0]) * uv_scale;
+            D[2] = ((double)u1[1] - u0[1]) * uv_scale, D[3] = ((double)u2[1] - u0[1]) * uv_scale;
+        } else {
+            const float *p0 = rest->pos + 3 * (int64_t)rest->tri[3 * f];
+            const float *p1 = rest->pos + 3 * (int64_t)rest->tri[3 * f + 1];
+            const float *p2 = rest->pos + 3 * (int64_t)rest->tri[3 * f + 2];
+            double t1[3], t2[3];
+            for (int d = 0; d < 3; d++) t1[d] = (double)p1[d] - p0[d], t2[d] = (double)p2[d] - p0[d];
+            const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+            const double along = l1 > 0.0 ? (t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]) / l1 : 0.0;
+            const double t22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2];
+            const double across = sqrt(fmax(t22 - along * along, 0.0));
+            D[0] = l1, D[1] = along, D[2] = 0.0, D[3] = across;
+        }
+        const double det = D[0] * D[3] - D[1] * D[2];
+        const double scale = fmax(fabs(D[0]) + fabs(D[2]), fabs(D[1]) + fabs(D[3]));
+        if (!(fabs(det) > 1e-12 * scale * scale)) {
+            cr_membrane_destroy(m);
+            return CR_FAIL(err, CR_ERR_TOPOLOGY,
+                           "membrane: triangle %d has a degenerate rest shape (%s area %g m^2)", f,
+                           use_uv_rest ? "UV" : "3-D", 0.5 * fabs(det));
+        }
+        double *Di = m->dminv + 4 * (int64_t)f;
+        Di[0] = D[3] / det, Di[1] = -D[1] / det, Di[2] = -D[2] / det, Di[3] = D[0] / det;
+        m->area[f] = 0.5 * fabs(det);
+    }
+    *out = m;
+    return CR_OK;
+}
+
+void cr_membrane_destroy(cr_membrane *m) {
+    if (!m) return;
+    free(m->tri);
+    free(m->dminv);
+    free(m->area);
+    free(m);
+}
+
+void cr_membrane_set_hessian(cr_membrane *m, cr_hessian_mode mode) {
+    CR_ASSERT(m && (mode == CR_HESSIAN_PROJECTED || mode == CR_HESSIAN_GAUSS_NEWTON));
+    m->mode = mode;
+}
+
+const double *cr_membrane_rest_areas(const cr_membrane *m) {
+    return m->area;
+}
+
+void cr_membrane_term(const cr_membrane *m, cr_energy_term *out) {
+    CR_ASSERT(m && out);
+    memset(out, 0, sizeof *out);
+    out->name = "membrane";
+    out->nelem = m->nf;
+    out->nvert = 3;
+    out->elem = m->tri;
+    out->kernel = m->model == CR_MEMBRANE_STVK ? cr_membrane_stvk_kernel : cr_membrane_bw_kernel;
+    out->data = m;
+    out->weight = 1.0;
+}
+
+/* Clamp the symmetric 2x2 [[a, b], [b, c]] (m[0], m[1], m[2]) to PSD. */
+static void project2(double *m) {
+    const double a = m[0], b = m[1], c = m[2];
+    const double mean = 0.5 * (a + c), r = hypot(0.5 * (a - c), b);
+    const double l1 = mean + r, l2 = mean - r;
+    if (l2 >= 0.0) return;
+    if (l1 <= 0.0) {
+        m[0] = m[1] = m[2] = 0.0;
+        return;
+    }
+    /* Keep l1 v v^T; of the two expressions for v take the longer. */
+    double v0 = b, v1 = l1 - a;
+    if (hypot(l1 - c, b) > hypot(v0, v1)) v0 = l1 - c, v1 = b;
+    const double s = l1 / (v0 * v0 + v1 * v1);
+    m[0] = s * v0 * v0, m[1] = s * v0 * v1, m[2] = s * v1 * v1;
+}
+
+void cr_membrane_project_hf(const double *f, double *HF) {
+    const double *f0 = f, *f1 = f + 3;
+    const double n0 = sqrt(f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2]);
+    const double n1 = sqrt(f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2]);
+    double R[9]; /* R[3d + k]: component d of basis vector k = p1, p2, n */
+    double r[3], nr = 0.0;
+    if (n0 > 0.0) {
+        const double along = (f1[0] * f0[0] + f1[1] * f0[1] + f1[2] * f0[2]) / (n0 * n0);
+        for (int d = 0; d < 3; d++) r[d] = f1[d] - along * f0[d];
+        nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    }
+    if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) {
+        cr_psd_project(HF, 6);
+        return;
+    }
+    for (int d = 0; d < 3; d++) R[3 * d] = f0[d] / n0, R[3 * d + 1] = r[d] / nr;
+    R[2] = R[3] * R[7] - R[6] * R[4];
+    R[5] = R[6] * R[1] - R[0] * R[7];
+    R[8] = R[0] * R[4] - R[3] * R[1];
+    /* Blocks in the rotated frame: B_jl = R^T HF_jl R. */
+    double B[36];
+    for (int j = 0; j < 2; j++)
+        for (int l = 0; l < 2; l++)
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++) {
+                    double s = 0.0;
+                    for (int p = 0; p < 3; p++)
+                        for (int q = 0; q < 3; q++)
+                            s += R[3 * p + a] * HF[6 * (3 * j + p) + 3 * l + q] * R[3 * q + b];
+                    B[6 * (3 * j + a) + 3 * l + b] = s;
+                }
+    double A[16], N[3] = {B[6 * 2 + 2], B[6 * 2 + 5], B[6 * 5 + 5]};
+    for (int j = 0; j < 2; j++)
+        for (int a = 0; a < 2; a++)
+            for (int l = 0; l < 2; l++)
+                for (int b = 0; b < 2; b++) A[4 * (2 * j + a) + 2 * l + b] = B[6 * (3 * j + a) + 3 * l + b];
+    cr_psd_project(A, 4);
+    project2(N);
+    /* Back: the in-plane/normal coupling is zero in exact arithmetic. */
+    memset(B, 0, sizeof B);
+    for (int j = 0; j < 2; j++)
+        for (int a = 0; a < 2; a++)
+            for (int l = 0; l < 2; l++)
+                for (int b = 0; b < 2; b++) B[6 * (3 * j + a) + 3 * l + b] = A[4 * (2 * j + a) + 2 * l + b];
+    B[6 * 2 + 2] = N[0], B[6 * 2 + 5] = B[6 * 5 + 2] = N[1], B[6 * 5 + 5] = N[2];
+    for (int j = 0; j < 2; j++)
+        for (int l = 0; l < 2; l++)
+            for (int p = 0; p < 3; p++)
+                for (int q = 0; q < 3; q++) {
+                    double s = 0.0;
+                    for (int a = 0; a < 3; a++)
+                        for (int b = 0; b < 3; b++)
+                            s += R[3 * p + a] * B[6 * (3 * j + a) + 3 * l + b] * R[3 * q + b];
+                    HF[6 * (3 * j + p) + 3 * l + q] = s;
+                }
+}
+
+double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g,
+                               double *H) {
+    const cr_membrane *m = data;
+    double f[6], c[6];
+    cr_membrane_deform(m, e, xe, f, c);
+    const double *f0 = f, *f1 = f + 3;
+    const double a = f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2];
+    const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
+    const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
+    const double mu = m->mu, lambda = m->lambda, tr = a + b - 2.0;
+    const double psi =
+        mu * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0) + 0.5 * cc * cc) +
+        0.125 * lambda * tr * tr;
+    if (!g && !H) return m->area[e] * psi;
+    /* S = 2 mu E + lambda tr(E) I, so P = F S: gF_0 = S00 f0 + S01 f1, ... */
+    const double S00 = mu * (a - 1.0) + 0.5 * lambda * tr;
+    const double S11 = mu * (b - 1.0) + 0.5 * lambda * tr;
+    const double S01 = mu * cc;
+    double gF[6], HF[36];
+    for (int d = 0; d < 3; d++) {
+        gF[d] = S00 * f0[d] + S01 * f1[d];
+        gF[3 + d] = S01 * f0[d] + S11 * f1[d];
+    }
+    if (H) {
+        /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
+         * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
+         * and da/df0 = 2 f0, db/df1 = 2 f1, dc/df0 = f1, dc/df1 = f0. */
+        const double k = 2.0 * mu + lambda;
+        for (int p = 0; p < 3; p++)
+            for (int q = 0; q < 3; q++) {
+                HF[6 * p + q] = k * f0[p] * f0[q] + mu * f1[p] * f1[q];
+                HF[6 * (3 + p) + 3 + q] = k * f1[p] * f1[q] + mu * f0[p] * f0[q];
+                HF[6 * p + 3 + q] = lambda * f0[p] * f1[q] + mu * f1[p] * f0[q];
+                HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
+            }
+        if (m->mode == CR_HESSIAN_PROJECTED) {
+            /* The stress part S (x) I3. */
+            for (int p = 0; p < 3; p++) {
+                HF[6 * p + p] += S00;
+                HF[6 * (3 + p) + 3 + p] += S11;
+                HF[6 * p + 3 + p] += S01;
+                HF[6 * (3 + p) + p] += S01;
+            }
+            const int stress_psd = S00 >= 0.0 && S11 >= 0.0 && S00 * S11 >= S01 * S01;
+            if (!stress_psd) cr_membrane_project_hf(f, HF);
+        }
+    }
+    cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
+    return m->area[e] * psi;
+}
