@@ -8,7 +8,7 @@ FUZZ_SMOKE_S ?= 10
 FUZZ_LONG_S  ?= 300
 PREFIX  ?= /usr/local
 
-.PHONY: all deps build run check test test-asan fuzz-smoke fuzz bench install clean
+.PHONY: all deps build run check test test-asan fuzz-smoke fuzz bench bench-peers install clean
 
 all: build
 
@@ -54,6 +54,10 @@ check: test test-asan fuzz-smoke
 
 bench: build
 	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done
+
+# Side by side with Blender's cloth solver (installs Debian's blender; never in `make check`).
+bench-peers: build
+	@bash scripts/bench_peers.sh $(RELEASE)/crease $(RELEASE)/bench_peers
 
 install: build
 	cmake --install $(RELEASE) --prefix $(PREFIX)

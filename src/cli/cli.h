@@ -57,5 +57,9 @@ int cmd_primitive(int argc, char **argv);
 void help_primitive(void);
 int cmd_fit(int argc, char **argv);
 void help_fit(void);
+int cmd_simulate(int argc, char **argv);
+void help_simulate(void);
+int cmd_drape_static(int argc, char **argv);
+void help_drape_static(void);
 
 #endif

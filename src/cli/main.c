@@ -14,6 +14,10 @@ static const cli_command commands[] = {
      cmd_primitive, help_primitive},
     {"fit", "regress a deformation over UV with mlp, pe or grid models (drape paper, Table 1)",
      cmd_fit, help_fit},
+    {"simulate", "simulate a garment on a body or object (implicit Euler, Newton, CHOLMOD)",
+     cmd_simulate, help_simulate},
+    {"drape-static", "quasi-static drape of a square cloth over an object", cmd_drape_static,
+     help_drape_static},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

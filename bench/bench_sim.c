@@ -1,0 +1,161 @@
+/* bench_sim.c: seconds per frame of the reference simulator at 30 fps with
+ * the default substeps, and where the time goes (assembly, factorisation,
+ * triangular solves, collision queries).
+ *
+ * Scenes:
+ *   sphere  a 1 m cotton square of 128 x 128 vertices dropped from 4 cm above
+ *           a sphere of radius 0.3 m (96 x 48 UV sphere);
+ *   tube    an open cylinder of cotton (radius 0.15 m, height 0.6 m: a
+ *           sleeve or skirt) of about 5k, 10k and 40k vertices, its top ring
+ *           pinned, with a capsule (radius 0.08 m, length 0.4 m) inside it
+ *           swinging about the top like a leg (0.15 rad at 0.8 Hz) and
+ *           pushing the cloth around.
+ * The first frames of a scene include its setup transient; the split is
+ * summed over all frames. Threads: all, or the second argument.
+ *
+ * Usage: bench_sim [scene] [threads] [frames]
+ *   scene: all (default), sphere, tube5k, tube10k, tube40k
+ *   frames: 30 by default (10 for tube40k)
+ * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
+ */
+#include "crease/phys_sim.h"
+#include "crease/primitives.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct scene_stats {
+    double seconds, assembly, factor, solve, collision;
+    int64_t newton, factorisations, frames, backoffs, capped;
+    double max_pen;
+    int diverged;
+} scene_stats;
+
+static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, int frames) {
+    cr_error err = {0};
+    cr_sim *s = NULL;
+    double t0 = cr_time_now();
+    if (cr_sim_create(def, garment, &s, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s: %s\n", name, err.msg);
+        return 1;
+    }
+    double setup = cr_time_now() - t0;
+    scene_stats st = {0};
+    for (int f = 0; f < frames; f++) {
+        cr_sim_report rep;
+        cr_status status = cr_sim_step(s, &rep, &err);
+        st.seconds += rep.seconds, st.assembly += rep.seconds_assembly;
+        st.factor += rep.seconds_factor, st.solve += rep.seconds_solve;
+        st.collision += rep.seconds_collision;
+        st.newton += rep.newton_iterations, st.factorisations += rep.factorisations;
+        st.backoffs += rep.backoffs, st.capped += rep.newton_capped;
+        st.max_pen = fmax(st.max_pen, rep.max_penetration_m);
+        st.frames++;
+        if (status != CR_OK) {
+            st.diverged = 1;
+            printf("sim %s: stopped at frame %d: %s\n", name, f, err.msg);
+            break;
+        }
+    }
+    double n = (double)st.frames, tot = st.seconds > 0 ? st.seconds : 1;
+    printf("sim %s V=%d: %.3f s/frame over %lld frames (setup %.2f s)\n", name, garment->nv,
+           st.seconds / n, (long long)st.frames, setup);
+    printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
+           "%.0f%%, other %.0f%%\n",
+           name, 100 * st.assembly / tot, 100 * st.factor / tot, 100 * st.solve / tot,
+           100 * st.collision / tot,
+           100 * (tot - st.assembly - st.factor - st.solve - st.collision) / tot);
+    printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
+           "%lld backoffs, max penetration before projection %.2f mm, %s\n",
+           name, st.newton / n, st.factorisations / n, (long long)st.capped, (long long)st.backoffs,
+           1e3 * st.max_pen, st.diverged ? "DIVERGED" : "no divergence");
+    fflush(stdout);
+    cr_sim_destroy(s);
+    return st.diverged;
+}
+
+static int bench_sphere(int frames) {
+    cr_error err = {0};
+    cr_mesh *cloth = NULL, *sphere = NULL;
+    if (cr_prim_plane(128, 128, 1.0f, 1.0f, &cloth, &err) != CR_OK ||
+        cr_prim_sphere_uv(0.3f, 96, 48, &sphere, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s\n", err.msg);
+        return 1;
+    }
+    for (int32_t v = 0; v < cloth->nv; v++)
+        cloth->pos[3 * v + 1] = 0.34f;
+    cr_sim_def d = cr_sim_default_def();
+    cr_material_preset("cotton", &d.material, &err);
+    d.collider = sphere;
+    int rc = run("sphere128", cloth, &d, frames);
+    cr_mesh_destroy(cloth);
+    cr_mesh_destroy(sphere);
+    return rc;
+}
+
+/* The capsule's positions per frame: rotated about the z axis through the
+ * pivot (the tube's top centre) by 0.15 sin(2 pi 0.8 t). */
+static float *swing_frames(const cr_mesh *cap, float pivot_y, int frames) {
+    float *seq = malloc(sizeof(float) * 3 * (size_t)cap->nv * (size_t)frames);
+    if (!seq) return NULL;
+    for (int f = 0; f < frames; f++) {
+        double a = 0.15 * sin(2.0 * M_PI * 0.8 * f / 30.0), c = cos(a), s = sin(a);
+        for (int32_t v = 0; v < cap->nv; v++) {
+            const float *p = cap->pos + 3 * v;
+            float *q = seq + 3 * ((size_t)cap->nv * f + v);
+            double x = p[0], y = p[1] - pivot_y;
+            q[0] = (float)(c * x - s * y);
+            q[1] = (float)(s * x + c * y + pivot_y);
+            q[2] = p[2];
+        }
+    }
+    return seq;
+}
+
+static int bench_tube(const char *name, int segments, int rings, int frames) {
+    cr_error err = {0};
+    cr_mesh *tube = NULL, *cap = NULL;
+    const float height = 0.6f;
+    if (cr_prim_cylinder(0.15f, height, segments, rings, 0, &tube, &err) != CR_OK ||
+        cr_prim_capsule(0.08f, 0.4f, 32, 8, &cap, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s\n", err.msg);
+        return 1;
+    }
+    /* Capsule hanging from the pivot at the tube's top: its top at 5 cm below. */
+    float top = 0.5f * height, cap_half = 0.2f + 0.08f;
+    for (int32_t v = 0; v < cap->nv; v++)
+        cap->pos[3 * v + 1] += top - 0.05f - cap_half;
+    float *seq = swing_frames(cap, top, frames);
+    int32_t *pins = malloc(sizeof(int32_t) * (size_t)tube->nv);
+    int32_t npins = 0;
+    for (int32_t v = 0; v < tube->nv; v++)
+        if (tube->pos[3 * v + 1] > top - 1e-4f) pins[npins++] = v;
+    cr_sim_def d = cr_sim_default_def();
+    cr_material_preset("cotton", &d.material, &err);
+    if (getenv("SPARSE")) d.sparse_hinges = 1;
+    d.pinned = pins, d.npinned = npins;
+    d.collider = cap, d.collider_frames = seq, d.collider_nframes = frames;
+    int rc = seq ? run(name, tube, &d, frames) : 1;
+    free(seq);
+    free(pins);
+    cr_mesh_destroy(tube);
+    cr_mesh_destroy(cap);
+    return rc;
+}
+
+int main(int argc, char **argv) {
+    const char *which = argc > 1 ? argv[1] : "all";
+    if (argc > 2) cr_set_thread_count(atoi(argv[2]));
+    int frames = argc > 3 ? atoi(argv[3]) : 30, big = argc > 3 ? frames : 10;
+    if (frames < 1) frames = big = 1;
+    cr_sim_def d = cr_sim_default_def();
+    printf("sim threads: %d, dt %.4f s, %d substeps\n", cr_thread_count(), d.dt, d.substeps);
+    int all = strcmp(which, "all") == 0, rc = 0;
+    if (all || !strcmp(which, "sphere")) rc |= bench_sphere(frames);
+    if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
+    if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
+    if (all || !strcmp(which, "tube40k"))
+        rc |= bench_tube("tube40k", 200, 199, frames); /* 40,000 */
+    return rc;
+}

@@ -1,0 +1,91 @@
+/* crease/phys_scene.h: scenes and outputs around the simulator, shared by
+ * `crease simulate`, `crease drape-static` and the benchmarks.
+ *
+ *   cr_mesh *obj = NULL;
+ *   CR_TRY(cr_scene_object_create("sphere", &obj, err));     or "F.obj"
+ *   ... cr_sim_create with def.collider = obj ...
+ *   cr_scene_record *rec = NULL;
+ *   CR_TRY(cr_scene_record_create("out/frames.jsonl", sim, garment, frames + 1, &rec, err));
+ *   for each frame: cr_sim_step(sim, &rep, ...); cr_scene_record_frame(rec, sim, &rep, err);
+ *   cr_scene_record_write(rec, "out/sim.pc2", "out/sim.glb", 30, err);
+ *
+ * What it leaves out: cameras and colours beyond a fixed two-object render,
+ * streaming of the sequence (samples are held in memory, (T,V,3) floats, and
+ * written at the end).
+ */
+#ifndef CREASE_PHYS_SCENE_H
+#define CREASE_PHYS_SCENE_H
+
+#include "crease/mesh_io.h"
+#include "crease/phys_sim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The named objects of the physics scenes, closed meshes centred at the
+ * origin, Y up, as `crease primitive` makes them: "sphere" (UV sphere r =
+ * 0.3 m, 64 x 32, the Blender peer's), "torus" (0.3 / 0.1 m), "prism" (side
+ * 0.4 m, length 0.8 m along X, ridge up), "box" (0.4 m edges). Any other
+ * spec is read as a mesh file (cr_mesh_read), kept where it is. */
+cr_status cr_scene_object_create(const char *spec, cr_mesh **out, cr_error *err);
+
+/* Read a PC2 animating `collider` (named `collider_name` in messages) and
+ * check that every sample has the collider's vertex count: CR_ERR_SHAPE
+ * naming both files and both counts otherwise. `out` is freed with
+ * cr_pc2_free. */
+cr_status cr_scene_animation_read(const char *pc2_path, const cr_mesh *collider,
+                                  const char *collider_name, cr_pc2 *out, cr_error *err);
+
+/* A square cloth of `size` m with res x res vertices (cr_prim_plane, Y up),
+ * centred over `object` in x and z, `gap` m above its highest point. */
+cr_status cr_scene_cloth_above(const cr_mesh *object, int32_t res, float size, float gap,
+                               cr_mesh **out, cr_error *err);
+
+/* Render `garment` at positions `garment_pos` (V,3, m; NULL: its own) in
+ * cloth blue with `collider` (may be NULL) at `collider_pos` (Vc,3, m; NULL:
+ * its own) in grey into a `size` x `size` PNG. */
+cr_status cr_scene_render(const char *png_path, const cr_mesh *garment, const float *garment_pos,
+                          const cr_mesh *collider, const float *collider_pos, int size,
+                          cr_error *err);
+
+/* ---------------------------------------------------------- recording -- */
+
+/* A run's record: garment positions per frame (sample 0 the initial state)
+ * and a JSON lines log with one object per frame:
+ *   {"frame", one field per energy term (J, named as in cr_sim_report),
+ *    "kinetic", "max_penetration_m", "newton_iterations", "substeps",
+ *    "backoffs", "contacts", "yielded", "seconds", "seconds_assembly",
+ *    "seconds_factor", "seconds_solve", "seconds_collision"}
+ * plus "diverged": true and "failure" on a frame that failed. Each line is
+ * flushed as it is written, so a run that stops leaves its log. */
+typedef struct cr_scene_record cr_scene_record;
+
+/* Open (truncate) the log at `log_path` and take sample 0 from `sim`.
+ * `garment` (borrowed for the record's life) gives faces and UVs;
+ * `max_samples` >= 1 bounds the samples held. */
+cr_status cr_scene_record_create(const char *log_path, const cr_sim *sim, const cr_mesh *garment,
+                                 int32_t max_samples, cr_scene_record **out, cr_error *err);
+void cr_scene_record_destroy(cr_scene_record *r);
+
+/* Log the frame `rep` describes; when it did not diverge, also keep the
+ * simulator's positions as the next sample (CR_ERR_RANGE past max_samples). */
+cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_sim_report *rep,
+                                cr_error *err);
+
+int32_t cr_scene_record_samples(const cr_scene_record *r);
+/* (V,3) positions of the last sample, m; owned by the record. */
+const float *cr_scene_record_last(const cr_scene_record *r);
+
+/* Write the samples as a PC2 (start frame 0, one sample per frame) and a glb
+ * morph-target sequence at `fps`; either path may be NULL to skip it. */
+cr_status cr_scene_record_write(const cr_scene_record *r, const char *pc2_path,
+                                const char *glb_path, float fps, cr_error *err);
+
+/* The garment at the last sample, as a new mesh (faces and UVs kept). */
+cr_status cr_scene_record_mesh(const cr_scene_record *r, cr_mesh **out, cr_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

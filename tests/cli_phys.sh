@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# cli_phys.sh: `crease simulate` and `crease drape-static` end to end, on small
+# scenes: outputs, --json summaries, per-frame logs, penetration, exit codes
+# (0 ok, 1 bad input naming the file or counts, 2 usage).
+# Usage: cli_phys.sh PATH_TO_CREASE
+set -u
+crease=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+check() { # check NAME COMMAND... : the command must succeed
+  local name=$1; shift
+  if "$@" >/dev/null; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name" >&2; fi
+}
+
+# expect_exit CODE PATTERN ARGS...: crease ARGS exits with CODE and stderr matches PATTERN
+expect_exit() {
+  local code=$1 pattern=$2; shift 2
+  "$crease" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local got=$?
+  if [[ $got -eq $code ]] && grep -Eq -- "$pattern" "$tmp/stderr"; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1))
+    echo "FAIL: crease $* -> exit $got (want $code), stderr: $(head -c 300 "$tmp/stderr")" >&2
+  fi
+}
+
+json_has() { # json_has FILE KEY...: the last stdout line is one JSON object with these keys
+  local line; line=$(tail -n 1 "$1")
+  [[ $line == \{*\} ]] || return 1
+  shift
+  for k in "$@"; do grep -q "\"$k\":" <<<"$line" || return 1; done
+}
+
+# json_below FILE KEY LIMIT: the number at KEY in FILE's last line is below LIMIT
+json_below() {
+  local v; v=$(tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2)
+  [[ -n $v ]] && awk -v v="$v" -v l="$3" 'BEGIN { exit !(v < l) }'
+}
+
+for c in simulate drape-static; do
+  check "$c --help" bash -c "'$crease' $c --help | grep -q usage"
+done
+
+# --- simulate: a 12x12 cloth 0.35 m up, 5 frames over the sphere ------------------------
+"$crease" primitive plane --res 12 -o "$tmp/cloth.obj" >/dev/null
+check "simulate" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' --garment-offset 0,0.35,0 \
+  --object sphere --frames 5 --material cotton -o '$tmp/sim' --quiet --json > '$tmp/sim.json'"
+check "simulate fields" json_has "$tmp/sim.json" command frames diverged max_penetration_m \
+  seconds_per_frame outputs pc2 glb log png
+check "simulate 5 frames" grep -q '"frames":5,' "$tmp/sim.json"
+check "simulate no divergence" grep -q '"diverged":false' "$tmp/sim.json"
+check "simulate penetration < 1 mm" json_below "$tmp/sim.json" max_penetration_m 1e-3
+check "simulate outputs" test -s "$tmp/sim/sim.pc2" -a -s "$tmp/sim/sim.glb" -a -s "$tmp/sim/last.png"
+check "simulate log: 5 lines" bash -c "[[ \$(wc -l < '$tmp/sim/frames.jsonl') -eq 5 ]]"
+check "simulate log fields" json_has "$tmp/sim/frames.jsonl" frame membrane bending gravity \
+  max_penetration_m newton_iterations seconds
+check "sim.pc2 plays as glb" "$crease" convert "$tmp/sim/sim.pc2" "$tmp/sim2.glb" --rest "$tmp/cloth.obj"
+check "simulate pinned, plastic" "$crease" simulate --garment "$tmp/cloth.obj" --frames 2 \
+  --pin 0,11 --plastic --material silk --substeps 1 -o "$tmp/pin" --quiet
+
+# --- drape-static: a 16x16 cloth over the sphere -----------------------------------------
+check "drape-static" bash -c "'$crease' drape-static --object sphere --res 16 --max-frames 20 -o '$tmp/ds' --json \
+  > '$tmp/ds.json' 2>/dev/null"
+check "drape-static fields" json_has "$tmp/ds.json" max_penetration_m newton_iterations seconds outputs
+check "drape-static penetration < 1 mm" json_below "$tmp/ds.json" max_penetration_m 1e-3
+check "drape-static outputs" test -s "$tmp/ds/final.obj" -a -s "$tmp/ds/final.png" \
+  -a -s "$tmp/ds/frames.jsonl"
+check "drape-static png magic" bash -c "head -c 4 '$tmp/ds/final.png' | grep -q PNG"
+
+# --- bad input and usage -----------------------------------------------------------------
+expect_exit 2 "velvet" simulate --garment "$tmp/cloth.obj" --object sphere --frames 1 \
+  --material velvet -o "$tmp/x"
+expect_exit 1 "nope.obj" simulate --garment "$tmp/nope.obj" --object sphere --frames 1 -o "$tmp/x"
+# the 12x12 cloth's cache (144 vertices) as the animation of a sphere body (1986 vertices)
+"$crease" primitive sphere -o "$tmp/body.obj" >/dev/null
+expect_exit 1 "sim.pc2: 144 .*1986" simulate --garment "$tmp/cloth.obj" --body-mesh "$tmp/body.obj" \
+  --body "$tmp/sim/sim.pc2" --frames 1 -o "$tmp/x"
+expect_exit 2 "--frames" simulate --garment "$tmp/cloth.obj" --object sphere --frames 0 -o "$tmp/x"
+expect_exit 2 "missing --frames" simulate --garment "$tmp/cloth.obj" --object sphere -o "$tmp/x"
+expect_exit 2 "--body-mesh" simulate --garment "$tmp/cloth.obj" --body "$tmp/sim/sim.pc2" \
+  --frames 1 -o "$tmp/x"
+expect_exit 2 "--pin" simulate --garment "$tmp/cloth.obj" --frames 1 --pin 1,x -o "$tmp/x"
+expect_exit 1 "pin|range" simulate --garment "$tmp/cloth.obj" --frames 1 --pin 9999 -o "$tmp/x"
+expect_exit 2 "missing --object" drape-static --res 8 -o "$tmp/x"
+expect_exit 2 "--res" drape-static --object sphere --res 1 -o "$tmp/x"
+expect_exit 1 "teapot.obj" drape-static --object "$tmp/teapot.obj" --res 8 -o "$tmp/x"
+
+echo "cli_phys: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
