@@ -45,15 +45,10 @@ typedef struct cr_cholesky_info {
 } cr_cholesky_info;
 
 /* Analyse the pattern of h with the vertices where pinned[v] != 0 removed
- * (pinned may be NULL) and, when block_mask (B) is not NULL, only the blocks
- * where it is non-zero (diagonal blocks are always kept). Each block B left
- * out adds |B|_F to the diagonal of its two vertices, so the factored matrix
- * P satisfies P - H = sum of [[|B| I, -B], [-B^T, |B| I]] >= 0: P is positive
- * definite wherever H is positive semi-definite, and P^{-1}(-g) is a descent
- * direction. CR_ERR_INVALID when every vertex is pinned; CR_ERR_MEMORY when
- * CHOLMOD runs out. The caller destroys *out. */
-cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, const uint8_t *block_mask,
-                             cr_cholesky **out, cr_error *err);
+ * (pinned may be NULL). CR_ERR_INVALID when every vertex is pinned;
+ * CR_ERR_MEMORY when CHOLMOD runs out. The caller destroys *out. */
+cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, cr_cholesky **out,
+                             cr_error *err);
 void cr_cholesky_destroy(cr_cholesky *c);
 
 /* Factorise the values of h (same pattern as at creation). Non-finite entries

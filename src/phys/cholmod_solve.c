@@ -20,9 +20,13 @@
 #include "crease/phys_solve.h"
 
 #include <math.h>
+#include <cblas.h>
 #include <stdlib.h>
 #include <string.h>
 #include <suitesparse/cholmod.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 /* First shift relative to the largest diagonal entry, and its growth per retry:
  * 1e-8 perturbs a well-posed system below the Newton tolerance; ten retries
@@ -38,11 +42,8 @@ struct cr_cholesky {
     cholmod_factor *L;
     cholmod_dense *B, *X, *Y, *E;
     int32_t nv, nfree;
-    int32_t *free_vertex;  /* (nfree) vertex of each reduced block */
-    int64_t *gather;       /* (nnz) index into cr_hessian.val */
-    int64_t ndropped;      /* off-diagonal blocks left out by the mask, between free vertices */
-    int64_t *dropped;      /* (ndropped) their block indices */
-    int32_t *dropped_ends; /* (ndropped,2) reduced indices of their row and column vertices */
+    int32_t *free_vertex; /* (nfree) vertex of each reduced block */
+    int64_t *gather;      /* (nnz) index into cr_hessian.val */
     int64_t nnz;
     int64_t nblock; /* pattern check */
     cr_cholesky_info info;
@@ -82,13 +83,11 @@ void cr_cholesky_destroy(cr_cholesky *c) {
     }
     free(c->free_vertex);
     free(c->gather);
-    free(c->dropped);
-    free(c->dropped_ends);
     free(c);
 }
 
-cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, const uint8_t *block_mask,
-                             cr_cholesky **out, cr_error *err) {
+cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, cr_cholesky **out,
+                             cr_error *err) {
     *out = NULL;
     cr_cholesky *c = cr_calloc(1, sizeof(cr_cholesky), err);
     if (!c) return err ? err->status : CR_ERR_MEMORY;
@@ -114,30 +113,11 @@ cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, const u
     for (int32_t j = 0; j < h->nv; j++) {
         if (reduced[j] < 0) continue;
         for (int64_t k = h->col_off[j]; k < h->col_off[j + 1]; k++)
-            if (reduced[h->row[k]] >= 0 && (h->row[k] == j || !block_mask || block_mask[k]))
-                nnz += h->row[k] == j ? 6 : 9;
+            if (reduced[h->row[k]] >= 0) nnz += h->row[k] == j ? 6 : 9;
     }
     c->nnz = nnz;
     c->gather = cr_malloc((size_t)nnz * sizeof(int64_t), err);
     if (!c->gather) goto oom;
-    if (block_mask) {
-        for (int64_t k = 0; k < h->nblock; k++)
-            c->ndropped += !block_mask[k] && h->row[k] != h->col[k] && reduced[h->row[k]] >= 0 &&
-                           reduced[h->col[k]] >= 0;
-        size_t nd = (size_t)(c->ndropped > 0 ? c->ndropped : 1);
-        c->dropped = cr_malloc(nd * sizeof(int64_t), err);
-        c->dropped_ends = cr_malloc(nd * 2 * sizeof(int32_t), err);
-        if (!c->dropped || !c->dropped_ends) goto oom;
-        int64_t m = 0;
-        for (int64_t k = 0; k < h->nblock; k++)
-            if (!block_mask[k] && h->row[k] != h->col[k] && reduced[h->row[k]] >= 0 &&
-                reduced[h->col[k]] >= 0) {
-                c->dropped[m] = k;
-                c->dropped_ends[2 * m] = reduced[h->row[k]];
-                c->dropped_ends[2 * m + 1] = reduced[h->col[k]];
-                m++;
-            }
-    }
     cholmod_start(&c->cm);
     c->started = 1;
     c->cm.print = 0; /* the library never prints */
@@ -159,7 +139,7 @@ cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, const u
             Ap[3 * jb + col] = (int)q;
             for (int64_t k = h->col_off[j]; k < h->col_off[j + 1]; k++) {
                 int32_t ib = reduced[h->row[k]];
-                if (ib < 0 || (ib != jb && block_mask && !block_mask[k])) continue;
+                if (ib < 0) continue;
                 for (int r = 0; r < 3; r++) {
                     if (ib == jb && r > col) break; /* lower part of a diagonal block */
                     Ai[q] = 3 * ib + r;
@@ -189,6 +169,44 @@ fail:
     return st;
 }
 
+/* The factorisation runs on the calling thread alone. On two cores, with
+ * anything else running, threads in CHOLMOD's loops and OpenBLAS's level-3
+ * kernels spent more time waking and spinning than computing: a 5k-vertex
+ * cloth's factor (9e8 flops) took 0.55-1.7 s on two threads against
+ * 0.15-0.25 s on one. CHOLMOD's loops ask for a fixed number of threads by a
+ * num_threads clause, so parallel regions are switched off for the call
+ * (OpenMP's max-active-levels 0); OpenBLAS is told to use one thread as well,
+ * because its level-3 kernels otherwise queue work for a team that an
+ * inactive region never provides, and spin forever. Both settings are
+ * restored afterwards; assembly and collision queries stay parallel. The
+ * triangular solves run the same way. */
+typedef struct serial_scope {
+    int levels, blas_threads, omp_threads;
+} serial_scope;
+
+static serial_scope serial_begin(void) {
+    serial_scope sc = {0, openblas_get_num_threads(), 1};
+#ifdef _OPENMP
+    sc.levels = omp_get_max_active_levels();
+    sc.omp_threads = omp_get_max_threads();
+#endif
+    openblas_set_num_threads(1);
+#ifdef _OPENMP
+    omp_set_max_active_levels(0);
+#endif
+    return sc;
+}
+
+/* OpenBLAS's OpenMP build sets OpenMP's thread count along with its own, so
+ * that is put back last. */
+static void serial_end(serial_scope sc) {
+    openblas_set_num_threads(sc.blas_threads);
+#ifdef _OPENMP
+    omp_set_max_active_levels(sc.levels);
+    omp_set_num_threads(sc.omp_threads);
+#endif
+}
+
 cr_status cr_cholesky_factor(cr_cholesky *c, const cr_hessian *h, cr_cholesky_info *info,
                              cr_error *err) {
     CR_ASSERT(h->nv == c->nv && h->nblock == c->nblock);
@@ -200,40 +218,32 @@ cr_status cr_cholesky_factor(cr_cholesky *c, const cr_hessian *h, cr_cholesky_in
             return CR_FAIL(err, CR_ERR_NAN, "cholesky: non-finite Hessian entry (%g) in block %lld",
                            Ax[q], (long long)(c->gather[q] / 9));
     }
-    /* A block B left out by the mask goes to the diagonals of its two vertices
-     * as |B|_F I, so the factored matrix minus the full one is a sum of
-     * [[|B| I, -B], [-B^T, |B| I]] >= 0. The last entry of each column is its
-     * diagonal (rows sorted, upper part). */
-    for (int64_t m = 0; m < c->ndropped; m++) {
-        const double *b = h->val + 9 * c->dropped[m];
-        double f2 = 0.0;
-        for (int k = 0; k < 9; k++)
-            f2 += b[k] * b[k];
-        double f = sqrt(f2);
-        for (int e = 0; e < 2; e++)
-            for (int r = 0; r < 3; r++)
-                Ax[Ap[3 * c->dropped_ends[2 * m + e] + r + 1] - 1] += f;
-    }
+    /* The last entry of each column is its diagonal (rows sorted, upper part). */
     for (size_t j = 0; j < c->A->ncol; j++)
         if (fabs(Ax[Ap[j + 1] - 1]) > maxdiag) maxdiag = fabs(Ax[Ap[j + 1] - 1]);
     if (maxdiag == 0.0) maxdiag = 1.0;
     c->info.retries = 0;
     double shift = 0.0;
+    serial_scope sc = serial_begin();
     for (int attempt = 0; attempt <= CR_CHOLESKY_MAX_SHIFTS; attempt++) {
         double beta[2] = {shift, 0.0};
         cholmod_factorize_p(c->A, beta, NULL, 0, c->L, &c->cm);
         if (c->cm.status == CHOLMOD_OK && c->L->minor == c->L->n) {
+            serial_end(sc);
             c->info.shift = shift;
             c->info.factor_nnz = (int64_t)c->cm.lnz;
             if (info) *info = c->info;
             return CR_OK;
         }
-        if (c->cm.status != CHOLMOD_NOT_POSDEF)
+        if (c->cm.status != CHOLMOD_NOT_POSDEF) {
+            serial_end(sc);
             return CR_FAIL(err, CR_ERR_MEMORY, "cholesky: CHOLMOD factorisation failed (status %d)",
                            c->cm.status);
+        }
         c->info.retries++;
         shift = shift == 0.0 ? SHIFT_FIRST * maxdiag : shift * SHIFT_GROWTH;
     }
+    serial_end(sc);
     c->info.shift = shift;
     if (info) *info = c->info;
     return CR_FAIL(err, CR_ERR_DIVERGED,
@@ -246,7 +256,10 @@ cr_status cr_cholesky_solve(cr_cholesky *c, const double *rhs, double *x, cr_err
     double *b = c->B->x;
     for (int32_t k = 0; k < c->nfree; k++)
         memcpy(b + 3 * (int64_t)k, rhs + 3 * (int64_t)c->free_vertex[k], 3 * sizeof(double));
-    if (!cholmod_solve2(CHOLMOD_A, c->L, c->B, NULL, &c->X, NULL, &c->Y, &c->E, &c->cm))
+    serial_scope sc = serial_begin(); /* as the factorisation: one thread is faster */
+    int ok = cholmod_solve2(CHOLMOD_A, c->L, c->B, NULL, &c->X, NULL, &c->Y, &c->E, &c->cm);
+    serial_end(sc);
+    if (!ok)
         return CR_FAIL(err, CR_ERR_MEMORY, "cholesky: CHOLMOD solve failed (status %d)",
                        c->cm.status);
     const double *sol = c->X->x;

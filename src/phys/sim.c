@@ -28,9 +28,14 @@
  *
  * Left out: self-collision, continuous collision detection, pinned vertices
  * that follow an animation, adaptive time steps inside a frame beyond the
- * backoff, reuse of a factorisation across Newton iterations (tried as a CG
- * preconditioner: contacts and rotations change a cloth Hessian so much
- * between iterations that CG rarely converged in the time of a new factor).
+ * backoff. Two ways to factorise less were tried and dropped: reusing a
+ * factorisation as the preconditioner of conjugate gradients on later
+ * iterations (contacts and rotations change a cloth Hessian so much between
+ * iterations that CG rarely converged in the time of a new factor), and
+ * factorising a sparser matrix without bending's couplings between hinge
+ * wing tips, moved to the diagonal by their norm (half the fill, but the
+ * matrix then misses the smooth bending modes: a folded paper strip stayed
+ * folded).
  */
 #include "crease/phys_sim.h"
 

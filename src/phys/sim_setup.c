@@ -119,7 +119,7 @@ static cr_status setup_collider(cr_sim *s, cr_error *err) {
 static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     size_t n3 = 3 * (size_t)s->nv, nh = (size_t)(s->nh > 0 ? s->nh : 1);
     double **vec3[] = {&s->x,      &s->v,    &s->x_frame, &s->v_frame, &s->x_start,
-                       &s->x_pred, &s->grad, &s->dx,      &s->xt,      &s->disp};
+                       &s->x_pred, &s->grad, &s->dx,      &s->xt,      &s->disp,};
     for (size_t k = 0; k < sizeof vec3 / sizeof vec3[0]; k++)
         if (!(*vec3[k] = cr_calloc(n3, sizeof(double), err)))
             return err ? err->status : CR_ERR_MEMORY;
@@ -132,36 +132,6 @@ static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     if (!s->rest_frame || !s->theta || !s->xf || !s->dist || !s->normal || !s->pinned)
         return err ? err->status : CR_ERR_MEMORY;
     return CR_OK;
-}
-
-/* 1 when (i, j) is a mesh edge (vv is sorted). */
-static int is_edge(const cr_topology *t, int32_t i, int32_t j) {
-    int32_t lo = t->vv_off[i], hi = t->vv_off[i + 1] - 1;
-    while (lo <= hi) {
-        int32_t mid = (lo + hi) / 2;
-        if (t->vv[mid] == j) return 1;
-        if (t->vv[mid] < j)
-            lo = mid + 1;
-        else
-            hi = mid - 1;
-    }
-    return 0;
-}
-
-/* The Cholesky analysis, of the full Hessian or (def.sparse_hinges) of the
- * Hessian without the blocks between hinge wing tips. */
-static cr_status setup_solver(cr_sim *s, cr_error *err) {
-    const cr_hessian *h = cr_assembly_hessian(s->assembly);
-    uint8_t *mask = NULL;
-    if (s->def.sparse_hinges) {
-        mask = cr_malloc((size_t)(h->nblock > 0 ? h->nblock : 1), err);
-        if (!mask) return err ? err->status : CR_ERR_MEMORY;
-        for (int64_t k = 0; k < h->nblock; k++)
-            mask[k] = h->row[k] == h->col[k] || is_edge(s->topo, h->row[k], h->col[k]);
-    }
-    cr_status st = cr_cholesky_create(h, s->pinned, mask, &s->chol, err);
-    free(mask);
-    return st;
 }
 
 static void add_term(cr_sim *s, cr_energy_term t) {
@@ -207,7 +177,7 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
     s->t_friction = s->friction ? s->nterms : -1;
     if (s->friction) cr_friction_term(s->friction, &t), add_term(s, t);
     CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
-    CR_TRY(setup_solver(s, err));
+    CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
 
     if (s->bvh) {
         /* Unbounded once, so a garment that starts inside the collider is seen. */
