@@ -8,7 +8,7 @@ FUZZ_SMOKE_S ?= 10
 FUZZ_LONG_S  ?= 300
 PREFIX  ?= /usr/local
 
-.PHONY: all deps build run check test test-asan fuzz-smoke fuzz bench bench-peers install clean
+.PHONY: all deps build run check test test-long test-asan fuzz-smoke fuzz bench bench-peers install clean
 
 all: build
 
@@ -26,14 +26,20 @@ run: build
 	@bash scripts/run_demo.sh $(RELEASE)/crease $(OUT)
 
 test: build
-	cd $(RELEASE) && ctest --output-on-failure -j $(JOBS)
+	cd $(RELEASE) && ctest --output-on-failure -j $(JOBS) -LE long
+
+# The acceptance runs of minutes (ctest label "long") and the 1,500-frame
+# stability run of a 10k-vertex tube on a swinging collider.
+test-long: build
+	cd $(RELEASE) && ctest --output-on-failure -L long
+	$(RELEASE)/bench_sim tube10k 2 1500
 
 test-asan: deps
 	cmake -S . -B $(ASAN) -DCMAKE_BUILD_TYPE=Debug -DCREASE_SANITIZE=ON \
 	      -DCMAKE_C_FLAGS_DEBUG="-O1 -g" >/dev/null
 	cmake --build $(ASAN) -j $(JOBS)
 	cd $(ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	      ctest --output-on-failure -j $(JOBS)
+	      ctest --output-on-failure -j $(JOBS) -LE long
 
 $(FUZZ)/CMakeCache.txt:
 	CC=clang cmake -S . -B $(FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCREASE_FUZZ=ON -DCREASE_OPENMP=OFF \

@@ -28,7 +28,9 @@ void help_simulate(void) {
            "  --material-json F    override material fields from a JSON object\n"
            "  --plastic            plastic bending: rest angles follow large folds\n"
            "  --pin i,j,...        vertices held at their initial positions\n"
-           "  --substeps S         implicit Euler steps per frame (default 2)\n"
+           "  --substeps S         implicit Euler steps per frame (default 1)\n"
+           "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
+           "                       twice as fast and damps bending, docs/physics.md)\n"
            "  --fps F              frames per second (default 30)\n"
            "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
            "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
@@ -41,7 +43,7 @@ void help_simulate(void) {
 
 typedef struct {
     const char *garment, *object, *body_mesh, *body, *material, *material_json, *out;
-    int frames, substeps, plastic, json, quiet, has_offset;
+    int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3];
     int32_t *pins;
     int32_t npins;
@@ -108,6 +110,10 @@ static int parse(int argc, char **argv, sim_opts *o) {
         } else if (strcmp(opt, "--substeps") == 0) {
             if (!(v = cli_args_value(&a, opt)) ||
                 !cli_parse_int("simulate", opt, v, 1, 4096, &o->substeps))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--newton-iterations") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("simulate", opt, v, 1, 1000, &o->newton_iterations))
                 return CLI_USAGE;
         } else if (strcmp(opt, "--fps") == 0) {
             if (!(v = cli_args_value(&a, opt)) ||
@@ -179,6 +185,7 @@ static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error 
     }
     def->dt = 1.0 / o->fps;
     if (o->substeps > 0) def->substeps = o->substeps;
+    if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     def->plasticity = o->plastic;
     def->pinned = o->pins;
     def->npinned = o->npins;
