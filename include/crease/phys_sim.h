@@ -121,9 +121,15 @@ typedef struct cr_sim_def {
     float uv_scale;             /* m per UV unit (default 1) */
     int bending_rest_from_mesh; /* 1: initial rest angles from the garment mesh (default 1) */
     cr_hessian_mode bending_hessian; /* default CR_HESSIAN_GAUSS_NEWTON: no eigensolve per hinge */
-    const int32_t *pinned; /* (npinned) vertices held at their initial positions; read only
-                              during create */
+    const int32_t *pinned; /* (npinned) vertices held at their initial positions, or moved by
+                              pin_frames; read only during create */
     int32_t npinned;
+    const float *pin_frames; /* optional (T, npinned, 3) positions of the pinned vertices per
+                                frame, in the order of `pinned`, m: frame f of the run moves
+                                them from frames[f] to frames[f+1] (held at the last), e.g. a
+                                waistband skinned to the body; borrowed for the simulator's
+                                life */
+    int32_t pin_nframes;     /* T */
     const cr_mesh *collider;      /* optional: a closed, outward-oriented mesh (body or object),
                                      copied into a BVH; read only during create */
     const float *collider_frames; /* optional (T, Vc, 3) collider positions per frame, m; frame

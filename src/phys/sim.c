@@ -26,9 +26,11 @@
  * A frame runs `substeps` substeps; a failed one restores the frame's start
  * and retries with twice the substeps (max_backoff times).
  *
- * Left out: self-collision, continuous collision detection, pinned vertices
- * that follow an animation, adaptive time steps inside a frame beyond the
- * backoff. Two ways to factorise less were tried and dropped: reusing a
+ * Pinned vertices are left out of the solve; with def.pin_frames they are
+ * moved to their positions at t1 before Newton starts (step 4).
+ *
+ * Left out: self-collision, continuous collision detection, adaptive time
+ * steps inside a frame beyond the backoff. Two ways to factorise less were tried and dropped: reusing a
  * factorisation as the preconditioner of conjugate gradients on later
  * iterations (contacts and rotations change a cloth Hessian so much between
  * iterations that CG rarely converged in the time of a new factor), and
@@ -123,6 +125,22 @@ static void collider_pose(const cr_sim *s, double t, float *out) {
     const float *p0 = d->collider_frames + i0 * nc3, *p1 = d->collider_frames + i1 * nc3;
     for (int64_t k = 0; k < nc3; k++)
         out[k] = (float)((1.0 - a) * p0[k] + a * p1[k]);
+}
+
+/* Pinned vertices driven by def.pin_frames go to their positions at time t
+ * (frames), linear between stored frames as the collider. */
+static void move_pins(cr_sim *s, double t) {
+    const cr_sim_def *d = &s->def;
+    if (!d->pin_frames) return;
+    double f = floor(t), a = t - f;
+    int64_t last = d->pin_nframes - 1, i0 = (int64_t)f, i1 = i0 + 1;
+    i0 = i0 < 0 ? 0 : (i0 > last ? last : i0);
+    i1 = i1 < 0 ? 0 : (i1 > last ? last : i1);
+    const float *p0 = d->pin_frames + 3 * i0 * s->npin, *p1 = d->pin_frames + 3 * i1 * s->npin;
+    for (int32_t i = 0; i < s->npin; i++)
+        for (int k = 0; k < 3; k++)
+            s->x[3 * (int64_t)s->pin_index[i] + k] =
+                (1.0 - a) * p0[3 * i + k] + a * p1[3 * i + k];
 }
 
 /* Poses at t0 (cpos_prev) and t1 (cpos, into the BVH); returns the largest
@@ -413,6 +431,7 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
         memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
         if (s->bvh) clamp_guess(s);
     }
+    move_pins(s, t1);
     CR_TRY(newton(s, &o, err));
 
     /* Final query, projection, velocities. */

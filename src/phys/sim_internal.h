@@ -36,6 +36,8 @@ struct cr_sim {
     cr_cholesky *chol;
 
     uint8_t *pinned;    /* (V) 1 = held */
+    int32_t *pin_index; /* (npin) the pinned vertices in the order of def.pin_frames */
+    int32_t npin;
     const double *mass; /* (V) kg, owned by gravity */
 
     /* State. */

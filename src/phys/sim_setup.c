@@ -39,6 +39,7 @@ void cr_sim_destroy(cr_sim *s) {
     cr_topology_destroy(s->topo);
     cr_bvh_destroy(s->bvh);
     free(s->pinned);
+    free(s->pin_index);
     free(s->x), free(s->v), free(s->x_frame), free(s->v_frame), free(s->rest_frame);
     free(s->x_start), free(s->x_pred), free(s->grad), free(s->dx), free(s->xt), free(s->disp);
     free(s->theta), free(s->xf), free(s->dist), free(s->normal);
@@ -87,6 +88,13 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
               "unknown plastic rule %d", (int)d->plastic_rule);
     CHECK_DEF(d->npinned >= 0 && (d->npinned == 0 || d->pinned), "pinned: %d vertices, list %s",
               d->npinned, d->pinned ? "set" : "NULL");
+    CHECK_DEF(!d->pin_frames || (d->npinned > 0 && d->pin_nframes >= 1),
+              "pin_frames needs pinned vertices and pin_nframes >= 1 (got %d and %d)",
+              d->npinned, d->pin_nframes);
+    if (d->pin_frames)
+        for (int64_t k = 0; k < 3 * (int64_t)d->npinned * d->pin_nframes; k++)
+            CHECK_DEF(isfinite(d->pin_frames[k]), "pin_frames: frame %lld has a non-finite coordinate",
+                      (long long)(k / (3 * (int64_t)d->npinned)));
     CHECK_DEF(!d->collider_frames || (d->collider && d->collider_nframes >= 1),
               "collider_frames needs a collider mesh and collider_nframes >= 1 (got %d)",
               d->collider_nframes);
@@ -159,6 +167,12 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
             return CR_FAIL(err, CR_ERR_RANGE, "simulator: pinned[%d] = %d is not a vertex (V = %d)",
                            i, d->pinned[i], s->nv);
         s->pinned[d->pinned[i]] = 1;
+    }
+    if (d->pin_frames) {
+        s->pin_index = cr_malloc((size_t)d->npinned * sizeof(int32_t), err);
+        if (!s->pin_index) return err ? err->status : CR_ERR_MEMORY;
+        memcpy(s->pin_index, d->pinned, (size_t)d->npinned * sizeof(int32_t));
+        s->npin = d->npinned;
     }
     for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
         s->x[k] = garment->pos[k];
