@@ -61,5 +61,11 @@ int cmd_simulate(int argc, char **argv);
 void help_simulate(void);
 int cmd_drape_static(int argc, char **argv);
 void help_drape_static(void);
+int cmd_motion(int argc, char **argv);
+void help_motion(void);
+int cmd_body(int argc, char **argv);
+void help_body(void);
+int cmd_pose_body(int argc, char **argv);
+void help_pose_body(void);
 
 #endif

@@ -18,6 +18,12 @@ static const cli_command commands[] = {
      cmd_simulate, help_simulate},
     {"drape-static", "quasi-static drape of a square cloth over an object", cmd_drape_static,
      help_drape_static},
+    {"motion", "write a procedural motion clip, or convert a BVH or AMASS motion to .npz",
+     cmd_motion, help_motion},
+    {"body", "write the procedural mannequin (slim, normal, heavy; height, girth, chest, hips)",
+     cmd_body, help_body},
+    {"pose-body", "skin the mannequin through a motion clip or file, write PC2 or animated .glb",
+     cmd_pose_body, help_pose_body},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

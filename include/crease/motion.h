@@ -1,0 +1,136 @@
+/* crease/motion.h: motions for the bodies garments are simulated on:
+ * procedural clips, BVH and AMASS-style .npz loaders, the project's own
+ * motion .npz, and SMPL-style body models.
+ *
+ *   cr_motion *walk = NULL;
+ *   CR_TRY(cr_motion_clip("walk", 120, 30.0f, &walk, err));   // 4 s at 30 fps
+ *   CR_TRY(cr_motion_save("walk.npz", walk, err));
+ *   cr_motion *mocap = NULL;
+ *   CR_TRY(cr_motion_load("jump.bvh", &mocap, err));          // or an AMASS .npz
+ *
+ * Poses follow crease/skeleton.h: per joint an axis-angle rotation relative
+ * to the parent, in the rest pose's frame (all joint frames aligned with the
+ * world: +Y up, the body facing +Z, its left side at +X), and a root
+ * translation: the pelvis sits at rest position + trans.
+ *
+ * Rest poses differ. Procedural clips are written against the procedural
+ * mannequin's A-pose (arms 40 degrees below horizontal). AMASS poses are relative
+ * to SMPL's T-pose, BVH rotations to the rig's own rest (the OFFSETs,
+ * usually a T-pose). cr_motion_rebase re-expresses a motion against another
+ * rest pose, e.g. a T-pose motion against the A-pose mannequin.
+ *
+ * Foreign motions (BVH, AMASS) are brought into crease's frame on loading:
+ * Z-up data is turned to Y-up, a rig facing another way is turned to face
+ * +Z, lengths become metres, and with `recenter` (the default) the motion
+ * starts at the origin facing +Z, so a garment fitted at rest starts on the
+ * body. docs/motions.md says exactly what each loader does.
+ *
+ * References: Loper et al. 2015 (SMPL); Mahmood et al. 2019 (AMASS);
+ * Biovision BVH as described by Meredith and Maddock 2001, "Motion capture
+ * file formats explained"; Blender's BVH importer for the channel
+ * conventions.
+ */
+#ifndef CREASE_MOTION_H
+#define CREASE_MOTION_H
+
+#include "crease/base.h"
+#include "crease/skeleton.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------ procedural clips -- */
+
+/* Options for a procedural clip. Every clip starts exactly at the rest pose
+ * (zero rotations and translation) and eases in over `ease_in` seconds with
+ * continuous velocity; then it repeats (walk, run, ...) or holds. */
+typedef struct cr_motion_clip_def {
+    const char *name; /* one of cr_motion_clip_names() */
+    int32_t nframes;  /* T >= 1 (default 120) */
+    float fps;        /* frames per second, (0, 1000] (default 30) */
+    float speed;      /* tempo multiplier, [0.25, 4] (default 1): 2 walks twice as fast */
+    float amplitude;  /* scales every angle and displacement, [0, 1.5] (default 1) */
+    float ease_in;    /* s, ramp from rest, [0.05, 5] (default 0.5) */
+    uint32_t cookie;  /* set by cr_motion_clip_default_def; a hand-zeroed def is a bug */
+} cr_motion_clip_def;
+
+cr_motion_clip_def cr_motion_clip_default_def(void);
+cr_status cr_motion_clip_make(const cr_motion_clip_def *def, cr_motion **out, cr_error *err);
+/* Shorthand with the default speed, amplitude and ease-in. */
+cr_status cr_motion_clip(const char *name, int32_t nframes, float fps, cr_motion **out,
+                         cr_error *err);
+/* The clip names, NULL-terminated; *count (may be NULL) gets how many. */
+const char *const *cr_motion_clip_names(int *count);
+/* One line describing a clip, or NULL for an unknown name. */
+const char *cr_motion_clip_summary(const char *name);
+
+/* ------------------------------------------------------- loading, saving -- */
+
+typedef struct cr_motion_import_def {
+    float bvh_scale; /* metres per BVH length unit; 0 (default) infers it from the rig's height */
+    int recenter;    /* 1 (default): foreign motions start at x = z = 0 facing +Z */
+    uint32_t cookie; /* set by cr_motion_import_default_def */
+} cr_motion_import_def;
+
+cr_motion_import_def cr_motion_import_default_def(void);
+
+/* Load by extension: .bvh, or .npz (crease's own motions and AMASS-style
+ * poses/trans/mocap_framerate). def NULL means the defaults. */
+cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr_motion **out,
+                           cr_error *err);
+cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err);
+/* The same from memory; `source` names the data in messages. */
+cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *source,
+                                 const cr_motion_import_def *def, cr_motion **out, cr_error *err);
+cr_status cr_motion_read_npz_mem(const void *data, size_t len, const char *source,
+                                 const cr_motion_import_def *def, cr_motion **out, cr_error *err);
+
+/* Write crease's motion .npz (deflated, via a temporary file): poses (T,66)
+ * and trans (T,3) as '<f4', mocap_framerate () '<f8' and up_axis () '<i4'
+ * = 1 (+Y). The keys are AMASS's, so Python tools read it; up_axis tells
+ * the loader the file is crease's own and is read back exactly. */
+cr_status cr_motion_save(const char *path, const cr_motion *m, cr_error *err);
+
+/* ----------------------------------------------------------- operations -- */
+
+/* Finite values, at least one frame, a positive frame rate. */
+cr_status cr_motion_validate(const cr_motion *m, const char *source, cr_error *err);
+
+/* Largest joint angular speed, rad/s: the angle of the relative rotation
+ * between consecutive frames, times fps, over all joints and frames (0 for
+ * one frame). *joint (may be NULL) gets the joint where it happens. */
+float cr_motion_max_angular_speed(const cr_motion *m, int *joint);
+
+/* Re-express every pose against a new rest pose. `rest` (22,3) is the new
+ * rest written as a pose of the motion's current rest (axis-angle per
+ * joint); bone directions and the pelvis path stay the same in the world.
+ * For joint j with parent p and G = the rest's accumulated (world)
+ * rotations: R'_j = G_p R_j G_j^-1. Example: a T-pose motion on the A-pose
+ * mannequin takes the A-pose as a pose of the T-pose. */
+void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]);
+
+/* ---------------------------------------------------------- SMPL bodies -- */
+
+/* Load an SMPL-style body model .npz (v_template (V,3), shapedirs (V,3,B),
+ * J_regressor (J,V) dense, weights (V,J), kintree_table (2,J), f (F,3);
+ * SMPL's J = 24, SMPL+H's 52 and SMPL-X's 55 all work) and shape it with
+ * `betas` (nbetas <= B; fewer are zero-padded). Joints past the 22 body
+ * joints (SMPL's hands, fingers, jaw, eyes) are merged into their nearest
+ * body ancestor (hands into the wrists); each vertex keeps its 4 largest
+ * merged weights, renormalised. The body is moved so its lowest vertex is on
+ * y = 0 and its pelvis over x = z = 0, like the mannequin. Pose blend shapes
+ * (posedirs) are not applied: crease skins with LBS only. Free with
+ * cr_smpl_free (or, for a heap struct, cr_body_model_destroy: the same
+ * allocations). */
+cr_status cr_smpl_load(const char *path, const float *betas, int nbetas, cr_body_model *out,
+                       cr_error *err);
+cr_status cr_smpl_read_mem(const void *data, size_t len, const char *source, const float *betas,
+                           int nbetas, cr_body_model *out, cr_error *err);
+/* Free what cr_smpl_load allocated and zero the struct; NULL is fine. */
+void cr_smpl_free(cr_body_model *b);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,145 @@
+/* motion.c: what every motion shares once made or loaded: loading and
+ * saving by extension, validation, angular speed, re-expressing poses
+ * against another rest pose, and turning a foreign motion into crease's
+ * frame (motion_internal.h).
+ *
+ * Leaves out resampling and blending between motions.
+ *
+ * Reference: Loper et al. 2015 (SMPL's pose convention: local axis-angle
+ * rotations in world-aligned rest frames).
+ */
+#include "body/motion_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+cr_motion_import_def cr_motion_import_default_def(void) {
+    cr_motion_import_def d;
+    memset(&d, 0, sizeof d);
+    d.bvh_scale = 0.0f;
+    d.recenter = 1;
+    d.cookie = MOTION_IMPORT_COOKIE;
+    return d;
+}
+
+cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr_motion **out,
+                           cr_error *err) {
+    *out = NULL;
+    char ext[16];
+    cr_path_ext(path, ext, sizeof ext);
+    if (strcmp(ext, "bvh") == 0) {
+        char *buf;
+        size_t len;
+        CR_TRY(cr_file_read_all(path, &buf, &len, err));
+        cr_status st = cr_motion_read_bvh_mem(buf, len, path, def, out, err);
+        free(buf);
+        return st;
+    }
+    if (strcmp(ext, "npz") == 0) {
+        cr_npz *z = NULL;
+        CR_TRY(cr_npz_open(path, &z, err));
+        cr_status st = motion_from_npz(z, path, def, out, err);
+        cr_npz_close(z);
+        return st;
+    }
+    return CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                   "%s: unknown motion format '.%s' (crease reads .bvh and .npz)", path, ext);
+}
+
+cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err) {
+    return cr_motion_import(path, NULL, out, err);
+}
+
+cr_status cr_motion_validate(const cr_motion *m, const char *source, cr_error *err) {
+    if (m->nframes < 1 || !m->poses || !m->trans)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: motion has no frames", source);
+    if (!isfinite(m->fps) || m->fps <= 0)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: frame rate %g (need > 0)", source, (double)m->fps);
+    for (int32_t f = 0; f < m->nframes; f++) {
+        for (int k = 0; k < CR_NJOINTS * 3; k++)
+            if (!isfinite(m->poses[(size_t)f * CR_NJOINTS * 3 + (size_t)k]))
+                return CR_FAIL(err, CR_ERR_NAN, "%s: frame %d: %s rotation is not finite", source,
+                               f, cr_joint_name[k / 3]);
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(m->trans[(size_t)f * 3 + (size_t)k]))
+                return CR_FAIL(err, CR_ERR_NAN, "%s: frame %d: translation is not finite", source,
+                               f);
+    }
+    return CR_OK;
+}
+
+float cr_motion_max_angular_speed(const cr_motion *m, int *joint) {
+    double best = 0;
+    int best_j = 0;
+    for (int32_t f = 1; f < m->nframes; f++)
+        for (int j = 0; j < CR_NJOINTS; j++) {
+            double a[4], b[4], ai[4], rel[4];
+            q_from_aa(m->poses + ((size_t)(f - 1) * CR_NJOINTS + (size_t)j) * 3, a);
+            q_from_aa(m->poses + ((size_t)f * CR_NJOINTS + (size_t)j) * 3, b);
+            q_conj(a, ai);
+            q_mul(ai, b, rel);
+            double angle = q_angle(rel);
+            if (angle > best) best = angle, best_j = j;
+        }
+    if (joint) *joint = best_j;
+    return (float)(best * m->fps);
+}
+
+void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]) {
+    double g[CR_NJOINTS][4], g_inv[CR_NJOINTS][4];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        double r[4];
+        q_from_aa(rest + 3 * j, r);
+        if (cr_joint_parent[j] < 0)
+            memcpy(g[j], r, sizeof r);
+        else
+            q_mul(g[cr_joint_parent[j]], r, g[j]);
+        q_conj(g[j], g_inv[j]);
+    }
+    for (int32_t f = 0; f < m->nframes; f++)
+        for (int j = 0; j < CR_NJOINTS; j++) {
+            float *aa = m->poses + ((size_t)f * CR_NJOINTS + (size_t)j) * 3;
+            double q[4];
+            q_from_aa(aa, q);
+            q_mul(q, g_inv[j], q);
+            if (cr_joint_parent[j] >= 0) q_mul(g[cr_joint_parent[j]], q, q);
+            q_to_aa(q, aa);
+        }
+}
+
+void motion_fix_frame(cr_motion *m, const motion_frame_fix *fix) {
+    double w_inv[4];
+    q_conj(fix->world, w_inv);
+    for (int32_t f = 0; f < m->nframes; f++) {
+        float *pose = m->poses + (size_t)f * CR_NJOINTS * 3, *t = m->trans + (size_t)f * 3;
+        for (int j = 0; j < (fix->conjugate ? CR_NJOINTS : 1); j++) {
+            double q[4];
+            q_from_aa(pose + 3 * j, q);
+            q_mul(fix->world, q, q);
+            if (fix->conjugate) q_mul(q, w_inv, q);
+            q_to_aa(q, pose + 3 * j);
+        }
+        double v[3] = {t[0], t[1], t[2]};
+        q_rotate(fix->world, v, v);
+        for (int k = 0; k < 3; k++)
+            t[k] = (float)(v[k] - fix->origin[k]);
+    }
+    if (!fix->recenter) return;
+    /* Heading of frame 0: where the root turns the body's forward axis +Z. */
+    double q0[4], fwd[3] = {0, 0, 1}, heading[4];
+    q_from_aa(m->poses, q0);
+    q_rotate(q0, fwd, fwd);
+    double yaw = fabs(fwd[0]) + fabs(fwd[2]) > 1e-9 ? atan2(fwd[0], fwd[2]) : 0.0;
+    q_axis(0, 1, 0, -yaw, heading);
+    double t0[3] = {m->trans[0], fix->recenter_height ? m->trans[1] : 0.0, m->trans[2]};
+    for (int32_t f = 0; f < m->nframes; f++) {
+        float *root = m->poses + (size_t)f * CR_NJOINTS * 3, *t = m->trans + (size_t)f * 3;
+        double q[4], v[3] = {t[0] - t0[0], t[1] - t0[1], t[2] - t0[2]};
+        q_from_aa(root, q);
+        q_mul(heading, q, q);
+        q_to_aa(q, root);
+        q_rotate(heading, v, v);
+        for (int k = 0; k < 3; k++)
+            t[k] = (float)v[k];
+    }
+}

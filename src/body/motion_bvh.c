@@ -1,0 +1,631 @@
+/* motion_bvh.c: Biovision hierarchy (.bvh) motions mapped onto SMPL's 22
+ * joints.
+ *
+ * Parsing: HIERARCHY with one ROOT, nested JOINTs and End Sites, OFFSET,
+ * CHANNELS with 0 to 6 of X/Y/Z position and rotation in any order; MOTION
+ * with "Frames:", "Frame Time:" and one line of values per frame. Joint names
+ * may hold spaces; braces may share a line with the name. A joint's
+ * rotation is the product of its rotation channels in the order listed
+ * (Zrotation Xrotation Yrotation means Rz Rx Ry, applied to column vectors),
+ * in degrees. Position channels replace the joint's OFFSET, as in Blender's
+ * importer. Errors name the file and line.
+ *
+ * Mapping: joint names are normalised (namespace before ':' dropped, as in
+ * "mixamorig:Hips"; lower case; '_', '-', '.' and spaces removed; SMPL FBX's
+ * "m_avg_" prefix dropped) and matched against per-rig tables (SMPL, Mixamo,
+ * CMU, generic DAZ/Poser); the rig matching the most joints wins. Each SMPL
+ * joint takes its rig joint's world rotation, so unmapped joints between two
+ * mapped ones (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child
+ * below them, and an SMPL joint the rig lacks (a collar) gets the identity.
+ * Joints below the mapped ones (fingers, toe ends) are dropped, and so are
+ * translations of joints other than the pelvis.
+ *
+ * Frame: the rig's up axis (pelvis to head) and left axis (right to left hip)
+ * are snapped to coordinate axes and the rig is turned so up is +Y and left
+ * +X (the body facing +Z), which also reads Z-up exports. Lengths: with no
+ * scale given, a rig whose rest height (highest minus lowest joint) is 0.8 to
+ * 3 units is taken as metres, 80 to 300 as centimetres, anything else is
+ * scaled to a 1.65 m joint height with a warning. The rest pelvis is taken to
+ * stand with the rig's lowest rest joint on the ground, so the translation is
+ * the pelvis's displacement from there; with `recenter` frame 0 is then moved
+ * to x = z = 0 facing +Z. Rotations are relative to the rig's rest pose
+ * (usually a T-pose): see cr_motion_rebase for an A-pose body.
+ *
+ * References: Meredith and Maddock 2001, "Motion capture file formats
+ * explained" (BVH); Blender's io_anim_bvh importer (channel order and
+ * position semantics); the CMU mocap BVH conversion (cgspeed) and Mixamo's
+ * rig for the joint names.
+ */
+#include "body/motion_internal.h"
+#include "geom/io_text.h"
+
+#include <ctype.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { MAX_JOINTS = 1024, NAME_MAX_LEN = 127, MIN_MAPPED = 12 };
+enum { CH_XPOS, CH_YPOS, CH_ZPOS, CH_XROT, CH_YROT, CH_ZROT };
+static const char *const channel_names[6] = {"Xposition", "Yposition", "Zposition",
+                                             "Xrotation", "Yrotation", "Zrotation"};
+static const double DEG = M_PI / 180.0;
+static const double JOINT_HEIGHT_M = 1.65; /* head to toe joints of a 1.75 m person, m */
+static const double FRAME_TIME_MAX = 10.0; /* s */
+
+typedef struct bvh_joint {
+    char name[NAME_MAX_LEN + 1];
+    int parent; /* -1 for the root */
+    int end_site;
+    int has_offset;
+    int line;
+    double offset[3];
+    int nchan;
+    int chan[6];
+    int col; /* first column of this joint's values in a frame line */
+} bvh_joint;
+
+typedef struct bvh_file {
+    io_text t;
+    bvh_joint *j;
+    int n;
+    int ncol; /* channel values per frame */
+    int nframes;
+    double frame_time; /* s */
+    float *values;     /* (nframes, ncol) */
+} bvh_file;
+
+/* --------------------------------------------------------------- parsing -- */
+
+static cr_status parse_fail(const bvh_file *b, const char *what, const char *tb, const char *te,
+                            cr_error *err) {
+    char snip[48] = "end of file";
+    if (tb) io_text_snippet(tb, te, snip, sizeof snip);
+    return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %s, got '%s'", b->t.source,
+                   (long long)b->t.line, what, snip);
+}
+
+/* Next token anywhere ahead; fails at the end of the input. */
+static cr_status next_token(bvh_file *b, const char *what, const char **tb, const char **te,
+                            cr_error *err) {
+    int got;
+    CR_TRY(io_text_token_any(&b->t, tb, te, &got, err));
+    if (!got) return parse_fail(b, what, NULL, NULL, err);
+    return CR_OK;
+}
+
+static int token_is(const char *tb, const char *te, const char *word) {
+    size_t n = strlen(word);
+    return (size_t)(te - tb) == n && memcmp(tb, word, n) == 0;
+}
+
+static cr_status expect(bvh_file *b, const char *word, cr_error *err) {
+    const char *tb, *te;
+    char what[40];
+    snprintf(what, sizeof what, "'%s'", word);
+    CR_TRY(next_token(b, what, &tb, &te, err));
+    if (!token_is(tb, te, word)) return parse_fail(b, what, tb, te, err);
+    return CR_OK;
+}
+
+/* A joint name: the tokens up to '{' (which may end the last token). */
+static cr_status parse_name(bvh_file *b, bvh_joint *jt, cr_error *err) {
+    size_t n = 0;
+    jt->name[0] = 0;
+    for (;;) {
+        const char *tb, *te;
+        CR_TRY(next_token(b, "a joint name and '{'", &tb, &te, err));
+        int brace = te[-1] == '{';
+        if (brace) te--;
+        if (te > tb) {
+            if (n + (n > 0) + (size_t)(te - tb) > NAME_MAX_LEN)
+                return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: joint name longer than %d bytes",
+                               b->t.source, (long long)b->t.line, NAME_MAX_LEN);
+            if (n) jt->name[n++] = ' ';
+            memcpy(jt->name + n, tb, (size_t)(te - tb));
+            n += (size_t)(te - tb);
+            jt->name[n] = 0;
+        }
+        if (brace) break;
+    }
+    if (n == 0)
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: joint without a name", b->t.source,
+                       (long long)b->t.line);
+    return CR_OK;
+}
+
+static cr_status add_joint(bvh_file *b, int parent, int end_site, cr_error *err) {
+    if (b->n == MAX_JOINTS)
+        return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: more than %d joints", b->t.source,
+                       (long long)b->t.line, MAX_JOINTS);
+    bvh_joint *jt = &b->j[b->n++];
+    memset(jt, 0, sizeof *jt);
+    jt->parent = parent;
+    jt->end_site = end_site;
+    jt->line = (int)b->t.line;
+    if (end_site) {
+        snprintf(jt->name, sizeof jt->name, "End Site");
+        return expect(b, "{", err);
+    }
+    return parse_name(b, jt, err);
+}
+
+static cr_status parse_channels(bvh_file *b, bvh_joint *jt, cr_error *err) {
+    const char *tb, *te;
+    int64_t n;
+    CR_TRY(next_token(b, "a channel count", &tb, &te, err));
+    CR_TRY(io_text_int(&b->t, tb, te, "channel count", &n, err));
+    if (jt->end_site || jt->nchan || n < 0 || n > 6)
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s:%lld: CHANNELS %lld (0 to 6, once per joint, none in an End Site)",
+                       b->t.source, (long long)b->t.line, (long long)n);
+    for (int k = 0; k < (int)n; k++) {
+        CR_TRY(next_token(b, "a channel name", &tb, &te, err));
+        int c = -1;
+        for (int i = 0; i < 6; i++)
+            if (token_is(tb, te, channel_names[i])) c = i;
+        for (int i = 0; i < k && c >= 0; i++)
+            if (jt->chan[i] == c) c = -2;
+        if (c < 0)
+            return parse_fail(b,
+                              c == -2 ? "a channel not listed before" : "Xposition ... Zrotation",
+                              tb, te, err);
+        jt->chan[k] = c;
+    }
+    jt->nchan = (int)n;
+    jt->col = b->ncol;
+    b->ncol += (int)n;
+    return CR_OK;
+}
+
+static cr_status parse_hierarchy(bvh_file *b, cr_error *err) {
+    CR_TRY(expect(b, "HIERARCHY", err));
+    CR_TRY(expect(b, "ROOT", err));
+    CR_TRY(add_joint(b, -1, 0, err));
+    int cur = 0;
+    while (cur >= 0) {
+        const char *tb, *te;
+        CR_TRY(next_token(b, "OFFSET, CHANNELS, JOINT, End Site or '}'", &tb, &te, err));
+        bvh_joint *jt = &b->j[cur];
+        if (token_is(tb, te, "OFFSET")) {
+            if (jt->has_offset)
+                return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: second OFFSET for '%s'", b->t.source,
+                               (long long)b->t.line, jt->name);
+            for (int k = 0; k < 3; k++) {
+                CR_TRY(next_token(b, "an offset coordinate", &tb, &te, err));
+                CR_TRY(io_text_double(&b->t, tb, te, "offset coordinate", &jt->offset[k], err));
+            }
+            jt->has_offset = 1;
+        } else if (token_is(tb, te, "CHANNELS")) {
+            CR_TRY(parse_channels(b, jt, err));
+        } else if (token_is(tb, te, "JOINT") || token_is(tb, te, "End")) {
+            int end = token_is(tb, te, "End");
+            if (jt->end_site)
+                return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: an End Site has no children",
+                               b->t.source, (long long)b->t.line);
+            if (end) CR_TRY(expect(b, "Site", err));
+            CR_TRY(add_joint(b, cur, end, err));
+            cur = b->n - 1;
+        } else if (token_is(tb, te, "}")) {
+            if (!jt->has_offset)
+                return CR_FAIL(err, CR_ERR_PARSE, "%s:%d: '%s' has no OFFSET", b->t.source,
+                               jt->line, jt->name);
+            cur = jt->parent;
+        } else if (token_is(tb, te, "ROOT")) {
+            return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s:%lld: a second ROOT (one skeleton only)",
+                           b->t.source, (long long)b->t.line);
+        } else {
+            return parse_fail(b, "OFFSET, CHANNELS, JOINT, End Site or '}'", tb, te, err);
+        }
+    }
+    if (b->ncol == 0)
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: the skeleton has no channels", b->t.source);
+    return CR_OK;
+}
+
+static cr_status parse_motion(bvh_file *b, cr_error *err) {
+    const char *tb, *te;
+    int64_t nframes;
+    CR_TRY(expect(b, "MOTION", err));
+    CR_TRY(expect(b, "Frames:", err));
+    CR_TRY(next_token(b, "a frame count", &tb, &te, err));
+    CR_TRY(io_text_int(&b->t, tb, te, "frame count", &nframes, err));
+    CR_TRY(expect(b, "Frame", err));
+    CR_TRY(expect(b, "Time:", err));
+    CR_TRY(next_token(b, "a frame time", &tb, &te, err));
+    CR_TRY(io_text_double(&b->t, tb, te, "frame time", &b->frame_time, err));
+    if (!(b->frame_time > 0 && b->frame_time <= FRAME_TIME_MAX))
+        return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: Frame Time %g s, expected (0, %g]", b->t.source,
+                       (long long)b->t.line, b->frame_time, FRAME_TIME_MAX);
+    if (nframes < 1 || nframes > INT32_MAX)
+        return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: %lld frames declared", b->t.source,
+                       (long long)b->t.line, (long long)nframes);
+    if (io_text_token(&b->t, &tb, &te)) return parse_fail(b, "the end of the line", tb, te, err);
+    b->nframes = (int)nframes;
+    /* Rows grow with the lines actually read, so a huge declared count costs nothing. */
+    int cap = 0, f = 0;
+    for (;;) {
+        int got;
+        CR_TRY(io_text_next_line(&b->t, &got, err));
+        if (!got) break;
+        if (!io_text_token(&b->t, &tb, &te)) continue; /* blank line */
+        if (f == b->nframes)
+            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: more frame lines than the %d declared",
+                           b->t.source, (long long)b->t.line, b->nframes);
+        if (f == cap) {
+            int64_t want = cap ? 2 * (int64_t)cap : 64;
+            cap = (int)(want < b->nframes ? want : b->nframes);
+            float *grown = realloc(b->values, (size_t)cap * (size_t)b->ncol * sizeof(float));
+            if (!grown) return CR_FAIL(err, CR_ERR_MEMORY, "%s: out of memory", b->t.source);
+            b->values = grown;
+        }
+        int k = 0;
+        float *row = b->values + (size_t)f * (size_t)b->ncol;
+        do {
+            if (k < b->ncol) CR_TRY(io_text_float(&b->t, tb, te, "channel value", &row[k], err));
+            k++;
+        } while (io_text_token(&b->t, &tb, &te));
+        if (k != b->ncol)
+            return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %d channel values, got %d",
+                           b->t.source, (long long)b->t.line, b->ncol, k);
+        f++;
+    }
+    if (f != b->nframes)
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %d frames, found %d (truncated?)",
+                       b->t.source, (long long)b->t.line, b->nframes, f);
+    return CR_OK;
+}
+
+/* --------------------------------------------------------------- mapping -- */
+
+typedef struct bvh_rig {
+    const char *name;
+    const char *joints[CR_NJOINTS]; /* normalised candidates, '|'-separated, best first */
+} bvh_rig;
+
+static const bvh_rig rigs[] = {
+    {"SMPL",
+     {"pelvis",
+      "lefthip|lhip",
+      "righthip|rhip",
+      "spine1",
+      "leftknee|lknee",
+      "rightknee|rknee",
+      "spine2",
+      "leftankle|lankle",
+      "rightankle|rankle",
+      "spine3",
+      "leftfoot|lfoot",
+      "rightfoot|rfoot",
+      "neck",
+      "leftcollar|lcollar",
+      "rightcollar|rcollar",
+      "head",
+      "leftshoulder|lshoulder",
+      "rightshoulder|rshoulder",
+      "leftelbow|lelbow",
+      "rightelbow|relbow",
+      "leftwrist|lwrist",
+      "rightwrist|rwrist"}},
+    {"Mixamo",
+     {"hips",        "leftupleg",    "rightupleg",    "spine",    "leftleg",     "rightleg",
+      "spine1",      "leftfoot",     "rightfoot",     "spine2",   "lefttoebase", "righttoebase",
+      "neck",        "leftshoulder", "rightshoulder", "head",     "leftarm",     "rightarm",
+      "leftforearm", "rightforearm", "lefthand",      "righthand"}},
+    {"CMU",
+     {"hips",        "leftupleg",    "rightupleg",    "lowerback", "leftleg",     "rightleg",
+      "spine",       "leftfoot",     "rightfoot",     "spine1",    "lefttoebase", "righttoebase",
+      "neck",        "leftshoulder", "rightshoulder", "head",      "leftarm",     "rightarm",
+      "leftforearm", "rightforearm", "lefthand",      "righthand"}},
+    {"generic (DAZ/Poser)",
+     {"hip|hips",
+      "lthigh|lthighbend|leftthigh",
+      "rthigh|rthighbend|rightthigh",
+      "abdomen|abdomenlower|abdomen1",
+      "lshin|lshinbend|leftshin",
+      "rshin|rshinbend|rightshin",
+      "abdomen2|abdomenupper",
+      "lfoot",
+      "rfoot",
+      "chest|chestupper|chestlower",
+      "ltoe|ltoes",
+      "rtoe|rtoes",
+      "neck|necklower",
+      "lcollar|lclavicle",
+      "rcollar|rclavicle",
+      "head",
+      "lshldr|lshldrbend|lupperarm",
+      "rshldr|rshldrbend|rupperarm",
+      "lforearm|lforearmbend",
+      "rforearm|rforearmbend",
+      "lhand",
+      "rhand"}},
+};
+enum { NRIGS = sizeof rigs / sizeof rigs[0] };
+
+static void normalise(const char *name, char *out, size_t cap) {
+    const char *colon = strrchr(name, ':');
+    if (colon) name = colon + 1;
+    size_t n = 0;
+    for (; *name && n + 1 < cap; name++) {
+        char c = *name;
+        if (c == '_' || c == '-' || c == '.' || c == ' ') continue;
+        out[n++] = (char)tolower((unsigned char)c);
+    }
+    out[n] = 0;
+    if (strncmp(out, "mavg", 4) == 0 || strncmp(out, "favg", 4) == 0) memmove(out, out + 4, n - 3);
+}
+
+/* Index of the first joint whose normalised name is among `cands`, or -1. */
+static int find_candidate(char (*norm)[NAME_MAX_LEN + 1], const bvh_file *b, const char *cands) {
+    const char *c = cands;
+    while (*c) {
+        const char *bar = strchr(c, '|');
+        size_t len = bar ? (size_t)(bar - c) : strlen(c);
+        for (int i = 0; i < b->n; i++)
+            if (!b->j[i].end_site && strlen(norm[i]) == len && memcmp(norm[i], c, len) == 0)
+                return i;
+        c += len + (bar != NULL);
+    }
+    return -1;
+}
+
+static int is_ancestor(const bvh_file *b, int anc, int j) {
+    for (j = b->j[j].parent; j >= 0; j = b->j[j].parent)
+        if (j == anc) return 1;
+    return 0;
+}
+
+static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], cr_error *err) {
+    char(*norm)[NAME_MAX_LEN + 1] = cr_malloc((size_t)b->n * sizeof *norm, err);
+    if (!norm) return CR_ERR_MEMORY;
+    for (int i = 0; i < b->n; i++)
+        normalise(b->j[i].name, norm[i], sizeof norm[i]);
+    int best = 0, best_score = -1;
+    for (int r = 0; r < NRIGS; r++) {
+        int score = 0, tmp[CR_NJOINTS];
+        for (int j = 0; j < CR_NJOINTS; j++)
+            score += (tmp[j] = find_candidate(norm, b, rigs[r].joints[j])) >= 0;
+        if (tmp[0] < 0) score = 0;
+        if (score > best_score) {
+            best = r, best_score = score;
+            memcpy(map, tmp, sizeof tmp);
+        }
+    }
+    free(norm);
+    if (best_score < MIN_MAPPED) {
+        char names[240];
+        int n = 0;
+        for (int i = 0; i < b->n && n < (int)sizeof names - 40; i++)
+            if (!b->j[i].end_site)
+                n += snprintf(names + n, sizeof names - (size_t)n, "%s%s", n ? ", " : "",
+                              b->j[i].name);
+        return CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                       "%s: cannot map the skeleton onto SMPL's joints: the best rig (%s) "
+                       "matches %d of 22 (known: SMPL, Mixamo, CMU, DAZ/Poser names; joints "
+                       "here: %s)",
+                       b->t.source, rigs[best].name, best_score, names);
+    }
+    for (int j = 1; j < CR_NJOINTS; j++) {
+        if (map[j] < 0) continue;
+        int a = cr_joint_parent[j];
+        while (map[a] < 0)
+            a = cr_joint_parent[a];
+        if (!is_ancestor(b, map[a], map[j]))
+            return CR_FAIL(err, CR_ERR_PARSE,
+                           "%s:%d: joint '%s' (taken as SMPL's %s) is not below '%s' (%s)",
+                           b->t.source, b->j[map[j]].line, b->j[map[j]].name, cr_joint_name[j],
+                           b->j[map[a]].name, cr_joint_name[a]);
+    }
+    cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source, rigs[best].name,
+           best_score);
+    return CR_OK;
+}
+
+/* -------------------------------------------------------------- the frame -- */
+
+/* Rest positions in file units: the OFFSETs accumulated. */
+static void rest_positions(const bvh_file *b, double (*p)[3]) {
+    for (int i = 0; i < b->n; i++)
+        for (int k = 0; k < 3; k++)
+            p[i][k] = b->j[i].offset[k] + (b->j[i].parent >= 0 ? p[b->j[i].parent][k] : 0.0);
+}
+
+/* Signed coordinate axis nearest to v, as (axis index, sign); -1 when v is 0
+ * or its largest component is `skip`. */
+static int snap_axis(const double v[3], int skip, int *sign) {
+    int a = -1;
+    double best = 1e-9;
+    for (int k = 0; k < 3; k++)
+        if (k != skip && fabs(v[k]) > best) best = fabs(v[k]), a = k;
+    if (a >= 0) *sign = v[a] > 0 ? 1 : -1;
+    return a;
+}
+
+/* The turn taking the rig's up to +Y and its left to +X, from rest positions. */
+static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
+                           double q[4], cr_error *err) {
+    static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
+    static const int lr[][2] = {{CR_JOINT_LEFT_HIP, CR_JOINT_RIGHT_HIP},
+                                {CR_JOINT_LEFT_SHOULDER, CR_JOINT_RIGHT_SHOULDER},
+                                {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
+    double up[3] = {0}, left[3] = {0};
+    int up_axis = -1, left_axis = -1, up_sign = 1, left_sign = 1;
+    for (int i = 0; i < 4 && up_axis < 0; i++)
+        if (map[up_ends[i]] >= 0) {
+            for (int k = 0; k < 3; k++)
+                up[k] = p[map[up_ends[i]]][k] - p[map[0]][k];
+            up_axis = snap_axis(up, -1, &up_sign);
+        }
+    for (int i = 0; i < 3 && up_axis >= 0 && left_axis < 0; i++)
+        if (map[lr[i][0]] >= 0 && map[lr[i][1]] >= 0) {
+            for (int k = 0; k < 3; k++)
+                left[k] = p[map[lr[i][0]]][k] - p[map[lr[i][1]]][k];
+            left_axis = snap_axis(left, up_axis, &left_sign);
+        }
+    if (up_axis < 0 || left_axis < 0)
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
+                       "to head, right to left hip)",
+                       b->t.source);
+    /* Rows of the turn: left -> x, up -> y, left x up (forward) -> z. */
+    double m[3][3] = {{0}};
+    m[0][left_axis] = left_sign;
+    m[1][up_axis] = up_sign;
+    for (int k = 0; k < 3; k++) {
+        int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+        m[2][k] = m[0][k1] * m[1][k2] - m[0][k2] * m[1][k1];
+    }
+    /* A signed permutation with det +1: Shepperd's matrix-to-quaternion. */
+    double tr = m[0][0] + m[1][1] + m[2][2];
+    if (tr > 0) {
+        double s = 2 * sqrt(1 + tr);
+        q[0] = s / 4, q[1] = (m[2][1] - m[1][2]) / s, q[2] = (m[0][2] - m[2][0]) / s,
+        q[3] = (m[1][0] - m[0][1]) / s;
+    } else {
+        int i = m[1][1] > m[0][0] ? (m[2][2] > m[1][1] ? 2 : 1) : (m[2][2] > m[0][0] ? 2 : 0);
+        int j = (i + 1) % 3, k = (i + 2) % 3;
+        double s = 2 * sqrt(1 + m[i][i] - m[j][j] - m[k][k]);
+        q[0] = (m[k][j] - m[j][k]) / s;
+        q[1 + i] = s / 4;
+        q[1 + j] = (m[j][i] + m[i][j]) / s;
+        q[1 + k] = (m[k][i] + m[i][k]) / s;
+    }
+    return CR_OK;
+}
+
+static double rig_scale(const bvh_file *b, double (*p)[3], const double turn[4], double given) {
+    if (given > 0) return given;
+    double lo = INFINITY, hi = -INFINITY;
+    for (int i = 0; i < b->n; i++) {
+        double v[3];
+        q_rotate(turn, p[i], v);
+        lo = fmin(lo, v[1]), hi = fmax(hi, v[1]);
+    }
+    double h = hi - lo;
+    if (h >= 0.8 && h <= 3.0) return 1.0;
+    if (h >= 80.0 && h <= 300.0) return 0.01;
+    double s = h > 1e-9 ? JOINT_HEIGHT_M / h : 1.0;
+    cr_log(CR_LOG_WARN,
+           "%s: rig height %g units is neither metres nor centimetres: scaled by %g to %g m",
+           b->t.source, h, s, JOINT_HEIGHT_M);
+    return s;
+}
+
+/* World rotations and the pelvis position of one frame (file units). */
+static void frame_pose(const bvh_file *b, const float *row, int pelvis, double (*w)[4],
+                       double pos[3]) {
+    double chain_pos[3] = {0};
+    int chain[MAX_JOINTS], nchain = 0; /* positions are needed along the pelvis chain only */
+    for (int j = pelvis; j >= 0; j = b->j[j].parent)
+        chain[nchain++] = j;
+    for (int i = 0; i < b->n; i++) {
+        const bvh_joint *jt = &b->j[i];
+        double q[4];
+        q_identity(q);
+        for (int c = 0; c < jt->nchan; c++) {
+            int ch = jt->chan[c];
+            if (ch < CH_XROT) continue;
+            double r[4];
+            q_axis(ch == CH_XROT, ch == CH_YROT, ch == CH_ZROT, row[jt->col + c] * DEG, r);
+            q_mul(q, r, q);
+        }
+        if (jt->parent >= 0)
+            q_mul(w[jt->parent], q, w[i]);
+        else
+            memcpy(w[i], q, sizeof q);
+    }
+    /* Root first: each chain joint sits at its parent plus the parent's turn of its offset. */
+    for (int c = nchain - 1; c >= 0; c--) {
+        const bvh_joint *jt = &b->j[chain[c]];
+        double t[3] = {jt->offset[0], jt->offset[1], jt->offset[2]};
+        for (int k = 0; k < jt->nchan; k++)
+            if (jt->chan[k] < CH_XROT) t[jt->chan[k]] = row[jt->col + k];
+        if (jt->parent >= 0) q_rotate(w[jt->parent], t, t);
+        for (int k = 0; k < 3; k++)
+            chain_pos[k] += t[k];
+    }
+    memcpy(pos, chain_pos, sizeof chain_pos);
+}
+
+static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
+                              cr_error *err) {
+    int map[CR_NJOINTS];
+    CR_TRY(map_joints(b, map, err));
+    double(*rest)[3] = cr_malloc((size_t)b->n * sizeof *rest, err);
+    double(*w)[4] = cr_malloc((size_t)b->n * sizeof *w, err);
+    cr_motion *m = NULL;
+    cr_status st = rest && w ? CR_OK : CR_ERR_MEMORY;
+    motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
+    if (st == CR_OK) {
+        rest_positions(b, rest);
+        st = rig_frame(b, map, rest, fix.world, err);
+    }
+    double fps = 1.0 / b->frame_time;
+    if (fabs(fps - round(fps)) < 0.01) fps = round(fps); /* 0.0333333 s is 30 fps */
+    if (st == CR_OK) st = cr_motion_create(b->nframes, (float)fps, &m, err);
+    if (st == CR_OK) {
+        double s = rig_scale(b, rest, fix.world, def->bvh_scale), lowest = INFINITY;
+        for (int i = 0; i < b->n; i++) {
+            double v[3];
+            q_rotate(fix.world, rest[i], v);
+            lowest = fmin(lowest, s * v[1]);
+        }
+        q_rotate(fix.world, rest[map[0]], fix.origin);
+        for (int k = 0; k < 3; k++)
+            fix.origin[k] *= s;
+        fix.origin[1] -= lowest;
+        for (int f = 0; f < b->nframes; f++) {
+            double pos[3], wj[CR_NJOINTS][4];
+            frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, map[0], w, pos);
+            float *pose = m->poses + (size_t)f * CR_NJOINTS * 3;
+            for (int j = 0; j < CR_NJOINTS; j++) {
+                int p = cr_joint_parent[j];
+                if (map[j] >= 0)
+                    memcpy(wj[j], w[map[j]], sizeof wj[j]);
+                else
+                    memcpy(wj[j], wj[p], sizeof wj[j]);
+                double local[4];
+                if (p < 0) {
+                    memcpy(local, wj[j], sizeof local);
+                } else {
+                    double inv[4];
+                    q_conj(wj[p], inv);
+                    q_mul(inv, wj[j], local);
+                }
+                q_to_aa(local, pose + 3 * j);
+            }
+            for (int k = 0; k < 3; k++)
+                m->trans[(size_t)f * 3 + (size_t)k] = (float)(s * pos[k]);
+        }
+        motion_fix_frame(m, &fix);
+    }
+    free(rest);
+    free(w);
+    if (st != CR_OK) {
+        cr_motion_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *source,
+                                 const cr_motion_import_def *def, cr_motion **out, cr_error *err) {
+    *out = NULL;
+    cr_motion_import_def defaults = cr_motion_import_default_def();
+    if (!def) def = &defaults;
+    CR_ASSERT(def->cookie == MOTION_IMPORT_COOKIE);
+    if (!(def->bvh_scale >= 0 && isfinite(def->bvh_scale)))
+        return CR_FAIL(err, CR_ERR_INVALID, "bvh_scale %g: expected 0 (infer) or a positive scale",
+                       (double)def->bvh_scale);
+    bvh_file b;
+    memset(&b, 0, sizeof b);
+    io_text_init(&b.t, data, len, source);
+    b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
+    if (!b.j) return CR_ERR_MEMORY;
+    cr_status st = parse_hierarchy(&b, err);
+    if (st == CR_OK) st = parse_motion(&b, err);
+    if (st == CR_OK) st = build_motion(&b, def, out, err);
+    free(b.j);
+    free(b.values);
+    return st;
+}

@@ -1,0 +1,100 @@
+/* motion_internal.h: what the motion files share: unit quaternions in
+ * double precision (w, x, y, z), and the step that brings a foreign motion
+ * into crease's frame.
+ *
+ * Quaternions rather than matrices because poses are compared, composed and
+ * turned back into axis-angle many times per frame, and q and -q are the
+ * same rotation: to_aa picks w >= 0 so angles stay in [0, pi].
+ */
+#ifndef CREASE_BODY_MOTION_INTERNAL_H
+#define CREASE_BODY_MOTION_INTERNAL_H
+
+#include "crease/motion.h"
+#include "crease/npz.h"
+
+#include <math.h>
+
+static inline void q_identity(double q[4]) {
+    q[0] = 1, q[1] = q[2] = q[3] = 0;
+}
+
+/* out = a b (apply b, then a); out may alias a or b. */
+static inline void q_mul(const double a[4], const double b[4], double out[4]) {
+    double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+    out[0] = w, out[1] = x, out[2] = y, out[3] = z;
+}
+
+static inline void q_conj(const double q[4], double out[4]) {
+    out[0] = q[0], out[1] = -q[1], out[2] = -q[2], out[3] = -q[3];
+}
+
+/* Rotation by `angle` radians about the unit axis (ax, ay, az). */
+static inline void q_axis(double ax, double ay, double az, double angle, double q[4]) {
+    double s = sin(0.5 * angle);
+    q[0] = cos(0.5 * angle), q[1] = ax * s, q[2] = ay * s, q[3] = az * s;
+}
+
+static inline void q_from_aa(const float aa[3], double q[4]) {
+    double x = aa[0], y = aa[1], z = aa[2], th = sqrt(x * x + y * y + z * z);
+    if (th < 1e-12) {
+        q[0] = 1, q[1] = 0.5 * x, q[2] = 0.5 * y, q[3] = 0.5 * z; /* first order */
+        return;
+    }
+    q_axis(x / th, y / th, z / th, th, q);
+}
+
+static inline void q_to_aa(const double q_in[4], float aa[3]) {
+    double s = q_in[0] < 0 ? -1 : 1;
+    double w = s * q_in[0], x = s * q_in[1], y = s * q_in[2], z = s * q_in[3];
+    double v = sqrt(x * x + y * y + z * z);
+    double k = v < 1e-12 ? 2.0 : 2.0 * atan2(v, w) / v;
+    aa[0] = (float)(k * x), aa[1] = (float)(k * y), aa[2] = (float)(k * z);
+}
+
+/* Angle of the rotation q, radians in [0, pi]. */
+static inline double q_angle(const double q[4]) {
+    double v = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    return 2.0 * atan2(v, fabs(q[0]));
+}
+
+/* out = q v q* (out may alias v). */
+static inline void q_rotate(const double q[4], const double v[3], double out[3]) {
+    double tx = 2 * (q[2] * v[2] - q[3] * v[1]);
+    double ty = 2 * (q[3] * v[0] - q[1] * v[2]);
+    double tz = 2 * (q[1] * v[1] - q[2] * v[0]);
+    double x = v[0] + q[0] * tx + (q[2] * tz - q[3] * ty);
+    double y = v[1] + q[0] * ty + (q[3] * tx - q[1] * tz);
+    double z = v[2] + q[0] * tz + (q[1] * ty - q[2] * tx);
+    out[0] = x, out[1] = y, out[2] = z;
+}
+
+/* A foreign motion's world frame turned into crease's. `world` rotates the
+ * source world into crease's (Z-up to Y-up, say). With `conjugate` the
+ * whole rig lives in the source frame, so every local rotation R becomes
+ * world R world^-1 (BVH); without it only the root is turned (AMASS, whose
+ * body rest is already Y-up while its world is Z-up). The turned
+ * translation less `origin` (the rig's rest root position) is the root's
+ * displacement from rest. With `recenter` the motion is then turned about
+ * +Y so frame 0 faces +Z and shifted so frame 0's root is at x = z = 0, and
+ * with `recenter_height` also at height 0 (for AMASS, where the rest root
+ * height is unknown: frame 0 is taken to stand at rest height). */
+typedef struct motion_frame_fix {
+    double world[4];
+    int conjugate;
+    double origin[3]; /* m */
+    int recenter;
+    int recenter_height;
+} motion_frame_fix;
+
+void motion_fix_frame(cr_motion *m, const motion_frame_fix *fix);
+
+/* The motion in an open .npz (AMASS or crease's own). */
+cr_status motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,
+                          cr_motion **out, cr_error *err);
+
+#define MOTION_IMPORT_COOKIE 0x6d6f7431u
+
+#endif

@@ -1,0 +1,148 @@
+/* cmd_motion.c: `crease motion`: write a procedural clip, or bring a BVH or
+ * AMASS-style motion into crease's .npz; list the clips. */
+#include "cli.h"
+#include "crease/motion.h"
+
+#include <string.h>
+
+void help_motion(void) {
+    printf("usage: crease motion --clip NAME [options] -o OUT.npz\n"
+           "       crease motion --input FILE.bvh|FILE.npz [options] [-o OUT.npz]\n"
+           "       crease motion --list\n\n"
+           "Write a procedural motion clip (SMPL's 22 joints, starting at the rest pose and\n"
+           "easing in), or load a BVH or AMASS-style .npz motion, turn it into crease's frame\n"
+           "(+Y up, facing +Z, metres) and write it as crease's motion .npz.\n\n"
+           "options:\n"
+           "  --clip NAME      walk, run, jump, bend, raise_arms, squat, twist, dance, stairs,\n"
+           "                   dodge (see --list)\n"
+           "  --frames N       clip length in frames (default 120)\n"
+           "  --fps F          clip frame rate (default 30)\n"
+           "  --speed S        clip tempo multiplier, 0.25 to 4 (default 1)\n"
+           "  --amplitude A    scale of the clip's angles and displacements, 0 to 1.5 (default 1)\n"
+           "  --input FILE     a .bvh or .npz motion to convert\n"
+           "  --scale S        metres per BVH unit (default: inferred from the rig's height)\n"
+           "  --no-recenter    keep a loaded motion where it is (default: frame 0 at the origin\n"
+           "                   facing +Z)\n"
+           "  -o OUT.npz       output motion (poses (T,66), trans (T,3), mocap_framerate)\n"
+           "  --list           list the clips\n"
+           "  --json           end with a JSON summary on stdout\n");
+}
+
+static int list_clips(int json) {
+    int n = 0;
+    const char *const *names = cr_motion_clip_names(&n);
+    if (!json) {
+        for (int i = 0; i < n; i++)
+            printf("%-11s %s\n", names[i], cr_motion_clip_summary(names[i]));
+        return CLI_OK;
+    }
+    cJSON *j = cJSON_CreateObject(), *arr = cJSON_CreateArray();
+    cJSON_AddStringToObject(j, "command", "motion");
+    for (int i = 0; i < n; i++) {
+        cJSON *c = cJSON_CreateObject();
+        cJSON_AddStringToObject(c, "name", names[i]);
+        cJSON_AddStringToObject(c, "summary", cr_motion_clip_summary(names[i]));
+        cJSON_AddItemToArray(arr, c);
+    }
+    cJSON_AddItemToObject(j, "clips", arr);
+    cli_json_print(j);
+    return CLI_OK;
+}
+
+int cmd_motion(int argc, char **argv) {
+    cli_args a = cli_args_make(argc, argv);
+    cr_motion_clip_def def = cr_motion_clip_default_def();
+    cr_motion_import_def imp = cr_motion_import_default_def();
+    const char *clip = NULL, *input = NULL, *out_path = NULL, *v;
+    int json = 0, list = 0, clip_only = 0;
+    while (!cli_args_done(&a)) {
+        const char *opt = cli_args_next(&a);
+        if (strcmp(opt, "--json") == 0) {
+            json = 1;
+        } else if (strcmp(opt, "--list") == 0) {
+            list = 1;
+        } else if (strcmp(opt, "--no-recenter") == 0) {
+            imp.recenter = 0;
+        } else if (strcmp(opt, "--clip") == 0) {
+            if (!(clip = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--input") == 0) {
+            if (!(input = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
+            if (!(out_path = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--frames") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("motion", opt, v, 1, 1000000, &def.nframes))
+                return CLI_USAGE;
+            clip_only = 1;
+        } else if (strcmp(opt, "--fps") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("motion", opt, v, 1e-3, 1000, &def.fps))
+                return CLI_USAGE;
+            clip_only = 1;
+        } else if (strcmp(opt, "--speed") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("motion", opt, v, 0.25, 4, &def.speed))
+                return CLI_USAGE;
+            clip_only = 1;
+        } else if (strcmp(opt, "--amplitude") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("motion", opt, v, 0, 1.5, &def.amplitude))
+                return CLI_USAGE;
+            clip_only = 1;
+        } else if (strcmp(opt, "--scale") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("motion", opt, v, 1e-6, 1e6, &imp.bvh_scale))
+                return CLI_USAGE;
+        } else {
+            return cli_usage("motion", "unknown option '%s'", opt);
+        }
+    }
+    if (list) return list_clips(json);
+    if (!clip == !input) return cli_usage("motion", "give one of --clip NAME or --input FILE");
+    if (input && clip_only)
+        return cli_usage("motion", "--frames, --fps, --speed and --amplitude shape a --clip");
+    if (clip && !cr_motion_clip_summary(clip))
+        return cli_usage("motion", "unknown clip '%s' (see --list)", clip);
+    if (clip && !out_path) return cli_usage("motion", "missing -o OUT.npz");
+    cr_error err = {0};
+    cr_motion *m = NULL;
+    cr_status st;
+    if (clip) {
+        def.name = clip;
+        st = cr_motion_clip_make(&def, &m, &err);
+    } else {
+        st = cr_motion_import(input, &imp, &m, &err);
+    }
+    if (st == CR_OK && out_path) st = cr_motion_save(out_path, m, &err);
+    if (st != CR_OK) {
+        cr_motion_destroy(m);
+        return cli_fail(&err);
+    }
+    int joint = 0;
+    float speed = cr_motion_max_angular_speed(m, &joint);
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "motion");
+        if (clip)
+            cJSON_AddStringToObject(j, "clip", clip);
+        else
+            cJSON_AddStringToObject(j, "input", input);
+        cJSON_AddNumberToObject(j, "frames", m->nframes);
+        cJSON_AddNumberToObject(j, "fps", m->fps);
+        cJSON_AddNumberToObject(j, "seconds", m->nframes / m->fps);
+        if (out_path)
+            cJSON_AddStringToObject(j, "output", out_path);
+        else
+            cJSON_AddNullToObject(j, "output");
+        cJSON_AddNumberToObject(j, "max_angular_speed_rad_s", speed);
+        cJSON_AddStringToObject(j, "max_angular_speed_joint", cr_joint_name[joint]);
+        cli_json_print(j);
+    } else {
+        fprintf(stderr,
+                "motion: %d frames at %g fps (%.2f s), fastest joint %s at %.2f rad/s%s%s\n",
+                m->nframes, (double)m->fps, m->nframes / m->fps, cr_joint_name[joint],
+                (double)speed, out_path ? ", written to " : "", out_path ? out_path : "");
+    }
+    cr_motion_destroy(m);
+    return CLI_OK;
+}

@@ -1,0 +1,185 @@
+/* cmd_pose_body.c: `crease pose-body`: skin the procedural mannequin through
+ * a procedural clip or a motion file and write the posed sequence as a PC2
+ * point cache (with the rest mesh beside it as OBJ) or an animated .glb. */
+#include "cli.h"
+#include "crease/body.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+void help_pose_body(void) {
+    printf("usage: crease pose-body (--clip NAME | --motion FILE) [options] -o OUT.pc2|OUT.glb\n\n"
+           "Pose the procedural mannequin with every frame of a motion (linear blend skinning)\n"
+           "and write the vertex positions: OUT.pc2 is a point cache, written with the rest\n"
+           "mesh as OUT.obj beside it (the cache holds no faces); OUT.glb is one file with\n"
+           "morph-target animation that Blender and three.js play.\n\n"
+           "options:\n"
+           "  --shape NAME     body preset: slim, normal (default) or heavy\n"
+           "  --height M       body height, m, 1 to 2.5 (default 1.75)\n"
+           "  --res N          mannequin resolution, 32 to 512 (default 110)\n"
+           "  --clip NAME      a procedural clip (see 'crease motion --list')\n"
+           "  --motion FILE    a .bvh or .npz motion (crease's own or AMASS-style)\n"
+           "  --frames N       clip length (default 120); for a file, the first N frames\n"
+           "                   (default all)\n"
+           "  --fps F          clip frame rate (default 30)\n"
+           "  --rest POSE      what a --motion's rotations are relative to: apose (the\n"
+           "                   mannequin's rest; crease's motions) or tpose (BVH rigs, AMASS),\n"
+           "                   which is re-expressed against the A-pose. Default: tpose for\n"
+           "                   .bvh, apose for .npz\n"
+           "  --json           end with a JSON summary on stdout: frames, fps, vertices,\n"
+           "                   faces, paths, seconds\n");
+}
+
+/* The mannequin's A-pose as a pose of the T-pose: each upper arm turned down
+ * about +-Z at the shoulder. */
+static void apose_from_tpose(float arm_angle_deg, float *rest) {
+    memset(rest, 0, CR_NJOINTS * 3 * sizeof(float));
+    float a = arm_angle_deg * 3.14159265f / 180.0f;
+    rest[3 * CR_JOINT_LEFT_SHOULDER + 2] = -a; /* left arm (+X) turns towards -Y */
+    rest[3 * CR_JOINT_RIGHT_SHOULDER + 2] = a;
+}
+
+typedef struct pose_opts {
+    const char *shape, *clip, *motion, *rest, *out;
+    float height, fps;
+    int res, frames, json;
+} pose_opts;
+
+static int parse(int argc, char **argv, pose_opts *o) {
+    cli_args a = cli_args_make(argc, argv);
+    const char *v;
+    while (!cli_args_done(&a)) {
+        const char *opt = cli_args_next(&a);
+        if (strcmp(opt, "--json") == 0) {
+            o->json = 1;
+        } else if (strcmp(opt, "--shape") == 0) {
+            if (!(o->shape = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--clip") == 0) {
+            if (!(o->clip = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--motion") == 0) {
+            if (!(o->motion = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--rest") == 0) {
+            if (!(o->rest = cli_args_value(&a, opt))) return CLI_USAGE;
+            if (strcmp(o->rest, "apose") != 0 && strcmp(o->rest, "tpose") != 0)
+                return cli_usage("pose-body", "--rest expects apose or tpose, got '%s'", o->rest);
+        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
+            if (!(o->out = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--height") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("pose-body", opt, v, 1.0, 2.5, &o->height))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--fps") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("pose-body", opt, v, 1e-3, 1000, &o->fps))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--res") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("pose-body", opt, v, 32, 512, &o->res))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--frames") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("pose-body", opt, v, 1, 1000000, &o->frames))
+                return CLI_USAGE;
+        } else {
+            return cli_usage("pose-body", "unknown option '%s'", opt);
+        }
+    }
+    if (!o->clip == !o->motion)
+        return cli_usage("pose-body", "give one of --clip NAME or --motion FILE");
+    if (o->clip && !cr_motion_clip_summary(o->clip))
+        return cli_usage("pose-body", "unknown clip '%s' (see 'crease motion --list')", o->clip);
+    if (o->motion && o->fps > 0.0f)
+        return cli_usage("pose-body", "--fps sets a --clip's rate; a file keeps its own");
+    if (o->clip && o->rest) return cli_usage("pose-body", "--rest applies to a --motion file");
+    if (!o->out) return cli_usage("pose-body", "missing -o OUT.pc2 or OUT.glb");
+    char ext[16];
+    cr_path_ext(o->out, ext, sizeof ext);
+    if (strcmp(ext, "pc2") != 0 && strcmp(ext, "glb") != 0)
+        return cli_usage("pose-body", "output '%s': expected .pc2 or .glb", o->out);
+    return CLI_OK;
+}
+
+static cr_status load_motion(const pose_opts *o, float arm_angle_deg, cr_motion **m,
+                             cr_error *err) {
+    if (o->clip)
+        return cr_motion_clip(o->clip, o->frames ? o->frames : 120, o->fps > 0 ? o->fps : 30.0f, m,
+                              err);
+    CR_TRY(cr_motion_load(o->motion, m, err));
+    char ext[16];
+    cr_path_ext(o->motion, ext, sizeof ext);
+    const char *rest = o->rest ? o->rest : strcmp(ext, "bvh") == 0 ? "tpose" : "apose";
+    if (strcmp(rest, "tpose") == 0) {
+        float apose[CR_NJOINTS * 3];
+        apose_from_tpose(arm_angle_deg, apose);
+        cr_motion_rebase(*m, apose);
+    }
+    if (o->frames && o->frames < (*m)->nframes) (*m)->nframes = o->frames;
+    return CR_OK;
+}
+
+/* OUT.pc2's rest mesh: the same path with .obj for its extension. */
+static void sibling_obj(const char *path, char *out, size_t cap) {
+    snprintf(out, cap, "%s", path);
+    char *dot = strrchr(out, '.');
+    if (dot && (size_t)(dot - out) + 5 <= cap) strcpy(dot, ".obj");
+}
+
+int cmd_pose_body(int argc, char **argv) {
+    pose_opts o = {.shape = "normal"};
+    int rc = parse(argc, argv, &o);
+    if (rc != CLI_OK) return rc;
+    cr_error err = {0};
+    cr_mannequin_def def = cr_mannequin_default_def();
+    if (cr_mannequin_preset(o.shape, &def, &err) != CR_OK)
+        return cli_usage("pose-body", "%s", err.msg);
+    if (o.height > 0.0f) def.height_m = o.height;
+    if (o.res) def.resolution = o.res;
+
+    double t0 = cr_time_now();
+    cr_body_model *b = NULL;
+    cr_motion *m = NULL;
+    float *frames = NULL;
+    char obj_path[1024] = "";
+    cr_status st = load_motion(&o, def.arm_angle_deg, &m, &err);
+    if (st == CR_OK) st = cr_mannequin_create(&def, &b, &err);
+    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, &err);
+    char ext[16];
+    cr_path_ext(o.out, ext, sizeof ext);
+    if (st == CR_OK && strcmp(ext, "glb") == 0) {
+        st = cr_glb_write_sequence(o.out, b->rest, frames, m->nframes, m->fps, &err);
+    } else if (st == CR_OK) {
+        st = cr_pc2_write(o.out, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, &err);
+        sibling_obj(o.out, obj_path, sizeof obj_path);
+        if (st == CR_OK) st = cr_mesh_write(obj_path, b->rest, &err);
+    }
+    double seconds = cr_time_now() - t0;
+    if (st == CR_OK && o.json) {
+        cJSON *j = cJSON_CreateObject(), *paths = cJSON_CreateArray();
+        cJSON_AddStringToObject(j, "command", "pose-body");
+        cJSON_AddStringToObject(j, "shape", o.shape);
+        if (o.clip)
+            cJSON_AddStringToObject(j, "clip", o.clip);
+        else
+            cJSON_AddStringToObject(j, "motion", o.motion);
+        cJSON_AddNumberToObject(j, "frames", m->nframes);
+        cJSON_AddNumberToObject(j, "fps", m->fps);
+        cJSON_AddNumberToObject(j, "vertices", b->rest->nv);
+        cJSON_AddNumberToObject(j, "faces", b->rest->nf);
+        cJSON_AddItemToArray(paths, cJSON_CreateString(o.out));
+        if (obj_path[0]) cJSON_AddItemToArray(paths, cJSON_CreateString(obj_path));
+        cJSON_AddItemToObject(j, "paths", paths);
+        cJSON_AddNumberToObject(j, "seconds", seconds);
+        cli_json_print(j);
+    } else if (st == CR_OK) {
+        fprintf(stderr,
+                "pose-body: %d frames of %d vertices at %g fps written to %s%s%s (%.2f s)\n",
+                m->nframes, b->rest->nv, (double)m->fps, o.out, obj_path[0] ? " and " : "",
+                obj_path, seconds);
+    }
+    free(frames);
+    cr_motion_destroy(m);
+    cr_body_model_destroy(b);
+    return st == CR_OK ? CLI_OK : cli_fail(&err);
+}
