@@ -5,6 +5,7 @@
 #include "crease/body.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
+#include "crease/npz.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -26,8 +27,8 @@ void help_pose_body(void) {
            "  --fps F          clip frame rate (default 30)\n"
            "  --rest POSE      what a --motion's rotations are relative to: apose (the\n"
            "                   mannequin's rest; crease's motions) or tpose (BVH rigs, AMASS),\n"
-           "                   which is re-expressed against the A-pose. Default: tpose for\n"
-           "                   .bvh, apose for .npz\n"
+           "                   which is re-expressed against the A-pose. Default: apose for\n"
+           "                   crease's .npz, tpose for .bvh and AMASS .npz\n"
            "  --json           end with a JSON summary on stdout: frames, fps, vertices,\n"
            "                   faces, paths, seconds\n");
 }
@@ -101,6 +102,17 @@ static int parse(int argc, char **argv, pose_opts *o) {
     return CLI_OK;
 }
 
+/* crease's own motion files carry an up_axis member; AMASS files do not, and
+ * their rotations are relative to SMPL's T-pose. */
+static int is_crease_npz(const char *path) {
+    cr_npz *z = NULL;
+    cr_error err = {0};
+    if (cr_npz_open(path, &z, &err) != CR_OK) return 0;
+    int has = cr_npz_has(z, "up_axis");
+    cr_npz_close(z);
+    return has;
+}
+
 static cr_status load_motion(const pose_opts *o, float arm_angle_deg, cr_motion **m,
                              cr_error *err) {
     if (o->clip)
@@ -109,7 +121,8 @@ static cr_status load_motion(const pose_opts *o, float arm_angle_deg, cr_motion 
     CR_TRY(cr_motion_load(o->motion, m, err));
     char ext[16];
     cr_path_ext(o->motion, ext, sizeof ext);
-    const char *rest = o->rest ? o->rest : strcmp(ext, "bvh") == 0 ? "tpose" : "apose";
+    const char *rest = o->rest;
+    if (!rest) rest = strcmp(ext, "bvh") == 0 || !is_crease_npz(o->motion) ? "tpose" : "apose";
     if (strcmp(rest, "tpose") == 0) {
         float apose[CR_NJOINTS * 3];
         apose_from_tpose(arm_angle_deg, apose);
