@@ -122,14 +122,14 @@ cr_status motion_from_npz(const cr_npz *z, const char *source, const cr_motion_i
     CR_ASSERT(def->cookie == MOTION_IMPORT_COOKIE);
     int up = 0;
     if (cr_npz_has(z, "up_axis")) {
-        double v;
+        double v = 0.0;
         CR_TRY(read_scalar(z, source, "up_axis", &v, err));
         if (v != UP_Y && v != UP_Z)
             return CR_FAIL(err, CR_ERR_RANGE, "%s: up_axis = %g, expected 1 (+Y) or 2 (+Z)", source,
                            v);
         up = (int)v;
     }
-    double fps;
+    double fps = 0.0;
     CR_TRY(read_fps(z, source, &fps, err));
     cr_npy poses, trans = {0};
     int64_t stride;

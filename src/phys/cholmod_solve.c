@@ -181,25 +181,32 @@ fail:
  * restored afterwards; assembly and collision queries stay parallel. The
  * triangular solves run the same way. */
 typedef struct serial_scope {
+    int active; /* 0 inside a parallel region: already on one thread, and the
+                   process-wide settings must not be raced over (a dataset
+                   simulates several garments at once) */
     int levels, blas_threads, omp_threads;
 } serial_scope;
 
 static serial_scope serial_begin(void) {
-    serial_scope sc = {0, openblas_get_num_threads(), 1};
+    serial_scope sc = {1, 0, 0, 1};
 #ifdef _OPENMP
+    if (omp_in_parallel()) {
+        sc.active = 0;
+        return sc;
+    }
     sc.levels = omp_get_max_active_levels();
     sc.omp_threads = omp_get_max_threads();
-#endif
-    openblas_set_num_threads(1);
-#ifdef _OPENMP
     omp_set_max_active_levels(0);
 #endif
+    sc.blas_threads = openblas_get_num_threads();
+    openblas_set_num_threads(1);
     return sc;
 }
 
 /* OpenBLAS's OpenMP build sets OpenMP's thread count along with its own, so
  * that is put back last. */
 static void serial_end(serial_scope sc) {
+    if (!sc.active) return;
     openblas_set_num_threads(sc.blas_threads);
 #ifdef _OPENMP
     omp_set_max_active_levels(sc.levels);
