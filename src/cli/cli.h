@@ -67,5 +67,9 @@ int cmd_body(int argc, char **argv);
 void help_body(void);
 int cmd_pose_body(int argc, char **argv);
 void help_pose_body(void);
+int cmd_dataset(int argc, char **argv);
+void help_dataset(void);
+int cmd_garment(int argc, char **argv);
+void help_garment(void);
 
 #endif

@@ -24,6 +24,10 @@ static const cli_command commands[] = {
      cmd_body, help_body},
     {"pose-body", "skin the mannequin through a motion clip or file, write PC2 or animated .glb",
      cmd_pose_body, help_pose_body},
+    {"dataset", "simulate garments on moving bodies into a dataset (resumable, parallel)",
+     cmd_dataset, help_dataset},
+    {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
+     cmd_garment, help_garment},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

@@ -1,0 +1,92 @@
+/* crease/dataset.h: garment sequences simulated on moving bodies by the
+ * reference simulator, written as a self-describing dataset that the
+ * training commands read.
+ *
+ *   cr_dataset_def def = cr_dataset_default_def();
+ *   def.out_dir = "data";
+ *   def.garments = (const char *[]){"tshirt", "dress"}, def.ngarments = 2;
+ *   ... motions, bodies, resolutions ...
+ *   cr_dataset_result r;
+ *   CR_TRY(cr_dataset_generate(&def, &r, err));
+ *
+ * Every combination garment x motion x body x resolution is one sequence.
+ * Layout under out_dir (paths in manifest.json are relative to it):
+ *   manifest.json                              what was asked and every sequence's state
+ *   bodies/<body>/rest.obj                     the mannequin (A-pose rest)
+ *   bodies/<body>/skin.npz                     joints (22,3), skin_joint (V,4), skin_weight (V,4)
+ *   bodies/<body>/<motion>.pc2                 the posed body, frames + 1 samples
+ *   motions/<motion>.npz                       the motion (crease's motion .npz)
+ *   garments/<body>/<garment>_<res>.obj        rest garment with UVs
+ *   garments/<body>/<garment>_<res>_skin.npz   skin_joint (V,4), skin_weight (V,4), panel (F)
+ *   garments/<body>/<garment>_high_from_low.npz  face (Vh), bary (Vh,3): gdsr Eq. 1
+ *   sequences/<garment>_<res>_<body>_<motion>/garment.pc2   frames + 1 samples
+ *   sequences/<...>/frames.jsonl               the simulator's per-frame log
+ *   sequences/<...>/result.json                written last: status, figures
+ *
+ * Resumable: a sequence whose result.json says "done" is skipped; a failed
+ * one is tried again. Sequences run in parallel (each simulator on one
+ * thread); one that fails (divergence, bad input) is recorded with its
+ * reason and the others go on. Every file is written atomically.
+ *
+ * Garments start in the body's rest pose, where every motion starts. The
+ * waistband of a skirt or of trousers (its highest boundary loop) is pinned
+ * and carried by the body through the garment's own skinning weights: with
+ * no self-collision and penalty friction, a skirt would otherwise slide
+ * down the legs.
+ */
+#ifndef CREASE_DATASET_H
+#define CREASE_DATASET_H
+
+#include "crease/base.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define CR_DATASET_MAX_ITEMS 16
+
+typedef struct cr_dataset_def {
+    const char *out_dir;
+    const char *const *garments; /* garment types (garment.h names) */
+    int ngarments;
+    const char *const *motions; /* clip names (motion.h) or motion files (.npz, .bvh) */
+    int nmotions;
+    const char *const *bodies; /* mannequin presets: slim, normal, heavy */
+    int nbodies;
+    const char *const *res; /* "low", "high" */
+    int nres;
+    int32_t low_vertices;  /* default 2000 */
+    int32_t high_vertices; /* default 8000 */
+    int32_t frames;        /* simulated frames per sequence (default 150) */
+    float fps;             /* default 30 */
+    const char *material;  /* preset name (default "cotton") */
+    int plastic;           /* 1: plastic bending (epnet's ground truth) */
+    uint64_t seed;         /* recorded in the manifest (the simulator has no randomness) */
+    int quiet;             /* 1: no progress bar */
+    uint32_t cookie;
+} cr_dataset_def;
+
+cr_dataset_def cr_dataset_default_def(void);
+
+typedef struct cr_dataset_result {
+    int32_t sequences; /* combinations asked for */
+    int32_t done;      /* simulated by this call */
+    int32_t skipped;   /* already done by an earlier call */
+    int32_t failed;
+    double seconds;
+    int32_t ngarments;
+    /* Per garment type asked for: the largest share of its vertices found
+     * inside the body (before the simulator projects them out) on any frame
+     * of any of its sequences, 0..1. */
+    double max_inside_share[CR_DATASET_MAX_ITEMS];
+} cr_dataset_result;
+
+/* Generate (or complete) the dataset. CR_ERR_INVALID naming a bad field or
+ * an unknown garment, body or resolution; CR_ERR_IO for the output folder.
+ * Sequences that fail do not fail the call: they are counted in `failed`. */
+cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out, cr_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

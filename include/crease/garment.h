@@ -1,0 +1,239 @@
+/* crease/garment.h: procedural garment templates fitted to a body's rest pose,
+ * low/high resolution correspondences, and user garments brought onto a body.
+ *
+ *   build a garment of a type at a target vertex count       cr_garment_create
+ *   one fitted template, many resolutions sharing its UVs     cr_garment_template_*
+ *   layers worn over each other (vest over t-shirt)           cr_garment_create_layers
+ *   quality figures (angles, clearance, topology)             cr_garment_measure
+ *   skinning the garment with the body's pose                 cr_garment_pose
+ *   high vertex -> (low face, barycentric), gdsr Eq. 1        cr_garment_correspondence
+ *   a user OBJ checked and pushed out of the body             cr_garment_load_user, _fit_user
+ *
+ *   cr_garment_def def = cr_garment_default_def(CR_GARMENT_TSHIRT);
+ *   def.target_vertices = 8000;
+ *   cr_garment *g = NULL;
+ *   CR_TRY(cr_garment_create(&def, body, &g, err));     g->mesh, g->skin_*, g->panel
+ *   cr_garment_quality q;
+ *   CR_TRY(cr_garment_measure(g, body, &q, err));
+ *   cr_garment_destroy(g);
+ *
+ * What a garment is: a manifold triangle mesh with boundary (open at the neck,
+ * hem, sleeve and leg ends), consistently oriented with normals pointing away
+ * from the body, in the body's rest pose and frame (m, +Y up), at least 5 mm
+ * outside the body at every vertex. Faces belong to panels (front, back,
+ * sleeve halves, trouser quarters); seams between panels are welded in 3-D
+ * (one vertex) but cut in UV (cr_mesh.tri_uv gives each panel its own UV
+ * chart). UV charts are flattened near-isometrically, each scaled so its UV
+ * area times uv_scale_m^2 equals its 3-D area, and packed into [0,1]^2:
+ * uv * uv_scale_m is metres along the cloth. Every vertex carries four
+ * skinning weights transferred from the body (closest point on the body,
+ * barycentric blend, four largest kept, renormalised; smoothed over the loose
+ * parts of skirts and dresses, which would otherwise tear between the legs).
+ *
+ * Construction (src/body/garment_shapes.c and docs/garments.md): tight parts
+ * are a level set of the body's signed distance, sampled on a grid and
+ * blurred (so armpits and crotch get a smooth fillet instead of a crease);
+ * skirts and the dress's lower half are a flared envelope around the hips
+ * and legs. The level set is polygonised, cut by the garment's openings and
+ * seams (planes, spheres and the level 1/2 of the body's arm skinning
+ * weights, which gives a natural armhole on any body), remeshed isotropically
+ * with the seams and openings kept as feature lines, then flattened per
+ * panel. All resolutions of one template share its UV layout, so a low and a
+ * high resolution garment correspond through UV space (gdsr, Eq. 1).
+ *
+ * Deterministic: the same def and body give the same garment bit for bit on
+ * one thread count (there is no random element, hence no seed).
+ * Units: m. Thread safety: reentrant; a built template or garment is read-only.
+ */
+#ifndef CREASE_GARMENT_H
+#define CREASE_GARMENT_H
+
+#include "crease/mesh.h"
+#include "crease/skeleton.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum cr_garment_type {
+    CR_GARMENT_TSHIRT = 0, /* short sleeves to mid upper arm, hem at the hips */
+    CR_GARMENT_LONGSLEEVE, /* sleeves to the wrists */
+    CR_GARMENT_SKIRT,      /* A-line, waist to just above the knees */
+    CR_GARMENT_DRESS,      /* sleeveless top and a flared skirt to the knees */
+    CR_GARMENT_TROUSERS,   /* waist to the ankles */
+    CR_GARMENT_VEST,       /* sleeveless, worn over a t-shirt (more clearance) */
+    CR_GARMENT_USER,       /* loaded from a file (cr_garment_load_user) */
+    CR_GARMENT_TYPE_COUNT
+} cr_garment_type;
+
+/* "tshirt", "longsleeve", "skirt", "dress", "trousers", "vest", "user". */
+const char *cr_garment_type_name(cr_garment_type type);
+/* Type by name; CR_ERR_INVALID naming the unknown type and listing the known
+ * ones ("user" is not accepted: user garments come from a file). */
+cr_status cr_garment_type_parse(const char *name, cr_garment_type *out, cr_error *err);
+
+#define CR_GARMENT_MAX_PANELS 32
+
+typedef struct cr_garment_def {
+    cr_garment_type type;
+    int32_t target_vertices;   /* wanted vertex count, [500, 100000]; met within 15% from
+                                  2k to 40k (default 8000) */
+    float clearance_m;         /* offset of the tight parts from the body, m, [0.005, 0.1]; default
+                                  0.01 (t-shirt, long sleeve, dress top), 0.02 (vest), 0.015
+                                  (trousers, skirt waist). Every vertex ends at least 5 mm out. */
+    float flare_deg;           /* skirt and dress: half-angle of the cone the skirt widens along
+                                  below the waist, degrees, [0, 45] (default 12 skirt, 15 dress;
+                                  ignored by the other types) */
+    float length_scale;        /* hem, sleeve and leg lengths as a multiple of the type's
+                                  default, [0.5, 1.5] (default 1) */
+    float grid_m;              /* cell of the grid the level set is sampled on, m, [0.004, 0.03]
+                                  (default 0.01): finer follows the body more closely, costs
+                                  cubically */
+    int32_t remesh_iterations; /* isotropic remeshing rounds, [1, 50] (default 8) */
+    uint32_t cookie;           /* set by cr_garment_default_def; a hand-zeroed def is a bug */
+} cr_garment_def;
+
+/* Defaults for a type (not CR_GARMENT_USER), as listed field by field above. */
+cr_garment_def cr_garment_default_def(cr_garment_type type);
+
+typedef struct cr_garment {
+    cr_garment_type type;
+    cr_mesh *mesh;       /* rest mesh with UVs (per-corner, tri_uv) and vertex normals, m */
+    int32_t *skin_joint; /* (V,4) joint indices into the body's skeleton */
+    float *skin_weight;  /* (V,4) weights, sum 1, largest first */
+    int32_t *panel;      /* (F) panel of each face, in [0, npanels) */
+    int32_t npanels;
+    char panel_name[CR_GARMENT_MAX_PANELS][24]; /* "front", "back", "left_sleeve_front", ... */
+    float uv_scale_m;  /* metres per UV unit (the same for every resolution of a template) */
+    float clearance_m; /* the clearance it was built with, m */
+} cr_garment;
+
+/* Free everything; NULL is a no-op. */
+void cr_garment_destroy(cr_garment *g);
+
+/* Build a garment of def->type on `body` (its rest mesh must be closed and
+ * outward-oriented: the mannequin or a loaded SMPL body). CR_ERR_INVALID
+ * naming a def field out of range; CR_ERR_TOPOLOGY when the body leaves no
+ * clean surface for the type (e.g. arms fused to the torso); CR_ERR_MEMORY.
+ * The caller destroys *out. */
+cr_status cr_garment_create(const cr_garment_def *def, const cr_body_model *body, cr_garment **out,
+                            cr_error *err);
+
+/* ----------------------------------------------------------- templates -- */
+
+/* A garment fitted to a body at no particular resolution: the cut surface,
+ * its seams and the UV layout. Instantiating it at two vertex counts gives a
+ * low/high pair sharing the UV layout (and uv_scale_m). */
+typedef struct cr_garment_template cr_garment_template;
+
+cr_status cr_garment_template_create(const cr_garment_def *def, const cr_body_model *body,
+                                     cr_garment_template **out, cr_error *err);
+/* A garment with about target_vertices vertices ([500, 100000]). The body
+ * must be the one the template was made for. */
+cr_status cr_garment_template_instantiate(const cr_garment_template *t, int32_t target_vertices,
+                                          const cr_body_model *body, cr_garment **out,
+                                          cr_error *err);
+void cr_garment_template_destroy(cr_garment_template *t);
+
+/* ------------------------------------------------------------- layers -- */
+
+/* Space between the offsets of two layers worn over each other, m. */
+#define CR_GARMENT_LAYER_GAP 0.006f
+
+/* Build n garments worn over each other, innermost first (a t-shirt, then a
+ * vest). Layer i's clearance must exceed layer i-1's by at least
+ * CR_GARMENT_LAYER_GAP (CR_ERR_INVALID naming the layers otherwise), and the
+ * built layers are checked not to intersect (CR_ERR_TOPOLOGY naming the
+ * first crossing). out (n) receives the garments; on failure all are NULL. */
+cr_status cr_garment_create_layers(const cr_garment_def *defs, int32_t n, const cr_body_model *body,
+                                   cr_garment **out, cr_error *err);
+
+/* Number of edges of `a` that cross a face of `b` plus edges of `b` that
+ * cross a face of `a` (0 for layers that do not intersect), or -1 with err
+ * set on failure. */
+int64_t cr_garment_count_crossings(const cr_mesh *a, const cr_mesh *b, cr_error *err);
+
+/* Linear blend skinning of the garment's rest mesh with its own weights:
+ * out (V,3), m, for a pose (22,3) axis-angle, rad, and root translation
+ * trans (3), m (may be NULL), of the body the garment was made for
+ * (crease/body.h's convention). CR_ERR_NAN for a non-finite pose. */
+cr_status cr_garment_pose(const cr_garment *g, const cr_body_model *body, const float *pose,
+                          const float *trans, float *out, cr_error *err);
+
+/* ------------------------------------------------------------ quality -- */
+
+typedef struct cr_garment_quality {
+    int32_t vertices, faces;
+    int32_t boundary_loops; /* openings: neck, hem, sleeves, legs */
+    int32_t panels;
+    float share_min_angle_above_20deg; /* faces whose smallest angle exceeds 20 deg, 0..1 */
+    float min_angle_deg;               /* smallest angle of any face, degrees */
+    float min_clearance_m;             /* smallest signed distance from a vertex to the body, m */
+    float share_outward;               /* faces whose normal points away from the body, 0..1 */
+    float max_weight_sum_error;        /* max |sum of a vertex's skin weights - 1| */
+    float uv_area_error; /* max over panels of |UV area * uv_scale^2 / 3-D area - 1| */
+    int manifold;        /* 1: an oriented 2-manifold with boundary, no defects */
+} cr_garment_quality;
+
+/* Measure g against its body (rest pose). CR_ERR_MEMORY, or errors from
+ * building the body's BVH. */
+cr_status cr_garment_measure(const cr_garment *g, const cr_body_model *body,
+                             cr_garment_quality *out, cr_error *err);
+
+/* ----------------------------------------------------- correspondence -- */
+
+/* For every vertex k of `high`, the face of `low` under it in UV space and
+ * barycentric weights b (gdsr, Eq. 1: S[C, f, u, v] = (1-u-v) c0 + u c1 +
+ * v c2 with (u, v) = (b1, b2)), so the high mesh is resampled from the low one
+ * as sum_i b_i low.pos[low.tri[3 face + i]]. Vertices outside every UV chart
+ * of `low` (on a chart's rim) take the nearest point of the nearest chart.
+ * A high vertex whose UV coincides with a low vertex's gets that corner with
+ * weight exactly 1, so applying a mesh's correspondence to itself reproduces
+ * it bit for bit. Both meshes need UVs sharing one layout (two instances of
+ * one template). face (Vh), bary (Vh,3). CR_ERR_INVALID when either mesh has
+ * no UVs. */
+cr_status cr_garment_correspondence(const cr_mesh *low, const cr_mesh *high, int32_t *face,
+                                    float *bary, cr_error *err);
+
+/* out (Vh,3) = the high mesh resampled from low positions low_pos (Vl,3)
+ * through a correspondence, summed in double. */
+void cr_garment_apply_correspondence(const cr_mesh *low, const float *low_pos, const int32_t *face,
+                                     const float *bary, int32_t nv_high, float *out);
+
+/* -------------------------------------------------------- user garments -- */
+
+typedef struct cr_garment_user_def {
+    float clearance_m;        /* push every vertex at least this far out of the body, m,
+                                 [0.005, 0.1] (default 0.01) */
+    int32_t relax_iterations; /* smoothing rounds after each push, [0, 200] (default 10) */
+    int32_t max_rounds;       /* push-and-relax rounds before the last exact push, [1, 100]
+                                 (default 20) */
+    uint32_t cookie;          /* set by cr_garment_user_default_def */
+} cr_garment_user_def;
+
+cr_garment_user_def cr_garment_user_default_def(void);
+
+/* Check a garment mesh and fit it to the body's rest pose. `source` names it
+ * in messages (the file name). Checks, each failing with CR_ERR_TOPOLOGY or
+ * CR_ERR_INVALID and a message starting with `source`: an oriented 2-manifold
+ * (cr_topology_require_manifold), UVs present and not degenerate, plausible
+ * size in metres (bounding box diagonal 0.1 to 4 m; a diagonal of 10 to 400
+ * suggests centimetres and says so), near the body (most vertices within
+ * 0.3 m of it), and normals pointing away from the body. Fitting: vertices
+ * closer than the clearance are pushed out along the body's signed-distance
+ * gradient, the displacement is relaxed over the mesh (Laplacian smoothing
+ * of what moved), repeated, then a last push guarantees the clearance at
+ * every vertex. Panels are the UV charts (faces connected through shared UV
+ * corners); skin weights come from the body as for procedural garments. */
+cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
+                              const cr_garment_user_def *def, const cr_body_model *body,
+                              cr_garment **out, cr_error *err);
+
+/* Read an OBJ (or PLY/glb with UVs, by extension) and cr_garment_fit_user it. */
+cr_status cr_garment_load_user(const char *path, const cr_garment_user_def *def,
+                               const cr_body_model *body, cr_garment **out, cr_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

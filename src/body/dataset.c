@@ -1,0 +1,307 @@
+/* dataset.c: garment sequences on moving bodies, simulated by the reference
+ * simulator and written as a self-describing dataset (see crease/dataset.h
+ * for the layout).
+ *
+ * Order of work: the assets first, on all threads inside each step (bodies,
+ * motions, posed bodies, garment templates at each resolution, low/high
+ * correspondences), then the sequences, several at once with each simulator
+ * on one thread (sequences are independent and a simulator of a few thousand
+ * vertices scales poorly past one core). A sequence's result.json is written
+ * last, so a run that stops leaves every finished sequence marked and the
+ * next run skips it.
+ *
+ * Left out: self-collision between layers, bodies other than the mannequin
+ * presets (an SMPL model could be added as a body source), and distributing
+ * sequences over machines.
+ */
+#include "crease/dataset.h"
+
+#include "crease/body.h"
+#include "crease/garment.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+#include "crease/npz.h"
+#include "crease/phys_material.h"
+#include "dataset_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static const uint32_t DATASET_COOKIE = 0x44415441u; /* "DATA" */
+
+cr_dataset_def cr_dataset_default_def(void) {
+    cr_dataset_def d;
+    memset(&d, 0, sizeof d);
+    d.low_vertices = 2000;
+    d.high_vertices = 8000;
+    d.frames = 150;
+    d.fps = 30.0f;
+    d.material = "cotton";
+    d.seed = 1;
+    d.cookie = DATASET_COOKIE;
+    return d;
+}
+
+/* ------------------------------------------------------------- checks -- */
+
+static cr_status check_list(const char *what, const char *const *items, int n, cr_error *err) {
+    if (n < 1 || n > CR_DATASET_MAX_ITEMS || !items)
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: %s: %d given, need 1 to %d", what, n,
+                       CR_DATASET_MAX_ITEMS);
+    for (int i = 0; i < n; i++) {
+        if (!items[i] || !items[i][0] || strlen(items[i]) > 200)
+            return CR_FAIL(err, CR_ERR_INVALID, "dataset: %s[%d] is empty or too long", what, i);
+        for (int j = 0; j < i; j++)
+            if (!strcmp(items[i], items[j]))
+                return CR_FAIL(err, CR_ERR_INVALID, "dataset: %s: '%s' is listed twice", what,
+                               items[i]);
+    }
+    return CR_OK;
+}
+
+static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) {
+    if (!d->out_dir || !d->out_dir[0])
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: out_dir is not set");
+    CR_TRY(check_list("garments", d->garments, d->ngarments, err));
+    CR_TRY(check_list("motions", d->motions, d->nmotions, err));
+    CR_TRY(check_list("bodies", d->bodies, d->nbodies, err));
+    CR_TRY(check_list("res", d->res, d->nres, err));
+    if (d->nres > 2)
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: %d resolutions; at most two (low, high)",
+                       d->nres);
+    if (d->frames < 1 || d->frames > 100000)
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: frames = %d, need 1 to 100000", d->frames);
+    if (!(d->fps > 0.0f && d->fps <= 1000.0f))
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: fps = %g, need (0, 1000]", (double)d->fps);
+    for (int i = 0; i < d->ngarments; i++)
+        CR_TRY(cr_garment_type_parse(d->garments[i], &ds->garment_type[i], err));
+    for (int i = 0; i < d->nbodies; i++) {
+        cr_mannequin_def md = cr_mannequin_default_def();
+        CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
+    }
+    for (int i = 0; i < d->nres; i++) {
+        if (!strcmp(d->res[i], "low"))
+            ds->res_vertices[i] = d->low_vertices;
+        else if (!strcmp(d->res[i], "high"))
+            ds->res_vertices[i] = d->high_vertices;
+        else
+            return CR_FAIL(err, CR_ERR_INVALID, "dataset: resolution '%s': expected low or high",
+                           d->res[i]);
+        if (ds->res_vertices[i] < 500 || ds->res_vertices[i] > 100000)
+            return CR_FAIL(err, CR_ERR_INVALID, "dataset: %s resolution of %d vertices: need 500 "
+                           "to 100000", d->res[i], ds->res_vertices[i]);
+    }
+    cr_material mat;
+    return cr_material_preset(d->material ? d->material : "", &mat, err);
+}
+
+/* ------------------------------------------------------------- assets -- */
+
+/* "walk" for a clip, the file's base name without extension for a file. */
+static void motion_label(const char *spec, char *out, size_t size) {
+    const char *base = strrchr(spec, '/');
+    base = base ? base + 1 : spec;
+    snprintf(out, size, "%s", base);
+    char *dot = strrchr(out, '.');
+    if (dot && dot != out) *dot = '\0';
+}
+
+static int is_clip(const char *spec) {
+    int n = 0;
+    const char *const *names = cr_motion_clip_names(&n);
+    for (int i = 0; i < n; i++)
+        if (!strcmp(names[i], spec)) return 1;
+    return 0;
+}
+
+static cr_status write_body(const dataset *ds, const char *name, const cr_body_model *b,
+                            cr_error *err) {
+    char path[CR_DATASET_PATH];
+    snprintf(path, sizeof path, "%s/bodies/%s/rest.obj", ds->def.out_dir, name);
+    CR_TRY(cr_mesh_write(path, b->rest, err));
+    snprintf(path, sizeof path, "%s/bodies/%s/skin.npz", ds->def.out_dir, name);
+    cr_npz_writer *w = NULL;
+    CR_TRY(cr_npz_writer_open(path, 1, &w, err));
+    int64_t js[2] = {CR_NJOINTS, 3}, ws[2] = {b->rest->nv, 4};
+    cr_status st = cr_npz_writer_add(w, "joints", CR_NPY_F32, 2, js, b->joints, err);
+    if (st == CR_OK) st = cr_npz_writer_add(w, "skin_joint", CR_NPY_I32, 2, ws, b->skin_joint, err);
+    if (st == CR_OK)
+        st = cr_npz_writer_add(w, "skin_weight", CR_NPY_F32, 2, ws, b->skin_weight, err);
+    if (st != CR_OK) {
+        cr_npz_writer_abort(w);
+        return st;
+    }
+    return cr_npz_writer_commit(w, err);
+}
+
+static cr_status write_garment(const dataset *ds, const char *body, const char *name,
+                               const char *res, const cr_garment *g, cr_error *err) {
+    char path[CR_DATASET_PATH];
+    snprintf(path, sizeof path, "%s/garments/%s/%s_%s.obj", ds->def.out_dir, body, name, res);
+    CR_TRY(cr_mesh_write(path, g->mesh, err));
+    snprintf(path, sizeof path, "%s/garments/%s/%s_%s_skin.npz", ds->def.out_dir, body, name, res);
+    cr_npz_writer *w = NULL;
+    CR_TRY(cr_npz_writer_open(path, 1, &w, err));
+    int64_t ws[2] = {g->mesh->nv, 4}, fs[1] = {g->mesh->nf};
+    cr_status st = cr_npz_writer_add(w, "skin_joint", CR_NPY_I32, 2, ws, g->skin_joint, err);
+    if (st == CR_OK) st = cr_npz_writer_add(w, "skin_weight", CR_NPY_F32, 2, ws, g->skin_weight, err);
+    if (st == CR_OK) st = cr_npz_writer_add(w, "panel", CR_NPY_I32, 1, fs, g->panel, err);
+    if (st != CR_OK) {
+        cr_npz_writer_abort(w);
+        return st;
+    }
+    return cr_npz_writer_commit(w, err);
+}
+
+/* gdsr Eq. 1: every high vertex's (low face, barycentric). */
+static cr_status write_correspondence(const dataset *ds, const char *body, const char *name,
+                                      const cr_garment *low, const cr_garment *high,
+                                      cr_error *err) {
+    int32_t nv = high->mesh->nv;
+    int32_t *face = cr_malloc((size_t)nv * sizeof(int32_t), err);
+    float *bary = cr_malloc((size_t)nv * 3 * sizeof(float), err);
+    cr_status st = face && bary ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) st = cr_garment_correspondence(low->mesh, high->mesh, face, bary, err);
+    char path[CR_DATASET_PATH];
+    snprintf(path, sizeof path, "%s/garments/%s/%s_high_from_low.npz", ds->def.out_dir, body, name);
+    cr_npz_writer *w = NULL;
+    if (st == CR_OK) st = cr_npz_writer_open(path, 1, &w, err);
+    int64_t fs[1] = {nv}, bs[2] = {nv, 3};
+    if (st == CR_OK) st = cr_npz_writer_add(w, "face", CR_NPY_I32, 1, fs, face, err);
+    if (st == CR_OK) st = cr_npz_writer_add(w, "bary", CR_NPY_F32, 2, bs, bary, err);
+    if (st == CR_OK)
+        st = cr_npz_writer_commit(w, err);
+    else
+        cr_npz_writer_abort(w);
+    free(face), free(bary);
+    return st;
+}
+
+static cr_status make_dirs(const dataset *ds, cr_error *err) {
+    char path[CR_DATASET_PATH];
+    const char *sub[] = {"motions", "sequences"};
+    for (size_t i = 0; i < sizeof sub / sizeof sub[0]; i++) {
+        snprintf(path, sizeof path, "%s/%s", ds->def.out_dir, sub[i]);
+        CR_TRY(cr_mkdir_p(path, err));
+    }
+    for (int b = 0; b < ds->def.nbodies; b++) {
+        snprintf(path, sizeof path, "%s/bodies/%s", ds->def.out_dir, ds->def.bodies[b]);
+        CR_TRY(cr_mkdir_p(path, err));
+        snprintf(path, sizeof path, "%s/garments/%s", ds->def.out_dir, ds->def.bodies[b]);
+        CR_TRY(cr_mkdir_p(path, err));
+    }
+    return CR_OK;
+}
+
+static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
+    const cr_dataset_def *d = &ds->def;
+    int64_t step = 0;
+    for (int m = 0; m < d->nmotions; m++) {
+        motion_label(d->motions[m], ds->motion_name[m], sizeof ds->motion_name[m]);
+        if (is_clip(d->motions[m]))
+            CR_TRY(cr_motion_clip(d->motions[m], d->frames + 1, d->fps, &ds->motion[m], err));
+        else
+            CR_TRY(cr_motion_load(d->motions[m], &ds->motion[m], err));
+        char path[CR_DATASET_PATH];
+        snprintf(path, sizeof path, "%s/motions/%s.npz", d->out_dir, ds->motion_name[m]);
+        CR_TRY(cr_motion_save(path, ds->motion[m], err));
+        cr_progress_update(bar, ++step, "motion %s", ds->motion_name[m]);
+    }
+    for (int b = 0; b < d->nbodies; b++) {
+        cr_mannequin_def md = cr_mannequin_default_def();
+        CR_TRY(cr_mannequin_preset(d->bodies[b], &md, err));
+        CR_TRY(cr_mannequin_create(&md, &ds->body[b], err));
+        CR_TRY(write_body(ds, d->bodies[b], ds->body[b], err));
+        for (int m = 0; m < d->nmotions; m++) {
+            CR_TRY(cr_body_pose_motion(ds->body[b], ds->motion[m], &ds->posed[b][m], err));
+            char path[CR_DATASET_PATH];
+            snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", d->out_dir, d->bodies[b],
+                     ds->motion_name[m]);
+            CR_TRY(cr_pc2_write(path, ds->posed[b][m], ds->body[b]->rest->nv,
+                                ds->motion[m]->nframes, 0.0f, 1.0f, err));
+        }
+        for (int g = 0; g < d->ngarments; g++) {
+            cr_garment_def gd = cr_garment_default_def(ds->garment_type[g]);
+            cr_garment_template *t = NULL;
+            CR_TRY(cr_garment_template_create(&gd, ds->body[b], &t, err));
+            cr_status st = CR_OK;
+            for (int r = 0; r < d->nres && st == CR_OK; r++) {
+                st = cr_garment_template_instantiate(t, ds->res_vertices[r], ds->body[b],
+                                                     &ds->garment[b][g][r], err);
+                if (st == CR_OK)
+                    st = write_garment(ds, d->bodies[b], d->garments[g], d->res[r],
+                                       ds->garment[b][g][r], err);
+            }
+            cr_garment_template_destroy(t);
+            CR_TRY(st);
+            int lo = -1, hi = -1;
+            for (int r = 0; r < d->nres; r++)
+                if (!strcmp(d->res[r], "low"))
+                    lo = r;
+                else
+                    hi = r;
+            if (lo >= 0 && hi >= 0)
+                CR_TRY(write_correspondence(ds, d->bodies[b], d->garments[g], ds->garment[b][g][lo],
+                                            ds->garment[b][g][hi], err));
+            cr_progress_update(bar, ++step, "%s on %s", d->garments[g], d->bodies[b]);
+        }
+    }
+    return CR_OK;
+}
+
+/* ----------------------------------------------------------- generate -- */
+
+static void dataset_free(dataset *ds) {
+    for (int b = 0; b < CR_DATASET_MAX_ITEMS; b++) {
+        for (int m = 0; m < CR_DATASET_MAX_ITEMS; m++)
+            free(ds->posed[b][m]);
+        for (int g = 0; g < CR_DATASET_MAX_ITEMS; g++)
+            for (int r = 0; r < 2; r++)
+                cr_garment_destroy(ds->garment[b][g][r]);
+        cr_body_model_destroy(ds->body[b]);
+    }
+    for (int m = 0; m < CR_DATASET_MAX_ITEMS; m++)
+        cr_motion_destroy(ds->motion[m]);
+    free(ds->seq);
+    free(ds);
+}
+
+cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out, cr_error *err) {
+    CR_ASSERT(def && def->cookie == DATASET_COOKIE); /* made by cr_dataset_default_def */
+    memset(out, 0, sizeof *out);
+    double t0 = cr_time_now();
+    dataset *ds = cr_calloc(1, sizeof(dataset), err);
+    if (!ds) return err ? err->status : CR_ERR_MEMORY;
+    ds->def = *def;
+    if (!ds->def.material) ds->def.material = "cotton";
+    cr_status st = check_def(&ds->def, ds, err);
+    if (st == CR_OK) st = make_dirs(ds, err);
+    cr_progress bar;
+    if (st == CR_OK) {
+        cr_progress_begin(&bar, "assets", def->nmotions + (int64_t)def->nbodies * def->ngarments,
+                          def->quiet);
+        st = make_assets(ds, &bar, err);
+        cr_progress_end(&bar);
+    }
+    if (st == CR_OK) st = dataset_plan(ds, err);
+    if (st == CR_OK) st = dataset_write_manifest(ds, err);
+    if (st == CR_OK) {
+        dataset_run_sequences(ds);
+        st = dataset_write_manifest(ds, err);
+    }
+    if (st == CR_OK) {
+        out->sequences = ds->nseq;
+        out->ngarments = def->ngarments;
+        for (int i = 0; i < ds->nseq; i++) {
+            const dataset_seq *q = &ds->seq[i];
+            out->done += q->state == SEQ_DONE;
+            out->skipped += q->state == SEQ_SKIPPED;
+            out->failed += q->state == SEQ_FAILED;
+            if (q->state != SEQ_FAILED && q->max_inside_share > out->max_inside_share[q->g])
+                out->max_inside_share[q->g] = q->max_inside_share;
+        }
+    }
+    out->seconds = cr_time_now() - t0;
+    dataset_free(ds);
+    return st;
+}

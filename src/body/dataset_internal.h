@@ -1,0 +1,45 @@
+/* dataset_internal.h: what dataset.c (assets) and dataset_run.c (the plan,
+ * the sequences and the manifest) share. */
+#ifndef CREASE_DATASET_INTERNAL_H
+#define CREASE_DATASET_INTERNAL_H
+
+#include "crease/body.h"
+#include "crease/dataset.h"
+#include "crease/garment.h"
+
+enum { CR_DATASET_PATH = 1024 };
+
+typedef enum seq_state { SEQ_PENDING = 0, SEQ_SKIPPED, SEQ_DONE, SEQ_FAILED } seq_state;
+
+typedef struct dataset_seq {
+    int g, m, b, r; /* garment, motion, body, resolution indices */
+    char id[160];   /* <garment>_<res>_<body>_<motion> */
+    seq_state state;
+    double max_inside_share; /* largest share of vertices inside before projection */
+    double max_penetration_m;
+    int32_t frames_done;
+    double seconds;
+    char failure[200];
+} dataset_seq;
+
+typedef struct dataset {
+    cr_dataset_def def;
+    cr_garment_type garment_type[CR_DATASET_MAX_ITEMS];
+    int32_t res_vertices[2];
+    char motion_name[CR_DATASET_MAX_ITEMS][64];
+    cr_motion *motion[CR_DATASET_MAX_ITEMS];
+    cr_body_model *body[CR_DATASET_MAX_ITEMS];
+    float *posed[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS]; /* [body][motion] (T,Vb,3) */
+    cr_garment *garment[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS][2]; /* [body][garment][res] */
+    dataset_seq *seq;
+    int nseq;
+} dataset;
+
+/* Every combination, marked SEQ_SKIPPED where result.json says done. */
+cr_status dataset_plan(dataset *ds, cr_error *err);
+/* Simulate the pending sequences, several at once; failures are recorded. */
+void dataset_run_sequences(dataset *ds);
+/* manifest.json from the def, the assets and the sequences' states. */
+cr_status dataset_write_manifest(const dataset *ds, cr_error *err);
+
+#endif

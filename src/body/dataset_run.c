@@ -1,0 +1,376 @@
+/* dataset_run.c: the dataset's sequences (plan, resume, parallel simulation,
+ * failures) and its manifest. See crease/dataset.h for the layout.
+ *
+ * A sequence's share of vertices inside the body is counted before the
+ * simulator projects them out at the end of each substep (the report's
+ * `projected`, per substep), so the figure is what the solver let through,
+ * not what was left after the clean-up.
+ */
+#include "dataset_internal.h"
+
+#include "crease/phys_scene.h"
+#include "crease/phys_sim.h"
+#include "crease/topology.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* -------------------------------------------------------------- plan -- */
+
+static void seq_dir(const dataset *ds, const dataset_seq *q, char *out, size_t size) {
+    snprintf(out, size, "%s/sequences/%s", ds->def.out_dir, q->id);
+}
+
+/* 1 when sequences/<id>/result.json says done; its figures go into q. */
+static int already_done(const dataset *ds, dataset_seq *q) {
+    char path[CR_DATASET_PATH];
+    seq_dir(ds, q, path, sizeof path);
+    strncat(path, "/result.json", sizeof path - strlen(path) - 1);
+    char *text = NULL;
+    size_t len = 0;
+    if (cr_file_read_all(path, &text, &len, NULL) != CR_OK) return 0;
+    cJSON *j = cJSON_Parse(text);
+    free(text);
+    const cJSON *status = cJSON_GetObjectItemCaseSensitive(j, "status");
+    int done = cJSON_IsString(status) && !strcmp(status->valuestring, "done");
+    if (done) {
+        const cJSON *share = cJSON_GetObjectItemCaseSensitive(j, "max_inside_share");
+        const cJSON *pen = cJSON_GetObjectItemCaseSensitive(j, "max_penetration_m");
+        const cJSON *frames = cJSON_GetObjectItemCaseSensitive(j, "frames");
+        q->max_inside_share = cJSON_IsNumber(share) ? share->valuedouble : 0.0;
+        q->max_penetration_m = cJSON_IsNumber(pen) ? pen->valuedouble : 0.0;
+        q->frames_done = cJSON_IsNumber(frames) ? frames->valueint : 0;
+    }
+    cJSON_Delete(j);
+    return done;
+}
+
+cr_status dataset_plan(dataset *ds, cr_error *err) {
+    const cr_dataset_def *d = &ds->def;
+    ds->nseq = d->ngarments * d->nmotions * d->nbodies * d->nres;
+    ds->seq = cr_calloc((size_t)ds->nseq, sizeof(dataset_seq), err);
+    if (!ds->seq) return err ? err->status : CR_ERR_MEMORY;
+    int k = 0;
+    for (int b = 0; b < d->nbodies; b++)
+        for (int g = 0; g < d->ngarments; g++)
+            for (int r = 0; r < d->nres; r++)
+                for (int m = 0; m < d->nmotions; m++, k++) {
+                    dataset_seq *q = &ds->seq[k];
+                    q->b = b, q->g = g, q->r = r, q->m = m;
+                    snprintf(q->id, sizeof q->id, "%s_%s_%s_%s", d->garments[g], d->res[r],
+                             d->bodies[b], ds->motion_name[m]);
+                    q->state = already_done(ds, q) ? SEQ_SKIPPED : SEQ_PENDING;
+                }
+    return CR_OK;
+}
+
+/* ---------------------------------------------------------- pinning -- */
+
+/* The waistband of a skirt or trousers: the boundary loop highest on the
+ * body (largest mean y). Returns its vertex count (0 for other types). */
+static int32_t waist_loop(const cr_garment *g, int32_t **out, cr_error *err) {
+    *out = NULL;
+    if (g->type != CR_GARMENT_SKIRT && g->type != CR_GARMENT_TROUSERS) return 0;
+    cr_topology *t = NULL;
+    if (cr_topology_build(g->mesh, &t, err) != CR_OK) return -1;
+    int best = -1;
+    double best_y = -INFINITY;
+    for (int32_t l = 0; l < t->nloop; l++) {
+        double y = 0.0;
+        for (int32_t k = t->loop_off[l]; k < t->loop_off[l + 1]; k++)
+            y += g->mesh->pos[3 * t->loop_vert[k] + 1];
+        y /= t->loop_off[l + 1] - t->loop_off[l];
+        if (y > best_y) best_y = y, best = l;
+    }
+    int32_t n = best < 0 ? 0 : t->loop_off[best + 1] - t->loop_off[best];
+    if (n > 0) {
+        *out = cr_malloc((size_t)n * sizeof(int32_t), err);
+        if (*out) memcpy(*out, t->loop_vert + t->loop_off[best], (size_t)n * sizeof(int32_t));
+        else n = -1;
+    }
+    cr_topology_destroy(t);
+    return n;
+}
+
+/* (T, n, 3) positions of garment vertices pins[] carried by the body through
+ * the garment's own skinning weights, frame by frame. */
+static float *pin_trajectory(const cr_garment *g, const cr_body_model *body, const cr_motion *mo,
+                             const int32_t *pins, int32_t n, cr_error *err) {
+    float *out = cr_malloc(sizeof(float) * 3 * (size_t)n * (size_t)mo->nframes, err);
+    if (!out) return NULL;
+    float xf[CR_NJOINTS * 12];
+    for (int32_t f = 0; f < mo->nframes; f++) {
+        cr_body_skin_transforms(body->joints, mo->poses + (size_t)f * CR_NJOINTS * 3,
+                                mo->trans + 3 * (size_t)f, xf);
+        for (int32_t i = 0; i < n; i++) {
+            const float *x = g->mesh->pos + 3 * pins[i];
+            double p[3] = {0, 0, 0};
+            for (int s = 0; s < 4; s++) {
+                float w = g->skin_weight[4 * pins[i] + s];
+                const float *a = xf + 12 * g->skin_joint[4 * pins[i] + s];
+                for (int k = 0; k < 3; k++)
+                    p[k] += w * (a[4 * k] * x[0] + a[4 * k + 1] * x[1] + a[4 * k + 2] * x[2] +
+                                 a[4 * k + 3]);
+            }
+            for (int k = 0; k < 3; k++)
+                out[3 * ((size_t)n * f + i) + k] = (float)p[k];
+        }
+    }
+    return out;
+}
+
+/* --------------------------------------------------------- sequences -- */
+
+static cr_status write_result(const dataset *ds, const dataset_seq *q, cr_error *err) {
+    char path[CR_DATASET_PATH];
+    seq_dir(ds, q, path, sizeof path);
+    strncat(path, "/result.json", sizeof path - strlen(path) - 1);
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "status", q->state == SEQ_FAILED ? "failed" : "done");
+    cJSON_AddNumberToObject(j, "frames", q->frames_done);
+    cJSON_AddNumberToObject(j, "seconds", q->seconds);
+    cJSON_AddNumberToObject(j, "max_inside_share", q->max_inside_share);
+    cJSON_AddNumberToObject(j, "max_penetration_m", q->max_penetration_m);
+    if (q->state == SEQ_FAILED) cJSON_AddStringToObject(j, "failure", q->failure);
+    char *text = cJSON_Print(j);
+    cJSON_Delete(j);
+    if (!text) return CR_FAIL(err, CR_ERR_MEMORY, "dataset: out of memory writing %s", path);
+    cr_atomic_file f;
+    cr_status st = cr_atomic_open(&f, path, err);
+    if (st == CR_OK) {
+        fputs(text, f.fp);
+        fputc('\n', f.fp);
+        st = cr_atomic_commit(&f, err);
+    }
+    free(text);
+    return st;
+}
+
+static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
+    const cr_dataset_def *d = &ds->def;
+    const cr_garment *g = ds->garment[q->b][q->g][q->r];
+    const cr_body_model *body = ds->body[q->b];
+    const cr_motion *mo = ds->motion[q->m];
+    char dir[CR_DATASET_PATH], path[CR_DATASET_PATH + 32];
+    seq_dir(ds, q, dir, sizeof dir);
+    CR_TRY(cr_mkdir_p(dir, err));
+    cr_sim_def sd = cr_sim_default_def();
+    CR_TRY(cr_material_preset(d->material, &sd.material, err));
+    sd.dt = 1.0 / d->fps;
+    sd.plasticity = d->plastic;
+    sd.collider = body->rest;
+    sd.collider_frames = ds->posed[q->b][q->m];
+    sd.collider_nframes = mo->nframes;
+    int32_t *pins = NULL;
+    int32_t npins = waist_loop(g, &pins, err);
+    if (npins < 0) return err ? err->status : CR_ERR_MEMORY;
+    float *pin_frames = NULL;
+    cr_sim *sim = NULL;
+    cr_scene_record *rec = NULL;
+    cr_status st = CR_OK;
+    if (npins > 0) {
+        pin_frames = pin_trajectory(g, body, mo, pins, npins, err);
+        if (!pin_frames) st = err ? err->status : CR_ERR_MEMORY;
+        sd.pinned = pins, sd.npinned = npins;
+        sd.pin_frames = pin_frames, sd.pin_nframes = mo->nframes;
+    }
+    if (st == CR_OK) st = cr_sim_create(&sd, g->mesh, &sim, err);
+    snprintf(path, sizeof path, "%s/frames.jsonl", dir);
+    if (st == CR_OK) st = cr_scene_record_create(path, sim, g->mesh, d->frames + 1, &rec, err);
+    const double nv = g->mesh->nv;
+    for (int32_t f = 0; f < d->frames && st == CR_OK; f++) {
+        cr_sim_report rep;
+        st = cr_sim_step(sim, &rep, err);
+        cr_status logged = cr_scene_record_frame(rec, sim, &rep, err);
+        if (st == CR_OK) st = logged;
+        if (st != CR_OK) break;
+        double share = rep.projected / (nv * (rep.substeps > 0 ? rep.substeps : 1));
+        q->max_inside_share = fmax(q->max_inside_share, share);
+        q->max_penetration_m = fmax(q->max_penetration_m, rep.max_penetration_m);
+        q->frames_done = f + 1;
+    }
+    snprintf(path, sizeof path, "%s/garment.pc2", dir);
+    if (st == CR_OK) st = cr_scene_record_write(rec, path, NULL, d->fps, err);
+    cr_scene_record_destroy(rec);
+    cr_sim_destroy(sim);
+    free(pins), free(pin_frames);
+    return st;
+}
+
+typedef struct run_ctx {
+    dataset *ds;
+    int32_t *todo;
+    cr_progress *bar;
+    int64_t finished;
+} run_ctx;
+
+static void run_range(void *vctx, int64_t begin, int64_t end) {
+    run_ctx *c = vctx;
+    for (int64_t i = begin; i < end; i++) {
+        dataset_seq *q = &c->ds->seq[c->todo[i]];
+        cr_error err = {0};
+        double t0 = cr_time_now();
+        cr_status st = simulate(c->ds, q, &err);
+        q->seconds = cr_time_now() - t0;
+        q->state = st == CR_OK ? SEQ_DONE : SEQ_FAILED;
+        if (st != CR_OK)
+            snprintf(q->failure, sizeof q->failure, "%.199s", err.msg[0] ? err.msg : cr_status_str(st));
+        cr_error werr = {0};
+        if (write_result(c->ds, q, &werr) != CR_OK && q->state == SEQ_DONE) {
+            q->state = SEQ_FAILED;
+            snprintf(q->failure, sizeof q->failure, "%.199s", werr.msg);
+        }
+#ifdef _OPENMP
+#pragma omp critical(crease_dataset_progress)
+#endif
+        {
+            c->finished++;
+            if (q->state == SEQ_FAILED)
+                cr_log(CR_LOG_WARN, "dataset: %s failed: %s", q->id, q->failure);
+            cr_progress_update(c->bar, c->finished, "%s %s", q->id,
+                               q->state == SEQ_DONE ? "done" : "FAILED");
+        }
+    }
+}
+
+void dataset_run_sequences(dataset *ds) {
+    int32_t *todo = malloc(sizeof(int32_t) * (size_t)(ds->nseq > 0 ? ds->nseq : 1));
+    if (!todo) {
+        for (int i = 0; i < ds->nseq; i++)
+            if (ds->seq[i].state == SEQ_PENDING) {
+                ds->seq[i].state = SEQ_FAILED;
+                snprintf(ds->seq[i].failure, sizeof ds->seq[i].failure, "out of memory");
+            }
+        return;
+    }
+    int32_t n = 0;
+    for (int i = 0; i < ds->nseq; i++)
+        if (ds->seq[i].state == SEQ_PENDING) todo[n++] = i;
+    cr_progress bar;
+    cr_progress_begin(&bar, "sequences", n, ds->def.quiet);
+    run_ctx c = {ds, todo, &bar, 0};
+    cr_parallel_for(n, 1, run_range, &c);
+    cr_progress_end(&bar);
+    free(todo);
+}
+
+/* ---------------------------------------------------------- manifest -- */
+
+static cJSON *string_array(const char *const *items, int n) {
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; i < n; i++)
+        cJSON_AddItemToArray(a, cJSON_CreateString(items[i]));
+    return a;
+}
+
+static void add_path(cJSON *o, const char *key, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void add_path(cJSON *o, const char *key, const char *fmt, ...) {
+    char buf[CR_DATASET_PATH];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    cJSON_AddStringToObject(o, key, buf);
+}
+
+static cJSON *manifest(const dataset *ds) {
+    const cr_dataset_def *d = &ds->def;
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "format", "crease-dataset");
+    cJSON_AddNumberToObject(j, "version", 1);
+    cJSON *def = cJSON_AddObjectToObject(j, "def");
+    cJSON_AddItemToObject(def, "garments", string_array(d->garments, d->ngarments));
+    cJSON_AddItemToObject(def, "motions", string_array(d->motions, d->nmotions));
+    cJSON_AddItemToObject(def, "bodies", string_array(d->bodies, d->nbodies));
+    cJSON_AddItemToObject(def, "res", string_array(d->res, d->nres));
+    cJSON_AddNumberToObject(def, "low_vertices", d->low_vertices);
+    cJSON_AddNumberToObject(def, "high_vertices", d->high_vertices);
+    cJSON_AddNumberToObject(def, "frames", d->frames);
+    cJSON_AddNumberToObject(def, "fps", d->fps);
+    cJSON_AddStringToObject(def, "material", d->material);
+    cJSON_AddBoolToObject(def, "plastic", d->plastic);
+    cJSON_AddNumberToObject(def, "seed", (double)d->seed);
+    cJSON *bodies = cJSON_AddArrayToObject(j, "bodies");
+    for (int b = 0; b < d->nbodies; b++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "name", d->bodies[b]);
+        add_path(o, "rest", "bodies/%s/rest.obj", d->bodies[b]);
+        add_path(o, "skin", "bodies/%s/skin.npz", d->bodies[b]);
+        cJSON *mo = cJSON_AddObjectToObject(o, "motions");
+        for (int m = 0; m < d->nmotions; m++)
+            add_path(mo, ds->motion_name[m], "bodies/%s/%s.pc2", d->bodies[b], ds->motion_name[m]);
+        cJSON_AddItemToArray(bodies, o);
+    }
+    cJSON *motions = cJSON_AddArrayToObject(j, "motions");
+    for (int m = 0; m < d->nmotions; m++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "name", ds->motion_name[m]);
+        cJSON_AddStringToObject(o, "source", d->motions[m]);
+        add_path(o, "path", "motions/%s.npz", ds->motion_name[m]);
+        cJSON_AddNumberToObject(o, "frames", ds->motion[m]->nframes);
+        cJSON_AddNumberToObject(o, "fps", ds->motion[m]->fps);
+        cJSON_AddItemToArray(motions, o);
+    }
+    cJSON *garments = cJSON_AddArrayToObject(j, "garments");
+    for (int b = 0; b < d->nbodies; b++)
+        for (int g = 0; g < d->ngarments; g++)
+            for (int r = 0; r < d->nres; r++) {
+                const cr_garment *gm = ds->garment[b][g][r];
+                cJSON *o = cJSON_CreateObject();
+                cJSON_AddStringToObject(o, "type", d->garments[g]);
+                cJSON_AddStringToObject(o, "body", d->bodies[b]);
+                cJSON_AddStringToObject(o, "res", d->res[r]);
+                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], d->garments[g], d->res[r]);
+                add_path(o, "skin", "garments/%s/%s_%s_skin.npz", d->bodies[b], d->garments[g],
+                         d->res[r]);
+                if (d->nres == 2)
+                    add_path(o, "high_from_low", "garments/%s/%s_high_from_low.npz", d->bodies[b],
+                             d->garments[g]);
+                cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
+                cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
+                cJSON_AddNumberToObject(o, "uv_scale_m", gm ? gm->uv_scale_m : 0);
+                cJSON_AddItemToArray(garments, o);
+            }
+    cJSON *seqs = cJSON_AddArrayToObject(j, "sequences");
+    static const char *const state_name[] = {"pending", "done", "done", "failed"};
+    for (int i = 0; i < ds->nseq; i++) {
+        const dataset_seq *q = &ds->seq[i];
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "id", q->id);
+        cJSON_AddStringToObject(o, "garment", d->garments[q->g]);
+        cJSON_AddStringToObject(o, "res", d->res[q->r]);
+        cJSON_AddStringToObject(o, "body", d->bodies[q->b]);
+        cJSON_AddStringToObject(o, "motion", ds->motion_name[q->m]);
+        cJSON_AddStringToObject(o, "status", state_name[q->state]);
+        add_path(o, "garment_pc2", "sequences/%s/garment.pc2", q->id);
+        add_path(o, "body_pc2", "bodies/%s/%s.pc2", d->bodies[q->b], ds->motion_name[q->m]);
+        add_path(o, "log", "sequences/%s/frames.jsonl", q->id);
+        cJSON_AddNumberToObject(o, "frames", q->frames_done);
+        cJSON_AddNumberToObject(o, "max_inside_share", q->max_inside_share);
+        if (q->state == SEQ_FAILED) cJSON_AddStringToObject(o, "failure", q->failure);
+        cJSON_AddItemToArray(seqs, o);
+    }
+    return j;
+}
+
+cr_status dataset_write_manifest(const dataset *ds, cr_error *err) {
+    char path[CR_DATASET_PATH];
+    snprintf(path, sizeof path, "%s/manifest.json", ds->def.out_dir);
+    cJSON *j = manifest(ds);
+    char *text = cJSON_Print(j);
+    cJSON_Delete(j);
+    if (!text) return CR_FAIL(err, CR_ERR_MEMORY, "dataset: out of memory writing %s", path);
+    cr_atomic_file f;
+    cr_status st = cr_atomic_open(&f, path, err);
+    if (st == CR_OK) {
+        fputs(text, f.fp);
+        fputc('\n', f.fp);
+        st = cr_atomic_commit(&f, err);
+    }
+    free(text);
+    return st;
+}

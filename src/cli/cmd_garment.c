@@ -1,0 +1,314 @@
+/* cmd_garment.c: `crease garment`: a procedural garment (or layers of them,
+ * or a user's garment file) fitted to the mannequin's rest pose, written as
+ * a mesh with UVs, optionally pictured on the body. */
+#include "cli.h"
+#include "crease/body.h"
+#include "crease/garment.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+#include "crease/render.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+enum { MAX_LAYERS = 4 };
+
+void help_garment(void) {
+    printf(
+        "usage: crease garment --type TYPE[,TYPE...] [options] -o FILE\n"
+        "       crease garment --user GARMENT.obj [options] -o FILE\n\n"
+        "Build a garment fitted to the procedural mannequin's rest pose: a manifold mesh with\n"
+        "openings, outward normals, good triangles (at least 99%% with every angle above 20\n"
+        "degrees), at least 5 mm outside the body, UV charts per panel (front, back, sleeve\n"
+        "halves, trouser quarters) and skinning weights. FILE is .obj, .ply or .glb.\n\n"
+        "options:\n"
+        "  --type TYPE      tshirt, longsleeve, skirt, dress, trousers or vest; a comma list\n"
+        "                   builds layers worn over each other, innermost first (e.g.\n"
+        "                   tshirt,vest), written as FILE with _TYPE before the extension\n"
+        "  --user FILE      check a garment mesh with UVs (manifold, orientation, UVs, size\n"
+        "                   in metres, placed on the body) and push it out of the body\n"
+        "  --res N          target vertex count, 500 to 100000 (default 8000); met within\n"
+        "                   15%% from 2k to 40k\n"
+        "  --shape NAME     body preset: slim, normal (default) or heavy\n"
+        "  --height M       body height, m, 1 to 2.5 (default 1.75)\n"
+        "  --body-res N     mannequin grid cells over the height, 32 to 512 (default 110)\n"
+        "  --clearance M    offset of the tight parts from the body, m, 0.005 to 0.1\n"
+        "                   (default per type: 0.01, vest 0.02, trousers and skirt 0.015;\n"
+        "                   a layer list raises each layer to clear the one below)\n"
+        "  --flare DEG      skirt and dress: cone half-angle below the waist, 0 to 45\n"
+        "  --length F       hem, sleeve and leg length as a multiple of the default, 0.5 to 1.5\n"
+        "  --grid M         level-set grid cell, m, 0.004 to 0.03 (default 0.01)\n"
+        "  -o FILE          output mesh (required)\n"
+        "  --render PNG     picture of the garment on the body\n"
+        "  --size N         picture size in pixels (default 720)\n"
+        "  --yaw D          camera yaw in degrees (default 30)\n"
+        "  --clip NAME      pose body and garment (linear blend skinning) at a frame of a\n"
+        "                   procedural clip for the picture (walk, run, ...)\n"
+        "  --frame N        the clip's frame (default 15)\n"
+        "  --json           end with a JSON summary on stdout: type, vertices, faces,\n"
+        "                   share_min_angle_above_20deg, min_angle_deg, min_clearance_m,\n"
+        "                   boundary_loops, panels, uv_scale_m, paths, seconds (and layers\n"
+        "                   for a layer list)\n");
+}
+
+typedef struct garment_opts {
+    const char *types, *user, *out, *render, *shape, *clip;
+    int res, size, frame, json, body_res;
+    float height, clearance, flare, length, grid, yaw;
+    int set_clearance, set_flare, set_length, set_grid, set_height;
+} garment_opts;
+
+static int parse(int argc, char **argv, garment_opts *o) {
+    cli_args a = cli_args_make(argc, argv);
+    const char *v;
+    while (!cli_args_done(&a)) {
+        const char *opt = cli_args_next(&a);
+        const char **str = strcmp(opt, "--type") == 0     ? &o->types
+                           : strcmp(opt, "--user") == 0   ? &o->user
+                           : strcmp(opt, "-o") == 0       ? &o->out
+                           : strcmp(opt, "--output") == 0 ? &o->out
+                           : strcmp(opt, "--render") == 0 ? &o->render
+                           : strcmp(opt, "--shape") == 0  ? &o->shape
+                           : strcmp(opt, "--clip") == 0   ? &o->clip
+                                                          : NULL;
+        if (strcmp(opt, "--json") == 0) {
+            o->json = 1;
+        } else if (str) {
+            if (!(*str = cli_args_value(&a, opt))) return CLI_USAGE;
+        } else if (strcmp(opt, "--res") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("garment", opt, v, 500, 100000, &o->res))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--body-res") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("garment", opt, v, 32, 512, &o->body_res))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--size") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("garment", opt, v, 16, 8192, &o->size))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--frame") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("garment", opt, v, 0, 100000, &o->frame))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--yaw") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("garment", opt, v, -1e4, 1e4, &o->yaw))
+                return CLI_USAGE;
+        } else {
+            static const struct {
+                const char *opt;
+                double lo, hi;
+            } ranges[] = {{"--clearance", 0.005, 0.1},
+                          {"--flare", 0, 45},
+                          {"--length", 0.5, 1.5},
+                          {"--grid", 0.004, 0.03},
+                          {"--height", 1.0, 2.5}};
+            float *dst[] = {&o->clearance, &o->flare, &o->length, &o->grid, &o->height};
+            int *set[] = {&o->set_clearance, &o->set_flare, &o->set_length, &o->set_grid,
+                          &o->set_height};
+            int i = 0;
+            while (i < 5 && strcmp(opt, ranges[i].opt) != 0)
+                i++;
+            if (i == 5) return cli_usage("garment", "unknown option '%s'", opt);
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("garment", opt, v, ranges[i].lo, ranges[i].hi, dst[i]))
+                return CLI_USAGE;
+            *set[i] = 1;
+        }
+    }
+    if (!o->out) return cli_usage("garment", "missing -o FILE");
+    if (!o->types == !o->user) return cli_usage("garment", "give one of --type or --user");
+    return CLI_OK;
+}
+
+/* path with "_suffix" before its extension. */
+static void layer_path(const char *path, const char *suffix, char *out, size_t cap) {
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : strlen(path);
+    snprintf(out, cap, "%.*s_%s%s", (int)stem, path, suffix, path + stem);
+}
+
+/* The picture: body grey, garments in cloth colours, posed at a clip frame
+ * when asked. */
+static cr_status render(const garment_opts *o, const cr_body_model *body, cr_garment **g, int n,
+                        cr_error *err) {
+    static const float colors[MAX_LAYERS][3] = {
+        {0.33f, 0.52f, 0.80f}, {0.80f, 0.45f, 0.30f}, {0.45f, 0.70f, 0.45f}, {0.80f, 0.75f, 0.40f}};
+    cr_mesh *posed[MAX_LAYERS + 1] = {0};
+    cr_render_object obj[MAX_LAYERS + 1];
+    cr_motion *mo = NULL;
+    cr_status st = CR_OK;
+    if (o->clip) st = cr_motion_clip(o->clip, o->frame + 1, 30.0f, &mo, err);
+    for (int i = 0; i <= n && st == CR_OK; i++) {
+        const cr_mesh *rest = i == 0 ? body->rest : g[i - 1]->mesh;
+        st = cr_mesh_clone(rest, &posed[i], err);
+        if (st == CR_OK && mo) {
+            const float *pose = &mo->poses[(size_t)o->frame * CR_NJOINTS * 3];
+            const float *trans = &mo->trans[(size_t)o->frame * 3];
+            st = i == 0 ? cr_body_pose(body, pose, trans, posed[i]->pos, err)
+                        : cr_garment_pose(g[i - 1], body, pose, trans, posed[i]->pos, err);
+        }
+        if (st == CR_OK) {
+            /* Rendering computes its own normals from the posed positions. */
+            free(posed[i]->normal);
+            posed[i]->normal = NULL;
+            obj[i] = (cr_render_object){.mesh = posed[i]};
+            const float grey[3] = {0.72f, 0.72f, 0.70f};
+            memcpy(obj[i].color, i == 0 ? grey : colors[(i - 1) % MAX_LAYERS], sizeof obj[i].color);
+        }
+    }
+    if (st == CR_OK) {
+        cr_render_def def = cr_render_default_def();
+        def.width = def.height = o->size;
+        def.yaw_deg = o->yaw;
+        def.pitch_deg = 10.0f;
+        st = cr_render_to_png(&def, obj, n + 1, o->render, err);
+    }
+    for (int i = 0; i <= n; i++)
+        cr_mesh_destroy(posed[i]);
+    cr_motion_destroy(mo);
+    return st;
+}
+
+static cJSON *quality_json(const cr_garment *g, const cr_garment_quality *q, const char *path) {
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "type", cr_garment_type_name(g->type));
+    cJSON_AddNumberToObject(j, "vertices", q->vertices);
+    cJSON_AddNumberToObject(j, "faces", q->faces);
+    cJSON_AddNumberToObject(j, "share_min_angle_above_20deg", q->share_min_angle_above_20deg);
+    cJSON_AddNumberToObject(j, "min_angle_deg", q->min_angle_deg);
+    cJSON_AddNumberToObject(j, "min_clearance_m", q->min_clearance_m);
+    cJSON_AddNumberToObject(j, "boundary_loops", q->boundary_loops);
+    cJSON_AddNumberToObject(j, "panels", q->panels);
+    cJSON_AddNumberToObject(j, "uv_scale_m", g->uv_scale_m);
+    cJSON_AddStringToObject(j, "path", path);
+    return j;
+}
+
+/* Build (or load) the garments into g; n of them. */
+static cr_status build(const garment_opts *o, const cr_body_model *body, cr_garment **g, int *n,
+                       int *usage, cr_error *err) {
+    if (o->user) {
+        cr_garment_user_def ud = cr_garment_user_default_def();
+        if (o->set_clearance) ud.clearance_m = o->clearance;
+        *n = 1;
+        return cr_garment_load_user(o->user, &ud, body, &g[0], err);
+    }
+    cr_garment_def defs[MAX_LAYERS];
+    char list[256];
+    snprintf(list, sizeof list, "%s", o->types);
+    *n = 0;
+    for (char *save = NULL, *tok = strtok_r(list, ",", &save); tok;
+         tok = strtok_r(NULL, ",", &save)) {
+        cr_garment_type type;
+        if (*n == MAX_LAYERS || cr_garment_type_parse(tok, &type, err) != CR_OK) {
+            if (*n == MAX_LAYERS)
+                CR_FAIL(err, CR_ERR_INVALID, "garment: at most %d layers", MAX_LAYERS);
+            *usage = 1;
+            return CR_ERR_INVALID;
+        }
+        cr_garment_def d = cr_garment_default_def(type);
+        d.target_vertices = o->res;
+        if (o->set_clearance) d.clearance_m = o->clearance;
+        if (o->set_flare) d.flare_deg = o->flare;
+        if (o->set_length) d.length_scale = o->length;
+        if (o->set_grid) d.grid_m = o->grid;
+        /* Each layer clears the one below by at least the layer gap. */
+        if (*n > 0 && d.clearance_m < defs[*n - 1].clearance_m + CR_GARMENT_LAYER_GAP)
+            d.clearance_m = defs[*n - 1].clearance_m + CR_GARMENT_LAYER_GAP;
+        defs[(*n)++] = d;
+    }
+    if (*n == 0) {
+        *usage = 1;
+        return CR_FAIL(err, CR_ERR_INVALID, "garment: --type names no type");
+    }
+    return cr_garment_create_layers(defs, *n, body, g, err);
+}
+
+int cmd_garment(int argc, char **argv) {
+    garment_opts o = {.res = 8000, .size = 720, .frame = 15, .yaw = 30.0f, .shape = "normal"};
+    int rc = parse(argc, argv, &o);
+    if (rc != CLI_OK) return rc;
+    cr_error err = {0};
+    cr_mannequin_def md = cr_mannequin_default_def();
+    if (cr_mannequin_preset(o.shape, &md, &err) != CR_OK)
+        return cli_usage("garment", "%s", err.msg);
+    if (o.set_height) md.height_m = o.height;
+    if (o.body_res) md.resolution = o.body_res;
+    if (o.clip) {
+        int count;
+        const char *const *names = cr_motion_clip_names(&count);
+        int known = 0;
+        for (int i = 0; i < count; i++)
+            known |= strcmp(names[i], o.clip) == 0;
+        if (!known) return cli_usage("garment", "unknown clip '%s'", o.clip);
+    }
+    double t0 = cr_time_now();
+    cr_body_model *body = NULL;
+    if (cr_mannequin_create(&md, &body, &err) != CR_OK) return cli_fail(&err);
+    cr_garment *g[MAX_LAYERS] = {0};
+    int n = 0, usage = 0;
+    cr_status st = build(&o, body, g, &n, &usage, &err);
+    double seconds = cr_time_now() - t0;
+    char paths[MAX_LAYERS][1024];
+    cr_garment_quality q[MAX_LAYERS];
+    for (int i = 0; i < n && st == CR_OK; i++) {
+        if (n == 1)
+            snprintf(paths[i], sizeof paths[i], "%s", o.out);
+        else
+            layer_path(o.out, cr_garment_type_name(g[i]->type), paths[i], sizeof paths[i]);
+        st = cr_mesh_write(paths[i], g[i]->mesh, &err);
+        if (st == CR_OK) st = cr_garment_measure(g[i], body, &q[i], &err);
+    }
+    if (st == CR_OK && o.render) st = render(&o, body, g, n, &err);
+    if (st == CR_OK) {
+        if (o.json) {
+            /* Top level: the whole set (sums, worst figures); per layer below. */
+            cJSON *j = cJSON_CreateObject();
+            cJSON_AddStringToObject(j, "command", "garment");
+            cJSON_AddStringToObject(j, "type", o.user ? "user" : o.types);
+            cJSON_AddStringToObject(j, "shape", o.shape);
+            double nv = 0, nf = 0, share = 1, angle = 180, clear = 1e9;
+            cJSON *arr = cJSON_CreateArray(), *layers = cJSON_CreateArray();
+            for (int i = 0; i < n; i++) {
+                nv += q[i].vertices, nf += q[i].faces;
+                share = share < q[i].share_min_angle_above_20deg ? share
+                                                                 : q[i].share_min_angle_above_20deg;
+                angle = angle < q[i].min_angle_deg ? angle : q[i].min_angle_deg;
+                clear = clear < q[i].min_clearance_m ? clear : q[i].min_clearance_m;
+                cJSON_AddItemToArray(arr, cJSON_CreateString(paths[i]));
+                cJSON_AddItemToArray(layers, quality_json(g[i], &q[i], paths[i]));
+            }
+            cJSON_AddNumberToObject(j, "vertices", nv);
+            cJSON_AddNumberToObject(j, "faces", nf);
+            cJSON_AddNumberToObject(j, "share_min_angle_above_20deg", share);
+            cJSON_AddNumberToObject(j, "min_angle_deg", angle);
+            cJSON_AddNumberToObject(j, "min_clearance_m", clear);
+            cJSON_AddNumberToObject(j, "boundary_loops", q[0].boundary_loops);
+            cJSON_AddNumberToObject(j, "panels", q[0].panels);
+            cJSON_AddNumberToObject(j, "uv_scale_m", g[0]->uv_scale_m);
+            if (o.render) cJSON_AddItemToArray(arr, cJSON_CreateString(o.render));
+            cJSON_AddItemToObject(j, "paths", arr);
+            if (n > 1)
+                cJSON_AddItemToObject(j, "layers", layers);
+            else
+                cJSON_Delete(layers);
+            cJSON_AddNumberToObject(j, "seconds", seconds);
+            cli_json_print(j);
+        } else {
+            for (int i = 0; i < n; i++)
+                fprintf(stderr,
+                        "garment: %s, %d vertices, %d faces, %.2f%% of faces above 20 deg (min "
+                        "%.1f), clearance >= %.1f mm, %d openings, %d panels, written to %s\n",
+                        cr_garment_type_name(g[i]->type), q[i].vertices, q[i].faces,
+                        100.0 * q[i].share_min_angle_above_20deg, (double)q[i].min_angle_deg,
+                        1000.0 * q[i].min_clearance_m, q[i].boundary_loops, q[i].panels, paths[i]);
+        }
+    }
+    for (int i = 0; i < n; i++)
+        cr_garment_destroy(g[i]);
+    cr_body_model_destroy(body);
+    if (st != CR_OK) return usage ? cli_usage("garment", "%s", err.msg) : cli_fail(&err);
+    return CLI_OK;
+}

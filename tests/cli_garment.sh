@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# cli_garment.sh: `crease garment` end to end: a t-shirt with its --json
+# figures (vertex count, triangle quality, clearance), a picture, layers,
+# formats, a user garment fitted back onto the body, and exit codes (0 ok,
+# 1 bad input naming the file, 2 usage). Small garments on a coarse body.
+# Usage: cli_garment.sh PATH_TO_CREASE
+set -u
+crease=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+check() { # check NAME COMMAND... : the command must succeed
+  local name=$1; shift
+  if "$@" >/dev/null; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name" >&2; fi
+}
+
+# expect_exit CODE PATTERN ARGS...: crease ARGS exits with CODE and stderr matches PATTERN
+expect_exit() {
+  local code=$1 pattern=$2; shift 2
+  "$crease" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local got=$?
+  if [[ $got -eq $code ]] && grep -Eq -- "$pattern" "$tmp/stderr"; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1))
+    echo "FAIL: crease $* -> exit $got (want $code), stderr: $(head -c 300 "$tmp/stderr")" >&2
+  fi
+}
+
+json_has() { # json_has FILE KEY...: the last stdout line is one JSON object with these keys
+  local line; line=$(tail -n 1 "$1")
+  [[ $line == \{*\} ]] || return 1
+  shift
+  for k in "$@"; do grep -q "\"$k\":" <<<"$line" || return 1; done
+}
+
+json_num() { # json_num FILE KEY: the first number at KEY in FILE's last line
+  tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2
+}
+
+# json_between FILE KEY LO HI: LO <= number at KEY <= HI
+json_between() {
+  local v; v=$(json_num "$1" "$2")
+  [[ -n $v ]] && awk -v v="$v" -v lo="$3" -v hi="$4" 'BEGIN { exit !(v >= lo && v <= hi) }'
+}
+
+check "garment --help" bash -c "'$crease' garment --help | grep -q usage"
+fast=(--body-res 72 --res 2000)
+
+# --- a t-shirt with a picture -----------------------------------------------------------
+check "tshirt" bash -c "'$crease' garment --type tshirt ${fast[*]} -o '$tmp/t.obj' --render '$tmp/t.png' \
+  --size 160 --json > '$tmp/t.json'"
+check "tshirt fields" json_has "$tmp/t.json" command type vertices faces share_min_angle_above_20deg \
+  min_angle_deg min_clearance_m boundary_loops panels uv_scale_m paths seconds
+check "tshirt 2000 +- 15%" json_between "$tmp/t.json" vertices 1700 2300
+check "tshirt angles" json_between "$tmp/t.json" share_min_angle_above_20deg 0.99 1
+check "tshirt clearance >= 5 mm" json_between "$tmp/t.json" min_clearance_m 0.005 0.1
+check "tshirt 4 openings" grep -q '"boundary_loops":4,' "$tmp/t.json"
+check "tshirt paths" grep -q "\"paths\":\[\"$tmp/t.obj\",\"$tmp/t.png\"\]" "$tmp/t.json"
+check "tshirt obj has UVs" grep -q '^vt ' "$tmp/t.obj"
+check "tshirt png magic" bash -c "head -c 4 '$tmp/t.png' | grep -q PNG"
+check "tshirt manifold" bash -c "'$crease' info '$tmp/t.obj' --json | grep -q '\"manifold\":true'"
+
+# --- layers, formats, options -----------------------------------------------------------
+check "layers" bash -c "'$crease' garment --type tshirt,vest ${fast[*]} -o '$tmp/l.ply' --json > '$tmp/l.json'"
+check "layers files" test -s "$tmp/l_tshirt.ply" -a -s "$tmp/l_vest.ply"
+check "layers listed" json_has "$tmp/l.json" layers
+check "skirt glb posed picture" bash -c "'$crease' garment --type skirt --flare 20 --length 0.8 ${fast[*]} \
+  -o '$tmp/s.glb' --render '$tmp/s.png' --size 128 --clip walk --frame 10 2>/dev/null"
+check "skirt glb magic" bash -c "head -c 4 '$tmp/s.glb' | grep -q glTF"
+
+# --- a user garment: the t-shirt fitted back onto the body -------------------------------
+check "user" bash -c "'$crease' garment --user '$tmp/t.obj' --body-res 72 --clearance 0.012 -o '$tmp/u.obj' \
+  --json > '$tmp/u.json'"
+check "user clearance" json_between "$tmp/u.json" min_clearance_m 0.0119 0.1
+check "user type" grep -q '"type":"user"' "$tmp/u.json"
+awk '$1 == "vt" { next } $1 == "f" { for (i = 2; i <= NF; i++) { split($i, p, "/"); $i = p[1] } } { print }' \
+  "$tmp/t.obj" > "$tmp/nouv.obj"
+expect_exit 1 "nouv.obj: no UVs" garment --user "$tmp/nouv.obj" --body-res 48 -o "$tmp/x.obj"
+expect_exit 1 "missing.obj" garment --user "$tmp/missing.obj" --body-res 48 -o "$tmp/x.obj"
+
+# --- usage ----------------------------------------------------------------------------------
+expect_exit 2 "unknown type 'poncho'" garment --type poncho -o "$tmp/x.obj"
+expect_exit 2 "missing -o" garment --type tshirt
+expect_exit 2 "one of --type or --user" garment --type tshirt --user "$tmp/t.obj" -o "$tmp/x.obj"
+expect_exit 2 "--res" garment --type tshirt --res 10 -o "$tmp/x.obj"
+expect_exit 2 "--clearance" garment --type tshirt --clearance 0.001 -o "$tmp/x.obj"
+expect_exit 2 "unknown clip" garment --type tshirt --clip moonwalk -o "$tmp/x.obj"
+expect_exit 2 "unknown option" garment --type tshirt --colour red -o "$tmp/x.obj"
+
+echo "cli_garment: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
