@@ -41,8 +41,8 @@
  * panel. All resolutions of one template share its UV layout, so a low and a
  * high resolution garment correspond through UV space (gdsr, Eq. 1).
  *
- * Deterministic: the same def and body give the same garment bit for bit on
- * one thread count (there is no random element, hence no seed).
+ * Deterministic: the same def and body give the same garment bit for bit,
+ * whatever the thread count (there is no random element, hence no seed).
  * Units: m. Thread safety: reentrant; a built template or garment is read-only.
  */
 #ifndef CREASE_GARMENT_H
@@ -72,6 +72,8 @@ const char *cr_garment_type_name(cr_garment_type type);
  * ones ("user" is not accepted: user garments come from a file). */
 cr_status cr_garment_type_parse(const char *name, cr_garment_type *out, cr_error *err);
 
+/* Most panels a garment may have (procedural ones have 2 to 6; a user
+ * garment has one per UV chart). */
 #define CR_GARMENT_MAX_PANELS 32
 
 typedef struct cr_garment_def {
@@ -85,11 +87,15 @@ typedef struct cr_garment_def {
                                   below the waist, degrees, [0, 45] (default 12 skirt, 15 dress;
                                   ignored by the other types) */
     float length_scale;        /* hem, sleeve and leg lengths as a multiple of the type's
-                                  default, [0.5, 1.5] (default 1) */
+                                  default, [0.5, 1.5] (default 1); tops stop 2 cm below the
+                                  hip joints (above the crotch), long sleeves always reach
+                                  the wrists, trousers stop above the ankles */
     float grid_m;              /* cell of the grid the level set is sampled on, m, [0.004, 0.03]
                                   (default 0.01): finer follows the body more closely, costs
                                   cubically */
-    int32_t remesh_iterations; /* isotropic remeshing rounds, [1, 50] (default 8) */
+    int32_t remesh_iterations; /* isotropic remeshing rounds from the polygonised surface,
+                                  [1, 50] (default 8); an instance refines the template's
+                                  reference mesh in half as many (at least 3) */
     uint32_t cookie;           /* set by cr_garment_default_def; a hand-zeroed def is a bug */
 } cr_garment_def;
 
@@ -103,7 +109,8 @@ typedef struct cr_garment {
     float *skin_weight;  /* (V,4) weights, sum 1, largest first */
     int32_t *panel;      /* (F) panel of each face, in [0, npanels) */
     int32_t npanels;
-    char panel_name[CR_GARMENT_MAX_PANELS][24]; /* "front", "back", "left_sleeve_front", ... */
+    char panel_name[CR_GARMENT_MAX_PANELS][24]; /* "front", "back", "left_sleeve_front", ...
+                                                   ("chart_0", ... for user garments) */
     float uv_scale_m;  /* metres per UV unit (the same for every resolution of a template) */
     float clearance_m; /* the clearance it was built with, m */
 } cr_garment;
@@ -142,9 +149,11 @@ void cr_garment_template_destroy(cr_garment_template *t);
 
 /* Build n garments worn over each other, innermost first (a t-shirt, then a
  * vest). Layer i's clearance must exceed layer i-1's by at least
- * CR_GARMENT_LAYER_GAP (CR_ERR_INVALID naming the layers otherwise), and the
- * built layers are checked not to intersect (CR_ERR_TOPOLOGY naming the
- * first crossing). out (n) receives the garments; on failure all are NULL. */
+ * CR_GARMENT_LAYER_GAP and all layers must share grid_m (CR_ERR_INVALID
+ * naming the layers otherwise): then each is a level set of one blurred
+ * distance field, nested in the one below. The built layers are checked not
+ * to intersect (CR_ERR_TOPOLOGY naming the pair and the crossing count).
+ * out (n) receives the garments; on failure all are NULL. */
 cr_status cr_garment_create_layers(const cr_garment_def *defs, int32_t n, const cr_body_model *body,
                                    cr_garment **out, cr_error *err);
 

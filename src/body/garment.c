@@ -84,7 +84,8 @@ static cr_status check_def(const cr_garment_def *d, cr_error *err) {
              {"grid_m", d->grid_m, 0.004, 0.03},
              {"remesh_iterations", d->remesh_iterations, 1, 50}};
     for (size_t i = 0; i < sizeof f / sizeof f[0]; i++)
-        if (!(f[i].v >= f[i].lo && f[i].v <= f[i].hi))
+        /* The bounds are decimal; a float field holds them rounded down. */
+        if (!(f[i].v >= f[i].lo * (1.0 - 1e-6) && f[i].v <= f[i].hi * (1.0 + 1e-6)))
             return CR_FAIL(err, CR_ERR_INVALID, "garment: %s = %g (need %g to %g)", f[i].name,
                            f[i].v, f[i].lo, f[i].hi);
     return CR_OK;

@@ -21,7 +21,17 @@
  * the feature's polyline in the base mesh; it collapses only along its
  * feature. A vertex with any other number of feature edges, or two of
  * different keys, is a corner and never moves. Feature edges are never
- * flipped. So panels keep their outlines exactly and seams stay welded.
+ * flipped. So panels keep their outlines exactly and seams stay welded. A
+ * face with two edges on one feature (an ear) would be flattened as the
+ * feature straightens: its tip is collapsed along the feature.
+ *
+ * Guards against degenerate faces: an edge whose face is a cap over it (the
+ * opposite corner close to the edge, between its ends) is not split, since
+ * its midpoint would land on that corner; a split midpoint whose projection
+ * folds a face stays on the chord (near a crease of the level set); a start
+ * mesh much coarser than wanted is first subdivided 1-to-4 (gcut_subdivide)
+ * rather than split edge by edge. A sweep of splits is capped at eight per
+ * face, so no configuration can split without end.
  *
  * The vertex count: with A the area and P the boundary length, a mesh of
  * equilateral triangles of edge L has about 2A/(sqrt(3) L^2) + P/(2L)

@@ -172,6 +172,9 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     set3(front.p, 0.0f, 0.0f, 0.5f * (LS[2] + RS[2]));
     set3(front.n, 0.0f, 0.0f, 1.0f);
 
+    /* Tops end above the crotch (below it a tight hem would split round
+     * each leg). */
+    const float top_hem_min = hip_y - 0.02f * s;
     sp->clearance = def->clearance_m;
     sp->tight_hi = N[1] + 0.15f * s;
     static const char *two[] = {"front", "back"};
@@ -179,7 +182,7 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     switch (def->type) {
     case CR_GARMENT_TSHIRT:
     case CR_GARMENT_LONGSLEEVE: {
-        float hem = N[1] - ls * (N[1] - (hip_y + 0.005f * s));
+        float hem = fmaxf(N[1] - ls * (N[1] - (hip_y + 0.005f * s)), top_hem_min);
         sp->tight = 1;
         sp->tight_lo = hem;
         sp->cut[sp->ncut++] = plane_y(hem, 1.0f);
@@ -211,7 +214,7 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     case CR_GARMENT_DRESS: {
         int dress = def->type == CR_GARMENT_DRESS;
         float hem = dress ? waist_y - ls * (waist_y - (knee_y - 0.03f * s))
-                          : N[1] - ls * (N[1] - (hip_y + 0.05f * s));
+                          : fmaxf(N[1] - ls * (N[1] - (hip_y + 0.05f * s)), top_hem_min);
         sp->tight = 1;
         sp->no_arms = 1;
         sp->tight_lo = dress ? waist_y - 0.06f * s : hem;

@@ -17,6 +17,9 @@
  * in the low mesh's UV layout (cr_uv_lookup); the face under it and the
  * barycentrics give S[C, f, u, v] = (1 - u - v) c0 + u c1 + v c2. A vertex on
  * a chart's rim outside the low chart takes the nearest point of it.
+ *
+ * Left out: dual-quaternion skinning, and weights for garments that hang
+ * from something other than the body (a cape's corners, a bag).
  */
 #include "garment_internal.h"
 
