@@ -69,6 +69,8 @@ int cmd_pose_body(int argc, char **argv);
 void help_pose_body(void);
 int cmd_dataset(int argc, char **argv);
 void help_dataset(void);
+int cmd_drape(int argc, char **argv);
+void help_drape(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
 

@@ -26,6 +26,8 @@ static const cli_command commands[] = {
      cmd_pose_body, help_pose_body},
     {"dataset", "simulate garments on moving bodies into a dataset (resumable, parallel)",
      cmd_dataset, help_dataset},
+    {"drape", "drape a cloth over an object with an implicit neural surface (drape paper)",
+     cmd_drape, help_drape},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
      cmd_garment, help_garment},
 };

@@ -1,0 +1,269 @@
+/* bench_drape.c: the drape method's figures.
+ *
+ *   throughput  epochs/s and local structures/s of the default model
+ *               (inr-adaptive and inr-uniform on the ball, 100 epochs)
+ *   table2      the paper's Table 2: epochs and training time until the
+ *               convergence criterion holds, inr-uniform vs inr-adaptive, on
+ *               ball, torus and prism (paper: 14900/11950, 20500/17650,
+ *               13950/8450 epochs)
+ *   fidelity    each variant against a reference quasi-static drape of the
+ *               same scene by the physics simulator (`crease drape-static`'s
+ *               procedure: settle dynamically, then a static solve): Chamfer
+ *               distance, deepest penetration, RMS mean curvature and its
+ *               spectrum by wavelength, next to the reference's own
+ *
+ * References are read from REFS/<object>/final.obj (what `crease
+ * drape-static --object sphere|torus|prism --res N -o REFS/<object>` writes)
+ * and simulated and written there when missing.
+ *
+ * Usage: bench_drape [--only throughput|table2|fidelity] [--scenes ball,torus,prism]
+ *                    [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]
+ *                    [--ref-res N] [--seed S]
+ * (defaults: all parts, cap 6000 epochs, 1024 samples, 2500 fidelity epochs,
+ * refs drape_references, ref-res 128). Set OPENBLAS_CORETYPE=SkylakeX where
+ * OpenBLAS falls back to its Prescott kernel (docs/nn.md).
+ */
+#include "crease/drape.h"
+#include "crease/mesh_io.h"
+#include "crease/phys_scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { MAX_FRAMES = 150 };
+#define SETTLED_SPEED 5e-3 /* m/s: drape-static's settling threshold */
+
+typedef struct bench_opts {
+    const char *only;
+    const char *scenes;
+    int cap, samples, fidelity_epochs, ref_res;
+    const char *refs;
+    uint64_t seed;
+} bench_opts;
+
+static const char *object_of(cr_drape_scene s) {
+    return s == CR_DRAPE_BALL ? "sphere" : s == CR_DRAPE_TORUS ? "torus" : "prism";
+}
+
+static int wants(const bench_opts *o, const char *part) {
+    return !o->only || strcmp(o->only, part) == 0;
+}
+
+static int scene_listed(const bench_opts *o, cr_drape_scene s) {
+    return strstr(o->scenes, cr_drape_scene_name(s)) != NULL;
+}
+
+static void fail(const cr_error *err) {
+    fprintf(stderr, "bench_drape: %s\n", err->msg);
+    exit(1);
+}
+
+/* ------------------------------------------------------- throughput -- */
+
+static void throughput(const bench_opts *o) {
+    printf("== throughput (ball, default model, %d structures per epoch, %d threads)\n", o->samples,
+           cr_thread_count());
+    const cr_drape_variant vs[2] = {CR_DRAPE_INR_ADAPTIVE, CR_DRAPE_INR_UNIFORM};
+    for (int k = 0; k < 2; k++) {
+        cr_drape_def d = cr_drape_default_def(CR_DRAPE_BALL);
+        d.variant = vs[k];
+        d.samples = o->samples;
+        d.epochs = 100;
+        d.eval_every = 1000000; /* only the start and the end */
+        d.quiet = 1;
+        d.seed = o->seed;
+        cr_drape_result r;
+        cr_error err = {0};
+        if (cr_drape_run(&d, &r, NULL, &err) != CR_OK) fail(&err);
+        printf("%-13s %7.2f epochs/s  %9.0f structures/s  (%.2f s for %d epochs)\n",
+               cr_drape_variant_name(vs[k]), r.epochs / r.seconds,
+               (double)r.epochs * d.samples / r.seconds, r.seconds, r.epochs);
+    }
+}
+
+/* ----------------------------------------------------------- table 2 -- */
+
+static void table2(const bench_opts *o) {
+    const cr_drape_scene scenes[3] = {CR_DRAPE_BALL, CR_DRAPE_TORUS, CR_DRAPE_PRISM};
+    const int paper[3][2] = {{14900, 11950}, {20500, 17650}, {13950, 8450}};
+    printf("== Table 2: epochs to convergence (cap %d, %d structures per epoch)\n", o->cap,
+           o->samples);
+    printf("%-6s %-13s %9s %9s %12s %12s\n", "scene", "variant", "epochs", "paper", "seconds",
+           "energy");
+    for (int s = 0; s < 3; s++) {
+        if (!scene_listed(o, scenes[s])) continue;
+        int ep[2] = {0, 0};
+        for (int k = 0; k < 2; k++) {
+            cr_drape_def d = cr_drape_default_def(scenes[s]);
+            d.variant = k == 0 ? CR_DRAPE_INR_UNIFORM : CR_DRAPE_INR_ADAPTIVE;
+            d.samples = o->samples;
+            d.epochs = o->cap;
+            d.stop_at_converged = 1;
+            d.quiet = 1;
+            d.seed = o->seed;
+            cr_drape_result r;
+            cr_error err = {0};
+            if (cr_drape_run(&d, &r, NULL, &err) != CR_OK) fail(&err);
+            ep[k] = r.converged_epoch;
+            char e[32], t[32];
+            if (r.converged_epoch >= 0) {
+                snprintf(e, sizeof e, "%d", r.converged_epoch);
+                snprintf(t, sizeof t, "%.1f", r.converged_seconds);
+            } else {
+                snprintf(e, sizeof e, ">%d", r.epochs);
+                snprintf(t, sizeof t, ">%.1f", r.seconds);
+            }
+            printf("%-6s %-13s %9s %9d %12s %12.4g\n", cr_drape_scene_name(scenes[s]),
+                   cr_drape_variant_name(d.variant), e, paper[s][k], t, r.terms.total);
+            fflush(stdout);
+        }
+        if (ep[0] > 0 && ep[1] > 0)
+            printf("%-6s adaptive needs %.0f%% fewer epochs (paper %.0f%%)\n",
+                   cr_drape_scene_name(scenes[s]), 100.0 * (ep[0] - ep[1]) / ep[0],
+                   100.0 * (paper[s][0] - paper[s][1]) / paper[s][0]);
+    }
+}
+
+/* ---------------------------------------------------------- fidelity -- */
+
+/* drape-static's procedure: settle dynamically until the RMS speed is below
+ * SETTLED_SPEED (at most MAX_FRAMES frames), then a static solve. */
+static cr_status simulate_reference(const char *object, int res, const char *path, cr_error *err) {
+    cr_mesh *obj = NULL, *cloth = NULL;
+    cr_sim *sim = NULL;
+    cr_sim_def def = cr_sim_default_def();
+    cr_status st = cr_material_preset("cotton", &def.material, err);
+    if (st == CR_OK) st = cr_scene_object_create(object, &obj, err);
+    if (st == CR_OK) st = cr_scene_cloth_above(obj, res, 1.0f, 0.05f, &cloth, err);
+    if (st == CR_OK) {
+        def.collider = obj;
+        st = cr_sim_create(&def, cloth, &sim, err);
+    }
+    double mass = 0.0;
+    for (int32_t i = 0; st == CR_OK && i < cloth->nv; i++)
+        mass += cr_sim_masses(sim)[i];
+    for (int f = 0; st == CR_OK && f < MAX_FRAMES; f++) {
+        cr_sim_report rep;
+        st = cr_sim_step(sim, &rep, err);
+        if (st == CR_OK && sqrt(2.0 * rep.kinetic_energy / mass) < SETTLED_SPEED) break;
+    }
+    if (st == CR_OK) st = cr_sim_solve_static(sim, NULL, err);
+    if (st == CR_OK) {
+        cr_sim_positions_f(sim, cloth->pos);
+        st = cr_mesh_write(path, cloth, err);
+    }
+    cr_sim_destroy(sim);
+    cr_mesh_destroy(cloth);
+    cr_mesh_destroy(obj);
+    return st;
+}
+
+static void print_fidelity(const char *name, const cr_drape_fidelity *f) {
+    printf("%-13s %10.2f %9.3f %8.2f", name, 1e3 * f->chamfer_m, 1e3 * f->max_penetration_m,
+           f->h_rms);
+    for (int b = 0; b < CR_DRAPE_H_BANDS; b++)
+        printf(" %7.3f", f->h_band[b]);
+    printf("\n");
+}
+
+static void fidelity(const bench_opts *o) {
+    const cr_drape_scene scenes[3] = {CR_DRAPE_BALL, CR_DRAPE_TORUS, CR_DRAPE_PRISM};
+    printf("== fidelity against the reference drape (%d epochs each, reference %dx%d)\n",
+           o->fidelity_epochs, o->ref_res, o->ref_res);
+    for (int s = 0; s < 3; s++) {
+        if (!scene_listed(o, scenes[s])) continue;
+        char dir[1024], path[1200];
+        snprintf(dir, sizeof dir, "%s/%s", o->refs, object_of(scenes[s]));
+        snprintf(path, sizeof path, "%s/final.obj", dir);
+        cr_error err = {0};
+        cr_mesh *ref = NULL, *object = NULL;
+        if (cr_mesh_read(path, &ref, &err) != CR_OK) {
+            fprintf(stderr, "bench_drape: simulating the %s reference (%dx%d) into %s\n",
+                    object_of(scenes[s]), o->ref_res, o->ref_res, path);
+            if (cr_mkdir_p(dir, &err) != CR_OK) fail(&err);
+            if (simulate_reference(object_of(scenes[s]), o->ref_res, path, &err) != CR_OK)
+                fail(&err);
+            if (cr_mesh_read(path, &ref, &err) != CR_OK) fail(&err);
+        }
+        if (cr_drape_scene_object(scenes[s], NULL, &object, &err) != CR_OK) fail(&err);
+        printf("-- %s (reference %s)\n", cr_drape_scene_name(scenes[s]), path);
+        printf("%-13s %10s %9s %8s", "surface", "chamfer_mm", "pen_mm", "H_rms");
+        for (int b = 0; b < CR_DRAPE_H_BANDS; b++) {
+            char band[32];
+            if (b == 0)
+                snprintf(band, sizeof band, ">%.0fcm", 100 * cr_drape_h_band_edges_m[1]);
+            else
+                snprintf(band, sizeof band, "%.0f-%.0fcm", 100 * cr_drape_h_band_edges_m[b + 1],
+                         100 * cr_drape_h_band_edges_m[b]);
+            printf(" %7s", band);
+        }
+        printf("\n");
+        cr_drape_fidelity f;
+        if (cr_drape_fidelity_measure(ref, NULL, object, &f, &err) != CR_OK) fail(&err);
+        print_fidelity("reference", &f);
+        for (int v = 0; v < CR_DRAPE_VARIANT_COUNT; v++) {
+            cr_drape_def d = cr_drape_default_def(scenes[s]);
+            d.variant = (cr_drape_variant)v;
+            d.samples = o->samples;
+            d.epochs = o->fidelity_epochs;
+            d.quiet = 1;
+            d.seed = o->seed;
+            cr_drape_result r;
+            cr_mesh *surface = NULL;
+            if (cr_drape_run(&d, &r, &surface, &err) != CR_OK) fail(&err);
+            if (cr_drape_fidelity_measure(surface, ref, object, &f, &err) != CR_OK) fail(&err);
+            print_fidelity(cr_drape_variant_name(d.variant), &f);
+            fflush(stdout);
+            cr_mesh_destroy(surface);
+        }
+        cr_mesh_destroy(ref);
+        cr_mesh_destroy(object);
+    }
+}
+
+int main(int argc, char **argv) {
+    bench_opts o = {.scenes = "ball,torus,prism",
+                    .cap = 6000,
+                    .samples = 1024,
+                    .fidelity_epochs = 2500,
+                    .ref_res = 128,
+                    .refs = "drape_references",
+                    .seed = 1};
+    for (int i = 1; i < argc; i += 2) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!v) {
+            fprintf(stderr, "bench_drape: %s needs a value\n", a);
+            return 2;
+        }
+        if (strcmp(a, "--only") == 0)
+            o.only = v;
+        else if (strcmp(a, "--scenes") == 0)
+            o.scenes = v;
+        else if (strcmp(a, "--cap") == 0)
+            o.cap = atoi(v);
+        else if (strcmp(a, "--samples") == 0)
+            o.samples = atoi(v);
+        else if (strcmp(a, "--fidelity-epochs") == 0)
+            o.fidelity_epochs = atoi(v);
+        else if (strcmp(a, "--refs") == 0)
+            o.refs = v;
+        else if (strcmp(a, "--ref-res") == 0)
+            o.ref_res = atoi(v);
+        else if (strcmp(a, "--seed") == 0)
+            o.seed = (uint64_t)atoll(v);
+        else {
+            fprintf(stderr, "bench_drape: unknown option %s\n", a);
+            return 2;
+        }
+    }
+    if (o.cap < 1 || o.samples < 1 || o.fidelity_epochs < 1 || o.ref_res < 2) {
+        fprintf(stderr, "bench_drape: counts must be positive\n");
+        return 2;
+    }
+    if (wants(&o, "throughput")) throughput(&o);
+    if (wants(&o, "table2")) table2(&o);
+    if (wants(&o, "fidelity")) fidelity(&o);
+    return 0;
+}

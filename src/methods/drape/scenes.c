@@ -1,0 +1,381 @@
+/* scenes.c: the drape method's scenes (Table 4 of the paper) and options:
+ * names, defaults, validation, the objects, the rest cloth, and the mesh
+ * variants' elements and rescaled weights.
+ *
+ * Objects have the sizes of the physics scenes (phys_scene.h), so a drape is
+ * comparable with `crease drape-static`, but a finer tessellation: eq. 26
+ * reads the nearest object vertex and its normal, so vertex spacing bounds
+ * how well the cloth can rest on the surface (Table 4: 25,000 to 41,000
+ * object vertices). The prism is midpoint-subdivided (its primitive has six
+ * vertices).
+ *
+ * Leaves out: placing a user cloth (it is used where it is), UV islands
+ * outside [0,1]^2.
+ */
+#include "drape_internal.h"
+
+#include "crease/diffgeo.h"
+#include "crease/mesh_io.h"
+#include "crease/phys_scene.h"
+#include "crease/primitives.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const uint32_t DRAPE_DEF_COOKIE = 0x44525045u; /* "DRPE" */
+
+/* Object sizes, m: those of phys_scene.h's sphere, torus, prism and box. */
+#define BALL_RADIUS 0.3f
+#define TORUS_MAJOR 0.3f
+#define TORUS_MINOR 0.1f
+#define PRISM_SIDE 0.4f
+#define PRISM_LENGTH 0.8f
+#define TABLE_EDGE 0.4f
+enum { PRISM_SUBDIVISIONS = 6 /* 16,386 vertices, about 1 cm apart */ };
+
+static const char *const variant_names[CR_DRAPE_VARIANT_COUNT] = {"mesh", "inr-mesh", "inr-uniform",
+                                                                  "inr-adaptive"};
+static const char *const scene_names[CR_DRAPE_SCENE_COUNT] = {"ball", "torus", "prism", "table",
+                                                              "object"};
+
+const char *cr_drape_variant_name(cr_drape_variant v) {
+    return (int)v >= 0 && v < CR_DRAPE_VARIANT_COUNT ? variant_names[v] : "?";
+}
+
+cr_status cr_drape_variant_parse(const char *name, cr_drape_variant *out, cr_error *err) {
+    for (int i = 0; i < CR_DRAPE_VARIANT_COUNT; i++)
+        if (strcmp(name, variant_names[i]) == 0) {
+            *out = (cr_drape_variant)i;
+            return CR_OK;
+        }
+    return CR_FAIL(err, CR_ERR_INVALID,
+                   "--variant: unknown variant '%s' (expected mesh, inr-mesh, inr-uniform or "
+                   "inr-adaptive)",
+                   name);
+}
+
+const char *cr_drape_scene_name(cr_drape_scene s) {
+    return (int)s >= 0 && s < CR_DRAPE_SCENE_COUNT ? scene_names[s] : "?";
+}
+
+cr_status cr_drape_scene_parse(const char *name, cr_drape_scene *out, cr_error *err) {
+    for (int i = 0; i < CR_DRAPE_OBJECT; i++)
+        if (strcmp(name, scene_names[i]) == 0) {
+            *out = (cr_drape_scene)i;
+            return CR_OK;
+        }
+    return CR_FAIL(err, CR_ERR_INVALID,
+                   "--scene: unknown scene '%s' (expected ball, torus, prism or table; "
+                   "--object FILE for a mesh)",
+                   name);
+}
+
+cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
+    int soft = scene == CR_DRAPE_TORUS || scene == CR_DRAPE_PRISM;
+    cr_drape_def d = {
+        .scene = scene,
+        .variant = CR_DRAPE_INR_ADAPTIVE,
+        .cloth_size = 1.0f,
+        .gap = 0.05f,
+        .mesh_res = 128,
+        .w = {.strain = 0.005f, .bend = 0.0005f, .gravity = 2.0f, .collision = soft ? 1e6f : 1e7f},
+        .point_mass = 1e-4f,
+        .gravity = 9.81f,
+        .collision_eps = 0.002f,
+        .collision = CR_DRAPE_COLLIDE_VERTEX,
+        .side = 0.001f,
+        .pin = 1.0f,
+        .grid_levels = 2,
+        .grid_resolution = 100,
+        .grid_features = 3,
+        .mlp_hidden = 64,
+        .mlp_layers = 4,
+        .softplus_beta = 10.0f,
+        .lr = 0.0005f,
+        .lr_final = -1.0f,
+        .beta2 = 0.999f,
+        .clip = 3.0f,
+        .epochs = 2500,
+        .samples = 1024,
+        .pdf_grid = 32,
+        .pdf_gamma = 0.9f,
+        .mu = 0.5f,
+        .lloyd_iterations = 2,
+        .pdf_every = 5,
+        .eval_res = 128,
+        .eval_every = 50,
+        .converge_window = 500,
+        .converge_tol = 0.01f,
+        .seed = 1,
+        .out_res = 256,
+        .render_size = 1024,
+        .checkpoint_every = 250,
+        .cookie = DRAPE_DEF_COOKIE,
+    };
+    return d;
+}
+
+/* CR_ERR_INVALID naming `name` unless lo <= v <= hi (NaN fails). */
+static cr_status check_f(const char *name, double v, double lo, double hi, cr_error *err) {
+    if (!(v >= lo && v <= hi) || !isfinite(v))
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: %s must lie in [%g, %g], got %g", name, lo, hi,
+                       v);
+    return CR_OK;
+}
+
+static cr_status check_i(const char *name, long v, long lo, long hi, cr_error *err) {
+    if (v < lo || v > hi)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: %s must lie in [%ld, %ld], got %ld", name, lo,
+                       hi, v);
+    return CR_OK;
+}
+
+cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
+    CR_ASSERT(d && d->cookie == DRAPE_DEF_COOKIE);
+    if ((int)d->scene < 0 || d->scene >= CR_DRAPE_SCENE_COUNT)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: scene %d out of range", (int)d->scene);
+    if ((int)d->variant < 0 || d->variant >= CR_DRAPE_VARIANT_COUNT)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: variant %d out of range", (int)d->variant);
+    if (d->scene == CR_DRAPE_OBJECT && !d->object_path)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: the object scene needs an object mesh file");
+    CR_TRY(check_f("cloth_size", d->cloth_size, 1e-3, 1e3, err));
+    CR_TRY(check_f("gap", d->gap, 0.0, 1e3, err));
+    CR_TRY(check_i("mesh_res", d->mesh_res, 2, 2048, err));
+    CR_TRY(check_f("w_strain", d->w.strain, 0.0, 1e12, err));
+    CR_TRY(check_f("w_bend", d->w.bend, 0.0, 1e12, err));
+    CR_TRY(check_f("w_gravity", d->w.gravity, 0.0, 1e12, err));
+    CR_TRY(check_f("w_collision", d->w.collision, 0.0, 1e15, err));
+    CR_TRY(check_f("point_mass", d->point_mass, 0.0, 1e6, err));
+    CR_TRY(check_f("gravity", d->gravity, -1e3, 1e3, err));
+    CR_TRY(check_f("collision_eps", d->collision_eps, 0.0, 1.0, err));
+    if (d->collision != CR_DRAPE_COLLIDE_VERTEX && d->collision != CR_DRAPE_COLLIDE_SDF)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: collision mode %d out of range",
+                       (int)d->collision);
+    CR_TRY(check_f("side", d->side, 1e-6, 0.1, err));
+    CR_TRY(check_f("pin", d->pin, 0.0, 1e12, err));
+    CR_TRY(check_i("grid_levels", d->grid_levels, 1, 8, err));
+    CR_TRY(check_i("grid_resolution", d->grid_resolution, 1 << (d->grid_levels - 1), 4096, err));
+    CR_TRY(check_i("grid_features", d->grid_features, 1, 64, err));
+    CR_TRY(check_i("mlp_hidden", d->mlp_hidden, 1, 4096, err));
+    CR_TRY(check_i("mlp_layers", d->mlp_layers, 1, 16, err));
+    CR_TRY(check_f("softplus_beta", d->softplus_beta, 0.0, 1e3, err));
+    CR_TRY(check_f("lr", d->lr, 1e-12, 10.0, err));
+    if (d->lr_final >= 0.0f || isnan(d->lr_final))
+        CR_TRY(check_f("lr_final", d->lr_final, 0.0, d->lr, err));
+    CR_TRY(check_f("beta2", d->beta2, 0.0, 0.999999, err));
+    CR_TRY(check_f("clip", d->clip, 0.0, 1e6, err));
+    CR_TRY(check_i("epochs", d->epochs, 1, 100000000, err));
+    CR_TRY(check_i("samples", d->samples, 1, 1 << 22, err));
+    CR_TRY(check_i("pdf_grid", d->pdf_grid, 2, 1024, err));
+    CR_TRY(check_f("pdf_gamma", d->pdf_gamma, 0.0, 1.0, err));
+    CR_TRY(check_f("mu", d->mu, 0.0, 1.0, err));
+    CR_TRY(check_i("lloyd_iterations", d->lloyd_iterations, 0, 1000, err));
+    CR_TRY(check_i("pdf_every", d->pdf_every, 1, 1000000, err));
+    CR_TRY(check_i("eval_res", d->eval_res, 2, 1024, err));
+    CR_TRY(check_i("eval_every", d->eval_every, 1, 1000000, err));
+    CR_TRY(check_i("converge_window", d->converge_window, 1, 100000000, err));
+    CR_TRY(check_f("converge_tol", d->converge_tol, 0.0, 1.0, err));
+    CR_TRY(check_i("out_res", d->out_res, 2, 4096, err));
+    CR_TRY(check_i("render_size", d->render_size, 16, 8192, err));
+    CR_TRY(check_i("checkpoint_every", d->checkpoint_every, 0, 100000000, err));
+    if (d->out_dir && strlen(d->out_dir) > 900)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: output directory name longer than 900 bytes");
+    if (d->resume && !d->out_dir)
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: resuming needs an output directory");
+    return CR_OK;
+}
+
+/* ----------------------------------------------------------- objects -- */
+
+/* One 4-to-1 midpoint subdivision (flat faces stay flat); UVs dropped. */
+static cr_status subdivide(cr_mesh **m, cr_error *err) {
+    cr_topology *t = NULL;
+    CR_TRY(cr_topology_build(*m, &t, err));
+    cr_mesh *o = NULL;
+    cr_status st = cr_mesh_create((*m)->nv + t->ne, 4 * (*m)->nf, 0, &o, err);
+    if (st == CR_OK) {
+        const cr_mesh *s = *m;
+        memcpy(o->pos, s->pos, (size_t)s->nv * 3 * sizeof(float));
+        for (int32_t e = 0; e < t->ne; e++)
+            for (int c = 0; c < 3; c++)
+                o->pos[3 * (int64_t)(s->nv + e) + c] =
+                    0.5f * (s->pos[3 * (int64_t)t->edge[2 * e] + c] +
+                            s->pos[3 * (int64_t)t->edge[2 * e + 1] + c]);
+        for (int32_t f = 0; f < s->nf; f++) {
+            const int32_t *v = &s->tri[3 * (int64_t)f];
+            int32_t ab = s->nv + t->face_edge[3 * f], bc = s->nv + t->face_edge[3 * f + 1],
+                    ca = s->nv + t->face_edge[3 * f + 2];
+            const int32_t nt[12] = {v[0], ab, ca, ab, v[1], bc, ca, bc, v[2], ab, bc, ca};
+            memcpy(&o->tri[12 * (int64_t)f], nt, sizeof nt);
+        }
+    }
+    cr_topology_destroy(t);
+    if (st != CR_OK) return st;
+    cr_mesh_destroy(*m);
+    *m = o;
+    return CR_OK;
+}
+
+cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh **out,
+                                cr_error *err) {
+    *out = NULL;
+    switch (scene) {
+    case CR_DRAPE_BALL:
+        return cr_prim_sphere_uv(BALL_RADIUS, 224, 112, out, err);
+    case CR_DRAPE_TORUS:
+        return cr_prim_torus(TORUS_MAJOR, TORUS_MINOR, 256, 96, out, err);
+    case CR_DRAPE_TABLE:
+        return cr_prim_box(TABLE_EDGE, TABLE_EDGE, TABLE_EDGE, 64, out, err);
+    case CR_DRAPE_PRISM:
+        CR_TRY(cr_prim_prism(PRISM_SIDE, PRISM_LENGTH, out, err));
+        for (int i = 0; i < PRISM_SUBDIVISIONS; i++) {
+            cr_status st = subdivide(out, err);
+            if (st != CR_OK) {
+                cr_mesh_destroy(*out);
+                *out = NULL;
+                return st;
+            }
+        }
+        return CR_OK;
+    case CR_DRAPE_OBJECT:
+        if (!path) return CR_FAIL(err, CR_ERR_INVALID, "--object: no file given");
+        CR_TRY(cr_mesh_read(path, out, err));
+        if ((*out)->nf < 1) {
+            cr_mesh_destroy(*out);
+            *out = NULL;
+            return CR_FAIL(err, CR_ERR_TOPOLOGY, "--object %s: the mesh has no triangles", path);
+        }
+        return CR_OK;
+    default:
+        return CR_FAIL(err, CR_ERR_INVALID, "drape: scene %d out of range", (int)scene);
+    }
+}
+
+/* ------------------------------------------------------------- scene -- */
+
+static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
+    CR_TRY(cr_mesh_read(path, out, err));
+    cr_mesh *m = *out;
+    cr_status st = cr_mesh_validate(m, path, err);
+    if (st == CR_OK && !cr_mesh_has_uv(m))
+        st = CR_FAIL(err, CR_ERR_INVALID,
+                     "--cloth %s: the cloth has no UVs (the method is defined over a UV chart)",
+                     path);
+    for (int32_t i = 0; st == CR_OK && i < 2 * m->nuv; i++)
+        if (m->uv[i] < 0.0f || m->uv[i] > 1.0f)
+            st = CR_FAIL(err, CR_ERR_INVALID, "--cloth %s: UV %d is (%g, %g), outside [0,1]^2",
+                         path, i / 2, (double)m->uv[i - i % 2], (double)m->uv[i - i % 2 + 1]);
+    if (st != CR_OK) {
+        cr_mesh_destroy(m);
+        *out = NULL;
+    }
+    return st;
+}
+
+float drape_chart_scale(const cr_mesh *m) {
+    double a3 = 0.0, a2 = 0.0;
+    for (int32_t f = 0; f < m->nf; f++) {
+        float n[3];
+        const int32_t *t = &m->tri[3 * (int64_t)f], *tu = &m->tri_uv[3 * (int64_t)f];
+        a3 += 0.5 * cr_triangle_normal(&m->pos[3 * (int64_t)t[0]], &m->pos[3 * (int64_t)t[1]],
+                                       &m->pos[3 * (int64_t)t[2]], n);
+        const float *p = &m->uv[2 * (int64_t)tu[0]], *q = &m->uv[2 * (int64_t)tu[1]],
+                    *r = &m->uv[2 * (int64_t)tu[2]];
+        a2 += 0.5 * fabs(((double)q[0] - p[0]) * ((double)r[1] - p[1]) -
+                         ((double)q[1] - p[1]) * ((double)r[0] - p[0]));
+    }
+    return a2 > 0.0 ? (float)sqrt(a3 / a2) : 1.0f;
+}
+
+cr_status drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
+    memset(s, 0, sizeof *s);
+    cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
+    if (st == CR_OK && def->scene == CR_DRAPE_OBJECT)
+        st = cr_mesh_validate(s->object, def->object_path, err);
+    if (st == CR_OK)
+        st = cr_bvh_build(s->object->pos, s->object->nv, s->object->tri, s->object->nf, &s->bvh,
+                          err);
+    if (st == CR_OK && def->cloth_path) {
+        st = read_cloth(def->cloth_path, &s->rest, err);
+    } else if (st == CR_OK) {
+        s->square = 1;
+        st = cr_scene_cloth_above(s->object, def->mesh_res, def->cloth_size, def->gap, &s->rest,
+                                  err);
+    }
+    if (st == CR_OK) s->metres_per_uv = drape_chart_scale(s->rest);
+    if (st != CR_OK) drape_scene_free(s);
+    return st;
+}
+
+void drape_scene_free(drape_scene *s) {
+    cr_bvh_destroy(s->bvh);
+    cr_mesh_destroy(s->object);
+    cr_mesh_destroy(s->rest);
+    memset(s, 0, sizeof *s);
+}
+
+/* ------------------------------------------------------- mesh losses -- */
+
+/* A smooth surface under isotropic stretch eps gives per structure 9 eps^2
+ * strain, and per vertex of a grid of spacing d (three edges a vertex)
+ * 3 eps^2. For bending, a chordal triangle's normal is the surface normal
+ * at its circumcentre (exactly so for a sphere): the structure's face pairs
+ * have circumcentres s/sqrt(3) apart (s the 3-D side), so a sphere of
+ * curvature kappa gives kappa^2 s^2 per structure and a cylinder
+ * kappa^2 s^2 / 2; the grid's right triangles share their circumcentre across
+ * the diagonal and lie d apart across the other two edges, so per vertex a
+ * sphere gives 2 kappa^2 d^2 and a cylinder along either axis kappa^2 d^2.
+ * With gravity per vertex equal to gravity per structure, the mesh weights
+ *     w_strain' = 3 w_strain,   w_bend' = w_bend s^2 / (2 d^2)
+ * make both discretisations estimate the same energy per area (up to one
+ * common factor, which Adam does not see). d^2 is the area per vertex. */
+cr_status drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s,
+                                   drape_mesh_losses *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    const cr_mesh *m = s->rest;
+    cr_topology *t = NULL;
+    CR_TRY(cr_topology_build(m, &t, err));
+    out->ne = t->ne, out->nh = t->nh;
+    out->edges = cr_malloc((size_t)t->ne * 2 * sizeof(int32_t) + 1, err);
+    out->rest = cr_malloc((size_t)t->ne * sizeof(float) + 1, err);
+    out->hinges = cr_malloc((size_t)t->nh * 4 * sizeof(int32_t) + 1, err);
+    cr_status st = out->edges && out->rest && out->hinges ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) {
+        memcpy(out->edges, t->edge, (size_t)t->ne * 2 * sizeof(int32_t));
+        memcpy(out->hinges, t->hinge, (size_t)t->nh * 4 * sizeof(int32_t));
+        for (int32_t e = 0; e < t->ne && st == CR_OK; e++) {
+            const float *a = &m->pos[3 * (int64_t)t->edge[2 * e]],
+                        *b = &m->pos[3 * (int64_t)t->edge[2 * e + 1]];
+            double d2 = 0.0;
+            for (int c = 0; c < 3; c++)
+                d2 += ((double)a[c] - b[c]) * ((double)a[c] - b[c]);
+            out->rest[e] = (float)sqrt(d2);
+            if (!(out->rest[e] > 0.0f))
+                st = CR_FAIL(err, CR_ERR_TOPOLOGY, "drape: cloth edge %d has zero length", e);
+        }
+    }
+    if (st == CR_OK) {
+        float *area = cr_malloc((size_t)m->nf * sizeof(float) + 1, err);
+        if (!area) st = CR_ERR_MEMORY;
+        double total = 0.0;
+        if (st == CR_OK) {
+            cr_mesh_face_normals(m, NULL, area);
+            for (int32_t f = 0; f < m->nf; f++)
+                total += area[f];
+        }
+        free(area);
+        double d2 = total / m->nv, side = (double)def->side * s->metres_per_uv;
+        out->w = def->w;
+        out->w.strain = 3.0f * def->w.strain;
+        out->w.bend = (float)(0.5 * def->w.bend * side * side / d2);
+    }
+    cr_topology_destroy(t);
+    if (st != CR_OK) drape_mesh_losses_free(out);
+    return st;
+}
+
+void drape_mesh_losses_free(drape_mesh_losses *ml) {
+    free(ml->edges), free(ml->rest), free(ml->hinges);
+    memset(ml, 0, sizeof *ml);
+}

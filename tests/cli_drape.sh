@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# cli_drape.sh: `crease drape` end to end on coarse settings: outputs, the
+# --json summary, resume, --compare, and exit codes (0 ok, 1 bad input naming
+# the file, 2 usage naming the option).
+# Usage: cli_drape.sh PATH_TO_CREASE
+set -u
+crease=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+check() { # check NAME COMMAND... : the command must succeed
+  local name=$1; shift
+  if "$@" >/dev/null; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name" >&2; fi
+}
+
+# expect_exit CODE PATTERN ARGS...: crease ARGS exits with CODE and stderr matches PATTERN
+expect_exit() {
+  local code=$1 pattern=$2; shift 2
+  "$crease" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local got=$?
+  if [[ $got -eq $code ]] && grep -Eq -- "$pattern" "$tmp/stderr"; then
+    passed=$((passed + 1))
+  else
+    failed=$((failed + 1))
+    echo "FAIL: crease $* -> exit $got (want $code), stderr: $(head -c 300 "$tmp/stderr")" >&2
+  fi
+}
+
+json_has() { # json_has FILE KEY...: the last stdout line is one JSON object with these keys
+  local line; line=$(tail -n 1 "$1")
+  [[ $line == \{*\} ]] || return 1
+  shift
+  for k in "$@"; do grep -q "\"$k\":" <<<"$line" || return 1; done
+}
+
+# json_below FILE KEY LIMIT: the number at KEY in FILE's last line is below LIMIT
+json_below() {
+  local v; v=$(tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2)
+  [[ -n $v ]] && awk -v v="$v" -v l="$3" 'BEGIN { exit !(v < l) }'
+}
+
+# coarse: a small network, few structures, a small evaluation set
+small=(--grid-res 16 --hidden 16 --mesh-res 20 --samples 96 --pdf-grid 8 --pdf-every 2 --lloyd 1
+       --eval-res 12 --eval-every 10 --res 24 --render-size 64 --gap 0.01 --lr 0.003
+       --lr-final 1e-6 --quiet)
+
+check "drape --help" bash -c "'$crease' drape --help | grep -q usage"
+check "drape listed" bash -c "'$crease' --help | grep -q 'drape '"
+
+# --- one run ---------------------------------------------------------------------------
+check "drape ball" bash -c "'$crease' drape --scene ball --epochs 30 ${small[*]} -o '$tmp/a' --json > '$tmp/a.json'"
+check "drape fields" json_has "$tmp/a.json" command scene variant params epochs seconds \
+  converged_epoch strain bend gravity collision total max_penetration_m outputs obj glb png \
+  loss_png log sampler_png checkpoint
+check "drape variant" grep -q '"variant":"inr-adaptive"' "$tmp/a.json"
+check "drape epochs" grep -q '"epochs":30,' "$tmp/a.json"
+check "drape penetration < 1 mm" json_below "$tmp/a.json" max_penetration_m 1e-3
+check "drape outputs" test -s "$tmp/a/drape.obj" -a -s "$tmp/a/drape.glb" -a -s "$tmp/a/drape.png" \
+  -a -s "$tmp/a/loss.png" -a -s "$tmp/a/sampler.png" -a -s "$tmp/a/checkpoint.safetensors"
+check "drape log: 4 lines" bash -c "[[ \$(wc -l < '$tmp/a/loss.jsonl') -eq 4 ]]"
+check "drape log fields" json_has "$tmp/a/loss.jsonl" epoch seconds strain bend gravity collision \
+  total train_total
+check "drape obj at --res" bash -c "[[ \$(grep -c '^v ' '$tmp/a/drape.obj') -eq 576 ]]"
+
+# --- resume: 30 more epochs continue the log ---------------------------------------------
+check "drape resume" bash -c "'$crease' drape --scene ball --epochs 60 ${small[*]} -o '$tmp/a' --resume --json > '$tmp/b.json'"
+check "drape resumed from 30" grep -q '"resumed_from_epoch":30' "$tmp/b.json"
+check "drape resumed to 60" grep -q '"epochs":60,' "$tmp/b.json"
+check "drape resumed log: 7 lines" bash -c "[[ \$(wc -l < '$tmp/a/loss.jsonl') -eq 7 ]]"
+
+# --- other variants and scenes -----------------------------------------------------------
+check "drape mesh torus" bash -c "'$crease' drape --scene torus --variant mesh --epochs 10 ${small[*]} -o '$tmp/m' --json > '$tmp/m.json'"
+check "drape mesh free variables" grep -q '"params":1200,' "$tmp/m.json"
+check "drape sdf prism" "$crease" drape --scene prism --variant inr-uniform --collision sdf --epochs 5 \
+  "${small[@]}" -o "$tmp/p"
+"$crease" primitive sphere -o "$tmp/obj.obj" >/dev/null
+check "drape --object" bash -c "'$crease' drape --object '$tmp/obj.obj' --variant inr-mesh --epochs 5 ${small[*]} -o '$tmp/o' --json > '$tmp/o.json'"
+check "drape --object scene name" grep -q "\"scene\":\"$tmp/obj.obj\"" "$tmp/o.json"
+
+# --- compare: four variants, one picture ---------------------------------------------------
+check "drape --compare" bash -c "'$crease' drape --scene table --compare --epochs 5 ${small[*]} -o '$tmp/c' --json > '$tmp/c.json'"
+check "drape compare png" test -s "$tmp/c/compare.png"
+check "drape compare dirs" test -s "$tmp/c/mesh/drape.obj" -a -s "$tmp/c/inr-mesh/drape.obj" \
+  -a -s "$tmp/c/inr-uniform/drape.obj" -a -s "$tmp/c/inr-adaptive/drape.obj"
+check "drape compare json" json_has "$tmp/c.json" compare_png variants
+
+# --- bad input ---------------------------------------------------------------------------
+expect_exit 2 "missing -o" drape --scene ball
+expect_exit 2 "--scene.*'cube'" drape --scene cube -o "$tmp/x"
+expect_exit 2 "--variant.*'inr'" drape --variant inr -o "$tmp/x"
+expect_exit 2 "--lr expects a number" drape --lr nan -o "$tmp/x"
+expect_exit 2 "--w-collision expects a number" drape --w-collision inf -o "$tmp/x"
+expect_exit 2 "--epochs expects an integer" drape --epochs 0 -o "$tmp/x"
+expect_exit 2 "exclude each other" drape --scene ball --object "$tmp/obj.obj" -o "$tmp/x"
+expect_exit 2 "--collision expects vertex or sdf" drape --collision box -o "$tmp/x"
+expect_exit 2 "unknown option '--frobnicate'" drape --frobnicate -o "$tmp/x"
+expect_exit 1 "missing.obj" drape --object "$tmp/missing.obj" --epochs 1 "${small[@]}" -o "$tmp/x"
+printf 'v 0 1 0\nv 1 1 0\nv 0 1 1\nf 1 3 2\n' > "$tmp/nouv.obj"
+expect_exit 1 "nouv.obj.*no UVs" drape --cloth "$tmp/nouv.obj" --epochs 1 "${small[@]}" -o "$tmp/x"
+expect_exit 1 "a checkpoint of variant 'inr-adaptive'" drape --scene ball --variant inr-uniform \
+  --epochs 31 "${small[@]}" -o "$tmp/a" --resume
+
+echo "cli_drape: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
