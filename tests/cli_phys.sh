@@ -3,43 +3,7 @@
 # scenes: outputs, --json summaries, per-frame logs, penetration, exit codes
 # (0 ok, 1 bad input naming the file or counts, 2 usage).
 # Usage: cli_phys.sh PATH_TO_CREASE
-set -u
-crease=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-passed=0
-failed=0
-
-check() { # check NAME COMMAND... : the command must succeed
-  local name=$1; shift
-  if "$@" >/dev/null; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name" >&2; fi
-}
-
-# expect_exit CODE PATTERN ARGS...: crease ARGS exits with CODE and stderr matches PATTERN
-expect_exit() {
-  local code=$1 pattern=$2; shift 2
-  "$crease" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-  local got=$?
-  if [[ $got -eq $code ]] && grep -Eq -- "$pattern" "$tmp/stderr"; then
-    passed=$((passed + 1))
-  else
-    failed=$((failed + 1))
-    echo "FAIL: crease $* -> exit $got (want $code), stderr: $(head -c 300 "$tmp/stderr")" >&2
-  fi
-}
-
-json_has() { # json_has FILE KEY...: the last stdout line is one JSON object with these keys
-  local line; line=$(tail -n 1 "$1")
-  [[ $line == \{*\} ]] || return 1
-  shift
-  for k in "$@"; do grep -q "\"$k\":" <<<"$line" || return 1; done
-}
-
-# json_below FILE KEY LIMIT: the number at KEY in FILE's last line is below LIMIT
-json_below() {
-  local v; v=$(tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2)
-  [[ -n $v ]] && awk -v v="$v" -v l="$3" 'BEGIN { exit !(v < l) }'
-}
+source "$(dirname "$0")/lib_cli.sh" "$1"
 
 for c in simulate drape-static; do
   check "$c --help" bash -c "'$crease' $c --help | grep -q usage"
