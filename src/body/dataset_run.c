@@ -124,17 +124,8 @@ static float *pin_trajectory(const cr_garment *g, const cr_body_model *body, con
 
 /* --------------------------------------------------------- sequences -- */
 
-static cr_status write_result(const dataset *ds, const dataset_seq *q, cr_error *err) {
-    char path[CR_DATASET_PATH];
-    seq_dir(ds, q, path, sizeof path);
-    strncat(path, "/result.json", sizeof path - strlen(path) - 1);
-    cJSON *j = cJSON_CreateObject();
-    cJSON_AddStringToObject(j, "status", q->state == SEQ_FAILED ? "failed" : "done");
-    cJSON_AddNumberToObject(j, "frames", q->frames_done);
-    cJSON_AddNumberToObject(j, "seconds", q->seconds);
-    cJSON_AddNumberToObject(j, "max_inside_share", q->max_inside_share);
-    cJSON_AddNumberToObject(j, "max_penetration_m", q->max_penetration_m);
-    if (q->state == SEQ_FAILED) cJSON_AddStringToObject(j, "failure", q->failure);
+/* Print j (freed here) to path atomically. */
+static cr_status write_json(const char *path, cJSON *j, cr_error *err) {
     char *text = cJSON_Print(j);
     cJSON_Delete(j);
     if (!text) return CR_FAIL(err, CR_ERR_MEMORY, "dataset: out of memory writing %s", path);
@@ -147,6 +138,20 @@ static cr_status write_result(const dataset *ds, const dataset_seq *q, cr_error 
     }
     free(text);
     return st;
+}
+
+static cr_status write_result(const dataset *ds, const dataset_seq *q, cr_error *err) {
+    char path[CR_DATASET_PATH];
+    seq_dir(ds, q, path, sizeof path);
+    strncat(path, "/result.json", sizeof path - strlen(path) - 1);
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "status", q->state == SEQ_FAILED ? "failed" : "done");
+    cJSON_AddNumberToObject(j, "frames", q->frames_done);
+    cJSON_AddNumberToObject(j, "seconds", q->seconds);
+    cJSON_AddNumberToObject(j, "max_inside_share", q->max_inside_share);
+    cJSON_AddNumberToObject(j, "max_penetration_m", q->max_penetration_m);
+    if (q->state == SEQ_FAILED) cJSON_AddStringToObject(j, "failure", q->failure);
+    return write_json(path, j, err);
 }
 
 static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
@@ -360,17 +365,5 @@ static cJSON *manifest(const dataset *ds) {
 cr_status dataset_write_manifest(const dataset *ds, cr_error *err) {
     char path[CR_DATASET_PATH];
     snprintf(path, sizeof path, "%s/manifest.json", ds->def.out_dir);
-    cJSON *j = manifest(ds);
-    char *text = cJSON_Print(j);
-    cJSON_Delete(j);
-    if (!text) return CR_FAIL(err, CR_ERR_MEMORY, "dataset: out of memory writing %s", path);
-    cr_atomic_file f;
-    cr_status st = cr_atomic_open(&f, path, err);
-    if (st == CR_OK) {
-        fputs(text, f.fp);
-        fputc('\n', f.fp);
-        st = cr_atomic_commit(&f, err);
-    }
-    free(text);
-    return st;
+    return write_json(path, manifest(ds), err);
 }
