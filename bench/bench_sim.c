@@ -53,6 +53,11 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
         st.backoffs += rep.backoffs, st.capped += rep.newton_capped;
         st.max_pen = fmax(st.max_pen, rep.max_penetration_m);
         st.frames++;
+        if ((f + 1) % 100 == 0) { /* long runs (the 1,500-frame tube) show progress */
+            printf("sim %s: frame %d, %.3f s/frame so far, max penetration %.2f mm\n", name, f + 1,
+                   st.seconds / st.frames, 1e3 * st.max_pen);
+            fflush(stdout);
+        }
         if (status != CR_OK) {
             st.diverged = 1;
             printf("sim %s: stopped at frame %d: %s\n", name, f, err.msg);
