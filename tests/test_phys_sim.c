@@ -610,6 +610,53 @@ CR_TEST(phys_sim, cloth_dropped_on_sphere) {
     cr_mesh_destroy(sphere);
 }
 
+/* A cloth lying on a plate 1 cm thick that then rises 3 cm a frame, three
+ * times its thickness: queried where the plate went, the cloth would find
+ * itself under the plate's bottom face and stay there (the plate passing
+ * through it); tracked from where the plate was, it is lifted with it. */
+CR_TEST(phys_sim, fast_collider_carries_the_cloth) {
+    enum { FRAMES = 24, REST = 8 };
+    const float thick = 0.01f, rise = 0.03f;
+    cr_mesh *cloth = flat_cloth(20, 0.4f, 0.5f * thick + 0.003f), *plate = NULL;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_prim_box(0.6f, thick, 0.6f, 4, &plate, &err), &err);
+    CR_REQUIRE(cloth && plate);
+    float *seq = malloc(sizeof(float) * 3 * (size_t)plate->nv * FRAMES);
+    CR_REQUIRE(seq);
+    for (int f = 0; f < FRAMES; f++)
+        for (int32_t v = 0; v < plate->nv; v++)
+            for (int k = 0; k < 3; k++)
+                seq[3 * ((size_t)plate->nv * f + v) + k] =
+                    plate->pos[3 * v + k] + (k == 1 && f > REST ? rise * (f - REST) : 0.0f);
+    cr_sim_def d = cotton_def();
+    d.collider = plate, d.collider_frames = seq, d.collider_nframes = FRAMES;
+    cr_sim *s = NULL;
+    CR_CHECK_OK(cr_sim_create(&d, cloth, &s, &err), &err);
+    CR_REQUIRE(s);
+    cr_sim_report rep;
+    int32_t projected = 0;
+    double pen = 0.0;
+    for (int f = 0; f + 1 < FRAMES; f++) {
+        CR_CHECK_OK(cr_sim_step(s, &rep, &err), &err);
+        projected += rep.projected;
+        pen = fmax(pen, rep.max_penetration_m);
+    }
+    const double *x = cr_sim_positions(s);
+    double top = 0.5 * thick + rise * (FRAMES - 1 - REST), lowest = INFINITY;
+    for (int32_t i = 0; i < cloth->nv; i++)
+        if (fabs(x[3 * i]) < 0.1 && fabs(x[3 * i + 2]) < 0.1) lowest = fmin(lowest, x[3 * i + 1]);
+    printf("    plate rising 3 cm a frame: middle of the cloth %.4f m (plate top %.4f m), %d "
+           "projected, deepest %.2e m\n",
+           lowest, top, projected, pen);
+    CR_CHECK(lowest > top - 1e-3);
+    CR_CHECK(projected == 0);
+    CR_CHECK(pen < 1e-3);
+    cr_sim_destroy(s);
+    cr_mesh_destroy(cloth);
+    cr_mesh_destroy(plate);
+    free(seq);
+}
+
 /* ---------------------------------------------------------- plasticity -- */
 
 /* A strip 0.2 m long (z) and 3 cm wide (x), in zero gravity, its z < 0 half

@@ -1,17 +1,18 @@
 /* sim.c: the reference cloth simulator (see crease/phys_sim.h for the method).
  *
  * One substep of length h from collider time t0 to t1 (in frames):
- *   1. the collider's positions are interpolated at t0 and t1 and its BVH is
- *      refitted to t1 (implicit Euler evaluates the collider at the end);
+ *   1. the collider's positions are interpolated at t0 and t1 (implicit
+ *      Euler evaluates the collider at the end);
  *   2. x_pred = x + h v goes to the inertia term, x_t to the drag term;
  *   3. the collider is queried at x_t within a radius R = eps + (penetration
  *      left by the last substep) + (collider motion over the substep) +
  *      2 (h max|v| + h^2 |g|) + 1 mm, which covers every vertex that can reach
  *      the thickness during the step; the collision term is linearised there
- *      (d(x) = d_i + n_i . (x - x_i)) and the lagged friction freezes its
- *      contacts (normal force, tangent frame, and an anchor moved with the
- *      collider surface under the vertex, found from the closest face and its
- *      barycentric weights);
+ *      (d(x) = d_i + n_i . (x - x_i)). A moving collider is queried in its
+ *      pose at t0 and each closest point is carried to t1 with its face
+ *      (track_collider); then the BVH is refitted to t1. The lagged friction
+ *      freezes the contacts (normal force, tangent frame, and an anchor moved
+ *      with the collider surface under the vertex);
  *   4. Newton starts from x_pred, with every vertex that the prediction puts
  *      deeper than half the thickness (by the linearisation) moved back to it;
  *   5. Newton: assemble, factorise with CHOLMOD (shifted if not positive
@@ -143,7 +144,7 @@ static void move_pins(cr_sim *s, double t) {
                 (1.0 - a) * p0[3 * i + k] + a * p1[3 * i + k];
 }
 
-/* Poses at t0 (cpos_prev) and t1 (cpos, into the BVH); returns the largest
+/* Poses at t0 (cpos_prev, into the BVH) and t1 (cpos); returns the largest
  * collider vertex displacement, m. A static collider never moves. */
 static cr_status move_collider(cr_sim *s, double t0, double t1, double *motion, cr_error *err) {
     *motion = 0.0;
@@ -160,7 +161,7 @@ static cr_status move_collider(cr_sim *s, double t0, double t1, double *motion, 
         if (d2 > m2) m2 = d2;
     }
     *motion = sqrt(m2);
-    return cr_bvh_refit(s->bvh, s->cpos, err);
+    return cr_bvh_refit(s->bvh, s->cpos_prev, err);
 }
 
 /* Signed distances of x within radius into s->dist / s->normal and the
@@ -175,43 +176,101 @@ static void query_collider(cr_sim *s, const double *x, double radius) {
     s->rep->seconds_collision += cr_time_now() - t;
 }
 
-typedef struct disp_ctx {
+/* (b - a) x (c - a) of face f at positions pos, normalised (zero when degenerate). */
+static void face_normal(const float *pos, const int32_t *f, double n[3]) {
+    const float *a = pos + 3 * (int64_t)f[0], *b = pos + 3 * (int64_t)f[1],
+                *c = pos + 3 * (int64_t)f[2];
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; k++)
+        e1[k] = (double)b[k] - a[k], e2[k] = (double)c[k] - a[k];
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (int k = 0; k < 3; k++)
+        n[k] = len > 0.0 ? n[k] / len : 0.0;
+}
+
+typedef struct track_ctx {
     cr_sim *s;
     float radius;
-} disp_ctx;
+} track_ctx;
 
-/* Collider surface displacement over the substep under each contact vertex. */
-static void disp_range(void *vctx, int64_t begin, int64_t end) {
-    const disp_ctx *c = vctx;
+/* Per vertex of s->xf: the closest point on the collider at t0 (the BVH's
+ * pose), carried to t1 with its face. Writes the linearisation at x_start
+ * into s->dist / s->normal (the distance still at t0) and the surface's
+ * displacement into s->disp. */
+static void track_range(void *vctx, int64_t begin, int64_t end) {
+    const track_ctx *c = vctx;
     cr_sim *s = c->s;
     const int32_t *tri = cr_bvh_triangles(s->bvh);
     for (int64_t i = begin; i < end; i++) {
+        float *n = s->normal + 3 * i;
         double *di = s->disp + 3 * i;
         di[0] = di[1] = di[2] = 0.0;
-        if (!(s->dist[i] < s->def.material.collision_thickness)) continue;
         cr_bvh_hit hit;
-        if (!cr_bvh_closest(s->bvh, s->xf + 3 * i, c->radius, &hit)) continue;
-        for (int k = 0; k < 3; k++) {
-            int64_t v = tri[3 * (int64_t)hit.face + k];
+        if (!cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i], n, &hit))
+            continue;
+        const int32_t *f = tri + 3 * (int64_t)hit.face;
+        for (int k = 0; k < 3; k++)
             for (int j = 0; j < 3; j++)
-                di[j] += hit.bary[k] * ((double)s->cpos[3 * v + j] - s->cpos_prev[3 * v + j]);
-        }
+                di[j] += hit.bary[k] * ((double)s->cpos[3 * f[k] + j] - s->cpos_prev[3 * f[k] + j]);
+        /* The normal turns with its face (to first order: add the face
+         * normal's change), and the plane moves by the displacement. */
+        double f0[3], f1[3], m[3];
+        face_normal(s->cpos_prev, f, f0);
+        face_normal(s->cpos, f, f1);
+        for (int k = 0; k < 3; k++)
+            m[k] = n[k] + f1[k] - f0[k];
+        double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+        if (len > 1e-6)
+            for (int k = 0; k < 3; k++)
+                n[k] = (float)(m[k] / len);
     }
 }
 
-static void update_friction(cr_sim *s, const double *x_start, double radius) {
+static void update_friction(cr_sim *s, const double *x_start) {
     if (!s->friction) return;
     double t = cr_time_now();
-    const double *disp = NULL;
-    if (s->def.collider_frames) {
-        disp_ctx c = {s, (float)radius};
-        cr_parallel_for(s->nv, 512, disp_range, &c);
-        disp = s->disp;
-    }
-    cr_friction_update(s->friction, s->collision, x_start, disp);
+    cr_friction_update(s->friction, s->collision, x_start,
+                       s->def.collider_frames ? s->disp : NULL);
     /* The contact list changed: refresh the term's element count. */
     cr_friction_term(s->friction, &s->terms[s->t_friction]);
     s->rep->seconds_collision += cr_time_now() - t;
+}
+
+/* The collision term's linearisation at x_start for a moving collider, taken
+ * where the collider was rather than where it went: the closest point at t0,
+ * carried to t1 by the collider's own motion. Querying x_start against the
+ * pose at t1 goes wrong wherever the body moves further than it is thick in
+ * a substep: a vertex an arm swept over lies deep inside the arm at t1, its
+ * nearest surface is the arm's far side, and Newton pushes it through.
+ *
+ * Friction takes its normal forces from the contacts at t0, before the
+ * collider's motion is added: the linearisation at t1 puts a vertex the body
+ * walks into centimetres deep, and its penalty force (hundreds of newtons)
+ * glued the cloth to the skin and tore it (membrane energies of 1e3 J on a
+ * walking t-shirt). The BVH is at t0 on entry and refitted to t1 on return. */
+static cr_status track_collider(cr_sim *s, const double *x_start, double radius,
+                                cr_error *err) {
+    double t = cr_time_now();
+    for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
+        s->xf[k] = (float)x_start[k];
+    track_ctx c = {s, (float)radius};
+    cr_parallel_for(s->nv, 512, track_range, &c);
+    cr_collision_update(s->collision, x_start, s->dist, s->normal);
+    s->rep->seconds_collision += cr_time_now() - t;
+    update_friction(s, x_start);
+    t = cr_time_now();
+    for (int32_t i = 0; i < s->nv; i++) {
+        const float *n = s->normal + 3 * (int64_t)i;
+        const double *di = s->disp + 3 * (int64_t)i;
+        s->dist[i] -= (float)(n[0] * di[0] + n[1] * di[1] + n[2] * di[2]);
+    }
+    cr_collision_update(s->collision, x_start, s->dist, s->normal);
+    cr_status st = cr_bvh_refit(s->bvh, s->cpos, err);
+    s->rep->seconds_collision += cr_time_now() - t;
+    return st;
 }
 
 /* -------------------------------------------------------------- newton -- */
@@ -425,8 +484,12 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     /* Linearise the collider at the step's start (friction freezes its
      * contacts there too), then start Newton from x_pred with every vertex the
      * prediction would push into the thickness put back to half of it. */
-    query_collider(s, s->x_start, o.base_radius);
-    update_friction(s, s->x_start, o.base_radius);
+    if (s->bvh && s->def.collider_frames)
+        CR_TRY(track_collider(s, s->x_start, o.base_radius, err));
+    else {
+        query_collider(s, s->x_start, o.base_radius);
+        update_friction(s, s->x_start);
+    }
     if (dynamic) {
         memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
         if (s->bvh) clamp_guess(s);
