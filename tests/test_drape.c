@@ -448,7 +448,8 @@ CR_TEST(drape, resume_equals_a_straight_run) {
         snprintf(straight, sizeof straight, "%s/drape_straight_%d", cr_test_tmpdir(), k);
         snprintf(split, sizeof split, "%s/drape_split_%d", cr_test_tmpdir(), k);
         cr_drape_def d = coarse_def(vs[k]);
-        d.lr_final = -1.0f; /* a cosine schedule spans `epochs`, which the split run changes */
+        d.lr_final = -1.0f; /* schedules span `epochs`, which the split run changes */
+        d.settle_epochs = 0;
         d.epochs = 30;
         d.out_dir = straight;
         cr_drape_result a, b;

@@ -151,7 +151,10 @@ typedef struct cr_drape_def {
 
     /* training */
     float lr;       /* Adam learning rate at the first epoch (default 0.0005) */
-    float lr_final; /* at the last epoch, cosine from lr; < 0: constant lr (default -1) */
+    float lr_final; /* at the last epoch, cosine from lr; < 0: no cosine (default -1) */
+    int settle_epochs; /* without a cosine: the last this many epochs (at most half the
+                          run) go at lr / 10, so contacts settle out of the eps band
+                          (default 250; 0: constant lr throughout) */
     float beta2;    /* Adam's second-moment decay (default 0.999) */
     float clip;     /* gradient-norm clip, times the running mean of recent norms (default 3;
                        0: off) */

@@ -26,7 +26,9 @@ void help_drape(void) {
         "  --epochs N           epochs (default 2500)\n"
         "  --samples N          local structures per epoch (default 1024)\n"
         "  --lr R               Adam learning rate (default 0.0005)\n"
-        "  --lr-final R         anneal to R by the last epoch (cosine; default: constant)\n"
+        "  --lr-final R         anneal to R by the last epoch (cosine; default: none)\n"
+        "  --settle N           without --lr-final: the last N epochs at lr/10, so contacts\n"
+        "                       settle (default 250; 0: constant lr)\n"
         "  --beta2 B            Adam's second-moment decay (default 0.999)\n"
         "  --clip C             clip the gradient norm at C times its running mean (default 3;\n"
         "                       0: off)\n"
@@ -173,6 +175,7 @@ int cmd_drape(int argc, char **argv) {
         {"--eval-res", &def.eval_res, 2, 1024},
         {"--eval-every", &def.eval_every, 1, 1000000},
         {"--window", &def.converge_window, 1, 100000000},
+        {"--settle", &def.settle_epochs, 0, 100000000},
     };
     const float_option floats[] = {
         {"--lr", &def.lr, 1e-12, 10.0},

@@ -94,6 +94,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
         .softplus_beta = 10.0f,
         .lr = 0.0005f,
         .lr_final = -1.0f,
+        .settle_epochs = 250,
         .beta2 = 0.999f,
         .clip = 3.0f,
         .epochs = 2500,
@@ -164,6 +165,7 @@ cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
     if (d->lr_final >= 0.0f || isnan(d->lr_final))
         CR_TRY(check_f("lr_final", d->lr_final, 0.0, d->lr, err));
     CR_TRY(check_f("beta2", d->beta2, 0.0, 0.999999, err));
+    CR_TRY(check_i("settle_epochs", d->settle_epochs, 0, 100000000, err));
     CR_TRY(check_f("clip", d->clip, 0.0, 1e6, err));
     CR_TRY(check_i("epochs", d->epochs, 1, 100000000, err));
     CR_TRY(check_i("samples", d->samples, 1, 1 << 22, err));

@@ -119,6 +119,13 @@ static cr_status setup(drape_run *r, cr_error *err) {
         od.lr.kind = CR_LR_COSINE;
         od.lr.final = def->lr_final;
         od.lr.total_steps = def->epochs;
+    } else if (def->settle_epochs > 0 && def->epochs >= 2) {
+        /* one drop by ten for the last settle epochs, at most half the run (the
+         * step schedule drops every step_every steps: so it drops once) */
+        int settle = def->settle_epochs < def->epochs / 2 ? def->settle_epochs : def->epochs / 2;
+        od.lr.kind = CR_LR_STEP;
+        od.lr.gamma = 0.1f;
+        od.lr.step_every = def->epochs - settle;
     }
     CR_TRY(cr_optim_create(&od, cr_drape_model_params(r->model), &r->opt, err));
     int64_t g2 = (int64_t)def->pdf_grid * def->pdf_grid;
