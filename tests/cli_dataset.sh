@@ -17,6 +17,16 @@ check "dataset layout" test -s "$tmp/data/manifest.json" -a -s "$tmp/data/bodies
   -a -s "$tmp/data/sequences/tshirt_low_normal_walk/result.json"
 check "dataset resumes" bash -c "'$crease' dataset --garments tshirt --motions walk \
   --low-vertices 600 --frames 4 -o '$tmp/data' --quiet --json | grep -q '\"skipped\":1,'"
+seq="$tmp/data/sequences/tshirt_low_normal_walk/garment.pc2"
+check "render a frame, garment on body" "$crease" render \
+  "$tmp/data/garments/normal/tshirt_low.obj" --pc2 "$seq" \
+  "$tmp/data/bodies/normal/rest.obj" --pc2 "$tmp/data/bodies/normal/walk.pc2" \
+  --frame 3 --size 64 -o "$tmp/frame3.png"
+check "render frame png" bash -c "head -c 4 '$tmp/frame3.png' | grep -q PNG"
+expect_exit 1 "no frame 9" render "$tmp/data/garments/normal/tshirt_low.obj" --pc2 "$seq" \
+  --frame 9 -o "$tmp/bad.png"
+expect_exit 1 "vertices" render "$tmp/data/bodies/normal/rest.obj" --pc2 "$seq" -o "$tmp/bad.png"
+expect_exit 2 "must follow its mesh" render --pc2 "$seq" -o "$tmp/bad.png"
 expect_exit 1 "poncho" dataset --garments poncho --motions walk -o "$tmp/bad"
 expect_exit 1 "medium" dataset --garments tshirt --motions walk --res medium -o "$tmp/bad"
 expect_exit 1 "nothere.bvh" dataset --garments tshirt --motions "$tmp/nothere.bvh" -o "$tmp/bad"

@@ -1,5 +1,7 @@
 /* cmd_render.c: `crease render MESH... -o out.png`: shaded pictures of one or
- * more meshes, with wireframe, a per-vertex colour map and turntables. */
+ * more meshes, with wireframe, a per-vertex colour map and turntables; a
+ * mesh followed by `--pc2 SEQ.pc2` is drawn at frame `--frame N` of that
+ * point cache (a simulated garment, a posed body). */
 #include "cli.h"
 #include "crease/diffgeo.h"
 #include "crease/mesh_io.h"
@@ -32,11 +34,16 @@ void help_render(void) {
            "  --range LO HI        fixed colour-map range (default: the scalars' min and max)\n"
            "  --yaw D, --pitch D   camera orbit in degrees (default 30 and 25)\n"
            "  --turntable N        write N pictures OUT_000.png ... circling the scene\n"
+           "  --pc2 SEQ.pc2        (after a mesh) draw that mesh with the positions of a PC2\n"
+           "                       point cache of the same vertex count\n"
+           "  --frame N            the point caches' frame, from 0 (default 0)\n"
            "  --json               end with a JSON summary on stdout\n");
 }
 
 typedef struct {
     const char *meshes[MAX_OBJECTS];
+    const char *pc2[MAX_OBJECTS]; /* NULL: the mesh's own positions */
+    int frame;
     int nmesh;
     const char *out;
     const char *color_by;
@@ -89,6 +96,14 @@ static int parse(int argc, char **argv, render_opts *o) {
             if (!(o->range_lo < o->range_hi))
                 return cli_usage("render", "--range LO HI needs LO < HI");
             o->fixed_range = 1;
+        } else if (strcmp(opt, "--pc2") == 0) {
+            if (!(v = cli_args_value(&a, opt))) return CLI_USAGE;
+            if (o->nmesh == 0) return cli_usage("render", "--pc2 %s must follow its mesh", v);
+            o->pc2[o->nmesh - 1] = v;
+        } else if (strcmp(opt, "--frame") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("render", opt, v, 0, 100000000, &o->frame))
+                return CLI_USAGE;
         } else if (opt[0] == '-' && opt[1]) {
             return cli_usage("render", "unknown option '%s'", opt);
         } else if (o->nmesh < MAX_OBJECTS) {
@@ -123,6 +138,24 @@ static cr_status vertex_scalar(const cr_mesh *m, const char *kind, float **out, 
     return CR_OK;
 }
 
+/* The mesh's positions <- frame `frame` of the point cache at path. */
+static cr_status pose_from_pc2(cr_mesh *m, const char *path, int frame, cr_error *err) {
+    cr_pc2 seq = {0};
+    CR_TRY(cr_pc2_read(path, &seq, err));
+    cr_status st = CR_OK;
+    if (seq.nv != m->nv)
+        st = CR_FAIL(err, CR_ERR_INVALID, "%s: %d points per frame, but its mesh has %d vertices",
+                     path, seq.nv, m->nv);
+    else if (frame >= seq.nframes)
+        st = CR_FAIL(err, CR_ERR_INVALID, "%s: no frame %d (it has %d, from 0)", path, frame,
+                     seq.nframes);
+    else
+        memcpy(m->pos, seq.frames + (size_t)frame * 3 * (size_t)m->nv,
+               3 * (size_t)m->nv * sizeof(float));
+    cr_pc2_free(&seq);
+    return st;
+}
+
 /* "dir/name.png" -> "dir/name_%03d.png" for the turntable frames. */
 static void frame_pattern(const char *out, char *pattern, size_t cap) {
     const char *dot = strrchr(out, '.');
@@ -143,6 +176,7 @@ int cmd_render(int argc, char **argv) {
     int64_t faces = 0;
     for (int i = 0; i < o.nmesh && st == CR_OK; i++) {
         st = cr_mesh_read(o.meshes[i], &meshes[i], &err);
+        if (st == CR_OK && o.pc2[i]) st = pose_from_pc2(meshes[i], o.pc2[i], o.frame, &err);
         if (st == CR_OK && o.color_by) st = vertex_scalar(meshes[i], o.color_by, &scalars[i], &err);
         if (st != CR_OK) break;
         faces += meshes[i]->nf;
