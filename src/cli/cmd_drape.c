@@ -69,8 +69,7 @@ void help_drape(void) {
         "  --render-size N      PNG side in pixels (default 1024)\n"
         "  --quiet              no progress bar\n"
         "  --json               end with a JSON summary on stdout\n\n"
-        "Set OPENBLAS_CORETYPE=SkylakeX (or Haswell) where OpenBLAS picks its slow Prescott\n"
-        "kernel (docs/nn.md): the MLP step is 10-20x faster.\n");
+        "The default ball run takes about 90 s on two free cores.\n");
 }
 
 typedef struct {
