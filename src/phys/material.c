@@ -47,10 +47,11 @@ enum { NPRESETS = (int)(sizeof PRESETS / sizeof PRESETS[0]) };
 /* EPNet code: yield angle 0.52 rad, gain 1 (perfect plasticity). */
 #define YIELD_ANGLE 0.52
 #define PLASTIC_GAIN 1.0
-/* Collision: HOOD's maximal penalty weight 1e5 on max(eps - d, 0)^3 and a
- * thickness between HOOD's 1 mm and NCS's 4 mm. */
+/* Collision: ten times HOOD's maximal penalty weight 1e5 on
+ * max(eps - d, 0)^3 (docs/physics.md says why) and a thickness between
+ * HOOD's 1 mm and NCS's 4 mm. */
 #define COLLISION_THICKNESS 2e-3   /* m */
-#define COLLISION_STIFFNESS 1e5    /* J/m^3 */
+#define COLLISION_STIFFNESS 1e6    /* J/m^3 */
 /* Fabric on dry skin: 0.2-0.6 (Derler & Gerhardt 2012); no per-fabric data. */
 #define FRICTION 0.3
 
