@@ -8,7 +8,8 @@ source "$(dirname "$0")/lib_cli.sh" "$1"
 check "dataset --help" bash -c "'$crease' dataset --help | grep -q usage"
 check "dataset" bash -c "'$crease' dataset --garments tshirt --motions walk --low-vertices 600 \
   --frames 4 -o '$tmp/data' --quiet --json > '$tmp/d.json'"
-check "dataset fields" json_has "$tmp/d.json" command sequences done skipped failed max_inside_share
+check "dataset fields" json_has "$tmp/d.json" command sequences done skipped failed max_inside_share \
+  max_inside_share_solver
 check "dataset one done" grep -q '"done":1,' "$tmp/d.json"
 check "dataset layout" test -s "$tmp/data/manifest.json" -a -s "$tmp/data/bodies/normal/rest.obj" \
   -a -s "$tmp/data/bodies/normal/walk.pc2" -a -s "$tmp/data/motions/walk.npz" \

@@ -61,6 +61,9 @@ typedef struct cr_dataset_def {
     float fps;             /* default 30 */
     const char *material;  /* preset name (default "cotton") */
     int plastic;           /* 1: plastic bending (epnet's ground truth) */
+    double max_collider_step; /* m: frames where the body moves further run more substeps
+                                 (cr_sim_def.max_collider_step; default 0.15: the run and
+                                 jump clips get 2-3, the others 1) */
     uint64_t seed;         /* recorded in the manifest (the simulator has no randomness) */
     int quiet;             /* 1: no progress bar */
     uint32_t cookie;
@@ -75,10 +78,12 @@ typedef struct cr_dataset_result {
     int32_t failed;
     double seconds;
     int32_t ngarments;
-    /* Per garment type asked for: the largest share of its vertices found
-     * inside the body (before the simulator projects them out) on any frame
-     * of any of its sequences, 0..1. */
+    /* Per garment type asked for: the largest share of its vertices inside
+     * the body on any stored frame of any of its sequences, 0..1 (measured
+     * by a signed-distance query of its own), and the same for the solver's
+     * substeps before the simulator projects vertices out. */
     double max_inside_share[CR_DATASET_MAX_ITEMS];
+    double max_inside_share_solver[CR_DATASET_MAX_ITEMS];
 } cr_dataset_result;
 
 /* Generate (or complete) the dataset. CR_ERR_INVALID naming a bad field or

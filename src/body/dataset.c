@@ -24,6 +24,7 @@
 #include "crease/phys_material.h"
 #include "dataset_internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -38,6 +39,7 @@ cr_dataset_def cr_dataset_default_def(void) {
     d.fps = 30.0f;
     d.material = "cotton";
     d.seed = 1;
+    d.max_collider_step = 0.15;
     d.cookie = DATASET_COOKIE;
     return d;
 }
@@ -73,6 +75,9 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
         return CR_FAIL(err, CR_ERR_INVALID, "dataset: frames = %d, need 1 to 100000", d->frames);
     if (!(d->fps > 0.0f && d->fps <= 1000.0f))
         return CR_FAIL(err, CR_ERR_INVALID, "dataset: fps = %g, need (0, 1000]", (double)d->fps);
+    if (!(d->max_collider_step >= 0.0 && d->max_collider_step <= 10.0))
+        return CR_FAIL(err, CR_ERR_INVALID, "dataset: max_collider_step = %g m, need 0 to 10",
+                       d->max_collider_step);
     for (int i = 0; i < d->ngarments; i++)
         CR_TRY(cr_garment_type_parse(d->garments[i], &ds->garment_type[i], err));
     for (int i = 0; i < d->nbodies; i++) {
@@ -297,8 +302,10 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
             out->done += q->state == SEQ_DONE;
             out->skipped += q->state == SEQ_SKIPPED;
             out->failed += q->state == SEQ_FAILED;
-            if (q->state != SEQ_FAILED && q->max_inside_share > out->max_inside_share[q->g])
-                out->max_inside_share[q->g] = q->max_inside_share;
+            if (q->state == SEQ_FAILED) continue;
+            out->max_inside_share[q->g] = fmax(out->max_inside_share[q->g], q->max_inside_share);
+            out->max_inside_share_solver[q->g] =
+                fmax(out->max_inside_share_solver[q->g], q->max_inside_share_solver);
         }
     }
     out->seconds = cr_time_now() - t0;

@@ -15,7 +15,8 @@ typedef struct dataset_seq {
     int g, m, b, r; /* garment, motion, body, resolution indices */
     char id[160];   /* <garment>_<res>_<body>_<motion> */
     seq_state state;
-    double max_inside_share; /* largest share of vertices inside before projection */
+    double max_inside_share;        /* largest share of a stored frame's vertices inside the body */
+    double max_inside_share_solver; /* ... of a substep's, before the simulator's projection */
     double max_penetration_m;
     int32_t frames_done;
     double seconds;

@@ -29,6 +29,8 @@ void help_simulate(void) {
            "  --plastic            plastic bending: rest angles follow large folds\n"
            "  --pin i,j,...        vertices held at their initial positions\n"
            "  --substeps S         implicit Euler steps per frame (default 1)\n"
+           "  --max-collider-step M  more substeps in frames where the collider moves further\n"
+           "                       than M metres, ceil(motion / M) (default 0: off)\n"
            "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
            "                       twice as fast and damps bending, docs/physics.md)\n"
            "  --fps F              frames per second (default 30)\n"
@@ -44,7 +46,7 @@ void help_simulate(void) {
 typedef struct {
     const char *garment, *object, *body_mesh, *body, *material, *material_json, *out;
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
-    float fps, offset[3];
+    float fps, offset[3], max_collider_step;
     int32_t *pins;
     int32_t npins;
 } sim_opts;
@@ -110,6 +112,10 @@ static int parse(int argc, char **argv, sim_opts *o) {
         } else if (strcmp(opt, "--substeps") == 0) {
             if (!(v = cli_args_value(&a, opt)) ||
                 !cli_parse_int("simulate", opt, v, 1, 4096, &o->substeps))
+                return CLI_USAGE;
+        } else if (strcmp(opt, "--max-collider-step") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_float("simulate", opt, v, 0, 1000, &o->max_collider_step))
                 return CLI_USAGE;
         } else if (strcmp(opt, "--newton-iterations") == 0) {
             if (!(v = cli_args_value(&a, opt)) ||
@@ -185,6 +191,7 @@ static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error 
     }
     def->dt = 1.0 / o->fps;
     if (o->substeps > 0) def->substeps = o->substeps;
+    def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     def->plasticity = o->plastic;
     def->pinned = o->pins;

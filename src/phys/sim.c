@@ -21,8 +21,10 @@
  *      twice the distance moved so far) and relinearises. Converged when an
  *      unshifted step's largest vertex move is below max(newton_tol h,
  *      newton_rtol |x - x_t|_inf) (static: static_tol);
- *   6. a last query: penetration, projection of vertices with d < 0 onto the
- *      surface (their inward normal velocity removed), velocities, checks,
+ *   6. a last query: penetration, projection of vertices with d < 0 to a
+ *      quarter of the thickness outside the surface (exactly onto it, half of
+ *      them ended a rounding error inside; their inward normal velocity
+ *      removed), velocities, checks,
  *      plasticity.
  * A frame runs `substeps` substeps; a failed one restores the frame's start
  * and retries with twice the substeps (max_backoff times).
@@ -449,6 +451,9 @@ static void restore_frame_state(cr_sim *s) {
     memcpy(s->rest, s->rest_frame, (size_t)s->nh * sizeof(double));
 }
 
+/* Where a vertex found inside is put: this fraction of the thickness outside. */
+#define PROJECT_CLEARANCE 0.25
+
 /* One implicit Euler substep of length h from collider time t0 to t1
  * (dynamic), or an equilibrium solve at t1 (dynamic = 0). */
 static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic, int plastic,
@@ -520,7 +525,7 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
             if (depth > pen) pen = depth;
             double vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
             for (int k = 0; k < 3; k++) {
-                x[k] += depth * n[k];
+                x[k] += (depth + PROJECT_CLEARANCE * d->material.collision_thickness) * n[k];
                 if (vn < 0.0) v[k] -= vn * n[k];
             }
             rep->projected++;
@@ -575,6 +580,25 @@ static void report_end(cr_sim *s, cr_sim_report *rep, double t_start) {
     s->rep = &s->scratch_report;
 }
 
+/* Substeps for this frame: def.substeps, or more where the collider moves
+ * further than def.max_collider_step between this frame and the next. */
+static int frame_substeps(const cr_sim *s) {
+    const cr_sim_def *d = &s->def;
+    if (!(d->max_collider_step > 0.0) || !d->collider_frames) return d->substeps;
+    int64_t last = d->collider_nframes - 1, i0 = s->frame < last ? s->frame : last;
+    int64_t i1 = i0 + 1 < last ? i0 + 1 : last, nc3 = 3 * (int64_t)s->ncv;
+    const float *p0 = d->collider_frames + i0 * nc3, *p1 = d->collider_frames + i1 * nc3;
+    double m2 = 0.0;
+    for (int64_t k = 0; k < nc3; k += 3) {
+        double dx = p1[k] - p0[k], dy = p1[k + 1] - p0[k + 1], dz = p1[k + 2] - p0[k + 2];
+        double d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 > m2) m2 = d2;
+    }
+    double need = ceil(sqrt(m2) / d->max_collider_step);
+    int n = need > 16.0 ? 16 : (int)need;
+    return n > d->substeps ? n : d->substeps;
+}
+
 cr_status cr_sim_step(cr_sim *s, cr_sim_report *report, cr_error *err) {
     cr_sim_report local;
     cr_sim_report *rep = report ? report : &local;
@@ -582,7 +606,7 @@ cr_status cr_sim_step(cr_sim *s, cr_sim_report *report, cr_error *err) {
     report_begin(s, rep);
     save_frame_state(s);
     double pen_frame = s->pen_start;
-    int nsub = s->def.substeps;
+    int nsub = frame_substeps(s);
     int dynamic = !s->def.quasi_static;
     cr_status st = CR_OK;
     for (int attempt = 0; attempt <= s->def.max_backoff; attempt++, nsub *= 2) {

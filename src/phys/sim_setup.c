@@ -56,6 +56,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(isfinite(d->dt) && d->dt > 0.0, "dt must be a positive time, got %g s", d->dt);
     CHECK_DEF(d->substeps >= 1 && d->substeps <= 4096, "substeps must be 1..4096, got %d",
               d->substeps);
+    CHECK_DEF(d->max_collider_step >= 0.0 && d->max_collider_step <= 1e3,
+              "max_collider_step must be 0..1000 m, got %g", d->max_collider_step);
     CHECK_DEF(d->max_backoff >= 0 && d->max_backoff <= 12, "max_backoff must be 0..12, got %d",
               d->max_backoff);
     CHECK_DEF(d->newton_max_iterations >= 1 && d->static_max_iterations >= 1,
