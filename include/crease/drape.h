@@ -171,7 +171,7 @@ typedef struct cr_drape_def {
     /* convergence */
     int eval_res;          /* fixed structures per side (default 128) */
     int eval_every;        /* epochs between evaluations (default 50) */
-    int converge_window;   /* epochs (default 500) */
+    int converge_window;   /* epochs (default 2000) */
     float converge_tol;    /* default 0.01 */
     int stop_at_converged; /* 1: stop there (default 0: train to `epochs`) */
 

@@ -60,7 +60,7 @@ void help_drape(void) {
         "  --eval-res N         fixed evaluation structures per side (default 128)\n"
         "  --eval-every N       epochs between evaluations (default 50)\n"
         "  --window N           converged when the energy fell by less than --tol times its\n"
-        "  --tol T              total decrease over the last N epochs (default 500, 0.01)\n"
+        "  --tol T              total decrease over the last N epochs (default 2000, 0.01)\n"
         "  --stop               stop at convergence\n"
         "outputs:\n"
         "  -o DIR               drape.obj, drape.glb, drape.png, loss.png, loss.jsonl,\n"

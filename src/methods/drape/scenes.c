@@ -106,7 +106,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
         .pdf_every = 5,
         .eval_res = 128,
         .eval_every = 50,
-        .converge_window = 500,
+        .converge_window = 2000,
         .converge_tol = 0.01f,
         .seed = 1,
         .out_res = 256,
