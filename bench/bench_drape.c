@@ -12,15 +12,15 @@
  *               distance, deepest penetration, RMS mean curvature and its
  *               spectrum by wavelength, next to the reference's own
  *
- * References are read from REFS/<object>/final.obj (what `crease
- * drape-static --object sphere|torus|prism --res N -o REFS/<object>` writes)
- * and simulated and written there when missing.
+ * References are read from REFS/<object><N>/final.obj (what `crease
+ * drape-static --object sphere|torus|prism --res N [--coarse 128] -o
+ * REFS/<object><N>` writes) and simulated and written there when missing.
  *
  * Usage: bench_drape [--only throughput|table2|fidelity] [--scenes ball,torus,prism]
  *                    [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]
  *                    [--ref-res N] [--seed S]
  * (defaults: all parts, cap 6000 epochs, 1024 samples, 2500 fidelity epochs,
- * refs drape_references, ref-res 128). The OpenBLAS kernel matters little
+ * refs drape_references, ref-res 256). The OpenBLAS kernel matters little
  * here (docs/drape.md); the figures name the one that ran.
  */
 #include "crease/drape.h"
@@ -35,6 +35,7 @@
 
 enum { MAX_FRAMES = 150 };
 #define SETTLED_SPEED 5e-3 /* m/s: drape-static's settling threshold */
+#define COARSE_RES 128     /* vertices per side that settle dynamically */
 
 typedef struct bench_opts {
     const char *only;
@@ -129,34 +130,41 @@ static void table2(const bench_opts *o) {
 
 /* ---------------------------------------------------------- fidelity -- */
 
-/* drape-static's procedure: settle dynamically until the RMS speed is below
- * SETTLED_SPEED (at most MAX_FRAMES frames), then a static solve. */
-static cr_status simulate_reference(const char *object, int res, const char *path, cr_error *err) {
-    cr_mesh *obj = NULL, *cloth = NULL;
+/* drape-static's procedure (cr_scene_settle): settle dynamically until the
+ * RMS speed is below SETTLED_SPEED (at most MAX_FRAMES frames), then a
+ * static solve; above COARSE_RES vertices per side, `crease drape-static
+ * --coarse COARSE_RES`: the coarse cloth settles and the fine one solves
+ * statically from its rest shape. */
+static cr_status settle_cloth(const cr_sim_def *def, const cr_mesh *obj, int res,
+                              const cr_mesh *start, int start_res, cr_mesh **out, cr_error *err) {
     cr_sim *sim = NULL;
+    cr_scene_settle_stats stats;
+    cr_status st = cr_scene_cloth_above(obj, res, 1.0f, 0.05f, out, err);
+    if (st == CR_OK && start) st = cr_scene_cloth_refine(start, start_res, *out, res, err);
+    if (st == CR_OK) st = cr_sim_create(def, *out, &sim, err);
+    if (st == CR_OK)
+        st = cr_scene_settle(sim, start ? 0 : MAX_FRAMES, SETTLED_SPEED, NULL, NULL, &stats, err);
+    if (st == CR_OK) {
+        cr_sim_positions_f(sim, (*out)->pos);
+        fprintf(stderr, "bench_drape: %dx%d reference: %d frames, %lld Newton iterations, %.1f s\n",
+                res, res, stats.settle_frames, stats.newton, stats.seconds);
+    }
+    cr_sim_destroy(sim);
+    return st;
+}
+
+static cr_status simulate_reference(const char *object, int res, const char *path, cr_error *err) {
+    cr_mesh *obj = NULL, *coarse = NULL, *cloth = NULL;
     cr_sim_def def = cr_sim_default_def();
     cr_status st = cr_material_preset("cotton", &def.material, err);
     if (st == CR_OK) st = cr_scene_object_create(object, &obj, err);
-    if (st == CR_OK) st = cr_scene_cloth_above(obj, res, 1.0f, 0.05f, &cloth, err);
-    if (st == CR_OK) {
-        def.collider = obj;
-        st = cr_sim_create(&def, cloth, &sim, err);
-    }
-    double mass = 0.0;
-    for (int32_t i = 0; st == CR_OK && i < cloth->nv; i++)
-        mass += cr_sim_masses(sim)[i];
-    for (int f = 0; st == CR_OK && f < MAX_FRAMES; f++) {
-        cr_sim_report rep;
-        st = cr_sim_step(sim, &rep, err);
-        if (st == CR_OK && sqrt(2.0 * rep.kinetic_energy / mass) < SETTLED_SPEED) break;
-    }
-    if (st == CR_OK) st = cr_sim_solve_static(sim, NULL, err);
-    if (st == CR_OK) {
-        cr_sim_positions_f(sim, cloth->pos);
-        st = cr_mesh_write(path, cloth, err);
-    }
-    cr_sim_destroy(sim);
+    def.collider = obj;
+    if (st == CR_OK && res > COARSE_RES)
+        st = settle_cloth(&def, obj, COARSE_RES, NULL, 0, &coarse, err);
+    if (st == CR_OK) st = settle_cloth(&def, obj, res, coarse, COARSE_RES, &cloth, err);
+    if (st == CR_OK) st = cr_mesh_write(path, cloth, err);
     cr_mesh_destroy(cloth);
+    cr_mesh_destroy(coarse);
     cr_mesh_destroy(obj);
     return st;
 }
@@ -176,7 +184,7 @@ static void fidelity(const bench_opts *o) {
     for (int s = 0; s < 3; s++) {
         if (!scene_listed(o, scenes[s])) continue;
         char dir[1024], path[1200];
-        snprintf(dir, sizeof dir, "%s/%s", o->refs, object_of(scenes[s]));
+        snprintf(dir, sizeof dir, "%s/%s%d", o->refs, object_of(scenes[s]), o->ref_res);
         snprintf(path, sizeof path, "%s/final.obj", dir);
         cr_error err = {0};
         cr_mesh *ref = NULL, *object = NULL;
@@ -229,7 +237,7 @@ int main(int argc, char **argv) {
                     .cap = 6000,
                     .samples = 1024,
                     .fidelity_epochs = 2500,
-                    .ref_res = 128,
+                    .ref_res = 256,
                     .refs = "drape_references",
                     .seed = 1};
     for (int i = 1; i < argc; i += 2) {

@@ -34,6 +34,15 @@ check "drape-static penetration < 1 mm" json_below "$tmp/ds.json" max_penetratio
 check "drape-static outputs" test -s "$tmp/ds/final.obj" -a -s "$tmp/ds/final.png" \
   -a -s "$tmp/ds/frames.jsonl"
 check "drape-static png magic" bash -c "head -c 4 '$tmp/ds/final.png' | grep -q PNG"
+# --coarse: a 10x10 cloth settles, the 19x19 one starts from it, interpolated, and only
+# solves statically (its record: the refined start's solve alone)
+check "drape-static --coarse" bash -c "'$crease' drape-static --object sphere --res 19 --coarse 10 \
+  --max-frames 20 -o '$tmp/dsc' --json > '$tmp/dsc.json' 2>/dev/null"
+check "drape-static --coarse fields" json_has "$tmp/dsc.json" coarse settle_frames converged
+check "drape-static --coarse penetration < 1 mm" json_below "$tmp/dsc.json" max_penetration_m 1e-3
+check "drape-static --coarse rests on the ball" bash -c "'$crease' info '$tmp/dsc/final.obj' --json \
+  | python3 -c 'import json,sys; d=json.load(sys.stdin); assert d[\"vertices\"] == 361; \
+b=d[\"bounds\"]; assert 0.25 < b[\"max\"][1] < 0.36 and b[\"min\"][1] < 0.1, b'"
 
 # --- bad input and usage -----------------------------------------------------------------
 expect_exit 2 "velvet" simulate --garment "$tmp/cloth.obj" --object sphere --frames 1 \
@@ -51,6 +60,8 @@ expect_exit 2 "--pin" simulate --garment "$tmp/cloth.obj" --frames 1 --pin 1,x -
 expect_exit 1 "pin|range" simulate --garment "$tmp/cloth.obj" --frames 1 --pin 9999 -o "$tmp/x"
 expect_exit 2 "missing --object" drape-static --res 8 -o "$tmp/x"
 expect_exit 2 "--res" drape-static --object sphere --res 1 -o "$tmp/x"
+expect_exit 2 "--coarse 16 must be below --res 16" drape-static --object sphere --res 16 \
+  --coarse 16 -o "$tmp/x"
 expect_exit 1 "teapot.obj" drape-static --object "$tmp/teapot.obj" --res 8 -o "$tmp/x"
 
 echo "cli_phys: $passed passed, $failed failed"

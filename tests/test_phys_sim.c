@@ -7,12 +7,14 @@
  * about a second in release. */
 #include "crease/bvh.h"
 #include "crease/phys_assemble.h"
+#include "crease/phys_scene.h"
 #include "crease/phys_sim.h"
 #include "crease/phys_solve.h"
 #include "crease/primitives.h"
 #include "crease/topology.h"
 #include "test.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -927,4 +929,37 @@ CR_TEST(phys_sim, pinned_vertices_follow_their_frames) {
     cr_sim_destroy(s);
     cr_mesh_destroy(m);
     free(frames);
+}
+
+/* Refining a cloth grid reproduces an affine deformation exactly (bilinear
+ * interpolation), keeps the corners, and refuses meshes of the wrong size. */
+CR_TEST(phys_sim, cloth_refine_interpolates) {
+    cr_error err = {0};
+    cr_mesh *coarse = NULL, *fine = NULL, *expect = NULL;
+    CR_CHECK_OK(cr_prim_plane(5, 5, 1.0f, 1.0f, &coarse, &err), &err);
+    CR_CHECK_OK(cr_prim_plane(13, 13, 1.0f, 1.0f, &fine, &err), &err);
+    CR_CHECK_OK(cr_prim_plane(13, 13, 1.0f, 1.0f, &expect, &err), &err);
+    cr_mesh *grids[2] = {coarse, expect};
+    for (int g = 0; g < 2; g++)
+        for (int32_t v = 0; v < grids[g]->nv; v++) {
+            float *p = grids[g]->pos + 3 * v;
+            p[1] = 0.3f * p[0] - 0.2f * p[2] + 0.1f;
+            p[0] = 1.5f * p[0] + 0.25f * p[2];
+        }
+    CR_CHECK_OK(cr_scene_cloth_refine(coarse, 5, fine, 13, &err), &err);
+    double worst = 0.0;
+    for (int32_t k = 0; k < 3 * fine->nv; k++)
+        worst = fmax(worst, fabs(fine->pos[k] - expect->pos[k]));
+    CR_CHECK(worst < 1e-6);
+    for (int d = 0; d < 3; d++) {
+        CR_CHECK(fine->pos[d] == coarse->pos[d]);
+        CR_CHECK(fine->pos[3 * (13 * 13 - 1) + d] == coarse->pos[3 * (5 * 5 - 1) + d]);
+    }
+    CR_CHECK(cr_scene_cloth_refine(coarse, 4, fine, 13, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "coarse cloth has 25 vertices, not 4 x 4"));
+    CR_CHECK(cr_scene_cloth_refine(coarse, 5, fine, 12, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "fine cloth"));
+    cr_mesh_destroy(coarse);
+    cr_mesh_destroy(fine);
+    cr_mesh_destroy(expect);
 }

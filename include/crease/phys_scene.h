@@ -42,6 +42,41 @@ cr_status cr_scene_animation_read(const char *pc2_path, const cr_mesh *collider,
 cr_status cr_scene_cloth_above(const cr_mesh *object, int32_t res, float size, float gap,
                                cr_mesh **out, cr_error *err);
 
+/* Positions of the res x res cloth `fine` from the coarse_res x coarse_res
+ * cloth `coarse` (both cr_scene_cloth_above grids, vertex k * res + i at
+ * (i, k) / (res - 1) over the square), by bilinear interpolation of the
+ * coarse positions at each fine vertex's grid coordinates: a settled coarse
+ * drape becomes the start of a fine one. Fails naming the mesh whose vertex
+ * count is not its res squared. */
+cr_status cr_scene_cloth_refine(const cr_mesh *coarse, int32_t coarse_res, cr_mesh *fine,
+                                int32_t fine_res, cr_error *err);
+
+/* What cr_scene_settle did. */
+typedef struct cr_scene_settle_stats {
+    int settle_frames;        /* dynamic frames run */
+    long long newton;         /* Newton iterations, static solve included */
+    double seconds;           /* solver time */
+    double max_penetration_m; /* deepest vertex inside the collider before projection */
+    int converged;            /* the static solve met its tolerance */
+    int32_t contacts;         /* vertices within the thickness at the end */
+} cr_scene_settle_stats;
+
+/* Called with every state cr_scene_settle reaches, a diverged one too
+ * (rep->diverged): frame is the settling frame (1-based), or 0 for the
+ * static solve; rms_speed is the RMS vertex speed, m/s. A failure stops the
+ * settling and is returned. */
+typedef cr_status (*cr_scene_state_fn)(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
+                                       int frame, double rms_speed, cr_error *err);
+
+/* The quasi-static rest shape: step `sim` dynamically until its RMS vertex
+ * speed is below settled_speed (m/s) or max_frames frames have run (damping
+ * and friction hold the cloth where it lands), then minimise the potential
+ * without inertia (cr_sim_solve_static). on_state may be NULL. Returns the
+ * solver's status (CR_ERR_DIVERGED with the frame in err) or on_state's. */
+cr_status cr_scene_settle(cr_sim *sim, int max_frames, double settled_speed,
+                          cr_scene_state_fn on_state, void *ctx, cr_scene_settle_stats *stats,
+                          cr_error *err);
+
 /* Render `garment` at positions `garment_pos` (V,3, m; NULL: its own) in
  * cloth blue with `collider` (may be NULL) at `collider_pos` (Vc,3, m; NULL:
  * its own) in grey into a `size` x `size` PNG. */

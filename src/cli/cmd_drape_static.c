@@ -30,16 +30,64 @@ void help_drape_static(void) {
            "  --material-json F    override material fields from a JSON object\n"
            "  --max-frames N       dynamic settling frames at most before the static solve\n"
            "                       (default 150; 0: static solve from the flat start)\n"
+           "  --coarse C           settle a C x C cloth instead and start the N x N static solve\n"
+           "                       from its rest shape, interpolated (large N: the settling is\n"
+           "                       what costs, and it costs less on fewer vertices)\n"
            "  --quiet              no progress bar\n"
            "  -o DIR               outputs: final.obj, final.png, frames.jsonl (one line per\n"
            "                       frame and the static solve), sim.pc2 (every state)\n"
            "  --json               end with a JSON summary on stdout\n");
 }
 
+/* Every state goes to the record; settling frames also move the bar. */
+typedef struct state_ctx {
+    cr_scene_record *rec;
+    cr_progress bar;
+} state_ctx;
+
+static cr_status record_state(void *vctx, const cr_sim *sim, const cr_sim_report *rep, int frame,
+                              double rms_speed, cr_error *err) {
+    state_ctx *c = vctx;
+    CR_TRY(cr_scene_record_frame(c->rec, sim, rep, err));
+    if (frame > 0) cr_progress_update(&c->bar, frame, "rms speed %.2g m/s", rms_speed);
+    return CR_OK;
+}
+
+static cr_status coarse_progress(void *vctx, const cr_sim *sim, const cr_sim_report *rep,
+                                 int frame, double rms_speed, cr_error *err) {
+    (void)sim, (void)rep, (void)err;
+    if (frame > 0) cr_progress_update(vctx, frame, "coarse, rms speed %.2g m/s", rms_speed);
+    return CR_OK;
+}
+
+/* --coarse: settle a coarse x coarse cloth over obj (dynamically, then
+ * statically) and write its rest shape, interpolated, into `fine`. */
+static cr_status settle_coarse(const cr_sim_def *def, const cr_mesh *obj, int coarse, float gap,
+                               int max_frames, int quiet, cr_mesh *fine, int res,
+                               cr_scene_settle_stats *stats, cr_error *err) {
+    cr_mesh *cloth = NULL;
+    cr_sim *sim = NULL;
+    cr_status st = cr_scene_cloth_above(obj, coarse, CLOTH_SIZE, gap, &cloth, err);
+    if (st == CR_OK) st = cr_sim_create(def, cloth, &sim, err);
+    if (st == CR_OK) {
+        cr_progress bar;
+        cr_progress_begin(&bar, "drape-static", max_frames, quiet);
+        st = cr_scene_settle(sim, max_frames, SETTLED_SPEED, coarse_progress, &bar, stats, err);
+        cr_progress_end(&bar);
+    }
+    if (st == CR_OK) {
+        cr_sim_positions_f(sim, cloth->pos);
+        st = cr_scene_cloth_refine(cloth, coarse, fine, res, err);
+    }
+    cr_sim_destroy(sim);
+    cr_mesh_destroy(cloth);
+    return st;
+}
+
 int cmd_drape_static(int argc, char **argv) {
     cli_args a = cli_args_make(argc, argv);
     const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL, *v;
-    int res = 64, json = 0, quiet = 0, max_frames = 150;
+    int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0;
     float gap = 0.05f;
     while (!cli_args_done(&a)) {
         const char *opt = cli_args_next(&a);
@@ -63,6 +111,10 @@ int cmd_drape_static(int argc, char **argv) {
             if (!(v = cli_args_value(&a, opt)) ||
                 !cli_parse_int("drape-static", opt, v, 0, 1000000, &max_frames))
                 return CLI_USAGE;
+        } else if (strcmp(opt, "--coarse") == 0) {
+            if (!(v = cli_args_value(&a, opt)) ||
+                !cli_parse_int("drape-static", opt, v, 2, 1024, &coarse))
+                return CLI_USAGE;
         } else if (strcmp(opt, "--quiet") == 0) {
             quiet = 1;
         } else if (strcmp(opt, "--json") == 0) {
@@ -73,6 +125,8 @@ int cmd_drape_static(int argc, char **argv) {
     }
     if (!object) return cli_usage("drape-static", "missing --object sphere|torus|prism|box|F.obj");
     if (!out) return cli_usage("drape-static", "missing -o DIR");
+    if (coarse >= res)
+        return cli_usage("drape-static", "--coarse %d must be below --res %d", coarse, res);
     cr_error err = {0};
     cr_sim_def def = cr_sim_default_def();
     if (cr_material_preset(material, &def.material, &err) != CR_OK)
@@ -81,54 +135,39 @@ int cmd_drape_static(int argc, char **argv) {
     cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;
-    cr_sim_report rep = {0};
     char path[1200], obj_path[1200], png_path[1200];
-    cr_status st = CR_OK;
+    cr_status st = CR_OK, solved = CR_OK;
+    cr_scene_settle_stats stats = {0}, coarse_stats = {0};
+    state_ctx ctx = {0};
     if (material_json) st = cr_material_load_json(material_json, &def.material, &err);
     if (st == CR_OK) st = cr_scene_object_create(object, &obj, &err);
     if (st == CR_OK) st = cr_scene_cloth_above(obj, res, CLOTH_SIZE, gap, &cloth, &err);
-    if (st == CR_OK) {
-        def.collider = obj;
-        st = cr_sim_create(&def, cloth, &sim, &err);
+    def.collider = obj;
+    if (st == CR_OK && coarse > 0) {
+        /* Settle the coarse cloth, refine its rest shape onto the fine one,
+         * and let the fine one only solve statically from there. */
+        solved = settle_coarse(&def, obj, coarse, gap, max_frames, quiet, cloth, res, &coarse_stats,
+                               &err);
+        if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
-    if (st == CR_OK) st = cr_mkdir_p(out, &err);
-    if (st == CR_OK) {
+    if (st == CR_OK && solved == CR_OK) st = cr_sim_create(&def, cloth, &sim, &err);
+    if (st == CR_OK && solved == CR_OK) st = cr_mkdir_p(out, &err);
+    if (st == CR_OK && solved == CR_OK) {
         snprintf(path, sizeof path, "%s/frames.jsonl", out);
         st = cr_scene_record_create(path, sim, cloth, max_frames + 2, &rec, &err);
     }
-    cr_status solved = CR_OK;
-    int settle_frames = 0;
-    double seconds = 0.0, max_pen = 0.0;
-    long long newton = 0;
-    if (st == CR_OK) {
-        double mass = 0.0;
-        for (int32_t i = 0; i < cloth->nv; i++) mass += cr_sim_masses(sim)[i];
-        cr_progress bar;
-        cr_progress_begin(&bar, "drape-static", max_frames, quiet);
-        /* Settle dynamically (damping and friction hold the cloth where it lands) until the
-         * RMS speed drops below SETTLED_SPEED, then polish with a static solve. */
-        while (settle_frames < max_frames) {
-            solved = cr_sim_step(sim, &rep, &err);
-            if (solved == CR_OK || solved == CR_ERR_DIVERGED)
-                st = cr_scene_record_frame(rec, sim, &rep, &err);
-            if (solved != CR_OK || st != CR_OK) break;
-            settle_frames++;
-            seconds += rep.seconds, newton += rep.newton_iterations;
-            max_pen = fmax(max_pen, rep.max_penetration_m);
-            double speed = sqrt(2.0 * rep.kinetic_energy / mass);
-            cr_progress_update(&bar, settle_frames, "rms speed %.2g m/s", speed);
-            if (speed < SETTLED_SPEED) break;
-        }
-        cr_progress_end(&bar);
-        if (solved == CR_OK && st == CR_OK) {
-            solved = cr_sim_solve_static(sim, &rep, &err);
-            if (solved == CR_OK || solved == CR_ERR_DIVERGED)
-                st = cr_scene_record_frame(rec, sim, &rep, &err);
-            seconds += rep.seconds, newton += rep.newton_iterations;
-            max_pen = fmax(max_pen, rep.max_penetration_m);
-        }
-        if (solved != CR_OK && solved != CR_ERR_DIVERGED && st == CR_OK) st = solved;
+    if (st == CR_OK && solved == CR_OK) {
+        int frames = coarse > 0 ? 0 : max_frames;
+        ctx.rec = rec;
+        cr_progress_begin(&ctx.bar, "drape-static", frames, quiet || frames == 0);
+        solved = cr_scene_settle(sim, frames, SETTLED_SPEED, record_state, &ctx, &stats, &err);
+        cr_progress_end(&ctx.bar);
+        if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
+    stats.seconds += coarse_stats.seconds;
+    stats.newton += coarse_stats.newton;
+    stats.settle_frames += coarse_stats.settle_frames;
+    stats.max_penetration_m = fmax(stats.max_penetration_m, coarse_stats.max_penetration_m);
     if (st == CR_OK && solved == CR_OK) {
         snprintf(obj_path, sizeof obj_path, "%s/final.obj", out);
         snprintf(png_path, sizeof png_path, "%s/final.png", out);
@@ -142,7 +181,8 @@ int cmd_drape_static(int argc, char **argv) {
         if (!quiet)
             fprintf(stderr, "drape-static: %d settling frames + static solve, %lld Newton "
                             "iterations, %.2f s, deepest %.3g mm\n",
-                    settle_frames, newton, seconds, 1e3 * max_pen);
+                    stats.settle_frames, stats.newton, stats.seconds,
+                    1e3 * stats.max_penetration_m);
         if (json) {
             cJSON *j = cJSON_CreateObject();
             cJSON_AddStringToObject(j, "command", "drape-static");
@@ -150,12 +190,13 @@ int cmd_drape_static(int argc, char **argv) {
             cJSON_AddNumberToObject(j, "res", res);
             cJSON_AddNumberToObject(j, "vertices", cloth->nv);
             cJSON_AddStringToObject(j, "material", def.material.name);
-            cJSON_AddNumberToObject(j, "settle_frames", settle_frames);
-            cJSON_AddBoolToObject(j, "converged", rep.newton_capped == 0);
-            cJSON_AddNumberToObject(j, "max_penetration_m", max_pen);
-            cJSON_AddNumberToObject(j, "newton_iterations", (double)newton);
-            cJSON_AddNumberToObject(j, "contacts", rep.contacts);
-            cJSON_AddNumberToObject(j, "seconds", seconds);
+            if (coarse > 0) cJSON_AddNumberToObject(j, "coarse", coarse);
+            cJSON_AddNumberToObject(j, "settle_frames", stats.settle_frames);
+            cJSON_AddBoolToObject(j, "converged", stats.converged);
+            cJSON_AddNumberToObject(j, "max_penetration_m", stats.max_penetration_m);
+            cJSON_AddNumberToObject(j, "newton_iterations", (double)stats.newton);
+            cJSON_AddNumberToObject(j, "contacts", stats.contacts);
+            cJSON_AddNumberToObject(j, "seconds", stats.seconds);
             cJSON *o = cJSON_AddObjectToObject(j, "outputs");
             cJSON_AddStringToObject(o, "obj", obj_path);
             cJSON_AddStringToObject(o, "png", png_path);

@@ -59,6 +59,64 @@ cr_status cr_scene_cloth_above(const cr_mesh *object, int32_t res, float size, f
     return CR_OK;
 }
 
+cr_status cr_scene_cloth_refine(const cr_mesh *coarse, int32_t coarse_res, cr_mesh *fine,
+                                int32_t fine_res, cr_error *err) {
+    if (coarse_res < 2 || (int64_t)coarse_res * coarse_res != coarse->nv)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "cloth refine: the coarse cloth has %d vertices, not %d x %d", coarse->nv,
+                       coarse_res, coarse_res);
+    if (fine_res < 2 || (int64_t)fine_res * fine_res != fine->nv)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "cloth refine: the fine cloth has %d vertices, not %d x %d", fine->nv,
+                       fine_res, fine_res);
+    const double scale = (double)(coarse_res - 1) / (fine_res - 1);
+    for (int32_t k = 0; k < fine_res; k++) {
+        double gk = k * scale;
+        int32_t k0 = gk >= coarse_res - 1 ? coarse_res - 2 : (int32_t)gk;
+        double tk = gk - k0;
+        for (int32_t i = 0; i < fine_res; i++) {
+            double gi = i * scale;
+            int32_t i0 = gi >= coarse_res - 1 ? coarse_res - 2 : (int32_t)gi;
+            double ti = gi - i0;
+            const float *p00 = coarse->pos + 3 * ((int64_t)k0 * coarse_res + i0);
+            const float *p01 = p00 + 3, *p10 = p00 + 3 * (int64_t)coarse_res, *p11 = p10 + 3;
+            float *q = fine->pos + 3 * ((int64_t)k * fine_res + i);
+            for (int d = 0; d < 3; d++)
+                q[d] = (float)((1 - tk) * ((1 - ti) * p00[d] + ti * p01[d]) +
+                               tk * ((1 - ti) * p10[d] + ti * p11[d]));
+        }
+    }
+    return CR_OK;
+}
+
+cr_status cr_scene_settle(cr_sim *sim, int max_frames, double settled_speed,
+                          cr_scene_state_fn on_state, void *ctx, cr_scene_settle_stats *stats,
+                          cr_error *err) {
+    memset(stats, 0, sizeof *stats);
+    const double *mass = cr_sim_masses(sim);
+    double total_mass = 0.0;
+    for (int32_t i = 0; i < cr_sim_vertex_count(sim); i++) total_mass += mass[i];
+    cr_sim_report rep;
+    for (int frame = 0; frame <= max_frames; frame++) {
+        int statik = frame == max_frames;
+        cr_status solved = statik ? cr_sim_solve_static(sim, &rep, err) : cr_sim_step(sim, &rep, err);
+        if (solved != CR_OK && solved != CR_ERR_DIVERGED) return solved;
+        stats->seconds += rep.seconds, stats->newton += rep.newton_iterations;
+        stats->max_penetration_m = fmax(stats->max_penetration_m, rep.max_penetration_m);
+        stats->contacts = rep.contacts;
+        double speed = sqrt(2.0 * rep.kinetic_energy / total_mass);
+        if (!statik) stats->settle_frames++;
+        if (on_state) CR_TRY(on_state(ctx, sim, &rep, statik ? 0 : frame + 1, speed, err));
+        if (solved != CR_OK) return solved;
+        if (statik) {
+            stats->converged = rep.newton_capped == 0;
+            break;
+        }
+        if (speed < settled_speed) max_frames = frame + 1; /* the static solve comes next */
+    }
+    return CR_OK;
+}
+
 /* A clone of `m` with positions `pos` (NULL: unchanged). */
 static cr_status posed_clone(const cr_mesh *m, const float *pos, cr_mesh **out, cr_error *err) {
     CR_TRY(cr_mesh_clone(m, out, err));
