@@ -170,8 +170,12 @@ static cr_status simulate_reference(const char *object, int res, const char *pat
 }
 
 static void print_fidelity(const char *name, const cr_drape_fidelity *f) {
-    printf("%-13s %10.2f %9.3f %8.2f", name, 1e3 * f->chamfer_m, 1e3 * f->max_penetration_m,
-           f->h_rms);
+    /* The reference has no Chamfer distance to itself (NaN). */
+    if (isnan(f->chamfer_m))
+        printf("%-13s %10s", name, "-");
+    else
+        printf("%-13s %10.2f", name, 1e3 * f->chamfer_m);
+    printf(" %9.3f %8.2f", 1e3 * f->max_penetration_m, f->h_rms);
     for (int b = 0; b < CR_DRAPE_H_BANDS; b++)
         printf(" %7.3f", f->h_band[b]);
     printf("\n");
