@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `make run`: the main job on built-in defaults. The drape method (paper 000)
 # drapes a 1 m cloth over a ball with an implicit neural surface trained on
-# physics losses (about 1.5 minutes on two cores), then renders it again from
+# physics losses (about 2 minutes on two cores), then renders it again from
 # the side, and says where everything is.
 # Usage: run_demo.sh CREASE_BINARY OUT_DIR
 set -euo pipefail

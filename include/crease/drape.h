@@ -158,7 +158,7 @@ typedef struct cr_drape_def {
     float beta2;    /* Adam's second-moment decay (default 0.999) */
     float clip;     /* gradient-norm clip, times the running mean of recent norms (default 3;
                        0: off) */
-    int epochs;     /* cap on epochs, >= 1 (default 2500) */
+    int epochs;     /* cap on epochs, >= 1 (default 5000) */
     int samples;    /* N structures per epoch (default 1024) */
 
     /* sampler (structure variants) */

@@ -23,7 +23,7 @@ void help_drape(void) {
         "  --compare            run all four variants into DIR/<variant>/ and write\n"
         "                       DIR/compare.png with their renders side by side\n"
         "training:\n"
-        "  --epochs N           epochs (default 2500)\n"
+        "  --epochs N           epochs (default 5000)\n"
         "  --samples N          local structures per epoch (default 1024)\n"
         "  --lr R               Adam learning rate (default 0.0005)\n"
         "  --lr-final R         anneal to R by the last epoch (cosine; default: none)\n"

@@ -97,7 +97,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
         .settle_epochs = 250,
         .beta2 = 0.999f,
         .clip = 3.0f,
-        .epochs = 2500,
+        .epochs = 5000,
         .samples = 1024,
         .pdf_grid = 32,
         .pdf_gamma = 0.9f,
