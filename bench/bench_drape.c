@@ -34,8 +34,7 @@
 #include <string.h>
 
 enum { MAX_FRAMES = 150 };
-#define SETTLED_SPEED 5e-3 /* m/s: drape-static's settling threshold */
-#define COARSE_RES 128     /* vertices per side that settle dynamically */
+#define COARSE_RES 128 /* vertices per side that settle dynamically */
 
 typedef struct bench_opts {
     const char *only;
@@ -130,41 +129,41 @@ static void table2(const bench_opts *o) {
 
 /* ---------------------------------------------------------- fidelity -- */
 
-/* drape-static's procedure (cr_scene_settle): settle dynamically until the
- * RMS speed is below SETTLED_SPEED (at most MAX_FRAMES frames), then a
- * static solve; above COARSE_RES vertices per side, `crease drape-static
- * --coarse COARSE_RES`: the coarse cloth settles and the fine one solves
- * statically from its rest shape. */
-static cr_status settle_cloth(const cr_sim_def *def, const cr_mesh *obj, int res,
-                              const cr_mesh *start, int start_res, cr_mesh **out, cr_error *err) {
-    cr_sim *sim = NULL;
-    cr_scene_settle_stats stats;
-    cr_status st = cr_scene_cloth_above(obj, res, 1.0f, 0.05f, out, err);
-    if (st == CR_OK && start) st = cr_scene_cloth_refine(start, start_res, *out, res, err);
-    if (st == CR_OK) st = cr_sim_create(def, *out, &sim, err);
-    if (st == CR_OK)
-        st = cr_scene_settle(sim, start ? 0 : MAX_FRAMES, SETTLED_SPEED, NULL, NULL, &stats, err);
-    if (st == CR_OK) {
-        cr_sim_positions_f(sim, (*out)->pos);
-        fprintf(stderr, "bench_drape: %dx%d reference: %d frames, %lld Newton iterations, %.1f s\n",
-                res, res, stats.settle_frames, stats.newton, stats.seconds);
-    }
-    cr_sim_destroy(sim);
-    return st;
-}
-
+/* drape-static's procedure: settle dynamically until the RMS speed is below
+ * CR_SCENE_SETTLED_SPEED (at most MAX_FRAMES frames), then a static solve;
+ * above COARSE_RES vertices per side, `crease drape-static --coarse
+ * COARSE_RES`: the coarse cloth settles and the fine one solves statically
+ * from its rest shape. */
 static cr_status simulate_reference(const char *object, int res, const char *path, cr_error *err) {
-    cr_mesh *obj = NULL, *coarse = NULL, *cloth = NULL;
+    cr_mesh *obj = NULL, *cloth = NULL;
+    cr_sim *sim = NULL;
     cr_sim_def def = cr_sim_default_def();
+    cr_scene_settle_stats coarse = {0}, fine = {0};
+    int refine = res > COARSE_RES;
     cr_status st = cr_material_preset("cotton", &def.material, err);
     if (st == CR_OK) st = cr_scene_object_create(object, &obj, err);
     def.collider = obj;
-    if (st == CR_OK && res > COARSE_RES)
-        st = settle_cloth(&def, obj, COARSE_RES, NULL, 0, &coarse, err);
-    if (st == CR_OK) st = settle_cloth(&def, obj, res, coarse, COARSE_RES, &cloth, err);
-    if (st == CR_OK) st = cr_mesh_write(path, cloth, err);
+    if (st == CR_OK) st = cr_scene_cloth_above(obj, res, 1.0f, 0.05f, &cloth, err);
+    if (st == CR_OK && refine)
+        st = cr_scene_settle_coarse(&def, obj, COARSE_RES, 1.0f, 0.05f, MAX_FRAMES,
+                                    CR_SCENE_SETTLED_SPEED, NULL, NULL, cloth, res, &coarse, err);
+    if (st == CR_OK) st = cr_sim_create(&def, cloth, &sim, err);
+    if (st == CR_OK)
+        st = cr_scene_settle(sim, refine ? 0 : MAX_FRAMES, CR_SCENE_SETTLED_SPEED, NULL, NULL,
+                             &fine, err);
+    if (st == CR_OK) {
+        if (refine)
+            fprintf(stderr,
+                    "bench_drape: %dx%d coarse stage: %d frames, %lld Newton iterations, "
+                    "%.1f s\n",
+                    COARSE_RES, COARSE_RES, coarse.settle_frames, coarse.newton, coarse.seconds);
+        fprintf(stderr, "bench_drape: %dx%d reference: %d frames, %lld Newton iterations, %.1f s\n",
+                res, res, fine.settle_frames, fine.newton, fine.seconds);
+        cr_sim_positions_f(sim, cloth->pos);
+        st = cr_mesh_write(path, cloth, err);
+    }
+    cr_sim_destroy(sim);
     cr_mesh_destroy(cloth);
-    cr_mesh_destroy(coarse);
     cr_mesh_destroy(obj);
     return st;
 }

@@ -51,6 +51,10 @@ cr_status cr_scene_cloth_above(const cr_mesh *object, int32_t res, float size, f
 cr_status cr_scene_cloth_refine(const cr_mesh *coarse, int32_t coarse_res, cr_mesh *fine,
                                 int32_t fine_res, cr_error *err);
 
+/* RMS vertex speed, m/s, below which a settling cloth counts as at rest
+ * (drape-static's threshold). */
+#define CR_SCENE_SETTLED_SPEED 5e-3
+
 /* What cr_scene_settle did. */
 typedef struct cr_scene_settle_stats {
     int settle_frames;        /* dynamic frames run */
@@ -76,6 +80,17 @@ typedef cr_status (*cr_scene_state_fn)(void *ctx, const cr_sim *sim, const cr_si
 cr_status cr_scene_settle(cr_sim *sim, int max_frames, double settled_speed,
                           cr_scene_state_fn on_state, void *ctx, cr_scene_settle_stats *stats,
                           cr_error *err);
+
+/* The coarse stage of a coarse-to-fine drape: a coarse_res x coarse_res
+ * cloth laid over `object` as cr_scene_cloth_above(size, gap) settles with
+ * cr_scene_settle(max_frames, settled_speed, on_state) under `def` (its
+ * collider is `object`), and its rest shape, interpolated by
+ * cr_scene_cloth_refine, becomes the positions of the fine_res x fine_res
+ * cloth `fine`. */
+cr_status cr_scene_settle_coarse(const cr_sim_def *def, const cr_mesh *object, int32_t coarse_res,
+                                 float size, float gap, int max_frames, double settled_speed,
+                                 cr_scene_state_fn on_state, void *ctx, cr_mesh *fine,
+                                 int32_t fine_res, cr_scene_settle_stats *stats, cr_error *err);
 
 /* Render `garment` at positions `garment_pos` (V,3, m; NULL: its own) in
  * cloth blue with `collider` (may be NULL) at `collider_pos` (Vc,3, m; NULL:

@@ -9,7 +9,6 @@
 #include <string.h>
 
 enum { RENDER_SIZE = 800 };
-#define SETTLED_SPEED 5e-3 /* m/s, RMS vertex speed below which the cloth counts as at rest */
 #define CLOTH_SIZE 1.0f /* m, side of the square cloth */
 
 void help_drape_static(void) {
@@ -53,35 +52,11 @@ static cr_status record_state(void *vctx, const cr_sim *sim, const cr_sim_report
     return CR_OK;
 }
 
-static cr_status coarse_progress(void *vctx, const cr_sim *sim, const cr_sim_report *rep,
-                                 int frame, double rms_speed, cr_error *err) {
+static cr_status coarse_progress(void *vctx, const cr_sim *sim, const cr_sim_report *rep, int frame,
+                                 double rms_speed, cr_error *err) {
     (void)sim, (void)rep, (void)err;
     if (frame > 0) cr_progress_update(vctx, frame, "coarse, rms speed %.2g m/s", rms_speed);
     return CR_OK;
-}
-
-/* --coarse: settle a coarse x coarse cloth over obj (dynamically, then
- * statically) and write its rest shape, interpolated, into `fine`. */
-static cr_status settle_coarse(const cr_sim_def *def, const cr_mesh *obj, int coarse, float gap,
-                               int max_frames, int quiet, cr_mesh *fine, int res,
-                               cr_scene_settle_stats *stats, cr_error *err) {
-    cr_mesh *cloth = NULL;
-    cr_sim *sim = NULL;
-    cr_status st = cr_scene_cloth_above(obj, coarse, CLOTH_SIZE, gap, &cloth, err);
-    if (st == CR_OK) st = cr_sim_create(def, cloth, &sim, err);
-    if (st == CR_OK) {
-        cr_progress bar;
-        cr_progress_begin(&bar, "drape-static", max_frames, quiet);
-        st = cr_scene_settle(sim, max_frames, SETTLED_SPEED, coarse_progress, &bar, stats, err);
-        cr_progress_end(&bar);
-    }
-    if (st == CR_OK) {
-        cr_sim_positions_f(sim, cloth->pos);
-        st = cr_scene_cloth_refine(cloth, coarse, fine, res, err);
-    }
-    cr_sim_destroy(sim);
-    cr_mesh_destroy(cloth);
-    return st;
 }
 
 int cmd_drape_static(int argc, char **argv) {
@@ -146,8 +121,12 @@ int cmd_drape_static(int argc, char **argv) {
     if (st == CR_OK && coarse > 0) {
         /* Settle the coarse cloth, refine its rest shape onto the fine one,
          * and let the fine one only solve statically from there. */
-        solved = settle_coarse(&def, obj, coarse, gap, max_frames, quiet, cloth, res, &coarse_stats,
-                               &err);
+        cr_progress bar;
+        cr_progress_begin(&bar, "drape-static", max_frames, quiet);
+        solved = cr_scene_settle_coarse(&def, obj, coarse, CLOTH_SIZE, gap, max_frames,
+                                        CR_SCENE_SETTLED_SPEED, coarse_progress, &bar, cloth, res,
+                                        &coarse_stats, &err);
+        cr_progress_end(&bar);
         if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
     if (st == CR_OK && solved == CR_OK) st = cr_sim_create(&def, cloth, &sim, &err);
@@ -160,7 +139,8 @@ int cmd_drape_static(int argc, char **argv) {
         int frames = coarse > 0 ? 0 : max_frames;
         ctx.rec = rec;
         cr_progress_begin(&ctx.bar, "drape-static", frames, quiet || frames == 0);
-        solved = cr_scene_settle(sim, frames, SETTLED_SPEED, record_state, &ctx, &stats, &err);
+        solved =
+            cr_scene_settle(sim, frames, CR_SCENE_SETTLED_SPEED, record_state, &ctx, &stats, &err);
         cr_progress_end(&ctx.bar);
         if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
@@ -179,8 +159,9 @@ int cmd_drape_static(int argc, char **argv) {
     }
     if (st == CR_OK && solved == CR_OK) {
         if (!quiet)
-            fprintf(stderr, "drape-static: %d settling frames + static solve, %lld Newton "
-                            "iterations, %.2f s, deepest %.3g mm\n",
+            fprintf(stderr,
+                    "drape-static: %d settling frames + static solve, %lld Newton "
+                    "iterations, %.2f s, deepest %.3g mm\n",
                     stats.settle_frames, stats.newton, stats.seconds,
                     1e3 * stats.max_penetration_m);
         if (json) {

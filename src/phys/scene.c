@@ -95,26 +95,46 @@ cr_status cr_scene_settle(cr_sim *sim, int max_frames, double settled_speed,
     memset(stats, 0, sizeof *stats);
     const double *mass = cr_sim_masses(sim);
     double total_mass = 0.0;
-    for (int32_t i = 0; i < cr_sim_vertex_count(sim); i++) total_mass += mass[i];
+    for (int32_t i = 0; i < cr_sim_vertex_count(sim); i++)
+        total_mass += mass[i];
     cr_sim_report rep;
-    for (int frame = 0; frame <= max_frames; frame++) {
-        int statik = frame == max_frames;
-        cr_status solved = statik ? cr_sim_solve_static(sim, &rep, err) : cr_sim_step(sim, &rep, err);
+    int settled = max_frames <= 0; /* the static solve comes next */
+    for (int frame = 0;; frame++) {
+        cr_status solved =
+            settled ? cr_sim_solve_static(sim, &rep, err) : cr_sim_step(sim, &rep, err);
         if (solved != CR_OK && solved != CR_ERR_DIVERGED) return solved;
         stats->seconds += rep.seconds, stats->newton += rep.newton_iterations;
         stats->max_penetration_m = fmax(stats->max_penetration_m, rep.max_penetration_m);
         stats->contacts = rep.contacts;
         double speed = sqrt(2.0 * rep.kinetic_energy / total_mass);
-        if (!statik) stats->settle_frames++;
-        if (on_state) CR_TRY(on_state(ctx, sim, &rep, statik ? 0 : frame + 1, speed, err));
+        if (!settled) stats->settle_frames++;
+        if (on_state) CR_TRY(on_state(ctx, sim, &rep, settled ? 0 : frame + 1, speed, err));
         if (solved != CR_OK) return solved;
-        if (statik) {
+        if (settled) {
             stats->converged = rep.newton_capped == 0;
-            break;
+            return CR_OK;
         }
-        if (speed < settled_speed) max_frames = frame + 1; /* the static solve comes next */
+        settled = speed < settled_speed || frame + 1 >= max_frames;
     }
-    return CR_OK;
+}
+
+cr_status cr_scene_settle_coarse(const cr_sim_def *def, const cr_mesh *object, int32_t coarse_res,
+                                 float size, float gap, int max_frames, double settled_speed,
+                                 cr_scene_state_fn on_state, void *ctx, cr_mesh *fine,
+                                 int32_t fine_res, cr_scene_settle_stats *stats, cr_error *err) {
+    cr_mesh *cloth = NULL;
+    cr_sim *sim = NULL;
+    cr_status st = cr_scene_cloth_above(object, coarse_res, size, gap, &cloth, err);
+    if (st == CR_OK) st = cr_sim_create(def, cloth, &sim, err);
+    if (st == CR_OK)
+        st = cr_scene_settle(sim, max_frames, settled_speed, on_state, ctx, stats, err);
+    if (st == CR_OK) {
+        cr_sim_positions_f(sim, cloth->pos);
+        st = cr_scene_cloth_refine(cloth, coarse_res, fine, fine_res, err);
+    }
+    cr_sim_destroy(sim);
+    cr_mesh_destroy(cloth);
+    return st;
 }
 
 /* A clone of `m` with positions `pos` (NULL: unchanged). */
