@@ -111,7 +111,7 @@ int cmd_drape_static(int argc, char **argv) {
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;
     char path[1200], obj_path[1200], png_path[1200];
-    cr_status st = CR_OK, solved = CR_OK;
+    cr_status st = CR_OK;
     cr_scene_settle_stats stats = {0}, coarse_stats = {0};
     state_ctx ctx = {0};
     if (material_json) st = cr_material_load_json(material_json, &def.material, &err);
@@ -123,32 +123,29 @@ int cmd_drape_static(int argc, char **argv) {
          * and let the fine one only solve statically from there. */
         cr_progress bar;
         cr_progress_begin(&bar, "drape-static", max_frames, quiet);
-        solved = cr_scene_settle_coarse(&def, obj, coarse, CLOTH_SIZE, gap, max_frames,
-                                        CR_SCENE_SETTLED_SPEED, coarse_progress, &bar, cloth, res,
-                                        &coarse_stats, &err);
+        st = cr_scene_settle_coarse(&def, obj, coarse, CLOTH_SIZE, gap, max_frames,
+                                    CR_SCENE_SETTLED_SPEED, coarse_progress, &bar, cloth, res,
+                                    &coarse_stats, &err);
         cr_progress_end(&bar);
-        if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
-    if (st == CR_OK && solved == CR_OK) st = cr_sim_create(&def, cloth, &sim, &err);
-    if (st == CR_OK && solved == CR_OK) st = cr_mkdir_p(out, &err);
-    if (st == CR_OK && solved == CR_OK) {
+    if (st == CR_OK) st = cr_sim_create(&def, cloth, &sim, &err);
+    if (st == CR_OK) st = cr_mkdir_p(out, &err);
+    if (st == CR_OK) {
         snprintf(path, sizeof path, "%s/frames.jsonl", out);
         st = cr_scene_record_create(path, sim, cloth, max_frames + 2, &rec, &err);
     }
-    if (st == CR_OK && solved == CR_OK) {
+    if (st == CR_OK) {
         int frames = coarse > 0 ? 0 : max_frames;
         ctx.rec = rec;
         cr_progress_begin(&ctx.bar, "drape-static", frames, quiet || frames == 0);
-        solved =
-            cr_scene_settle(sim, frames, CR_SCENE_SETTLED_SPEED, record_state, &ctx, &stats, &err);
+        st = cr_scene_settle(sim, frames, CR_SCENE_SETTLED_SPEED, record_state, &ctx, &stats, &err);
         cr_progress_end(&ctx.bar);
-        if (solved != CR_OK && solved != CR_ERR_DIVERGED) st = solved;
     }
     stats.seconds += coarse_stats.seconds;
     stats.newton += coarse_stats.newton;
     stats.settle_frames += coarse_stats.settle_frames;
     stats.max_penetration_m = fmax(stats.max_penetration_m, coarse_stats.max_penetration_m);
-    if (st == CR_OK && solved == CR_OK) {
+    if (st == CR_OK) {
         snprintf(obj_path, sizeof obj_path, "%s/final.obj", out);
         snprintf(png_path, sizeof png_path, "%s/final.png", out);
         snprintf(path, sizeof path, "%s/sim.pc2", out);
@@ -157,7 +154,7 @@ int cmd_drape_static(int argc, char **argv) {
         if (st == CR_OK) st = cr_scene_record_write(rec, path, NULL, 1.0f, &err);
         if (st == CR_OK) st = cr_scene_render(png_path, final, NULL, obj, NULL, RENDER_SIZE, &err);
     }
-    if (st == CR_OK && solved == CR_OK) {
+    if (st == CR_OK) {
         if (!quiet)
             fprintf(stderr,
                     "drape-static: %d settling frames + static solve, %lld Newton "
@@ -191,6 +188,6 @@ int cmd_drape_static(int argc, char **argv) {
     cr_sim_destroy(sim);
     cr_mesh_destroy(cloth);
     cr_mesh_destroy(obj);
-    if (st != CR_OK || solved != CR_OK) return cli_fail(&err);
+    if (st != CR_OK) return cli_fail(&err);
     return CLI_OK;
 }
