@@ -312,7 +312,7 @@ CR_TEST(drape, default_model_has_the_paper_size) {
 /* Mean weighted structure terms of the coarse scene's rest cloth deformed by
  * `map`, against the mesh losses per vertex: the rescaled mesh weights make
  * both estimate the same energy for isotropic stretch and for a spherical cap
- * (the derivation is above drape_mesh_losses_create). */
+ * (the derivation is above cr_drape_mesh_losses_create). */
 typedef void (*deform_fn)(const float *p, float *q);
 static void stretch(const float *p, float *q) {
     for (int c = 0; c < 3; c++)
@@ -332,9 +332,9 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
     d.w.gravity = 0.0f, d.w.collision = 0.0f;
     drape_scene s;
     cr_error err = {0};
-    CR_CHECK_OK(drape_scene_create(&d, &s, &err), &err);
+    CR_CHECK_OK(cr_drape_scene_create(&d, &s, &err), &err);
     drape_mesh_losses ml;
-    CR_CHECK_OK(drape_mesh_losses_create(&d, &s, &ml, &err), &err);
+    CR_CHECK_OK(cr_drape_mesh_losses_create(&d, &s, &ml, &err), &err);
     cr_drape_model *m = NULL;
     CR_CHECK_OK(cr_drape_model_create(&d, s.rest, &m, &err), &err);
     cr_nn_ctx *ctx = nn_gradcheck_ctx(64 << 20);
@@ -371,8 +371,8 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
             th[i] = (float)(2.0 * M_PI / 3.0 * ((i * 37) % 100) / 100.0);
         }
         drape_batch b;
-        CR_CHECK_OK(drape_batch_alloc(&b, NS, &err), &err);
-        drape_batch_build(&b, m, c, th, NS, d.side, 1);
+        CR_CHECK_OK(cr_drape_batch_alloc(&b, NS, &err), &err);
+        cr_drape_batch_build(&b, m, c, th, NS, d.side, 1);
         /* the structures on the smooth deformed surface, not on the mesh's facets */
         float *xs = malloc((size_t)b.n * 18 * sizeof(float));
         CR_REQUIRE(xs);
@@ -386,7 +386,7 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
         }
         double sums[4] = {0};
         drape_loss_ctx lc = {.def = &d, .bvh = s.bvh};
-        CR_CHECK_OK(drape_batch_eval(ctx, &lc, &b, xs, sums, NULL, &err), &err);
+        CR_CHECK_OK(cr_drape_batch_eval(ctx, &lc, &b, xs, sums, NULL, &err), &err);
         double st_strain = sums[0] / b.n, st_bend = sums[1] / b.n;
         if (k == 0) {
             CR_CHECK(st_strain > 0);
@@ -396,12 +396,12 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
             CR_CHECK_NEAR(mesh_bend / st_bend, 1.0, 0.1);
         }
         free(xs);
-        drape_batch_free(&b);
+        cr_drape_batch_free(&b);
     }
     cr_nn_ctx_destroy(ctx);
     cr_drape_model_destroy(m);
-    drape_mesh_losses_free(&ml);
-    drape_scene_free(&s);
+    cr_drape_mesh_losses_free(&ml);
+    cr_drape_scene_free(&s);
 }
 
 /* ------------------------------------------------------------- runs -- */

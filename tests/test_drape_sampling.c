@@ -551,7 +551,8 @@ CR_TEST(drape_sampling, voronoi_queries_match_brute_force) {
         memcpy(before, uv, (size_t)n * 2 * sizeof(float));
         drape_lloyd L;
         memset(&L, 0, sizeof L);
-        CR_CHECK_OK(drape_lloyd_relax(&L, uv, n, density, 1, rho, 2.0, mask, G, 77, 3, &err), &err);
+        CR_CHECK_OK(cr_drape_lloyd_relax(&L, uv, n, density, 1, rho, 2.0, mask, G, 77, 3, &err),
+                    &err);
         int64_t m = (int64_t)n * density;
         int wrong = 0;
         for (int64_t k = 0; k < m; k++) {
@@ -568,7 +569,7 @@ CR_TEST(drape_sampling, voronoi_queries_match_brute_force) {
         }
         CR_CHECK(wrong == 0);
         if (t >= 2) CR_CHECK(L.ratio > 1); /* the two-grid path ran */
-        drape_lloyd_free(&L);
+        cr_drape_lloyd_free(&L);
     }
     free(rho), free(mask), free(uv), free(before);
 }

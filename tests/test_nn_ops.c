@@ -310,8 +310,8 @@ CR_TEST(nn_ops, gemm_matches_naive_reference) {
             B[i] = cr_rng_uniformf(&r) - 0.5f;
         for (int i = 0; i < 35; i++)
             C1[i] = C2[i] = cr_rng_uniformf(&r);
-        nn_cpu_gemm(ta, tb, M, N, K, 0.5f, A, ta ? M : K, B, tb ? K : N, 0.25f, C1, N);
-        nn_cpu_gemm_naive(ta, tb, M, N, K, 0.5f, A, ta ? M : K, B, tb ? K : N, 0.25f, C2, N);
+        cr_nn_cpu_gemm(ta, tb, M, N, K, 0.5f, A, ta ? M : K, B, tb ? K : N, 0.25f, C1, N);
+        cr_nn_cpu_gemm_naive(ta, tb, M, N, K, 0.5f, A, ta ? M : K, B, tb ? K : N, 0.25f, C2, N);
         for (int i = 0; i < 35; i++)
             CR_CHECK_NEAR(C1[i], C2[i], 1e-5);
     }
@@ -335,7 +335,7 @@ CR_TEST(nn_ops, matmul_gradients) {
         cr_tensor *y = build_mm(ctx, ts, &m);
         CR_REQUIRE(y && y->shape[nd - 2] == M && y->shape[nd - 1] == N);
         float ref[20];
-        nn_cpu_gemm_naive(m.ta, m.tb, M, N, K, 1, a, m.ta ? M : K, b, m.tb ? K : N, 0, ref, N);
+        cr_nn_cpu_gemm_naive(m.ta, m.tb, M, N, K, 1, a, m.ta ? M : K, b, m.tb ? K : N, 0, ref, N);
         for (int i = 0; i < 20; i++)
             CR_CHECK_NEAR(y->data[i], ref[i], 1e-5);
         nn_gradcheck_input in[2] = {nn_gradcheck_in(nd, ash, a), nn_gradcheck_in(nd, bsh, b)};

@@ -93,8 +93,10 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
             return CR_FAIL(err, CR_ERR_INVALID, "dataset: resolution '%s': expected low or high",
                            d->res[i]);
         if (ds->res_vertices[i] < 500 || ds->res_vertices[i] > 100000)
-            return CR_FAIL(err, CR_ERR_INVALID, "dataset: %s resolution of %d vertices: need 500 "
-                           "to 100000", d->res[i], ds->res_vertices[i]);
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "dataset: %s resolution of %d vertices: need 500 "
+                           "to 100000",
+                           d->res[i], ds->res_vertices[i]);
     }
     cr_material mat;
     return cr_material_preset(d->material ? d->material : "", &mat, err);
@@ -149,7 +151,8 @@ static cr_status write_garment(const dataset *ds, const char *body, const char *
     CR_TRY(cr_npz_writer_open(path, 1, &w, err));
     int64_t ws[2] = {g->mesh->nv, 4}, fs[1] = {g->mesh->nf};
     cr_status st = cr_npz_writer_add(w, "skin_joint", CR_NPY_I32, 2, ws, g->skin_joint, err);
-    if (st == CR_OK) st = cr_npz_writer_add(w, "skin_weight", CR_NPY_F32, 2, ws, g->skin_weight, err);
+    if (st == CR_OK)
+        st = cr_npz_writer_add(w, "skin_weight", CR_NPY_F32, 2, ws, g->skin_weight, err);
     if (st == CR_OK) st = cr_npz_writer_add(w, "panel", CR_NPY_I32, 1, fs, g->panel, err);
     if (st != CR_OK) {
         cr_npz_writer_abort(w);
@@ -288,11 +291,11 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
         st = make_assets(ds, &bar, err);
         cr_progress_end(&bar);
     }
-    if (st == CR_OK) st = dataset_plan(ds, err);
-    if (st == CR_OK) st = dataset_write_manifest(ds, err);
+    if (st == CR_OK) st = cr_dataset_plan(ds, err);
+    if (st == CR_OK) st = cr_dataset_write_manifest(ds, err);
     if (st == CR_OK) {
-        dataset_run_sequences(ds);
-        st = dataset_write_manifest(ds, err);
+        cr_dataset_run_sequences(ds);
+        st = cr_dataset_write_manifest(ds, err);
     }
     if (st == CR_OK) {
         out->sequences = ds->nseq;

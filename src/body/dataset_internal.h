@@ -37,10 +37,10 @@ typedef struct dataset {
 } dataset;
 
 /* Every combination, marked SEQ_SKIPPED where result.json says done. */
-cr_status dataset_plan(dataset *ds, cr_error *err);
+cr_status cr_dataset_plan(dataset *ds, cr_error *err);
 /* Simulate the pending sequences, several at once; failures are recorded. */
-void dataset_run_sequences(dataset *ds);
+void cr_dataset_run_sequences(dataset *ds);
 /* manifest.json from the def, the assets and the sequences' states. */
-cr_status dataset_write_manifest(const dataset *ds, cr_error *err);
+cr_status cr_dataset_write_manifest(const dataset *ds, cr_error *err);
 
 #endif

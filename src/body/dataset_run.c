@@ -52,7 +52,7 @@ static int already_done(const dataset *ds, dataset_seq *q) {
     return done;
 }
 
-cr_status dataset_plan(dataset *ds, cr_error *err) {
+cr_status cr_dataset_plan(dataset *ds, cr_error *err) {
     const cr_dataset_def *d = &ds->def;
     ds->nseq = d->ngarments * d->nmotions * d->nbodies * d->nres;
     ds->seq = cr_calloc((size_t)ds->nseq, sizeof(dataset_seq), err);
@@ -92,8 +92,10 @@ static int32_t waist_loop(const cr_garment *g, int32_t **out, cr_error *err) {
     int32_t n = best < 0 ? 0 : t->loop_off[best + 1] - t->loop_off[best];
     if (n > 0) {
         *out = cr_malloc((size_t)n * sizeof(int32_t), err);
-        if (*out) memcpy(*out, t->loop_vert + t->loop_off[best], (size_t)n * sizeof(int32_t));
-        else n = -1;
+        if (*out)
+            memcpy(*out, t->loop_vert + t->loop_off[best], (size_t)n * sizeof(int32_t));
+        else
+            n = -1;
     }
     cr_topology_destroy(t);
     return n;
@@ -214,8 +216,8 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     float *dist = cr_malloc(sizeof(float) * (size_t)nv, err);
     if (st == CR_OK && (!xf || !dist)) st = err ? err->status : CR_ERR_MEMORY;
     if (st == CR_OK)
-        st = cr_bvh_build(sd.collider_frames, body->rest->nv, body->rest->tri, body->rest->nf,
-                          &bvh, err);
+        st = cr_bvh_build(sd.collider_frames, body->rest->nv, body->rest->tri, body->rest->nf, &bvh,
+                          err);
     snprintf(path, sizeof path, "%s/frames.jsonl", dir);
     if (st == CR_OK) st = cr_scene_record_create(path, sim, g->mesh, d->frames + 1, &rec, err);
     for (int32_t f = 0; f < d->frames && st == CR_OK; f++) {
@@ -225,7 +227,8 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
         if (st == CR_OK) st = logged;
         if (st != CR_OK) break;
         double solver = rep.projected / ((double)nv * (rep.substeps > 0 ? rep.substeps : 1));
-        double stored = inside_share(bvh, sd.collider_frames, mo->nframes, f + 1, sim, xf, dist, err);
+        double stored =
+            inside_share(bvh, sd.collider_frames, mo->nframes, f + 1, sim, xf, dist, err);
         if (isnan(stored)) {
             st = err ? err->status : CR_ERR_MEMORY;
             break;
@@ -262,14 +265,15 @@ static void run_range(void *vctx, int64_t begin, int64_t end) {
         q->seconds = cr_time_now() - t0;
         q->state = st == CR_OK ? SEQ_DONE : SEQ_FAILED;
         if (st != CR_OK)
-            snprintf(q->failure, sizeof q->failure, "%.199s", err.msg[0] ? err.msg : cr_status_str(st));
+            snprintf(q->failure, sizeof q->failure, "%.199s",
+                     err.msg[0] ? err.msg : cr_status_str(st));
         cr_error werr = {0};
         if (write_result(c->ds, q, &werr) != CR_OK && q->state == SEQ_DONE) {
             q->state = SEQ_FAILED;
             snprintf(q->failure, sizeof q->failure, "%.199s", werr.msg);
         }
 #ifdef _OPENMP
-#pragma omp critical(crease_dataset_progress)
+#pragma omp critical
 #endif
         {
             c->finished++;
@@ -281,7 +285,7 @@ static void run_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void dataset_run_sequences(dataset *ds) {
+void cr_dataset_run_sequences(dataset *ds) {
     int32_t *todo = malloc(sizeof(int32_t) * (size_t)(ds->nseq > 0 ? ds->nseq : 1));
     if (!todo) {
         for (int i = 0; i < ds->nseq; i++)
@@ -369,7 +373,8 @@ static cJSON *manifest(const dataset *ds) {
                 cJSON_AddStringToObject(o, "type", d->garments[g]);
                 cJSON_AddStringToObject(o, "body", d->bodies[b]);
                 cJSON_AddStringToObject(o, "res", d->res[r]);
-                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], d->garments[g], d->res[r]);
+                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], d->garments[g],
+                         d->res[r]);
                 add_path(o, "skin", "garments/%s/%s_%s_skin.npz", d->bodies[b], d->garments[g],
                          d->res[r]);
                 if (d->nres == 2)
@@ -403,7 +408,7 @@ static cJSON *manifest(const dataset *ds) {
     return j;
 }
 
-cr_status dataset_write_manifest(const dataset *ds, cr_error *err) {
+cr_status cr_dataset_write_manifest(const dataset *ds, cr_error *err) {
     char path[CR_DATASET_PATH];
     snprintf(path, sizeof path, "%s/manifest.json", ds->def.out_dir);
     return write_json(path, manifest(ds), err);

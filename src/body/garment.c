@@ -5,7 +5,7 @@
  * resolution: the field, the cut surface with its panels (garment_shapes.c),
  * and a reference remesh of REF_VERTICES vertices flattened into the UV
  * layout (garment_uv.c). An instance remeshes the cut surface at the wanted
- * vertex count (garment_remesh.c), pushes any vertex closer to the body than
+ * vertex count (cr_garment_remesh.c), pushes any vertex closer to the body than
  * CR_GARMENT_MIN_CLEARANCE out to it, takes its UVs from the reference, and
  * its skinning weights from the body (garment_skin.c). Every instance of one
  * template therefore shares one UV layout and one uv_scale_m.
@@ -100,9 +100,9 @@ void cr_garment_destroy(cr_garment *g) {
     free(g);
 }
 
-cr_status garment_finish(const gbody *body, cr_garment_type type, cr_mesh *mesh, int32_t *panel,
-                         int32_t npanels, char (*names)[24], float uv_scale_m, float clearance,
-                         int loose, cr_garment **out, cr_error *err) {
+cr_status cr_garment_finish(const gbody *body, cr_garment_type type, cr_mesh *mesh, int32_t *panel,
+                            int32_t npanels, char (*names)[24], float uv_scale_m, float clearance,
+                            int loose, cr_garment **out, cr_error *err) {
     *out = NULL;
     cr_garment *g = cr_calloc(1, sizeof *g, err);
     if (!g) {
@@ -118,8 +118,8 @@ cr_status garment_finish(const gbody *body, cr_garment_type type, cr_mesh *mesh,
     cr_status st = g->skin_joint && g->skin_weight ? CR_OK : CR_ERR_MEMORY;
     if (st == CR_OK) st = cr_mesh_compute_normals(mesh, err);
     if (st == CR_OK)
-        st =
-            garment_skin_transfer(body, mesh, loose, clearance, g->skin_joint, g->skin_weight, err);
+        st = cr_garment_skin_transfer(body, mesh, loose, clearance, g->skin_joint, g->skin_weight,
+                                      err);
     if (st != CR_OK) {
         cr_garment_destroy(g);
         return st;
@@ -141,7 +141,7 @@ struct cr_garment_template {
 
 void cr_garment_template_destroy(cr_garment_template *t) {
     if (!t) return;
-    gbase_free(&t->base);
+    cr_gbase_free(&t->base);
     cr_mesh_destroy(t->ref);
     free(t->ref_panel);
     free(t);
@@ -156,18 +156,18 @@ cr_status cr_garment_template_create(const cr_garment_def *def, const cr_body_mo
     t->def = *def;
     t->body_nv = body->rest->nv, t->body_nf = body->rest->nf;
     gbody gb;
-    cr_status st = gbody_init(&gb, body, err);
+    cr_status st = cr_gbody_init(&gb, body, err);
     if (st == CR_OK) {
-        st = garment_build_base(def, &gb, &t->base, err);
-        gbody_free(&gb);
+        st = cr_garment_build_base(def, &gb, &t->base, err);
+        cr_gbody_free(&gb);
     }
     gremesh_out ro = {0};
     if (st == CR_OK)
-        st = garment_remesh(&t->base.field, t->base.mesh, t->base.panel, NULL, NULL, REF_VERTICES,
-                            def->remesh_iterations, &ro, err);
+        st = cr_garment_remesh(&t->base.field, t->base.mesh, t->base.panel, NULL, NULL,
+                               REF_VERTICES, def->remesh_iterations, &ro, err);
     if (st == CR_OK) {
         t->ref = ro.mesh, t->ref_panel = ro.panel;
-        st = garment_uv_layout(t->ref, t->ref_panel, t->base.npanels, &t->uv_scale_m, err);
+        st = cr_garment_uv_layout(t->ref, t->ref_panel, t->base.npanels, &t->uv_scale_m, err);
     }
     if (st != CR_OK) {
         cr_garment_template_destroy(t);
@@ -190,27 +190,27 @@ cr_status cr_garment_template_instantiate(const cr_garment_template *t, int32_t 
                        "not this one (%d, %d)",
                        t->body_nv, t->body_nf, body->rest->nv, body->rest->nf);
     gbody gb;
-    CR_TRY(gbody_init(&gb, body, err));
+    CR_TRY(cr_gbody_init(&gb, body, err));
     gremesh_out ro = {0};
     /* The reference is already a good mesh of the surface: half the rounds do. */
     int32_t rounds = t->def.remesh_iterations / 2 > 3 ? t->def.remesh_iterations / 2 : 3;
-    cr_status st = garment_remesh(&t->base.field, t->base.mesh, t->base.panel, t->ref, t->ref_panel,
-                                  target_vertices, rounds, &ro, err);
+    cr_status st = cr_garment_remesh(&t->base.field, t->base.mesh, t->base.panel, t->ref,
+                                     t->ref_panel, target_vertices, rounds, &ro, err);
     if (st == CR_OK) {
-        garment_push_out(&gb, ro.mesh->pos, ro.mesh->nv, MIN_CLEARANCE_M);
-        st = garment_uv_transfer(t->ref, t->ref_panel, t->base.npanels, &t->base.field, ro.mesh,
-                                 ro.panel, err);
+        cr_garment_push_out(&gb, ro.mesh->pos, ro.mesh->nv, MIN_CLEARANCE_M);
+        st = cr_garment_uv_transfer(t->ref, t->ref_panel, t->base.npanels, &t->base.field, ro.mesh,
+                                    ro.panel, err);
     }
     if (st == CR_OK) {
         char names[CR_GARMENT_MAX_PANELS][24];
         memcpy(names, t->base.panel_name, sizeof names);
-        st = garment_finish(&gb, t->def.type, ro.mesh, ro.panel, t->base.npanels, names,
-                            t->uv_scale_m, t->def.clearance_m, t->base.loose, out, err);
+        st = cr_garment_finish(&gb, t->def.type, ro.mesh, ro.panel, t->base.npanels, names,
+                               t->uv_scale_m, t->def.clearance_m, t->base.loose, out, err);
         ro.mesh = NULL, ro.panel = NULL; /* taken over, also on failure */
     }
     cr_mesh_destroy(ro.mesh);
     free(ro.panel);
-    gbody_free(&gb);
+    cr_gbody_free(&gb);
     return st;
 }
 

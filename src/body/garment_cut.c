@@ -24,7 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-void gcut_free(gcutmesh *m) {
+void cr_gcut_free(gcutmesh *m) {
     free(m->pos);
     free(m->val);
     free(m->tri);
@@ -111,7 +111,7 @@ static void emit_polygon(gcutmesh *m, int32_t f, const int32_t *poly, int n, int
     }
 }
 
-cr_status gcut_split(gcutmesh *m, int32_t k, float eps, cr_error *err) {
+cr_status cr_gcut_split(gcutmesh *m, int32_t k, float eps, cr_error *err) {
     const int32_t K = m->nfield;
     for (int32_t v = 0; v < m->nv; v++)
         if (fabsf(m->val[(size_t)v * K + k]) < eps) m->val[(size_t)v * K + k] = 0.0f;
@@ -173,17 +173,17 @@ cr_status gcut_split(gcutmesh *m, int32_t k, float eps, cr_error *err) {
     return CR_OK;
 }
 
-int gcut_face_sign(const gcutmesh *m, int32_t f, int32_t k) {
+int cr_gcut_face_sign(const gcutmesh *m, int32_t f, int32_t k) {
     double s = 0.0;
     for (int c = 0; c < 3; c++)
         s += m->val[(size_t)m->tri[3 * f + c] * m->nfield + k];
     return s < 0.0 ? -1 : 1;
 }
 
-void gcut_remove_negative(gcutmesh *m, int32_t k) {
+void cr_gcut_remove_negative(gcutmesh *m, int32_t k) {
     int32_t n = 0;
     for (int32_t f = 0; f < m->nf; f++)
-        if (gcut_face_sign(m, f, k) > 0) {
+        if (cr_gcut_face_sign(m, f, k) > 0) {
             if (n != f) memcpy(&m->tri[3 * n], &m->tri[3 * f], 3 * sizeof(int32_t));
             n++;
         }
@@ -198,7 +198,7 @@ static int32_t uf_find(int32_t *parent, int32_t x) {
     return x;
 }
 
-cr_status gcut_keep_largest(gcutmesh *m, cr_error *err) {
+cr_status cr_gcut_keep_largest(gcutmesh *m, cr_error *err) {
     const int32_t nf = m->nf, K = m->nfield;
     if (nf == 0) return CR_OK;
     /* Half-edges keyed by their undirected edge; faces sharing one join. */
@@ -272,8 +272,8 @@ cr_status gcut_keep_largest(gcutmesh *m, cr_error *err) {
 
 /* 1-to-4 midpoint subdivision of a mesh with panels: every edge gets its
  * midpoint (shared by the faces on it), every face four similar faces. */
-cr_status gcut_subdivide(const cr_mesh *in, const int32_t *panel, cr_mesh **out,
-                         int32_t **out_panel, cr_error *err) {
+cr_status cr_gcut_subdivide(const cr_mesh *in, const int32_t *panel, cr_mesh **out,
+                            int32_t **out_panel, cr_error *err) {
     *out = NULL, *out_panel = NULL;
     const int64_t nh = 3 * (int64_t)in->nf;
     int64_t *key = cr_malloc((size_t)nh * 2 * sizeof(int64_t), err);

@@ -32,7 +32,7 @@ static float clampf(float x, float lo, float hi) {
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-float gfield_eval(const gfield *f, const float p[3], float grad[3]) {
+float cr_gfield_eval(const gfield *f, const float p[3], float grad[3]) {
     const int32_t n[3] = {f->nx, f->ny, f->nz};
     int32_t i[3];
     float t[3];
@@ -60,9 +60,9 @@ float gfield_eval(const gfield *f, const float p[3], float grad[3]) {
     return y0 + t[2] * (y1 - y0);
 }
 
-void gfield_project(const gfield *f, float p[3]) {
+void cr_gfield_project(const gfield *f, float p[3]) {
     for (int it = 0; it < 8; it++) {
-        float g[3], v = gfield_eval(f, p, g);
+        float g[3], v = cr_gfield_eval(f, p, g);
         float gg = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
         if (fabsf(v) < 1e-6f || gg < 1e-12f) return;
         float s = v / gg;
@@ -76,7 +76,7 @@ void gfield_project(const gfield *f, float p[3]) {
 
 /* ----------------------------------------------------------------- body -- */
 
-cr_status gbody_init(gbody *b, const cr_body_model *model, cr_error *err) {
+cr_status cr_gbody_init(gbody *b, const cr_body_model *model, cr_error *err) {
     memset(b, 0, sizeof *b);
     b->model = model;
     const cr_mesh *m = model->rest;
@@ -86,7 +86,7 @@ cr_status gbody_init(gbody *b, const cr_body_model *model, cr_error *err) {
     b->scale = (b->hi[1] - b->lo[1]) / 1.75f;
     b->arm_w = cr_calloc((size_t)m->nv * 2, sizeof(float), err);
     if (!b->arm_w) {
-        gbody_free(b);
+        cr_gbody_free(b);
         return CR_ERR_MEMORY;
     }
     for (int32_t v = 0; v < m->nv; v++)
@@ -102,14 +102,14 @@ cr_status gbody_init(gbody *b, const cr_body_model *model, cr_error *err) {
     return CR_OK;
 }
 
-void gbody_free(gbody *b) {
+void cr_gbody_free(gbody *b) {
     cr_bvh_destroy(b->bvh);
     free(b->arm_w);
     memset(b, 0, sizeof *b);
 }
 
 /* Circular [1 2 1]/4 smoothing along a row of n values with stride. */
-void garment_smooth_line(float *x, int32_t n, int32_t stride, int periodic, float *tmp) {
+void cr_garment_smooth_line(float *x, int32_t n, int32_t stride, int periodic, float *tmp) {
     for (int32_t i = 0; i < n; i++) {
         int32_t a = i - 1, c = i + 1;
         if (periodic)
@@ -240,15 +240,15 @@ static cr_status blur_grid(gfield *f, cr_error *err) {
         int a = (d + 1) % 3, c = (d + 2) % 3;
         for (int32_t i = 0; i < dim[a]; i++)
             for (int32_t j = 0; j < dim[c]; j++)
-                garment_smooth_line(&f->v[i * stride[a] + j * stride[c]], dim[d],
-                                    (int32_t)stride[d], 0, tmp);
+                cr_garment_smooth_line(&f->v[i * stride[a] + j * stride[c]], dim[d],
+                                       (int32_t)stride[d], 0, tmp);
     }
     free(tmp);
     return CR_OK;
 }
 
-cr_status garment_distance_field(const gbody *b, const float box_lo[3], const float box_hi[3],
-                                 float clearance, gfield *f, cr_error *err) {
+cr_status cr_garment_distance_field(const gbody *b, const float box_lo[3], const float box_hi[3],
+                                    float clearance, gfield *f, cr_error *err) {
     const float h = f->h, lo = clearance - 2.0f * h, hi = clearance + 2.0f * h;
     cr_status st = sample_distance(b, box_lo, box_hi, lo, hi, f, err);
     if (st == CR_OK) st = flood_sides(f, clearance, lo, hi, err);

@@ -1,4 +1,4 @@
-/* garment_remesh.c: isotropic remeshing of a panelled surface with its seams
+/* cr_garment_remesh.c: isotropic remeshing of a panelled surface with its seams
  * and openings kept as feature lines.
  *
  * Botsch & Kobbelt 2004 ("A remeshing approach to multiresolution
@@ -12,7 +12,7 @@
  *      within its tangent plane, then project it back onto the surface,
  * and finish with flips that raise the smaller angle of the two faces on
  * an edge (the Delaunay criterion on the surface) and more relaxation. The
- * surface is the zero level of the garment's field (gfield_project).
+ * surface is the zero level of the garment's field (cr_gfield_project).
  *
  * Features: an edge is a feature when it is a boundary or its two faces lie
  * in different panels; its key names the pair of panels. A vertex with two
@@ -29,7 +29,7 @@
  * opposite corner close to the edge, between its ends) is not split, since
  * its midpoint would land on that corner; a split midpoint whose projection
  * folds a face stays on the chord (near a crease of the level set); a start
- * mesh much coarser than wanted is first subdivided 1-to-4 (gcut_subdivide)
+ * mesh much coarser than wanted is first subdivided 1-to-4 (cr_gcut_subdivide)
  * rather than split edge by edge. A sweep of splits is capped at eight per
  * face, so no configuration can split without end.
  *
@@ -324,7 +324,7 @@ static void project_vertex(const rm *m, int32_t v) {
     if (m->vkey[v] >= 0)
         project_feature(m, m->vkey[v], P(m, v));
     else if (m->vkey[v] == VK_INTERIOR)
-        gfield_project(m->field, P(m, v));
+        cr_gfield_project(m->field, P(m, v));
 }
 
 /* ---------------------------------------------------------- operations -- */
@@ -690,7 +690,7 @@ static void relax_range(void *vctx, int64_t begin, int64_t end) {
         }
         for (int d = 0; d < 3; d++)
             out[d] = p[d] + c->lambda * (float)(dlt[d] - dn * nrm[d] / nl);
-        gfield_project(m->field, out);
+        cr_gfield_project(m->field, out);
     }
 }
 
@@ -749,9 +749,10 @@ static float edge_for(double A, double P, int32_t target) {
     return (float)(1.0 / x);
 }
 
-cr_status garment_remesh(const gfield *field, const cr_mesh *base, const int32_t *base_panel,
-                         const cr_mesh *start, const int32_t *start_panel, int32_t target_vertices,
-                         int32_t iterations, gremesh_out *out, cr_error *err) {
+cr_status cr_garment_remesh(const gfield *field, const cr_mesh *base, const int32_t *base_panel,
+                            const cr_mesh *start, const int32_t *start_panel,
+                            int32_t target_vertices, int32_t iterations, gremesh_out *out,
+                            cr_error *err) {
     memset(out, 0, sizeof *out);
     rm m = {0}, b = {0};
     cr_status st = rm_build(&b, field, base, base_panel, err);
@@ -766,8 +767,8 @@ cr_status garment_remesh(const gfield *field, const cr_mesh *base, const int32_t
         for (float e = mean_edge(start); st == CR_OK && e > 1.6f * want; e *= 0.5f) {
             cr_mesh *next = NULL;
             int32_t *next_panel = NULL;
-            st = gcut_subdivide(fine ? fine : start, fine ? fine_panel : start_panel, &next,
-                                &next_panel, err);
+            st = cr_gcut_subdivide(fine ? fine : start, fine ? fine_panel : start_panel, &next,
+                                   &next_panel, err);
             cr_mesh_destroy(fine);
             free(fine_panel);
             fine = next, fine_panel = next_panel;

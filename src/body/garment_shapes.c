@@ -56,7 +56,7 @@
 /* Passes of arm-weight smoothing on the polygonised surface. */
 #define WEIGHT_SMOOTH_PASSES 6
 
-void gbase_free(gbase *b) {
+void cr_gbase_free(gbase *b) {
     free(b->field.v);
     cr_mesh_destroy(b->mesh);
     free(b->panel);
@@ -376,9 +376,9 @@ static cr_status envelope_build(const gbody *b, const gspec *sp, float y_lo, flo
         /* r is free now: it holds a row or column while smoothing. */
         for (int pass = 0; pass < 2; pass++) {
             for (int32_t j = 0; j < e->ny; j++)
-                garment_smooth_line(&e->R[(size_t)j * ENV_ANGLES], ENV_ANGLES, 1, 1, r);
+                cr_garment_smooth_line(&e->R[(size_t)j * ENV_ANGLES], ENV_ANGLES, 1, 1, r);
             for (int32_t i = 0; i < ENV_ANGLES; i++)
-                garment_smooth_line(&e->R[i], e->ny, ENV_ANGLES, 0, r);
+                cr_garment_smooth_line(&e->R[i], e->ny, ENV_ANGLES, 0, r);
         }
     }
     cr_bvh_destroy(bvh);
@@ -479,7 +479,8 @@ static cr_status sample_field(const cr_garment_def *def, const gbody *b, const g
     }
     cr_iso_grid g = {.nx = n[0], .ny = n[1], .nz = n[2], .spacing = h};
     memcpy(g.origin, f->origin, sizeof g.origin);
-    if (st == CR_OK && sp->tight) st = garment_distance_field(b, tlo, thi, sp->clearance, f, err);
+    if (st == CR_OK && sp->tight)
+        st = cr_garment_distance_field(b, tlo, thi, sp->clearance, f, err);
     if (st == CR_OK && sp->loose) {
         env_ctx c = {&env};
         st = cr_isosurface_sample(&g, env_sample, &c, loose ? loose : f->v, err);
@@ -580,18 +581,19 @@ static cr_status cut_surface(const gbody *b, const gspec *sp, const gfield *f, g
     free(w);
     const float eps = 1e-4f * f->h;
     for (int k = 0; st == CR_OK && k < sp->ncut; k++) {
-        st = gcut_split(cm, k, eps, err);
-        if (st == CR_OK) gcut_remove_negative(cm, k);
+        st = cr_gcut_split(cm, k, eps, err);
+        if (st == CR_OK) cr_gcut_remove_negative(cm, k);
     }
-    if (st == CR_OK) st = gcut_keep_largest(cm, err);
+    if (st == CR_OK) st = cr_gcut_keep_largest(cm, err);
     for (int k = 0; st == CR_OK && k < sp->nseam; k++)
-        st = gcut_split(cm, sp->ncut + k, eps, err);
+        st = cr_gcut_split(cm, sp->ncut + k, eps, err);
     if (st == CR_OK && cm->nf == 0)
         st = CR_FAIL(err, CR_ERR_TOPOLOGY, "garment: the cuts leave nothing of the surface");
     return st;
 }
 
-cr_status garment_build_base(const cr_garment_def *def, const gbody *b, gbase *out, cr_error *err) {
+cr_status cr_garment_build_base(const cr_garment_def *def, const gbody *b, gbase *out,
+                                cr_error *err) {
     memset(out, 0, sizeof *out);
     gspec sp;
     spec_build(def, b, &sp);
@@ -607,12 +609,12 @@ cr_status garment_build_base(const cr_garment_def *def, const gbody *b, gbase *o
         memcpy(out->mesh->pos, cm.pos, (size_t)cm.nv * 3 * sizeof(float));
         memcpy(out->mesh->tri, cm.tri, (size_t)cm.nf * 3 * sizeof(int32_t));
         for (int32_t v = 0; v < cm.nv; v++)
-            gfield_project(&out->field, &out->mesh->pos[3 * (size_t)v]);
+            cr_gfield_project(&out->field, &out->mesh->pos[3 * (size_t)v]);
         int32_t count[CR_GARMENT_MAX_PANELS] = {0};
         for (int32_t f = 0; f < cm.nf; f++) {
             int bits = 0;
             for (int k = 0; k < sp.nseam; k++)
-                bits |= (gcut_face_sign(&cm, f, sp.ncut + k) > 0) << k;
+                bits |= (cr_gcut_face_sign(&cm, f, sp.ncut + k) > 0) << k;
             out->panel[f] = sp.panel_of[bits];
             count[out->panel[f]]++;
         }
@@ -627,7 +629,7 @@ cr_status garment_build_base(const cr_garment_def *def, const gbody *b, gbase *o
         }
         out->loose = sp.loose;
     }
-    gcut_free(&cm);
+    cr_gcut_free(&cm);
     cr_topology *t = NULL;
     if (st == CR_OK) st = cr_topology_build(out->mesh, &t, err);
     if (st == CR_OK) st = cr_topology_require_manifold(t, "garment surface", err);
@@ -635,6 +637,6 @@ cr_status garment_build_base(const cr_garment_def *def, const gbody *b, gbase *o
         st = CR_FAIL(err, CR_ERR_TOPOLOGY, "garment %s: the cut surface has no opening",
                      cr_garment_type_name(def->type));
     cr_topology_destroy(t);
-    if (st != CR_OK) gbase_free(out);
+    if (st != CR_OK) cr_gbase_free(out);
     return st;
 }

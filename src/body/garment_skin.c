@@ -141,8 +141,8 @@ static cr_status spread_loose(const cr_mesh *m, const float *dist, float clearan
     return st;
 }
 
-cr_status garment_skin_transfer(const gbody *body, const cr_mesh *m, int loose, float clearance,
-                                int32_t *joint, float *weight, cr_error *err) {
+cr_status cr_garment_skin_transfer(const gbody *body, const cr_mesh *m, int loose, float clearance,
+                                   int32_t *joint, float *weight, cr_error *err) {
     const cr_body_model *b = body->model;
     int32_t *face = cr_malloc((size_t)m->nv * sizeof(int32_t), err);
     float *bary = cr_malloc((size_t)m->nv * 3 * sizeof(float), err);
@@ -167,7 +167,7 @@ cr_status garment_skin_transfer(const gbody *body, const cr_mesh *m, int loose, 
     return st;
 }
 
-int32_t garment_push_out(const gbody *body, float *pos, int32_t nv, float min_m) {
+int32_t cr_garment_push_out(const gbody *body, float *pos, int32_t nv, float min_m) {
     float d, n[3];
     int32_t moved = 0;
     for (int32_t v = 0; v < nv; v++) {

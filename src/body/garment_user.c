@@ -184,7 +184,7 @@ static cr_status fit(const gbody *body, cr_mesh *m, const cr_garment_user_def *d
         for (size_t i = 0; i < n3; i++)
             m->pos[i] = x0[i] + D[i];
     }
-    if (st == CR_OK) garment_push_out(body, m->pos, m->nv, c);
+    if (st == CR_OK) cr_garment_push_out(body, m->pos, m->nv, c);
     cr_topology_destroy(t);
     free(x0), free(D), free(next), free(d), free(nrm);
     return st;
@@ -248,7 +248,7 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
     cr_status st = cr_topology_require_manifold(t, source, err);
     if (st == CR_OK) st = check_uvs_and_size(mesh, source, err);
     gbody gb = {0};
-    if (st == CR_OK) st = gbody_init(&gb, body, err);
+    if (st == CR_OK) st = cr_gbody_init(&gb, body, err);
     if (st == CR_OK) st = check_placement(mesh, source, gb.bvh, err);
     cr_mesh *m = NULL;
     int32_t *panel = NULL, npanels = 0;
@@ -270,13 +270,13 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
         char names[CR_GARMENT_MAX_PANELS][24];
         for (int32_t p = 0; p < npanels; p++)
             snprintf(names[p], sizeof names[p], "chart_%d", p);
-        st = garment_finish(&gb, CR_GARMENT_USER, m, panel, npanels, names, (float)sqrt(a3 / a2),
-                            def->clearance_m, 0, out, err);
+        st = cr_garment_finish(&gb, CR_GARMENT_USER, m, panel, npanels, names, (float)sqrt(a3 / a2),
+                               def->clearance_m, 0, out, err);
         m = NULL, panel = NULL; /* taken over */
     }
     cr_mesh_destroy(m);
     free(panel);
-    gbody_free(&gb);
+    cr_gbody_free(&gb);
     cr_topology_destroy(t);
     return st;
 }

@@ -403,8 +403,8 @@ static double shelf_extent(const double (*size)[2], const int32_t *order, int32_
     return extent;
 }
 
-cr_status garment_uv_layout(cr_mesh *m, const int32_t *panel, int32_t npanels, float *uv_scale_m,
-                            cr_error *err) {
+cr_status cr_garment_uv_layout(cr_mesh *m, const int32_t *panel, int32_t npanels, float *uv_scale_m,
+                               cr_error *err) {
     CR_ASSERT(npanels > 0 && npanels <= CR_GARMENT_MAX_PANELS);
     chart c[CR_GARMENT_MAX_PANELS];
     memset(c, 0, sizeof c);
@@ -464,9 +464,9 @@ cr_status garment_uv_layout(cr_mesh *m, const int32_t *panel, int32_t npanels, f
     return st;
 }
 
-cr_status garment_uv_transfer(const cr_mesh *ref, const int32_t *ref_panel, int32_t npanels,
-                              const gfield *field, cr_mesh *m, const int32_t *panel,
-                              cr_error *err) {
+cr_status cr_garment_uv_transfer(const cr_mesh *ref, const int32_t *ref_panel, int32_t npanels,
+                                 const gfield *field, cr_mesh *m, const int32_t *panel,
+                                 cr_error *err) {
     CR_ASSERT(cr_mesh_has_uv(ref));
     chart c[CR_GARMENT_MAX_PANELS];
     memset(c, 0, sizeof c);
@@ -498,7 +498,7 @@ cr_status garment_uv_transfer(const cr_mesh *ref, const int32_t *ref_panel, int3
         for (int32_t i = 0; st == CR_OK && i < c[p].nv; i++) {
             const float *x = &m->pos[3 * (size_t)c[p].gv[i]];
             float g[3];
-            gfield_eval(field, x, g);
+            cr_gfield_eval(field, x, g);
             float gl = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
             int32_t face = -1;
             float bary[3];

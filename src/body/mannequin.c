@@ -196,7 +196,7 @@ static float torso_distance(const torso_profile *t, const float p[3]) {
     return -smin(-d, t->y1 - p[1], t->cap);
 }
 
-float mannequin_prim_distance(const mannequin_shape *s, const prim *q, const float p[3]) {
+float cr_mannequin_prim_distance(const mannequin_shape *s, const prim *q, const float p[3]) {
     float l[3];
     switch (q->kind) {
     case PRIM_CONE:
@@ -222,14 +222,14 @@ static int prim_beyond(const prim *q, const float p[3], float level) {
     return dot3(d, d) >= t * t;
 }
 
-float mannequin_field(void *ctx, const float p[3]) {
+float cr_mannequin_field(void *ctx, const float p[3]) {
     const mannequin_shape *s = ctx;
-    float f = mannequin_prim_distance(s, &s->prims[0], p);
+    float f = cr_mannequin_prim_distance(s, &s->prims[0], p);
     for (int i = 1; i < s->nprims; i++) {
         const prim *q = &s->prims[i];
         /* Past f + blend the smooth minimum returns f unchanged. */
         if (prim_beyond(q, p, f + q->blend)) continue;
-        f = smin(f, mannequin_prim_distance(s, q, p), q->blend);
+        f = smin(f, cr_mannequin_prim_distance(s, q, p), q->blend);
     }
     /* The smooth unions can bulge below the feet: cut with y >= 0 (smooth
      * maximum with -y), which also makes the soles flat. */
@@ -627,13 +627,13 @@ static cr_status polygonise(const mannequin_shape *s, const cr_mannequin_def *de
     g.nx = n[0], g.ny = n[1], g.nz = n[2], g.spacing = h;
     float *values = cr_malloc((size_t)n[0] * n[1] * n[2] * sizeof(float), err);
     if (!values) return CR_ERR_MEMORY;
-    cr_status st = cr_isosurface_sample(&g, mannequin_field, (void *)s, values, err);
+    cr_status st = cr_isosurface_sample(&g, cr_mannequin_field, (void *)s, values, err);
     g.values = values;
     if (st == CR_OK) st = cr_isosurface_extract(&g, 0.0f, out, err);
     free(values);
     if (st == CR_OK) st = check_one_sphere(*out, def->resolution, err);
     if (st == CR_OK)
-        st = cr_isosurface_relax(*out, mannequin_field, (void *)s, 0.0f, def->relax_iterations,
+        st = cr_isosurface_relax(*out, cr_mannequin_field, (void *)s, 0.0f, def->relax_iterations,
                                  0.1f * h, err);
     if (st != CR_OK) {
         cr_mesh_destroy(*out);
@@ -657,7 +657,7 @@ cr_status cr_mannequin_create(const cr_mannequin_def *def, cr_body_model **out, 
         b->skin_weight = cr_malloc((size_t)nv * 4 * sizeof(float), err);
         if (!b->skin_joint || !b->skin_weight) st = CR_ERR_MEMORY;
     }
-    if (st == CR_OK) st = mannequin_skin_weights(s, b->rest, b->skin_joint, b->skin_weight, err);
+    if (st == CR_OK) st = cr_mannequin_skin_weights(s, b->rest, b->skin_joint, b->skin_weight, err);
     if (st == CR_OK) {
         /* Soles exactly on y = 0. */
         float lo[3], hi[3];

@@ -79,15 +79,15 @@ typedef struct mannequin_shape {
 } mannequin_shape;
 
 /* Signed distance (approximate away from the surface) of one primitive. */
-float mannequin_prim_distance(const mannequin_shape *s, const prim *q, const float p[3]);
+float cr_mannequin_prim_distance(const mannequin_shape *s, const prim *q, const float p[3]);
 
 /* The body's field: negative inside, about the distance near the surface. A
  * cr_iso_fn; ctx is a const mannequin_shape. */
-float mannequin_field(void *ctx, const float p[3]);
+float cr_mannequin_field(void *ctx, const float p[3]);
 
 /* Four skinning joints and weights per vertex of `mesh` (V,4 each), from the
  * parts' memberships and chains. */
-cr_status mannequin_skin_weights(const mannequin_shape *s, const cr_mesh *mesh, int32_t *skin_joint,
-                                 float *skin_weight, cr_error *err);
+cr_status cr_mannequin_skin_weights(const mannequin_shape *s, const cr_mesh *mesh,
+                                    int32_t *skin_joint, float *skin_weight, cr_error *err);
 
 #endif

@@ -60,7 +60,7 @@ static void part_weights(void *vctx, int64_t begin, int64_t end) {
         const float *p = &c->pos[3 * v];
         float d[MAX_PRIMS], dmin = INFINITY, share[PART_COUNT] = {0}, total = 0.0f;
         for (int i = 0; i < s->nprims; i++) {
-            d[i] = mannequin_prim_distance(s, &s->prims[i], p);
+            d[i] = cr_mannequin_prim_distance(s, &s->prims[i], p);
             dmin = fminf(dmin, d[i]);
         }
         for (int i = 0; i < s->nprims; i++) {
@@ -94,8 +94,8 @@ static void keep_four(const float *w, int32_t *joint, float *weight) {
         weight[k] = (float)(weight[k] / sum);
 }
 
-cr_status mannequin_skin_weights(const mannequin_shape *s, const cr_mesh *mesh, int32_t *skin_joint,
-                                 float *skin_weight, cr_error *err) {
+cr_status cr_mannequin_skin_weights(const mannequin_shape *s, const cr_mesh *mesh,
+                                    int32_t *skin_joint, float *skin_weight, cr_error *err) {
     int64_t nv = mesh->nv;
     float *w = cr_malloc((size_t)nv * CR_NJOINTS * sizeof(float), err);
     if (!w) return CR_ERR_MEMORY;

@@ -38,7 +38,7 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
     if (strcmp(ext, "npz") == 0) {
         cr_npz *z = NULL;
         CR_TRY(cr_npz_open(path, &z, err));
-        cr_status st = motion_from_npz(z, path, def, out, err);
+        cr_status st = cr_motion_from_npz(z, path, def, out, err);
         cr_npz_close(z);
         return st;
     }
@@ -107,7 +107,7 @@ void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]) {
         }
 }
 
-void motion_fix_frame(cr_motion *m, const motion_frame_fix *fix) {
+void cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix) {
     double w_inv[4];
     q_conj(fix->world, w_inv);
     for (int32_t f = 0; f < m->nframes; f++) {

@@ -78,7 +78,7 @@ typedef struct bvh_file {
 static cr_status parse_fail(const bvh_file *b, const char *what, const char *tb, const char *te,
                             cr_error *err) {
     char snip[48] = "end of file";
-    if (tb) io_text_snippet(tb, te, snip, sizeof snip);
+    if (tb) cr_io_text_snippet(tb, te, snip, sizeof snip);
     return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %s, got '%s'", b->t.source,
                    (long long)b->t.line, what, snip);
 }
@@ -87,7 +87,7 @@ static cr_status parse_fail(const bvh_file *b, const char *what, const char *tb,
 static cr_status next_token(bvh_file *b, const char *what, const char **tb, const char **te,
                             cr_error *err) {
     int got;
-    CR_TRY(io_text_token_any(&b->t, tb, te, &got, err));
+    CR_TRY(cr_io_text_token_any(&b->t, tb, te, &got, err));
     if (!got) return parse_fail(b, what, NULL, NULL, err);
     return CR_OK;
 }
@@ -152,7 +152,7 @@ static cr_status parse_channels(bvh_file *b, bvh_joint *jt, cr_error *err) {
     const char *tb, *te;
     int64_t n;
     CR_TRY(next_token(b, "a channel count", &tb, &te, err));
-    CR_TRY(io_text_int(&b->t, tb, te, "channel count", &n, err));
+    CR_TRY(cr_io_text_int(&b->t, tb, te, "channel count", &n, err));
     if (jt->end_site || jt->nchan || n < 0 || n > 6)
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s:%lld: CHANNELS %lld (0 to 6, once per joint, none in an End Site)",
@@ -191,7 +191,7 @@ static cr_status parse_hierarchy(bvh_file *b, cr_error *err) {
                                (long long)b->t.line, jt->name);
             for (int k = 0; k < 3; k++) {
                 CR_TRY(next_token(b, "an offset coordinate", &tb, &te, err));
-                CR_TRY(io_text_double(&b->t, tb, te, "offset coordinate", &jt->offset[k], err));
+                CR_TRY(cr_io_text_double(&b->t, tb, te, "offset coordinate", &jt->offset[k], err));
             }
             jt->has_offset = 1;
         } else if (token_is(tb, te, "CHANNELS")) {
@@ -227,26 +227,26 @@ static cr_status parse_motion(bvh_file *b, cr_error *err) {
     CR_TRY(expect(b, "MOTION", err));
     CR_TRY(expect(b, "Frames:", err));
     CR_TRY(next_token(b, "a frame count", &tb, &te, err));
-    CR_TRY(io_text_int(&b->t, tb, te, "frame count", &nframes, err));
+    CR_TRY(cr_io_text_int(&b->t, tb, te, "frame count", &nframes, err));
     CR_TRY(expect(b, "Frame", err));
     CR_TRY(expect(b, "Time:", err));
     CR_TRY(next_token(b, "a frame time", &tb, &te, err));
-    CR_TRY(io_text_double(&b->t, tb, te, "frame time", &b->frame_time, err));
+    CR_TRY(cr_io_text_double(&b->t, tb, te, "frame time", &b->frame_time, err));
     if (!(b->frame_time > 0 && b->frame_time <= FRAME_TIME_MAX))
         return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: Frame Time %g s, expected (0, %g]", b->t.source,
                        (long long)b->t.line, b->frame_time, FRAME_TIME_MAX);
     if (nframes < 1 || nframes > INT32_MAX)
         return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: %lld frames declared", b->t.source,
                        (long long)b->t.line, (long long)nframes);
-    if (io_text_token(&b->t, &tb, &te)) return parse_fail(b, "the end of the line", tb, te, err);
+    if (cr_io_text_token(&b->t, &tb, &te)) return parse_fail(b, "the end of the line", tb, te, err);
     b->nframes = (int)nframes;
     /* Rows grow with the lines actually read, so a huge declared count costs nothing. */
     int cap = 0, f = 0;
     for (;;) {
         int got;
-        CR_TRY(io_text_next_line(&b->t, &got, err));
+        CR_TRY(cr_io_text_next_line(&b->t, &got, err));
         if (!got) break;
-        if (!io_text_token(&b->t, &tb, &te)) continue; /* blank line */
+        if (!cr_io_text_token(&b->t, &tb, &te)) continue; /* blank line */
         if (f == b->nframes)
             return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: more frame lines than the %d declared",
                            b->t.source, (long long)b->t.line, b->nframes);
@@ -260,9 +260,9 @@ static cr_status parse_motion(bvh_file *b, cr_error *err) {
         int k = 0;
         float *row = b->values + (size_t)f * (size_t)b->ncol;
         do {
-            if (k < b->ncol) CR_TRY(io_text_float(&b->t, tb, te, "channel value", &row[k], err));
+            if (k < b->ncol) CR_TRY(cr_io_text_float(&b->t, tb, te, "channel value", &row[k], err));
             k++;
-        } while (io_text_token(&b->t, &tb, &te));
+        } while (cr_io_text_token(&b->t, &tb, &te));
         if (k != b->ncol)
             return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %d channel values, got %d",
                            b->t.source, (long long)b->t.line, b->ncol, k);
@@ -596,7 +596,7 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
             for (int k = 0; k < 3; k++)
                 m->trans[(size_t)f * 3 + (size_t)k] = (float)(s * pos[k]);
         }
-        motion_fix_frame(m, &fix);
+        cr_motion_fix_frame(m, &fix);
     }
     free(rest);
     free(w);
@@ -619,7 +619,7 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
                        (double)def->bvh_scale);
     bvh_file b;
     memset(&b, 0, sizeof b);
-    io_text_init(&b.t, data, len, source);
+    cr_io_text_init(&b.t, data, len, source);
     b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
     if (!b.j) return CR_ERR_MEMORY;
     cr_status st = parse_hierarchy(&b, err);

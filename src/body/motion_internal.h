@@ -89,11 +89,11 @@ typedef struct motion_frame_fix {
     int recenter_height;
 } motion_frame_fix;
 
-void motion_fix_frame(cr_motion *m, const motion_frame_fix *fix);
+void cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix);
 
 /* The motion in an open .npz (AMASS or crease's own). */
-cr_status motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,
-                          cr_motion **out, cr_error *err);
+cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,
+                             cr_motion **out, cr_error *err);
 
 #define MOTION_IMPORT_COOKIE 0x6d6f7431u
 

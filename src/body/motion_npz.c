@@ -114,8 +114,8 @@ static cr_status read_poses(const cr_npz *z, const char *source, cr_npy *poses, 
     return st;
 }
 
-cr_status motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,
-                          cr_motion **out, cr_error *err) {
+cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,
+                             cr_motion **out, cr_error *err) {
     *out = NULL;
     cr_motion_import_def defaults = cr_motion_import_default_def();
     if (!def) def = &defaults;
@@ -157,7 +157,7 @@ cr_status motion_from_npz(const cr_npz *z, const char *source, const cr_motion_i
         if (up != UP_Y) {
             motion_frame_fix fix = {.recenter = up == 0 && def->recenter, .recenter_height = 1};
             q_axis(1, 0, 0, -M_PI / 2, fix.world); /* Z-up to Y-up: (x, y, z) -> (x, z, -y) */
-            motion_fix_frame(m, &fix);
+            cr_motion_fix_frame(m, &fix);
         }
     }
     cr_npy_free(&poses);
@@ -175,7 +175,7 @@ cr_status cr_motion_read_npz_mem(const void *data, size_t len, const char *sourc
     *out = NULL;
     cr_npz *z = NULL;
     CR_TRY(cr_npz_open_mem(data, len, source, &z, err));
-    cr_status st = motion_from_npz(z, source, def, out, err);
+    cr_status st = cr_motion_from_npz(z, source, def, out, err);
     cr_npz_close(z);
     return st;
 }

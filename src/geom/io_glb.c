@@ -523,8 +523,8 @@ static int piece(glb_job *j, const void *data, int64_t n, int ncomp, int u32, in
                  int target, cr_status *st, cr_error *err) {
     uint64_t bytes = 4 * (uint64_t)n * (uint64_t)ncomp;
     if (j->fp) {
-        int ok = u32 ? io_write_i32le(j->fp, data, (size_t)(n * ncomp))
-                     : io_write_f32le(j->fp, data, (size_t)(n * ncomp));
+        int ok = u32 ? cr_io_write_i32le(j->fp, data, (size_t)(n * ncomp))
+                     : cr_io_write_f32le(j->fp, data, (size_t)(n * ncomp));
         if (!ok) *st = CR_FAIL(err, CR_ERR_IO, "glb: write failed");
         return -1;
     }

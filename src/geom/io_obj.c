@@ -67,11 +67,11 @@ static cr_status parse_floats(obj_state *s, const char *stmt, int lo, int hi, fl
     const char *b, *e;
     int n = 0;
     float extra;
-    while (io_text_token(&s->t, &b, &e)) {
+    while (cr_io_text_token(&s->t, &b, &e)) {
         if (n >= hi)
             return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: '%s' takes at most %d numbers", s->t.source,
                            (long long)s->t.line, stmt, hi);
-        CR_TRY(io_text_float(&s->t, b, e, "a coordinate", n < 3 ? &out[n] : &extra, err));
+        CR_TRY(cr_io_text_float(&s->t, b, e, "a coordinate", n < 3 ? &out[n] : &extra, err));
         n++;
     }
     if (n < lo)
@@ -86,7 +86,7 @@ static cr_status parse_floats(obj_state *s, const char *stmt, int lo, int hi, fl
 static cr_status resolve_index(obj_state *s, const char *b, const char *e, int64_t count,
                                const char *kind, int32_t *out, cr_error *err) {
     int64_t idx;
-    CR_TRY(io_text_int(&s->t, b, e, kind, &idx, err));
+    CR_TRY(cr_io_text_int(&s->t, b, e, kind, &idx, err));
     if (idx == 0)
         return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: %s index 0 is invalid (OBJ indices start at 1)",
                        s->t.source, (long long)s->t.line, kind);
@@ -110,7 +110,7 @@ static cr_status parse_corner(obj_state *s, const char *b, const char *e, int32_
         const char *pe = slash ? slash : e;
         if (np == 3) {
             char snip[48];
-            io_text_snippet(b, e, snip, sizeof snip);
+            cr_io_text_snippet(b, e, snip, sizeof snip);
             return CR_FAIL(err, CR_ERR_PARSE,
                            "%s:%lld: expected v, v/vt, v//vn or v/vt/vn, got '%s'", s->t.source,
                            (long long)s->t.line, snip);
@@ -132,7 +132,7 @@ static cr_status parse_corner(obj_state *s, const char *b, const char *e, int32_
 static cr_status parse_face(obj_state *s, cr_error *err) {
     const char *b, *e;
     int64_t n = 0;
-    while (io_text_token(&s->t, &b, &e)) {
+    while (cr_io_text_token(&s->t, &b, &e)) {
         CR_TRY(reserve((void **)&s->corner, &s->cap_corner, n + 1, 3 * sizeof(int32_t), err));
         CR_TRY(parse_corner(s, b, e, &s->corner[3 * n], err));
         n++;
@@ -195,7 +195,7 @@ static cr_status parse_face(obj_state *s, cr_error *err) {
 
 static cr_status parse_line(obj_state *s, cr_error *err) {
     const char *b, *e;
-    if (!io_text_token(&s->t, &b, &e) || *b == '#') return CR_OK;
+    if (!cr_io_text_token(&s->t, &b, &e) || *b == '#') return CR_OK;
     if (is_keyword(b, e, "v")) {
         if (s->nv >= INT32_MAX)
             return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: more than %d vertices", s->t.source,
@@ -225,7 +225,7 @@ static cr_status parse_line(obj_state *s, cr_error *err) {
         for (size_t i = 0; i < sizeof skipped / sizeof skipped[0]; i++)
             if (is_keyword(b, e, skipped[i])) return CR_OK;
         char snip[48];
-        io_text_snippet(b, e, snip, sizeof snip);
+        cr_io_text_snippet(b, e, snip, sizeof snip);
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s:%lld: unknown statement '%s' (expected v, vt, vn, f, g, o, s, usemtl, "
                        "mtllib or a comment)",
@@ -267,13 +267,13 @@ cr_status cr_obj_read_mem(const void *data, size_t len, const char *source, cr_m
     *out = NULL;
     obj_state s;
     memset(&s, 0, sizeof s);
-    io_text_init(&s.t, data, len, source);
+    cr_io_text_init(&s.t, data, len, source);
     s.face_vt = -1;
     s.all_vn = 1;
     cr_status st = CR_OK;
     for (;;) {
         int got;
-        st = io_text_next_line(&s.t, &got, err);
+        st = cr_io_text_next_line(&s.t, &got, err);
         if (st != CR_OK || !got) break;
         st = parse_line(&s, err);
         if (st != CR_OK) break;

@@ -116,7 +116,7 @@ cr_status cr_pc2_write(const char *path, const float *frames, int32_t nv, int32_
     io_put_le32(head + 28, (uint32_t)nframes);
     cr_atomic_file f;
     CR_TRY(cr_atomic_open(&f, path, err));
-    if (fwrite(head, 1, sizeof head, f.fp) != sizeof head || !io_write_f32le(f.fp, frames, n)) {
+    if (fwrite(head, 1, sizeof head, f.fp) != sizeof head || !cr_io_write_f32le(f.fp, frames, n)) {
         cr_atomic_abort(&f);
         return CR_FAIL(err, CR_ERR_IO, "%s: write failed", path);
     }

@@ -101,7 +101,7 @@ static cr_status parse_type(ply_reader *r, const char *b, const char *e, ptype *
             return CR_OK;
         }
     char snip[48];
-    io_text_snippet(b, e, snip, sizeof snip);
+    cr_io_text_snippet(b, e, snip, sizeof snip);
     return CR_FAIL(err, CR_ERR_PARSE,
                    "%s:%lld: unknown property type '%s' (expected char, uchar, short, ushort, "
                    "int, uint, float, double or their sized names)",
@@ -128,14 +128,14 @@ static cr_status parse_element(ply_reader *r, cr_error *err) {
     memset(el, 0, sizeof *el);
     r->nelems++;
     el->line = r->t.line;
-    if (!io_text_token(&r->t, &b, &e))
+    if (!cr_io_text_token(&r->t, &b, &e))
         return header_fail(r, CR_ERR_PARSE, "expected 'element <name> <count>'", err);
     CR_TRY(copy_name(r, b, e, el->name, err));
-    if (!io_text_token(&r->t, &b, &e))
+    if (!cr_io_text_token(&r->t, &b, &e))
         return header_fail(r, CR_ERR_PARSE, "expected 'element <name> <count>'", err);
-    CR_TRY(io_text_int(&r->t, b, e, "an element count", &el->count, err));
+    CR_TRY(cr_io_text_int(&r->t, b, e, "an element count", &el->count, err));
     if (el->count < 0) return header_fail(r, CR_ERR_RANGE, "negative element count", err);
-    if (io_text_token(&r->t, &b, &e))
+    if (cr_io_text_token(&r->t, &b, &e))
         return header_fail(r, CR_ERR_PARSE, "expected 'element <name> <count>', got more", err);
     return CR_OK;
 }
@@ -155,18 +155,18 @@ static cr_status parse_property(ply_reader *r, cr_error *err) {
     p->role = R_SKIP;
     const char *usage = "expected 'property <type> <name>' or 'property list <count type> "
                         "<item type> <name>'";
-    if (!io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
+    if (!cr_io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
     if (token_is(b, e, "list")) {
-        if (!io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
+        if (!cr_io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
         CR_TRY(parse_type(r, b, e, &p->count_type, err));
         if (!is_int_type(p->count_type))
             return header_fail(r, CR_ERR_PARSE, "list count type must be an integer type", err);
-        if (!io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
+        if (!cr_io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
     }
     CR_TRY(parse_type(r, b, e, &p->type, err));
-    if (!io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
+    if (!cr_io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
     CR_TRY(copy_name(r, b, e, p->name, err));
-    if (io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
+    if (cr_io_text_token(&r->t, &b, &e)) return header_fail(r, CR_ERR_PARSE, usage, err);
     el->nprops++;
     return CR_OK;
 }
@@ -260,21 +260,21 @@ static cr_status check_counts(ply_reader *r, cr_error *err) {
 static cr_status parse_header(ply_reader *r, cr_error *err) {
     int got;
     const char *b, *e;
-    CR_TRY(io_text_next_line(&r->t, &got, err));
-    if (!got || !io_text_token(&r->t, &b, &e) || !token_is(b, e, "ply") ||
-        io_text_token(&r->t, &b, &e))
+    CR_TRY(cr_io_text_next_line(&r->t, &got, err));
+    if (!got || !cr_io_text_token(&r->t, &b, &e) || !token_is(b, e, "ply") ||
+        cr_io_text_token(&r->t, &b, &e))
         return CR_FAIL(err, CR_ERR_PARSE, "%s:1: expected 'ply' (not a PLY file)", r->source);
     int have_format = 0;
     for (;;) {
-        CR_TRY(io_text_next_line(&r->t, &got, err));
+        CR_TRY(cr_io_text_next_line(&r->t, &got, err));
         if (!got)
             return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: header ends without 'end_header'",
                            r->source, (long long)r->t.line);
-        if (!io_text_token(&r->t, &b, &e)) continue;
+        if (!cr_io_text_token(&r->t, &b, &e)) continue;
         if (token_is(b, e, "comment") || token_is(b, e, "obj_info")) continue;
         if (token_is(b, e, "end_header")) break;
         if (token_is(b, e, "format")) {
-            if (!io_text_token(&r->t, &b, &e))
+            if (!cr_io_text_token(&r->t, &b, &e))
                 return header_fail(r, CR_ERR_PARSE, "expected 'format <type> 1.0'", err);
             if (token_is(b, e, "ascii"))
                 r->format = FMT_ASCII;
@@ -284,7 +284,7 @@ static cr_status parse_header(ply_reader *r, cr_error *err) {
                 r->format = FMT_BE;
             else {
                 char snip[48];
-                io_text_snippet(b, e, snip, sizeof snip);
+                cr_io_text_snippet(b, e, snip, sizeof snip);
                 return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                                "%s:%lld: unknown PLY format '%s' (expected ascii, "
                                "binary_little_endian or binary_big_endian)",
@@ -297,7 +297,7 @@ static cr_status parse_header(ply_reader *r, cr_error *err) {
             CR_TRY(parse_property(r, err));
         } else {
             char snip[48];
-            io_text_snippet(b, e, snip, sizeof snip);
+            cr_io_text_snippet(b, e, snip, sizeof snip);
             return CR_FAIL(err, CR_ERR_PARSE,
                            "%s:%lld: unknown header keyword '%s' (expected format, element, "
                            "property, comment or end_header)",
@@ -338,14 +338,14 @@ static cr_status read_value(ply_reader *r, const ply_elem *el, int64_t item, pty
     if (r->format == FMT_ASCII) {
         const char *b, *e;
         int got;
-        CR_TRY(io_text_token_any(&r->t, &b, &e, &got, err));
+        CR_TRY(cr_io_text_token_any(&r->t, &b, &e, &got, err));
         if (!got) {
             where(r, el, item, at, sizeof at);
             return CR_FAIL(err, CR_ERR_PARSE, "%s: file ends here, expected %s", at, what);
         }
-        if (!is_int_type(type)) return io_text_double(&r->t, b, e, what, out, err);
+        if (!is_int_type(type)) return cr_io_text_double(&r->t, b, e, what, out, err);
         int64_t v;
-        CR_TRY(io_text_int(&r->t, b, e, what, &v, err));
+        CR_TRY(cr_io_text_int(&r->t, b, e, what, &v, err));
         if (v < int_lo[type] || v > int_hi[type]) {
             where(r, el, item, at, sizeof at);
             return CR_FAIL(err, CR_ERR_RANGE, "%s: %s %lld does not fit its declared type", at,
@@ -484,7 +484,7 @@ static cr_status read_body(ply_reader *r, cr_error *err) {
     if (r->format == FMT_ASCII) {
         const char *b, *e;
         int got;
-        CR_TRY(io_text_token_any(&r->t, &b, &e, &got, err));
+        CR_TRY(cr_io_text_token_any(&r->t, &b, &e, &got, err));
         if (got)
             return CR_FAIL(err, CR_ERR_PARSE,
                            "%s:%lld: data after the last element (the header declares fewer "
@@ -541,7 +541,7 @@ cr_status cr_ply_read_mem(const void *data, size_t len, const char *source, cr_m
     ply_reader r;
     memset(&r, 0, sizeof r);
     r.data = data, r.len = len, r.source = source;
-    io_text_init(&r.t, data, len, source);
+    cr_io_text_init(&r.t, data, len, source);
     cr_status st = parse_header(&r, err);
     if (st == CR_OK) {
         size_t nv = (size_t)r.nv;
@@ -608,7 +608,7 @@ cr_status cr_ply_write(const char *path, const cr_mesh *m, cr_ply_format format,
                 fprintf(fp, k ? " %.9g" : "%.9g", row[k]);
             ok = fputc('\n', fp) != EOF;
         } else {
-            ok = io_write_f32le(fp, row, (size_t)n);
+            ok = cr_io_write_f32le(fp, row, (size_t)n);
         }
     }
     for (int64_t i = 0; i < m->nf && ok; i++) {
@@ -617,7 +617,7 @@ cr_status cr_ply_write(const char *path, const cr_mesh *m, cr_ply_format format,
             ok = fprintf(fp, "3 %d %d %d\n", t[0], t[1], t[2]) > 0;
         } else {
             unsigned char three = 3;
-            ok = fwrite(&three, 1, 1, fp) == 1 && io_write_i32le(fp, t, 3);
+            ok = fwrite(&three, 1, 1, fp) == 1 && cr_io_write_i32le(fp, t, 3);
         }
     }
     cr_mesh_seams_free(&s);

@@ -16,7 +16,7 @@
 /* Longest number token we parse; longer ones are refused, not truncated. */
 enum { NUMBER_MAX = 128 };
 
-void io_text_init(io_text *t, const void *data, size_t len, const char *source) {
+void cr_io_text_init(io_text *t, const void *data, size_t len, const char *source) {
     t->p = data;
     t->end = t->p + len;
     t->source = source;
@@ -73,7 +73,7 @@ static cr_status check_text(const io_text *t, const char *b, const char *e, cr_e
     return CR_OK;
 }
 
-cr_status io_text_next_line(io_text *t, int *got, cr_error *err) {
+cr_status cr_io_text_next_line(io_text *t, int *got, cr_error *err) {
     *got = 0;
     if (t->p >= t->end) {
         t->cur = t->le = t->end;
@@ -96,7 +96,7 @@ static int is_space(char c) {
     return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
 
-int io_text_token(io_text *t, const char **b, const char **e) {
+int cr_io_text_token(io_text *t, const char **b, const char **e) {
     const char *s = t->cur;
     while (s < t->le && is_space(*s))
         s++;
@@ -113,18 +113,19 @@ int io_text_token(io_text *t, const char **b, const char **e) {
     return 1;
 }
 
-cr_status io_text_token_any(io_text *t, const char **b, const char **e, int *got, cr_error *err) {
+cr_status cr_io_text_token_any(io_text *t, const char **b, const char **e, int *got,
+                               cr_error *err) {
     *got = 0;
-    while (!io_text_token(t, b, e)) {
+    while (!cr_io_text_token(t, b, e)) {
         int more;
-        CR_TRY(io_text_next_line(t, &more, err));
+        CR_TRY(cr_io_text_next_line(t, &more, err));
         if (!more) return CR_OK;
     }
     *got = 1;
     return CR_OK;
 }
 
-void io_text_snippet(const char *b, const char *e, char *out, size_t cap) {
+void cr_io_text_snippet(const char *b, const char *e, char *out, size_t cap) {
     size_t n = (size_t)(e - b);
     if (n > 40) n = 40;
     if (n + 1 > cap) n = cap - 1;
@@ -141,10 +142,10 @@ static int token_copy(const char *b, const char *e, char buf[NUMBER_MAX]) {
     return 1;
 }
 
-cr_status io_text_double(const io_text *t, const char *b, const char *e, const char *what,
-                         double *out, cr_error *err) {
+cr_status cr_io_text_double(const io_text *t, const char *b, const char *e, const char *what,
+                            double *out, cr_error *err) {
     char buf[NUMBER_MAX], snip[48];
-    io_text_snippet(b, e, snip, sizeof snip);
+    cr_io_text_snippet(b, e, snip, sizeof snip);
     if (!token_copy(b, e, buf))
         return CR_FAIL(err, CR_ERR_PARSE, "%s:%lld: expected %s, got '%s' (too long)", t->source,
                        (long long)t->line, what, snip);
@@ -161,13 +162,13 @@ cr_status io_text_double(const io_text *t, const char *b, const char *e, const c
     return CR_OK;
 }
 
-cr_status io_text_float(const io_text *t, const char *b, const char *e, const char *what,
-                        float *out, cr_error *err) {
+cr_status cr_io_text_float(const io_text *t, const char *b, const char *e, const char *what,
+                           float *out, cr_error *err) {
     double v;
-    CR_TRY(io_text_double(t, b, e, what, &v, err));
+    CR_TRY(cr_io_text_double(t, b, e, what, &v, err));
     if (fabs(v) > FLT_MAX) {
         char snip[48];
-        io_text_snippet(b, e, snip, sizeof snip);
+        cr_io_text_snippet(b, e, snip, sizeof snip);
         return CR_FAIL(err, CR_ERR_NAN, "%s:%lld: %s '%s' overflows a float", t->source,
                        (long long)t->line, what, snip);
     }
@@ -175,10 +176,10 @@ cr_status io_text_float(const io_text *t, const char *b, const char *e, const ch
     return CR_OK;
 }
 
-cr_status io_text_int(const io_text *t, const char *b, const char *e, const char *what,
-                      int64_t *out, cr_error *err) {
+cr_status cr_io_text_int(const io_text *t, const char *b, const char *e, const char *what,
+                         int64_t *out, cr_error *err) {
     char buf[NUMBER_MAX], snip[48];
-    io_text_snippet(b, e, snip, sizeof snip);
+    cr_io_text_snippet(b, e, snip, sizeof snip);
     const char *s = b + (b < e && (*b == '-' || *b == '+'));
     int digits = s < e;
     for (const char *c = s; c < e; c++)
@@ -198,7 +199,7 @@ cr_status io_text_int(const io_text *t, const char *b, const char *e, const char
 /* Chunked conversion keeps the writers independent of the host byte order. */
 enum { WRITE_CHUNK = 1024 };
 
-int io_write_f32le(FILE *fp, const float *x, size_t n) {
+int cr_io_write_f32le(FILE *fp, const float *x, size_t n) {
     unsigned char buf[4 * WRITE_CHUNK];
     for (size_t i = 0; i < n; i += WRITE_CHUNK) {
         size_t k = n - i < WRITE_CHUNK ? n - i : WRITE_CHUNK;
@@ -209,7 +210,7 @@ int io_write_f32le(FILE *fp, const float *x, size_t n) {
     return 1;
 }
 
-int io_write_i32le(FILE *fp, const int32_t *x, size_t n) {
+int cr_io_write_i32le(FILE *fp, const int32_t *x, size_t n) {
     unsigned char buf[4 * WRITE_CHUNK];
     for (size_t i = 0; i < n; i += WRITE_CHUNK) {
         size_t k = n - i < WRITE_CHUNK ? n - i : WRITE_CHUNK;

@@ -24,33 +24,33 @@ typedef struct io_text {
     const char *cur;     /* tokenizer cursor within the current line */
 } io_text;
 
-void io_text_init(io_text *t, const void *data, size_t len, const char *source);
+void cr_io_text_init(io_text *t, const void *data, size_t len, const char *source);
 
 /* Move to the next line; *got = 0 at the end of the input. Fails on bytes
  * that are not text. */
-cr_status io_text_next_line(io_text *t, int *got, cr_error *err);
+cr_status cr_io_text_next_line(io_text *t, int *got, cr_error *err);
 
 /* Next whitespace-separated token [*b, *e) of the current line; 0 when the
  * line has no more. */
-int io_text_token(io_text *t, const char **b, const char **e);
+int cr_io_text_token(io_text *t, const char **b, const char **e);
 
 /* Next token, moving on to later lines as needed (ASCII PLY bodies); *got = 0
  * at the end of the input. */
-cr_status io_text_token_any(io_text *t, const char **b, const char **e, int *got, cr_error *err);
+cr_status cr_io_text_token_any(io_text *t, const char **b, const char **e, int *got, cr_error *err);
 
 /* Parse the whole token as a number. `what` names the expected value in the
  * message ("x coordinate"). Non-finite values fail with CR_ERR_NAN. */
-cr_status io_text_double(const io_text *t, const char *b, const char *e, const char *what,
-                         double *out, cr_error *err);
-/* Like io_text_double, also refusing values a float cannot hold. */
-cr_status io_text_float(const io_text *t, const char *b, const char *e, const char *what,
-                        float *out, cr_error *err);
+cr_status cr_io_text_double(const io_text *t, const char *b, const char *e, const char *what,
+                            double *out, cr_error *err);
+/* Like cr_io_text_double, also refusing values a float cannot hold. */
+cr_status cr_io_text_float(const io_text *t, const char *b, const char *e, const char *what,
+                           float *out, cr_error *err);
 /* A decimal integer, optional sign, nothing else. */
-cr_status io_text_int(const io_text *t, const char *b, const char *e, const char *what,
-                      int64_t *out, cr_error *err);
+cr_status cr_io_text_int(const io_text *t, const char *b, const char *e, const char *what,
+                         int64_t *out, cr_error *err);
 
 /* Token text for messages: at most 40 bytes, quoted by the caller. */
-void io_text_snippet(const char *b, const char *e, char *out, size_t cap);
+void cr_io_text_snippet(const char *b, const char *e, char *out, size_t cap);
 
 /* ------------------------------------------------------- byte order -- */
 
@@ -92,8 +92,8 @@ static inline uint32_t io_f32_bits(float f) {
 }
 
 /* Write n floats as little-endian float32; 0 on a write error. */
-int io_write_f32le(FILE *fp, const float *x, size_t n);
+int cr_io_write_f32le(FILE *fp, const float *x, size_t n);
 /* Write n int32 as little-endian; 0 on a write error. */
-int io_write_i32le(FILE *fp, const int32_t *x, size_t n);
+int cr_io_write_i32le(FILE *fp, const int32_t *x, size_t n);
 
 #endif

@@ -36,23 +36,23 @@
 #define FIX_ONE (1 << RASTER_SUBPIXEL_BITS)
 #define FIX_HALF (1 << (RASTER_SUBPIXEL_BITS - 1))
 
-float raster_srgb_to_linear(float c) {
+float cr_raster_srgb_to_linear(float c) {
     return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
 }
 
-float raster_linear_to_srgb(float c) {
+float cr_raster_linear_to_srgb(float c) {
     return c <= 0.0031308f ? 12.92f * c : 1.055f * powf(c, 1.0f / 2.4f) - 0.055f;
 }
 
-void raster_init_tables(raster_frame *fr) {
+void cr_raster_init_tables(raster_frame *fr) {
     for (int i = 0; i < 256; i++) {
         float rgb[3];
         cr_colormap_viridis((float)i / 255.0f, rgb);
         for (int c = 0; c < 3; c++)
-            fr->cmap[i][c] = raster_srgb_to_linear(rgb[c]);
+            fr->cmap[i][c] = cr_raster_srgb_to_linear(rgb[c]);
     }
     for (int i = 0; i < 4096; i++)
-        fr->encode[i] = (uint8_t)lrintf(255.0f * raster_linear_to_srgb((float)i / 4095.0f));
+        fr->encode[i] = (uint8_t)lrintf(255.0f * cr_raster_linear_to_srgb((float)i / 4095.0f));
 }
 
 /* Object owning global triangle `gid` (objects are few: binary search). */
@@ -124,7 +124,7 @@ static void bin_boxes(void *ctx, int64_t begin, int64_t end) {
     }
 }
 
-cr_status raster_bin(raster_frame *fr, cr_error *err) {
+cr_status cr_raster_bin(raster_frame *fr, cr_error *err) {
     int64_t ntiles = (int64_t)fr->tiles_x * fr->tiles_y;
     fr->bin_start = NULL, fr->bin_tri = NULL;
     bin_ctx bc = {fr, NULL};
@@ -162,11 +162,11 @@ cr_status raster_bin(raster_frame *fr, cr_error *err) {
     return CR_OK;
 fail:
     free(bc.box);
-    raster_free_bins(fr);
+    cr_raster_free_bins(fr);
     return err ? err->status : CR_ERR_MEMORY;
 }
 
-void raster_free_bins(raster_frame *fr) {
+void cr_raster_free_bins(raster_frame *fr) {
     free(fr->bin_start);
     free(fr->bin_tri);
     fr->bin_start = NULL, fr->bin_tri = NULL;
@@ -447,7 +447,7 @@ static int64_t gcd64(int64_t a, int64_t b) {
     return a;
 }
 
-cr_status raster_draw(const raster_frame *fr, cr_image *out, cr_error *err) {
+cr_status cr_raster_draw(const raster_frame *fr, cr_image *out, cr_error *err) {
     draw_ctx dc = {.fr = fr, .out = out};
     dc.ntiles = (int64_t)fr->tiles_x * fr->tiles_y;
     /* The parallel-for hands out contiguous index ranges; walking tiles with a

@@ -71,24 +71,24 @@ typedef struct raster_frame {
     float cmap[256][3];        /* viridis, linear RGB */
     uint8_t encode[4096];      /* linear [0,1] -> sRGB byte, index round(c * 4095) */
 
-    /* Filled by raster_bin: triangles of tile t are bin_tri[bin_start[t] .. bin_start[t+1]). */
+    /* Filled by cr_raster_bin: triangles of tile t are bin_tri[bin_start[t] .. bin_start[t+1]). */
     int64_t *bin_start; /* (tiles + 1) */
     int32_t *bin_tri;   /* global triangle ids, ascending within a tile */
 } raster_frame;
 
 /* sRGB transfer functions (IEC 61966-2-1), per channel in [0,1]. */
-float raster_srgb_to_linear(float c);
-float raster_linear_to_srgb(float c);
+float cr_raster_srgb_to_linear(float c);
+float cr_raster_linear_to_srgb(float c);
 
 /* Fill the colour-map and encoding tables of `fr`. */
-void raster_init_tables(raster_frame *fr);
+void cr_raster_init_tables(raster_frame *fr);
 
 /* Bin every triangle to the tiles its bounding box covers. */
-cr_status raster_bin(raster_frame *fr, cr_error *err);
+cr_status cr_raster_bin(raster_frame *fr, cr_error *err);
 
 /* Draw all tiles into `out` (already width x height). */
-cr_status raster_draw(const raster_frame *fr, cr_image *out, cr_error *err);
+cr_status cr_raster_draw(const raster_frame *fr, cr_image *out, cr_error *err);
 
-void raster_free_bins(raster_frame *fr);
+void cr_raster_free_bins(raster_frame *fr);
 
 #endif

@@ -248,7 +248,7 @@ static cr_status scene_prepare(const cr_render_object *objs, int nobj, scene *sc
         ro->scalar = objs[i].scalar;
         ro->wire = objs[i].wireframe != 0;
         for (int c = 0; c < 3; c++)
-            ro->color[c] = raster_srgb_to_linear(objs[i].color[c]);
+            ro->color[c] = cr_raster_srgb_to_linear(objs[i].color[c]);
         cr_mesh_vertex_normals(m, CR_NORMAL_AREA, sc->normal + 3 * vbase);
         vbase += m->nv, fbase += m->nf;
     }
@@ -336,9 +336,9 @@ static cr_status render_frame(const cr_render_def *def, const scene *sc, float y
     pc.near = (float)(1e-6 * dist);
 
     for (int c = 0; c < 3; c++) {
-        fr.background[c] = raster_srgb_to_linear(def->background[c]);
+        fr.background[c] = cr_raster_srgb_to_linear(def->background[c]);
         fr.back_tint[c] = def->back_tint[c];
-        fr.wire_color[c] = raster_srgb_to_linear(def->wire_color[c]);
+        fr.wire_color[c] = cr_raster_srgb_to_linear(def->wire_color[c]);
     }
     /* The user's light is (right, up, towards the viewer); ours looks forward. */
     fr.light[0] = def->light_dir[0], fr.light[1] = def->light_dir[1];
@@ -357,7 +357,7 @@ static cr_status render_frame(const cr_render_def *def, const scene *sc, float y
         /* One value everywhere: show the middle of the map. */
         fr.cmap_lo = sc->smin - 0.5f, fr.cmap_scale = 1.0f;
     }
-    raster_init_tables(&fr);
+    cr_raster_init_tables(&fr);
 
     /* A per-frame copy of the objects: the def may switch every wireframe on. */
     raster_object *obj = cr_malloc((size_t)(sc->nobj > 0 ? sc->nobj : 1) * sizeof *obj, err);
@@ -373,10 +373,10 @@ static cr_status render_frame(const cr_render_def *def, const scene *sc, float y
             pc.out = vert + sc->obj[i].vbase;
             cr_parallel_for(sc->src[i].mesh->nv, 4096, project_range, &pc);
         }
-        st = raster_bin(&fr, err);
+        st = cr_raster_bin(&fr, err);
     }
-    if (st == CR_OK) st = raster_draw(&fr, out, err);
-    raster_free_bins(&fr);
+    if (st == CR_OK) st = cr_raster_draw(&fr, out, err);
+    cr_raster_free_bins(&fr);
     free(obj);
     free(vert);
     if (st != CR_OK) cr_image_free(out);

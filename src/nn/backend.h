@@ -121,6 +121,6 @@ typedef struct cr_nn_backend {
 } cr_nn_backend;
 
 /* The CPU table (src/nn/cpu/cpu_backend.c). */
-const cr_nn_backend *nn_backend_cpu(void);
+const cr_nn_backend *cr_nn_backend_cpu(void);
 
 #endif

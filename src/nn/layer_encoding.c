@@ -349,7 +349,7 @@ cr_tensor *cr_grid_encoding_forward(cr_nn_ctx *ctx, const cr_grid_encoding *g, c
     in[0] = uv;
     for (int l = 0; l < g->def.levels; l++)
         in[1 + l] = g->level[l];
-    if (!nn_begin(ctx, "grid_encoding", 1, &uv)) return NULL;
+    if (!cr_nn_begin(ctx, "grid_encoding", 1, &uv)) return NULL;
     cr_nn_shape shape = {.ndim = 2, .d = {uv->shape[0], cr_grid_encoding_out_dim(&g->def)}};
     return cr_nn_fused(ctx, &g->op, 1 + g->def.levels, in, 1, &shape, NULL);
 }

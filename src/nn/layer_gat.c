@@ -244,7 +244,7 @@ cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const
                           cr_gat_attention *att) {
     CR_ASSERT(gat && g);
     if (att) memset(att, 0, sizeof *att);
-    if (!nn_begin(ctx, "gat", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "gat", 1, &x)) return NULL;
     const cr_gat_def *d = &gat->def;
     int64_t N = g->nodes, H = d->heads, F = d->out;
     if (x->ndim != 2 || x->shape[0] != N || x->shape[1] != d->input || N < 1) {

@@ -108,7 +108,7 @@ cr_tensor *cr_hyper_eval_target(cr_nn_ctx *ctx, const cr_mlp_def *target, cr_ten
                                 cr_tensor *x, const int32_t *group) {
     CR_ASSERT(target->nlayers >= 1 && target->nlayers <= CR_MLP_MAX_LAYERS && !target->layer_norm &&
               !target->residual);
-    if (!nn_begin(ctx, "hyper_eval_target", 2, (cr_tensor *const[]){theta, x})) return NULL;
+    if (!cr_nn_begin(ctx, "hyper_eval_target", 2, (cr_tensor *const[]){theta, x})) return NULL;
     int64_t G = theta->shape[0], M = x->shape[0];
     /* A theta of the wrong width fails here with both shapes in the message. */
     theta = cr_nn_reshape(ctx, theta, 2, (int64_t[]){G, cr_mlp_param_count(target)});

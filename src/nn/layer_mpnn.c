@@ -218,7 +218,7 @@ cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
                            cr_tensor **latent) {
     CR_ASSERT(net && graphs && edge_x);
     if (latent) *latent = NULL;
-    if (!nn_begin(ctx, "mpnn", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "mpnn", 1, &x)) return NULL;
     const cr_mpnn_def *d = &net->def;
     int S = d->edge_sets;
     int64_t N = x->shape[0], L = d->latent;

@@ -155,7 +155,7 @@ cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tens
                                 cr_tensor *c, cr_tensor **c_out) {
     CR_ASSERT(cell && cell->gates == LSTM_GATES && c_out);
     *c_out = NULL;
-    if (!nn_begin(ctx, "lstm_cell", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "lstm_cell", 1, &x)) return NULL;
     int64_t B = x->shape[0], H = cell->hidden;
     if (!check_2d(ctx, "lstm_cell", "x", x, B, cell->input, 0) ||
         !check_2d(ctx, "lstm_cell", "h", h, B, H, 1) ||
@@ -168,7 +168,7 @@ cr_tensor *cr_lstm_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tens
 cr_tensor *cr_gru_cell_forward(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *x,
                                cr_tensor *h) {
     CR_ASSERT(cell && cell->gates == GRU_GATES);
-    if (!nn_begin(ctx, "gru_cell", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "gru_cell", 1, &x)) return NULL;
     int64_t B = x->shape[0];
     if (!check_2d(ctx, "gru_cell", "x", x, B, cell->input, 0) ||
         !check_2d(ctx, "gru_cell", "h", h, B, cell->hidden, 1))
@@ -183,7 +183,7 @@ static cr_tensor *run_sequence(cr_nn_ctx *ctx, const char *op, const cr_rnn_cell
                                cr_tensor **c_last) {
     if (h_last) *h_last = NULL;
     if (c_last) *c_last = NULL;
-    if (!nn_begin(ctx, op, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, op, 1, &x)) return NULL;
     if (x->ndim != 3 || x->shape[2] != cell->input || x->shape[0] < 1) {
         char s[64];
         NN_FAIL(ctx, CR_ERR_SHAPE, "%s: x: expected (T,B,%d) with T >= 1, got %s", op, cell->input,
@@ -294,7 +294,7 @@ cr_tensor *cr_gat_lstm_cell_forward(cr_nn_ctx *ctx, const cr_gat_lstm *cell, cr_
                                     cr_tensor **c_out) {
     CR_ASSERT(cell && g && c_out);
     *c_out = NULL;
-    if (!nn_begin(ctx, "gat_lstm_cell", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "gat_lstm_cell", 1, &x)) return NULL;
     int64_t H = cell->def.hidden;
     if (!check_2d(ctx, "gat_lstm_cell", "h", h, g->nodes, H, 1) ||
         !check_2d(ctx, "gat_lstm_cell", "c", c, g->nodes, H, 1))
@@ -310,7 +310,7 @@ cr_tensor *cr_gat_lstm_forward(cr_nn_ctx *ctx, const cr_gat_lstm *cell, cr_tenso
     if (h_last) *h_last = NULL;
     if (c_last) *c_last = NULL;
     const char *op = "gat_lstm";
-    if (!nn_begin(ctx, op, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, op, 1, &x)) return NULL;
     int64_t N = g->nodes, H = cell->def.hidden;
     if (x->ndim != 3 || x->shape[0] < 1 || x->shape[1] != N || x->shape[2] != cell->def.input) {
         char s[64];

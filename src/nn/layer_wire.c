@@ -102,7 +102,7 @@ cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, floa
                               cr_tensor **out_re, cr_tensor **out_im) {
     if (out_re) *out_re = NULL;
     if (out_im) *out_im = NULL;
-    if (!nn_begin(ctx, "wire", 1, &re)) return NULL;
+    if (!cr_nn_begin(ctx, "wire", 1, &re)) return NULL;
     wire_op *w = cr_nn_scratch(ctx, "wire", sizeof *w);
     if (!w) return NULL;
     *w = (wire_op){.def = {.name = "wire", .forward = wire_forward, .backward = wire_backward},

@@ -16,20 +16,20 @@
 
 static cr_tensor *unary(cr_nn_ctx *ctx, cr_op op, cr_tensor *x, float p) {
     const char *name = cr_op_name(op);
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
-    cr_tensor *y = nn_tensor(ctx, name, x->ndim, x->shape);
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
+    cr_tensor *y = cr_nn_tensor(ctx, name, x->ndim, x->shape);
     if (!y) return NULL;
     cr_tensor *src[1] = {x}, *out[1] = {y};
     nn_node n = {.op = op, .nsrc = 1, .src = src, .nout = 1, .out = out, .p.unary = {p}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_unary_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_unary_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     ctx->be->unary_forward(n->op, n->p.unary.p, x->data, y->data, y->numel);
 }
 
-void nn_unary_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_unary_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     if (gx) ctx->be->unary_backward(n->op, n->p.unary.p, x->data, y->data, y->grad, gx, y->numel);
@@ -125,10 +125,10 @@ cr_tensor *cr_nn_softplus_deriv(cr_nn_ctx *ctx, cr_tensor *x, float beta) {
 static cr_tensor *binary(cr_nn_ctx *ctx, cr_op op, cr_tensor *a, cr_tensor *b) {
     const char *name = cr_op_name(op);
     cr_tensor *src[2] = {a, b};
-    if (!nn_begin(ctx, name, 2, src)) return NULL;
+    if (!cr_nn_begin(ctx, name, 2, src)) return NULL;
     int64_t as[4], bs[4], ys[4];
-    nn_pad_shape(a, as);
-    nn_pad_shape(b, bs);
+    cr_nn_pad_shape(a, as);
+    cr_nn_pad_shape(b, bs);
     for (int i = 0; i < 4; i++) {
         if (as[i] != bs[i] && as[i] != 1 && bs[i] != 1) {
             char sa[64], sb[64];
@@ -140,19 +140,19 @@ static cr_tensor *binary(cr_nn_ctx *ctx, cr_op op, cr_tensor *a, cr_tensor *b) {
         ys[i] = as[i] == 1 ? bs[i] : as[i];
     }
     int ndim = a->ndim > b->ndim ? a->ndim : b->ndim;
-    cr_tensor *y = nn_tensor(ctx, name, ndim, ys + (4 - ndim));
+    cr_tensor *y = cr_nn_tensor(ctx, name, ndim, ys + (4 - ndim));
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = op, .nsrc = 2, .src = src, .nout = 1, .out = out};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_binary_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_binary_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *a = n->src[0], *b = n->src[1], *y = n->out[0];
     int64_t as[4], bs[4], ys[4];
-    nn_pad_shape(a, as);
-    nn_pad_shape(b, bs);
-    nn_pad_shape(y, ys);
+    cr_nn_pad_shape(a, as);
+    cr_nn_pad_shape(b, bs);
+    cr_nn_pad_shape(y, ys);
     ctx->be->binary(n->op, NN_BINARY_VALUE, a->data, as, b->data, bs, NULL, ys, y->data, 0);
 }
 
@@ -162,31 +162,31 @@ static void binary_grad(cr_nn_ctx *ctx, nn_node *n, nn_binary_mode mode, float *
                         const int64_t target[4]) {
     cr_tensor *a = n->src[0], *b = n->src[1], *y = n->out[0];
     int64_t as[4], bs[4], ys[4];
-    nn_pad_shape(a, as);
-    nn_pad_shape(b, bs);
-    nn_pad_shape(y, ys);
+    cr_nn_pad_shape(a, as);
+    cr_nn_pad_shape(b, bs);
+    cr_nn_pad_shape(y, ys);
     if (memcmp(target, ys, sizeof ys) == 0) {
         ctx->be->binary(n->op, mode, a->data, as, b->data, bs, y->grad, ys, g, 1);
         return;
     }
     size_t mark = cr_arena_mark(&ctx->arena);
-    float *tmp = nn_alloc(ctx, cr_op_name(n->op), (size_t)y->numel * sizeof(float));
+    float *tmp = cr_nn_alloc(ctx, cr_op_name(n->op), (size_t)y->numel * sizeof(float));
     if (!tmp) return;
     ctx->be->binary(n->op, mode, a->data, as, b->data, bs, y->grad, ys, tmp, 0);
     ctx->be->reduce_to_shape_acc(tmp, ys, g, target);
     cr_arena_rewind(&ctx->arena, mark);
 }
 
-void nn_binary_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_binary_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *a = n->src[0], *b = n->src[1];
     float *ga = nn_gout(a), *gb = nn_gout(b);
     int64_t s[4];
     if (ga) {
-        nn_pad_shape(a, s);
+        cr_nn_pad_shape(a, s);
         binary_grad(ctx, n, NN_BINARY_GRAD_A, ga, s);
     }
     if (gb) {
-        nn_pad_shape(b, s);
+        cr_nn_pad_shape(b, s);
         binary_grad(ctx, n, NN_BINARY_GRAD_B, gb, s);
     }
 }

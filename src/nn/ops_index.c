@@ -16,9 +16,9 @@
 
 cr_tensor *cr_nn_concat(cr_nn_ctx *ctx, int n, cr_tensor *const *ts, int axis) {
     CR_ASSERT(n >= 1 && ts);
-    if (!nn_begin(ctx, "concat", n, ts)) return NULL;
+    if (!cr_nn_begin(ctx, "concat", n, ts)) return NULL;
     int a;
-    if (!nn_axis(ctx, "concat", ts[0], axis, &a)) return NULL;
+    if (!cr_nn_axis(ctx, "concat", ts[0], axis, &a)) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
     for (int d = 0; d < ts[0]->ndim; d++)
         shape[d] = ts[0]->shape[d];
@@ -36,7 +36,7 @@ cr_tensor *cr_nn_concat(cr_nn_ctx *ctx, int n, cr_tensor *const *ts, int axis) {
         }
         shape[a] += ts[i]->shape[a];
     }
-    cr_tensor *y = nn_tensor(ctx, "concat", ts[0]->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, "concat", ts[0]->ndim, shape);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node node = {.op = CR_OP_CONCAT,
@@ -45,13 +45,13 @@ cr_tensor *cr_nn_concat(cr_nn_ctx *ctx, int n, cr_tensor *const *ts, int axis) {
                     .nout = 1,
                     .out = out,
                     .p.slice = {.axis = a}};
-    return nn_run(ctx, &node);
+    return cr_nn_run(ctx, &node);
 }
 
-void nn_concat_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_concat_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *y = n->out[0];
     int64_t outer, total, inner, off = 0;
-    nn_split_axis(y, n->p.slice.axis, &outer, &total, &inner);
+    cr_nn_split_axis(y, n->p.slice.axis, &outer, &total, &inner);
     for (int i = 0; i < n->nsrc; i++) {
         int64_t len = n->src[i]->shape[n->p.slice.axis];
         ctx->be->copy2d(n->src[i]->data, len * inner, y->data + off * inner, total * inner, outer,
@@ -60,10 +60,10 @@ void nn_concat_forward(cr_nn_ctx *ctx, nn_node *n) {
     }
 }
 
-void nn_concat_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_concat_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *y = n->out[0];
     int64_t outer, total, inner, off = 0;
-    nn_split_axis(y, n->p.slice.axis, &outer, &total, &inner);
+    cr_nn_split_axis(y, n->p.slice.axis, &outer, &total, &inner);
     for (int i = 0; i < n->nsrc; i++) {
         int64_t len = n->src[i]->shape[n->p.slice.axis];
         float *g = nn_gout(n->src[i]);
@@ -77,20 +77,20 @@ void nn_concat_backward(cr_nn_ctx *ctx, nn_node *n) {
 /* -------------------------------------------------------------- slice -- */
 
 cr_tensor *cr_nn_slice(cr_nn_ctx *ctx, cr_tensor *x, int axis, int64_t start, int64_t len) {
-    if (!nn_begin(ctx, "slice", 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, "slice", 1, &x)) return NULL;
     int a;
-    if (!nn_axis(ctx, "slice", x, axis, &a)) return NULL;
+    if (!cr_nn_axis(ctx, "slice", x, axis, &a)) return NULL;
     if (start < 0 || len < 0 || start > x->shape[a] - len) {
         NN_FAIL(ctx, CR_ERR_RANGE, "slice: [%lld,%lld) is outside axis %d of size %lld",
                 (long long)start, (long long)(start + len), axis, (long long)x->shape[a]);
         return NULL;
     }
-    if (a == 0) return nn_slice_view(ctx, x, start, len);
+    if (a == 0) return cr_nn_slice_view(ctx, x, start, len);
     int64_t shape[CR_NN_MAX_DIMS];
     for (int d = 0; d < x->ndim; d++)
         shape[d] = x->shape[d];
     shape[a] = len;
-    cr_tensor *y = nn_tensor(ctx, "slice", x->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, "slice", x->ndim, shape);
     if (!y) return NULL;
     cr_tensor *src[1] = {x}, *out[1] = {y};
     nn_node n = {.op = CR_OP_SLICE,
@@ -99,23 +99,23 @@ cr_tensor *cr_nn_slice(cr_nn_ctx *ctx, cr_tensor *x, int axis, int64_t start, in
                  .nout = 1,
                  .out = out,
                  .p.slice = {.axis = a, .start = start}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_slice_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_slice_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     int64_t outer, full, inner, len = y->shape[n->p.slice.axis];
-    nn_split_axis(x, n->p.slice.axis, &outer, &full, &inner);
+    cr_nn_split_axis(x, n->p.slice.axis, &outer, &full, &inner);
     ctx->be->copy2d(x->data + n->p.slice.start * inner, full * inner, y->data, len * inner, outer,
                     len * inner, 0);
 }
 
-void nn_slice_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_slice_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     if (!gx) return;
     int64_t outer, full, inner, len = y->shape[n->p.slice.axis];
-    nn_split_axis(x, n->p.slice.axis, &outer, &full, &inner);
+    cr_nn_split_axis(x, n->p.slice.axis, &outer, &full, &inner);
     ctx->be->copy2d(y->grad, len * inner, gx + n->p.slice.start * inner, full * inner, outer,
                     len * inner, 1);
 }
@@ -145,14 +145,14 @@ static int32_t *checked_index(cr_nn_ctx *ctx, const char *op, const char *what, 
                 idx[bad], (long long)bad, (long long)limit);
         return NULL;
     }
-    return nn_index_copy(ctx, op, idx, n);
+    return cr_nn_index_copy(ctx, op, idx, n);
 }
 
 /* Positions grouped by target: off (nb+1), perm (n), from the arena. */
 static int group_by(cr_nn_ctx *ctx, const char *op, const int32_t *idx, int64_t n, int64_t nb,
                     int64_t **off, int32_t **perm) {
-    *off = nn_alloc(ctx, op, (size_t)(nb + 1) * sizeof(int64_t));
-    *perm = nn_alloc(ctx, op, (size_t)n * sizeof(int32_t));
+    *off = cr_nn_alloc(ctx, op, (size_t)(nb + 1) * sizeof(int64_t));
+    *perm = cr_nn_alloc(ctx, op, (size_t)n * sizeof(int32_t));
     if (!*off || !*perm) return 0;
     ctx->be->csr_build(idx, n, nb, *off, *perm);
     return 1;
@@ -160,7 +160,7 @@ static int group_by(cr_nn_ctx *ctx, const char *op, const int32_t *idx, int64_t 
 
 cr_tensor *cr_nn_gather_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index, int64_t n) {
     const char *name = "gather_rows";
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
     int64_t rows, C;
     if (!rows_of(ctx, name, x, &rows, &C)) return NULL;
     if (n < 0) {
@@ -173,7 +173,7 @@ cr_tensor *cr_nn_gather_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index,
     for (int d = 0; d < x->ndim; d++)
         shape[d] = x->shape[d];
     shape[0] = n;
-    cr_tensor *y = nn_tensor(ctx, name, x->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, name, x->ndim, shape);
     if (!y) return NULL;
     cr_tensor *src[1] = {x}, *out[1] = {y};
     nn_node node = {.op = CR_OP_GATHER_ROWS,
@@ -182,16 +182,16 @@ cr_tensor *cr_nn_gather_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index,
                     .nout = 1,
                     .out = out,
                     .p.index = {.index = idx, .n = n, .rows = rows}};
-    return nn_run(ctx, &node);
+    return cr_nn_run(ctx, &node);
 }
 
-void nn_gather_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_gather_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     int64_t C = n->p.index.rows > 0 ? x->numel / n->p.index.rows : 0;
     ctx->be->gather_rows(x->data, C, n->p.index.index, n->p.index.n, y->data, 0);
 }
 
-void nn_gather_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_gather_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     if (!gx) return;
@@ -208,7 +208,7 @@ void nn_gather_backward(cr_nn_ctx *ctx, nn_node *n) {
 cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *index,
                                   int64_t rows) {
     const char *name = "scatter_add_rows";
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
     int64_t E, C;
     if (!rows_of(ctx, name, x, &E, &C)) return NULL;
     if (rows < 0) {
@@ -223,7 +223,7 @@ cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *i
     for (int d = 0; d < x->ndim; d++)
         shape[d] = x->shape[d];
     shape[0] = rows;
-    cr_tensor *y = nn_tensor(ctx, name, x->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, name, x->ndim, shape);
     if (!y) return NULL;
     cr_tensor *src[1] = {x}, *out[1] = {y};
     nn_node node = {.op = CR_OP_SCATTER_ADD_ROWS,
@@ -232,10 +232,10 @@ cr_tensor *cr_nn_scatter_add_rows(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *i
                     .nout = 1,
                     .out = out,
                     .p.index = {.index = idx, .n = E, .off = off, .perm = perm, .rows = rows}};
-    return nn_run(ctx, &node);
+    return cr_nn_run(ctx, &node);
 }
 
-void nn_scatter_add_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_scatter_add_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     const nn_index_params *p = &n->p.index;
     int64_t C = p->n > 0 ? x->numel / p->n : 0;
@@ -246,7 +246,7 @@ void nn_scatter_add_forward(cr_nn_ctx *ctx, nn_node *n) {
     ctx->be->segment_sum_rows(x->data, C, p->off, p->perm, p->rows, y->data, 0);
 }
 
-void nn_scatter_add_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_scatter_add_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     const nn_index_params *p = &n->p.index;
@@ -257,7 +257,7 @@ void nn_scatter_add_backward(cr_nn_ctx *ctx, nn_node *n) {
 cr_tensor *cr_nn_segment_softmax(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *segment,
                                  int64_t nseg) {
     const char *name = "segment_softmax";
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
     int64_t E, H;
     if (!rows_of(ctx, name, x, &E, &H)) return NULL;
     if (nseg < 0) {
@@ -268,7 +268,7 @@ cr_tensor *cr_nn_segment_softmax(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *se
     int64_t *off;
     int32_t *perm;
     if (!seg || !group_by(ctx, name, seg, E, nseg, &off, &perm)) return NULL;
-    cr_tensor *y = nn_tensor(ctx, name, x->ndim, x->shape);
+    cr_tensor *y = cr_nn_tensor(ctx, name, x->ndim, x->shape);
     if (!y) return NULL;
     cr_tensor *src[1] = {x}, *out[1] = {y};
     nn_node node = {.op = CR_OP_SEGMENT_SOFTMAX,
@@ -277,17 +277,17 @@ cr_tensor *cr_nn_segment_softmax(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *se
                     .nout = 1,
                     .out = out,
                     .p.index = {.index = seg, .n = E, .off = off, .perm = perm, .rows = nseg}};
-    return nn_run(ctx, &node);
+    return cr_nn_run(ctx, &node);
 }
 
-void nn_segment_softmax_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_segment_softmax_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     const nn_index_params *p = &n->p.index;
     if (p->n == 0) return;
     ctx->be->segment_softmax_forward(x->data, x->numel / p->n, p->off, p->perm, p->rows, y->data);
 }
 
-void nn_segment_softmax_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_segment_softmax_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     const nn_index_params *p = &n->p.index;

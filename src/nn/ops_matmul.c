@@ -32,7 +32,7 @@ static int blas_sizes_ok(cr_nn_ctx *ctx, const char *op, int64_t m, int64_t n, i
 
 cr_tensor *cr_nn_matmul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b, int trans_a, int trans_b) {
     cr_tensor *src[2] = {a, b};
-    if (!nn_begin(ctx, "matmul", 2, src)) return NULL;
+    if (!cr_nn_begin(ctx, "matmul", 2, src)) return NULL;
     char sa[80], sb[80];
     int batched = a->ndim == 3;
     if (!((a->ndim == 2 && b->ndim == 2) || (a->ndim == 3 && b->ndim == 3))) {
@@ -58,7 +58,7 @@ cr_tensor *cr_nn_matmul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b, int trans_a,
     if (!blas_sizes_ok(ctx, "matmul", M, N, Ka)) return NULL;
     int64_t shape[3] = {a->shape[0], M, N};
     cr_tensor *y =
-        batched ? nn_tensor(ctx, "matmul", 3, shape) : nn_tensor(ctx, "matmul", 2, shape + 1);
+        batched ? cr_nn_tensor(ctx, "matmul", 3, shape) : cr_nn_tensor(ctx, "matmul", 2, shape + 1);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = batched ? CR_OP_MATMUL_BATCHED : CR_OP_MATMUL,
@@ -67,7 +67,7 @@ cr_tensor *cr_nn_matmul(cr_nn_ctx *ctx, cr_tensor *a, cr_tensor *b, int trans_a,
                  .nout = 1,
                  .out = out,
                  .p.matmul = {.trans_a = trans_a != 0, .trans_b = trans_b != 0}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
 /* Sizes of a (batched) product as recorded: batch, M, N, K, stored row
@@ -89,7 +89,7 @@ static mm_dims matmul_dims(const nn_node *n) {
     return d;
 }
 
-void nn_matmul_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_matmul_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *a = n->src[0], *b = n->src[1];
     cr_tensor *y = n->out[0];
     mm_dims d = matmul_dims(n);
@@ -98,7 +98,7 @@ void nn_matmul_forward(cr_nn_ctx *ctx, nn_node *n) {
                           d.batch);
 }
 
-void nn_matmul_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_matmul_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *a = n->src[0], *b = n->src[1], *y = n->out[0];
     float *ga = nn_gout(a), *gb = nn_gout(b);
     int ta = n->p.matmul.trans_a, tb = n->p.matmul.trans_b;
@@ -125,7 +125,7 @@ cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cons
                                 int trans_w) {
     const char *name = "matmul_grouped";
     cr_tensor *src[2] = {x, w};
-    if (!nn_begin(ctx, name, 2, src)) return NULL;
+    if (!cr_nn_begin(ctx, name, 2, src)) return NULL;
     char sx[80], sw[80];
     if (x->ndim != 2 || w->ndim != 3) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "%s: expects x (M,K) and w (G,K,N), got %s and %s", name,
@@ -147,10 +147,10 @@ cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cons
                 group[bad], (long long)bad, (long long)G);
         return NULL;
     }
-    int64_t *off = nn_alloc(ctx, name, (size_t)(G + 1) * sizeof(int64_t));
-    int32_t *perm = nn_alloc(ctx, name, (size_t)M * sizeof(int32_t));
-    float *xs = nn_alloc(ctx, name, (size_t)(M * K) * sizeof(float));
-    cr_tensor *y = nn_tensor(ctx, name, 2, (int64_t[]){M, N});
+    int64_t *off = cr_nn_alloc(ctx, name, (size_t)(G + 1) * sizeof(int64_t));
+    int32_t *perm = cr_nn_alloc(ctx, name, (size_t)M * sizeof(int32_t));
+    float *xs = cr_nn_alloc(ctx, name, (size_t)(M * K) * sizeof(float));
+    cr_tensor *y = cr_nn_tensor(ctx, name, 2, (int64_t[]){M, N});
     if (!off || !perm || !xs || !y) return NULL;
     ctx->be->csr_build(group, M, G, off, perm);
     cr_tensor *out[1] = {y};
@@ -161,10 +161,10 @@ cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cons
         .nout = 1,
         .out = out,
         .p.grouped = {.trans_w = trans_w != 0, .groups = G, .off = off, .perm = perm, .xs = xs}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_grouped_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_grouped_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1];
     cr_tensor *y = n->out[0];
     const nn_grouped_params *p = &n->p.grouped;
@@ -172,14 +172,14 @@ void nn_grouped_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_nn_backend *be = ctx->be;
     be->gather_rows(x->data, K, p->perm, M, p->xs, 0);
     size_t mark = cr_arena_mark(&ctx->arena);
-    float *ys = nn_alloc(ctx, "matmul_grouped", (size_t)(M * N) * sizeof(float));
+    float *ys = cr_nn_alloc(ctx, "matmul_grouped", (size_t)(M * N) * sizeof(float));
     if (!ys) return;
     be->grouped_forward(p->xs, K, w->data, p->trans_w, N, p->off, p->groups, ys);
     be->scatter_rows(ys, N, p->perm, M, y->data, 0);
     cr_arena_rewind(&ctx->arena, mark);
 }
 
-void nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *y = n->out[0];
     const nn_grouped_params *p = &n->p.grouped;
     float *gx = nn_gout(x), *gw = nn_gout(w);
@@ -187,8 +187,8 @@ void nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
     int64_t M = x->shape[0], K = x->shape[1], N = y->shape[1];
     const cr_nn_backend *be = ctx->be;
     size_t mark = cr_arena_mark(&ctx->arena);
-    float *dys = nn_alloc(ctx, "matmul_grouped", (size_t)(M * N) * sizeof(float));
-    float *dxs = gx ? nn_alloc(ctx, "matmul_grouped", (size_t)(M * K) * sizeof(float)) : NULL;
+    float *dys = cr_nn_alloc(ctx, "matmul_grouped", (size_t)(M * N) * sizeof(float));
+    float *dxs = gx ? cr_nn_alloc(ctx, "matmul_grouped", (size_t)(M * K) * sizeof(float)) : NULL;
     if (!dys || (gx && !dxs)) return;
     be->gather_rows(y->grad, N, p->perm, M, dys, 0);
     be->grouped_backward(p->xs, dys, K, w->data, p->trans_w, N, p->off, p->groups, dxs, gw);
@@ -200,7 +200,7 @@ void nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
 
 cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b) {
     cr_tensor *src[3] = {x, w, b};
-    if (!nn_begin(ctx, "linear", 2, src)) return NULL;
+    if (!cr_nn_begin(ctx, "linear", 2, src)) return NULL;
     char sx[64], sw[64], sb[64];
     if (x->ndim < 1 || w->ndim != 2 || x->shape[x->ndim - 1] != w->shape[1]) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "linear: x %s does not match weight %s (OUT,IN)",
@@ -213,34 +213,34 @@ cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b
         return NULL;
     }
     int64_t rows, in;
-    nn_rows_cols(x, &rows, &in);
+    cr_nn_rows_cols(x, &rows, &in);
     if (!blas_sizes_ok(ctx, "linear", rows, w->shape[0], in)) return NULL;
     int64_t shape[CR_NN_MAX_DIMS];
     for (int i = 0; i < x->ndim; i++)
         shape[i] = x->shape[i];
     shape[x->ndim - 1] = w->shape[0];
-    cr_tensor *y = nn_tensor(ctx, "linear", x->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, "linear", x->ndim, shape);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = CR_OP_LINEAR, .nsrc = 3, .src = src, .nout = 1, .out = out};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_linear_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_linear_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *b = n->src[2];
     cr_tensor *y = n->out[0];
     int64_t R, in, out = w->shape[0];
-    nn_rows_cols(x, &R, &in);
+    cr_nn_rows_cols(x, &R, &in);
     if (b) ctx->be->copy2d(b->data, 0, y->data, out, R, out, 0);
     /* y (R,OUT) = x (R,IN) W^T (IN,OUT) [+ y holding the bias rows] */
     ctx->be->gemm(0, 1, R, out, in, 1.0f, x->data, in, w->data, in, b ? 1.0f : 0.0f, y->data, out);
 }
 
-void nn_linear_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_linear_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *b = n->src[2], *y = n->out[0];
     float *gx = nn_gout(x), *gw = nn_gout(w), *gb = nn_gout(b);
     int64_t R, in, out = w->shape[0];
-    nn_rows_cols(x, &R, &in);
+    cr_nn_rows_cols(x, &R, &in);
     const cr_nn_backend *be = ctx->be;
     if (gx) /* dx (R,IN) += dy (R,OUT) W (OUT,IN) */
         be->gemm(0, 0, R, in, out, 1.0f, y->grad, out, w->data, in, 1.0f, gx, in);

@@ -10,12 +10,12 @@
 
 static cr_tensor *reduce_all(cr_nn_ctx *ctx, cr_op op, cr_tensor *x) {
     const char *name = cr_op_name(op);
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
     if (op == CR_OP_MEAN && x->numel == 0) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "mean: tensor is empty");
         return NULL;
     }
-    cr_tensor *y = nn_tensor(ctx, name, 0, NULL);
+    cr_tensor *y = cr_nn_tensor(ctx, name, 0, NULL);
     if (!y) return NULL;
     float scale = op == CR_OP_MEAN ? 1.0f / (float)x->numel : 1.0f;
     cr_tensor *src[1] = {x}, *out[1] = {y};
@@ -25,14 +25,14 @@ static cr_tensor *reduce_all(cr_nn_ctx *ctx, cr_op op, cr_tensor *x) {
                  .nout = 1,
                  .out = out,
                  .p.reduce = {.axis = -1, .scale = scale}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
 static cr_tensor *reduce_axis(cr_nn_ctx *ctx, cr_op op, cr_tensor *x, int axis, int keepdim) {
     const char *name = cr_op_name(op);
-    if (!nn_begin(ctx, name, 1, &x)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, &x)) return NULL;
     int a;
-    if (!nn_axis(ctx, name, x, axis, &a)) return NULL;
+    if (!cr_nn_axis(ctx, name, x, axis, &a)) return NULL;
     if (op == CR_OP_MEAN_AXIS && x->shape[a] == 0) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "mean_axis: axis %d is empty", axis);
         return NULL;
@@ -45,7 +45,7 @@ static cr_tensor *reduce_axis(cr_nn_ctx *ctx, cr_op op, cr_tensor *x, int axis, 
         else if (keepdim)
             shape[ndim++] = 1;
     }
-    cr_tensor *y = nn_tensor(ctx, name, ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, name, ndim, shape);
     if (!y) return NULL;
     float scale = op == CR_OP_MEAN_AXIS ? 1.0f / (float)x->shape[a] : 1.0f;
     cr_tensor *src[1] = {x}, *out[1] = {y};
@@ -55,7 +55,7 @@ static cr_tensor *reduce_axis(cr_nn_ctx *ctx, cr_op op, cr_tensor *x, int axis, 
                  .nout = 1,
                  .out = out,
                  .p.reduce = {.axis = a, .scale = scale}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
 /* x viewed as (outer, len, inner) around the reduced axis (all: (1, n, 1)). */
@@ -66,11 +66,11 @@ static void reduce_view(const nn_node *n, int64_t *outer, int64_t *len, int64_t 
         *len = x->numel;
         *inner = 1;
     } else {
-        nn_split_axis(x, n->p.reduce.axis, outer, len, inner);
+        cr_nn_split_axis(x, n->p.reduce.axis, outer, len, inner);
     }
 }
 
-void nn_reduce_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_reduce_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     if (n->p.reduce.axis < 0) {
         float v = (float)(ctx->be->sum_all(x->data, x->numel) * n->p.reduce.scale);
@@ -82,7 +82,7 @@ void nn_reduce_forward(cr_nn_ctx *ctx, nn_node *n) {
     ctx->be->sum_axis(x->data, outer, len, inner, n->p.reduce.scale, y->data, 0);
 }
 
-void nn_reduce_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_reduce_backward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *x = n->src[0], *y = n->out[0];
     float *gx = nn_gout(x);
     if (!gx) return;

@@ -18,7 +18,7 @@
 cr_tensor *cr_nn_layer_norm(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b, float eps) {
     const char *name = "layer_norm";
     cr_tensor *src[3] = {x, w, b};
-    if (!nn_begin(ctx, name, 1, src)) return NULL;
+    if (!cr_nn_begin(ctx, name, 1, src)) return NULL;
     char sx[64], sp[64];
     if (x->ndim < 1 || x->shape[x->ndim - 1] < 1) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "%s: expects (...,C) with C >= 1, got %s", name,
@@ -26,7 +26,7 @@ cr_tensor *cr_nn_layer_norm(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tenso
         return NULL;
     }
     int64_t R, C;
-    nn_rows_cols(x, &R, &C);
+    cr_nn_rows_cols(x, &R, &C);
     for (int i = 1; i < 3; i++) {
         if (src[i] && (src[i]->ndim != 1 || src[i]->shape[0] != C)) {
             NN_FAIL(ctx, CR_ERR_SHAPE, "%s: %s %s does not match x %s: expected (%lld)", name,
@@ -39,9 +39,9 @@ cr_tensor *cr_nn_layer_norm(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tenso
         NN_FAIL(ctx, CR_ERR_INVALID, "%s: eps must be positive, got %g", name, eps);
         return NULL;
     }
-    float *mean = nn_alloc(ctx, name, (size_t)R * sizeof(float));
-    float *rstd = nn_alloc(ctx, name, (size_t)R * sizeof(float));
-    cr_tensor *y = nn_tensor(ctx, name, x->ndim, x->shape);
+    float *mean = cr_nn_alloc(ctx, name, (size_t)R * sizeof(float));
+    float *rstd = cr_nn_alloc(ctx, name, (size_t)R * sizeof(float));
+    cr_tensor *y = cr_nn_tensor(ctx, name, x->ndim, x->shape);
     if (!mean || !rstd || !y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = CR_OP_LAYER_NORM,
@@ -50,24 +50,24 @@ cr_tensor *cr_nn_layer_norm(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tenso
                  .nout = 1,
                  .out = out,
                  .p.layer_norm = {.eps = eps, .mean = mean, .rstd = rstd}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_layer_norm_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_layer_norm_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *b = n->src[2];
     cr_tensor *y = n->out[0];
     const nn_layer_norm_params *p = &n->p.layer_norm;
     int64_t R, C;
-    nn_rows_cols(x, &R, &C);
+    cr_nn_rows_cols(x, &R, &C);
     ctx->be->layer_norm_forward(x->data, R, C, w ? w->data : NULL, b ? b->data : NULL, p->eps,
                                 y->data, p->mean, p->rstd);
 }
 
-void nn_layer_norm_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_layer_norm_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *x = n->src[0], *w = n->src[1], *b = n->src[2], *y = n->out[0];
     const nn_layer_norm_params *p = &n->p.layer_norm;
     int64_t R, C;
-    nn_rows_cols(x, &R, &C);
+    cr_nn_rows_cols(x, &R, &C);
     ctx->be->layer_norm_backward(x->data, y->grad, R, C, w ? w->data : NULL, p->mean, p->rstd,
                                  nn_gout(x), nn_gout(w), nn_gout(b));
 }
@@ -78,7 +78,7 @@ static cr_tensor *rowwise(cr_nn_ctx *ctx, cr_op op, cr_tensor *a, cr_tensor *b, 
     const char *name = cr_op_name(op);
     int nsrc = b ? 2 : 1;
     cr_tensor *src[2] = {a, b};
-    if (!nn_begin(ctx, name, nsrc, src)) return NULL;
+    if (!cr_nn_begin(ctx, name, nsrc, src)) return NULL;
     char sa[64], sb[64];
     if (a->ndim < 1) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "%s: expects (...,C), got a scalar", name);
@@ -102,18 +102,18 @@ static cr_tensor *rowwise(cr_nn_ctx *ctx, cr_op op, cr_tensor *a, cr_tensor *b, 
     for (int d = 0; d < a->ndim; d++)
         shape[d] = a->shape[d];
     if (op == CR_OP_DOT || op == CR_OP_NORM) shape[a->ndim - 1] = 1;
-    cr_tensor *y = nn_tensor(ctx, name, a->ndim, shape);
+    cr_tensor *y = cr_nn_tensor(ctx, name, a->ndim, shape);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
     nn_node n = {.op = op, .nsrc = nsrc, .src = src, .nout = 1, .out = out, .p.eps = {eps}};
-    return nn_run(ctx, &n);
+    return cr_nn_run(ctx, &n);
 }
 
-void nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *a = n->src[0], *b = n->nsrc > 1 ? n->src[1] : NULL;
     cr_tensor *y = n->out[0];
     int64_t R, C;
-    nn_rows_cols(a, &R, &C);
+    cr_nn_rows_cols(a, &R, &C);
     const cr_nn_backend *be = ctx->be;
     switch (n->op) {
     case CR_OP_CROSS:
@@ -134,11 +134,11 @@ void nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n) {
     }
 }
 
-void nn_rowwise_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_rowwise_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_tensor *a = n->src[0], *b = n->nsrc > 1 ? n->src[1] : NULL, *y = n->out[0];
     float *ga = nn_gout(a), *gb = nn_gout(b);
     int64_t R, C;
-    nn_rows_cols(a, &R, &C);
+    cr_nn_rows_cols(a, &R, &C);
     const cr_nn_backend *be = ctx->be;
     float eps = n->p.eps.eps;
     switch (n->op) {

@@ -72,19 +72,19 @@ static void forward(cr_nn_ctx *ctx, nn_node *n) {
     switch (n->op) {
     case CR_OP_MATMUL:
     case CR_OP_MATMUL_BATCHED:
-        nn_matmul_forward(ctx, n);
+        cr_nn_matmul_forward(ctx, n);
         break;
     case CR_OP_MATMUL_GROUPED:
-        nn_grouped_forward(ctx, n);
+        cr_nn_grouped_forward(ctx, n);
         break;
     case CR_OP_LINEAR:
-        nn_linear_forward(ctx, n);
+        cr_nn_linear_forward(ctx, n);
         break;
     case CR_OP_ADD:
     case CR_OP_SUB:
     case CR_OP_MUL:
     case CR_OP_DIV:
-        nn_binary_forward(ctx, n);
+        cr_nn_binary_forward(ctx, n);
         break;
     case CR_OP_ADD_SCALAR:
     case CR_OP_MUL_SCALAR:
@@ -102,40 +102,40 @@ static void forward(cr_nn_ctx *ctx, nn_node *n) {
     case CR_OP_SQRT:
     case CR_OP_ABS:
     case CR_OP_SQUARE:
-        nn_unary_forward(ctx, n);
+        cr_nn_unary_forward(ctx, n);
         break;
     case CR_OP_SUM:
     case CR_OP_MEAN:
     case CR_OP_SUM_AXIS:
     case CR_OP_MEAN_AXIS:
-        nn_reduce_forward(ctx, n);
+        cr_nn_reduce_forward(ctx, n);
         break;
     case CR_OP_CONCAT:
-        nn_concat_forward(ctx, n);
+        cr_nn_concat_forward(ctx, n);
         break;
     case CR_OP_SLICE:
-        nn_slice_forward(ctx, n);
+        cr_nn_slice_forward(ctx, n);
         break;
     case CR_OP_GATHER_ROWS:
-        nn_gather_forward(ctx, n);
+        cr_nn_gather_forward(ctx, n);
         break;
     case CR_OP_SCATTER_ADD_ROWS:
-        nn_scatter_add_forward(ctx, n);
+        cr_nn_scatter_add_forward(ctx, n);
         break;
     case CR_OP_SEGMENT_SOFTMAX:
-        nn_segment_softmax_forward(ctx, n);
+        cr_nn_segment_softmax_forward(ctx, n);
         break;
     case CR_OP_LAYER_NORM:
-        nn_layer_norm_forward(ctx, n);
+        cr_nn_layer_norm_forward(ctx, n);
         break;
     case CR_OP_CROSS:
     case CR_OP_DOT:
     case CR_OP_NORM:
     case CR_OP_NORMALIZE:
-        nn_rowwise_forward(ctx, n);
+        cr_nn_rowwise_forward(ctx, n);
         break;
     case CR_OP_FUSED:
-        nn_fused_forward(ctx, n);
+        cr_nn_fused_forward(ctx, n);
         break;
     default:
         NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "forward: op %s (%d) has no forward", cr_op_name(n->op),
@@ -147,19 +147,19 @@ static void backward(cr_nn_ctx *ctx, nn_node *n) {
     switch (n->op) {
     case CR_OP_MATMUL:
     case CR_OP_MATMUL_BATCHED:
-        nn_matmul_backward(ctx, n);
+        cr_nn_matmul_backward(ctx, n);
         break;
     case CR_OP_MATMUL_GROUPED:
-        nn_grouped_backward(ctx, n);
+        cr_nn_grouped_backward(ctx, n);
         break;
     case CR_OP_LINEAR:
-        nn_linear_backward(ctx, n);
+        cr_nn_linear_backward(ctx, n);
         break;
     case CR_OP_ADD:
     case CR_OP_SUB:
     case CR_OP_MUL:
     case CR_OP_DIV:
-        nn_binary_backward(ctx, n);
+        cr_nn_binary_backward(ctx, n);
         break;
     case CR_OP_ADD_SCALAR:
     case CR_OP_MUL_SCALAR:
@@ -177,40 +177,40 @@ static void backward(cr_nn_ctx *ctx, nn_node *n) {
     case CR_OP_SQRT:
     case CR_OP_ABS:
     case CR_OP_SQUARE:
-        nn_unary_backward(ctx, n);
+        cr_nn_unary_backward(ctx, n);
         break;
     case CR_OP_SUM:
     case CR_OP_MEAN:
     case CR_OP_SUM_AXIS:
     case CR_OP_MEAN_AXIS:
-        nn_reduce_backward(ctx, n);
+        cr_nn_reduce_backward(ctx, n);
         break;
     case CR_OP_CONCAT:
-        nn_concat_backward(ctx, n);
+        cr_nn_concat_backward(ctx, n);
         break;
     case CR_OP_SLICE:
-        nn_slice_backward(ctx, n);
+        cr_nn_slice_backward(ctx, n);
         break;
     case CR_OP_GATHER_ROWS:
-        nn_gather_backward(ctx, n);
+        cr_nn_gather_backward(ctx, n);
         break;
     case CR_OP_SCATTER_ADD_ROWS:
-        nn_scatter_add_backward(ctx, n);
+        cr_nn_scatter_add_backward(ctx, n);
         break;
     case CR_OP_SEGMENT_SOFTMAX:
-        nn_segment_softmax_backward(ctx, n);
+        cr_nn_segment_softmax_backward(ctx, n);
         break;
     case CR_OP_LAYER_NORM:
-        nn_layer_norm_backward(ctx, n);
+        cr_nn_layer_norm_backward(ctx, n);
         break;
     case CR_OP_CROSS:
     case CR_OP_DOT:
     case CR_OP_NORM:
     case CR_OP_NORMALIZE:
-        nn_rowwise_backward(ctx, n);
+        cr_nn_rowwise_backward(ctx, n);
         break;
     case CR_OP_FUSED:
-        nn_fused_backward(ctx, n);
+        cr_nn_fused_backward(ctx, n);
         break;
     default:
         NN_FAIL(ctx, CR_ERR_UNSUPPORTED, "backward: op %s (%d) has no backward", cr_op_name(n->op),
@@ -218,7 +218,7 @@ static void backward(cr_nn_ctx *ctx, nn_node *n) {
     }
 }
 
-cr_tensor *nn_run(cr_nn_ctx *ctx, nn_node *n) {
+cr_tensor *cr_nn_run(cr_nn_ctx *ctx, nn_node *n) {
     forward(ctx, n);
     if (ctx->err.status != CR_OK) return NULL;
     int wants_grad = 0;
@@ -237,7 +237,7 @@ cr_tensor *nn_run(cr_nn_ctx *ctx, nn_node *n) {
     }
     /* The node and its two pointer arrays in one allocation. */
     size_t ptrs = (size_t)(n->nsrc + n->nout) * sizeof(cr_tensor *);
-    nn_node *rec = nn_alloc(ctx, node_name(n), sizeof(nn_node) + ptrs);
+    nn_node *rec = cr_nn_alloc(ctx, node_name(n), sizeof(nn_node) + ptrs);
     if (!rec) return NULL;
     *rec = *n;
     rec->src = (cr_tensor **)(rec + 1);
@@ -255,10 +255,10 @@ cr_tensor *nn_run(cr_nn_ctx *ctx, nn_node *n) {
 static void prepare_grads(cr_nn_ctx *ctx, nn_node *n) {
     const char *who = node_name(n);
     for (int i = 0; i < n->nsrc; i++)
-        if (n->src[i] && n->src[i]->requires_grad) nn_grad(ctx, n->src[i], who);
+        if (n->src[i] && n->src[i]->requires_grad) cr_nn_grad(ctx, n->src[i], who);
     if (n->op == CR_OP_FUSED)
         for (int k = 0; k < n->nout; k++)
-            nn_grad(ctx, n->out[k], who);
+            cr_nn_grad(ctx, n->out[k], who);
 }
 
 cr_status cr_nn_backward(cr_nn_ctx *ctx, cr_tensor *loss, cr_error *err) {
@@ -278,7 +278,7 @@ cr_status cr_nn_backward(cr_nn_ctx *ctx, cr_tensor *loss, cr_error *err) {
     if (ctx->backward_done)
         return CR_FAIL(err, CR_ERR_INVALID, "backward: already ran since the last reset");
     ctx->backward_done = 1;
-    float *seed = nn_grad(ctx, loss, "backward");
+    float *seed = cr_nn_grad(ctx, loss, "backward");
     if (!seed) return cr_nn_ctx_error(ctx, err);
     seed[0] += 1.0f;
     for (nn_node *n = ctx->tail; n; n = n->prev) {
@@ -305,14 +305,14 @@ static void fail_from(cr_nn_ctx *ctx, const cr_error *e, const char *name) {
     ctx->err = *e;
 }
 
-void nn_fused_forward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_fused_forward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_fused_op *def = n->p.fused.def;
     cr_error e = {0};
     cr_status st = def->forward(def, ctx, n->src, n->nsrc, n->out, n->nout, &n->p.fused.stash, &e);
     if (st != CR_OK) fail_from(ctx, &e, def->name);
 }
 
-void nn_fused_backward(cr_nn_ctx *ctx, nn_node *n) {
+void cr_nn_fused_backward(cr_nn_ctx *ctx, nn_node *n) {
     const cr_fused_op *def = n->p.fused.def;
     cr_error e = {0};
     cr_status st = def->backward(def, ctx, n->src, n->nsrc, n->out, n->nout, n->p.fused.stash, &e);
@@ -326,20 +326,20 @@ cr_tensor *cr_nn_fused(cr_nn_ctx *ctx, const cr_fused_op *def, int nin, cr_tenso
     for (int k = 0; out && k < nout; k++)
         out[k] = NULL;
     if (ctx->err.status != CR_OK) return NULL;
-    cr_tensor **outs = nn_alloc(ctx, def->name, (size_t)nout * sizeof(cr_tensor *));
+    cr_tensor **outs = cr_nn_alloc(ctx, def->name, (size_t)nout * sizeof(cr_tensor *));
     if (!outs) return NULL;
     for (int k = 0; k < nout; k++) {
-        outs[k] = nn_tensor(ctx, def->name, out_shapes[k].ndim, out_shapes[k].d);
+        outs[k] = cr_nn_tensor(ctx, def->name, out_shapes[k].ndim, out_shapes[k].d);
         if (!outs[k]) return NULL;
     }
-    /* The node only reads its input array; nn_run copies it when recording. */
+    /* The node only reads its input array; cr_nn_run copies it when recording. */
     nn_node n = {.op = CR_OP_FUSED,
                  .nsrc = nin,
                  .src = (cr_tensor **)in,
                  .nout = nout,
                  .out = outs,
                  .p.fused = {.def = def, .stash = NULL}};
-    cr_tensor *first = nn_run(ctx, &n);
+    cr_tensor *first = cr_nn_run(ctx, &n);
     if (first && out)
         for (int k = 0; k < nout; k++)
             out[k] = outs[k];

@@ -2,7 +2,7 @@
  * the ops_*.c files share.
  *
  * An op builder (cr_nn_add, ...) checks shapes, allocates the output, fills a
- * node on its stack and hands it to nn_run: nn_run calls the op's forward
+ * node on its stack and hands it to cr_nn_run: cr_nn_run calls the op's forward
  * through the one forward switch (tape.c), then, when a gradient is wanted,
  * copies the node into the arena and links it to the tape. cr_nn_backward
  * walks the links backwards through the one backward switch.
@@ -96,29 +96,29 @@ struct cr_nn_ctx {
 
 /* ---- tensor.c */
 /* Record the first error of the step (later ones are dropped). */
-void nn_fail(cr_nn_ctx *ctx, cr_status st, const char *file, int line, const char *fmt, ...)
+void cr_nn_fail(cr_nn_ctx *ctx, cr_status st, const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 5, 6)));
-#define NN_FAIL(ctx, st, ...) nn_fail((ctx), (st), __FILE__, __LINE__, __VA_ARGS__)
+#define NN_FAIL(ctx, st, ...) cr_nn_fail((ctx), (st), __FILE__, __LINE__, __VA_ARGS__)
 /* 1 when the context has no error and all n inputs are non-NULL (a NULL
  * input with no recorded error is recorded as CR_ERR_INVALID naming `op`). */
-int nn_begin(cr_nn_ctx *ctx, const char *op, int n, cr_tensor *const *ts);
-void *nn_alloc(cr_nn_ctx *ctx, const char *who, size_t bytes);
+int cr_nn_begin(cr_nn_ctx *ctx, const char *op, int n, cr_tensor *const *ts);
+void *cr_nn_alloc(cr_nn_ctx *ctx, const char *who, size_t bytes);
 /* New arena tensor with uninitialised data. */
-cr_tensor *nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t *shape);
+cr_tensor *cr_nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t *shape);
 /* t->grad, allocated zeroed from the arena on first use. */
-float *nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who);
+float *cr_nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who);
 /* Copy of a host index array into the arena. */
-int32_t *nn_index_copy(cr_nn_ctx *ctx, const char *who, const int32_t *idx, int64_t n);
+int32_t *cr_nn_index_copy(cr_nn_ctx *ctx, const char *who, const int32_t *idx, int64_t n);
 /* Normalise a possibly negative axis of t; 0 and an error when out of range. */
-int nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *out);
+int cr_nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *out);
 /* t viewed as (outer, shape[axis], inner). */
-void nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, int64_t *inner);
+void cr_nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, int64_t *inner);
 /* Leading axes flattened: rows = product of all but the last axis, cols = the last. */
-void nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols);
+void cr_nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols);
 /* Padded right-aligned 4-D shape. */
-void nn_pad_shape(const cr_tensor *t, int64_t out[4]);
+void cr_nn_pad_shape(const cr_tensor *t, int64_t out[4]);
 /* Rows [start, start+len) of x as a view sharing data and grad. */
-cr_tensor *nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t len);
+cr_tensor *cr_nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t len);
 
 /* The grad an op's backward should add into: NULL when t is absent, does
  * not require grad (a frozen parameter keeps its buffer) or got none. */
@@ -129,37 +129,37 @@ static inline float *nn_gout(const cr_tensor *t) {
 /* ---- tape.c */
 /* Run the node's forward, then record it if a gradient is wanted. Returns
  * out[0], NULL on error. */
-cr_tensor *nn_run(cr_nn_ctx *ctx, nn_node *node);
+cr_tensor *cr_nn_run(cr_nn_ctx *ctx, nn_node *node);
 
 /* ---- op families: forward fills node->out from node->src; backward adds
  * into the grads of node->src that are non-NULL (outputs' grads are set). */
-void nn_unary_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_unary_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_binary_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_binary_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_reduce_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_reduce_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_matmul_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_matmul_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_grouped_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_linear_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_linear_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_concat_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_concat_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_slice_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_slice_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_gather_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_gather_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_scatter_add_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_scatter_add_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_segment_softmax_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_segment_softmax_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_layer_norm_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_layer_norm_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n); /* cross, dot, norm, normalize */
-void nn_rowwise_backward(cr_nn_ctx *ctx, nn_node *n);
-void nn_fused_forward(cr_nn_ctx *ctx, nn_node *n);
-void nn_fused_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_unary_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_unary_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_binary_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_binary_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_reduce_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_reduce_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_matmul_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_matmul_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_grouped_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_linear_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_linear_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_concat_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_concat_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_slice_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_slice_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_gather_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_gather_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_scatter_add_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_scatter_add_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_segment_softmax_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_segment_softmax_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_layer_norm_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_layer_norm_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_rowwise_forward(cr_nn_ctx *ctx, nn_node *n); /* cross, dot, norm, normalize */
+void cr_nn_rowwise_backward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_fused_forward(cr_nn_ctx *ctx, nn_node *n);
+void cr_nn_fused_backward(cr_nn_ctx *ctx, nn_node *n);
 
 #endif

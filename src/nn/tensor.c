@@ -44,7 +44,7 @@ cr_status cr_nn_ctx_create(const cr_nn_ctx_def *def, cr_nn_ctx **out, cr_error *
         free(ctx);
         return st;
     }
-    ctx->be = nn_backend_cpu();
+    ctx->be = cr_nn_backend_cpu();
     ctx->device = def->device;
     ctx->grad_enabled = 1;
     *out = ctx;
@@ -96,12 +96,12 @@ int64_t cr_nn_ctx_tape_length(const cr_nn_ctx *ctx) {
 
 void *cr_nn_scratch(cr_nn_ctx *ctx, const char *who, size_t bytes) {
     if (ctx->err.status != CR_OK) return NULL;
-    return nn_alloc(ctx, who, bytes);
+    return cr_nn_alloc(ctx, who, bytes);
 }
 
 /* ------------------------------------------------------------ helpers -- */
 
-void nn_fail(cr_nn_ctx *ctx, cr_status st, const char *file, int line, const char *fmt, ...) {
+void cr_nn_fail(cr_nn_ctx *ctx, cr_status st, const char *file, int line, const char *fmt, ...) {
     if (ctx->err.status != CR_OK) return;
     ctx->err.status = st;
     ctx->err.src_file = file;
@@ -112,7 +112,7 @@ void nn_fail(cr_nn_ctx *ctx, cr_status st, const char *file, int line, const cha
     va_end(ap);
 }
 
-int nn_begin(cr_nn_ctx *ctx, const char *op, int n, cr_tensor *const *ts) {
+int cr_nn_begin(cr_nn_ctx *ctx, const char *op, int n, cr_tensor *const *ts) {
     if (ctx->err.status != CR_OK) return 0;
     for (int i = 0; i < n; i++) {
         if (!ts[i]) {
@@ -123,7 +123,7 @@ int nn_begin(cr_nn_ctx *ctx, const char *op, int n, cr_tensor *const *ts) {
     return 1;
 }
 
-void *nn_alloc(cr_nn_ctx *ctx, const char *who, size_t bytes) {
+void *cr_nn_alloc(cr_nn_ctx *ctx, const char *who, size_t bytes) {
     void *p = cr_arena_alloc(&ctx->arena, bytes, NULL);
     if (!p) {
         size_t used = ctx->arena.used, cap = ctx->arena.capacity;
@@ -172,7 +172,7 @@ static cr_tensor *alloc_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const 
     int64_t numel = shape_numel(ctx, who, ndim, shape);
     if (numel < 0) return NULL;
     size_t bytes = header_bytes() + (with_data ? (size_t)numel * sizeof(float) : 0);
-    unsigned char *p = nn_alloc(ctx, who, bytes);
+    unsigned char *p = cr_nn_alloc(ctx, who, bytes);
     if (!p) return NULL;
     cr_tensor *t = (cr_tensor *)p;
     memset(t, 0, sizeof *t);
@@ -183,26 +183,26 @@ static cr_tensor *alloc_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const 
     return t;
 }
 
-cr_tensor *nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t *shape) {
+cr_tensor *cr_nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t *shape) {
     return alloc_tensor(ctx, who, ndim, shape, 1);
 }
 
-float *nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who) {
+float *cr_nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who) {
     if (t->grad) return t->grad;
-    float *g = nn_alloc(ctx, who, (size_t)t->numel * sizeof(float));
+    float *g = cr_nn_alloc(ctx, who, (size_t)t->numel * sizeof(float));
     if (!g) return NULL;
     ctx->be->fill(g, t->numel, 0.0f);
     t->grad = g;
     return g;
 }
 
-int32_t *nn_index_copy(cr_nn_ctx *ctx, const char *who, const int32_t *idx, int64_t n) {
-    int32_t *c = nn_alloc(ctx, who, (size_t)n * sizeof(int32_t));
+int32_t *cr_nn_index_copy(cr_nn_ctx *ctx, const char *who, const int32_t *idx, int64_t n) {
+    int32_t *c = cr_nn_alloc(ctx, who, (size_t)n * sizeof(int32_t));
     if (c && n > 0) memcpy(c, idx, (size_t)n * sizeof(int32_t));
     return c;
 }
 
-int nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *out) {
+int cr_nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *out) {
     int a = axis < 0 ? axis + t->ndim : axis;
     if (a < 0 || a >= t->ndim) {
         char s[64];
@@ -214,7 +214,7 @@ int nn_axis(cr_nn_ctx *ctx, const char *op, const cr_tensor *t, int axis, int *o
     return 1;
 }
 
-void nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, int64_t *inner) {
+void cr_nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, int64_t *inner) {
     int64_t o = 1, in = 1;
     for (int i = 0; i < axis; i++)
         o *= t->shape[i];
@@ -225,7 +225,7 @@ void nn_split_axis(const cr_tensor *t, int axis, int64_t *outer, int64_t *len, i
     *inner = in;
 }
 
-void nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols) {
+void cr_nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols) {
     int64_t r = 1;
     for (int i = 0; i + 1 < t->ndim; i++)
         r *= t->shape[i];
@@ -233,7 +233,7 @@ void nn_rows_cols(const cr_tensor *t, int64_t *rows, int64_t *cols) {
     *cols = t->ndim > 0 ? t->shape[t->ndim - 1] : 1;
 }
 
-void nn_pad_shape(const cr_tensor *t, int64_t out[4]) {
+void cr_nn_pad_shape(const cr_tensor *t, int64_t out[4]) {
     int lead = CR_NN_MAX_DIMS - t->ndim;
     for (int i = 0; i < CR_NN_MAX_DIMS; i++)
         out[i] = i < lead ? 1 : t->shape[i - lead];
@@ -271,7 +271,7 @@ int cr_nn_same_shape(const cr_tensor *a, const cr_tensor *b) {
 
 cr_tensor *cr_nn_new(cr_nn_ctx *ctx, int ndim, const int64_t *shape) {
     if (ctx->err.status != CR_OK) return NULL;
-    return nn_tensor(ctx, "new", ndim, shape);
+    return cr_nn_tensor(ctx, "new", ndim, shape);
 }
 
 cr_tensor *cr_nn_full(cr_nn_ctx *ctx, int ndim, const int64_t *shape, float value) {
@@ -311,7 +311,7 @@ static cr_tensor *make_view(cr_nn_ctx *ctx, const char *who, cr_tensor *t, int n
     v->data = t->data + offset;
     v->requires_grad = keep_grad && t->requires_grad && ctx->grad_enabled;
     if (v->requires_grad) {
-        float *g = nn_grad(ctx, t, who);
+        float *g = cr_nn_grad(ctx, t, who);
         if (!g) return NULL;
         v->grad = g + offset;
     }
@@ -319,7 +319,7 @@ static cr_tensor *make_view(cr_nn_ctx *ctx, const char *who, cr_tensor *t, int n
 }
 
 cr_tensor *cr_nn_reshape(cr_nn_ctx *ctx, cr_tensor *t, int ndim, const int64_t *shape) {
-    if (!nn_begin(ctx, "reshape", 1, &t)) return NULL;
+    if (!cr_nn_begin(ctx, "reshape", 1, &t)) return NULL;
     if (ndim < 0 || ndim > CR_NN_MAX_DIMS) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "reshape: %d dimensions, at most %d supported", ndim,
                 CR_NN_MAX_DIMS);
@@ -353,11 +353,11 @@ cr_tensor *cr_nn_reshape(cr_nn_ctx *ctx, cr_tensor *t, int ndim, const int64_t *
 }
 
 cr_tensor *cr_nn_detach(cr_nn_ctx *ctx, cr_tensor *t) {
-    if (!nn_begin(ctx, "detach", 1, &t)) return NULL;
+    if (!cr_nn_begin(ctx, "detach", 1, &t)) return NULL;
     return make_view(ctx, "detach", t, t->ndim, t->shape, 0, 0);
 }
 
-cr_tensor *nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t len) {
+cr_tensor *cr_nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t len) {
     int64_t s[CR_NN_MAX_DIMS];
     for (int i = 0; i < x->ndim; i++)
         s[i] = x->shape[i];

@@ -33,12 +33,11 @@
  * moved to their positions at t1 before Newton starts (step 4).
  *
  * Left out: self-collision, continuous collision detection, adaptive time
- * steps inside a frame beyond the backoff. Two ways to factorise less were tried and dropped: reusing a
- * factorisation as the preconditioner of conjugate gradients on later
- * iterations (contacts and rotations change a cloth Hessian so much between
- * iterations that CG rarely converged in the time of a new factor), and
- * factorising a sparser matrix without bending's couplings between hinge
- * wing tips, moved to the diagonal by their norm (half the fill, but the
+ * steps inside a frame beyond the backoff. Two ways to factorise less were tried and dropped:
+ * reusing a factorisation as the preconditioner of conjugate gradients on later iterations
+ * (contacts and rotations change a cloth Hessian so much between iterations that CG rarely
+ * converged in the time of a new factor), and factorising a sparser matrix without bending's
+ * couplings between hinge wing tips, moved to the diagonal by their norm (half the fill, but the
  * matrix then misses the smooth bending modes: a folded paper strip stayed
  * folded).
  */
@@ -100,7 +99,7 @@ static double drag_kernel(const void *data, int32_t e, const double *xe, double 
     return v;
 }
 
-void sim_drag_term(const sim_drag *dr, int32_t nv, cr_energy_term *out) {
+void cr_sim_drag_term(const sim_drag *dr, int32_t nv, cr_energy_term *out) {
     memset(out, 0, sizeof *out);
     out->name = "damping";
     out->nelem = nv;
@@ -142,8 +141,7 @@ static void move_pins(cr_sim *s, double t) {
     const float *p0 = d->pin_frames + 3 * i0 * s->npin, *p1 = d->pin_frames + 3 * i1 * s->npin;
     for (int32_t i = 0; i < s->npin; i++)
         for (int k = 0; k < 3; k++)
-            s->x[3 * (int64_t)s->pin_index[i] + k] =
-                (1.0 - a) * p0[3 * i + k] + a * p1[3 * i + k];
+            s->x[3 * (int64_t)s->pin_index[i] + k] = (1.0 - a) * p0[3 * i + k] + a * p1[3 * i + k];
 }
 
 /* Poses at t0 (cpos_prev, into the BVH) and t1 (cpos); returns the largest
@@ -234,8 +232,7 @@ static void track_range(void *vctx, int64_t begin, int64_t end) {
 static void update_friction(cr_sim *s, const double *x_start) {
     if (!s->friction) return;
     double t = cr_time_now();
-    cr_friction_update(s->friction, s->collision, x_start,
-                       s->def.collider_frames ? s->disp : NULL);
+    cr_friction_update(s->friction, s->collision, x_start, s->def.collider_frames ? s->disp : NULL);
     /* The contact list changed: refresh the term's element count. */
     cr_friction_term(s->friction, &s->terms[s->t_friction]);
     s->rep->seconds_collision += cr_time_now() - t;
@@ -253,8 +250,7 @@ static void update_friction(cr_sim *s, const double *x_start) {
  * walks into centimetres deep, and its penalty force (hundreds of newtons)
  * glued the cloth to the skin and tore it (membrane energies of 1e3 J on a
  * walking t-shirt). The BVH is at t0 on entry and refitted to t1 on return. */
-static cr_status track_collider(cr_sim *s, const double *x_start, double radius,
-                                cr_error *err) {
+static cr_status track_collider(cr_sim *s, const double *x_start, double radius, cr_error *err) {
     double t = cr_time_now();
     for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
         s->xf[k] = (float)x_start[k];

@@ -15,7 +15,7 @@ typedef struct sim_drag {
     const double *mass;    /* (V) kg */
     const double *x_start; /* (V,3) m, the substep's start */
 } sim_drag;
-void sim_drag_term(const sim_drag *dr, int32_t nv, cr_energy_term *out);
+void cr_sim_drag_term(const sim_drag *dr, int32_t nv, cr_energy_term *out);
 
 struct cr_sim {
     cr_sim_def def; /* a copy; def.pinned and def.collider are not used after create */

@@ -91,11 +91,12 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(d->npinned >= 0 && (d->npinned == 0 || d->pinned), "pinned: %d vertices, list %s",
               d->npinned, d->pinned ? "set" : "NULL");
     CHECK_DEF(!d->pin_frames || (d->npinned > 0 && d->pin_nframes >= 1),
-              "pin_frames needs pinned vertices and pin_nframes >= 1 (got %d and %d)",
-              d->npinned, d->pin_nframes);
+              "pin_frames needs pinned vertices and pin_nframes >= 1 (got %d and %d)", d->npinned,
+              d->pin_nframes);
     if (d->pin_frames)
         for (int64_t k = 0; k < 3 * (int64_t)d->npinned * d->pin_nframes; k++)
-            CHECK_DEF(isfinite(d->pin_frames[k]), "pin_frames: frame %lld has a non-finite coordinate",
+            CHECK_DEF(isfinite(d->pin_frames[k]),
+                      "pin_frames: frame %lld has a non-finite coordinate",
                       (long long)(k / (3 * (int64_t)d->npinned)));
     CHECK_DEF(!d->collider_frames || (d->collider && d->collider_nframes >= 1),
               "collider_frames needs a collider mesh and collider_nframes >= 1 (got %d)",
@@ -128,8 +129,10 @@ static cr_status setup_collider(cr_sim *s, cr_error *err) {
 
 static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     size_t n3 = 3 * (size_t)s->nv, nh = (size_t)(s->nh > 0 ? s->nh : 1);
-    double **vec3[] = {&s->x,      &s->v,    &s->x_frame, &s->v_frame, &s->x_start,
-                       &s->x_pred, &s->grad, &s->dx,      &s->xt,      &s->disp,};
+    double **vec3[] = {
+        &s->x,      &s->v,    &s->x_frame, &s->v_frame, &s->x_start,
+        &s->x_pred, &s->grad, &s->dx,      &s->xt,      &s->disp,
+    };
     for (size_t k = 0; k < sizeof vec3 / sizeof vec3[0]; k++)
         if (!(*vec3[k] = cr_calloc(n3, sizeof(double), err)))
             return err ? err->status : CR_ERR_MEMORY;
@@ -185,7 +188,7 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
     cr_inertia_term(s->inertia, &t), add_term(s, t);
     s->drag = (sim_drag){0.0, s->mass, s->x_start};
     s->t_drag = s->nterms;
-    sim_drag_term(&s->drag, s->nv, &t), add_term(s, t);
+    cr_sim_drag_term(&s->drag, s->nv, &t), add_term(s, t);
     cr_gravity_term(s->gravity, &t), add_term(s, t);
     cr_membrane_term(s->membrane, &t), add_term(s, t);
     cr_bending_term(s->bending, &t), add_term(s, t);

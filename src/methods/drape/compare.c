@@ -123,7 +123,7 @@ static cr_status curvature_spectrum(const cr_mesh *m, const float *H, double ban
         cr_parallel_for(S, 8, dft_range, &job);
         job.axis = 1;
         cr_parallel_for(S, 8, dft_range, &job);
-        double mpu = drape_chart_scale(m), total = 0.0;
+        double mpu = cr_drape_chart_scale(m), total = 0.0;
         for (int b = 0; b < CR_DRAPE_H_BANDS; b++)
             band[b] = 0.0;
         for (int i = 0; i < S; i++)
@@ -171,7 +171,7 @@ cr_status cr_drape_fidelity_measure(const cr_mesh *surface, const cr_mesh *refer
                        "drape fidelity: the surface and the reference need UVs for the spectrum");
     cr_bvh *ob = NULL, *sb = NULL, *rb = NULL;
     CR_TRY(cr_bvh_build(object->pos, object->nv, object->tri, object->nf, &ob, err));
-    out->max_penetration_m = drape_max_penetration(ob, surface);
+    out->max_penetration_m = cr_drape_max_penetration(ob, surface);
     cr_bvh_destroy(ob);
     cr_status st = CR_OK;
     if (reference) {
@@ -215,8 +215,8 @@ static cr_status labelled(const cr_image *render, const char *name, cr_image *ou
     memcpy(out->rgb, render->rgb, (size_t)render->width * render->height * 3);
     const uint8_t ink[3] = {20, 20, 20};
     int scale = 3;
-    drape_text(out, (out->width - drape_text_width(name, scale)) / 2, render->height + 10, scale,
-               name, ink);
+    cr_drape_text(out, (out->width - cr_drape_text_width(name, scale)) / 2, render->height + 10,
+                  scale, name, ink);
     return CR_OK;
 }
 
@@ -241,7 +241,7 @@ cr_status cr_drape_compare(const cr_drape_def *def, cr_drape_result *results, ch
         st = cr_drape_run(&d, &res, &surface, err);
         if (st == CR_OK && results) results[v] = res;
         cr_image render = {0};
-        if (st == CR_OK) st = drape_render(surface, object, COMPARE_RENDER_PX, &render, err);
+        if (st == CR_OK) st = cr_drape_render(surface, object, COMPARE_RENDER_PX, &render, err);
         if (st == CR_OK) st = labelled(&render, cr_drape_variant_name(d.variant), &cells[v], err);
         cr_image_free(&render);
         cr_mesh_destroy(surface);

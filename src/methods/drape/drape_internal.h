@@ -22,10 +22,10 @@ typedef struct drape_scene {
     float metres_per_uv; /* sqrt(3-D area / UV area) of the rest cloth */
 } drape_scene;
 
-cr_status drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err);
-void drape_scene_free(drape_scene *s);
+cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err);
+void cr_drape_scene_free(drape_scene *s);
 /* sqrt(3-D area / UV area): metres per UV unit of a (nearly) isometric chart. */
-float drape_chart_scale(const cr_mesh *m);
+float cr_drape_chart_scale(const cr_mesh *m);
 
 /* ------------------------------------------------------- structures -- */
 
@@ -46,14 +46,14 @@ typedef struct drape_batch {
     uint8_t *valid; /* (cap*6) */
 } drape_batch;
 
-cr_status drape_batch_alloc(drape_batch *b, int64_t cap, cr_error *err);
-void drape_batch_free(drape_batch *b);
+cr_status cr_drape_batch_alloc(drape_batch *b, int64_t cap, cr_error *err);
+void cr_drape_batch_free(drape_batch *b);
 /* Structures at centres (N,2) with angles theta (N); with `inset`, centres in
  * [0,1]^2 are first mapped affinely onto [r, 1-r]^2, r = 2 side / sqrt(3), so
  * every vertex of every structure lies on a full square chart. Structures
  * with a vertex off the chart or a rest edge of zero length are dropped. */
-void drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
-                       const float *theta, int64_t n, float side, int inset);
+void cr_drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
+                          const float *theta, int64_t n, float side, int inset);
 
 /* What the loss ops read besides positions: weights, mass, eps, the object. */
 typedef struct drape_loss_ctx {
@@ -64,13 +64,13 @@ typedef struct drape_loss_ctx {
 /* The batch's weighted loss at positions x (P,3) as a scalar tensor (the sum
  * over structures); terms_out (4, may be NULL) gets the weighted strain,
  * bend, gravity and collision sums as scalar tensors. */
-cr_tensor *drape_batch_loss(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
-                            cr_tensor *x, cr_tensor **terms_out);
+cr_tensor *cr_drape_batch_loss(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
+                               cr_tensor *x, cr_tensor **terms_out);
 /* Forward only, on the host: the weighted terms summed over the batch into
  * sums[4] (added to), and each structure's weighted total into
  * per_structure (N, may be NULL). x (P,3) are the batch's positions. */
-cr_status drape_batch_eval(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
-                           const float *x, double sums[4], float *per_structure, cr_error *err);
+cr_status cr_drape_batch_eval(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
+                              const float *x, double sums[4], float *per_structure, cr_error *err);
 
 /* -------------------------------------------------------- mesh losses -- */
 
@@ -85,31 +85,31 @@ typedef struct drape_mesh_losses {
     cr_drape_weights w;
 } drape_mesh_losses;
 
-cr_status drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s,
-                                   drape_mesh_losses *out, cr_error *err);
-void drape_mesh_losses_free(drape_mesh_losses *ml);
+cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s,
+                                      drape_mesh_losses *out, cr_error *err);
+void cr_drape_mesh_losses_free(drape_mesh_losses *ml);
 
 /* ------------------------------------------------------------ model -- */
 
 /* For the mesh variants: the (V,3) positions of the rest mesh's vertices as
  * a differentiable tensor (the free vertices, or the INR at their UVs). */
-cr_tensor *drape_model_vertices(cr_nn_ctx *ctx, cr_drape_model *m);
+cr_tensor *cr_drape_model_vertices(cr_nn_ctx *ctx, cr_drape_model *m);
 /* Forward only: positions at uv (N,2) with rest positions p0 (N,3), in chunks. */
-cr_status drape_model_eval(cr_nn_ctx *ctx, cr_drape_model *m, const float *uv, const float *p0,
-                           int64_t n, float *x, cr_error *err);
-const cr_uv_lookup *drape_model_lookup(const cr_drape_model *m);
+cr_status cr_drape_model_eval(cr_nn_ctx *ctx, cr_drape_model *m, const float *uv, const float *p0,
+                              int64_t n, float *x, cr_error *err);
+const cr_uv_lookup *cr_drape_model_lookup(const cr_drape_model *m);
 
 /* ---------------------------------------------------------- outputs -- */
 
 /* The learned surface as a mesh: a res x res plane over the square chart, or
  * the rest cloth's own triangulation for a user cloth. */
-cr_status drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scene *s, int res,
-                             cr_mesh **out, cr_error *err);
+cr_status cr_drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scene *s, int res,
+                                cr_mesh **out, cr_error *err);
 /* Deepest vertex of `surface` inside the object, m (0 when none). */
-double drape_max_penetration(const cr_bvh *object, const cr_mesh *surface);
+double cr_drape_max_penetration(const cr_bvh *object, const cr_mesh *surface);
 /* Cloth (blue) over the object (grey) into `img` (new). */
-cr_status drape_render(const cr_mesh *surface, const cr_mesh *object, int size, cr_image *img,
-                       cr_error *err);
+cr_status cr_drape_render(const cr_mesh *surface, const cr_mesh *object, int size, cr_image *img,
+                          cr_error *err);
 
 /* One loss-log record. */
 typedef struct drape_log_row {
@@ -121,13 +121,13 @@ typedef struct drape_log_row {
 
 /* Loss curves: strain, bend and collision on a log axis above, gravity and
  * the potential (strain + bend + gravity) on a linear axis below. */
-cr_status drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err);
+cr_status cr_drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err);
 
 /* ------------------------------------------------------------- text -- */
 
 /* Draw `text` (a-z, 0-9, space, . - + : % / ( ) _ =; others as a box) at
  * (x, y) top-left, glyphs 5x7 scaled by `scale`, in sRGB `rgb`. Clipped. */
-void drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]);
-int drape_text_width(const char *text, int scale); /* pixels */
+void cr_drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]);
+int cr_drape_text_width(const char *text, int scale); /* pixels */
 
 #endif

@@ -137,7 +137,7 @@ cr_nn_params *cr_drape_model_params(cr_drape_model *m) {
     return m->params;
 }
 
-const cr_uv_lookup *drape_model_lookup(const cr_drape_model *m) {
+const cr_uv_lookup *cr_drape_model_lookup(const cr_drape_model *m) {
     return m->lookup;
 }
 
@@ -259,13 +259,13 @@ cr_tensor *cr_drape_model_forward(cr_nn_ctx *ctx, cr_drape_model *m, const float
     return cr_nn_add(ctx, base, d);
 }
 
-cr_tensor *drape_model_vertices(cr_nn_ctx *ctx, cr_drape_model *m) {
+cr_tensor *cr_drape_model_vertices(cr_nn_ctx *ctx, cr_drape_model *m) {
     if (!is_inr(m->variant)) return m->verts;
     return cr_drape_model_forward(ctx, m, m->vert_uv, m->rest->pos, m->rest->nv);
 }
 
-cr_status drape_model_eval(cr_nn_ctx *ctx, cr_drape_model *m, const float *uv, const float *p0,
-                           int64_t n, float *x, cr_error *err) {
+cr_status cr_drape_model_eval(cr_nn_ctx *ctx, cr_drape_model *m, const float *uv, const float *p0,
+                              int64_t n, float *x, cr_error *err) {
     int was = cr_nn_ctx_grad_enabled(ctx);
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     cr_status st = CR_OK;

@@ -15,8 +15,8 @@
 
 /* V output vertices. */
 
-cr_status drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scene *s, int res,
-                             cr_mesh **out, cr_error *err) {
+cr_status cr_drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scene *s, int res,
+                                cr_mesh **out, cr_error *err) {
     *out = NULL;
     cr_mesh *mesh = NULL;
     if (s->square)
@@ -35,7 +35,7 @@ cr_status drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scen
             cr_drape_model_rest(m, uv, nv, p0, NULL);
         else
             memcpy(p0, s->rest->pos, (size_t)nv * 3 * sizeof(float));
-        st = drape_model_eval(ctx, m, uv, p0, nv, mesh->pos, err);
+        st = cr_drape_model_eval(ctx, m, uv, p0, nv, mesh->pos, err);
     }
     for (int64_t i = 0; st == CR_OK && i < 3 * nv; i++)
         if (!isfinite(mesh->pos[i]))
@@ -52,7 +52,7 @@ cr_status drape_surface_mesh(cr_nn_ctx *ctx, cr_drape_model *m, const drape_scen
     return CR_OK;
 }
 
-double drape_max_penetration(const cr_bvh *object, const cr_mesh *surface) {
+double cr_drape_max_penetration(const cr_bvh *object, const cr_mesh *surface) {
     float *d = malloc((size_t)surface->nv * sizeof(float) + 1);
     if (!d) return NAN;
     cr_bvh_signed_distance_batch(object, surface->pos, surface->nv, INFINITY, d, NULL, NULL);
@@ -63,8 +63,8 @@ double drape_max_penetration(const cr_bvh *object, const cr_mesh *surface) {
     return deepest;
 }
 
-cr_status drape_render(const cr_mesh *surface, const cr_mesh *object, int size, cr_image *img,
-                       cr_error *err) {
+cr_status cr_drape_render(const cr_mesh *surface, const cr_mesh *object, int size, cr_image *img,
+                          cr_error *err) {
     cr_render_object objs[2] = {
         {.mesh = surface, .color = {0.33f, 0.52f, 0.80f}}, /* cloth blue, as `crease render` */
         {.mesh = object, .color = {0.72f, 0.72f, 0.70f}},

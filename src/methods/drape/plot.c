@@ -136,7 +136,8 @@ static void x_ticks(cr_image *img, const panel *p, int labels) {
         if (!labels) continue;
         char s[32];
         snprintf(s, sizeof s, "%.0f", x);
-        drape_text(img, X - drape_text_width(s, TEXT_SCALE) / 2, p->y1 + 8, TEXT_SCALE, s, BLACK);
+        cr_drape_text(img, X - cr_drape_text_width(s, TEXT_SCALE) / 2, p->y1 + 8, TEXT_SCALE, s,
+                      BLACK);
     }
 }
 
@@ -147,8 +148,8 @@ static void y_ticks(cr_image *img, const panel *p) {
             hline(img, p->x0 + 1, p->x1 - 1, Y, GREY);
             char s[16];
             snprintf(s, sizeof s, "1e%d", d);
-            drape_text(img, p->x0 - 8 - drape_text_width(s, TEXT_SCALE), Y - 7, TEXT_SCALE, s,
-                       BLACK);
+            cr_drape_text(img, p->x0 - 8 - cr_drape_text_width(s, TEXT_SCALE), Y - 7, TEXT_SCALE, s,
+                          BLACK);
         }
         return;
     }
@@ -158,7 +159,8 @@ static void y_ticks(cr_image *img, const panel *p) {
         hline(img, p->x0 + 1, p->x1 - 1, Y, GREY);
         char s[32];
         snprintf(s, sizeof s, "%.3g", fabs(y) < 1e-6 * step ? 0.0 : y);
-        drape_text(img, p->x0 - 8 - drape_text_width(s, TEXT_SCALE), Y - 7, TEXT_SCALE, s, BLACK);
+        cr_drape_text(img, p->x0 - 8 - cr_drape_text_width(s, TEXT_SCALE), Y - 7, TEXT_SCALE, s,
+                      BLACK);
     }
 }
 
@@ -166,10 +168,10 @@ static void legend(cr_image *img, const panel *p, const int *ks, int n) {
     int y = p->y0 + 10;
     for (int i = 0; i < n; i++) {
         const char *s = NAMES[ks[i]];
-        int x = p->x1 - 12 - drape_text_width(s, TEXT_SCALE);
+        int x = p->x1 - 12 - cr_drape_text_width(s, TEXT_SCALE);
         for (int t = 0; t < 3; t++)
             hline(img, x - 34, x - 8, y + 6 + t, COLORS[ks[i]]);
-        drape_text(img, x, y, TEXT_SCALE, s, BLACK);
+        cr_drape_text(img, x, y, TEXT_SCALE, s, BLACK);
         y += 20;
     }
 }
@@ -197,7 +199,7 @@ static int range(const drape_log_row *rows, int n, const int *ks, int nk, int lo
     return 1;
 }
 
-cr_status drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err) {
+cr_status cr_drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err) {
     cr_image img = {0};
     CR_TRY(cr_image_create(PLOT_W, PLOT_H, &img, err));
     memset(img.rgb, 255, (size_t)PLOT_W * PLOT_H * 3);
@@ -226,8 +228,8 @@ cr_status drape_plot_losses(const drape_log_row *rows, int n, const char *path, 
     frame(&img, &top), frame(&img, &bot);
     legend(&img, &top, log_terms, 3), legend(&img, &bot, lin_terms, 2);
     const char *xl = "epoch";
-    drape_text(&img, (PLOT_W - drape_text_width(xl, TEXT_SCALE)) / 2, PLOT_H - 20, TEXT_SCALE, xl,
-               BLACK);
+    cr_drape_text(&img, (PLOT_W - cr_drape_text_width(xl, TEXT_SCALE)) / 2, PLOT_H - 20, TEXT_SCALE,
+                  xl, BLACK);
     cr_status st = cr_image_write_png(&img, path, err);
     cr_image_free(&img);
     return st;

@@ -231,7 +231,7 @@ void cr_drape_sampler_destroy(cr_drape_sampler *s) {
     free(s->weights);
     table_free(&s->uniform);
     table_free(&s->adaptive);
-    drape_lloyd_free(&s->lloyd);
+    cr_drape_lloyd_free(&s->lloyd);
     free(s);
 }
 
@@ -375,8 +375,8 @@ cr_status cr_drape_sampler_draw(cr_drape_sampler *s, int32_t n, cr_rng *rng, flo
     double f = (double)na / n;
     for (int64_t c = 0; c < cells; c++)
         s->weights[c] = s->mask[c] ? f * s->p[c] + (1.0 - f) / (double)s->inside : 0.0;
-    CR_TRY(drape_lloyd_relax(&s->lloyd, uv_out, n, s->lloyd_density, s->lloyd_iterations,
-                             s->weights, s->lloyd_exponent, s->mask, G, key, STREAM_DENSE, err));
+    CR_TRY(cr_drape_lloyd_relax(&s->lloyd, uv_out, n, s->lloyd_density, s->lloyd_iterations,
+                                s->weights, s->lloyd_exponent, s->mask, G, key, STREAM_DENSE, err));
     return CR_OK;
 }
 

@@ -54,7 +54,7 @@ static void grid_free(drape_bucket_grid *g) {
     memset(g, 0, sizeof *g);
 }
 
-void drape_lloyd_free(drape_lloyd *L) {
+void cr_drape_lloyd_free(drape_lloyd *L) {
     if (!L) return;
     grid_free(&L->fine);
     grid_free(&L->coarse);
@@ -368,9 +368,9 @@ static void draw_dense(drape_lloyd *L, const double *rho, int32_t G, int64_t m, 
 
 /* ------------------------------------------------------------------- relax -- */
 
-cr_status drape_lloyd_relax(drape_lloyd *L, float *uv, int32_t n, int32_t density, int32_t iters,
-                            const double *rho, double exponent, const uint8_t *mask, int32_t G,
-                            uint64_t key, uint64_t stream, cr_error *err) {
+cr_status cr_drape_lloyd_relax(drape_lloyd *L, float *uv, int32_t n, int32_t density, int32_t iters,
+                               const double *rho, double exponent, const uint8_t *mask, int32_t G,
+                               uint64_t key, uint64_t stream, cr_error *err) {
     CR_ASSERT(L && uv && rho && mask && n >= 1 && density >= 1 && iters >= 1 && G >= 1);
     int64_t m = (int64_t)n * density, cells = (int64_t)G * G;
     CR_ASSERT(m <= INT32_MAX);

@@ -49,7 +49,7 @@ typedef struct drape_lloyd {
     double *cell_w;   /* (G*G) weight of a dense point in each cell */
 } drape_lloyd;
 
-void drape_lloyd_free(drape_lloyd *L);
+void cr_drape_lloyd_free(drape_lloyd *L);
 
 /* Relax the n points uv (n,2), all in cells inside mask (G*G), by `iters`
  * Lloyd iterations whose centroids come from n * density dense points drawn
@@ -57,8 +57,8 @@ void drape_lloyd_free(drape_lloyd *L);
  * and weighted by rho^(exponent - 1), using counters of `stream` under
  * `key`. Points stay in cells inside the mask. Deterministic for any thread
  * count. CR_ERR_MEMORY only. */
-cr_status drape_lloyd_relax(drape_lloyd *L, float *uv, int32_t n, int32_t density, int32_t iters,
-                            const double *rho, double exponent, const uint8_t *mask, int32_t G,
-                            uint64_t key, uint64_t stream, cr_error *err);
+cr_status cr_drape_lloyd_relax(drape_lloyd *L, float *uv, int32_t n, int32_t density, int32_t iters,
+                               const double *rho, double exponent, const uint8_t *mask, int32_t G,
+                               uint64_t key, uint64_t stream, cr_error *err);
 
 #endif

@@ -275,7 +275,7 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     return st;
 }
 
-float drape_chart_scale(const cr_mesh *m) {
+float cr_drape_chart_scale(const cr_mesh *m) {
     double a3 = 0.0, a2 = 0.0;
     for (int32_t f = 0; f < m->nf; f++) {
         float n[3];
@@ -290,7 +290,7 @@ float drape_chart_scale(const cr_mesh *m) {
     return a2 > 0.0 ? (float)sqrt(a3 / a2) : 1.0f;
 }
 
-cr_status drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
+cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
     memset(s, 0, sizeof *s);
     cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
     if (st == CR_OK && def->scene == CR_DRAPE_OBJECT)
@@ -305,12 +305,12 @@ cr_status drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *
         st = cr_scene_cloth_above(s->object, def->mesh_res, def->cloth_size, def->gap, &s->rest,
                                   err);
     }
-    if (st == CR_OK) s->metres_per_uv = drape_chart_scale(s->rest);
-    if (st != CR_OK) drape_scene_free(s);
+    if (st == CR_OK) s->metres_per_uv = cr_drape_chart_scale(s->rest);
+    if (st != CR_OK) cr_drape_scene_free(s);
     return st;
 }
 
-void drape_scene_free(drape_scene *s) {
+void cr_drape_scene_free(drape_scene *s) {
     cr_bvh_destroy(s->bvh);
     cr_mesh_destroy(s->object);
     cr_mesh_destroy(s->rest);
@@ -332,8 +332,8 @@ void drape_scene_free(drape_scene *s) {
  *     w_strain' = 3 w_strain,   w_bend' = w_bend s^2 / (2 d^2)
  * make both discretisations estimate the same energy per area (up to one
  * common factor, which Adam does not see). d^2 is the area per vertex. */
-cr_status drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s,
-                                   drape_mesh_losses *out, cr_error *err) {
+cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s,
+                                      drape_mesh_losses *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     const cr_mesh *m = s->rest;
     cr_topology *t = NULL;
@@ -373,11 +373,11 @@ cr_status drape_mesh_losses_create(const cr_drape_def *def, const drape_scene *s
         out->w.bend = (float)(0.5 * def->w.bend * side * side / d2);
     }
     cr_topology_destroy(t);
-    if (st != CR_OK) drape_mesh_losses_free(out);
+    if (st != CR_OK) cr_drape_mesh_losses_free(out);
     return st;
 }
 
-void drape_mesh_losses_free(drape_mesh_losses *ml) {
+void cr_drape_mesh_losses_free(drape_mesh_losses *ml) {
     free(ml->edges), free(ml->rest), free(ml->hinges);
     memset(ml, 0, sizeof *ml);
 }

@@ -417,7 +417,7 @@ cr_tensor *cr_drape_collision(cr_nn_ctx *ctx, cr_tensor *x, const cr_bvh *object
 
 /* --------------------------------------------------------- batches -- */
 
-cr_status drape_batch_alloc(drape_batch *b, int64_t cap, cr_error *err) {
+cr_status cr_drape_batch_alloc(drape_batch *b, int64_t cap, cr_error *err) {
     memset(b, 0, sizeof *b);
     b->cap = cap;
     b->uv = cr_malloc((size_t)cap * 12 * sizeof(float), err);
@@ -431,20 +431,20 @@ cr_status drape_batch_alloc(drape_batch *b, int64_t cap, cr_error *err) {
     b->valid = cr_malloc((size_t)cap * 6, err);
     if (!b->uv || !b->p0 || !b->rest || !b->edges || !b->hinges || !b->source || !b->all_uv ||
         !b->all_p0 || !b->valid) {
-        drape_batch_free(b);
+        cr_drape_batch_free(b);
         return CR_ERR_MEMORY;
     }
     return CR_OK;
 }
 
-void drape_batch_free(drape_batch *b) {
+void cr_drape_batch_free(drape_batch *b) {
     free(b->uv), free(b->p0), free(b->rest), free(b->edges), free(b->hinges), free(b->source);
     free(b->all_uv), free(b->all_p0), free(b->valid);
     memset(b, 0, sizeof *b);
 }
 
-void drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
-                       const float *theta, int64_t n, float side, int inset) {
+void cr_drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
+                          const float *theta, int64_t n, float side, int inset) {
     CR_ASSERT(n <= b->cap);
     float *c = b->all_p0; /* borrowed as centre scratch before the lookups fill it */
     const float *cen = centre;
@@ -484,8 +484,8 @@ void drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *cen
     }
 }
 
-cr_tensor *drape_batch_loss(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
-                            cr_tensor *x, cr_tensor **terms_out) {
+cr_tensor *cr_drape_batch_loss(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
+                               cr_tensor *x, cr_tensor **terms_out) {
     const cr_drape_def *d = lc->def;
     cr_tensor *t[4] = {
         cr_drape_strain(ctx, x, b->edges, b->rest, 9 * b->n),
@@ -505,8 +505,8 @@ cr_tensor *drape_batch_loss(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drap
     return loss;
 }
 
-cr_status drape_batch_eval(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
-                           const float *x, double sums[4], float *per_structure, cr_error *err) {
+cr_status cr_drape_batch_eval(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const drape_batch *b,
+                              const float *x, double sums[4], float *per_structure, cr_error *err) {
     const cr_drape_def *d = lc->def;
     int was = cr_nn_ctx_grad_enabled(ctx);
     cr_nn_ctx_set_grad_enabled(ctx, 0);

@@ -70,12 +70,12 @@ static const uint8_t *glyph(char c) {
     return p && c ? GLYPHS[p - GLYPH_CHARS] : BOX;
 }
 
-int drape_text_width(const char *text, int scale) {
+int cr_drape_text_width(const char *text, int scale) {
     int n = (int)strlen(text);
     return n ? (n * GLYPH_ADVANCE - 1) * scale : 0;
 }
 
-void drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]) {
+void cr_drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]) {
     for (int k = 0; text[k]; k++) {
         const uint8_t *g = glyph(text[k]);
         int gx = x + k * GLYPH_ADVANCE * scale;

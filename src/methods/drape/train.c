@@ -91,7 +91,7 @@ static cr_status chart_mask(const drape_run *r, int g, uint8_t **out, cr_error *
         for (int j = 0; j < g; j++) {
             int32_t f;
             double b[3];
-            (*out)[i * g + j] = (uint8_t)cr_uv_lookup_find(drape_model_lookup(r->model),
+            (*out)[i * g + j] = (uint8_t)cr_uv_lookup_find(cr_drape_model_lookup(r->model),
                                                            (j + 0.5f) / g, (i + 0.5f) / g, &f, b);
             any |= (*out)[i * g + j];
         }
@@ -108,7 +108,7 @@ static cr_status chart_mask(const drape_run *r, int g, uint8_t **out, cr_error *
 static cr_status setup(drape_run *r, cr_error *err) {
     const cr_drape_def *def = r->def;
     r->rng = cr_rng_make(def->seed, 1);
-    CR_TRY(drape_scene_create(def, &r->scene, err));
+    CR_TRY(cr_drape_scene_create(def, &r->scene, err));
     CR_TRY(cr_drape_model_create(def, r->scene.rest, &r->model, err));
     r->lc = (drape_loss_ctx){.def = def, .bvh = r->scene.bvh};
     r->structures = def->variant == CR_DRAPE_INR_UNIFORM || def->variant == CR_DRAPE_INR_ADAPTIVE;
@@ -149,15 +149,15 @@ static cr_status setup(drape_run *r, cr_error *err) {
         cr_status st = cr_drape_sampler_create(&sd, &r->sampler, err);
         free(mask);
         CR_TRY(st);
-        CR_TRY(drape_batch_alloc(&r->train, def->samples, err));
-        CR_TRY(drape_batch_alloc(&r->cells, g2, err));
+        CR_TRY(cr_drape_batch_alloc(&r->train, def->samples, err));
+        CR_TRY(cr_drape_batch_alloc(&r->cells, g2, err));
         r->centre = cr_malloc((size_t)def->samples * 2 * sizeof(float), err);
         r->theta = cr_malloc((size_t)def->samples * sizeof(float), err);
         r->cell_loss = cr_malloc((size_t)g2 * sizeof(float), err);
         r->cell_theta = cr_malloc((size_t)g2 * sizeof(float), err);
         if (!r->centre || !r->theta || !r->cell_loss || !r->cell_theta) return CR_ERR_MEMORY;
     } else {
-        CR_TRY(drape_mesh_losses_create(def, &r->scene, &r->ml, err));
+        CR_TRY(cr_drape_mesh_losses_create(def, &r->scene, &r->ml, err));
     }
     /* the pin: the chart centre, when it lies on the chart */
     r->pin_uv[0] = r->pin_uv[1] = 0.5f;
@@ -178,7 +178,7 @@ static cr_status setup(drape_run *r, cr_error *err) {
             r->eval_centre[2 * k + 1] = (i + 0.5f) / e;
             r->eval_theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&er));
         }
-    CR_TRY(drape_batch_alloc(&r->eval, EVAL_BATCH, err));
+    CR_TRY(cr_drape_batch_alloc(&r->eval, EVAL_BATCH, err));
     if (def->out_dir) {
         CR_TRY(cr_mkdir_p(def->out_dir, err));
         snprintf(r->ckpt_path, sizeof r->ckpt_path, "%s/checkpoint.safetensors", def->out_dir);
@@ -189,15 +189,15 @@ static cr_status setup(drape_run *r, cr_error *err) {
 
 static void run_free(drape_run *r) {
     cr_drape_sampler_destroy(r->sampler);
-    drape_batch_free(&r->train), drape_batch_free(&r->cells), drape_batch_free(&r->eval);
+    cr_drape_batch_free(&r->train), cr_drape_batch_free(&r->cells), cr_drape_batch_free(&r->eval);
     free(r->centre), free(r->theta), free(r->cell_loss), free(r->cell_theta);
     free(r->eval_centre), free(r->eval_theta), free(r->x), free(r->per_structure);
-    drape_mesh_losses_free(&r->ml);
+    cr_drape_mesh_losses_free(&r->ml);
     free(r->rows);
     cr_nn_ctx_destroy(r->ctx);
     cr_optim_destroy(r->opt);
     cr_drape_model_destroy(r->model);
-    drape_scene_free(&r->scene);
+    cr_drape_scene_free(&r->scene);
 }
 
 /* ------------------------------------------------------- evaluation -- */
@@ -208,9 +208,9 @@ static void run_free(drape_run *r) {
 static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
                        const float *theta, int64_t n, double sums[4], int64_t *kept,
                        cr_error *err) {
-    drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square);
-    cr_status st = drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
-    if (st == CR_OK) st = drape_batch_eval(r->ctx, lc, b, r->x, sums, r->per_structure, err);
+    cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square);
+    cr_status st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
+    if (st == CR_OK) st = cr_drape_batch_eval(r->ctx, lc, b, r->x, sums, r->per_structure, err);
     cr_nn_ctx_reset(r->ctx);
     if (kept) *kept += b->n;
     return st;
@@ -305,13 +305,14 @@ static cr_status structure_epoch(drape_run *r, int epoch, cr_error *err) {
     for (int k = 0; k < def->samples; k++)
         r->theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&r->rng));
     drape_batch *b = &r->train;
-    drape_batch_build(b, r->model, r->centre, r->theta, def->samples, def->side, r->scene.square);
+    cr_drape_batch_build(b, r->model, r->centre, r->theta, def->samples, def->side,
+                         r->scene.square);
     if (b->n == 0)
         return CR_FAIL(err, CR_ERR_INVALID, "drape: no sampled structure fits on the UV chart");
     cr_nn_ctx_reset(r->ctx);
     cr_tensor *x = cr_drape_model_forward(r->ctx, r->model, b->uv, b->p0, 6 * b->n);
     cr_tensor *t[4];
-    cr_tensor *loss = add_pin(r, drape_batch_loss(r->ctx, &r->lc, b, x, t), (double)b->n);
+    cr_tensor *loss = add_pin(r, cr_drape_batch_loss(r->ctx, &r->lc, b, x, t), (double)b->n);
     cr_nn_params_zero_grad(cr_drape_model_params(r->model));
     CR_TRY(cr_nn_backward(r->ctx, loss, err));
     CR_TRY(clip_gradient(r, err));
@@ -325,7 +326,7 @@ static cr_status mesh_epoch(drape_run *r, cr_error *err) {
     const drape_mesh_losses *ml = &r->ml;
     cr_nn_ctx *ctx = r->ctx;
     cr_nn_ctx_reset(ctx);
-    cr_tensor *x = drape_model_vertices(ctx, r->model);
+    cr_tensor *x = cr_drape_model_vertices(ctx, r->model);
     cr_tensor *t[4] = {
         cr_drape_strain(ctx, x, ml->edges, ml->rest, ml->ne),
         cr_drape_bend(ctx, x, ml->hinges, ml->nh),
@@ -613,11 +614,11 @@ static cr_status write_outputs(drape_run *r, cr_drape_result *res, const cr_mesh
     CR_TRY(cr_mesh_write(res->obj_path, surface, err));
     CR_TRY(cr_mesh_write(res->glb_path, surface, err));
     cr_image img = {0};
-    CR_TRY(drape_render(surface, r->scene.object, r->def->render_size, &img, err));
+    CR_TRY(cr_drape_render(surface, r->scene.object, r->def->render_size, &img, err));
     cr_status st = cr_image_write_png(&img, res->png_path, err);
     cr_image_free(&img);
     CR_TRY(st);
-    CR_TRY(drape_plot_losses(r->rows, r->nrows, res->loss_png, err));
+    CR_TRY(cr_drape_plot_losses(r->rows, r->nrows, res->loss_png, err));
     if (r->sampler) {
         snprintf(res->sampler_png, sizeof res->sampler_png, "%s/sampler.png", dir);
         CR_TRY(cr_drape_sampler_write_png(r->sampler, r->centre, r->drawn ? r->def->samples : 0,
@@ -646,8 +647,8 @@ cr_status cr_drape_run(const cr_drape_def *def, cr_drape_result *res, cr_mesh **
     if (st == CR_OK) st = train(&r, res, err);
     if (st == CR_OK && r.nrows > 0) res->initial = r.rows[0].eval;
     cr_mesh *out = NULL;
-    if (st == CR_OK) st = drape_surface_mesh(r.ctx, r.model, &r.scene, def->out_res, &out, err);
-    if (st == CR_OK) res->max_penetration_m = drape_max_penetration(r.scene.bvh, out);
+    if (st == CR_OK) st = cr_drape_surface_mesh(r.ctx, r.model, &r.scene, def->out_res, &out, err);
+    if (st == CR_OK) res->max_penetration_m = cr_drape_max_penetration(r.scene.bvh, out);
     if (st == CR_OK && def->out_dir) st = save_checkpoint(&r, res, err);
     if (st == CR_OK && def->out_dir) st = write_outputs(&r, res, out, err);
     if (st == CR_OK && surface)

@@ -1,4 +1,4 @@
-/* cpu.h (private): the CPU kernels behind nn_backend_cpu(), one prototype per
+/* cpu.h (private): the CPU kernels behind cr_nn_backend_cpu(), one prototype per
  * backend-table entry (see nn/backend.h for what each computes), plus the
  * naive GEMM kept as the reference the tests compare against.
  *
@@ -21,77 +21,79 @@ static inline int64_t nn_cpu_row_grain(int64_t cols) {
 
 /* A kernel was handed an op it has no case for: a bug in the tape, so abort
  * naming the kernel and the op. */
-void nn_cpu_bad_op(const char *kernel, cr_op op, const char *file, int line)
+void cr_nn_cpu_bad_op(const char *kernel, cr_op op, const char *file, int line)
     __attribute__((noreturn));
 
 /* cpu_elementwise.c */
-void nn_cpu_fill(float *x, int64_t n, float value);
-void nn_cpu_copy(float *dst, const float *src, int64_t n);
-void nn_cpu_unary_forward(cr_op op, float p, const float *x, float *y, int64_t n);
-void nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y, const float *dy,
-                           float *dx, int64_t n);
-void nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
-                   const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
-                   float *out, int acc);
+void cr_nn_cpu_fill(float *x, int64_t n, float value);
+void cr_nn_cpu_copy(float *dst, const float *src, int64_t n);
+void cr_nn_cpu_unary_forward(cr_op op, float p, const float *x, float *y, int64_t n);
+void cr_nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y, const float *dy,
+                              float *dx, int64_t n);
+void cr_nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
+                      const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
+                      float *out, int acc);
 
 /* cpu_reduce.c */
-double nn_cpu_sum_all(const float *x, int64_t n);
-void nn_cpu_sum_axis(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
-                     float *y, int acc);
-void nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner, float scale,
-                            float *dx);
-void nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *dst,
-                                const int64_t ds[4]);
+double cr_nn_cpu_sum_all(const float *x, int64_t n);
+void cr_nn_cpu_sum_axis(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
+                        float *y, int acc);
+void cr_nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner,
+                               float scale, float *dx);
+void cr_nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *dst,
+                                   const int64_t ds[4]);
 
 /* cpu_matmul.c */
-void nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
-                 int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
-/* Triple loop with double accumulation: the reference for nn_cpu_gemm. */
-void nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
-                       int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
-void nn_cpu_gemm_batched(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
-                         int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
-                         int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
-                         int64_t batch);
-void nn_cpu_grouped_forward(const float *xs, int64_t K, const float *w, int trans_w, int64_t N,
-                            const int64_t *off, int64_t G, float *ys);
-void nn_cpu_grouped_backward(const float *xs, const float *dys, int64_t K, const float *w,
-                             int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
-                             float *dw);
+void cr_nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
+                    int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc);
+/* Triple loop with double accumulation: the reference for cr_nn_cpu_gemm. */
+void cr_nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                          const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                          float *C, int64_t ldc);
+void cr_nn_cpu_gemm_batched(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
+                            int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
+                            int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
+                            int64_t batch);
+void cr_nn_cpu_grouped_forward(const float *xs, int64_t K, const float *w, int trans_w, int64_t N,
+                               const int64_t *off, int64_t G, float *ys);
+void cr_nn_cpu_grouped_backward(const float *xs, const float *dys, int64_t K, const float *w,
+                                int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
+                                float *dw);
 
 /* cpu_index.c */
-void nn_cpu_copy2d(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
-                   int64_t rows, int64_t cols, int acc);
-void nn_cpu_gather_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
-                        int acc);
-void nn_cpu_scatter_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
-                         int acc);
-int64_t nn_cpu_index_check(const int32_t *idx, int64_t n, int64_t limit);
-void nn_cpu_csr_build(const int32_t *idx, int64_t n, int64_t nb, int64_t *off, int32_t *perm);
-void nn_cpu_segment_sum_rows(const float *x, int64_t C, const int64_t *off, const int32_t *perm,
-                             int64_t nseg, float *y, int acc);
-void nn_cpu_segment_softmax_forward(const float *x, int64_t H, const int64_t *off,
-                                    const int32_t *perm, int64_t nseg, float *y);
-void nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H, const int64_t *off,
-                                     const int32_t *perm, int64_t nseg, float *dx);
+void cr_nn_cpu_copy2d(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
+                      int64_t rows, int64_t cols, int acc);
+void cr_nn_cpu_gather_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                           int acc);
+void cr_nn_cpu_scatter_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                            int acc);
+int64_t cr_nn_cpu_index_check(const int32_t *idx, int64_t n, int64_t limit);
+void cr_nn_cpu_csr_build(const int32_t *idx, int64_t n, int64_t nb, int64_t *off, int32_t *perm);
+void cr_nn_cpu_segment_sum_rows(const float *x, int64_t C, const int64_t *off, const int32_t *perm,
+                                int64_t nseg, float *y, int acc);
+void cr_nn_cpu_segment_softmax_forward(const float *x, int64_t H, const int64_t *off,
+                                       const int32_t *perm, int64_t nseg, float *y);
+void cr_nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H,
+                                        const int64_t *off, const int32_t *perm, int64_t nseg,
+                                        float *dx);
 
 /* cpu_vector.c */
-void nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w, const float *b,
-                               float eps, float *y, float *mean, float *rstd);
-void nn_cpu_layer_norm_backward(const float *x, const float *dy, int64_t R, int64_t C,
-                                const float *w, const float *mean, const float *rstd, float *dx,
-                                float *dw, float *db);
-void nn_cpu_cross_forward(const float *a, const float *b, int64_t R, float *y);
-void nn_cpu_cross_backward(const float *a, const float *b, const float *dy, int64_t R, float *da,
-                           float *db);
-void nn_cpu_dot_forward(const float *a, const float *b, int64_t R, int64_t C, float *y);
-void nn_cpu_dot_backward(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
-                         float *da, float *db);
-void nn_cpu_norm_forward(const float *x, int64_t R, int64_t C, float *y);
-void nn_cpu_norm_backward(const float *x, const float *y, const float *dy, int64_t R, int64_t C,
-                          float eps, float *dx);
-void nn_cpu_normalize_forward(const float *x, int64_t R, int64_t C, float eps, float *y);
-void nn_cpu_normalize_backward(const float *x, const float *y, const float *dy, int64_t R,
-                               int64_t C, float eps, float *dx);
+void cr_nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,
+                                  const float *b, float eps, float *y, float *mean, float *rstd);
+void cr_nn_cpu_layer_norm_backward(const float *x, const float *dy, int64_t R, int64_t C,
+                                   const float *w, const float *mean, const float *rstd, float *dx,
+                                   float *dw, float *db);
+void cr_nn_cpu_cross_forward(const float *a, const float *b, int64_t R, float *y);
+void cr_nn_cpu_cross_backward(const float *a, const float *b, const float *dy, int64_t R, float *da,
+                              float *db);
+void cr_nn_cpu_dot_forward(const float *a, const float *b, int64_t R, int64_t C, float *y);
+void cr_nn_cpu_dot_backward(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
+                            float *da, float *db);
+void cr_nn_cpu_norm_forward(const float *x, int64_t R, int64_t C, float *y);
+void cr_nn_cpu_norm_backward(const float *x, const float *y, const float *dy, int64_t R, int64_t C,
+                             float eps, float *dx);
+void cr_nn_cpu_normalize_forward(const float *x, int64_t R, int64_t C, float eps, float *y);
+void cr_nn_cpu_normalize_backward(const float *x, const float *y, const float *dy, int64_t R,
+                                  int64_t C, float eps, float *dx);
 
 #endif

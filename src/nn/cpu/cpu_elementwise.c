@@ -14,7 +14,7 @@
 #include <stdio.h>
 #include <string.h>
 
-void nn_cpu_bad_op(const char *kernel, cr_op op, const char *file, int line) {
+void cr_nn_cpu_bad_op(const char *kernel, cr_op op, const char *file, int line) {
     char msg[96];
     snprintf(msg, sizeof msg, "%s kernel has no case for op %s", kernel, cr_op_name(op));
     cr_assert_fail(msg, file, line);
@@ -38,12 +38,12 @@ static void fill_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_fill(float *x, int64_t n, float value) {
+void cr_nn_cpu_fill(float *x, int64_t n, float value) {
     fill_args f = {x, NULL, value};
     cr_parallel_for(n, NN_CPU_GRAIN, fill_range, &f);
 }
 
-void nn_cpu_copy(float *dst, const float *src, int64_t n) {
+void cr_nn_cpu_copy(float *dst, const float *src, int64_t n) {
     fill_args f = {dst, src, 0.0f};
     cr_parallel_for(n, NN_CPU_GRAIN, fill_range, &f);
 }
@@ -140,7 +140,7 @@ static void unary_forward_range(void *vctx, int64_t begin, int64_t end) {
             y[i] = x[i] * x[i];
         break;
     default:
-        nn_cpu_bad_op("unary forward", u->op, __FILE__, __LINE__);
+        cr_nn_cpu_bad_op("unary forward", u->op, __FILE__, __LINE__);
     }
 }
 
@@ -214,17 +214,17 @@ static void unary_backward_range(void *vctx, int64_t begin, int64_t end) {
             dx[i] += 2.0f * x[i] * dy[i];
         break;
     default:
-        nn_cpu_bad_op("unary backward", u->op, __FILE__, __LINE__);
+        cr_nn_cpu_bad_op("unary backward", u->op, __FILE__, __LINE__);
     }
 }
 
-void nn_cpu_unary_forward(cr_op op, float p, const float *x, float *y, int64_t n) {
+void cr_nn_cpu_unary_forward(cr_op op, float p, const float *x, float *y, int64_t n) {
     unary_args u = {op, p, x, NULL, NULL, y};
     cr_parallel_for(n, NN_CPU_GRAIN, unary_forward_range, &u);
 }
 
-void nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y, const float *dy,
-                           float *dx, int64_t n) {
+void cr_nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y, const float *dy,
+                              float *dx, int64_t n) {
     unary_args u = {op, p, x, y, dy, dx};
     cr_parallel_for(n, NN_CPU_GRAIN, unary_backward_range, &u);
 }
@@ -302,7 +302,7 @@ static void binary_span(cr_op op, nn_binary_mode mode, const float *a, int64_t s
         binary_loop(CR_OP_DIV, NN_BINARY_GRAD_B, a, sa, b, sb, dy, out, n, acc);
         break;
     default:
-        nn_cpu_bad_op("binary", op, __FILE__, __LINE__);
+        cr_nn_cpu_bad_op("binary", op, __FILE__, __LINE__);
     }
 }
 
@@ -350,9 +350,9 @@ static int64_t numel4(const int64_t s[4]) {
     return s[0] * s[1] * s[2] * s[3];
 }
 
-void nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
-                   const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
-                   float *out, int acc) {
+void cr_nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
+                      const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
+                      float *out, int acc) {
     binary_args g = {.op = op, .mode = mode, .a = a, .b = b, .dy = dy, .out = out, .acc = acc};
     memcpy(g.ys, ys, sizeof g.ys);
     broadcast_strides(as, g.sa);

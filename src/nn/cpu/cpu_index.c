@@ -37,8 +37,8 @@ static void copy2d_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_copy2d(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
-                   int64_t rows, int64_t cols, int acc) {
+void cr_nn_cpu_copy2d(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
+                      int64_t rows, int64_t cols, int acc) {
     copy2d_args g = {src, dst, src_stride, dst_stride, cols, acc};
     cr_parallel_for(rows, nn_cpu_row_grain(cols), copy2d_range, &g);
 }
@@ -68,25 +68,25 @@ static void rows_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_gather_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
-                        int acc) {
+void cr_nn_cpu_gather_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                           int acc) {
     rows_args g = {x, y, idx, C, acc, 0};
     cr_parallel_for(n, nn_cpu_row_grain(C), rows_range, &g);
 }
 
-void nn_cpu_scatter_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
-                         int acc) {
+void cr_nn_cpu_scatter_rows(const float *x, int64_t C, const int32_t *idx, int64_t n, float *y,
+                            int acc) {
     rows_args g = {x, y, idx, C, acc, 1};
     cr_parallel_for(n, nn_cpu_row_grain(C), rows_range, &g);
 }
 
-int64_t nn_cpu_index_check(const int32_t *idx, int64_t n, int64_t limit) {
+int64_t cr_nn_cpu_index_check(const int32_t *idx, int64_t n, int64_t limit) {
     for (int64_t i = 0; i < n; i++)
         if (idx[i] < 0 || idx[i] >= limit) return i;
     return -1;
 }
 
-void nn_cpu_csr_build(const int32_t *idx, int64_t n, int64_t nb, int64_t *off, int32_t *perm) {
+void cr_nn_cpu_csr_build(const int32_t *idx, int64_t n, int64_t nb, int64_t *off, int32_t *perm) {
     for (int64_t b = 0; b <= nb; b++)
         off[b] = 0;
     for (int64_t i = 0; i < n; i++)
@@ -140,8 +140,8 @@ static int64_t segment_grain(const int64_t *off, int64_t nseg, int64_t C) {
     return nn_cpu_row_grain((per > 0 ? per : 1) * C);
 }
 
-void nn_cpu_segment_sum_rows(const float *x, int64_t C, const int64_t *off, const int32_t *perm,
-                             int64_t nseg, float *y, int acc) {
+void cr_nn_cpu_segment_sum_rows(const float *x, int64_t C, const int64_t *off, const int32_t *perm,
+                                int64_t nseg, float *y, int acc) {
     seg_args g = {x, NULL, NULL, y, off, perm, C, acc};
     cr_parallel_for(nseg, segment_grain(off, nseg, C), segment_sum_range, &g);
 }
@@ -204,14 +204,15 @@ static void softmax_backward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_segment_softmax_forward(const float *x, int64_t H, const int64_t *off,
-                                    const int32_t *perm, int64_t nseg, float *y) {
+void cr_nn_cpu_segment_softmax_forward(const float *x, int64_t H, const int64_t *off,
+                                       const int32_t *perm, int64_t nseg, float *y) {
     seg_args g = {x, NULL, NULL, y, off, perm, H, 0};
     cr_parallel_for(nseg, segment_grain(off, nseg, H), softmax_forward_range, &g);
 }
 
-void nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H, const int64_t *off,
-                                     const int32_t *perm, int64_t nseg, float *dx) {
+void cr_nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t H,
+                                        const int64_t *off, const int32_t *perm, int64_t nseg,
+                                        float *dx) {
     seg_args g = {NULL, y, dy, dx, off, perm, H, 1};
     cr_parallel_for(nseg, segment_grain(off, nseg, H), softmax_backward_range, &g);
 }

@@ -21,8 +21,8 @@ static int ld(int64_t x) {
     return x > 0 ? (int)x : 1;
 }
 
-void nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
-                 int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc) {
+void cr_nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
+                    int64_t lda, const float *B, int64_t ldb, float beta, float *C, int64_t ldc) {
     if (M == 0 || N == 0) return;
     if (K == 0) {
         scale_block(C, M, N, ldc, beta);
@@ -32,9 +32,9 @@ void nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, c
                 (int)M, (int)N, (int)K, alpha, A, ld(lda), B, ld(ldb), beta, C, ld(ldc));
 }
 
-void nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha, const float *A,
-                       int64_t lda, const float *B, int64_t ldb, float beta, float *C,
-                       int64_t ldc) {
+void cr_nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                          const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                          float *C, int64_t ldc) {
     for (int64_t i = 0; i < M; i++) {
         for (int64_t j = 0; j < N; j++) {
             double s = 0.0;
@@ -49,39 +49,39 @@ void nn_cpu_gemm_naive(int ta, int tb, int64_t M, int64_t N, int64_t K, float al
     }
 }
 
-void nn_cpu_gemm_batched(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
-                         int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
-                         int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
-                         int64_t batch) {
+void cr_nn_cpu_gemm_batched(int ta, int tb, int64_t M, int64_t N, int64_t K, const float *A,
+                            int64_t lda, int64_t stride_a, const float *B, int64_t ldb,
+                            int64_t stride_b, float beta, float *C, int64_t ldc, int64_t stride_c,
+                            int64_t batch) {
     for (int64_t b = 0; b < batch; b++)
-        nn_cpu_gemm(ta, tb, M, N, K, 1.0f, A + b * stride_a, lda, B + b * stride_b, ldb, beta,
-                    C + b * stride_c, ldc);
+        cr_nn_cpu_gemm(ta, tb, M, N, K, 1.0f, A + b * stride_a, lda, B + b * stride_b, ldb, beta,
+                       C + b * stride_c, ldc);
 }
 
-void nn_cpu_grouped_forward(const float *xs, int64_t K, const float *w, int trans_w, int64_t N,
-                            const int64_t *off, int64_t G, float *ys) {
+void cr_nn_cpu_grouped_forward(const float *xs, int64_t K, const float *w, int trans_w, int64_t N,
+                               const int64_t *off, int64_t G, float *ys) {
     for (int64_t g = 0; g < G; g++) {
         int64_t r0 = off[g], m = off[g + 1] - r0;
         /* ys_g (m,N) = xs_g (m,K) op(w_g) (K,N) */
-        nn_cpu_gemm(0, trans_w, m, N, K, 1.0f, xs + r0 * K, K, w + g * K * N, trans_w ? K : N, 0.0f,
-                    ys + r0 * N, N);
+        cr_nn_cpu_gemm(0, trans_w, m, N, K, 1.0f, xs + r0 * K, K, w + g * K * N, trans_w ? K : N,
+                       0.0f, ys + r0 * N, N);
     }
 }
 
-void nn_cpu_grouped_backward(const float *xs, const float *dys, int64_t K, const float *w,
-                             int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
-                             float *dw) {
+void cr_nn_cpu_grouped_backward(const float *xs, const float *dys, int64_t K, const float *w,
+                                int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
+                                float *dw) {
     for (int64_t g = 0; g < G; g++) {
         int64_t r0 = off[g], m = off[g + 1] - r0;
         const float *wg = w + g * K * N;
         if (dxs) /* dxs_g (m,K) = dys_g (m,N) op(w_g)^T (N,K) */
-            nn_cpu_gemm(0, !trans_w, m, K, N, 1.0f, dys + r0 * N, N, wg, trans_w ? K : N, 0.0f,
-                        dxs + r0 * K, K);
+            cr_nn_cpu_gemm(0, !trans_w, m, K, N, 1.0f, dys + r0 * N, N, wg, trans_w ? K : N, 0.0f,
+                           dxs + r0 * K, K);
         if (dw && !trans_w) /* dw_g (K,N) += xs_g^T dys_g */
-            nn_cpu_gemm(1, 0, K, N, m, 1.0f, xs + r0 * K, K, dys + r0 * N, N, 1.0f, dw + g * K * N,
-                        N);
+            cr_nn_cpu_gemm(1, 0, K, N, m, 1.0f, xs + r0 * K, K, dys + r0 * N, N, 1.0f,
+                           dw + g * K * N, N);
         if (dw && trans_w) /* dw_g stored (N,K) += dys_g^T xs_g */
-            nn_cpu_gemm(1, 0, N, K, m, 1.0f, dys + r0 * N, N, xs + r0 * K, K, 1.0f, dw + g * K * N,
-                        K);
+            cr_nn_cpu_gemm(1, 0, N, K, m, 1.0f, dys + r0 * N, N, xs + r0 * K, K, 1.0f,
+                           dw + g * K * N, K);
     }
 }

@@ -41,7 +41,7 @@ static void sum_all_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-double nn_cpu_sum_all(const float *x, int64_t n) {
+double cr_nn_cpu_sum_all(const float *x, int64_t n) {
     sum_all_args s;
     s.x = x;
     s.n = n;
@@ -88,8 +88,8 @@ static void sum_axis_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_sum_axis(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
-                     float *y, int acc) {
+void cr_nn_cpu_sum_axis(const float *x, int64_t outer, int64_t len, int64_t inner, float scale,
+                        float *y, int acc) {
     if (inner == 0 || outer == 0) return;
     axis_args g = {x, y, outer, len, inner, (inner + COL_BLOCK - 1) / COL_BLOCK, scale, acc};
     int64_t work = len * (inner < COL_BLOCK ? inner : COL_BLOCK);
@@ -108,8 +108,8 @@ static void expand_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner, float scale,
-                            float *dx) {
+void cr_nn_cpu_expand_axis_acc(const float *dy, int64_t outer, int64_t len, int64_t inner,
+                               float scale, float *dx) {
     axis_args g = {dy, dx, outer, len, inner, 0, scale, 1};
     cr_parallel_for(outer * len, nn_cpu_row_grain(inner), expand_range, &g);
 }
@@ -146,8 +146,8 @@ static void reduce_shape_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *dst,
-                                const int64_t ds[4]) {
+void cr_nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *dst,
+                                   const int64_t ds[4]) {
     /* Common layouts go through the blocked axis sum:
      * leading axes reduced ((N,C) -> (C)) or trailing ((N,C) -> (N,1)). */
     for (int k = 0; k <= 4; k++) {
@@ -165,11 +165,11 @@ void nn_cpu_reduce_to_shape_acc(const float *src, const int64_t ys[4], float *ds
             }
         }
         if (leading) {
-            nn_cpu_sum_axis(src, 1, before, after, 1.0f, dst, 1);
+            cr_nn_cpu_sum_axis(src, 1, before, after, 1.0f, dst, 1);
             return;
         }
         if (trailing) {
-            nn_cpu_sum_axis(src, before, after, 1, 1.0f, dst, 1);
+            cr_nn_cpu_sum_axis(src, before, after, 1, 1.0f, dst, 1);
             return;
         }
     }

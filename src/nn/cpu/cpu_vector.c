@@ -46,8 +46,8 @@ static void ln_forward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w, const float *b,
-                               float eps, float *y, float *mean, float *rstd) {
+void cr_nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,
+                                  const float *b, float eps, float *y, float *mean, float *rstd) {
     vec_args g = {.a = x,
                   .w = w,
                   .bias = b,
@@ -106,9 +106,9 @@ static void ln_dwdb_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_layer_norm_backward(const float *x, const float *dy, int64_t R, int64_t C,
-                                const float *w, const float *mean, const float *rstd, float *dx,
-                                float *dw, float *db) {
+void cr_nn_cpu_layer_norm_backward(const float *x, const float *dy, int64_t R, int64_t C,
+                                   const float *w, const float *mean, const float *rstd, float *dx,
+                                   float *dw, float *db) {
     vec_args g = {.a = x,
                   .dy = dy,
                   .w = w,
@@ -154,13 +154,13 @@ static void cross_backward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_cross_forward(const float *a, const float *b, int64_t R, float *y) {
+void cr_nn_cpu_cross_forward(const float *a, const float *b, int64_t R, float *y) {
     vec_args g = {.a = a, .b = b, .out = y, .R = R, .C = 3};
     cr_parallel_for(R, nn_cpu_row_grain(3), cross_forward_range, &g);
 }
 
-void nn_cpu_cross_backward(const float *a, const float *b, const float *dy, int64_t R, float *da,
-                           float *db) {
+void cr_nn_cpu_cross_backward(const float *a, const float *b, const float *dy, int64_t R, float *da,
+                              float *db) {
     vec_args g = {.a = a, .b = b, .dy = dy, .out = da, .out2 = db, .R = R, .C = 3};
     cr_parallel_for(R, nn_cpu_row_grain(3), cross_backward_range, &g);
 }
@@ -192,13 +192,13 @@ static void dot_backward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_dot_forward(const float *a, const float *b, int64_t R, int64_t C, float *y) {
+void cr_nn_cpu_dot_forward(const float *a, const float *b, int64_t R, int64_t C, float *y) {
     vec_args g = {.a = a, .b = b, .out = y, .R = R, .C = C};
     cr_parallel_for(R, nn_cpu_row_grain(C), dot_forward_range, &g);
 }
 
-void nn_cpu_dot_backward(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
-                         float *da, float *db) {
+void cr_nn_cpu_dot_backward(const float *a, const float *b, const float *dy, int64_t R, int64_t C,
+                            float *da, float *db) {
     vec_args g = {.a = a, .b = b, .dy = dy, .out = da, .out2 = db, .R = R, .C = C};
     cr_parallel_for(R, nn_cpu_row_grain(C), dot_backward_range, &g);
 }
@@ -222,13 +222,13 @@ static void norm_backward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_norm_forward(const float *x, int64_t R, int64_t C, float *y) {
+void cr_nn_cpu_norm_forward(const float *x, int64_t R, int64_t C, float *y) {
     vec_args g = {.a = x, .out = y, .R = R, .C = C};
     cr_parallel_for(R, nn_cpu_row_grain(C), norm_forward_range, &g);
 }
 
-void nn_cpu_norm_backward(const float *x, const float *y, const float *dy, int64_t R, int64_t C,
-                          float eps, float *dx) {
+void cr_nn_cpu_norm_backward(const float *x, const float *y, const float *dy, int64_t R, int64_t C,
+                             float eps, float *dx) {
     vec_args g = {.a = x, .y = y, .dy = dy, .out = dx, .R = R, .C = C, .eps = eps};
     cr_parallel_for(R, nn_cpu_row_grain(C), norm_backward_range, &g);
 }
@@ -263,13 +263,13 @@ static void normalize_backward_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-void nn_cpu_normalize_forward(const float *x, int64_t R, int64_t C, float eps, float *y) {
+void cr_nn_cpu_normalize_forward(const float *x, int64_t R, int64_t C, float eps, float *y) {
     vec_args g = {.a = x, .out = y, .R = R, .C = C, .eps = eps};
     cr_parallel_for(R, nn_cpu_row_grain(C), normalize_forward_range, &g);
 }
 
-void nn_cpu_normalize_backward(const float *x, const float *y, const float *dy, int64_t R,
-                               int64_t C, float eps, float *dx) {
+void cr_nn_cpu_normalize_backward(const float *x, const float *y, const float *dy, int64_t R,
+                                  int64_t C, float eps, float *dx) {
     vec_args g = {.a = x, .y = y, .dy = dy, .out = dx, .R = R, .C = C, .eps = eps};
     cr_parallel_for(R, nn_cpu_row_grain(C), normalize_backward_range, &g);
 }
