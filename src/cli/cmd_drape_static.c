@@ -1,9 +1,9 @@
 /* cmd_drape_static.c: `crease drape-static`: the quasi-static equilibrium of
  * a 1 m square cloth laid flat above an object, the reference the drape
- * method is compared with. Scene and outputs come from phys_scene.h; the
+ * method is compared with. Scene and outputs come from scene.h; the
  * equilibrium from cr_sim_solve_static. */
 #include "cli.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <string.h>

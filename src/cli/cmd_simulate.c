@@ -1,9 +1,9 @@
 /* cmd_simulate.c: `crease simulate`: run the reference cloth simulator on a
  * garment against a static object or an animated body, writing the sequence
  * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
- * scene and output code is in phys_scene.h; this file parses and reports. */
+ * scene and output code is in scene.h; this file parses and reports. */
 #include "cli.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <stdlib.h>
 #include <string.h>
