@@ -17,6 +17,7 @@
 #        `python3-torch` if it is missing (root), here only.
 # Never part of `make check`. Set OPENBLAS_CORETYPE for this script's process
 # to measure under another OpenBLAS kernel (e.g. Prescott).
+# BENCH_THREADS (default 2) sets the threads of every run.
 # Usage: bench_peers.sh CREASE_BINARY [OUT_DIR] [sim,nn]
 set -euo pipefail
 crease=$1
@@ -30,7 +31,7 @@ peers=${CREASE_PEERS:-$root/../shared/peers}
 peer=$peers/blender_drape.py
 bindir=$(cd "$(dirname "$crease")" && pwd)
 frames=120
-threads=2
+threads=${BENCH_THREADS:-2}
 status=0
 
 # field FILE KEY: a top-level number from a JSON file (the last line for crease's summary)
@@ -107,19 +108,25 @@ nn_peers() {
   mkdir -p "$out/nn"
   echo "== grid model to 1 % relative L2 (crease fit vs torch_fit.py), $threads threads"
   local t c
+  rm -f "$out/nn/"*.json*
   t=$($torch_py "$peers/torch_fit.py" --device cpu --threads $threads --models grid --eval-every 5 | tail -1)
   echo "$t" >"$out/nn/torch_fit.json"
   rm -rf "$out/nn/fit_grid"
   c=$(OMP_NUM_THREADS=$threads "$crease" fit --model grid -o "$out/nn/fit_grid" --eval-every 5 \
       --quiet --json 2>"$out/nn/fit_grid.log" | tail -1)
   echo "$c" >"$out/nn/crease_fit.json"
-  printf '%-8s %-15s %-17s %-17s\n' peer "epochs to 1 %" "seconds to 1 %" "seconds/epoch"
-  local ce cs cp te ts tp
-  ce=$(pyval "$c" epochs_to_target) cs=$(pyval "$c" seconds_to_target)
-  cp=$(python3 -c 'import json,sys; d=json.loads(sys.argv[1]); print(round(d["seconds"]/max(d["epochs"],1),4))' "$c")
-  te=$(pyval "$t" epochs_to_target) ts=$(pyval "$t" seconds_to_target) tp=$(pyval "$t" seconds_per_epoch)
-  printf '%-8s %-15s %-17s %-17s\n' crease "$ce" "$cs" "$cp" pytorch "$te" "$ts" "$tp"
-  awk -v c="$cs" -v t="$ts" 'BEGIN { if (c > 0 && t > 0) printf "(PyTorch / crease seconds to 1 %%: %.2fx)\n", t / c }'
+  python3 - "$out/nn/crease_fit.json" "$out/nn/torch_fit.json" <<'PY'
+import json, sys
+c, t = (json.loads(open(p).read().strip().splitlines()[-1]) for p in sys.argv[1:3])
+rows = [("crease", c["epochs_to_target"], c["seconds_to_target"], c["seconds"] / max(c["epochs"], 1)),
+        ("pytorch", t["epochs_to_target"], t["seconds_to_target"], t["seconds_per_epoch"])]
+print("%-8s %-15s %-17s %-17s" % ("peer", "epochs to 1 %", "seconds to 1 %", "seconds/epoch"))
+for name, e, s, pe in rows:
+    print("%-8s %-15s %-17s %-17.4f" % (name, "-" if e is None or e < 0 else e,
+                                         "-" if s is None or s < 0 else "%.3f" % s, pe))
+if (c["seconds_to_target"] or -1) > 0 and (t["seconds_to_target"] or -1) > 0:
+    print("(PyTorch / crease seconds to 1 %%: %.2fx)" % (t["seconds_to_target"] / c["seconds_to_target"]))
+PY
 
   echo "== MLP 6-W-W-W-3 ReLU training step, batch 4096 (bench_nn_mlp vs torch_mlp.py), $threads threads"
   OMP_NUM_THREADS=$threads "$bindir/bench_nn_mlp" 30 >"$out/nn/bench_nn_mlp.txt" ||
