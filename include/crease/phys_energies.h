@@ -56,6 +56,21 @@ void cr_membrane_set_hessian(cr_membrane *e, cr_hessian_mode mode);
 const double *cr_membrane_rest_areas(const cr_membrane *e); /* (F) m^2 */
 void cr_membrane_term(const cr_membrane *e, cr_energy_term *out);
 
+/* The membrane's stretch or shear part alone (epnet's STE and SHE). For
+ * Baraff-Witkin, the stretch condition A0 k_s/2 ((|w_u| - 1)^2 + (|w_v| - 1)^2)
+ * or the shear A0 k_sh/2 (w_u . w_v)^2. For StVK, with the Green strain E:
+ * stretch A0 (mu (E11^2 + E22^2) + lambda/2 (E11 + E22)^2), shear
+ * A0 2 mu E12^2; the two sum to the full density. CR_MEMBRANE_ALL gives
+ * cr_membrane_term's term. Each part has its own gradient and Hessian
+ * (projected per cr_membrane_set_hessian). Term names "membrane",
+ * "membrane_stretch", "membrane_shear". */
+typedef enum cr_membrane_part {
+    CR_MEMBRANE_ALL = 0,
+    CR_MEMBRANE_STRETCH,
+    CR_MEMBRANE_SHEAR
+} cr_membrane_part;
+void cr_membrane_term_part(const cr_membrane *e, cr_membrane_part part, cr_energy_term *out);
+
 /* ------------------------------------------------------------- bending -- */
 
 /* Interior hinges of `t` (built from `rest`) with per-hinge stiffness
