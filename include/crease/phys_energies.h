@@ -14,6 +14,7 @@
  *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
  *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
  *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
+ *   pin        vertex    k/2 |x_i - target_i|^2 over the pinned vertices          pin.c
  *
  * Threading: _create/_update/_set mutate and must not overlap a kernel call;
  * kernels are pure and may run on many threads at once.
@@ -95,6 +96,12 @@ double *cr_bending_rest_angles(cr_bending *b);
  * with diffgeo.h's sign convention. */
 void cr_bending_angles(const cr_bending *b, const double *x, double *theta);
 void cr_bending_term(const cr_bending *b, cr_energy_term *out);
+/* The kernel of hinge h with the rest angle theta_rest (rad) given instead of
+ * b's own (a plastic rest angle predicted per sample): value, gradient g (12)
+ * and Hessian H (12x12) as cr_energy_kernel, and g_rest (may be NULL) gets
+ * dE/dtheta_rest = -k_e (theta - theta_rest), wrapped as the energy is. */
+double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                              double *g, double *H, double *g_rest);
 
 /* ------------------------------------------------------------- gravity -- */
 
@@ -138,10 +145,34 @@ void cr_collision_update(cr_collision *c, const double *x, const float *dist,
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
+/* The penalty of one vertex at signed distance d (m) from the collider whose
+ * distance gradient (the outward unit normal) is n: k max(eps - d, 0)^3, J,
+ * with k (J/m^3) and eps (m) from the material; g (3) gets its gradient
+ * -3 k (eps - d)^2 n and H (3x3) its Hessian 6 k (eps - d) n n^T, each when
+ * not NULL. The kernel of cr_collision_term, for callers with their own
+ * distances (the losses). */
+double cr_collision_penalty(double k, double eps, double d, const double n[3], double *g,
+                            double *H);
 /* 1 when vertex i lay within the thickness (dist_i < eps) at the last update;
  * then normal (3) gets n_i and *force the penalty's normal force magnitude
  * 3 k (eps - dist_i)^2, N. Else 0 and nothing is written. */
 int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], double *force);
+
+/* ----------------------------------------------------------------- pin -- */
+
+/* Soft pinning of chosen vertices to targets: E = k/2 sum_j |x_{v_j} - t_j|^2
+ * over the n pinned vertices v_j, gradient k (x - t), Hessian k I (PSD).
+ * k in N/m. Targets start at 0: set them with cr_pin_set_targets. Fails with
+ * CR_ERR_RANGE naming the first vertex outside [0, nv), CR_ERR_INVALID for
+ * a negative or non-finite k. Copies the indices. */
+typedef struct cr_pin cr_pin;
+cr_status cr_pin_create(int32_t nv, const int32_t *vertices, int32_t n, double stiffness,
+                        cr_pin **out, cr_error *err);
+void cr_pin_destroy(cr_pin *p);
+/* Copy the targets (n,3), m, in the order of the vertices given to create. */
+void cr_pin_set_targets(cr_pin *p, const double *targets);
+int32_t cr_pin_count(const cr_pin *p);
+void cr_pin_term(const cr_pin *p, cr_energy_term *out);
 
 /* ------------------------------------------------------------ friction -- */
 

@@ -1,0 +1,348 @@
+/* test_losses.c: physics energies as tape losses (crease/losses.h).
+ *
+ * For every energy: the op's gradient against central differences of its
+ * own float32 forward (tests/nn_gradcheck.h; step and tolerance per test,
+ * weights scaled so the largest gradient entry is about 10 and the check's
+ * absolute floor of 1e-2 cannot hide an error), the op's value against
+ * cr_assembly_eval on the same state (1e-6 relative, per term and item), the
+ * same bits with 1 and 2 threads, and the errors of bad shapes and indices.
+ */
+#include "test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crease/losses.h"
+#include "crease/phys_assemble.h"
+#include "crease/phys_energies.h"
+#include "crease/primitives.h"
+#include "crease/topology.h"
+#include "nn_gradcheck.h"
+
+/* B batch items, V vertices, H hinges. */
+
+/* ------------------------------------------------------------ fixture -- */
+
+typedef struct cloth {
+    cr_mesh *m;
+    cr_topology *topo;
+    cr_material mat;
+    cr_membrane *mem;
+    cr_bending *bend;
+    cr_gravity *grav;
+    cr_pin *pin;
+    int32_t V;
+} cloth;
+
+/* An n x n sheet of `size` m in the XZ plane with UV rest, bending with its
+ * (flat) rest angles, gravity and a pin on two corners. */
+static int cloth_make(cloth *c, int n, float size, cr_membrane_model model) {
+    cr_error err;
+    memset(c, 0, sizeof *c);
+    CR_CHECK_OK(cr_material_preset("cotton", &c->mat, &err), &err);
+    c->mat.membrane = model;
+    c->mat.bending = 1e-2; /* stiffer than cloth, so bending gradients are not all rounding */
+    const double g[3] = {0.0, -9.81, 0.0};
+    CR_CHECK_OK(cr_prim_plane(n, n, size, size, &c->m, &err), &err);
+    if (!c->m) return 0;
+    c->V = c->m->nv;
+    CR_CHECK_OK(cr_topology_build(c->m, &c->topo, &err), &err);
+    CR_CHECK_OK(cr_membrane_create(c->m, 1, size, &c->mat, &c->mem, &err), &err);
+    if (!c->topo || !c->mem) return 0;
+    CR_CHECK_OK(cr_bending_create(c->m, c->topo, &c->mat, 0, &c->bend, &err), &err);
+    CR_CHECK_OK(cr_gravity_create(c->m, &c->mat, g, &c->grav, &err), &err);
+    const int32_t pins[2] = {0, n - 1};
+    CR_CHECK_OK(cr_pin_create(c->V, pins, 2, 50.0, &c->pin, &err), &err);
+    if (!c->bend || !c->grav || !c->pin) return 0;
+    const double targets[6] = {c->m->pos[0],           0.05, c->m->pos[2],
+                               c->m->pos[3 * (n - 1)], 0.05, c->m->pos[3 * (n - 1) + 2]};
+    cr_pin_set_targets(c->pin, targets);
+    return 1;
+}
+
+static void cloth_destroy(cloth *c) {
+    cr_pin_destroy(c->pin);
+    cr_gravity_destroy(c->grav);
+    cr_bending_destroy(c->bend);
+    cr_membrane_destroy(c->mem);
+    cr_topology_destroy(c->topo);
+    cr_mesh_destroy(c->m);
+}
+
+/* B states (B,V,3): the rest sheet stretched by a factor per item and
+ * perturbed by `noise` m (seeded). */
+static float *states(const cloth *c, int B, double noise, uint64_t seed) {
+    float *x = malloc(sizeof(float) * 3 * (size_t)B * (size_t)c->V);
+    cr_rng r = cr_rng_make(seed, 0);
+    for (int b = 0; b < B; b++)
+        for (int64_t i = 0; i < 3 * (int64_t)c->V; i++)
+            x[3 * (int64_t)c->V * b + i] =
+                (float)((1.0 + 0.05 * b) * c->m->pos[i] + noise * cr_rng_normal(&r));
+    return x;
+}
+
+/* ------------------------------------------------- gradient checking -- */
+
+typedef struct plain_job {
+    cr_energy_term t;
+    int per_element;
+} plain_job;
+
+static cr_tensor *build_plain(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const plain_job *j = user;
+    return j->per_element ? cr_loss_energy_per_element(ctx, &j->t, in[0])
+                          : cr_loss_energy(ctx, &j->t, in[0]);
+}
+
+/* Largest |dE/dx| of the op over all items (one backward of sum(E)). */
+static double op_grad_max(nn_gradcheck_fn fn, void *user, int nin, nn_gradcheck_input *in) {
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)64 << 20);
+    cr_error err;
+    cr_tensor *t[4];
+    for (int k = 0; k < nin; k++) {
+        t[k] = cr_nn_wrap(ctx, in[k].ndim, in[k].shape, in[k].data);
+        t[k]->requires_grad = 1;
+    }
+    cr_tensor *y = fn(ctx, t, user);
+    CR_CHECK_OK(cr_nn_backward(ctx, cr_nn_sum(ctx, y), &err), &err);
+    double m = 0.0;
+    for (int64_t i = 0; i < t[0]->numel; i++)
+        m = fmax(m, fabs(t[0]->grad[i]));
+    cr_nn_ctx_destroy(ctx);
+    return m;
+}
+
+static int64_t check_plain(const char *name, cr_energy_term t, int B, float *x, int32_t V,
+                           int per_element, double step, double tol) {
+    plain_job j = {t, per_element};
+    nn_gradcheck_input in = nn_gradcheck_in(3, (int64_t[]){B, V, 3}, x);
+    const double gmax = op_grad_max(build_plain, &j, 1, &in);
+    CR_CHECK(gmax > 0.0);
+    if (gmax > 0.0) j.t.weight = 10.0 / gmax;
+    nn_gradcheck_def def = nn_gradcheck_default_def();
+    def.name = name;
+    def.step = step;
+    def.tol = tol;
+    def.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    const int64_t failed = nn_gradcheck(&def, 1, &in, NULL, build_plain, &j, &res);
+    if (failed || getenv("CR_LOSSES_VERBOSE"))
+        fprintf(stderr, "%s: %lld of %lld failed, max err %.3g\n", name, (long long)res.failed,
+                (long long)res.checked, res.max_err);
+    return failed;
+}
+
+CR_TEST(losses, gradient_plain_terms) {
+    for (int model = 0; model < 2; model++) {
+        cloth c;
+        CR_REQUIRE(cloth_make(&c, 4, 0.3f, model ? CR_MEMBRANE_BARAFF_WITKIN : CR_MEMBRANE_STVK));
+        float *x = states(&c, 2, 0.01, 7);
+        const char *names[3][2] = {
+            {"stvk", "baraff_witkin"}, {"stvk stretch", "bw stretch"}, {"stvk shear", "bw shear"}};
+        for (int part = 0; part < 3; part++) {
+            cr_energy_term t;
+            cr_membrane_term_part(c.mem, (cr_membrane_part)part, &t);
+            CR_CHECK(check_plain(names[part][model], t, 2, x, c.V, 0, 1e-3, 3e-3) == 0);
+            CR_CHECK(check_plain(names[part][model], t, 2, x, c.V, 1, 1e-3, 3e-3) == 0);
+        }
+        cr_energy_term t;
+        cr_bending_term(c.bend, &t);
+        CR_CHECK(check_plain("bending", t, 2, x, c.V, 0, 1e-3, 3e-3) == 0);
+        cr_gravity_term(c.grav, &t);
+        CR_CHECK(check_plain("gravity", t, 2, x, c.V, 0, 1e-3, 3e-3) == 0);
+        cr_pin_term(c.pin, &t);
+        CR_CHECK(check_plain("pin", t, 2, x, c.V, 1, 1e-3, 3e-3) == 0);
+        free(x);
+        cloth_destroy(&c);
+    }
+}
+
+/* ----------------------------------------------- value = simulator's -- */
+
+/* The op's (B) values against cr_assembly_eval of the one term per item. */
+static void check_value(const char *name, const cr_energy_term *t, int B, const float *x,
+                        int32_t V) {
+    cr_error err;
+    cr_assembly *a = NULL;
+    CR_CHECK_OK(cr_assembly_create(t, 1, V, &a, &err), &err);
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)32 << 20);
+    CR_REQUIRE(a && ctx);
+    cr_tensor *xt = cr_nn_from(ctx, 3, (int64_t[]){B, V, 3}, x);
+    cr_tensor *e = cr_loss_energy(ctx, t, xt);
+    CR_CHECK_OK(cr_nn_ctx_error(ctx, &err), &err);
+    CR_REQUIRE(e && e->numel == B);
+    double *xd = malloc(sizeof(double) * 3 * (size_t)V);
+    for (int b = 0; b < B; b++) {
+        for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+            xd[i] = x[3 * (int64_t)V * b + i];
+        double tv = 0.0;
+        const double total = cr_assembly_eval(a, t, xd, NULL, 0, &tv);
+        CR_CHECK_NEAR(tv, total, 0.0);
+        if (!(fabs(e->data[b] - tv) <= 1e-6 * fabs(tv)))
+            cr_test_fail_here(__FILE__, __LINE__, "%s item %d: op %.9g, assembly %.9g", name, b,
+                              (double)e->data[b], tv);
+        CR_CHECK(tv != 0.0);
+    }
+    free(xd);
+    cr_nn_ctx_destroy(ctx);
+    cr_assembly_destroy(a);
+}
+
+CR_TEST(losses, value_equals_assembly) {
+    for (int model = 0; model < 2; model++) {
+        cloth c;
+        CR_REQUIRE(cloth_make(&c, 6, 0.5f, model ? CR_MEMBRANE_BARAFF_WITKIN : CR_MEMBRANE_STVK));
+        float *x = states(&c, 3, 0.02, 11);
+        cr_energy_term t;
+        for (int part = 0; part < 3; part++) {
+            cr_membrane_term_part(c.mem, (cr_membrane_part)part, &t);
+            t.weight = 0.5;
+            check_value(t.name, &t, 3, x, c.V);
+        }
+        cr_bending_term(c.bend, &t);
+        check_value("bending", &t, 3, x, c.V);
+        cr_gravity_term(c.grav, &t);
+        check_value("gravity", &t, 3, x, c.V);
+        cr_pin_term(c.pin, &t);
+        check_value("pin", &t, 3, x, c.V);
+        free(x);
+        cloth_destroy(&c);
+    }
+}
+
+/* The two parts of each membrane sum to the whole, per element. */
+CR_TEST(losses, membrane_parts_sum_to_whole) {
+    for (int model = 0; model < 2; model++) {
+        cloth c;
+        CR_REQUIRE(cloth_make(&c, 5, 0.4f, model ? CR_MEMBRANE_BARAFF_WITKIN : CR_MEMBRANE_STVK));
+        float *x = states(&c, 2, 0.02, 5);
+        cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+        cr_tensor *xt = cr_nn_from(ctx, 3, (int64_t[]){2, c.V, 3}, x);
+        cr_energy_term t[3];
+        cr_tensor *e[3];
+        for (int p = 0; p < 3; p++) {
+            cr_membrane_term_part(c.mem, (cr_membrane_part)p, &t[p]);
+            e[p] = cr_loss_energy_per_element(ctx, &t[p], xt);
+            CR_REQUIRE(e[p] && e[p]->ndim == 2 && e[p]->shape[0] == 2 && e[p]->shape[1] == c.m->nf);
+        }
+        double smax = 0.0, shmax = 0.0;
+        for (int64_t k = 0; k < e[0]->numel; k++) {
+            CR_CHECK_NEAR(e[1]->data[k] + e[2]->data[k], e[0]->data[k],
+                          1e-6 * fabs(e[0]->data[k]) + 1e-12);
+            smax = fmax(smax, e[1]->data[k]), shmax = fmax(shmax, e[2]->data[k]);
+        }
+        CR_CHECK(smax > 0.0 && shmax > 0.0); /* both parts present in this state */
+        cr_nn_ctx_destroy(ctx);
+        free(x);
+        cloth_destroy(&c);
+    }
+}
+
+/* ------------------------------------------------------ determinism -- */
+
+/* Value and gradient of membrane + bending on a 40 x 40 sheet (several
+ * parallel chunks) under a thread count: copied out for comparison. */
+static void run_threads(const cloth *c, const float *x, int B, int threads, float *val,
+                        float *grad) {
+    cr_error err;
+    cr_set_thread_count(threads);
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)64 << 20);
+    cr_tensor *xt = cr_nn_from(ctx, 3, (int64_t[]){B, c->V, 3}, x);
+    xt->requires_grad = 1;
+    cr_energy_term t[2];
+    cr_membrane_term(c->mem, &t[0]);
+    cr_bending_term(c->bend, &t[1]);
+    cr_tensor *e[2] = {cr_loss_energy(ctx, &t[0], xt), cr_loss_energy(ctx, &t[1], xt)};
+    cr_tensor *loss = cr_loss_weighted_sum(ctx, e, (float[]){1.0f, 100.0f}, 2, NULL);
+    CR_CHECK_OK(cr_nn_backward(ctx, loss, &err), &err);
+    if (e[0] && e[1] && xt->grad) {
+        memcpy(val, e[0]->data, sizeof(float) * (size_t)B);
+        memcpy(val + B, e[1]->data, sizeof(float) * (size_t)B);
+        memcpy(grad, xt->grad, sizeof(float) * 3 * (size_t)B * (size_t)c->V);
+    }
+    cr_nn_ctx_destroy(ctx);
+}
+
+CR_TEST(losses, same_bits_any_thread_count) {
+    cloth c;
+    CR_REQUIRE(cloth_make(&c, 40, 1.0f, CR_MEMBRANE_STVK));
+    const int B = 2;
+    float *x = states(&c, B, 0.01, 3);
+    const size_t ng = 3 * (size_t)B * (size_t)c.V;
+    float v1[4] = {0}, v2[4] = {1};
+    float *g1 = calloc(ng, sizeof(float)), *g2 = calloc(ng, sizeof(float));
+    const int before = cr_thread_count();
+    run_threads(&c, x, B, 1, v1, g1);
+    run_threads(&c, x, B, 2, v2, g2);
+    cr_set_thread_count(before);
+    CR_CHECK(memcmp(v1, v2, sizeof v1) == 0);
+    CR_CHECK(memcmp(g1, g2, sizeof(float) * ng) == 0);
+    double gm = 0.0;
+    for (size_t i = 0; i < ng; i++)
+        gm = fmax(gm, fabs(g1[i]));
+    CR_CHECK(gm > 0.0);
+    free(g1), free(g2), free(x);
+    cloth_destroy(&c);
+}
+
+/* ------------------------------------------------------------ errors -- */
+
+static void expect_error(cr_nn_ctx *ctx, cr_tensor *y, cr_status want, const char *needle) {
+    cr_error err;
+    const cr_status st = cr_nn_ctx_error(ctx, &err);
+    CR_CHECK(y == NULL);
+    CR_CHECK(st == want);
+    if (st != CR_OK && !strstr(err.msg, needle))
+        cr_test_fail_here(__FILE__, __LINE__, "message '%s' lacks '%s'", err.msg, needle);
+    cr_nn_ctx_reset(ctx);
+}
+
+CR_TEST(losses, bad_shapes_are_context_errors) {
+    cloth c;
+    CR_REQUIRE(cloth_make(&c, 4, 0.3f, CR_MEMBRANE_STVK));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    cr_energy_term mem, grav;
+    cr_membrane_term(c.mem, &mem);
+    cr_gravity_term(c.grav, &grav);
+    /* (V,2) */
+    cr_tensor *x = cr_nn_zeros(ctx, 2, (int64_t[]){c.V, 2});
+    expect_error(ctx, cr_loss_energy(ctx, &mem, x), CR_ERR_SHAPE, "loss_energy(membrane)");
+    /* (B,V,3) with fewer vertices than the mesh: an index out of range */
+    x = cr_nn_zeros(ctx, 3, (int64_t[]){2, c.V - 1, 3});
+    expect_error(ctx, cr_loss_energy(ctx, &mem, x), CR_ERR_RANGE, "loss_energy(membrane)");
+    /* a per-vertex term on the wrong vertex count */
+    x = cr_nn_zeros(ctx, 2, (int64_t[]){c.V + 1, 3});
+    expect_error(ctx, cr_loss_energy(ctx, &grav, x), CR_ERR_SHAPE, "loss_energy(gravity)");
+    /* 4-D */
+    x = cr_nn_zeros(ctx, 4, (int64_t[]){1, 2, c.V, 3});
+    expect_error(ctx, cr_loss_energy(ctx, &grav, x), CR_ERR_SHAPE, "(B,V,3)");
+    /* (V,3) works and gives (1); per element (nelem) */
+    x = cr_nn_zeros(ctx, 2, (int64_t[]){c.V, 3});
+    cr_tensor *e = cr_loss_energy(ctx, &mem, x), *pe = cr_loss_energy_per_element(ctx, &mem, x);
+    CR_REQUIRE(e && pe);
+    CR_CHECK(e->ndim == 1 && e->shape[0] == 1);
+    CR_CHECK(pe->ndim == 1 && pe->shape[0] == c.m->nf);
+    cr_nn_ctx_destroy(ctx);
+    cloth_destroy(&c);
+}
+
+/* The weighted sum and its per-term reports. */
+CR_TEST(losses, weighted_sum) {
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)1 << 20);
+    cr_error err;
+    cr_tensor *a = cr_nn_from(ctx, 1, (int64_t[]){2}, (float[]){1.0f, 2.0f});
+    cr_tensor *b = cr_nn_from(ctx, 1, (int64_t[]){3}, (float[]){0.5f, 0.25f, 0.25f});
+    a->requires_grad = b->requires_grad = 1;
+    cr_tensor *w[2];
+    cr_tensor *s = cr_loss_weighted_sum(ctx, (cr_tensor *[]){a, b}, (float[]){2.0f, -4.0f}, 2, w);
+    CR_REQUIRE(s && w[0] && w[1]);
+    CR_CHECK_NEAR(s->data[0], 2.0, 1e-6);
+    CR_CHECK_NEAR(w[0]->data[0], 6.0, 1e-6);
+    CR_CHECK_NEAR(w[1]->data[0], -4.0, 1e-6);
+    CR_CHECK_OK(cr_nn_backward(ctx, s, &err), &err);
+    CR_CHECK_NEAR(a->grad[1], 2.0, 0.0);
+    CR_CHECK_NEAR(b->grad[2], -4.0, 0.0);
+    cr_nn_ctx_destroy(ctx);
+}
