@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crease/bvh.h"
 #include "crease/losses.h"
 #include "crease/phys_assemble.h"
 #include "crease/phys_energies.h"
@@ -96,22 +97,29 @@ static cr_tensor *build_plain(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) 
                           : cr_loss_energy(ctx, &j->t, in[0]);
 }
 
-/* Largest |dE/dx| of the op over all items (one backward of sum(E)). */
+/* The smallest over the inputs that require grad of their largest |dE/dinput|
+ * (one backward of sum(E)): the checks scale the weight by 10 over it, so
+ * every input's gradient reaches about 10 or more. */
 static double op_grad_max(nn_gradcheck_fn fn, void *user, int nin, nn_gradcheck_input *in) {
     cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)64 << 20);
     cr_error err;
     cr_tensor *t[4];
     for (int k = 0; k < nin; k++) {
         t[k] = cr_nn_wrap(ctx, in[k].ndim, in[k].shape, in[k].data);
-        t[k]->requires_grad = 1;
+        t[k]->requires_grad = (uint8_t)in[k].requires_grad;
     }
     cr_tensor *y = fn(ctx, t, user);
     CR_CHECK_OK(cr_nn_backward(ctx, cr_nn_sum(ctx, y), &err), &err);
-    double m = 0.0;
-    for (int64_t i = 0; i < t[0]->numel; i++)
-        m = fmax(m, fabs(t[0]->grad[i]));
+    double least = INFINITY;
+    for (int k = 0; k < nin; k++) {
+        if (!in[k].requires_grad || !t[k]->grad) continue;
+        double m = 0.0;
+        for (int64_t i = 0; i < t[k]->numel; i++)
+            m = fmax(m, fabs(t[k]->grad[i]));
+        least = fmin(least, m);
+    }
     cr_nn_ctx_destroy(ctx);
-    return m;
+    return isfinite(least) ? least : 0.0;
 }
 
 static int64_t check_plain(const char *name, cr_energy_term t, int B, float *x, int32_t V,
@@ -345,4 +353,281 @@ CR_TEST(losses, weighted_sum) {
     CR_CHECK_NEAR(a->grad[1], 2.0, 0.0);
     CR_CHECK_NEAR(b->grad[2], -4.0, 0.0);
     cr_nn_ctx_destroy(ctx);
+}
+
+/* ------------------------------------------------- per-item variants -- */
+
+/* Every per-item job starts with its weight, which the check rescales. */
+typedef struct item_job {
+    double weight;
+    const cloth *c;
+    const double *mass;
+    double h;
+    cr_loss_collider *col;
+    const cr_material *mat;
+} item_job;
+
+static cr_tensor *build_bending(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const item_job *j = user;
+    return cr_loss_bending(ctx, j->c->bend, j->weight, in[0], in[1]);
+}
+
+static cr_tensor *build_inertia(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const item_job *j = user;
+    return cr_loss_inertia(ctx, j->mass, j->c->V, j->h, j->weight, in[0], in[1], in[2]);
+}
+
+/* in[1] is the body (B,V_b,3); the check perturbs it too, so it is given as
+ * a constant input (requires_grad 0). */
+static cr_tensor *build_collision(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const item_job *j = user;
+    return cr_loss_collision(ctx, j->col, j->mat, j->weight, in[0], in[1]);
+}
+
+static int64_t check_items(const char *name, nn_gradcheck_fn fn, item_job *j, int nin,
+                           nn_gradcheck_input *in, double step, double tol) {
+    j->weight = 1.0;
+    const double gmax = op_grad_max(fn, j, nin, in);
+    CR_CHECK(gmax > 0.0);
+    if (gmax > 0.0) j->weight = 10.0 / gmax;
+    nn_gradcheck_def def = nn_gradcheck_default_def();
+    def.name = name;
+    def.step = step;
+    def.tol = tol;
+    def.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    const int64_t failed = nn_gradcheck(&def, nin, in, NULL, fn, j, &res);
+    if (failed || getenv("CR_LOSSES_VERBOSE"))
+        fprintf(stderr, "%s: %lld of %lld failed, max err %.3g\n", name, (long long)res.failed,
+                (long long)res.checked, res.max_err);
+    return failed;
+}
+
+static float *random_angles(int64_t n, double amp, uint64_t seed) {
+    float *r = malloc(sizeof(float) * (size_t)n);
+    cr_rng g = cr_rng_make(seed, 1);
+    for (int64_t i = 0; i < n; i++)
+        r[i] = (float)(amp * (2.0 * cr_rng_uniform(&g) - 1.0));
+    return r;
+}
+
+CR_TEST(losses, gradient_bending_rest_per_item) {
+    cloth c;
+    CR_REQUIRE(cloth_make(&c, 4, 0.3f, CR_MEMBRANE_STVK));
+    const int B = 3;
+    const int32_t H = cr_bending_count(c.bend);
+    float *x = states(&c, B, 0.01, 17), *rest = random_angles((int64_t)B * H, 0.4, 3);
+    item_job j = {.c = &c};
+    nn_gradcheck_input in[2] = {nn_gradcheck_in(3, (int64_t[]){B, c.V, 3}, x),
+                                nn_gradcheck_in(2, (int64_t[]){B, H}, rest)};
+    /* d/dx and d/d(rest) apart: each scaled to its own magnitude (dE/dx is
+     * about 1/edge length times dE/d(rest)) */
+    for (int which = 0; which < 2; which++) {
+        in[0].requires_grad = which == 0, in[1].requires_grad = which == 1;
+        CR_CHECK(check_items(which ? "bending d/d(rest (B,H))" : "bending d/dx, rest (B,H)",
+                             build_bending, &j, 2, in, 1e-3, 3e-3) == 0);
+    }
+    in[0].requires_grad = 1;
+    in[1] = nn_gradcheck_in(1, (int64_t[]){H}, rest); /* one set shared by the items */
+    CR_CHECK(check_items("bending rest (H), both", build_bending, &j, 2, in, 1e-3, 1e-2) == 0);
+    in[0].requires_grad = 0;
+    CR_CHECK(check_items("bending d/d(rest (H))", build_bending, &j, 2, in, 1e-3, 3e-3) == 0);
+    free(x), free(rest);
+    cloth_destroy(&c);
+}
+
+CR_TEST(losses, gradient_inertia_three_states) {
+    cloth c;
+    CR_REQUIRE(cloth_make(&c, 4, 0.3f, CR_MEMBRANE_STVK));
+    const int B = 2;
+    float *x0 = states(&c, B, 0.02, 1), *x1 = states(&c, B, 0.02, 2), *x2 = states(&c, B, 0.02, 3);
+    item_job j = {.c = &c, .mass = cr_gravity_masses(c.grav), .h = 1.0 / 30.0};
+    const int64_t sh[3] = {B, c.V, 3};
+    nn_gradcheck_input in[3] = {nn_gradcheck_in(3, sh, x0), nn_gradcheck_in(3, sh, x1),
+                                nn_gradcheck_in(3, sh, x2)};
+    CR_CHECK(check_items("inertia", build_inertia, &j, 3, in, 1e-3, 3e-3) == 0);
+    free(x0), free(x1), free(x2);
+    cloth_destroy(&c);
+}
+
+/* A body: an icosphere of radius 0.2 m at the origin, moved per item, and a
+ * sheet of n x n vertices 0.1 m wide over its north pole whose heights
+ * scatter through the contact band (inside, within eps, outside). */
+typedef struct contact {
+    cr_mesh *sphere;
+    float *body; /* (B,V_b,3) */
+    cr_loss_collider *col;
+} contact;
+
+static int contact_make(contact *k, int B) {
+    cr_error err;
+    memset(k, 0, sizeof *k);
+    CR_CHECK_OK(cr_prim_icosphere(0.2f, 2, &k->sphere, &err), &err);
+    if (!k->sphere) return 0;
+    const int32_t Vb = k->sphere->nv;
+    k->body = malloc(sizeof(float) * 3 * (size_t)B * (size_t)Vb);
+    for (int b = 0; b < B; b++)
+        for (int32_t i = 0; i < Vb; i++)
+            for (int d = 0; d < 3; d++)
+                k->body[3 * ((int64_t)Vb * b + i) + d] =
+                    k->sphere->pos[3 * i + d] + (d == 0   ? 0.01f * b
+                                                 : d == 1 ? 0.004f * b
+                                                          : 0.0f);
+    CR_CHECK_OK(
+        cr_loss_collider_create(k->sphere->pos, Vb, k->sphere->tri, k->sphere->nf, &k->col, &err),
+        &err);
+    return k->col != NULL;
+}
+
+static void contact_destroy(contact *k) {
+    cr_loss_collider_destroy(k->col);
+    free(k->body);
+    cr_mesh_destroy(k->sphere);
+}
+
+static float *sheet_over_pole(const cloth *c, int B, uint64_t seed) {
+    float *x = malloc(sizeof(float) * 3 * (size_t)B * (size_t)c->V);
+    cr_rng r = cr_rng_make(seed, 2);
+    for (int b = 0; b < B; b++)
+        for (int32_t i = 0; i < c->V; i++) {
+            float *p = x + 3 * ((int64_t)c->V * b + i);
+            /* off the pole, so no vertex sits on the distance's kinks
+               (the medial axis under the pole vertex) */
+            p[0] = c->m->pos[3 * i] + 0.013f + 0.01f * b;
+            p[2] = c->m->pos[3 * i + 2] + 0.007f;
+            /* the sphere's surface height here, plus -8..+15 mm */
+            const double r2 = (double)p[0] * p[0] + (double)p[2] * p[2];
+            p[1] = (float)(sqrt(0.04 - r2) + 0.004 * b - 0.008 + 0.023 * cr_rng_uniform(&r));
+        }
+    return x;
+}
+
+CR_TEST(losses, gradient_collision_per_item_body) {
+    cloth c;
+    contact k;
+    CR_REQUIRE(cloth_make(&c, 5, 0.1f, CR_MEMBRANE_STVK));
+    const int B = 2;
+    CR_REQUIRE(contact_make(&k, B));
+    cr_material mat = c.mat;
+    mat.collision_thickness = 0.01; /* wide enough for the step */
+    float *x = sheet_over_pole(&c, B, 9);
+    item_job j = {.c = &c, .col = k.col, .mat = &mat};
+    nn_gradcheck_input in[2] = {
+        nn_gradcheck_in(3, (int64_t[]){B, c.V, 3}, x),
+        {.ndim = 3, .shape = {B, k.sphere->nv, 3}, .data = k.body, .requires_grad = 0}};
+    CR_CHECK(check_items("collision", build_collision, &j, 2, in, 2e-4, 3e-3) == 0);
+    free(x);
+    contact_destroy(&k);
+    cloth_destroy(&c);
+}
+
+/* Per-item values against the simulator's terms set up for each item. */
+CR_TEST(losses, per_item_values_equal_assembly) {
+    cr_error err;
+    cloth c;
+    contact k;
+    CR_REQUIRE(cloth_make(&c, 5, 0.1f, CR_MEMBRANE_STVK));
+    const int B = 2;
+    CR_REQUIRE(contact_make(&k, B));
+    const int32_t V = c.V, H = cr_bending_count(c.bend);
+    float *x = sheet_over_pole(&c, B, 4), *xp = states(&c, B, 0.01, 5),
+          *xpp = states(&c, B, 0.01, 6), *rest = random_angles((int64_t)B * H, 0.4, 8);
+    const double h = 1.0 / 30.0;
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    const int64_t sh[3] = {B, V, 3};
+    cr_tensor *xt = cr_nn_from(ctx, 3, sh, x), *xpt = cr_nn_from(ctx, 3, sh, xp),
+              *xppt = cr_nn_from(ctx, 3, sh, xpp);
+    cr_tensor *rt = cr_nn_from(ctx, 2, (int64_t[]){B, H}, rest);
+    cr_tensor *bt = cr_nn_from(ctx, 3, (int64_t[]){B, k.sphere->nv, 3}, k.body);
+    cr_tensor *eb = cr_loss_bending(ctx, c.bend, 2.0, xt, rt);
+    cr_tensor *ei = cr_loss_inertia(ctx, cr_gravity_masses(c.grav), V, h, 2.0, xt, xpt, xppt);
+    cr_tensor *ec = cr_loss_collision(ctx, k.col, &c.mat, 2.0, xt, bt);
+    CR_CHECK_OK(cr_nn_ctx_error(ctx, &err), &err);
+    CR_REQUIRE(eb && ei && ec);
+
+    cr_inertia *in = NULL;
+    cr_collision *col = NULL;
+    CR_CHECK_OK(cr_inertia_create(cr_gravity_masses(c.grav), V, &in, &err), &err);
+    CR_CHECK_OK(cr_collision_create(V, &c.mat, &col, &err), &err);
+    CR_REQUIRE(in && col);
+    cr_energy_term t[3];
+    cr_bending_term(c.bend, &t[0]);
+    cr_inertia_term(in, &t[1]);
+    cr_collision_term(col, &t[2]);
+    for (int q = 0; q < 3; q++)
+        t[q].weight = 2.0;
+    cr_assembly *a = NULL;
+    CR_CHECK_OK(cr_assembly_create(t, 3, V, &a, &err), &err);
+    CR_REQUIRE(a);
+    double *xd = malloc(sizeof(double) * 3 * (size_t)V),
+           *pred = malloc(sizeof(double) * 3 * (size_t)V);
+    float *dist = malloc(sizeof(float) * (size_t)V), *nrm = malloc(sizeof(float) * 3 * (size_t)V);
+    double *rest_b = cr_bending_rest_angles(c.bend);
+    double saved_rest0 = rest_b[0];
+    for (int b = 0; b < B; b++) {
+        const int64_t o = 3 * (int64_t)V * b;
+        for (int64_t i = 0; i < 3 * (int64_t)V; i++) {
+            xd[i] = x[o + i];
+            pred[i] = 2.0 * xp[o + i] - xpp[o + i];
+        }
+        for (int32_t e = 0; e < H; e++)
+            rest_b[e] = rest[(int64_t)H * b + e];
+        cr_inertia_set(in, pred, h);
+        cr_bvh *bvh = NULL;
+        CR_CHECK_OK(cr_bvh_build(k.body + 3 * (int64_t)k.sphere->nv * b, k.sphere->nv,
+                                 k.sphere->tri, k.sphere->nf, &bvh, &err),
+                    &err);
+        CR_REQUIRE(bvh);
+        cr_bvh_signed_distance_batch(bvh, x + o, V, INFINITY, dist, nrm, NULL);
+        cr_bvh_destroy(bvh);
+        cr_collision_update(col, xd, dist, nrm);
+        double tv[3];
+        cr_assembly_eval(a, t, xd, NULL, 0, tv);
+        const float op[3] = {eb->data[b], ei->data[b], ec->data[b]};
+        for (int q = 0; q < 3; q++) {
+            CR_CHECK(tv[q] > 0.0);
+            if (!(fabs(op[q] - tv[q]) <= 1e-6 * fabs(tv[q])))
+                cr_test_fail_here(__FILE__, __LINE__, "%s item %d: op %.9g, assembly %.9g",
+                                  t[q].name, b, (double)op[q], tv[q]);
+        }
+    }
+    rest_b[0] = saved_rest0;
+    free(xd), free(pred), free(dist), free(nrm);
+    cr_assembly_destroy(a);
+    cr_collision_destroy(col);
+    cr_inertia_destroy(in);
+    cr_nn_ctx_destroy(ctx);
+    free(x), free(xp), free(xpp), free(rest);
+    contact_destroy(&k);
+    cloth_destroy(&c);
+}
+
+CR_TEST(losses, per_item_bad_shapes) {
+    cloth c;
+    contact k;
+    CR_REQUIRE(cloth_make(&c, 4, 0.3f, CR_MEMBRANE_STVK));
+    CR_REQUIRE(contact_make(&k, 2));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    const int32_t V = c.V, H = cr_bending_count(c.bend);
+    cr_tensor *x = cr_nn_zeros(ctx, 3, (int64_t[]){2, V, 3});
+    cr_tensor *r = cr_nn_zeros(ctx, 2, (int64_t[]){3, H});
+    expect_error(ctx, cr_loss_bending(ctx, c.bend, 1.0, x, r), CR_ERR_SHAPE,
+                 "loss_energy(bending)");
+    x = cr_nn_zeros(ctx, 3, (int64_t[]){2, V, 3});
+    cr_tensor *y = cr_nn_zeros(ctx, 3, (int64_t[]){1, V, 3});
+    expect_error(ctx, cr_loss_inertia(ctx, cr_gravity_masses(c.grav), V, 0.1, 1.0, x, x, y),
+                 CR_ERR_SHAPE, "loss_energy(inertia)");
+    x = cr_nn_zeros(ctx, 3, (int64_t[]){2, V, 3});
+    expect_error(ctx, cr_loss_inertia(ctx, cr_gravity_masses(c.grav), V - 1, 0.1, 1.0, x, x, x),
+                 CR_ERR_SHAPE, "loss_energy(inertia)");
+    x = cr_nn_zeros(ctx, 3, (int64_t[]){2, V, 3});
+    expect_error(ctx, cr_loss_inertia(ctx, cr_gravity_masses(c.grav), V, 0.0, 1.0, x, x, x),
+                 CR_ERR_INVALID, "step h");
+    x = cr_nn_zeros(ctx, 3, (int64_t[]){2, V, 3});
+    cr_tensor *body = cr_nn_zeros(ctx, 3, (int64_t[]){3, k.sphere->nv, 3});
+    expect_error(ctx, cr_loss_collision(ctx, k.col, &c.mat, 1.0, x, body), CR_ERR_SHAPE,
+                 "loss_energy(collision): body");
+    cr_nn_ctx_destroy(ctx);
+    contact_destroy(&k);
+    cloth_destroy(&c);
 }

@@ -47,7 +47,8 @@ struct loss_spec {
     /* Per-item state left by prepare: (B, V, 4) signed distance and unit
        gradient of the distance per vertex (collision). */
     float *item;
-    int64_t V; /* rows of each position input, set in forward */
+    int64_t item_count; /* B as the caller saw it (the collision's body check) */
+    int64_t V;          /* rows of each position input, set in forward */
 };
 
 /* A zeroed spec in step memory with the op's callbacks set; NULL on a full
