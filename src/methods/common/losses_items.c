@@ -192,6 +192,11 @@ static cr_status collision_prepare(loss_spec *s, int64_t b, const float *x_b, cr
             return CR_FAIL(err, st, "loss_energy(collision): body of item %lld: %s", (long long)b,
                            e2.msg);
     }
+    for (int64_t i = 0; i < 3 * V; i++)
+        if (!isfinite(x_b[i]))
+            return CR_FAIL(err, CR_ERR_NAN,
+                           "loss_energy(collision): vertex %lld of item %lld is not finite",
+                           (long long)(i / 3), (long long)b);
     cr_bvh_signed_distance_batch(d->c->bvh, x_b, V, INFINITY, d->dist, d->normal, d->point);
     float *item = s->item + 4 * V * b;
     for (int64_t i = 0; i < V; i++) {
