@@ -250,25 +250,34 @@ CR_TEST(losses, membrane_parts_sum_to_whole) {
 
 /* ------------------------------------------------------ determinism -- */
 
-/* Value and gradient of membrane + bending on a 40 x 40 sheet (several
- * parallel chunks) under a thread count: copied out for comparison. */
-static void run_threads(const cloth *c, const float *x, int B, int threads, float *val,
-                        float *grad) {
+/* Values and gradients of membrane, bending and bending with rest angles
+ * (B,H) that require grad, on a 40 x 40 sheet (several parallel chunks per
+ * loop), under a thread count: copied out for comparison. val (3B), grad
+ * (B,V,3), rgrad (B,H). */
+static void run_threads(const cloth *c, const float *x, int B, int threads, float *val, float *grad,
+                        float *rgrad) {
     cr_error err;
     cr_set_thread_count(threads);
     cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)64 << 20);
+    const int32_t H = cr_bending_count(c->bend);
     cr_tensor *xt = cr_nn_from(ctx, 3, (int64_t[]){B, c->V, 3}, x);
-    xt->requires_grad = 1;
+    cr_tensor *rt = cr_nn_zeros(ctx, 2, (int64_t[]){B, H});
+    cr_rng r = cr_rng_make(77, 0);
+    for (int64_t k = 0; k < rt->numel; k++)
+        rt->data[k] = (float)(0.5 * cr_rng_uniform(&r) - 0.25);
+    xt->requires_grad = rt->requires_grad = 1;
     cr_energy_term t[2];
     cr_membrane_term(c->mem, &t[0]);
     cr_bending_term(c->bend, &t[1]);
-    cr_tensor *e[2] = {cr_loss_energy(ctx, &t[0], xt), cr_loss_energy(ctx, &t[1], xt)};
-    cr_tensor *loss = cr_loss_weighted_sum(ctx, e, (float[]){1.0f, 100.0f}, 2, NULL);
+    cr_tensor *e[3] = {cr_loss_energy(ctx, &t[0], xt), cr_loss_energy(ctx, &t[1], xt),
+                       cr_loss_bending(ctx, c->bend, 1.0, xt, rt)};
+    cr_tensor *loss = cr_loss_weighted_sum(ctx, e, (float[]){1.0f, 100.0f, 50.0f}, 3, NULL);
     CR_CHECK_OK(cr_nn_backward(ctx, loss, &err), &err);
-    if (e[0] && e[1] && xt->grad) {
-        memcpy(val, e[0]->data, sizeof(float) * (size_t)B);
-        memcpy(val + B, e[1]->data, sizeof(float) * (size_t)B);
+    if (e[0] && e[1] && e[2] && xt->grad && rt->grad) {
+        for (int q = 0; q < 3; q++)
+            memcpy(val + q * B, e[q]->data, sizeof(float) * (size_t)B);
         memcpy(grad, xt->grad, sizeof(float) * 3 * (size_t)B * (size_t)c->V);
+        memcpy(rgrad, rt->grad, sizeof(float) * (size_t)B * (size_t)H);
     }
     cr_nn_ctx_destroy(ctx);
 }
@@ -278,20 +287,24 @@ CR_TEST(losses, same_bits_any_thread_count) {
     CR_REQUIRE(cloth_make(&c, 40, 1.0f, CR_MEMBRANE_STVK));
     const int B = 2;
     float *x = states(&c, B, 0.01, 3);
-    const size_t ng = 3 * (size_t)B * (size_t)c.V;
-    float v1[4] = {0}, v2[4] = {1};
+    const size_t ng = 3 * (size_t)B * (size_t)c.V, nr = (size_t)B * cr_bending_count(c.bend);
+    float v1[6] = {0}, v2[6] = {1};
     float *g1 = calloc(ng, sizeof(float)), *g2 = calloc(ng, sizeof(float));
+    float *r1 = calloc(nr, sizeof(float)), *r2 = calloc(nr, sizeof(float));
     const int before = cr_thread_count();
-    run_threads(&c, x, B, 1, v1, g1);
-    run_threads(&c, x, B, 2, v2, g2);
+    run_threads(&c, x, B, 1, v1, g1, r1);
+    run_threads(&c, x, B, 2, v2, g2, r2);
     cr_set_thread_count(before);
     CR_CHECK(memcmp(v1, v2, sizeof v1) == 0);
     CR_CHECK(memcmp(g1, g2, sizeof(float) * ng) == 0);
-    double gm = 0.0;
+    CR_CHECK(memcmp(r1, r2, sizeof(float) * nr) == 0);
+    double gm = 0.0, rm = 0.0;
     for (size_t i = 0; i < ng; i++)
         gm = fmax(gm, fabs(g1[i]));
-    CR_CHECK(gm > 0.0);
-    free(g1), free(g2), free(x);
+    for (size_t i = 0; i < nr; i++)
+        rm = fmax(rm, fabs(r1[i]));
+    CR_CHECK(gm > 0.0 && rm > 0.0);
+    free(g1), free(g2), free(r1), free(r2), free(x);
     cloth_destroy(&c);
 }
 
