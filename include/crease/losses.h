@@ -76,8 +76,9 @@ void cr_loss_collider_destroy(cr_loss_collider *c); /* NULL is a no-op */
  * E_i = k max(eps - d_i, 0)^3 with k = mat->collision_stiffness and
  * eps = mat->collision_thickness as the simulator's (collision.c), d_i the
  * signed distance to the body (negative inside, bvh.h). body (B,V_b,3) or
- * (V_b,3) for every item, m; NULL: the collider's current positions. Its
- * data is read in forward; no gradient flows to it. The gradient to x is
+ * (V_b,3) for every item, m (wrap a host array with cr_nn_wrap); NULL: the
+ * collider's current positions. Its data is read in forward; no gradient
+ * flows to it. The gradient to x is
  * -3 k (eps - d)^2 grad d, with grad d the unit direction from the closest
  * point (the pseudo-normal where the vertex lies on the surface). */
 cr_tensor *cr_loss_collision(cr_nn_ctx *ctx, cr_loss_collider *c, const cr_material *mat,
