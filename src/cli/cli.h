@@ -55,7 +55,7 @@ int cli_usage(const char *cmd, const char *fmt, ...) __attribute__((format(print
  *         crease simulate: --frames expects an integer in [1, 100000000], got 'x'
  *         crease simulate: unknown option '--frams'
  *         crease simulate: option --frames needs a value
- *         crease simulate: --collision expects vertex or sdf, got 'box'
+ *         crease drape: --collision expects vertex or sdf, got 'box'
  *   - `--help` / `-h` anywhere: main.c prints the command's help_<cmd>() before the
  *     command runs. Help texts are written per command; keep them in step with the table.
  *
