@@ -1,9 +1,9 @@
 /* cmd_simulate.c: `crease simulate`: run the reference cloth simulator on a
  * garment against a static object or an animated body, writing the sequence
- * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
- * scene and output code is in phys_scene.h; this file parses and reports. */
+ * (PC2, glb), a per-frame JSON lines log and a picture of the last frame:
+ * parse, one library call (cr_scene_simulate, crease/scene.h), report. */
 #include "cli.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -51,97 +51,71 @@ typedef struct {
     int32_t npins;
 } sim_opts;
 
-/* "i,j,k" -> o->pins. */
-static int parse_pins(const char *s, sim_opts *o) {
+/* --pin "i,j,k": appended to o->pins (the option may be repeated). */
+static int parse_pins(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    sim_opts *o = dst;
+    const char *s = v[0];
     int32_t n = 1;
-    for (const char *c = s; *c; c++) n += *c == ',';
-    if (n > MAX_PINS) return cli_usage("simulate", "--pin: at most %d vertices", MAX_PINS);
+    for (const char *c = s; *c; c++)
+        n += *c == ',';
+    if (n > MAX_PINS) return cli_usage(cmd, "--pin: at most %d vertices", MAX_PINS);
     int32_t *p = realloc(o->pins, (size_t)(o->npins + n) * sizeof *p);
-    if (!p) return cli_usage("simulate", "--pin: out of memory");
+    if (!p) return cli_usage(cmd, "--pin: out of memory");
     o->pins = p;
     char buf[32];
     for (const char *c = s; *c;) {
         size_t len = strcspn(c, ",");
-        int v;
-        if (len == 0 || len >= sizeof buf) return cli_usage("simulate", "--pin: bad list '%s'", s);
+        int idx;
+        if (len == 0 || len >= sizeof buf) return cli_usage(cmd, "--pin: bad list '%s'", s);
         memcpy(buf, c, len);
         buf[len] = '\0';
-        if (!cli_parse_int("simulate", "--pin", buf, 0, 2147483647L, &v)) return CLI_USAGE;
-        o->pins[o->npins++] = v;
+        if (!cli_parse_int(cmd, opt, buf, 0, 2147483647L, &idx)) return CLI_USAGE;
+        o->pins[o->npins++] = idx;
         c += len + (c[len] == ',');
     }
     return CLI_OK;
 }
 
-static int parse_vec3(const char *opt, const char *s, float out[3]) {
+/* --garment-offset X,Y,Z */
+static int parse_vec3(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    float *out = dst;
     char buf[128], *save = NULL;
-    snprintf(buf, sizeof buf, "%s", s);
+    snprintf(buf, sizeof buf, "%s", v[0]);
     int k = 0;
     for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-        if (k >= 3 || !cli_parse_float("simulate", opt, tok, -1e6, 1e6, &out[k])) return 0;
-    if (k != 3) {
-        cli_usage("simulate", "%s expects X,Y,Z, got '%s'", opt, s);
-        return 0;
-    }
-    return 1;
+        if (k >= 3 || !cli_parse_float(cmd, opt, tok, -1e6, 1e6, &out[k])) return CLI_USAGE;
+    if (k != 3) return cli_usage(cmd, "%s expects X,Y,Z, got '%s'", opt, v[0]);
+    return CLI_OK;
 }
 
 static int parse(int argc, char **argv, sim_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    const struct {
-        const char *name;
-        const char **field;
-    } strs[] = {{"--garment", &o->garment},      {"--object", &o->object},
-                {"--body-mesh", &o->body_mesh},  {"--body", &o->body},
-                {"--material", &o->material},    {"--material-json", &o->material_json},
-                {"-o", &o->out},                 {"--output", &o->out}};
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        int matched = 0;
-        for (size_t i = 0; i < sizeof strs / sizeof strs[0]; i++)
-            if (strcmp(opt, strs[i].name) == 0) {
-                if (!(*strs[i].field = cli_args_value(&a, opt))) return CLI_USAGE;
-                matched = 1;
-            }
-        if (matched) continue;
-        if (strcmp(opt, "--frames") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 100000000, &o->frames))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--substeps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 4096, &o->substeps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--max-collider-step") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("simulate", opt, v, 0, 1000, &o->max_collider_step))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--newton-iterations") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 1000, &o->newton_iterations))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("simulate", opt, v, 0.01, 100000, &o->fps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--pin") == 0) {
-            if (!(v = cli_args_value(&a, opt))) return CLI_USAGE;
-            int rc = parse_pins(v, o);
-            if (rc != CLI_OK) return rc;
-        } else if (strcmp(opt, "--garment-offset") == 0) {
-            if (!(v = cli_args_value(&a, opt)) || !parse_vec3(opt, v, o->offset)) return CLI_USAGE;
-            o->has_offset = 1;
-        } else if (strcmp(opt, "--plastic") == 0) {
-            o->plastic = 1;
-        } else if (strcmp(opt, "--quiet") == 0) {
-            o->quiet = 1;
-        } else if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else {
-            return cli_usage("simulate", "unknown option '%s'", opt);
-        }
-    }
+    int npos = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--garment", &o->garment),
+        CLI_STR("--object", &o->object),
+        CLI_STR("--body-mesh", &o->body_mesh),
+        CLI_STR("--body", &o->body),
+        CLI_STR("--material", &o->material),
+        CLI_STR("--material-json", &o->material_json),
+        CLI_OUTPUT(&o->out),
+        CLI_INT("--frames", &o->frames, 1, 100000000),
+        CLI_INT("--substeps", &o->substeps, 1, 4096),
+        CLI_FLOAT("--max-collider-step", &o->max_collider_step, 0, 1000),
+        CLI_INT("--newton-iterations", &o->newton_iterations, 1, 1000),
+        CLI_FLOAT("--fps", &o->fps, 0.01, 100000),
+        CLI_CUSTOM("--pin", parse_pins, o, 1),
+        {.name = "--garment-offset",
+         .kind = CLI_OPT_CUSTOM,
+         .fn = parse_vec3,
+         .dst = o->offset,
+         .seen = &o->has_offset},
+        CLI_FLAG("--plastic", &o->plastic),
+        CLI_FLAG("--quiet", &o->quiet),
+        CLI_FLAG("--json", &o->json),
+        CLI_END,
+    };
+    int rc = cli_parse("simulate", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
@@ -154,154 +128,67 @@ static int parse(int argc, char **argv, sim_opts *o) {
     return CLI_OK;
 }
 
-/* Everything a run holds, released together. */
-typedef struct {
-    cr_mesh *garment, *collider;
-    cr_pc2 anim;
-    cr_sim *sim;
-    cr_scene_record *rec;
-} sim_run;
-
-static void run_free(sim_run *r, sim_opts *o) {
-    cr_scene_record_destroy(r->rec);
-    cr_sim_destroy(r->sim);
-    cr_pc2_free(&r->anim);
-    cr_mesh_destroy(r->collider);
-    cr_mesh_destroy(r->garment);
-    free(o->pins);
-}
-
-static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error *err) {
-    if (o->material_json) CR_TRY(cr_material_load_json(o->material_json, &def->material, err));
-    CR_TRY(cr_mesh_read(o->garment, &r->garment, err));
-    if (o->has_offset) cr_mesh_transform(r->garment, 1.0f, o->offset);
-    const char *cname = o->object ? o->object : o->body_mesh;
-    if (cname) {
-        CR_TRY(o->object ? cr_scene_object_create(o->object, &r->collider, err)
-                         : cr_mesh_read(o->body_mesh, &r->collider, err));
-        def->collider = r->collider;
-    }
-    if (o->body) {
-        CR_TRY(cr_scene_animation_read(o->body, r->collider, cname, &r->anim, err));
-        def->collider_frames = r->anim.frames;
-        def->collider_nframes = r->anim.nframes;
-        if (r->anim.nframes < o->frames + 1)
-            cr_log(CR_LOG_WARN, "%s: %d samples for %d frames; the collider holds its last pose",
-                   o->body, r->anim.nframes, o->frames);
-    }
-    def->dt = 1.0 / o->fps;
-    if (o->substeps > 0) def->substeps = o->substeps;
-    def->max_collider_step = o->max_collider_step;
-    if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
-    def->plasticity = o->plastic;
-    def->pinned = o->pins;
-    def->npinned = o->npins;
-    CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
-    CR_TRY(cr_mkdir_p(o->out, err));
-    char path[1200];
-    snprintf(path, sizeof path, "%s/frames.jsonl", o->out);
-    return cr_scene_record_create(path, r->sim, r->garment, o->frames + 1, &r->rec, err);
-}
-
 int cmd_simulate(int argc, char **argv) {
     sim_opts o = {.material = "cotton", .fps = 30.0f};
     int rc = parse(argc, argv, &o);
+    cr_error err = {0};
+    cr_material material;
+    if (rc == CLI_OK && cr_material_preset(o.material, &material, &err) != CR_OK)
+        rc = cli_usage("simulate", "%s", err.msg);
     if (rc != CLI_OK) {
         free(o.pins);
         return rc;
     }
-    cr_error err = {0};
-    cr_sim_def def = cr_sim_default_def();
-    if (cr_material_preset(o.material, &def.material, &err) != CR_OK) {
-        free(o.pins);
-        return cli_usage("simulate", "%s", err.msg);
-    }
-    sim_run r = {0};
-    if (setup(&o, &r, &def, &err) != CR_OK) {
-        run_free(&r, &o);
-        return cli_fail(&err);
-    }
+    cr_scene_sim_def def = cr_scene_sim_default_def();
+    def.garment = o.garment, def.garment_offset = o.has_offset ? o.offset : NULL;
+    def.object = o.object, def.body_mesh = o.body_mesh, def.body = o.body;
+    def.material = o.material, def.material_json = o.material_json;
+    def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
+    def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
+    def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
+    def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
+    cr_scene_sim_result r;
+    cr_status st = cr_scene_simulate(&def, &r, &err);
+    free(o.pins);
+    if (st != CR_OK) return cli_fail(&err);
 
-    cr_progress bar;
-    cr_progress_begin(&bar, "simulate", o.frames, o.quiet);
-    cr_sim_report rep = {0};
-    double max_pen = 0.0, seconds = 0.0, split[4] = {0};
-    long long newton = 0;
-    int done = 0, backoffs = 0;
-    cr_status st = CR_OK;
-    cr_error sim_err = {0};
-    while (done < o.frames) {
-        cr_status step = cr_sim_step(r.sim, &rep, &sim_err);
-        if (step != CR_OK && step != CR_ERR_DIVERGED) {
-            st = step;
-            err = sim_err;
-            break;
-        }
-        st = cr_scene_record_frame(r.rec, r.sim, &rep, &err);
-        if (step == CR_ERR_DIVERGED || st != CR_OK) break;
-        done++;
-        if (rep.max_penetration_m > max_pen) max_pen = rep.max_penetration_m;
-        seconds += rep.seconds;
-        split[0] += rep.seconds_assembly, split[1] += rep.seconds_factor;
-        split[2] += rep.seconds_solve, split[3] += rep.seconds_collision;
-        newton += rep.newton_iterations;
-        backoffs += rep.backoffs;
-        cr_progress_update(&bar, done, "%d Newton its, %.2f mm deepest", rep.newton_iterations,
-                           1e3 * rep.max_penetration_m);
-    }
-    cr_progress_end(&bar);
-    int diverged = rep.diverged;
-    if (diverged)
-        fprintf(stderr, "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
-                done + 1, rep.failure, done);
-
-    char pc2[1200], glb[1200], png[1200], log[1200];
-    snprintf(pc2, sizeof pc2, "%s/sim.pc2", o.out);
-    snprintf(glb, sizeof glb, "%s/sim.glb", o.out);
-    snprintf(png, sizeof png, "%s/last.png", o.out);
-    snprintf(log, sizeof log, "%s/frames.jsonl", o.out);
-    if (st == CR_OK) st = cr_scene_record_write(r.rec, pc2, glb, o.fps, &err);
-    if (st == CR_OK) {
-        const float *cpos = NULL;
-        if (r.anim.frames) {
-            int32_t k = done < r.anim.nframes - 1 ? done : r.anim.nframes - 1;
-            cpos = r.anim.frames + (size_t)k * (size_t)r.anim.nv * 3;
-        }
-        st = cr_scene_render(png, r.garment, cr_scene_record_last(r.rec), r.collider, cpos,
-                             RENDER_SIZE, &err);
-    }
-    if (st == CR_OK && !o.quiet)
+    const cr_scene_run_stats *run = &r.run;
+    int done = run->frames;
+    double per_frame = done ? run->seconds / done : 0.0;
+    if (run->diverged)
+        fprintf(stderr,
+                "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
+                done + 1, run->failure, done);
+    if (!o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
-                done, r.garment->nv, done ? seconds / done : 0.0, 1e3 * max_pen);
-    if (st == CR_OK && o.json) {
+                done, r.vertices, per_frame, 1e3 * run->max_penetration_m);
+    if (o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "simulate");
         cJSON_AddNumberToObject(j, "frames", done);
         cJSON_AddNumberToObject(j, "frames_requested", o.frames);
-        cJSON_AddBoolToObject(j, "diverged", diverged);
-        if (diverged) {
+        cJSON_AddBoolToObject(j, "diverged", run->diverged);
+        if (run->diverged) {
             cJSON_AddNumberToObject(j, "diverged_frame", done + 1);
-            cJSON_AddStringToObject(j, "failure", rep.failure);
+            cJSON_AddStringToObject(j, "failure", run->failure);
         }
-        cJSON_AddNumberToObject(j, "vertices", r.garment->nv);
-        cJSON_AddStringToObject(j, "material", def.material.name);
-        cJSON_AddNumberToObject(j, "max_penetration_m", max_pen);
-        cJSON_AddNumberToObject(j, "seconds_per_frame", done ? seconds / done : 0.0);
-        cJSON_AddNumberToObject(j, "seconds_assembly", split[0]);
-        cJSON_AddNumberToObject(j, "seconds_factor", split[1]);
-        cJSON_AddNumberToObject(j, "seconds_solve", split[2]);
-        cJSON_AddNumberToObject(j, "seconds_collision", split[3]);
-        cJSON_AddNumberToObject(j, "newton_iterations", (double)newton);
-        cJSON_AddNumberToObject(j, "backoffs", backoffs);
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddStringToObject(j, "material", r.material);
+        cJSON_AddNumberToObject(j, "max_penetration_m", run->max_penetration_m);
+        cJSON_AddNumberToObject(j, "seconds_per_frame", per_frame);
+        cJSON_AddNumberToObject(j, "seconds_assembly", run->seconds_assembly);
+        cJSON_AddNumberToObject(j, "seconds_factor", run->seconds_factor);
+        cJSON_AddNumberToObject(j, "seconds_solve", run->seconds_solve);
+        cJSON_AddNumberToObject(j, "seconds_collision", run->seconds_collision);
+        cJSON_AddNumberToObject(j, "newton_iterations", (double)run->newton_iterations);
+        cJSON_AddNumberToObject(j, "backoffs", (double)run->backoffs);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cJSON *out = cJSON_AddObjectToObject(j, "outputs");
-        cJSON_AddStringToObject(out, "pc2", pc2);
-        cJSON_AddStringToObject(out, "glb", glb);
-        cJSON_AddStringToObject(out, "log", log);
-        cJSON_AddStringToObject(out, "png", png);
+        cJSON_AddStringToObject(out, "pc2", r.pc2);
+        cJSON_AddStringToObject(out, "glb", r.glb);
+        cJSON_AddStringToObject(out, "log", r.log);
+        cJSON_AddStringToObject(out, "png", r.png);
         cli_json_print(j);
     }
-    run_free(&r, &o);
-    if (st != CR_OK) return cli_fail(&err);
-    return diverged ? CLI_BAD_INPUT : CLI_OK;
+    return run->diverged ? CLI_BAD_INPUT : CLI_OK;
 }
