@@ -127,7 +127,7 @@ static double angle_diff(double a, double b) {
 
 int32_t cr_eval_top_hinges(const double *score, int32_t nh, float fraction, int32_t *sel) {
     if (nh <= 0) return 0;
-    int32_t k = (int32_t)ceil((double)fraction * nh - 1e-9);
+    int32_t k = (int32_t)ceil((double)fraction * nh - 1e-4); /* 0.1f * 10 is 1.0000000149 */
     if (k < 1) k = 1;
     if (k > nh) k = nh;
     /* partial selection sort: k is a tenth of H, H a few ten thousand at most */
