@@ -129,6 +129,7 @@ typedef struct cr_eval_input {
     int32_t ref_rest_nframes;
     const float *pred_rest;
     int32_t pred_rest_nframes;
+    int32_t rest_nhinges; /* H the rest-angle arrays were made for; 0: not checked */
     /* Names for messages (file names, say); NULL: "prediction", "reference", "body". */
     const char *pred_name, *ref_name, *body_name;
 } cr_eval_input;
@@ -171,6 +172,32 @@ void cr_eval_result_free(cr_eval_result *r);
 static inline double cr_eval_value(const cr_eval_result *r, int32_t t, cr_eval_metric m) {
     return r->frames[(int64_t)t * CR_EVAL_METRIC_COUNT + m];
 }
+
+/* ------------------------------------------------------------- reports -- */
+
+/* What cr_eval_write_report wrote. */
+typedef struct cr_eval_report {
+    char frames_jsonl[1100]; /* DIR/frames.jsonl: {"frame": t, "<metric>": value or null, ...} */
+    char summary_json[1100]; /* DIR/summary.json: cr_eval_summary_json's object */
+    char plots_dir[1100];    /* DIR/plots: <metric>.png, each metric over the frames */
+    char heatmap_png[1100];  /* DIR/heatmap.png: |P_i - R_i| on P at the worst frame */
+    int nplots;
+} cr_eval_report;
+
+/* The summary as one JSON object (text, caller frees with free()): frames,
+ * vertices, hinges, bed_hinges, bed_from_rest, worst_frame, "metrics": {key:
+ * {mean, max, min, worst_frame, count, source}} (null where undefined) and,
+ * with UVs, "spectrum": {band_edges_m, pred, ref}. NULL when out of memory. */
+char *cr_eval_summary_json(const cr_eval_result *r);
+
+/* Write the report of r into dir (created): the per-frame JSON lines, the
+ * summary, a plot of each metric defined somewhere, and the heat map (the
+ * prediction at r->worst_frame with the body there, when in has one, in
+ * grey; a colour bar in metres underneath). in is the input r came from.
+ * Every file goes through cr_atomic_open/commit (PNGs through
+ * cr_image_write_png, which does the same). */
+cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in, const char *dir,
+                               cr_eval_report *out, cr_error *err);
 
 /* The BED hinge selection alone: the k = max(1, ceil(fraction H)) hinges of
  * largest score, score (H) any non-negative value (ties: lower index

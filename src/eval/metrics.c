@@ -312,6 +312,9 @@ static cr_status ctx_create(eval_ctx *c, cr_error *err) {
     cr_gravity_term(c->gravity, &c->gravity_t);
     cr_inertia_term(c->inertia, &c->inertia_t);
     c->H = cr_bending_count(c->bending);
+    if (in->rest_nhinges > 0 && in->rest_nhinges != c->H)
+        return CR_FAIL(err, CR_ERR_SHAPE, "eval: the rest angles have %d hinges, the garment %d",
+                       in->rest_nhinges, c->H);
     size_t v3 = (size_t)c->V * 3, h = (size_t)c->H + 1;
     c->xp = cr_malloc(v3 * sizeof(double), err);
     c->xpred = cr_malloc(v3 * sizeof(double), err);
