@@ -238,7 +238,7 @@ cr_status cr_eval_ssim(const float *a, const float *b, const uint8_t *mask, int 
 /* --------------------------------------------------------------- plots -- */
 
 /* A 5x7 bitmap font for report labels: lower-case letters (upper case is
- * drawn as lower), digits and " .-+:%/()_=,"; other characters draw as a
+ * drawn as lower), digits and " .-+:%/()_=,|"; other characters draw as a
  * box. scale >= 1 multiplies each glyph pixel. */
 void cr_plot_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]);
 int cr_plot_text_width(const char *text, int scale); /* pixels */

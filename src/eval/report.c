@@ -135,8 +135,10 @@ static cr_status write_plots(const cr_eval_result *r, const char *dir, int *nplo
         memcpy(s[0].rgb, SERIES_RGB[0], 3), memcpy(s[1].rgb, SERIES_RGB[1], 3);
         cr_plot_panel panel = {s, k == CR_EVAL_JITTER ? 2 : 1, 0};
         char title[128], path[1200];
-        snprintf(title, sizeof title, "%s (%s): mean %.4g, max %.4g", name,
-                 cr_eval_metric_source((cr_eval_metric)k), r->summary[k].mean, r->summary[k].max);
+        const cr_eval_summary *sum = &r->summary[k];
+        double worst = cr_eval_metric_higher_is_better((cr_eval_metric)k) ? sum->min : sum->max;
+        snprintf(title, sizeof title, "%s (%s): mean %.4g, worst %.4g at frame %d", name,
+                 cr_eval_metric_source((cr_eval_metric)k), sum->mean, worst, sum->worst_frame);
         snprintf(path, sizeof path, "%s/%s.png", dir, name);
         cr_image img = {0};
         st = cr_plot_lines(&panel, 1, "frame", title, PLOT_W, PLOT_H, &img, err);
