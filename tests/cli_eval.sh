@@ -61,6 +61,21 @@ a = json.load(open('$tmp/self/summary.json')); b = json.load(open('$tmp/self.jso
 assert a['metrics'] == b['metrics']
 "
 
+# the energies are the simulator's own kernels: they match its per-frame log (sample t is
+# the state after frame t - 1; PC2 stores float32, so 1e-3 relative)
+check "eval energies = simulate's" python3 -c "
+import json
+e = [json.loads(l) for l in open('$tmp/self/frames.jsonl')]
+s = [json.loads(l) for l in open('$tmp/sim/frames.jsonl')]
+H = json.load(open('$tmp/self.json'))['hinges']
+close = lambda a, b: abs(a - b) <= 1e-3 * abs(b) + 1e-12
+for t in range(2, 7):
+    assert close(e[t]['ste_j'] + e[t]['she_j'], s[t - 1]['membrane']), t
+    assert close(e[t]['ben_j'] * H, s[t - 1]['bending']), t
+    assert close(e[t]['ge_j'], s[t - 1]['gravity']), t
+    assert close(e[t]['ie_j'], s[t - 1]['inertia']), t
+"
+
 # --- a rigid translation by 5 cm: MED = 0.05 m, E_dist 5 cm, normals unchanged -------------
 check "eval translated" bash -c "'$crease' eval --pred '$tmp/moved.pc2' --ref '$tmp/sim/sim.pc2' \
   --garment '$tmp/cloth.obj' --body-mesh '$tmp/sphere.obj' -o '$tmp/moved' --json \
