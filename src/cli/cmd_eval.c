@@ -1,7 +1,7 @@
 /* cmd_eval.c: `crease eval`: every paper's metric of a predicted garment
  * sequence against a reference one (docs/eval.md), frame by frame, with a
  * report: per-frame JSON lines, the summary, a plot per metric and a heat
- * map of the per-vertex error at the worst frame. Parse, read, one
+ * map of the per-vertex error at the worst frame. Parse (cli_parse), read, one
  * cr_eval_run, one cr_eval_write_report, report. */
 #include "cli.h"
 #include "crease/eval.h"
@@ -46,49 +46,26 @@ typedef struct eval_opts {
 } eval_opts;
 
 static int parse(int argc, char **argv, eval_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    const struct {
-        const char *name;
-        const char **field;
-    } strs[] = {{"--pred", &o->pred},
-                {"--ref", &o->ref},
-                {"--garment", &o->garment},
-                {"--body", &o->body},
-                {"--body-mesh", &o->body_mesh},
-                {"--rest-angles", &o->rest},
-                {"--pred-rest-angles", &o->pred_rest},
-                {"--material", &o->material},
-                {"--material-json", &o->material_json},
-                {"-o", &o->out},
-                {"--output", &o->out}};
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        int matched = 0;
-        for (size_t i = 0; i < sizeof strs / sizeof strs[0]; i++)
-            if (strcmp(opt, strs[i].name) == 0) {
-                if (!(*strs[i].field = cli_args_value(&a, opt))) return CLI_USAGE;
-                matched = 1;
-            }
-        if (matched) continue;
-        if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("eval", opt, v, 0.01, 100000, &o->fps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--bed-fraction") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("eval", opt, v, 1e-6, 1.0, &o->bed_fraction))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--ssim-side") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("eval", opt, v, 16, 2048, &o->ssim_side))
-                return CLI_USAGE;
-        } else {
-            return cli_usage("eval", "unknown option or argument '%s'", opt);
-        }
-    }
+    const cli_opt opts[] = {
+        CLI_STR("--pred", &o->pred),
+        CLI_STR("--ref", &o->ref),
+        CLI_STR("--garment", &o->garment),
+        CLI_STR("--body", &o->body),
+        CLI_STR("--body-mesh", &o->body_mesh),
+        CLI_STR("--rest-angles", &o->rest),
+        CLI_STR("--pred-rest-angles", &o->pred_rest),
+        CLI_STR("--material", &o->material),
+        CLI_STR("--material-json", &o->material_json),
+        CLI_FLOAT("--fps", &o->fps, 0.01, 100000),
+        CLI_FLOAT("--bed-fraction", &o->bed_fraction, 1e-6, 1.0),
+        CLI_INT("--ssim-side", &o->ssim_side, 16, 2048),
+        CLI_OUTPUT(&o->out),
+        CLI_FLAG("--json", &o->json),
+        CLI_END,
+    };
+    int npos = 0;
+    int rc = cli_parse("eval", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!o->pred || !o->ref || !o->garment)
         return cli_usage("eval", "needs --pred, --ref and --garment");
     if (!o->out) return cli_usage("eval", "needs -o DIR");
