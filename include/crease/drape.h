@@ -61,6 +61,7 @@
 #define CREASE_DRAPE_H
 
 #include "crease/bvh.h"
+#include "crease/eval.h"
 #include "crease/mesh.h"
 #include "crease/nn.h"
 #include "crease/uvlookup.h"
@@ -150,16 +151,16 @@ typedef struct cr_drape_def {
     float softplus_beta; /* hidden activation softplus(beta z)/beta (default 10); 0: ReLU */
 
     /* training */
-    float lr;       /* Adam learning rate at the first epoch (default 0.0005) */
-    float lr_final; /* at the last epoch, cosine from lr; < 0: no cosine (default -1) */
+    float lr;          /* Adam learning rate at the first epoch (default 0.0005) */
+    float lr_final;    /* at the last epoch, cosine from lr; < 0: no cosine (default -1) */
     int settle_epochs; /* without a cosine: the last this many epochs (at most half the
                           run) go at lr / 10, so contacts settle out of the eps band
                           (default 250; 0: constant lr throughout) */
-    float beta2;    /* Adam's second-moment decay (default 0.999) */
-    float clip;     /* gradient-norm clip, times the running mean of recent norms (default 3;
-                       0: off) */
-    int epochs;     /* cap on epochs, >= 1 (default 5000) */
-    int samples;    /* N structures per epoch (default 1024) */
+    float beta2;       /* Adam's second-moment decay (default 0.999) */
+    float clip;        /* gradient-norm clip, times the running mean of recent norms (default 3;
+                          0: off) */
+    int epochs;        /* cap on epochs, >= 1 (default 5000) */
+    int samples;       /* N structures per epoch (default 1024) */
 
     /* sampler (structure variants) */
     int pdf_grid;         /* PDF cells per side (default 32) */
@@ -227,10 +228,9 @@ cr_status cr_drape_compare(const cr_drape_def *def, cr_drape_result *results, ch
 
 /* ---------------------------------------------------------- fidelity -- */
 
-/* Wavelength bands of the mean-curvature spectrum, m: band b holds
- * wavelengths in [edges[b+1], edges[b]) (the last reaches the sampling limit). */
-enum { CR_DRAPE_H_BANDS = 5 };
-extern const double cr_drape_h_band_edges_m[CR_DRAPE_H_BANDS + 1];
+/* Wavelength bands of the mean-curvature spectrum: eval.h's
+ * (cr_eval_h_band_edges_m, m). */
+enum { CR_DRAPE_H_BANDS = CR_EVAL_H_BANDS };
 
 typedef struct cr_drape_fidelity {
     double chamfer_m;         /* symmetric Chamfer distance to the reference (the mean of both

@@ -24,8 +24,6 @@ typedef struct drape_scene {
 
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err);
 void cr_drape_scene_free(drape_scene *s);
-/* sqrt(3-D area / UV area): metres per UV unit of a (nearly) isometric chart. */
-float cr_drape_chart_scale(const cr_mesh *m);
 
 /* ------------------------------------------------------- structures -- */
 
@@ -122,12 +120,5 @@ typedef struct drape_log_row {
 /* Loss curves: strain, bend and collision on a log axis above, gravity and
  * the potential (strain + bend + gravity) on a linear axis below. */
 cr_status cr_drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err);
-
-/* ------------------------------------------------------------- text -- */
-
-/* Draw `text` (a-z, 0-9, space, . - + : % / ( ) _ =; others as a box) at
- * (x, y) top-left, glyphs 5x7 scaled by `scale`, in sRGB `rgb`. Clipped. */
-void cr_drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]);
-int cr_drape_text_width(const char *text, int scale); /* pixels */
 
 #endif

@@ -275,21 +275,6 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     return st;
 }
 
-float cr_drape_chart_scale(const cr_mesh *m) {
-    double a3 = 0.0, a2 = 0.0;
-    for (int32_t f = 0; f < m->nf; f++) {
-        float n[3];
-        const int32_t *t = &m->tri[3 * (int64_t)f], *tu = &m->tri_uv[3 * (int64_t)f];
-        a3 += 0.5 * cr_triangle_normal(&m->pos[3 * (int64_t)t[0]], &m->pos[3 * (int64_t)t[1]],
-                                       &m->pos[3 * (int64_t)t[2]], n);
-        const float *p = &m->uv[2 * (int64_t)tu[0]], *q = &m->uv[2 * (int64_t)tu[1]],
-                    *r = &m->uv[2 * (int64_t)tu[2]];
-        a2 += 0.5 * fabs(((double)q[0] - p[0]) * ((double)r[1] - p[1]) -
-                         ((double)q[1] - p[1]) * ((double)r[0] - p[0]));
-    }
-    return a2 > 0.0 ? (float)sqrt(a3 / a2) : 1.0f;
-}
-
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
     memset(s, 0, sizeof *s);
     cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
@@ -305,7 +290,7 @@ cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_erro
         st = cr_scene_cloth_above(s->object, def->mesh_res, def->cloth_size, def->gap, &s->rest,
                                   err);
     }
-    if (st == CR_OK) s->metres_per_uv = cr_drape_chart_scale(s->rest);
+    if (st == CR_OK) s->metres_per_uv = cr_eval_chart_scale(s->rest);
     if (st != CR_OK) cr_drape_scene_free(s);
     return st;
 }
