@@ -424,3 +424,148 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     cr_motion_destroy(old);
     cr_body_model_destroy(body);
 }
+
+/* ----------------------------------------------------------- resampling -- */
+
+/* Joint 1 turns by a(t) = 0.8 sin(2 pi 1.5 t) about a fixed axis, the root
+ * moves at 0.5 m/s: 2 s at 120 fps. */
+static double sine_angle(double t) {
+    return 0.8 * sin(2 * M_PI * 1.5 * t);
+}
+
+CR_TEST(mocap, resampling_matches_the_analytic_motion_and_keeps_the_duration) {
+    cr_error err = {0};
+    cr_motion *m = NULL;
+    CR_CHECK_OK(cr_motion_create(240, 120.0f, &m, &err), &err);
+    CR_REQUIRE(m);
+    const double axis[3] = {0.6, 0.8, 0.0};
+    for (int f = 0; f < 240; f++) {
+        double a = sine_angle(f / 120.0);
+        for (int k = 0; k < 3; k++)
+            m->poses[(size_t)f * CR_NJOINTS * 3 + 3 + k] = (float)(a * axis[k]);
+        m->trans[3 * f + 2] = (float)(0.5 * f / 120.0);
+    }
+    const float rates[2] = {30.0f, 50.0f};
+    const double tol[2] = {1e-5, 1e-3}; /* 30 fps lands on samples; 50 fps slerps between */
+    for (int r = 0; r < 2; r++) {
+        cr_motion *s = NULL;
+        CR_CHECK_OK(cr_motion_resample(m, rates[r], &s, &err), &err);
+        if (!s) continue;
+        CR_CHECK(s->fps == rates[r]);
+        CR_CHECK_NEAR(s->nframes / s->fps, m->nframes / m->fps, 1e-6); /* 2 s either way */
+        double worst = 0, worst_t = 0;
+        for (int k = 0; k < s->nframes; k++) {
+            double t = k / (double)rates[r], want = sine_angle(t);
+            const float *aa = s->poses + (size_t)k * CR_NJOINTS * 3 + 3;
+            double along = aa[0] * axis[0] + aa[1] * axis[1] + aa[2] * axis[2];
+            double cx = aa[1] * axis[2] - aa[2] * axis[1], cy = aa[2] * axis[0] - aa[0] * axis[2],
+                   cz = aa[0] * axis[1] - aa[1] * axis[0];
+            double off = sqrt(cx * cx + cy * cy + cz * cz); /* off the axis */
+            worst = fmax(worst, fabs(along - want) + off);
+            worst_t = fmax(worst_t, fabs(s->trans[3 * k + 2] - 0.5 * t));
+        }
+        printf("    120 -> %g fps: %d frames, worst angle error %.2e rad, translation %.2e m\n",
+               (double)rates[r], s->nframes, worst, worst_t);
+        CR_CHECK(worst < tol[r] && worst_t < 1e-6);
+        cr_motion_destroy(s);
+    }
+    /* 120 fps played at 30 without resampling would take 4x as long: the
+     * prepared motion takes the requested rate. */
+    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
+    pd.fps = 30.0f, pd.ease_in_s = 0.0f, pd.ground = CR_MOTION_GROUND_NONE;
+    cr_motion *p = NULL;
+    cr_motion_prepare_report rep;
+    CR_CHECK_OK(cr_motion_prepare(m, &pd, NULL, &p, &rep, &err), &err);
+    CR_CHECK(p && p->nframes == 60 && p->fps == 30.0f && rep.source_fps == 120.0f);
+    cr_motion_destroy(p);
+    cr_motion_destroy(m);
+}
+
+/* ------------------------------------------- ground, calibration, ease -- */
+
+CR_TEST(mocap, feet_touch_the_ground_and_a_calibration_start_eases_in) {
+    rig_init();
+    cr_error err = {0};
+    cr_mannequin_def md = cr_mannequin_default_def();
+    md.resolution = 48;
+    cr_body_model *body = NULL;
+    CR_CHECK_OK(cr_mannequin_create(&md, &body, &err), &err);
+    CR_REQUIRE(body);
+    /* The rig's walk with frame 0 replaced by its T-pose (all rotations 0),
+     * the way the CMU files begin. */
+    char *text = rig_bvh(0, NF);
+    char *motion = strstr(text, "Frame Time:");
+    CR_REQUIRE(motion);
+    char *row0 = strchr(motion, '\n') + 1, *row1 = strchr(row0, '\n') + 1;
+    char tpose[4096];
+    int n = snprintf(tpose, sizeof tpose, "3 95 20");
+    for (int i = 1; i < RN; i++)
+        if (trig[i].name) n += snprintf(tpose + n, sizeof tpose - (size_t)n, " 0 0 0");
+    n += snprintf(tpose + n, sizeof tpose - (size_t)n, " 0 0 0\n"); /* the root's rotation */
+    size_t pre = (size_t)(row0 - text);
+    char *cal = malloc(strlen(text) + sizeof tpose);
+    memcpy(cal, text, pre);
+    memcpy(cal + pre, tpose, (size_t)n);
+    strcpy(cal + pre + n, row1);
+    free(text);
+    cr_motion *m = NULL;
+    CR_CHECK_OK(cr_motion_read_bvh_mem(cal, strlen(cal), "cal.bvh", NULL, &m, &err), &err);
+    free(cal);
+    CR_REQUIRE(m && m->nframes == NF);
+    float jump = 0;
+    CR_CHECK(cr_motion_is_calibration_start(m, &jump));
+    CR_CHECK(jump > 1.0f); /* the arms drop by 1.2 rad */
+    /* Before grounding the rig's lowest rest joint set the height: the posed
+     * feet float (splayed legs are shorter) or sink. */
+    float *seq = NULL;
+    CR_CHECK_OK(cr_body_pose_motion(body, m, &seq, &err), &err);
+    double low0 = INFINITY;
+    for (size_t i = 0; seq && i < (size_t)m->nframes * (size_t)body->rest->nv; i++)
+        low0 = fmin(low0, seq[3 * i + 1]);
+    free(seq);
+    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
+    cr_motion_prepare_report rep;
+    cr_motion *p = NULL;
+    CR_CHECK_OK(cr_motion_prepare(m, &pd, body, &p, &rep, &err), &err);
+    CR_REQUIRE(p);
+    CR_CHECK(rep.calibration_dropped && rep.first_frame == 1 && rep.ease_frames == 30);
+    CR_CHECK(p->nframes == 30 + NF - 1);
+    /* Frame 0 is the rest pose exactly; frame 30 the first used frame. */
+    for (int k = 0; k < CR_NJOINTS * 3; k++) {
+        CR_CHECK(p->poses[k] == 0.0f);
+        CR_CHECK(fabsf(p->poses[30 * CR_NJOINTS * 3 + k] - m->poses[CR_NJOINTS * 3 + k]) < 1e-5f);
+    }
+    CR_CHECK(p->trans[0] == 0.0f && p->trans[1] == 0.0f && p->trans[2] == 0.0f);
+    /* Lowest body point over the clip, eased part included: on the ground. */
+    CR_CHECK_OK(cr_body_pose_motion(body, p, &seq, &err), &err);
+    double low = INFINITY;
+    for (size_t i = 0; seq && i < (size_t)p->nframes * (size_t)body->rest->nv; i++) {
+        low = fmin(low, seq[3 * i + 1]);
+    }
+    free(seq);
+    printf("    lowest body point: %.1f cm as loaded, %.2f cm grounded (shift %.1f cm)\n",
+           100 * low0, 100 * low, 100 * (double)rep.ground_shift_m);
+    CR_CHECK(fabs(low) < 0.01);
+    /* Smooth: no joint turns faster in the ease than the motion itself does,
+     * and the step into the motion matches the motion's own first step. */
+    float speed_motion = cr_motion_max_angular_speed(m, NULL); /* includes the 1.2 rad jump */
+    cr_motion *used = NULL;
+    CR_CHECK_OK(cr_motion_slice(m, 1, NF - 1, &used, &err), &err);
+    float speed_used = used ? cr_motion_max_angular_speed(used, NULL) : 0;
+    CR_CHECK(rep.max_angular_speed < 2.5f * speed_used + 1.0f);
+    CR_CHECK(speed_motion > 30.0f); /* the calibration jump: 36 rad/s at 30 fps */
+    double step_in = 0, step_motion = 0;
+    for (int k = 0; k < CR_NJOINTS * 3; k++) {
+        step_in = fmax(step_in, fabs(p->poses[30 * 66 + k] - p->poses[29 * 66 + k]));
+        step_motion = fmax(step_motion, fabs(p->poses[31 * 66 + k] - p->poses[30 * 66 + k]));
+    }
+    printf("    speeds: %.1f rad/s with the calibration frame, %.2f used, %.2f prepared; "
+           "last ease step %.4f rad vs first motion step %.4f\n",
+           (double)speed_motion, (double)speed_used, (double)rep.max_angular_speed, step_in,
+           step_motion);
+    CR_CHECK(step_in < 1.5 * step_motion + 1e-3);
+    cr_motion_destroy(used);
+    cr_motion_destroy(p);
+    cr_motion_destroy(m);
+    cr_body_model_destroy(body);
+}

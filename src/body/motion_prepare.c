@@ -190,51 +190,73 @@ cr_status cr_motion_ease_in(const cr_motion *m, float seconds, cr_motion **out, 
     return CR_OK;
 }
 
+/* The vertices of b skinned mostly (half or more) to the ankles and feet. */
+static cr_status foot_vertices(const cr_body_model *b, int32_t **idx, int32_t *n, cr_error *err) {
+    static const int feet[] = {CR_JOINT_LEFT_ANKLE, CR_JOINT_RIGHT_ANKLE, CR_JOINT_LEFT_FOOT,
+                               CR_JOINT_RIGHT_FOOT};
+    int32_t nv = b->rest->nv;
+    *n = 0;
+    *idx = cr_malloc((size_t)nv * sizeof **idx, err);
+    if (!*idx) return CR_ERR_MEMORY;
+    for (int32_t v = 0; v < nv; v++) {
+        float w = 0.0f;
+        for (int k = 0; k < 4; k++)
+            for (int f = 0; f < 4; f++)
+                if (b->skin_joint[4 * v + k] == feet[f]) w += b->skin_weight[4 * v + k];
+        if (w >= 0.5f) (*idx)[(*n)++] = v;
+    }
+    if (*n == 0) {
+        free(*idx);
+        *idx = NULL;
+        return CR_FAIL(err, CR_ERR_INVALID, "grounding: the body has no foot vertices");
+    }
+    return CR_OK;
+}
+
+/* Lowest y of the foot vertices idx posed by frame f of m. */
+static float foot_low(const cr_body_model *b, const int32_t *idx, int32_t n, const cr_motion *m,
+                      int32_t f) {
+    float xf[CR_NJOINTS * 12];
+    cr_body_skin_transforms(b->joints, pose_at(m, f, 0), m->trans + 3 * (size_t)f, xf);
+    float lo = INFINITY;
+    for (int32_t i = 0; i < n; i++) {
+        int32_t v = idx[i];
+        const float *x = b->rest->pos + 3 * (size_t)v;
+        float y = 0.0f;
+        for (int k = 0; k < 4; k++) {
+            float w = b->skin_weight[4 * v + k];
+            if (w == 0.0f) continue;
+            const float *M = &xf[12 * b->skin_joint[4 * v + k] + 4];
+            y += w * (M[0] * x[0] + M[1] * x[1] + M[2] * x[2] + M[3]);
+        }
+        lo = fminf(lo, y);
+    }
+    return lo;
+}
+
+static cr_status default_body(const cr_body_model **b, cr_body_model **own, cr_error *err) {
+    *own = NULL;
+    if (*b) return CR_OK;
+    cr_mannequin_def md = cr_mannequin_default_def();
+    md.resolution = 64;
+    CR_TRY(cr_mannequin_create(&md, own, err));
+    *b = *own;
+    return CR_OK;
+}
+
 cr_status cr_motion_ground(cr_motion *m, const cr_body_model *b, cr_motion_ground_mode mode,
                            float *shift_m, cr_error *err) {
     if (shift_m) *shift_m = 0.0f;
     if (mode == CR_MOTION_GROUND_NONE) return CR_OK;
     cr_body_model *own = NULL;
-    if (!b) {
-        cr_mannequin_def md = cr_mannequin_default_def();
-        md.resolution = 64;
-        CR_TRY(cr_mannequin_create(&md, &own, err));
-        b = own;
-    }
-    static const int feet[] = {CR_JOINT_LEFT_ANKLE, CR_JOINT_RIGHT_ANKLE, CR_JOINT_LEFT_FOOT,
-                               CR_JOINT_RIGHT_FOOT};
-    int32_t nv = b->rest->nv, nfoot = 0;
-    int32_t *idx = cr_malloc((size_t)nv * sizeof *idx, err);
+    CR_TRY(default_body(&b, &own, err));
+    int32_t *idx = NULL, nfoot = 0;
     float *low = cr_malloc((size_t)m->nframes * sizeof *low, err);
-    cr_status st = idx && low ? CR_OK : CR_ERR_MEMORY;
-    for (int32_t v = 0; st == CR_OK && v < nv; v++) {
-        float w = 0.0f;
-        for (int k = 0; k < 4; k++)
-            for (int f = 0; f < 4; f++)
-                if (b->skin_joint[4 * v + k] == feet[f]) w += b->skin_weight[4 * v + k];
-        if (w >= 0.5f) idx[nfoot++] = v;
-    }
-    if (st == CR_OK && nfoot == 0)
-        st = CR_FAIL(err, CR_ERR_INVALID, "grounding: the body has no foot vertices");
+    cr_status st = low ? foot_vertices(b, &idx, &nfoot, err) : CR_ERR_MEMORY;
     float lowest = INFINITY;
     for (int32_t f = 0; st == CR_OK && f < m->nframes; f++) {
-        float xf[CR_NJOINTS * 12];
-        cr_body_skin_transforms(b->joints, pose_at(m, f, 0), m->trans + 3 * (size_t)f, xf);
-        float lo = INFINITY;
-        for (int32_t i = 0; i < nfoot; i++) {
-            const float *x = b->rest->pos + 3 * (size_t)idx[i];
-            int32_t v = idx[i];
-            float y = 0.0f;
-            for (int k = 0; k < 4; k++) {
-                float w = b->skin_weight[4 * v + k];
-                if (w == 0.0f) continue;
-                const float *M = &xf[12 * b->skin_joint[4 * v + k] + 4];
-                y += w * (M[0] * x[0] + M[1] * x[1] + M[2] * x[2] + M[3]);
-            }
-            lo = fminf(lo, y);
-        }
-        low[f] = lo;
-        lowest = fminf(lowest, lo);
+        low[f] = foot_low(b, idx, nfoot, m, f);
+        lowest = fminf(lowest, low[f]);
     }
     if (st == CR_OK) {
         for (int32_t f = 0; f < m->nframes; f++)
@@ -245,6 +267,19 @@ cr_status cr_motion_ground(cr_motion *m, const cr_body_model *b, cr_motion_groun
     free(low);
     cr_body_model_destroy(own);
     return st;
+}
+
+/* The ease's blends may take a foot below the floor (a leg straightening
+ * before the pelvis drops): those frames are lifted by what they sink. */
+static cr_status lift_ease(cr_motion *m, int32_t nease, const cr_body_model *b, cr_error *err) {
+    int32_t *idx = NULL, nfoot = 0;
+    CR_TRY(foot_vertices(b, &idx, &nfoot, err));
+    for (int32_t f = 1; f < nease; f++) {
+        float lo = foot_low(b, idx, nfoot, m, f);
+        if (lo < 0.0f) m->trans[3 * (size_t)f + 1] -= lo;
+    }
+    free(idx);
+    return CR_OK;
 }
 
 static void replace(cr_motion **cur, cr_motion *next) {
@@ -278,8 +313,9 @@ cr_status cr_motion_prepare(const cr_motion *m, const cr_motion_prepare_def *def
     }
     r.first_frame = first, r.last_frame = last;
     cr_motion *cur = NULL, *next = NULL;
-    CR_TRY(cr_motion_slice(m, first, last, &cur, err));
-    cr_status st = CR_OK;
+    cr_body_model *own = NULL;
+    if (def->ground != CR_MOTION_GROUND_NONE) CR_TRY(default_body(&b, &own, err));
+    cr_status st = cr_motion_slice(m, first, last, &cur, err);
     if (def->fps > 0.0f && def->fps != cur->fps) {
         st = cr_motion_resample(cur, def->fps, &next, err);
         if (st == CR_OK) replace(&cur, next);
@@ -291,7 +327,10 @@ cr_status cr_motion_prepare(const cr_motion *m, const cr_motion_prepare_def *def
             r.ease_frames = next->nframes - cur->nframes;
             replace(&cur, next);
         }
+        if (st == CR_OK && def->ground != CR_MOTION_GROUND_NONE)
+            st = lift_ease(cur, r.ease_frames, b, err);
     }
+    cr_body_model_destroy(own);
     if (st != CR_OK) {
         cr_motion_destroy(cur);
         return st;
