@@ -25,7 +25,7 @@
  */
 #include "crease/drape.h"
 #include "crease/mesh_io.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <cblas.h>
 #include <math.h>

@@ -14,6 +14,19 @@ expect_exit 2 "unknown option" info --bogus x.obj
 expect_exit 2 "missing -o" primitive sphere
 expect_exit 2 "expects an integer" primitive sphere --res abc -o "$tmp/s.obj"
 expect_exit 2 "unknown primitive" primitive teapot -o "$tmp/t.obj"
+# the option conventions every command shares (src/cli/cli.h, docs/cli.md)
+check "--opt=V and --output=" "$crease" primitive sphere --res=8 --output="$tmp/eq.obj"
+check "--opt=V wrote" test -s "$tmp/eq.obj"
+check "-- ends the options" "$crease" info -- "$tmp/eq.obj"
+expect_exit 2 "info: unknown option '--bogus'" info --bogus=3 "$tmp/eq.obj"
+expect_exit 2 "option --json takes no value" info --json=1 "$tmp/eq.obj"
+expect_exit 2 "option --frames needs a value" simulate --frames
+expect_exit 2 "--res expects an integer in \[2, 4096\], got '8x'" primitive sphere --res 8x -o "$tmp/x.obj"
+expect_exit 2 "--yaw expects a number in .*, got 'inf'" render "$tmp/eq.obj" --yaw=inf -o "$tmp/x.png"
+expect_exit 2 "--color-by expects curvature or height, got 'foo'" render "$tmp/eq.obj" --color-by foo -o "$tmp/x.png"
+expect_exit 2 "option --range needs 2 values" render "$tmp/eq.obj" -o "$tmp/x.png" --range 1
+expect_exit 2 "too many arguments: 'b.obj'" info "$tmp/eq.obj" b.obj
+expect_exit 2 "unexpected argument 'stray'" fit --model grid stray -o "$tmp/f"
 
 # --- primitives, info, convert ----------------------------------------------------------
 for k in plane sphere icosphere torus prism box capsule cylinder; do

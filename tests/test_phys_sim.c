@@ -7,10 +7,10 @@
  * about a second in release. */
 #include "crease/bvh.h"
 #include "crease/phys_assemble.h"
-#include "crease/phys_scene.h"
 #include "crease/phys_sim.h"
 #include "crease/phys_solve.h"
 #include "crease/primitives.h"
+#include "crease/scene.h"
 #include "crease/topology.h"
 #include "test.h"
 
@@ -538,7 +538,8 @@ CR_TEST(phys_sim, quasi_static_energy_monotone) {
     cr_sim *q = NULL;
     CR_CHECK_OK(cr_sim_create(&d, m, &q, &err), &err);
     CR_REQUIRE(q);
-    for (int f = 0; f < 3; f++) CR_CHECK_OK(cr_sim_step(q, &rep, &err), &err);
+    for (int f = 0; f < 3; f++)
+        CR_CHECK_OK(cr_sim_step(q, &rep, &err), &err);
     CR_CHECK(cr_sim_frame(q) == 3 && max_speed_of(q) == 0.0 && rep.kinetic_energy == 0.0);
     double qdiff = 0;
     for (int64_t k = 0; k < 3 * (int64_t)m->nv; k++)

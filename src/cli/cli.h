@@ -1,5 +1,5 @@
 /* cli.h: what the `crease` subcommands share: the command table, option
- * parsing helpers, the --json summary, and exit codes.
+ * parser (cli_parse over a table of cli_opt rows), the --json summary, and exit codes.
  *
  * Exit codes: 0 success, 1 bad input (one-line message on stderr), 2 usage.
  */
@@ -24,22 +24,114 @@ int cli_fail(const cr_error *err);
 /* Report a usage error for `cmd` and point at --help; returns CLI_USAGE. */
 int cli_usage(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
-/* Option parsing over argv: options may come before or after positionals.
- * `cli_args_next` returns the next token; helpers parse values with checks. */
-typedef struct cli_args {
-    int argc, i;
-    char **argv;
-    const char *cmd;
-} cli_args;
+/* ---- Option parsing: one table per command -------------------------------------------
+ *
+ * A command describes its options in a table of cli_opt rows ended by CLI_END and hands
+ * argv to cli_parse, which fills the fields the rows point at:
+ *
+ *     int frames = 150, json = 0;
+ *     float fps = 30.0f;
+ *     const char *out = NULL, *pos[1];
+ *     int npos = 0;
+ *     const cli_opt opts[] = {
+ *         CLI_INT("--frames", &frames, 1, 100000),
+ *         CLI_FLOAT("--fps", &fps, 0.01, 1000),
+ *         CLI_OUTPUT(&out),                     // -o and --output
+ *         CLI_FLAG("--json", &json),
+ *         CLI_END,
+ *     };
+ *     int rc = cli_parse("mycmd", argc, argv, opts, pos, 1, &npos);
+ *     if (rc != CLI_OK) return rc;
+ *
+ * What the user gets from every command alike:
+ *   - options and positionals in any order; `--` ends the options (what follows is
+ *     positional); a lone `-` is a positional (a path meaning stdin/stdout);
+ *   - a value as the next argument (`--fps 24`) or after `=` (`--fps=24`); a value may
+ *     start with '-' (`--yaw -30`); flags take no value (`--json=1` is refused);
+ *   - a repeated option: the last one wins (CLI_OPT_CUSTOM sees every one, e.g. to append);
+ *   - typed values checked in full (no trailing junk, finite, in [lo, hi]);
+ *   - usage errors (exit CLI_USAGE) on stderr that name the command, the option and the
+ *     bad value, then point at --help:
+ *         crease simulate: --frames expects an integer in [1, 100000000], got 'x'
+ *         crease simulate: unknown option '--frams'
+ *         crease simulate: option --frames needs a value
+ *         crease simulate: --collision expects vertex or sdf, got 'box'
+ *   - `--help` / `-h` anywhere: main.c prints the command's help_<cmd>() before the
+ *     command runs. Help texts are written per command; keep them in step with the table.
+ *
+ * Checks across options (required ones, exclusive pairs) stay in the command, after
+ * cli_parse, with cli_usage. A row's optional `seen` is set to 1 when the option was given,
+ * for options that override a preset whatever their order (several rows may share one).
+ * Rows with `seen` or other extra fields are written with designated initializers:
+ *     {.name = "--height", .kind = CLI_OPT_FLOAT, .dst = &h, .lo = 1, .hi = 2.5, .seen = &set}
+ */
+typedef enum cli_opt_kind {
+    CLI_OPT_FLAG,   /* no value: *(int *)dst = 1 */
+    CLI_OPT_STRING, /* *(const char **)dst = the value (points into argv) */
+    CLI_OPT_INT,    /* *(int *)dst: a decimal integer in [lo, hi] */
+    CLI_OPT_FLOAT,  /* *(float *)dst: a finite number in [lo, hi] */
+    CLI_OPT_CHOICE, /* *(const char **)dst = the entry of choices (NULL-ended) equal to it */
+    CLI_OPT_CUSTOM, /* fn(cmd, name, values, dst) with nvalues values (0 means 1) */
+} cli_opt_kind;
 
-cli_args cli_args_make(int argc, char **argv);
-int cli_args_done(const cli_args *a);
-const char *cli_args_next(cli_args *a);
-/* Value after option `opt`; NULL (and a usage message) when missing. */
-const char *cli_args_value(cli_args *a, const char *opt);
+/* A custom value parser: returns CLI_OK, or CLI_USAGE after printing with cli_usage. `opt`
+ * is the option's name as in the table; `values` holds the option's nvalues values. */
+typedef int (*cli_opt_fn)(const char *cmd, const char *opt, const char *const *values, void *dst);
+
+typedef struct cli_opt {
+    const char *name;  /* "--frames" or "-o"; NULL ends the table */
+    const char *alias; /* a second spelling ("--output"), or NULL */
+    cli_opt_kind kind;
+    void *dst;                  /* where the value goes (see the kinds) */
+    double lo, hi;              /* INT and FLOAT: the accepted range, both ends included */
+    const char *const *choices; /* CHOICE: the accepted values, NULL-ended */
+    cli_opt_fn fn;              /* CUSTOM: the parser */
+    int nvalues;                /* CUSTOM: values it takes, 0 (meaning 1) to 4 */
+    int *seen;                  /* optional: set to 1 when the option is given */
+} cli_opt;
+
+/* Table rows. The dst pointer's type is checked against the kind at compile time. */
+#define CLI_FLAG(name_, dst_)                                                                      \
+    { .name = (name_), .kind = CLI_OPT_FLAG, .dst = CLI_PTR_(int, dst_) }
+#define CLI_STR(name_, dst_)                                                                       \
+    { .name = (name_), .kind = CLI_OPT_STRING, .dst = CLI_PTR_(const char *, dst_) }
+#define CLI_INT(name_, dst_, lo_, hi_)                                                             \
+    { .name = (name_), .kind = CLI_OPT_INT, .dst = CLI_PTR_(int, dst_), .lo = (lo_), .hi = (hi_) }
+#define CLI_FLOAT(name_, dst_, lo_, hi_)                                                           \
+    {                                                                                              \
+        .name = (name_), .kind = CLI_OPT_FLOAT, .dst = CLI_PTR_(float, dst_), .lo = (lo_),         \
+        .hi = (hi_)                                                                                \
+    }
+#define CLI_CHOICE(name_, dst_, choices_)                                                          \
+    {                                                                                              \
+        .name = (name_), .kind = CLI_OPT_CHOICE, .dst = CLI_PTR_(const char *, dst_),              \
+        .choices = (choices_)                                                                      \
+    }
+#define CLI_CUSTOM(name_, fn_, dst_, nvalues_)                                                     \
+    { .name = (name_), .kind = CLI_OPT_CUSTOM, .fn = (fn_), .dst = (dst_), .nvalues = (nvalues_) }
+/* -o FILE / --output FILE, the output of every command. */
+#define CLI_OUTPUT(dst_)                                                                           \
+    {                                                                                              \
+        .name = "-o", .alias = "--output", .kind = CLI_OPT_STRING,                                 \
+        .dst = CLI_PTR_(const char *, dst_)                                                        \
+    }
+#define CLI_END                                                                                    \
+    { .name = NULL }
+#define CLI_PTR_(type_, p_) ((void *)(1 ? (p_) : (type_ *)0))
+
+/* Parse argv[1 .. argc) (argv[0] is the command's name) against opts. Positionals are
+ * stored in pos[(*npos)++] (in order; *npos is updated as they come, so a CUSTOM parser may
+ * read it), at most max_pos of them; pos may be NULL when the command takes none. Returns
+ * CLI_OK, or CLI_USAGE after one message on stderr. */
+int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const char **pos,
+              int max_pos, int *npos);
+
+/* Typed value checks for custom parsers; both print the usage message and return 0 on a
+ * bad value, 1 when *out was set. */
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, int *out);
 int cli_parse_float(const char *cmd, const char *opt, const char *s, double lo, double hi,
                     float *out);
+/* "--help" or "-h". */
 int cli_is_help(const char *s);
 
 /* Print the summary object on stdout (one line) and free it. */

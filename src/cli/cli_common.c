@@ -1,4 +1,5 @@
-/* cli_common.c: option parsing, error reporting and JSON output shared by the commands. */
+/* cli_common.c: the option parser (cli.h), error reporting and JSON output shared by the commands.
+ */
 #include "cli.h"
 
 #include <errno.h>
@@ -19,27 +20,6 @@ int cli_usage(const char *cmd, const char *fmt, ...) {
     va_end(ap);
     fprintf(stderr, "\n(see 'crease %s --help')\n", cmd);
     return CLI_USAGE;
-}
-
-cli_args cli_args_make(int argc, char **argv) {
-    cli_args a = {.argc = argc, .argv = argv, .i = 1, .cmd = argv[0]};
-    return a;
-}
-
-int cli_args_done(const cli_args *a) {
-    return a->i >= a->argc;
-}
-
-const char *cli_args_next(cli_args *a) {
-    return a->i < a->argc ? a->argv[a->i++] : NULL;
-}
-
-const char *cli_args_value(cli_args *a, const char *opt) {
-    if (a->i >= a->argc) {
-        cli_usage(a->cmd, "option %s needs a value", opt);
-        return NULL;
-    }
-    return a->argv[a->i++];
 }
 
 int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long hi, int *out) {
@@ -71,6 +51,106 @@ int cli_is_help(const char *s) {
     return strcmp(s, "--help") == 0 || strcmp(s, "-h") == 0;
 }
 
+/* The row whose name or alias is `name` (the first len characters), or NULL. */
+static const cli_opt *find_opt(const cli_opt *opts, const char *name, size_t len) {
+    for (const cli_opt *o = opts; o->name; o++) {
+        if (strlen(o->name) == len && strncmp(o->name, name, len) == 0) return o;
+        if (o->alias && strlen(o->alias) == len && strncmp(o->alias, name, len) == 0) return o;
+    }
+    return NULL;
+}
+
+/* "a", "a or b", "a, b or c": the accepted values of a CHOICE row. */
+static void choice_list(const char *const *choices, char *buf, size_t cap) {
+    int n = 0;
+    while (choices[n])
+        n++;
+    buf[0] = '\0';
+    size_t used = 0;
+    for (int i = 0; i < n && used < cap; i++) {
+        const char *sep = i == 0 ? "" : i == n - 1 ? " or " : ", ";
+        int w = snprintf(buf + used, cap - used, "%s%s", sep, choices[i]);
+        if (w < 0) break;
+        used += (size_t)w;
+    }
+}
+
+/* Store the values of option `o` (named `name` on the command line). */
+static int apply_opt(const char *cmd, const cli_opt *o, const char *const *v) {
+    switch (o->kind) {
+    case CLI_OPT_FLAG:
+        *(int *)o->dst = 1;
+        return CLI_OK;
+    case CLI_OPT_STRING:
+        *(const char **)o->dst = v[0];
+        return CLI_OK;
+    case CLI_OPT_INT:
+        return cli_parse_int(cmd, o->name, v[0], (long)o->lo, (long)o->hi, (int *)o->dst)
+                   ? CLI_OK
+                   : CLI_USAGE;
+    case CLI_OPT_FLOAT:
+        return cli_parse_float(cmd, o->name, v[0], o->lo, o->hi, (float *)o->dst) ? CLI_OK
+                                                                                  : CLI_USAGE;
+    case CLI_OPT_CHOICE:
+        for (const char *const *c = o->choices; *c; c++)
+            if (strcmp(*c, v[0]) == 0) {
+                *(const char **)o->dst = *c;
+                return CLI_OK;
+            }
+        char list[256];
+        choice_list(o->choices, list, sizeof list);
+        return cli_usage(cmd, "%s expects %s, got '%s'", o->name, list, v[0]);
+    case CLI_OPT_CUSTOM:
+        return o->fn(cmd, o->name, v, o->dst);
+    }
+    return cli_usage(cmd, "%s: bad option table", o->name);
+}
+
+int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const char **pos,
+              int max_pos, int *npos) {
+    enum { MAX_VALUES = 4 };
+    int only_positionals = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        if (only_positionals || arg[0] != '-' || arg[1] == '\0') {
+            if (!pos || *npos >= max_pos)
+                return max_pos > 0
+                           ? cli_usage(cmd, "too many arguments: '%s' (at most %d)", arg, max_pos)
+                           : cli_usage(cmd, "unexpected argument '%s'", arg);
+            pos[(*npos)++] = arg;
+            continue;
+        }
+        if (strcmp(arg, "--") == 0) {
+            only_positionals = 1;
+            continue;
+        }
+        /* --name=value: the value is glued on. */
+        const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
+        size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
+        const cli_opt *o = find_opt(opts, arg, len);
+        if (!o) return cli_usage(cmd, "unknown option '%.*s'", (int)len, arg);
+        int want = o->kind == CLI_OPT_FLAG                       ? 0
+                   : o->kind == CLI_OPT_CUSTOM && o->nvalues > 1 ? o->nvalues
+                                                                 : 1;
+        if (want > MAX_VALUES) return cli_usage(cmd, "%s: bad option table", o->name);
+        if (want == 0 && eq) return cli_usage(cmd, "option %s takes no value", o->name);
+        const char *values[MAX_VALUES] = {NULL};
+        int have = 0;
+        if (eq) values[have++] = eq + 1;
+        while (have < want) {
+            if (i + 1 >= argc) {
+                if (want == 1) return cli_usage(cmd, "option %s needs a value", o->name);
+                return cli_usage(cmd, "option %s needs %d values", o->name, want);
+            }
+            values[have++] = argv[++i];
+        }
+        int rc = apply_opt(cmd, o, values);
+        if (rc != CLI_OK) return rc;
+        if (o->seen) *o->seen = 1;
+    }
+    return CLI_OK;
+}
+
 void cli_json_print(cJSON *obj) {
     char *text = cJSON_PrintUnformatted(obj);
     if (text) {
@@ -83,6 +163,7 @@ void cli_json_print(cJSON *obj) {
 
 cJSON *cli_json_float_array(const float *v, int n) {
     cJSON *arr = cJSON_CreateArray();
-    for (int i = 0; i < n; i++) cJSON_AddItemToArray(arr, cJSON_CreateNumber(v[i]));
+    for (int i = 0; i < n; i++)
+        cJSON_AddItemToArray(arr, cJSON_CreateNumber(v[i]));
     return arr;
 }

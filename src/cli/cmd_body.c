@@ -34,32 +34,6 @@ typedef struct body_overrides {
     int set; /* bit per field above, in that order */
 } body_overrides;
 
-static int parse_override(cli_args *a, const char *opt, body_overrides *o, int *usage) {
-    static const struct {
-        const char *opt;
-        double lo, hi;
-    } ranges[] = {{"--height", 1.0, 2.5},
-                  {"--girth", 0.6, 1.6},
-                  {"--chest", 0.7, 1.5},
-                  {"--hips", 0.7, 1.5},
-                  {"--arm-angle", 0.0, 80.0}};
-    float *dst[] = {&o->height, &o->girth, &o->chest, &o->hips, &o->arm};
-    for (int i = 0; i < 5; i++) {
-        if (strcmp(opt, ranges[i].opt) != 0) continue;
-        const char *v = cli_args_value(a, opt);
-        *usage = !v || !cli_parse_float("body", opt, v, ranges[i].lo, ranges[i].hi, dst[i]);
-        o->set |= 1 << i;
-        return 1;
-    }
-    if (strcmp(opt, "--res") == 0) {
-        const char *v = cli_args_value(a, opt);
-        *usage = !v || !cli_parse_int("body", opt, v, 32, 512, &o->res);
-        o->set |= 1 << 5;
-        return 1;
-    }
-    return 0;
-}
-
 static void apply_overrides(const body_overrides *o, cr_mannequin_def *def) {
     if (o->set & 1) def->height_m = o->height;
     if (o->set & 2) def->girth = o->girth;
@@ -70,25 +44,56 @@ static void apply_overrides(const body_overrides *o, cr_mannequin_def *def) {
 }
 
 int cmd_body(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
     const char *shape = "normal", *out_path = NULL;
     body_overrides ov = {0};
-    int json = 0;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        int usage = 0;
-        if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else if (strcmp(opt, "--shape") == 0) {
-            if (!(shape = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(out_path = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (parse_override(&a, opt, &ov, &usage)) {
-            if (usage) return CLI_USAGE;
-        } else {
-            return cli_usage("body", "unknown option '%s'", opt);
-        }
-    }
+    int json = 0, npos = 0;
+    int seen[6] = {0};
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &json),
+        CLI_STR("--shape", &shape),
+        CLI_OUTPUT(&out_path),
+        {.name = "--height",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &ov.height,
+         .lo = 1.0,
+         .hi = 2.5,
+         .seen = &seen[0]},
+        {.name = "--girth",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &ov.girth,
+         .lo = 0.6,
+         .hi = 1.6,
+         .seen = &seen[1]},
+        {.name = "--chest",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &ov.chest,
+         .lo = 0.7,
+         .hi = 1.5,
+         .seen = &seen[2]},
+        {.name = "--hips",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &ov.hips,
+         .lo = 0.7,
+         .hi = 1.5,
+         .seen = &seen[3]},
+        {.name = "--arm-angle",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &ov.arm,
+         .lo = 0.0,
+         .hi = 80.0,
+         .seen = &seen[4]},
+        {.name = "--res",
+         .kind = CLI_OPT_INT,
+         .dst = &ov.res,
+         .lo = 32,
+         .hi = 512,
+         .seen = &seen[5]},
+        CLI_END,
+    };
+    int rc = cli_parse("body", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    for (int i = 0; i < 6; i++)
+        ov.set |= seen[i] << i;
     if (!out_path) return cli_usage("body", "missing -o FILE");
     cr_error err = {0};
     cr_mannequin_def def = cr_mannequin_default_def();

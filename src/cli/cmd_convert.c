@@ -65,28 +65,17 @@ static int convert_mesh(const char *in, const char *out, cJSON *summary) {
 }
 
 int cmd_convert(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *paths[2] = {NULL, NULL}, *rest = NULL, *v;
+    const char *paths[2] = {NULL, NULL}, *rest = NULL;
     int npaths = 0, json = 0;
     float fps = 0.0f;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else if (strcmp(opt, "--rest") == 0) {
-            if (!(rest = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("convert", opt, v, 1e-3, 1e4, &fps))
-                return CLI_USAGE;
-        } else if (opt[0] == '-' && opt[1]) {
-            return cli_usage("convert", "unknown option '%s'", opt);
-        } else if (npaths < 2) {
-            paths[npaths++] = opt;
-        } else {
-            return cli_usage("convert", "too many paths: '%s'", opt);
-        }
-    }
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &json),
+        CLI_STR("--rest", &rest),
+        CLI_FLOAT("--fps", &fps, 1e-3, 1e4),
+        CLI_END,
+    };
+    int parsed = cli_parse("convert", argc, argv, opts, paths, 2, &npaths);
+    if (parsed != CLI_OK) return parsed;
     if (npaths != 2) return cli_usage("convert", "expected IN and OUT");
     char ext[16];
     cr_path_ext(paths[0], ext, sizeof ext);

@@ -37,93 +37,62 @@ void help_dataset(void) {
 
 enum { MAX_LIST_CHARS = 4096 };
 
-/* Split "a,b,c" (copied into buf) into items; returns the count or -1. */
-static int split_list(const char *opt, const char *s, char *buf, const char **items) {
-    if (strlen(s) >= MAX_LIST_CHARS) {
-        cli_usage("dataset", "%s: list too long", opt);
-        return -1;
-    }
-    strcpy(buf, s);
-    int n = 0;
-    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
-        if (n == CR_DATASET_MAX_ITEMS) {
-            cli_usage("dataset", "%s: at most %d items", opt, CR_DATASET_MAX_ITEMS);
-            return -1;
-        }
-        items[n++] = tok;
-    }
-    if (n == 0) cli_usage("dataset", "%s: empty list", opt);
-    return n > 0 ? n : -1;
-}
-
 typedef struct list_opt {
-    const char *name;
     char buf[MAX_LIST_CHARS];
     const char *items[CR_DATASET_MAX_ITEMS];
     int n;
 } list_opt;
 
-int cmd_dataset(int argc, char **argv) {
-    static const char *const names[4] = {"--garments", "--motions", "--bodies", "--res"};
-    static list_opt lists[4];
-    for (int i = 0; i < 4; i++)
-        lists[i].name = names[i], lists[i].n = 0;
-    cr_dataset_def def = cr_dataset_default_def();
-    int json = 0;
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        int matched = 0;
-        for (int i = 0; i < 4 && !matched; i++)
-            if (!strcmp(opt, lists[i].name)) {
-                matched = 1;
-                if (!(v = cli_args_value(&a, opt)) ||
-                    (lists[i].n = split_list(opt, v, lists[i].buf, lists[i].items)) < 0)
-                    return CLI_USAGE;
-            }
-        if (matched) continue;
-        if (!strcmp(opt, "-o") || !strcmp(opt, "--output")) {
-            if (!(def.out_dir = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (!strcmp(opt, "--frames")) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("dataset", opt, v, 1, 100000, &def.frames))
-                return CLI_USAGE;
-        } else if (!strcmp(opt, "--low-vertices")) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("dataset", opt, v, 500, 100000, &def.low_vertices))
-                return CLI_USAGE;
-        } else if (!strcmp(opt, "--high-vertices")) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("dataset", opt, v, 500, 100000, &def.high_vertices))
-                return CLI_USAGE;
-        } else if (!strcmp(opt, "--fps")) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("dataset", opt, v, 0.01, 1000, &def.fps))
-                return CLI_USAGE;
-        } else if (!strcmp(opt, "--material")) {
-            if (!(def.material = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (!strcmp(opt, "--seed")) {
-            int seed = 0;
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("dataset", opt, v, 0, 2147483647L, &seed))
-                return CLI_USAGE;
-            def.seed = (uint64_t)seed;
-        } else if (!strcmp(opt, "--max-collider-step")) {
-            float m = 0.0f;
-            if (!(v = cli_args_value(&a, opt)) || !cli_parse_float("dataset", opt, v, 0, 10, &m))
-                return CLI_USAGE;
-            def.max_collider_step = m;
-        } else if (!strcmp(opt, "--plastic")) {
-            def.plastic = 1;
-        } else if (!strcmp(opt, "--quiet")) {
-            def.quiet = 1;
-        } else if (!strcmp(opt, "--json")) {
-            json = 1;
-        } else {
-            return cli_usage("dataset", "unknown option '%s'", opt);
-        }
+/* "a,b,c" (copied into the list's buffer) -> its items. */
+static int parse_list(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    list_opt *l = dst;
+    if (strlen(v[0]) >= MAX_LIST_CHARS) return cli_usage(cmd, "%s: list too long", opt);
+    strcpy(l->buf, v[0]);
+    l->n = 0;
+    for (char *save = NULL, *tok = strtok_r(l->buf, ",", &save); tok;
+         tok = strtok_r(NULL, ",", &save)) {
+        if (l->n == CR_DATASET_MAX_ITEMS)
+            return cli_usage(cmd, "%s: at most %d items", opt, CR_DATASET_MAX_ITEMS);
+        l->items[l->n++] = tok;
     }
+    if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
+    return CLI_OK;
+}
+
+int cmd_dataset(int argc, char **argv) {
+    static list_opt lists[4]; /* garments, motions, bodies, res */
+    for (int i = 0; i < 4; i++)
+        lists[i].n = 0;
+    cr_dataset_def def = cr_dataset_default_def();
+    int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
+    float max_step = 0.0f; /* parsed as a float, as the option always was */
+    const cli_opt opts[] = {
+        CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
+        CLI_CUSTOM("--motions", parse_list, &lists[1], 1),
+        CLI_CUSTOM("--bodies", parse_list, &lists[2], 1),
+        CLI_CUSTOM("--res", parse_list, &lists[3], 1),
+        CLI_OUTPUT(&def.out_dir),
+        CLI_INT("--frames", &def.frames, 1, 100000),
+        CLI_INT("--low-vertices", &def.low_vertices, 500, 100000),
+        CLI_INT("--high-vertices", &def.high_vertices, 500, 100000),
+        CLI_FLOAT("--fps", &def.fps, 0.01, 1000),
+        CLI_STR("--material", &def.material),
+        CLI_INT("--seed", &seed, 0, 2147483647L),
+        {.name = "--max-collider-step",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &max_step,
+         .lo = 0,
+         .hi = 10,
+         .seen = &step_given},
+        CLI_FLAG("--plastic", &def.plastic),
+        CLI_FLAG("--quiet", &def.quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int rc = cli_parse("dataset", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    def.seed = (uint64_t)seed;
+    if (step_given) def.max_collider_step = max_step;
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
     if (lists[1].n == 0) return cli_usage("dataset", "missing --motions LIST");
@@ -135,7 +104,8 @@ int cmd_dataset(int argc, char **argv) {
     cr_error err = {0};
     cr_dataset_result r;
     if (cr_dataset_generate(&def, &r, &err) != CR_OK) return cli_fail(&err);
-    fprintf(stderr, "dataset: %d sequences in %s: %d simulated, %d already done, %d failed (%.1f s)\n",
+    fprintf(stderr,
+            "dataset: %d sequences in %s: %d simulated, %d already done, %d failed (%.1f s)\n",
             r.sequences, def.out_dir, r.done, r.skipped, r.failed, r.seconds);
     for (int g = 0; g < r.ngarments; g++)
         fprintf(stderr,

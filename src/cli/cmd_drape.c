@@ -72,18 +72,6 @@ void help_drape(void) {
         "The default ball run takes about 90 s on two free cores.\n");
 }
 
-typedef struct {
-    const char *name;
-    int *field;
-    long lo, hi;
-} int_option;
-
-typedef struct {
-    const char *name;
-    float *field;
-    double lo, hi;
-} float_option;
-
 static cJSON *terms_object(const cr_drape_terms *t) {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddNumberToObject(o, "strain", t->strain);
@@ -150,94 +138,64 @@ static void report(const cr_drape_def *def, const cr_drape_result *r) {
 }
 
 int cmd_drape(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
+    static const char *const collisions[] = {"vertex", "sdf", NULL};
     cr_drape_def def = cr_drape_default_def(CR_DRAPE_BALL);
-    const char *scene = NULL, *variant = NULL, *collision = NULL, *v;
-    int json = 0, compare = 0, seed = 1;
+    const char *scene = NULL, *variant = NULL, *collision = NULL;
+    int json = 0, compare = 0, seed = 1, npos = 0;
     float w[4] = {NAN, NAN, NAN, NAN}; /* NAN: the scene's Table 4 value */
-    const int_option ints[] = {
-        {"--epochs", &def.epochs, 1, 100000000},
-        {"--samples", &def.samples, 1, 1 << 22},
-        {"--seed", &seed, 0, 2147483647},
-        {"--res", &def.out_res, 2, 4096},
-        {"--render-size", &def.render_size, 16, 8192},
-        {"--checkpoint-every", &def.checkpoint_every, 0, 100000000},
-        {"--grid-levels", &def.grid_levels, 1, 8},
-        {"--grid-res", &def.grid_resolution, 1, 4096},
-        {"--grid-features", &def.grid_features, 1, 64},
-        {"--hidden", &def.mlp_hidden, 1, 4096},
-        {"--layers", &def.mlp_layers, 1, 16},
-        {"--mesh-res", &def.mesh_res, 2, 2048},
-        {"--pdf-grid", &def.pdf_grid, 2, 1024},
-        {"--lloyd", &def.lloyd_iterations, 0, 1000},
-        {"--pdf-every", &def.pdf_every, 1, 1000000},
-        {"--eval-res", &def.eval_res, 2, 1024},
-        {"--eval-every", &def.eval_every, 1, 1000000},
-        {"--window", &def.converge_window, 1, 100000000},
-        {"--settle", &def.settle_epochs, 0, 100000000},
+    const cli_opt opts[] = {
+        CLI_STR("--scene", &scene),
+        CLI_STR("--object", &def.object_path),
+        CLI_STR("--cloth", &def.cloth_path),
+        CLI_STR("--variant", &variant),
+        CLI_CHOICE("--collision", &collision, collisions),
+        CLI_OUTPUT(&def.out_dir),
+        CLI_FLAG("--compare", &compare),
+        CLI_FLAG("--stop", &def.stop_at_converged),
+        CLI_FLAG("--resume", &def.resume),
+        CLI_FLAG("--quiet", &def.quiet),
+        CLI_FLAG("--json", &json),
+        CLI_INT("--epochs", &def.epochs, 1, 100000000),
+        CLI_INT("--samples", &def.samples, 1, 1 << 22),
+        CLI_INT("--seed", &seed, 0, 2147483647),
+        CLI_INT("--res", &def.out_res, 2, 4096),
+        CLI_INT("--render-size", &def.render_size, 16, 8192),
+        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000000),
+        CLI_INT("--grid-levels", &def.grid_levels, 1, 8),
+        CLI_INT("--grid-res", &def.grid_resolution, 1, 4096),
+        CLI_INT("--grid-features", &def.grid_features, 1, 64),
+        CLI_INT("--hidden", &def.mlp_hidden, 1, 4096),
+        CLI_INT("--layers", &def.mlp_layers, 1, 16),
+        CLI_INT("--mesh-res", &def.mesh_res, 2, 2048),
+        CLI_INT("--pdf-grid", &def.pdf_grid, 2, 1024),
+        CLI_INT("--lloyd", &def.lloyd_iterations, 0, 1000),
+        CLI_INT("--pdf-every", &def.pdf_every, 1, 1000000),
+        CLI_INT("--eval-res", &def.eval_res, 2, 1024),
+        CLI_INT("--eval-every", &def.eval_every, 1, 1000000),
+        CLI_INT("--window", &def.converge_window, 1, 100000000),
+        CLI_INT("--settle", &def.settle_epochs, 0, 100000000),
+        CLI_FLOAT("--lr", &def.lr, 1e-12, 10.0),
+        CLI_FLOAT("--lr-final", &def.lr_final, 0.0, 10.0),
+        CLI_FLOAT("--beta2", &def.beta2, 0.0, 0.999999),
+        CLI_FLOAT("--clip", &def.clip, 0.0, 1e6),
+        CLI_FLOAT("--w-strain", &w[0], 0.0, 1e12),
+        CLI_FLOAT("--w-bend", &w[1], 0.0, 1e12),
+        CLI_FLOAT("--w-gravity", &w[2], 0.0, 1e12),
+        CLI_FLOAT("--w-collision", &w[3], 0.0, 1e15),
+        CLI_FLOAT("--point-mass", &def.point_mass, 0.0, 1e6),
+        CLI_FLOAT("--eps", &def.collision_eps, 0.0, 1.0),
+        CLI_FLOAT("--side", &def.side, 1e-6, 0.1),
+        CLI_FLOAT("--softplus", &def.softplus_beta, 0.0, 1e3),
+        CLI_FLOAT("--pin", &def.pin, 0.0, 1e12),
+        CLI_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0),
+        CLI_FLOAT("--mu", &def.mu, 0.0, 1.0),
+        CLI_FLOAT("--tol", &def.converge_tol, 0.0, 1.0),
+        CLI_FLOAT("--gap", &def.gap, 0.0, 1e3),
+        CLI_FLOAT("--cloth-size", &def.cloth_size, 1e-3, 1e3),
+        CLI_END,
     };
-    const float_option floats[] = {
-        {"--lr", &def.lr, 1e-12, 10.0},
-        {"--lr-final", &def.lr_final, 0.0, 10.0},
-        {"--beta2", &def.beta2, 0.0, 0.999999},
-        {"--clip", &def.clip, 0.0, 1e6},
-        {"--w-strain", &w[0], 0.0, 1e12},
-        {"--w-bend", &w[1], 0.0, 1e12},
-        {"--w-gravity", &w[2], 0.0, 1e12},
-        {"--w-collision", &w[3], 0.0, 1e15},
-        {"--point-mass", &def.point_mass, 0.0, 1e6},
-        {"--eps", &def.collision_eps, 0.0, 1.0},
-        {"--side", &def.side, 1e-6, 0.1},
-        {"--softplus", &def.softplus_beta, 0.0, 1e3},
-        {"--pin", &def.pin, 0.0, 1e12},
-        {"--gamma", &def.pdf_gamma, 0.0, 1.0},
-        {"--mu", &def.mu, 0.0, 1.0},
-        {"--tol", &def.converge_tol, 0.0, 1.0},
-        {"--gap", &def.gap, 0.0, 1e3},
-        {"--cloth-size", &def.cloth_size, 1e-3, 1e3},
-    };
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        const int_option *io = NULL;
-        const float_option *fo = NULL;
-        for (size_t i = 0; i < sizeof ints / sizeof ints[0]; i++)
-            if (strcmp(opt, ints[i].name) == 0) io = &ints[i];
-        for (size_t i = 0; i < sizeof floats / sizeof floats[0]; i++)
-            if (strcmp(opt, floats[i].name) == 0) fo = &floats[i];
-        if (io) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("drape", opt, v, io->lo, io->hi, io->field))
-                return CLI_USAGE;
-        } else if (fo) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("drape", opt, v, fo->lo, fo->hi, fo->field))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--scene") == 0) {
-            if (!(scene = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--object") == 0) {
-            if (!(def.object_path = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--cloth") == 0) {
-            if (!(def.cloth_path = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--variant") == 0) {
-            if (!(variant = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--collision") == 0) {
-            if (!(collision = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(def.out_dir = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--compare") == 0) {
-            compare = 1;
-        } else if (strcmp(opt, "--stop") == 0) {
-            def.stop_at_converged = 1;
-        } else if (strcmp(opt, "--resume") == 0) {
-            def.resume = 1;
-        } else if (strcmp(opt, "--quiet") == 0) {
-            def.quiet = 1;
-        } else if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else {
-            return cli_usage("drape", "unknown option '%s'", opt);
-        }
-    }
+    int rc = cli_parse("drape", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (scene && def.object_path)
         return cli_usage("drape", "--scene and --object exclude each other");
     if (!def.out_dir) return cli_usage("drape", "missing -o DIR");
@@ -250,14 +208,9 @@ int cmd_drape(int argc, char **argv) {
         return cli_usage("drape", "%s", err.msg);
     if (variant && cr_drape_variant_parse(variant, &def.variant, &err) != CR_OK)
         return cli_usage("drape", "%s", err.msg);
-    if (collision) {
-        if (strcmp(collision, "vertex") == 0)
-            def.collision = CR_DRAPE_COLLIDE_VERTEX;
-        else if (strcmp(collision, "sdf") == 0)
-            def.collision = CR_DRAPE_COLLIDE_SDF;
-        else
-            return cli_usage("drape", "--collision expects vertex or sdf, got '%s'", collision);
-    }
+    if (collision)
+        def.collision =
+            strcmp(collision, "sdf") == 0 ? CR_DRAPE_COLLIDE_SDF : CR_DRAPE_COLLIDE_VERTEX;
     /* the scene's Table 4 weights, then any given on the command line */
     def.scene = sc;
     def.w = cr_drape_default_def(sc).w;

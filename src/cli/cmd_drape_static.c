@@ -1,9 +1,9 @@
 /* cmd_drape_static.c: `crease drape-static`: the quasi-static equilibrium of
  * a 1 m square cloth laid flat above an object, the reference the drape
- * method is compared with. Scene and outputs come from phys_scene.h; the
+ * method is compared with. Scene and outputs come from scene.h; the
  * equilibrium from cr_sim_solve_static. */
 #include "cli.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <string.h>
@@ -60,44 +60,24 @@ static cr_status coarse_progress(void *vctx, const cr_sim *sim, const cr_sim_rep
 }
 
 int cmd_drape_static(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL, *v;
-    int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0;
+    const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL;
+    int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0, npos = 0;
     float gap = 0.05f;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--object") == 0) {
-            if (!(object = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--material") == 0) {
-            if (!(material = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--material-json") == 0) {
-            if (!(material_json = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(out = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--res") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("drape-static", opt, v, 2, 1024, &res))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--gap") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("drape-static", opt, v, 0.0, 10.0, &gap))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--max-frames") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("drape-static", opt, v, 0, 1000000, &max_frames))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--coarse") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("drape-static", opt, v, 2, 1024, &coarse))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--quiet") == 0) {
-            quiet = 1;
-        } else if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else {
-            return cli_usage("drape-static", "unknown option '%s'", opt);
-        }
-    }
+    const cli_opt opts[] = {
+        CLI_STR("--object", &object),
+        CLI_STR("--material", &material),
+        CLI_STR("--material-json", &material_json),
+        CLI_OUTPUT(&out),
+        CLI_INT("--res", &res, 2, 1024),
+        CLI_FLOAT("--gap", &gap, 0.0, 10.0),
+        CLI_INT("--max-frames", &max_frames, 0, 1000000),
+        CLI_INT("--coarse", &coarse, 2, 1024),
+        CLI_FLAG("--quiet", &quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int rc = cli_parse("drape-static", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!object) return cli_usage("drape-static", "missing --object sphere|torus|prism|box|F.obj");
     if (!out) return cli_usage("drape-static", "missing -o DIR");
     if (coarse >= res)

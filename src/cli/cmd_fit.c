@@ -13,7 +13,8 @@ void help_fit(void) {
            "(47,363), grid 101x101x3 + 51x51x3 levels -> 6-64-64-64-3 (47,369).\n\n"
            "options:\n"
            "  --model M            mlp, pe or grid (required)\n"
-           "  -o DIR               outputs: log.jsonl, checkpoint.safetensors, surface.obj, surface.png\n"
+           "  -o DIR               outputs: log.jsonl, checkpoint.safetensors, surface.obj, "
+           "surface.png\n"
            "  --epochs N           cap on epochs (default 2000)\n"
            "  --target E           relative L2 error to reach (default 0.01)\n"
            "  --no-stop            keep training after reaching the target\n"
@@ -29,57 +30,31 @@ void help_fit(void) {
            "  --json               end with a JSON summary on stdout\n");
 }
 
-/* Integer options: name, field, lower and upper bounds. */
-typedef struct {
-    const char *name;
-    int *field;
-    long lo, hi;
-} int_option;
-
 int cmd_fit(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
     cr_fit_def def = cr_fit_default_def(CR_FIT_GRID);
-    const char *model = NULL, *v;
-    int json = 0, seed = 1;
-    const int_option ints[] = {
-        {"--epochs", &def.epochs, 1, 100000000},   {"--batch", &def.batch, 1, 1 << 20},
-        {"--train-res", &def.train_res, 2, 4096}, {"--eval-res", &def.eval_res, 2, 4096},
-        {"--eval-every", &def.eval_every, 1, 1000000},
-        {"--checkpoint-every", &def.checkpoint_every, 0, 1000000},
-        {"--seed", &seed, 0, 2147483647},
+    const char *model = NULL;
+    int json = 0, seed = 1, no_stop = 0, npos = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--model", &model),
+        CLI_OUTPUT(&def.out_dir),
+        CLI_INT("--epochs", &def.epochs, 1, 100000000),
+        CLI_INT("--batch", &def.batch, 1, 1 << 20),
+        CLI_INT("--train-res", &def.train_res, 2, 4096),
+        CLI_INT("--eval-res", &def.eval_res, 2, 4096),
+        CLI_INT("--eval-every", &def.eval_every, 1, 1000000),
+        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 1000000),
+        CLI_INT("--seed", &seed, 0, 2147483647),
+        CLI_FLOAT("--lr", &def.lr, 1e-9, 10),
+        CLI_FLOAT("--target", &def.target_rel_l2, 1e-9, 10),
+        CLI_FLAG("--no-stop", &no_stop),
+        CLI_FLAG("--resume", &def.resume),
+        CLI_FLAG("--quiet", &def.quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
     };
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        const int_option *io = NULL;
-        for (size_t i = 0; i < sizeof ints / sizeof ints[0]; i++)
-            if (strcmp(opt, ints[i].name) == 0) io = &ints[i];
-        if (io) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("fit", opt, v, io->lo, io->hi, io->field))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--model") == 0) {
-            if (!(model = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(def.out_dir = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--lr") == 0) {
-            if (!(v = cli_args_value(&a, opt)) || !cli_parse_float("fit", opt, v, 1e-9, 10, &def.lr))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--target") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("fit", opt, v, 1e-9, 10, &def.target_rel_l2))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--no-stop") == 0) {
-            def.stop_at_target = 0;
-        } else if (strcmp(opt, "--resume") == 0) {
-            def.resume = 1;
-        } else if (strcmp(opt, "--quiet") == 0) {
-            def.quiet = 1;
-        } else if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else {
-            return cli_usage("fit", "unknown option '%s'", opt);
-        }
-    }
+    int rc = cli_parse("fit", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (no_stop) def.stop_at_target = 0;
     if (!model) return cli_usage("fit", "missing --model mlp|pe|grid");
     if (!def.out_dir) return cli_usage("fit", "missing -o DIR");
     cr_error err = {0};

@@ -59,64 +59,54 @@ typedef struct garment_opts {
 } garment_opts;
 
 static int parse(int argc, char **argv, garment_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        const char **str = strcmp(opt, "--type") == 0     ? &o->types
-                           : strcmp(opt, "--user") == 0   ? &o->user
-                           : strcmp(opt, "-o") == 0       ? &o->out
-                           : strcmp(opt, "--output") == 0 ? &o->out
-                           : strcmp(opt, "--render") == 0 ? &o->render
-                           : strcmp(opt, "--shape") == 0  ? &o->shape
-                           : strcmp(opt, "--clip") == 0   ? &o->clip
-                                                          : NULL;
-        if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else if (str) {
-            if (!(*str = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--res") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("garment", opt, v, 500, 100000, &o->res))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--body-res") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("garment", opt, v, 32, 512, &o->body_res))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--size") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("garment", opt, v, 16, 8192, &o->size))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--frame") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("garment", opt, v, 0, 100000, &o->frame))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--yaw") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("garment", opt, v, -1e4, 1e4, &o->yaw))
-                return CLI_USAGE;
-        } else {
-            static const struct {
-                const char *opt;
-                double lo, hi;
-            } ranges[] = {{"--clearance", 0.005, 0.1},
-                          {"--flare", 0, 45},
-                          {"--length", 0.5, 1.5},
-                          {"--grid", 0.004, 0.03},
-                          {"--height", 1.0, 2.5}};
-            float *dst[] = {&o->clearance, &o->flare, &o->length, &o->grid, &o->height};
-            int *set[] = {&o->set_clearance, &o->set_flare, &o->set_length, &o->set_grid,
-                          &o->set_height};
-            int i = 0;
-            while (i < 5 && strcmp(opt, ranges[i].opt) != 0)
-                i++;
-            if (i == 5) return cli_usage("garment", "unknown option '%s'", opt);
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("garment", opt, v, ranges[i].lo, ranges[i].hi, dst[i]))
-                return CLI_USAGE;
-            *set[i] = 1;
-        }
-    }
+    int npos = 0;
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &o->json),
+        CLI_STR("--type", &o->types),
+        CLI_STR("--user", &o->user),
+        CLI_OUTPUT(&o->out),
+        CLI_STR("--render", &o->render),
+        CLI_STR("--shape", &o->shape),
+        CLI_STR("--clip", &o->clip),
+        CLI_INT("--res", &o->res, 500, 100000),
+        CLI_INT("--body-res", &o->body_res, 32, 512),
+        CLI_INT("--size", &o->size, 16, 8192),
+        CLI_INT("--frame", &o->frame, 0, 100000),
+        CLI_FLOAT("--yaw", &o->yaw, -1e4, 1e4),
+        {.name = "--clearance",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &o->clearance,
+         .lo = 0.005,
+         .hi = 0.1,
+         .seen = &o->set_clearance},
+        {.name = "--flare",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &o->flare,
+         .lo = 0,
+         .hi = 45,
+         .seen = &o->set_flare},
+        {.name = "--length",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &o->length,
+         .lo = 0.5,
+         .hi = 1.5,
+         .seen = &o->set_length},
+        {.name = "--grid",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &o->grid,
+         .lo = 0.004,
+         .hi = 0.03,
+         .seen = &o->set_grid},
+        {.name = "--height",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &o->height,
+         .lo = 1.0,
+         .hi = 2.5,
+         .seen = &o->set_height},
+        CLI_END,
+    };
+    int rc = cli_parse("garment", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!o->out) return cli_usage("garment", "missing -o FILE");
     if (!o->types == !o->user) return cli_usage("garment", "give one of --type or --user");
     return CLI_OK;

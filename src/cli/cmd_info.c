@@ -22,8 +22,8 @@ static void print_report(const char *path, const cr_mesh *m, const cr_topology *
     printf("%s\n", path);
     printf("  vertices %d, faces %d, edges %d, UVs %d%s\n", m->nv, m->nf, t->ne, m->nuv,
            cr_mesh_has_uv(m) ? "" : " (no UVs)");
-    printf("  bounds   [%.4g %.4g %.4g] .. [%.4g %.4g %.4g] m\n", lo[0], lo[1], lo[2], hi[0],
-           hi[1], hi[2]);
+    printf("  bounds   [%.4g %.4g %.4g] .. [%.4g %.4g %.4g] m\n", lo[0], lo[1], lo[2], hi[0], hi[1],
+           hi[2]);
     printf("  manifold %s%s%s\n", manifold ? "yes" : "no", manifold ? "" : ": ",
            manifold ? "" : why);
     printf("  boundary %d loop%s, %d edges; Euler characteristic %lld\n", t->nloop,
@@ -55,8 +55,7 @@ static cJSON *report_json(const char *path, const cr_mesh *m, const cr_topology 
     cJSON_AddNumberToObject(j, "inconsistent_edges", t->n_inconsistent_edges);
     cJSON_AddNumberToObject(j, "boundary_loops", t->nloop);
     cJSON_AddNumberToObject(j, "boundary_edges", t->n_boundary_edges);
-    cJSON_AddNumberToObject(j, "euler_characteristic",
-                            (double)cr_topology_euler_characteristic(t));
+    cJSON_AddNumberToObject(j, "euler_characteristic", (double)cr_topology_euler_characteristic(t));
     cJSON_AddNumberToObject(j, "min_angle_deg", q->min_deg);
     cJSON_AddNumberToObject(j, "mean_min_angle_deg", q->mean_deg);
     cJSON_AddNumberToObject(j, "p01_min_angle_deg", q->p01_deg);
@@ -65,21 +64,13 @@ static cJSON *report_json(const char *path, const cr_mesh *m, const cr_topology 
 }
 
 int cmd_info(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *path = NULL;
-    int json = 0;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--json") == 0)
-            json = 1;
-        else if (opt[0] == '-' && opt[1])
-            return cli_usage("info", "unknown option '%s'", opt);
-        else if (!path)
-            path = opt;
-        else
-            return cli_usage("info", "one mesh at a time (got '%s' and '%s')", path, opt);
-    }
-    if (!path) return cli_usage("info", "missing MESH");
+    const char *pos[1];
+    int npos = 0, json = 0;
+    const cli_opt opts[] = {CLI_FLAG("--json", &json), CLI_END};
+    int rc = cli_parse("info", argc, argv, opts, pos, 1, &npos);
+    if (rc != CLI_OK) return rc;
+    if (npos == 0) return cli_usage("info", "missing MESH");
+    const char *path = pos[0];
     cr_error err = {0};
     cr_mesh *m = NULL;
     cr_topology *t = NULL;

@@ -50,53 +50,48 @@ static int list_clips(int json) {
 }
 
 int cmd_motion(int argc, char **argv) {
-    cli_args a = cli_args_make(argc, argv);
     cr_motion_clip_def def = cr_motion_clip_default_def();
     cr_motion_import_def imp = cr_motion_import_default_def();
-    const char *clip = NULL, *input = NULL, *out_path = NULL, *v;
-    int json = 0, list = 0, clip_only = 0;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else if (strcmp(opt, "--list") == 0) {
-            list = 1;
-        } else if (strcmp(opt, "--no-recenter") == 0) {
-            imp.recenter = 0;
-        } else if (strcmp(opt, "--clip") == 0) {
-            if (!(clip = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--input") == 0) {
-            if (!(input = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(out_path = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--frames") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("motion", opt, v, 1, 1000000, &def.nframes))
-                return CLI_USAGE;
-            clip_only = 1;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("motion", opt, v, 1e-3, 1000, &def.fps))
-                return CLI_USAGE;
-            clip_only = 1;
-        } else if (strcmp(opt, "--speed") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("motion", opt, v, 0.25, 4, &def.speed))
-                return CLI_USAGE;
-            clip_only = 1;
-        } else if (strcmp(opt, "--amplitude") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("motion", opt, v, 0, 1.5, &def.amplitude))
-                return CLI_USAGE;
-            clip_only = 1;
-        } else if (strcmp(opt, "--scale") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("motion", opt, v, 1e-6, 1e6, &imp.bvh_scale))
-                return CLI_USAGE;
-        } else {
-            return cli_usage("motion", "unknown option '%s'", opt);
-        }
-    }
+    const char *clip = NULL, *input = NULL, *out_path = NULL;
+    int json = 0, list = 0, clip_only = 0, no_recenter = 0, npos = 0;
+    /* clip_only: set by the options that shape a procedural clip */
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &json),
+        CLI_FLAG("--list", &list),
+        CLI_FLAG("--no-recenter", &no_recenter),
+        CLI_STR("--clip", &clip),
+        CLI_STR("--input", &input),
+        CLI_OUTPUT(&out_path),
+        {.name = "--frames",
+         .kind = CLI_OPT_INT,
+         .dst = &def.nframes,
+         .lo = 1,
+         .hi = 1000000,
+         .seen = &clip_only},
+        {.name = "--fps",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &def.fps,
+         .lo = 1e-3,
+         .hi = 1000,
+         .seen = &clip_only},
+        {.name = "--speed",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &def.speed,
+         .lo = 0.25,
+         .hi = 4,
+         .seen = &clip_only},
+        {.name = "--amplitude",
+         .kind = CLI_OPT_FLOAT,
+         .dst = &def.amplitude,
+         .lo = 0,
+         .hi = 1.5,
+         .seen = &clip_only},
+        CLI_FLOAT("--scale", &imp.bvh_scale, 1e-6, 1e6),
+        CLI_END,
+    };
+    int rc = cli_parse("motion", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (no_recenter) imp.recenter = 0;
     if (list) return list_clips(json);
     if (!clip == !input) return cli_usage("motion", "give one of --clip NAME or --input FILE");
     if (input && clip_only)

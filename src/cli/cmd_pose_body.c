@@ -49,44 +49,23 @@ typedef struct pose_opts {
 } pose_opts;
 
 static int parse(int argc, char **argv, pose_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else if (strcmp(opt, "--shape") == 0) {
-            if (!(o->shape = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--clip") == 0) {
-            if (!(o->clip = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--motion") == 0) {
-            if (!(o->motion = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--rest") == 0) {
-            if (!(o->rest = cli_args_value(&a, opt))) return CLI_USAGE;
-            if (strcmp(o->rest, "apose") != 0 && strcmp(o->rest, "tpose") != 0)
-                return cli_usage("pose-body", "--rest expects apose or tpose, got '%s'", o->rest);
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(o->out = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--height") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("pose-body", opt, v, 1.0, 2.5, &o->height))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("pose-body", opt, v, 1e-3, 1000, &o->fps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--res") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("pose-body", opt, v, 32, 512, &o->res))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--frames") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("pose-body", opt, v, 1, 1000000, &o->frames))
-                return CLI_USAGE;
-        } else {
-            return cli_usage("pose-body", "unknown option '%s'", opt);
-        }
-    }
+    static const char *const rests[] = {"apose", "tpose", NULL};
+    int npos = 0;
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &o->json),
+        CLI_STR("--shape", &o->shape),
+        CLI_STR("--clip", &o->clip),
+        CLI_STR("--motion", &o->motion),
+        CLI_CHOICE("--rest", &o->rest, rests),
+        CLI_OUTPUT(&o->out),
+        CLI_FLOAT("--height", &o->height, 1.0, 2.5),
+        CLI_FLOAT("--fps", &o->fps, 1e-3, 1000),
+        CLI_INT("--res", &o->res, 32, 512),
+        CLI_INT("--frames", &o->frames, 1, 1000000),
+        CLI_END,
+    };
+    int rc = cli_parse("pose-body", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!o->clip == !o->motion)
         return cli_usage("pose-body", "give one of --clip NAME or --motion FILE");
     if (o->clip && !cr_motion_clip_summary(o->clip))

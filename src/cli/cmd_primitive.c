@@ -1,4 +1,5 @@
-/* cmd_primitive.c: `crease primitive KIND [size options] -o FILE`: write a primitive mesh with UVs. */
+/* cmd_primitive.c: `crease primitive KIND [size options] -o FILE`: write a primitive mesh with UVs.
+ */
 #include "cli.h"
 #include "crease/mesh_io.h"
 #include "crease/primitives.h"
@@ -7,12 +8,14 @@
 
 void help_primitive(void) {
     printf("usage: crease primitive KIND [options] -o FILE\n\n"
-           "Write a primitive mesh with UVs, centred at the origin, Y up. FILE is .obj, .ply or .glb.\n\n"
+           "Write a primitive mesh with UVs, centred at the origin, Y up. FILE is .obj, .ply or "
+           ".glb.\n\n"
            "kinds and the options they use:\n"
            "  plane      --res N (vertices per side, default 32), --size S (m, default 1)\n"
            "  sphere     --radius R (0.3), --res N (segments; rings = N/2; default 64)\n"
            "  icosphere  --radius R (0.3), --subdiv K (4)\n"
-           "  torus      --radius R (0.3), --minor r (0.1), --res N (major segments; minor = N/2; 64)\n"
+           "  torus      --radius R (0.3), --minor r (0.1), --res N (major segments; minor = N/2; "
+           "64)\n"
            "  prism      --size S (side, 0.4), --length L (0.8)\n"
            "  box        --size S (edge, 0.4), --subdiv K (per face, 8)\n"
            "  capsule    --radius R (0.1), --length L (cylinder part, 0.3), --res N (32)\n"
@@ -34,15 +37,14 @@ static cr_status make_primitive(const prim_opts *o, cr_mesh **m, cr_error *err) 
     if (strcmp(k, "plane") == 0) return cr_prim_plane(res, res, o->size, o->size, m, err);
     if (strcmp(k, "sphere") == 0) return cr_prim_sphere_uv(o->radius, res, res / 2, m, err);
     if (strcmp(k, "icosphere") == 0) return cr_prim_icosphere(o->radius, o->subdiv, m, err);
-    if (strcmp(k, "torus") == 0)
-        return cr_prim_torus(o->radius, o->minor, res, res / 2, m, err);
+    if (strcmp(k, "torus") == 0) return cr_prim_torus(o->radius, o->minor, res, res / 2, m, err);
     if (strcmp(k, "prism") == 0) return cr_prim_prism(o->size, o->length, m, err);
     if (strcmp(k, "box") == 0) return cr_prim_box(o->size, o->size, o->size, o->subdiv, m, err);
     if (strcmp(k, "capsule") == 0)
         return cr_prim_capsule(o->radius, o->length, res, res / 2, m, err);
     if (strcmp(k, "cylinder") == 0)
-        return cr_prim_cylinder(o->radius, o->length, res, res / 4 > 1 ? res / 4 : 1, !o->open,
-                                m, err);
+        return cr_prim_cylinder(o->radius, o->length, res, res / 4 > 1 ? res / 4 : 1, !o->open, m,
+                                err);
     return CR_FAIL(err, CR_ERR_INVALID, "unknown primitive '%s'", k);
 }
 
@@ -57,53 +59,35 @@ static void kind_defaults(prim_opts *o) {
     if (strcmp(k, "cylinder") == 0) o->radius = 0.2f, o->length = 0.5f, o->res = 32;
 }
 
-/* The field a length option (in m) sets, or NULL when `opt` is not one. */
-static float *length_option(prim_opts *o, const char *opt) {
-    if (strcmp(opt, "--radius") == 0) return &o->radius;
-    if (strcmp(opt, "--minor") == 0) return &o->minor;
-    if (strcmp(opt, "--size") == 0) return &o->size;
-    if (strcmp(opt, "--length") == 0) return &o->length;
-    return NULL;
-}
-
 int cmd_primitive(int argc, char **argv) {
     static const char *const kinds[] = {"plane", "sphere", "icosphere", "torus",
                                         "prism", "box",    "capsule",   "cylinder"};
-    cli_args a = cli_args_make(argc, argv);
     prim_opts o = {0};
     const char *out_path = NULL;
     int json = 0;
     /* The kind comes first so its defaults can be set before options override them. */
-    const char *kind = cli_args_next(&a);
+    const char *kind = argc > 1 ? argv[1] : NULL;
     if (!kind) return cli_usage("primitive", "missing KIND");
     for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
         if (strcmp(kind, kinds[i]) == 0) o.kind = kinds[i];
     if (!o.kind) return cli_usage("primitive", "unknown primitive '%s'", kind);
     kind_defaults(&o);
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a), *v;
-        if (strcmp(opt, "--json") == 0) {
-            json = 1;
-        } else if (strcmp(opt, "--open") == 0) {
-            o.open = 1;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(out_path = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (length_option(&o, opt)) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("primitive", opt, v, 1e-6, 1e6, length_option(&o, opt)))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--res") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("primitive", opt, v, 2, 4096, &o.res))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--subdiv") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("primitive", opt, v, 0, 9, &o.subdiv))
-                return CLI_USAGE;
-        } else {
-            return cli_usage("primitive", "unknown option '%s'", opt);
-        }
-    }
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &json),
+        CLI_FLAG("--open", &o.open),
+        CLI_OUTPUT(&out_path),
+        CLI_FLOAT("--radius", &o.radius, 1e-6, 1e6),
+        CLI_FLOAT("--minor", &o.minor, 1e-6, 1e6),
+        CLI_FLOAT("--size", &o.size, 1e-6, 1e6),
+        CLI_FLOAT("--length", &o.length, 1e-6, 1e6),
+        CLI_INT("--res", &o.res, 2, 4096),
+        CLI_INT("--subdiv", &o.subdiv, 0, 9),
+        CLI_END,
+    };
+    /* argv + 1: KIND stands where the command's name would; no more positionals. */
+    int npos = 0;
+    int rc = cli_parse("primitive", argc - 1, argv + 1, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!out_path) return cli_usage("primitive", "missing -o FILE");
     cr_error err = {0};
     cr_mesh *m = NULL;

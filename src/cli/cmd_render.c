@@ -51,67 +51,44 @@ typedef struct {
     float yaw, pitch, range_lo, range_hi;
 } render_opts;
 
+/* --range LO HI: two numbers, LO < HI. */
+static int parse_range(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    render_opts *o = dst;
+    if (!cli_parse_float(cmd, opt, v[0], -1e30, 1e30, &o->range_lo) ||
+        !cli_parse_float(cmd, opt, v[1], -1e30, 1e30, &o->range_hi))
+        return CLI_USAGE;
+    if (!(o->range_lo < o->range_hi)) return cli_usage(cmd, "--range LO HI needs LO < HI");
+    o->fixed_range = 1;
+    return CLI_OK;
+}
+
+/* --pc2 SEQ: the positions of the mesh given just before it. */
+static int parse_pc2(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    render_opts *o = dst;
+    if (o->nmesh == 0) return cli_usage(cmd, "%s %s must follow its mesh", opt, v[0]);
+    o->pc2[o->nmesh - 1] = v[0];
+    return CLI_OK;
+}
+
 static int parse(int argc, char **argv, render_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else if (strcmp(opt, "--wire") == 0) {
-            o->wire = 1;
-        } else if (strcmp(opt, "-o") == 0 || strcmp(opt, "--output") == 0) {
-            if (!(o->out = cli_args_value(&a, opt))) return CLI_USAGE;
-        } else if (strcmp(opt, "--color-by") == 0) {
-            if (!(o->color_by = cli_args_value(&a, opt))) return CLI_USAGE;
-            if (strcmp(o->color_by, "curvature") != 0 && strcmp(o->color_by, "height") != 0)
-                return cli_usage("render", "--color-by takes curvature or height, not '%s'",
-                                 o->color_by);
-        } else if (strcmp(opt, "--size") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("render", opt, v, 16, 8192, &o->size))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--ss") == 0) {
-            if (!(v = cli_args_value(&a, opt)) || !cli_parse_int("render", opt, v, 1, 8, &o->ss))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--turntable") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("render", opt, v, 1, 3600, &o->turntable))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--yaw") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("render", opt, v, -1e4, 1e4, &o->yaw))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--pitch") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("render", opt, v, -89, 89, &o->pitch))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--range") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("render", opt, v, -1e30, 1e30, &o->range_lo))
-                return CLI_USAGE;
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("render", opt, v, -1e30, 1e30, &o->range_hi))
-                return CLI_USAGE;
-            if (!(o->range_lo < o->range_hi))
-                return cli_usage("render", "--range LO HI needs LO < HI");
-            o->fixed_range = 1;
-        } else if (strcmp(opt, "--pc2") == 0) {
-            if (!(v = cli_args_value(&a, opt))) return CLI_USAGE;
-            if (o->nmesh == 0) return cli_usage("render", "--pc2 %s must follow its mesh", v);
-            o->pc2[o->nmesh - 1] = v;
-        } else if (strcmp(opt, "--frame") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("render", opt, v, 0, 100000000, &o->frame))
-                return CLI_USAGE;
-        } else if (opt[0] == '-' && opt[1]) {
-            return cli_usage("render", "unknown option '%s'", opt);
-        } else if (o->nmesh < MAX_OBJECTS) {
-            o->meshes[o->nmesh++] = opt;
-        } else {
-            return cli_usage("render", "at most %d meshes", MAX_OBJECTS);
-        }
-    }
+    static const char *const color_kinds[] = {"curvature", "height", NULL};
+    const cli_opt opts[] = {
+        CLI_FLAG("--json", &o->json),
+        CLI_FLAG("--wire", &o->wire),
+        CLI_OUTPUT(&o->out),
+        CLI_CHOICE("--color-by", &o->color_by, color_kinds),
+        CLI_INT("--size", &o->size, 16, 8192),
+        CLI_INT("--ss", &o->ss, 1, 8),
+        CLI_INT("--turntable", &o->turntable, 1, 3600),
+        CLI_FLOAT("--yaw", &o->yaw, -1e4, 1e4),
+        CLI_FLOAT("--pitch", &o->pitch, -89, 89),
+        CLI_CUSTOM("--range", parse_range, o, 2),
+        CLI_CUSTOM("--pc2", parse_pc2, o, 1),
+        CLI_INT("--frame", &o->frame, 0, 100000000),
+        CLI_END,
+    };
+    int rc = cli_parse("render", argc, argv, opts, o->meshes, MAX_OBJECTS, &o->nmesh);
+    if (rc != CLI_OK) return rc;
     if (o->nmesh == 0) return cli_usage("render", "missing MESH");
     if (!o->out) return cli_usage("render", "missing -o OUT.png");
     return CLI_OK;
@@ -123,7 +100,8 @@ static cr_status vertex_scalar(const cr_mesh *m, const char *kind, float **out, 
     if (!s) return CR_ERR_MEMORY;
     cr_status st = CR_OK;
     if (strcmp(kind, "height") == 0) {
-        for (int32_t i = 0; i < m->nv; i++) s[i] = m->pos[3 * i + 1];
+        for (int32_t i = 0; i < m->nv; i++)
+            s[i] = m->pos[3 * i + 1];
     } else {
         cr_topology *t = NULL;
         st = cr_topology_build(m, &t, err);
@@ -209,7 +187,8 @@ int cmd_render(int argc, char **argv) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "render");
         cJSON *in = cJSON_AddArrayToObject(j, "inputs");
-        for (int i = 0; i < o.nmesh; i++) cJSON_AddItemToArray(in, cJSON_CreateString(o.meshes[i]));
+        for (int i = 0; i < o.nmesh; i++)
+            cJSON_AddItemToArray(in, cJSON_CreateString(o.meshes[i]));
         cJSON_AddNumberToObject(j, "faces", (double)faces);
         cJSON_AddNumberToObject(j, "width", o.size);
         cJSON_AddNumberToObject(j, "height", o.size);

@@ -1,9 +1,9 @@
 /* cmd_simulate.c: `crease simulate`: run the reference cloth simulator on a
  * garment against a static object or an animated body, writing the sequence
  * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
- * scene and output code is in phys_scene.h; this file parses and reports. */
+ * scene and output code is in scene.h; this file parses and reports. */
 #include "cli.h"
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -51,97 +51,71 @@ typedef struct {
     int32_t npins;
 } sim_opts;
 
-/* "i,j,k" -> o->pins. */
-static int parse_pins(const char *s, sim_opts *o) {
+/* --pin "i,j,k": appended to o->pins (the option may be repeated). */
+static int parse_pins(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    sim_opts *o = dst;
+    const char *s = v[0];
     int32_t n = 1;
-    for (const char *c = s; *c; c++) n += *c == ',';
-    if (n > MAX_PINS) return cli_usage("simulate", "--pin: at most %d vertices", MAX_PINS);
+    for (const char *c = s; *c; c++)
+        n += *c == ',';
+    if (n > MAX_PINS) return cli_usage(cmd, "--pin: at most %d vertices", MAX_PINS);
     int32_t *p = realloc(o->pins, (size_t)(o->npins + n) * sizeof *p);
-    if (!p) return cli_usage("simulate", "--pin: out of memory");
+    if (!p) return cli_usage(cmd, "--pin: out of memory");
     o->pins = p;
     char buf[32];
     for (const char *c = s; *c;) {
         size_t len = strcspn(c, ",");
-        int v;
-        if (len == 0 || len >= sizeof buf) return cli_usage("simulate", "--pin: bad list '%s'", s);
+        int idx;
+        if (len == 0 || len >= sizeof buf) return cli_usage(cmd, "--pin: bad list '%s'", s);
         memcpy(buf, c, len);
         buf[len] = '\0';
-        if (!cli_parse_int("simulate", "--pin", buf, 0, 2147483647L, &v)) return CLI_USAGE;
-        o->pins[o->npins++] = v;
+        if (!cli_parse_int(cmd, opt, buf, 0, 2147483647L, &idx)) return CLI_USAGE;
+        o->pins[o->npins++] = idx;
         c += len + (c[len] == ',');
     }
     return CLI_OK;
 }
 
-static int parse_vec3(const char *opt, const char *s, float out[3]) {
+/* --garment-offset X,Y,Z */
+static int parse_vec3(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    float *out = dst;
     char buf[128], *save = NULL;
-    snprintf(buf, sizeof buf, "%s", s);
+    snprintf(buf, sizeof buf, "%s", v[0]);
     int k = 0;
     for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-        if (k >= 3 || !cli_parse_float("simulate", opt, tok, -1e6, 1e6, &out[k])) return 0;
-    if (k != 3) {
-        cli_usage("simulate", "%s expects X,Y,Z, got '%s'", opt, s);
-        return 0;
-    }
-    return 1;
+        if (k >= 3 || !cli_parse_float(cmd, opt, tok, -1e6, 1e6, &out[k])) return CLI_USAGE;
+    if (k != 3) return cli_usage(cmd, "%s expects X,Y,Z, got '%s'", opt, v[0]);
+    return CLI_OK;
 }
 
 static int parse(int argc, char **argv, sim_opts *o) {
-    cli_args a = cli_args_make(argc, argv);
-    const char *v;
-    const struct {
-        const char *name;
-        const char **field;
-    } strs[] = {{"--garment", &o->garment},      {"--object", &o->object},
-                {"--body-mesh", &o->body_mesh},  {"--body", &o->body},
-                {"--material", &o->material},    {"--material-json", &o->material_json},
-                {"-o", &o->out},                 {"--output", &o->out}};
-    while (!cli_args_done(&a)) {
-        const char *opt = cli_args_next(&a);
-        int matched = 0;
-        for (size_t i = 0; i < sizeof strs / sizeof strs[0]; i++)
-            if (strcmp(opt, strs[i].name) == 0) {
-                if (!(*strs[i].field = cli_args_value(&a, opt))) return CLI_USAGE;
-                matched = 1;
-            }
-        if (matched) continue;
-        if (strcmp(opt, "--frames") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 100000000, &o->frames))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--substeps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 4096, &o->substeps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--max-collider-step") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("simulate", opt, v, 0, 1000, &o->max_collider_step))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--newton-iterations") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_int("simulate", opt, v, 1, 1000, &o->newton_iterations))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--fps") == 0) {
-            if (!(v = cli_args_value(&a, opt)) ||
-                !cli_parse_float("simulate", opt, v, 0.01, 100000, &o->fps))
-                return CLI_USAGE;
-        } else if (strcmp(opt, "--pin") == 0) {
-            if (!(v = cli_args_value(&a, opt))) return CLI_USAGE;
-            int rc = parse_pins(v, o);
-            if (rc != CLI_OK) return rc;
-        } else if (strcmp(opt, "--garment-offset") == 0) {
-            if (!(v = cli_args_value(&a, opt)) || !parse_vec3(opt, v, o->offset)) return CLI_USAGE;
-            o->has_offset = 1;
-        } else if (strcmp(opt, "--plastic") == 0) {
-            o->plastic = 1;
-        } else if (strcmp(opt, "--quiet") == 0) {
-            o->quiet = 1;
-        } else if (strcmp(opt, "--json") == 0) {
-            o->json = 1;
-        } else {
-            return cli_usage("simulate", "unknown option '%s'", opt);
-        }
-    }
+    int npos = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--garment", &o->garment),
+        CLI_STR("--object", &o->object),
+        CLI_STR("--body-mesh", &o->body_mesh),
+        CLI_STR("--body", &o->body),
+        CLI_STR("--material", &o->material),
+        CLI_STR("--material-json", &o->material_json),
+        CLI_OUTPUT(&o->out),
+        CLI_INT("--frames", &o->frames, 1, 100000000),
+        CLI_INT("--substeps", &o->substeps, 1, 4096),
+        CLI_FLOAT("--max-collider-step", &o->max_collider_step, 0, 1000),
+        CLI_INT("--newton-iterations", &o->newton_iterations, 1, 1000),
+        CLI_FLOAT("--fps", &o->fps, 0.01, 100000),
+        CLI_CUSTOM("--pin", parse_pins, o, 1),
+        {.name = "--garment-offset",
+         .kind = CLI_OPT_CUSTOM,
+         .fn = parse_vec3,
+         .dst = o->offset,
+         .seen = &o->has_offset},
+        CLI_FLAG("--plastic", &o->plastic),
+        CLI_FLAG("--quiet", &o->quiet),
+        CLI_FLAG("--json", &o->json),
+        CLI_END,
+    };
+    int rc = cli_parse("simulate", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
@@ -252,7 +226,8 @@ int cmd_simulate(int argc, char **argv) {
     cr_progress_end(&bar);
     int diverged = rep.diverged;
     if (diverged)
-        fprintf(stderr, "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
+        fprintf(stderr,
+                "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
                 done + 1, rep.failure, done);
 
     char pc2[1200], glb[1200], png[1200], log[1200];

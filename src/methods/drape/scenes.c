@@ -2,7 +2,7 @@
  * names, defaults, validation, the objects, the rest cloth, and the mesh
  * variants' elements and rescaled weights.
  *
- * Objects have the sizes of the physics scenes (phys_scene.h), so a drape is
+ * Objects have the sizes of the physics scenes (scene.h), so a drape is
  * comparable with `crease drape-static`, but a finer tessellation: eq. 26
  * reads the nearest object vertex and its normal, so vertex spacing bounds
  * how well the cloth can rest on the surface (Table 4: 25,000 to 41,000
@@ -16,8 +16,8 @@
 
 #include "crease/diffgeo.h"
 #include "crease/mesh_io.h"
-#include "crease/phys_scene.h"
 #include "crease/primitives.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -25,7 +25,7 @@
 
 static const uint32_t DRAPE_DEF_COOKIE = 0x44525045u; /* "DRPE" */
 
-/* Object sizes, m: those of phys_scene.h's sphere, torus, prism and box. */
+/* Object sizes, m: those of scene.h's sphere, torus, prism and box. */
 #define BALL_RADIUS 0.3f
 #define TORUS_MAJOR 0.3f
 #define TORUS_MINOR 0.1f

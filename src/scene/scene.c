@@ -8,7 +8,7 @@
  * The scene sizes follow the Blender peer harness (shared/peers/blender_drape.py)
  * so that the two simulate the same thing.
  */
-#include "crease/phys_scene.h"
+#include "crease/scene.h"
 #include "crease/primitives.h"
 #include "crease/render.h"
 
@@ -30,7 +30,8 @@
 cr_status cr_scene_object_create(const char *spec, cr_mesh **out, cr_error *err) {
     *out = NULL;
     if (strcmp(spec, "sphere") == 0) return cr_prim_sphere_uv(SPHERE_RADIUS, 64, 32, out, err);
-    if (strcmp(spec, "torus") == 0) return cr_prim_torus(TORUS_MAJOR, TORUS_MINOR, 64, 32, out, err);
+    if (strcmp(spec, "torus") == 0)
+        return cr_prim_torus(TORUS_MAJOR, TORUS_MINOR, 64, 32, out, err);
     if (strcmp(spec, "prism") == 0) return cr_prim_prism(PRISM_SIDE, PRISM_LENGTH, out, err);
     if (strcmp(spec, "box") == 0) return cr_prim_box(BOX_EDGE, BOX_EDGE, BOX_EDGE, 8, out, err);
     return cr_mesh_read(spec, out, err);
@@ -169,7 +170,7 @@ cr_status cr_scene_render(const char *png_path, const cr_mesh *garment, const fl
 struct cr_scene_record {
     const cr_mesh *garment; /* borrowed */
     int32_t nsamples, cap;
-    float *samples;         /* (cap, V, 3) garment positions, m */
+    float *samples; /* (cap, V, 3) garment positions, m */
     FILE *log;
     char log_path[1024];
 };
@@ -209,8 +210,10 @@ void cr_scene_record_destroy(cr_scene_record *r) {
 
 /* JSON numbers must be finite: a non-finite value (a diverged frame's) becomes null. */
 static void add_number(cJSON *o, const char *key, double v) {
-    if (isfinite(v)) cJSON_AddNumberToObject(o, key, v);
-    else cJSON_AddNullToObject(o, key);
+    if (isfinite(v))
+        cJSON_AddNumberToObject(o, key, v);
+    else
+        cJSON_AddNullToObject(o, key);
 }
 
 cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_sim_report *rep,
@@ -219,7 +222,8 @@ cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_
     if (!o) return CR_FAIL(err, CR_ERR_MEMORY, "out of memory writing %s", r->log_path);
     /* A diverged frame did not complete: it is the one after the last good frame. */
     cJSON_AddNumberToObject(o, "frame", (double)(rep->diverged ? rep->frame + 1 : rep->frame));
-    for (int t = 0; t < rep->nterms; t++) add_number(o, rep->term_name[t], rep->term_energy[t]);
+    for (int t = 0; t < rep->nterms; t++)
+        add_number(o, rep->term_name[t], rep->term_energy[t]);
     add_number(o, "kinetic", rep->kinetic_energy);
     add_number(o, "max_penetration_m", rep->max_penetration_m);
     cJSON_AddNumberToObject(o, "newton_iterations", rep->newton_iterations);

@@ -10,8 +10,8 @@
 #include "dataset_internal.h"
 
 #include "crease/bvh.h"
-#include "crease/phys_scene.h"
 #include "crease/phys_sim.h"
+#include "crease/scene.h"
 #include "crease/topology.h"
 
 #include <cjson/cJSON.h>

@@ -1,4 +1,4 @@
-/* crease/phys_scene.h: scenes and outputs around the simulator, shared by
+/* crease/scene.h: scenes and outputs around the simulator, shared by
  * `crease simulate`, `crease drape-static` and the benchmarks.
  *
  *   cr_mesh *obj = NULL;
@@ -13,8 +13,8 @@
  * streaming of the sequence (samples are held in memory, (T,V,3) floats, and
  * written at the end).
  */
-#ifndef CREASE_PHYS_SCENE_H
-#define CREASE_PHYS_SCENE_H
+#ifndef CREASE_SCENE_H
+#define CREASE_SCENE_H
 
 #include "crease/mesh_io.h"
 #include "crease/phys_sim.h"
