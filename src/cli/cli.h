@@ -169,6 +169,11 @@ cli_motion_file cli_motion_file_default(float ease_in);
 struct cr_motion;
 struct cr_body_model;
 struct cr_motion_prepare_report;
+struct cr_motion_import_def;
+struct cr_motion_prepare_def;
+/* The library's defs for these options (what cli_motion_file_load uses). */
+void cli_motion_file_defs(const cli_motion_file *mf, struct cr_motion_import_def *imp,
+                          struct cr_motion_prepare_def *pd);
 /* b: the body grounded on (NULL: the default mannequin); rep may be NULL. */
 cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf,
                                const struct cr_body_model *b, struct cr_motion **out,

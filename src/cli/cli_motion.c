@@ -16,23 +16,30 @@ cli_motion_file cli_motion_file_default(float ease_in) {
     return mf;
 }
 
+void cli_motion_file_defs(const cli_motion_file *mf, cr_motion_import_def *imp,
+                          cr_motion_prepare_def *pd) {
+    *imp = cr_motion_import_default_def();
+    imp->bvh_scale = mf->scale;
+    imp->recenter = !mf->no_recenter;
+    *pd = cr_motion_prepare_default_def();
+    pd->fps = mf->fps;
+    pd->start_frame = mf->start_frame;
+    pd->end_frame = mf->end_frame;
+    pd->drop_calibration = !mf->start_set;
+    pd->ease_in_s = mf->ease_in;
+    pd->ground = !strcmp(mf->ground, "clip")    ? CR_MOTION_GROUND_CLIP
+                 : !strcmp(mf->ground, "frame") ? CR_MOTION_GROUND_FRAME
+                                                : CR_MOTION_GROUND_NONE;
+}
+
 cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf, const cr_body_model *b,
                                cr_motion **out, cr_motion_prepare_report *rep, cr_error *err) {
     *out = NULL;
-    cr_motion_import_def imp = cr_motion_import_default_def();
-    imp.bvh_scale = mf->scale;
-    imp.recenter = !mf->no_recenter;
+    cr_motion_import_def imp;
+    cr_motion_prepare_def pd;
+    cli_motion_file_defs(mf, &imp, &pd);
     cr_motion *m = NULL;
     CR_TRY(cr_motion_import(path, &imp, &m, err));
-    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
-    pd.fps = mf->fps;
-    pd.start_frame = mf->start_frame;
-    pd.end_frame = mf->end_frame;
-    pd.drop_calibration = !mf->start_set;
-    pd.ease_in_s = mf->ease_in;
-    pd.ground = !strcmp(mf->ground, "clip")    ? CR_MOTION_GROUND_CLIP
-                : !strcmp(mf->ground, "frame") ? CR_MOTION_GROUND_FRAME
-                                               : CR_MOTION_GROUND_NONE;
     cr_status st = cr_motion_prepare(m, &pd, b, out, rep, err);
     cr_motion_destroy(m);
     return st;
