@@ -156,6 +156,12 @@ check "bvh source rate" grep -q '"source_fps":25,' "$tmp/turn50.json"
 check "bvh frame range" bash -c "'$crease' motion --input '$tmp/turn.bvh' --start-frame 1 --end-frame 2 --json | grep -q '\"frames\":2,'"
 expect_exit 1 "frames 0 to 2" motion --input "$tmp/turn.bvh" --start-frame 5
 expect_exit 2 "read a file" motion --clip walk --scale 2 -o "$tmp/x.npz"
+# simulate on a motion file: the mannequin posed by it, eased in from the rest pose
+"$crease" garment --type tshirt --res 500 -o "$tmp/shirt.obj" >/dev/null 2>&1
+check "simulate --motion" bash -c "'$crease' simulate --garment '$tmp/shirt.obj' --motion '$tmp/turn.bvh' \
+  --ease-in 0.1 --frames 2 --quiet -o '$tmp/sim' --json | grep -q '\"frames\":2,'"
+expect_exit 2 "--motion poses the mannequin" simulate --garment "$tmp/shirt.obj" \
+  --motion "$tmp/turn.bvh" --object sphere --frames 2 -o "$tmp/sim"
 check "bvh npz back" bash -c "'$crease' motion --input '$tmp/turn.npz' --json | grep -q '\"frames\":3,'"
 
 # --- bad input and usage ------------------------------------------------------------------

@@ -3,6 +3,8 @@
  * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
  * scene and output code is in scene.h; this file parses and reports. */
 #include "cli.h"
+#include "crease/body.h"
+#include "crease/motion.h"
 #include "crease/scene.h"
 
 #include <stdlib.h>
@@ -11,7 +13,8 @@
 enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 
 void help_simulate(void) {
-    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2)\n"
+    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
+           "                       --motion FILE)\n"
            "                       --frames N -o DIR [options]\n\n"
            "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
            "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
@@ -23,6 +26,11 @@ void help_simulate(void) {
            "  --body-mesh B        body mesh: the collider's faces\n"
            "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
            "                       f+1, held at the last); vertex count must match the collider\n"
+           "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
+           "                       resampled to --fps, starting at the rest pose (where\n"
+           "                       garments are fitted) and easing in; with --scale,\n"
+           "                       --start-frame, --end-frame, --ease-in S (default 1) and\n"
+           "                       --ground as in pose-body\n"
            "  --frames N           frames to simulate (required, >= 1)\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --material-json F    override material fields from a JSON object\n"
@@ -44,7 +52,8 @@ void help_simulate(void) {
 }
 
 typedef struct {
-    const char *garment, *object, *body_mesh, *body, *material, *material_json, *out;
+    const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
+    cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
     int32_t *pins;
@@ -95,6 +104,8 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_STR("--object", &o->object),
         CLI_STR("--body-mesh", &o->body_mesh),
         CLI_STR("--body", &o->body),
+        CLI_STR("--motion", &o->motion),
+        CLI_MOTION_FILE_OPTS(&o->mf),
         CLI_STR("--material", &o->material),
         CLI_STR("--material-json", &o->material_json),
         CLI_OUTPUT(&o->out),
@@ -119,6 +130,9 @@ static int parse(int argc, char **argv, sim_opts *o) {
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
+    if (o->motion && (o->object || o->body_mesh || o->body))
+        return cli_usage("simulate",
+                         "--motion poses the mannequin: no --object, --body-mesh, --body");
     if (o->object && o->body_mesh)
         return cli_usage("simulate", "give --object or --body-mesh, not both");
     if (o->body && !o->object && !o->body_mesh)
@@ -145,6 +159,26 @@ static void run_free(sim_run *r, sim_opts *o) {
     free(o->pins);
 }
 
+/* --motion: the mannequin the garments are fitted on, posed by the prepared file (its rate
+ * --fps, starting at the rest pose and easing in) as the collider. */
+static cr_status motion_body(const sim_opts *o, sim_run *r, cr_error *err) {
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cli_motion_file mf = o->mf;
+    mf.fps = o->fps;
+    cr_body_model *b = NULL;
+    cr_motion *m = NULL;
+    cr_status st = cr_mannequin_create(&md, &b, err);
+    if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
+    if (st == CR_OK) st = cr_body_pose_motion(b, m, &r->anim.frames, err);
+    if (st == CR_OK) {
+        r->anim.nv = b->rest->nv, r->anim.nframes = m->nframes;
+        r->collider = b->rest, b->rest = NULL;
+    }
+    cr_motion_destroy(m);
+    cr_body_model_destroy(b);
+    return st;
+}
+
 static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error *err) {
     if (o->material_json) CR_TRY(cr_material_load_json(o->material_json, &def->material, err));
     CR_TRY(cr_mesh_read(o->garment, &r->garment, err));
@@ -155,13 +189,15 @@ static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error 
                          : cr_mesh_read(o->body_mesh, &r->collider, err));
         def->collider = r->collider;
     }
-    if (o->body) {
-        CR_TRY(cr_scene_animation_read(o->body, r->collider, cname, &r->anim, err));
+    if (o->motion) CR_TRY(motion_body(o, r, err));
+    if (o->motion) def->collider = r->collider;
+    if (o->body || o->motion) {
+        if (o->body) CR_TRY(cr_scene_animation_read(o->body, r->collider, cname, &r->anim, err));
         def->collider_frames = r->anim.frames;
         def->collider_nframes = r->anim.nframes;
         if (r->anim.nframes < o->frames + 1)
             cr_log(CR_LOG_WARN, "%s: %d samples for %d frames; the collider holds its last pose",
-                   o->body, r->anim.nframes, o->frames);
+                   o->body ? o->body : o->motion, r->anim.nframes, o->frames);
     }
     def->dt = 1.0 / o->fps;
     if (o->substeps > 0) def->substeps = o->substeps;
@@ -178,7 +214,7 @@ static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error 
 }
 
 int cmd_simulate(int argc, char **argv) {
-    sim_opts o = {.material = "cotton", .fps = 30.0f};
+    sim_opts o = {.material = "cotton", .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
     int rc = parse(argc, argv, &o);
     if (rc != CLI_OK) {
         free(o.pins);
