@@ -13,11 +13,14 @@
  * world: +Y up, the body facing +Z, its left side at +X), and a root
  * translation: the pelvis sits at rest position + trans.
  *
- * Rest poses differ. Procedural clips are written against the procedural
- * mannequin's A-pose (arms 40 degrees below horizontal). AMASS poses are relative
- * to SMPL's T-pose, BVH rotations to the rig's own rest (the OFFSETs,
- * usually a T-pose). cr_motion_rebase re-expresses a motion against another
- * rest pose, e.g. a T-pose motion against the A-pose mannequin.
+ * One rest pose: zero rotations are the default mannequin's A-pose (arms 40
+ * degrees below horizontal) for every motion. Procedural clips and crease's
+ * .npz are written against it; the loaders bring the rest into it (a BVH
+ * retargeted by bone directions from its rig's own rest, AMASS re-expressed
+ * from SMPL's T-pose; cr_motion_import_def.retarget = 0 keeps theirs).
+ * cr_motion_rebase re-expresses a motion against another rest pose (an SMPL
+ * body's T-pose). cr_motion_prepare makes a loaded motion ready to simulate a
+ * garment on: frames used, calibration frame, rate, ground, ease-in.
  *
  * Foreign motions (BVH, AMASS) are brought into crease's frame on loading:
  * Z-up data is turned to Y-up, a rig facing another way is turned to face

@@ -14,9 +14,11 @@
  * "mixamorig:Hips"; lower case; '_', '-', '.' and spaces removed; SMPL FBX's
  * "m_avg_" prefix dropped) and matched against per-rig tables (SMPL, Mixamo,
  * CMU, generic DAZ/Poser); the rig matching the most joints wins. Each SMPL
- * joint takes its rig joint's world rotation, so unmapped joints between two
- * mapped ones (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child
- * below them, and an SMPL joint the rig lacks (a collar) gets the identity.
+ * joint is retargeted by bone directions (see `retarget` below): its bone
+ * points where the rig's bone points, with the rig's twist, whatever rest
+ * the rig was written against. Unmapped joints between two mapped ones
+ * (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child below
+ * them, and an SMPL joint the rig lacks (a collar) moves with its parent.
  * Joints below the mapped ones (fingers, toe ends) are dropped, and so are
  * translations of joints other than the pelvis.
  *
@@ -28,8 +30,8 @@
  * scaled to a 1.65 m joint height with a warning. The rest pelvis is taken to
  * stand with the rig's lowest rest joint on the ground, so the translation is
  * the pelvis's displacement from there; with `recenter` frame 0 is then moved
- * to x = z = 0 facing +Z. Rotations are relative to the rig's rest pose
- * (usually a T-pose): see cr_motion_rebase for an A-pose body.
+ * to x = z = 0 facing +Z. Known rigs' units come first (cgspeed's CMU
+ * conversion: 0.056444 m; Mixamo: cm).
  *
  * References: Meredith and Maddock 2001, "Motion capture file formats
  * explained" (BVH); Blender's io_anim_bvh importer (channel order and
