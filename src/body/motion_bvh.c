@@ -611,7 +611,7 @@ static void shortest_arc(const double a[3], const double b[3], double q[4]) {
 
 static int unit3(const double v[3], double out[3], double eps) {
     double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(n > eps)) return 0;
+    if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
     for (int k = 0; k < 3; k++)
         out[k] = v[k] / n;
     return 1;
