@@ -11,26 +11,33 @@
  *           swinging about the top like a leg (0.15 rad at 0.8 Hz) and
  *           pushing the cloth around.
  * The first frames of a scene include its setup transient; the split is
- * summed over all frames. Threads: all, or the second argument.
+ * summed over the frames finished (cr_scene_run, the loop `crease simulate`
+ * and the datasets use). Threads: all, or the second argument.
  *
  * Usage: bench_sim [scene] [threads] [frames]
  *   scene: all (default), sphere, tube5k, tube10k, tube40k
  *   frames: 30 by default (10 for tube40k)
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
-#include "crease/phys_sim.h"
 #include "crease/primitives.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct scene_stats {
-    double seconds, assembly, factor, solve, collision;
-    int64_t newton, factorisations, frames, backoffs, capped;
-    double max_pen;
-    int diverged;
-} scene_stats;
+/* Long runs (the 1,500-frame tube) show progress every 100 frames. */
+static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
+                          const cr_scene_run_stats *st, cr_error *err) {
+    (void)sim, (void)rep, (void)err;
+    if (st->frames % 100 == 0) {
+        printf("sim %s: frame %d, %.3f s/frame so far, max penetration %.2f mm\n",
+               (const char *)ctx, st->frames, st->seconds / st->frames,
+               1e3 * st->max_penetration_m);
+        fflush(stdout);
+    }
+    return CR_OK;
+}
 
 static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, int frames) {
     cr_error err = {0};
@@ -41,44 +48,28 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
         return 1;
     }
     double setup = cr_time_now() - t0;
-    scene_stats st = {0};
-    for (int f = 0; f < frames; f++) {
-        cr_sim_report rep;
-        cr_status status = cr_sim_step(s, &rep, &err);
-        st.seconds += rep.seconds, st.assembly += rep.seconds_assembly;
-        st.factor += rep.seconds_factor, st.solve += rep.seconds_solve;
-        st.collision += rep.seconds_collision;
-        st.newton += rep.newton_iterations, st.factorisations += rep.factorisations;
-
-        st.backoffs += rep.backoffs, st.capped += rep.newton_capped;
-        st.max_pen = fmax(st.max_pen, rep.max_penetration_m);
-        st.frames++;
-        if ((f + 1) % 100 == 0) { /* long runs (the 1,500-frame tube) show progress */
-            printf("sim %s: frame %d, %.3f s/frame so far, max penetration %.2f mm\n", name, f + 1,
-                   st.seconds / st.frames, 1e3 * st.max_pen);
-            fflush(stdout);
-        }
-        if (status != CR_OK) {
-            st.diverged = 1;
-            printf("sim %s: stopped at frame %d: %s\n", name, f, err.msg);
-            break;
-        }
-    }
-    double n = (double)st.frames, tot = st.seconds > 0 ? st.seconds : 1;
-    printf("sim %s V=%d: %.3f s/frame over %lld frames (setup %.2f s)\n", name, garment->nv,
-           st.seconds / n, (long long)st.frames, setup);
+    cr_scene_run_stats st;
+    cr_status status = cr_scene_run(s, frames, NULL, progress, (void *)name, &st, &err);
+    int stopped = status != CR_OK;
+    if (stopped) printf("sim %s: stopped at frame %d: %s\n", name, st.frames, err.msg);
+    double n = st.frames > 0 ? (double)st.frames : 1.0, tot = st.seconds > 0 ? st.seconds : 1;
+    printf("sim %s V=%d: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
+           st.seconds / n, st.frames, setup);
     printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
            "%.0f%%, other %.0f%%\n",
-           name, 100 * st.assembly / tot, 100 * st.factor / tot, 100 * st.solve / tot,
-           100 * st.collision / tot,
-           100 * (tot - st.assembly - st.factor - st.solve - st.collision) / tot);
+           name, 100 * st.seconds_assembly / tot, 100 * st.seconds_factor / tot,
+           100 * st.seconds_solve / tot, 100 * st.seconds_collision / tot,
+           100 *
+               (tot - st.seconds_assembly - st.seconds_factor - st.seconds_solve -
+                st.seconds_collision) /
+               tot);
     printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
            "%lld backoffs, max penetration before projection %.2f mm, %s\n",
-           name, st.newton / n, st.factorisations / n, (long long)st.capped, (long long)st.backoffs,
-           1e3 * st.max_pen, st.diverged ? "DIVERGED" : "no divergence");
+           name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.backoffs,
+           1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
     cr_sim_destroy(s);
-    return st.diverged;
+    return stopped;
 }
 
 static int bench_sphere(int frames) {
@@ -160,7 +151,6 @@ int main(int argc, char **argv) {
     if (all || !strcmp(which, "sphere")) rc |= bench_sphere(frames);
     if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
     if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
-    if (all || !strcmp(which, "tube40k"))
-        rc |= bench_tube("tube40k", 200, 199, big); /* 40,000 */
+    if (all || !strcmp(which, "tube40k")) rc |= bench_tube("tube40k", 200, 199, big);   /* 40,000 */
     return rc;
 }

@@ -1,9 +1,10 @@
 /* cmd_simulate.c: `crease simulate`: run the reference cloth simulator on a
  * garment against a static object or an animated body, writing the sequence
- * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
- * scene and output code is in scene.h; this file parses and reports. */
+ * (PC2, glb), a per-frame JSON lines log and a picture of the last frame:
+ * parse, one library call (cr_scene_simulate, crease/scene.h), report. */
 #include "cli.h"
 #include "crease/body.h"
+#include "crease/mesh_io.h"
 #include "crease/motion.h"
 #include "crease/scene.h"
 
@@ -28,9 +29,9 @@ void help_simulate(void) {
            "                       f+1, held at the last); vertex count must match the collider\n"
            "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
            "                       resampled to --fps, starting at the rest pose (where\n"
-           "                       garments are fitted) and easing in; with --scale,\n"
-           "                       --start-frame, --end-frame, --ease-in S (default 1) and\n"
-           "                       --ground as in pose-body\n"
+           "                       garments are fitted) and easing in, written as DIR/body.obj\n"
+           "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
+           "                       --ease-in S (default 1) and --ground as in pose-body\n"
            "  --frames N           frames to simulate (required, >= 1)\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --material-json F    override material fields from a JSON object\n"
@@ -142,177 +143,95 @@ static int parse(int argc, char **argv, sim_opts *o) {
     return CLI_OK;
 }
 
-/* Everything a run holds, released together. */
-typedef struct {
-    cr_mesh *garment, *collider;
-    cr_pc2 anim;
-    cr_sim *sim;
-    cr_scene_record *rec;
-} sim_run;
-
-static void run_free(sim_run *r, sim_opts *o) {
-    cr_scene_record_destroy(r->rec);
-    cr_sim_destroy(r->sim);
-    cr_pc2_free(&r->anim);
-    cr_mesh_destroy(r->collider);
-    cr_mesh_destroy(r->garment);
-    free(o->pins);
-}
-
-/* --motion: the mannequin the garments are fitted on, posed by the prepared file (its rate
- * --fps, starting at the rest pose and easing in) as the collider. */
-static cr_status motion_body(const sim_opts *o, sim_run *r, cr_error *err) {
+/* --motion: the mannequin the garments are fitted on, posed by the prepared file (at --fps,
+ * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
+ * collider, and the body beside the garment for rendering. */
+static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap, cr_error *err) {
     cr_mannequin_def md = cr_mannequin_default_def();
     cli_motion_file mf = o->mf;
     mf.fps = o->fps;
+    snprintf(mesh, cap, "%s/body.obj", o->out);
+    snprintf(pc2, cap, "%s/body.pc2", o->out);
     cr_body_model *b = NULL;
     cr_motion *m = NULL;
-    cr_status st = cr_mannequin_create(&md, &b, err);
+    float *frames = NULL;
+    cr_status st = cr_mkdir_p(o->out, err);
+    if (st == CR_OK) st = cr_mannequin_create(&md, &b, err);
     if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
-    if (st == CR_OK) st = cr_body_pose_motion(b, m, &r->anim.frames, err);
-    if (st == CR_OK) {
-        r->anim.nv = b->rest->nv, r->anim.nframes = m->nframes;
-        r->collider = b->rest, b->rest = NULL;
-    }
+    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, err);
+    if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
+    if (st == CR_OK) st = cr_pc2_write(pc2, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, err);
+    free(frames);
     cr_motion_destroy(m);
     cr_body_model_destroy(b);
     return st;
 }
 
-static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error *err) {
-    if (o->material_json) CR_TRY(cr_material_load_json(o->material_json, &def->material, err));
-    CR_TRY(cr_mesh_read(o->garment, &r->garment, err));
-    if (o->has_offset) cr_mesh_transform(r->garment, 1.0f, o->offset);
-    const char *cname = o->object ? o->object : o->body_mesh;
-    if (cname) {
-        CR_TRY(o->object ? cr_scene_object_create(o->object, &r->collider, err)
-                         : cr_mesh_read(o->body_mesh, &r->collider, err));
-        def->collider = r->collider;
-    }
-    if (o->motion) CR_TRY(motion_body(o, r, err));
-    if (o->motion) def->collider = r->collider;
-    if (o->body || o->motion) {
-        if (o->body) CR_TRY(cr_scene_animation_read(o->body, r->collider, cname, &r->anim, err));
-        def->collider_frames = r->anim.frames;
-        def->collider_nframes = r->anim.nframes;
-        if (r->anim.nframes < o->frames + 1)
-            cr_log(CR_LOG_WARN, "%s: %d samples for %d frames; the collider holds its last pose",
-                   o->body ? o->body : o->motion, r->anim.nframes, o->frames);
-    }
-    def->dt = 1.0 / o->fps;
-    if (o->substeps > 0) def->substeps = o->substeps;
-    def->max_collider_step = o->max_collider_step;
-    if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
-    def->plasticity = o->plastic;
-    def->pinned = o->pins;
-    def->npinned = o->npins;
-    CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
-    CR_TRY(cr_mkdir_p(o->out, err));
-    char path[1200];
-    snprintf(path, sizeof path, "%s/frames.jsonl", o->out);
-    return cr_scene_record_create(path, r->sim, r->garment, o->frames + 1, &r->rec, err);
-}
-
 int cmd_simulate(int argc, char **argv) {
     sim_opts o = {.material = "cotton", .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
     int rc = parse(argc, argv, &o);
+    cr_error err = {0};
+    cr_material material;
+    if (rc == CLI_OK && cr_material_preset(o.material, &material, &err) != CR_OK)
+        rc = cli_usage("simulate", "%s", err.msg);
     if (rc != CLI_OK) {
         free(o.pins);
         return rc;
     }
-    cr_error err = {0};
-    cr_sim_def def = cr_sim_default_def();
-    if (cr_material_preset(o.material, &def.material, &err) != CR_OK) {
-        free(o.pins);
-        return cli_usage("simulate", "%s", err.msg);
-    }
-    sim_run r = {0};
-    if (setup(&o, &r, &def, &err) != CR_OK) {
-        run_free(&r, &o);
-        return cli_fail(&err);
-    }
-
-    cr_progress bar;
-    cr_progress_begin(&bar, "simulate", o.frames, o.quiet);
-    cr_sim_report rep = {0};
-    double max_pen = 0.0, seconds = 0.0, split[4] = {0};
-    long long newton = 0;
-    int done = 0, backoffs = 0;
+    cr_scene_sim_def def = cr_scene_sim_default_def();
+    def.garment = o.garment, def.garment_offset = o.has_offset ? o.offset : NULL;
+    def.object = o.object, def.body_mesh = o.body_mesh, def.body = o.body;
+    def.material = o.material, def.material_json = o.material_json;
+    def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
+    def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
+    def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
+    def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
+    char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;
-    cr_error sim_err = {0};
-    while (done < o.frames) {
-        cr_status step = cr_sim_step(r.sim, &rep, &sim_err);
-        if (step != CR_OK && step != CR_ERR_DIVERGED) {
-            st = step;
-            err = sim_err;
-            break;
-        }
-        st = cr_scene_record_frame(r.rec, r.sim, &rep, &err);
-        if (step == CR_ERR_DIVERGED || st != CR_OK) break;
-        done++;
-        if (rep.max_penetration_m > max_pen) max_pen = rep.max_penetration_m;
-        seconds += rep.seconds;
-        split[0] += rep.seconds_assembly, split[1] += rep.seconds_factor;
-        split[2] += rep.seconds_solve, split[3] += rep.seconds_collision;
-        newton += rep.newton_iterations;
-        backoffs += rep.backoffs;
-        cr_progress_update(&bar, done, "%d Newton its, %.2f mm deepest", rep.newton_iterations,
-                           1e3 * rep.max_penetration_m);
-    }
-    cr_progress_end(&bar);
-    int diverged = rep.diverged;
-    if (diverged)
+    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &err);
+    if (o.motion) def.body_mesh = body_mesh, def.body = body_pc2;
+    cr_scene_sim_result r;
+    if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);
+    free(o.pins);
+    if (st != CR_OK) return cli_fail(&err);
+
+    const cr_scene_run_stats *run = &r.run;
+    int done = run->frames;
+    double per_frame = done ? run->seconds / done : 0.0;
+    if (run->diverged)
         fprintf(stderr,
                 "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
-                done + 1, rep.failure, done);
-
-    char pc2[1200], glb[1200], png[1200], log[1200];
-    snprintf(pc2, sizeof pc2, "%s/sim.pc2", o.out);
-    snprintf(glb, sizeof glb, "%s/sim.glb", o.out);
-    snprintf(png, sizeof png, "%s/last.png", o.out);
-    snprintf(log, sizeof log, "%s/frames.jsonl", o.out);
-    if (st == CR_OK) st = cr_scene_record_write(r.rec, pc2, glb, o.fps, &err);
-    if (st == CR_OK) {
-        const float *cpos = NULL;
-        if (r.anim.frames) {
-            int32_t k = done < r.anim.nframes - 1 ? done : r.anim.nframes - 1;
-            cpos = r.anim.frames + (size_t)k * (size_t)r.anim.nv * 3;
-        }
-        st = cr_scene_render(png, r.garment, cr_scene_record_last(r.rec), r.collider, cpos,
-                             RENDER_SIZE, &err);
-    }
-    if (st == CR_OK && !o.quiet)
+                done + 1, run->failure, done);
+    if (!o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
-                done, r.garment->nv, done ? seconds / done : 0.0, 1e3 * max_pen);
-    if (st == CR_OK && o.json) {
+                done, r.vertices, per_frame, 1e3 * run->max_penetration_m);
+    if (o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "simulate");
         cJSON_AddNumberToObject(j, "frames", done);
         cJSON_AddNumberToObject(j, "frames_requested", o.frames);
-        cJSON_AddBoolToObject(j, "diverged", diverged);
-        if (diverged) {
+        cJSON_AddBoolToObject(j, "diverged", run->diverged);
+        if (run->diverged) {
             cJSON_AddNumberToObject(j, "diverged_frame", done + 1);
-            cJSON_AddStringToObject(j, "failure", rep.failure);
+            cJSON_AddStringToObject(j, "failure", run->failure);
         }
-        cJSON_AddNumberToObject(j, "vertices", r.garment->nv);
-        cJSON_AddStringToObject(j, "material", def.material.name);
-        cJSON_AddNumberToObject(j, "max_penetration_m", max_pen);
-        cJSON_AddNumberToObject(j, "seconds_per_frame", done ? seconds / done : 0.0);
-        cJSON_AddNumberToObject(j, "seconds_assembly", split[0]);
-        cJSON_AddNumberToObject(j, "seconds_factor", split[1]);
-        cJSON_AddNumberToObject(j, "seconds_solve", split[2]);
-        cJSON_AddNumberToObject(j, "seconds_collision", split[3]);
-        cJSON_AddNumberToObject(j, "newton_iterations", (double)newton);
-        cJSON_AddNumberToObject(j, "backoffs", backoffs);
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddStringToObject(j, "material", r.material);
+        cJSON_AddNumberToObject(j, "max_penetration_m", run->max_penetration_m);
+        cJSON_AddNumberToObject(j, "seconds_per_frame", per_frame);
+        cJSON_AddNumberToObject(j, "seconds_assembly", run->seconds_assembly);
+        cJSON_AddNumberToObject(j, "seconds_factor", run->seconds_factor);
+        cJSON_AddNumberToObject(j, "seconds_solve", run->seconds_solve);
+        cJSON_AddNumberToObject(j, "seconds_collision", run->seconds_collision);
+        cJSON_AddNumberToObject(j, "newton_iterations", (double)run->newton_iterations);
+        cJSON_AddNumberToObject(j, "backoffs", (double)run->backoffs);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cJSON *out = cJSON_AddObjectToObject(j, "outputs");
-        cJSON_AddStringToObject(out, "pc2", pc2);
-        cJSON_AddStringToObject(out, "glb", glb);
-        cJSON_AddStringToObject(out, "log", log);
-        cJSON_AddStringToObject(out, "png", png);
+        cJSON_AddStringToObject(out, "pc2", r.pc2);
+        cJSON_AddStringToObject(out, "glb", r.glb);
+        cJSON_AddStringToObject(out, "log", r.log);
+        cJSON_AddStringToObject(out, "png", r.png);
         cli_json_print(j);
     }
-    run_free(&r, &o);
-    if (st != CR_OK) return cli_fail(&err);
-    return diverged ? CLI_BAD_INPUT : CLI_OK;
+    return run->diverged ? CLI_BAD_INPUT : CLI_OK;
 }
