@@ -4,6 +4,7 @@
  * values, grounding on the feet, the calibration frame and the ease-in. */
 #include "crease/body.h"
 #include "crease/motion.h"
+#include "crease/npz.h"
 #include "test.h"
 
 #include <math.h>
@@ -568,4 +569,56 @@ CR_TEST(mocap, feet_touch_the_ground_and_a_calibration_start_eases_in) {
     cr_motion_destroy(p);
     cr_motion_destroy(m);
     cr_body_model_destroy(body);
+}
+
+/* ------------------------------------------------ one rest, speed check -- */
+
+CR_TEST(mocap, every_format_comes_out_against_the_one_rest_and_fast_joints_are_named) {
+    cr_error err = {0};
+    /* An AMASS file at SMPL's T-pose (all zero poses, Z-up, no up_axis). */
+    enum { T = 4 };
+    static double poses[T][72], trans[T][3];
+    for (int f = 0; f < T; f++)
+        poses[f][0] = M_PI / 2; /* standing up in a Z-up world */
+    double fps = 60;
+    int64_t sp[2] = {T, 72}, st[2] = {T, 3};
+    char path[512];
+    snprintf(path, sizeof path, "%s/tpose_amass.npz", cr_test_tmpdir());
+    cr_npz_writer *w = NULL;
+    CR_CHECK_OK(cr_npz_writer_open(path, 0, &w, &err), &err);
+    CR_REQUIRE(w);
+    CR_CHECK_OK(cr_npz_writer_add(w, "poses", CR_NPY_F64, 2, sp, poses, &err), &err);
+    CR_CHECK_OK(cr_npz_writer_add(w, "trans", CR_NPY_F64, 2, st, trans, &err), &err);
+    CR_CHECK_OK(cr_npz_writer_add(w, "mocap_framerate", CR_NPY_F64, 0, NULL, &fps, &err), &err);
+    CR_CHECK_OK(cr_npz_writer_commit(w, &err), &err);
+    cr_motion *m = NULL;
+    CR_CHECK_OK(cr_motion_load(path, &m, &err), &err);
+    CR_REQUIRE(m);
+    /* Against the A-pose, SMPL's T-pose is each arm raised 40 degrees about Z. */
+    double a = cr_mannequin_default_def().arm_angle_deg * M_PI / 180;
+    const float *ls = m->poses + 3 * CR_JOINT_LEFT_SHOULDER,
+                *rs = m->poses + 3 * CR_JOINT_RIGHT_SHOULDER;
+    CR_CHECK_NEAR(ls[2], a, 1e-5);
+    CR_CHECK_NEAR(rs[2], -a, 1e-5);
+    CR_CHECK(fabsf(ls[0]) < 1e-6f && fabsf(ls[1]) < 1e-6f);
+    cr_motion_destroy(m);
+    /* A glitch: the left elbow turns 1.5 rad in one frame at 30 fps (45 rad/s). */
+    CR_CHECK_OK(cr_motion_create(20, 30.0f, &m, &err), &err);
+    CR_REQUIRE(m);
+    for (int f = 10; f < 20; f++)
+        m->poses[(size_t)f * CR_NJOINTS * 3 + 3 * CR_JOINT_LEFT_ELBOW + 1] = 1.5f;
+    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
+    pd.ease_in_s = 0, pd.ground = CR_MOTION_GROUND_NONE;
+    cr_motion_prepare_report rep;
+    cr_motion *p = NULL;
+    CR_CHECK_OK(cr_motion_prepare(m, &pd, NULL, &p, &rep, &err), &err);
+    CR_CHECK(p && rep.max_speed_joint == CR_JOINT_LEFT_ELBOW && rep.max_speed_frame == 10);
+    CR_CHECK_NEAR(rep.max_angular_speed, 45.0, 1e-3);
+    CR_CHECK(!rep.calibration_dropped); /* the jump is not at frame 0 */
+    cr_motion_destroy(p);
+    /* Frames out of range are refused, naming the range. */
+    pd.start_frame = 25;
+    CR_CHECK(cr_motion_prepare(m, &pd, NULL, &p, &rep, &err) == CR_ERR_RANGE && !p);
+    CR_CHECK(strstr(err.msg, "frames 0 to 19") != NULL);
+    cr_motion_destroy(m);
 }
