@@ -413,6 +413,10 @@ static void build_joints(float *J, const cr_mannequin_def *def) {
     }
 }
 
+void cr_mannequin_rest_joints(const cr_mannequin_def *def, float J[CR_NJOINTS * 3]) {
+    build_joints(J, def);
+}
+
 static void build_torso(torso_profile *t, const cr_mannequin_def *def) {
     for (int i = 0; i < TORSO_KEYS; i++) {
         const float *k = torso_keys[i];

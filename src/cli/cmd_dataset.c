@@ -23,7 +23,17 @@ void help_dataset(void) {
            "  --low-vertices N     vertices of a low-resolution garment (default 2000)\n"
            "  --high-vertices N    vertices of a high-resolution garment (default 8000)\n"
            "  --frames N           frames simulated per sequence (default 150)\n"
-           "  --fps F              frames per second (default 30)\n"
+           "  --fps F              frames per second (default 30); motion files are resampled\n"
+           "                       to it (the manifest gives each motion's source_fps)\n"
+           "  --scale S            metres per BVH unit of the motion files (default: the rig's\n"
+           "                       known unit or inferred from its height)\n"
+           "  --start-frame N, --end-frame N  the frames of each motion file used (default\n"
+           "                       all; a calibration T-pose frame 0 is dropped unless\n"
+           "                       --start-frame is given)\n"
+           "  --ease-in S          motion files start at the rest pose, where garments are\n"
+           "                       fitted, and ease into their first frame over S s (default 1)\n"
+           "  --ground MODE        clip (default), frame or none: motion files grounded on the\n"
+           "                       mannequin's feet\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --plastic            plastic bending (epnet's ground truth)\n"
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
@@ -65,6 +75,7 @@ int cmd_dataset(int argc, char **argv) {
         lists[i].n = 0;
     cr_dataset_def def = cr_dataset_default_def();
     int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
+    cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
     const cli_opt opts[] = {
         CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
@@ -87,11 +98,13 @@ int cmd_dataset(int argc, char **argv) {
         CLI_FLAG("--plastic", &def.plastic),
         CLI_FLAG("--quiet", &def.quiet),
         CLI_FLAG("--json", &json),
+        CLI_MOTION_FILE_OPTS(&mf),
         CLI_END,
     };
     int rc = cli_parse("dataset", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     def.seed = (uint64_t)seed;
+    cli_motion_file_defs(&mf, &def.motion_import, &def.motion_prepare);
     if (step_given) def.max_collider_step = max_step;
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");

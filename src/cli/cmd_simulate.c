@@ -3,6 +3,9 @@
  * (PC2, glb), a per-frame JSON lines log and a picture of the last frame:
  * parse, one library call (cr_scene_simulate, crease/scene.h), report. */
 #include "cli.h"
+#include "crease/body.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
 #include "crease/scene.h"
 
 #include <stdlib.h>
@@ -11,7 +14,8 @@
 enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 
 void help_simulate(void) {
-    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2)\n"
+    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
+           "                       --motion FILE)\n"
            "                       --frames N -o DIR [options]\n\n"
            "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
            "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
@@ -23,6 +27,11 @@ void help_simulate(void) {
            "  --body-mesh B        body mesh: the collider's faces\n"
            "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
            "                       f+1, held at the last); vertex count must match the collider\n"
+           "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
+           "                       resampled to --fps, starting at the rest pose (where\n"
+           "                       garments are fitted) and easing in, written as DIR/body.obj\n"
+           "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
+           "                       --ease-in S (default 1) and --ground as in pose-body\n"
            "  --frames N           frames to simulate (required, >= 1)\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --material-json F    override material fields from a JSON object\n"
@@ -44,7 +53,8 @@ void help_simulate(void) {
 }
 
 typedef struct {
-    const char *garment, *object, *body_mesh, *body, *material, *material_json, *out;
+    const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
+    cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
     int32_t *pins;
@@ -95,6 +105,8 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_STR("--object", &o->object),
         CLI_STR("--body-mesh", &o->body_mesh),
         CLI_STR("--body", &o->body),
+        CLI_STR("--motion", &o->motion),
+        CLI_MOTION_FILE_OPTS(&o->mf),
         CLI_STR("--material", &o->material),
         CLI_STR("--material-json", &o->material_json),
         CLI_OUTPUT(&o->out),
@@ -119,6 +131,9 @@ static int parse(int argc, char **argv, sim_opts *o) {
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
+    if (o->motion && (o->object || o->body_mesh || o->body))
+        return cli_usage("simulate",
+                         "--motion poses the mannequin: no --object, --body-mesh, --body");
     if (o->object && o->body_mesh)
         return cli_usage("simulate", "give --object or --body-mesh, not both");
     if (o->body && !o->object && !o->body_mesh)
@@ -128,8 +143,32 @@ static int parse(int argc, char **argv, sim_opts *o) {
     return CLI_OK;
 }
 
+/* --motion: the mannequin the garments are fitted on, posed by the prepared file (at --fps,
+ * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
+ * collider, and the body beside the garment for rendering. */
+static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap, cr_error *err) {
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cli_motion_file mf = o->mf;
+    mf.fps = o->fps;
+    snprintf(mesh, cap, "%s/body.obj", o->out);
+    snprintf(pc2, cap, "%s/body.pc2", o->out);
+    cr_body_model *b = NULL;
+    cr_motion *m = NULL;
+    float *frames = NULL;
+    cr_status st = cr_mkdir_p(o->out, err);
+    if (st == CR_OK) st = cr_mannequin_create(&md, &b, err);
+    if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
+    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, err);
+    if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
+    if (st == CR_OK) st = cr_pc2_write(pc2, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, err);
+    free(frames);
+    cr_motion_destroy(m);
+    cr_body_model_destroy(b);
+    return st;
+}
+
 int cmd_simulate(int argc, char **argv) {
-    sim_opts o = {.material = "cotton", .fps = 30.0f};
+    sim_opts o = {.material = "cotton", .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
     int rc = parse(argc, argv, &o);
     cr_error err = {0};
     cr_material material;
@@ -147,8 +186,12 @@ int cmd_simulate(int argc, char **argv) {
     def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
+    char body_mesh[1200], body_pc2[1200];
+    cr_status st = CR_OK;
+    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &err);
+    if (o.motion) def.body_mesh = body_mesh, def.body = body_pc2;
     cr_scene_sim_result r;
-    cr_status st = cr_scene_simulate(&def, &r, &err);
+    if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);
     free(o.pins);
     if (st != CR_OK) return cli_fail(&err);
 

@@ -372,6 +372,13 @@ static cJSON *manifest(const dataset *ds) {
         add_path(o, "path", "motions/%s.npz", ds->motion_name[m]);
         cJSON_AddNumberToObject(o, "frames", ds->motion[m]->nframes);
         cJSON_AddNumberToObject(o, "fps", ds->motion[m]->fps);
+        const cr_motion_prepare_report *rep = &ds->motion_rep[m];
+        cJSON_AddNumberToObject(o, "source_fps", rep->source_fps);
+        cJSON_AddNumberToObject(o, "source_frames", rep->source_frames);
+        cJSON_AddNumberToObject(o, "first_frame", rep->first_frame);
+        cJSON_AddNumberToObject(o, "last_frame", rep->last_frame);
+        cJSON_AddBoolToObject(o, "calibration_dropped", rep->calibration_dropped);
+        cJSON_AddNumberToObject(o, "ease_in_frames", rep->ease_frames);
         cJSON_AddItemToArray(motions, o);
     }
     cJSON *garments = cJSON_AddArrayToObject(j, "garments");
