@@ -89,6 +89,16 @@ assert m['normal_angle_deg']['max'] < 0.01 and m['e_norm_deg']['max'] < 0.01, m[
 assert m['be_rad']['max'] < 1e-4 and m['ssim']['min'] > 0.99999
 assert m['col_m']['count'] == 7 and m['collision_ratio']['max'] < 0.05
 "
+check "eval translated: vertex_error.npy (T,V) of 5 cm" python3 -c "
+import json, struct
+d = json.load(open('$tmp/moved.json'))
+b = open(d['outputs']['vertex_error'], 'rb').read()
+n = struct.unpack('<H', b[8:10])[0]
+head = b[10:10 + n].decode()
+assert \"'descr': '<f4'\" in head and '(%d, %d)' % (d['frames'], d['vertices']) in head, head
+v = struct.unpack('<%df' % (d['frames'] * d['vertices']), b[10 + n:])
+assert all(abs(x - 0.05) < 1e-6 for x in v), (min(v), max(v))
+"
 
 # --- bad input: exit 1 naming the files; usage: exit 2 --------------------------------------
 expect_exit 1 "sim10/sim.pc2.*sim/sim.pc2|sim/sim.pc2.*sim10/sim.pc2" eval --pred "$tmp/sim10/sim.pc2" \

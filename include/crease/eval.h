@@ -181,6 +181,7 @@ typedef struct cr_eval_report {
     char summary_json[1100]; /* DIR/summary.json: cr_eval_summary_json's object */
     char plots_dir[1100];    /* DIR/plots: <metric>.png, each metric over the frames */
     char heatmap_png[1100];  /* DIR/heatmap.png: |P_i - R_i| on P at the worst frame */
+    char vertex_error_npy[1100]; /* DIR/vertex_error.npy: (T,V) float32 |P_i - R_i|, m */
     int nplots;
 } cr_eval_report;
 
@@ -191,7 +192,8 @@ typedef struct cr_eval_report {
 char *cr_eval_summary_json(const cr_eval_result *r);
 
 /* Write the report of r into dir (created): the per-frame JSON lines, the
- * summary, a plot of each metric defined somewhere, and the heat map (the
+ * summary, a plot of each metric defined somewhere, the per-vertex error of
+ * every frame (vertex_error.npy, for `crease view --color-by`), and the heat map (the
  * prediction at r->worst_frame with the body there, when in has one, in
  * grey; a colour bar in metres underneath). in is the input r came from.
  * Every file goes through cr_atomic_open/commit (PNGs through

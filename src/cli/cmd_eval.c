@@ -34,7 +34,7 @@ void help_eval(void) {
         "  --bed-fraction X         share of hinges BED keeps (default 0.1)\n"
         "  --ssim-side N            normal-map side in pixels (default 256)\n"
         "  -o DIR                   frames.jsonl, summary.json, plots/<metric>.png,\n"
-        "                           heatmap.png\n"
+        "                           heatmap.png, vertex_error.npy (T,V) for crease view\n"
         "  --json                   end with the summary as JSON on stdout\n");
 }
 
@@ -189,6 +189,7 @@ int cmd_eval(int argc, char **argv) {
             cJSON_AddStringToObject(outs, "plots", rep.plots_dir);
             cJSON_AddNumberToObject(outs, "nplots", rep.nplots);
             cJSON_AddStringToObject(outs, "heatmap", rep.heatmap_png);
+            cJSON_AddStringToObject(outs, "vertex_error", rep.vertex_error_npy);
             cli_json_print(head);
         }
     }

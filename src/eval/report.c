@@ -1,11 +1,13 @@
 /* report.c: crease eval's outputs from a cr_eval_result: per-frame JSON
- * lines, the summary JSON, one line plot per metric and a heat map of the
- * per-vertex error at the worst frame, with a colour bar.
+ * lines, the summary JSON, one line plot per metric, the per-vertex error
+ * of every frame as .npy (what `crease view --color-by DIR` colours by) and
+ * a heat map of the per-vertex error at the worst frame, with a colour bar.
  *
  * Leaves out: HTML, turntables of the heat map, plots of several runs
  * against each other (compare summaries instead).
  */
 #include "crease/eval.h"
+#include "crease/npz.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -193,6 +195,21 @@ static cr_status write_heatmap(const cr_eval_result *r, const cr_eval_input *in,
     return st;
 }
 
+/* (T,V) float32 |P_i - R_i| per frame, m. */
+static cr_status write_vertex_error(const cr_eval_input *in, const char *path, cr_error *err) {
+    const int64_t T = in->nframes, V = in->garment->nv;
+    float *e = cr_malloc((size_t)(T * V) * sizeof(float) + 1, err);
+    if (!e) return CR_ERR_MEMORY;
+    for (int64_t k = 0; k < T * V; k++) {
+        const float *p = in->pred + 3 * k, *q = in->ref + 3 * k;
+        const double d0 = (double)p[0] - q[0], d1 = (double)p[1] - q[1], d2 = (double)p[2] - q[2];
+        e[k] = (float)sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+    }
+    cr_status st = cr_npy_write(path, CR_NPY_F32, 2, (int64_t[]){T, V}, e, err);
+    free(e);
+    return st;
+}
+
 cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in, const char *dir,
                                cr_eval_report *out, cr_error *err) {
     memset(out, 0, sizeof *out);
@@ -202,6 +219,7 @@ cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in,
     snprintf(out->summary_json, sizeof out->summary_json, "%s/summary.json", dir);
     snprintf(out->plots_dir, sizeof out->plots_dir, "%s/plots", dir);
     snprintf(out->heatmap_png, sizeof out->heatmap_png, "%s/heatmap.png", dir);
+    snprintf(out->vertex_error_npy, sizeof out->vertex_error_npy, "%s/vertex_error.npy", dir);
     CR_TRY(cr_mkdir_p(out->plots_dir, err));
     CR_TRY(write_frames(r, out->frames_jsonl, err));
     char *summary = cr_eval_summary_json(r);
@@ -215,6 +233,7 @@ cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in,
     }
     free(line), free(summary);
     if (st == CR_OK) st = write_plots(r, out->plots_dir, &out->nplots, err);
+    if (st == CR_OK) st = write_vertex_error(in, out->vertex_error_npy, err);
     if (st == CR_OK) st = write_heatmap(r, in, out->heatmap_png, err);
     return st;
 }
