@@ -2,8 +2,9 @@
 # install.sh: the installed tree stands on its own. Installs BUILD_DIR into a
 # temporary prefix (as `make install` does), then: every installed public
 # header compiles alone, and twice in one file (include guards), with warnings
-# as errors; examples/hello_mesh.c builds with nothing but the flags of the
-# installed crease.pc and runs; the installed tool answers --version.
+# as errors; examples/hello_mesh.c and a user of the simulator (CHOLMOD) build
+# with nothing but the flags of the installed crease.pc and run; the installed
+# tool answers --version.
 #
 # Usage: install.sh BUILD_DIR CC [EXTRA_CFLAGS]
 #   EXTRA_CFLAGS: what every object linked with this build needs (the
@@ -45,5 +46,13 @@ read -r -a flags <<<"$(pkg-config --cflags --libs crease)" || fail "pkg-config -
   2>"$tmp/cc.log" || { cat "$tmp/cc.log" >&2; fail "hello_mesh.c does not link with: ${flags[*]}"; }
 (cd "$tmp" && ./hello_mesh "$tmp/hello.png" >"$tmp/hello.out") || fail "hello_mesh failed"
 [[ $(head -c 4 "$tmp/hello.png" | tail -c 3) == PNG ]] || fail "hello_mesh wrote no PNG"
+# The simulator's object pulls in CHOLMOD, which hello_mesh does not need.
+cat >"$tmp/sim_def.c" <<'EOF_C'
+#include <crease/phys_sim.h>
+int main(void) { return cr_sim_default_def().dt > 0 ? 0 : 1; }
+EOF_C
+"$cc" -std=c11 "${extra[@]}" -o "$tmp/sim_def" "$tmp/sim_def.c" "${flags[@]}" 2>"$tmp/cc.log" ||
+  { cat "$tmp/cc.log" >&2; fail "a cr_sim user does not link with: ${flags[*]}"; }
+"$tmp/sim_def" || fail "cr_sim_default_def().dt is not positive"
 "$prefix/bin/crease" --version | grep -q '^crease ' || fail "the installed crease has no --version"
-echo "install: $n headers compile alone; hello_mesh links through crease.pc (${flags[*]}) and runs"
+echo "install: $n headers compile alone; hello_mesh and a cr_sim user link through crease.pc (${flags[*]}) and runs"
