@@ -78,10 +78,12 @@ static const cJSON *json_at(const cJSON *arr, uint64_t i) {
                : NULL;
 }
 
-/* obj[key] as an integer in [0, max]; `dflt` when absent and not `required`. */
+/* obj[key] as an integer in [0, max]; `dflt` when absent and not `required`.
+ * *out is 0 on failure, so no caller ever holds an unset value. */
 static cr_status json_uint(const glb_in *g, const cJSON *obj, const char *where, const char *key,
                            int required, uint64_t dflt, uint64_t max, uint64_t *out,
                            cr_error *err) {
+    *out = 0;
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v && !required) {
         *out = dflt;
