@@ -165,5 +165,7 @@ int cmd_drape(int argc, char **argv);
 void help_drape(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
+int cmd_view(int argc, char **argv);
+void help_view(void);
 
 #endif
