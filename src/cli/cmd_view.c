@@ -191,11 +191,13 @@ static cr_status read_scalar(const char *path, view_part *g, cr_error *err) {
     int ok = (a.ndim == 1 && a.shape[0] == nv) ||
              (a.ndim == 2 && a.shape[1] == nv && (a.shape[0] == g->nframes || a.shape[0] == 1));
     if (!ok) {
+        char got[96] = "";
+        for (int d = 0; d < a.ndim; d++)
+            snprintf(got + strlen(got), sizeof got - strlen(got), "%s%lld", d ? "," : "",
+                     (long long)a.shape[d]);
         cr_npy_free(&a);
-        return CR_FAIL(err, CR_ERR_SHAPE,
-                       "%s: expected shape (%d,%lld) or (%lld), got %s(%lld%s%lld)", file,
-                       g->nframes, (long long)nv, (long long)nv, "", (long long)a.shape[0],
-                       a.ndim == 2 ? "," : "", a.ndim == 2 ? (long long)a.shape[1] : 0LL);
+        return CR_FAIL(err, CR_ERR_SHAPE, "%s: expected shape (%d,%lld) or (%lld), got (%s)", file,
+                       g->nframes, (long long)nv, (long long)nv, got);
     }
     g->nscalar = a.ndim == 1 ? 1 : (int32_t)a.shape[0];
     g->scalar = a.f32; /* taken over */
