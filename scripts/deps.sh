@@ -15,6 +15,8 @@ packages=(
   libsuitesparse-dev      # CHOLMOD: sparse Cholesky for the simulator's Newton solves
   clang             # fuzz targets (libFuzzer)
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
+  libjs-three       # three.js r111 and OrbitControls, copied beside the page `crease view` writes
+  chromium          # headless browser for the `crease view` test (tests/view.sh)
 )
 
 missing=()

@@ -248,6 +248,9 @@ int cmd_simulate(int argc, char **argv) {
     if (st == CR_OK && !o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
                 done, r.garment->nv, done ? seconds / done : 0.0, 1e3 * max_pen);
+    if (st == CR_OK && !o.quiet)
+        fprintf(stderr, "view: crease view %s+%s%s%s -o %s/view\n", glb, o.body ? o.body : "",
+                o.body ? "@" : "", o.object ? o.object : o.body_mesh, o.out);
     if (st == CR_OK && o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "simulate");

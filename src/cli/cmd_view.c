@@ -18,6 +18,7 @@
 #include "cli.h"
 #include "crease/mesh_io.h"
 #include "crease/npz.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -88,7 +89,7 @@ typedef struct view_panel {
     view_part parts[MAX_PARTS];
     int nparts;
     const char *label;
-    const char *color_by;
+    char auto_label[256]; /* a dataset sequence's id */
 } view_panel;
 
 typedef struct view_list {
@@ -140,7 +141,7 @@ static cr_status read_part(const char *spec, view_part *p, cr_error *err) {
         }
         cr_pc2 cache = {0};
         CR_TRY(cr_pc2_read(p->path, &cache, err));
-        cr_status st = cr_mesh_read(rest, &p->mesh, err);
+        cr_status st = cr_scene_object_create(rest, &p->mesh, err);
         if (st == CR_OK && p->mesh->nv != cache.nv)
             st = CR_FAIL(err, CR_ERR_SHAPE, "%s: has %d points but rest mesh %s has %d vertices",
                          p->path, cache.nv, rest, p->mesh->nv);
@@ -155,7 +156,7 @@ static cr_status read_part(const char *spec, view_part *p, cr_error *err) {
     if (at) return CR_FAIL(err, CR_ERR_INVALID, "%s: '@MESH' goes only with a .pc2", spec);
     if (has_ext(p->path, "glb"))
         return cr_glb_read_sequence(p->path, &p->mesh, &p->frames, &p->nframes, &p->fps, err);
-    CR_TRY(cr_mesh_read(p->path, &p->mesh, err));
+    CR_TRY(cr_scene_object_create(p->path, &p->mesh, err)); /* a file, or sphere, box, ... */
     p->nframes = 1;
     p->frames = cr_malloc((size_t)p->mesh->nv * 3 * sizeof(float), err);
     if (!p->frames) return CR_ERR_MEMORY;
@@ -163,9 +164,70 @@ static cr_status read_part(const char *spec, view_part *p, cr_error *err) {
     return CR_OK;
 }
 
+/* A sequence of a dataset (crease/dataset.h): its entry in ROOT/manifest.json. */
+static const cJSON *manifest_sequence(const cJSON *man, const char *id) {
+    const cJSON *q;
+    cJSON_ArrayForEach(q, cJSON_GetObjectItemCaseSensitive(man, "sequences")) {
+        const char *qid = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "id"));
+        const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "status"));
+        if (qid && state && strcmp(state, "done") == 0 && (!id || strcmp(qid, id) == 0)) return q;
+    }
+    return NULL;
+}
+
+/* DIR/sequences/ID, or a dataset's root DIR (its first finished sequence), as the
+ * two parts "garment.pc2@garment mesh+body.pc2@body rest"; 0 when spec is no
+ * dataset directory. */
+static cr_status dataset_spec(const char *spec, char *out, size_t size, char *label,
+                              size_t label_size, int *is_dataset, cr_error *err) {
+    *is_dataset = 0;
+    struct stat sb;
+    if (stat(spec, &sb) != 0 || !S_ISDIR(sb.st_mode)) return CR_OK;
+    char root[1100], path[1200];
+    const char *id = NULL, *seq = strstr(spec, "/sequences/");
+    snprintf(root, sizeof root, "%.*s", seq ? (int)(seq - spec) : (int)strlen(spec), spec);
+    if (seq) id = seq + strlen("/sequences/");
+    snprintf(path, sizeof path, "%s/manifest.json", root);
+    char *text;
+    size_t len;
+    if (cr_file_read_all(path, &text, &len, err) != CR_OK)
+        return CR_FAIL(err, CR_ERR_IO, "%s: a directory, but no dataset (%s missing)", spec, path);
+    cJSON *man = cJSON_ParseWithLength(text, len);
+    free(text);
+    char idbuf[256];
+    if (id) {
+        snprintf(idbuf, sizeof idbuf, "%s", id);
+        idbuf[strcspn(idbuf, "/")] = 0;
+        id = idbuf;
+    }
+    const cJSON *q = manifest_sequence(man, id);
+    const char *g = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "garment"));
+    const char *r = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "res"));
+    const char *b = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "body"));
+    const char *gp = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "garment_pc2"));
+    const char *bp = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "body_pc2"));
+    cr_status st = CR_OK;
+    if (!g || !r || !b || !gp || !bp)
+        st = CR_FAIL(err, CR_ERR_PARSE, "%s: no finished sequence%s%s", path, id ? " " : "",
+                     id ? id : "");
+    else if ((size_t)snprintf(out, size,
+                              "%s/%s@%s/garments/%s/%s_%s.obj+%s/%s@%s/bodies/%s/rest.obj", root,
+                              gp, root, b, g, r, root, bp, root, b) >= size)
+        st = CR_FAIL(err, CR_ERR_RANGE, "%s: paths too long", spec);
+    if (st == CR_OK)
+        snprintf(label, label_size, "%s",
+                 cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "id")));
+    cJSON_Delete(man);
+    *is_dataset = st == CR_OK;
+    return st;
+}
+
 static cr_status read_panel(const char *spec, view_panel *panel, cr_error *err) {
     char buf[4096];
-    snprintf(buf, sizeof buf, "%s", spec);
+    int is_dataset;
+    CR_TRY(dataset_spec(spec, buf, sizeof buf, panel->auto_label, sizeof panel->auto_label,
+                        &is_dataset, err));
+    if (!is_dataset) snprintf(buf, sizeof buf, "%s", spec);
     for (char *s = buf, *next; s; s = next) {
         next = strchr(s, '+');
         if (next) *next++ = 0;
@@ -405,8 +467,10 @@ static cr_status write_page(const view_opts *o, view_panel *panels, int npanels,
     for (int i = 0; st == CR_OK && i < npanels; i++) {
         cJSON *pan = cJSON_CreateObject(), *parts = cJSON_AddArrayToObject(pan, "parts");
         cJSON_AddItemToArray(jp, pan);
-        cJSON_AddStringToObject(
-            pan, "label", panels[i].label ? panels[i].label : base_name(panels[i].parts[0].path));
+        cJSON_AddStringToObject(pan, "label",
+                                panels[i].label           ? panels[i].label
+                                : panels[i].auto_label[0] ? panels[i].auto_label
+                                                          : base_name(panels[i].parts[0].path));
         for (int k = 0; st == CR_OK && k < panels[i].nparts; k++) {
             const view_part *p = &panels[i].parts[k];
             const view_block *b = &blocks[i][k];

@@ -100,6 +100,8 @@
     const mat = new THREE.MeshPhongMaterial({
       color: pm.scalar ? 0xffffff : COLORS[pm.role] || COLORS.object,
       side: THREE.DoubleSide, shininess: 12, vertexColors: pm.scalar ? THREE.VertexColors : 0,
+      /* a body a few millimetres under the garment would show through it (z-fighting) */
+      polygonOffset: pm.role === 'body', polygonOffsetFactor: 2, polygonOffsetUnits: 2,
     });
     let col = null;
     if (pm.scalar) {
