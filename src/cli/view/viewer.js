@@ -68,7 +68,19 @@
   const COLORS = {garment: 0x4f8fd0, body: 0xc8b8a8, object: 0xb0b0b0};
 
   /* ---- scene -------------------------------------------------------------- */
-  const renderer = new THREE.WebGLRenderer({antialias: true, preserveDrawingBuffer: true});
+  /* Multisampling costs software GL (SwiftShader, llvmpipe) 3x the frame time
+   * (docs/view.md), so it is on only for a hardware renderer; #aa=0 / #aa=1 force it. */
+  function softwareGL() {
+    const gl = document.createElement('canvas').getContext('webgl');
+    const info = gl && gl.getExtension('WEBGL_debug_renderer_info');
+    const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+    const lose = gl && gl.getExtension('WEBGL_lose_context');
+    if (lose) lose.loseContext();
+    return /swiftshader|llvmpipe|software/i.test(name);
+  }
+  const aaHash = /(?:^#|&)aa=([01])/.exec(location.hash);
+  const antialias = aaHash ? aaHash[1] === '1' : !softwareGL();
+  const renderer = new THREE.WebGLRenderer({antialias: antialias, preserveDrawingBuffer: true});
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setScissorTest(true);
   view.appendChild(renderer.domElement);
@@ -168,11 +180,18 @@
   let frame = 0;
   function draw() {
     const h = view.clientHeight;
-    for (const p of panels) {
+    const t0 = performance.now();
+    for (const p of panels)
       for (const part of p.parts) showPart(part, frame);
+    const t1 = performance.now();
+    for (const p of panels) {
       renderer.setViewport(p.x, h - p.y - ph, pw, ph);
       renderer.setScissor(p.x, h - p.y - ph, pw, ph);
       renderer.render(p.scene, camera);
+    }
+    if (bench) {
+      bench.update += t1 - t0;
+      bench.render += performance.now() - t1;
     }
     const t = frame / meta.fps;
     el('frame').textContent = 'frame ' + frame + ' / ' + (meta.frames - 1) + '   ' +
@@ -201,7 +220,9 @@
       if (now - bench.t0 >= bench.seconds * 1000) {
         const fps = bench.n / ((now - bench.t0) / 1000);
         console.log('crease-view: bench fps=' + fps.toFixed(1) + ' frames=' + bench.n +
-                    ' sequence_fps=' + meta.fps);
+                    ' sequence_fps=' + meta.fps + ' update_ms=' + (bench.update / bench.n).toFixed(1) +
+                    ' render_ms=' + (bench.render / bench.n).toFixed(1) + ' size=' +
+                    view.clientWidth + 'x' + view.clientHeight + ' antialias=' + antialias);
         document.body.dataset.benchFps = fps.toFixed(1);
         bench = null;
       }
@@ -234,7 +255,7 @@
       } else if (k === 'play') {
         play(true);
       } else if (k === 'bench') {
-        bench = {seconds: parseFloat(v) || 3, n: 0, t0: performance.now()};
+        bench = {seconds: parseFloat(v) || 3, n: 0, t0: performance.now(), update: 0, render: 0};
       } else if (k === 'wire') {
         el('wire').checked = v !== '0';
         wire();
