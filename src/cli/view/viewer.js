@@ -311,10 +311,12 @@
   layout();
 
   const jobs = [];
+  let loaded = 0, nparts = 0;
+  meta.panels.forEach((pm) => { nparts += pm.parts.length; });
   meta.panels.forEach((pm, p) => pm.parts.forEach((part, k) => {
     jobs.push(loadPart(p, k, part).then((buf) => {
       buildPart(panels[p], part, buf);
-      el('loaded').textContent = 'loaded ' + (p + 1) + ' of ' + panels.length;
+      el('loaded').textContent = 'loaded ' + (++loaded) + ' of ' + nparts + ' parts';
     }));
   }));
   Promise.all(jobs).then(() => {
