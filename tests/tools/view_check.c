@@ -4,6 +4,7 @@
  *                                           from the box's most common colour
  *   view_check diff A.png B.png X0 Y0 X1 Y1  share of pixels in the box that differ
  *   view_check npy OUT.npy T V             a float32 (T,V) array: (t + 1) * v / (T V)
+ *   view_check dist A.pc2 B.pc2 OUT.npy    float32 (T,V) distance between the two, m
  *   view_check wave OUT.pc2 N T            a PC2 of an N x N cloth of 1 m at y = 1.2
  *                                           waving for T frames (the rest mesh is
  *                                           `crease primitive plane --res N-1`'s grid)
@@ -102,6 +103,31 @@ int main(int argc, char **argv) {
         cr_status st = cr_npy_write(argv[2], CR_NPY_F32, 2, shape, v, &err);
         free(v);
         if (st != CR_OK) fprintf(stderr, "view_check: %s\n", err.msg);
+        return st != CR_OK;
+    }
+    if (argc == 5 && strcmp(argv[1], "dist") == 0) {
+        cr_pc2 a = {0}, b = {0};
+        cr_error err = {0};
+        cr_status st = cr_pc2_read(argv[2], &a, &err);
+        if (st == CR_OK) st = cr_pc2_read(argv[3], &b, &err);
+        if (st == CR_OK && (a.nv != b.nv || a.nframes != b.nframes))
+            st = CR_FAIL(&err, CR_ERR_SHAPE, "%s and %s differ in shape", argv[2], argv[3]);
+        float *d = st == CR_OK ? malloc((size_t)a.nframes * a.nv * sizeof(float)) : NULL;
+        if (st == CR_OK && !d) st = CR_ERR_MEMORY;
+        for (int64_t i = 0; st == CR_OK && i < (int64_t)a.nframes * a.nv; i++) {
+            double s2 = 0;
+            for (int k = 0; k < 3; k++) {
+                double x = (double)a.frames[3 * i + k] - (double)b.frames[3 * i + k];
+                s2 += x * x;
+            }
+            d[i] = (float)sqrt(s2);
+        }
+        int64_t shape[2] = {a.nframes, a.nv};
+        if (st == CR_OK) st = cr_npy_write(argv[4], CR_NPY_F32, 2, shape, d, &err);
+        if (st != CR_OK) fprintf(stderr, "view_check: %s\n", err.msg);
+        free(d);
+        cr_pc2_free(&a);
+        cr_pc2_free(&b);
         return st != CR_OK;
     }
     if (argc == 5 && strcmp(argv[1], "wave") == 0) {
