@@ -457,7 +457,18 @@ static cr_status write_page(const view_opts *o, view_panel *panels, int npanels,
         cJSON *cb = cJSON_AddObjectToObject(meta, "colorbar");
         cJSON_AddNumberToObject(cb, "lo", range[0]);
         cJSON_AddNumberToObject(cb, "hi", range[1]);
-        cJSON_AddStringToObject(cb, "name", "error");
+        char name[256] = "value";
+        for (int i = 0; i < o->colors.n; i++)
+            if (strcmp(o->colors.v[i], "-") != 0) {
+                /* the file's stem: "vertex_error" for an eval directory */
+                struct stat sb;
+                const char *b = stat(o->colors.v[i], &sb) == 0 && S_ISDIR(sb.st_mode)
+                                    ? DEFAULT_COLOR_FILE
+                                    : base_name(o->colors.v[i]);
+                snprintf(name, sizeof name, "%.*s", (int)strcspn(b, "."), b);
+                break;
+            }
+        cJSON_AddStringToObject(cb, "name", name);
         cJSON_AddStringToObject(cb, "unit", "m");
     }
     if (st == CR_OK && !embed) {
