@@ -5,7 +5,7 @@
 # draws a new frame on every animation frame for S seconds and logs what it reached;
 # the sequence plays at its own rate (30 fps) when that is at least 30.
 # Software GL (SwiftShader) on the CPU: a desktop GPU is faster.
-# Usage: bench_view.sh PATH_TO_CREASE PATH_TO_VIEW_CHECK [SECONDS]
+# Usage: [BENCH_SIZE=W,H] [BENCH_HASH=&aa=1] bench_view.sh PATH_TO_CREASE PATH_TO_VIEW_CHECK [SECONDS]
 set -euo pipefail
 crease=$1 vc=$2 seconds=${3:-5}
 command -v chromium >/dev/null || { echo "bench_view: chromium is not installed" >&2; exit 1; }
