@@ -7,9 +7,12 @@
  * of unsigned byte, short or int, or none. Every accessor is checked against
  * its buffer view, every view against the buffer, the buffer against the BIN
  * chunk and the chunks against the file, in 64-bit arithmetic, before any
- * element is read. Node transforms, skins, morph targets, sparse accessors,
- * external buffers and multi-mesh files are not read (the last three are
- * refused rather than misread).
+ * element is read. Node transforms, skins, sparse accessors, external
+ * buffers and multi-mesh files are not read (the last three are refused
+ * rather than misread); morph targets only by cr_glb_read_sequence, which
+ * adds each target's POSITION to the base and maps the file's seam copies
+ * onto the welded vertices (the weld's own first-appearance order, rebuilt
+ * with a hash of the position bits).
  *
  * Writer: POSITION with min/max, NORMAL when present, TEXCOORD_0 and
  * _CREASE_UV when the mesh has UVs, u32 indices, vertices split at UV seams.
