@@ -135,9 +135,13 @@ cr_status cr_glb_write_sequence(const char *path, const cr_mesh *rest, const flo
  * plus morph target i; a seam copy lands on its welded vertex), T the number
  * of morph targets, or 1 (the base) for a file without them; *fps is
  * 1 / (t1 - t0) of the first animation sampler, or 0 when the file has no
- * animation of two keys or more. The caller frees *frames and destroys *rest. */
+ * animation of two keys or more. Targets must not share bytes: the frames
+ * never take more memory than the file's BIN chunk. The caller frees *frames
+ * and destroys *rest; on failure both are NULL. */
 cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames, int32_t *nframes,
                                float *fps, cr_error *err);
+cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *source, cr_mesh **rest,
+                                   float **frames, int32_t *nframes, float *fps, cr_error *err);
 
 /* ------------------------------------------------------------------ PC2 -- */
 

@@ -863,9 +863,12 @@ static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int3
     const cJSON *targets = cJSON_GetObjectItemCaseSensitive(prim, "targets");
     int64_t nt = cJSON_IsArray(targets) ? cJSON_GetArraySize(targets) : 0;
     int64_t nraw = pa.count, nv = m->nv;
-    if (nraw * 3 * (nt > 0 ? nt : 1) > (int64_t)1 << 31)
-        return CR_FAIL(err, CR_ERR_RANGE, "%s: %lld targets of %lld vertices are too many",
-                       g->source, (long long)nt, (long long)nraw);
+    /* Targets that share bytes could ask for T x V floats from a small file: a crease
+     * sequence stores every target whole, so the output never outgrows the BIN chunk. */
+    if ((uint64_t)nt * (uint64_t)nraw * 12 > g->bin_len)
+        return CR_FAIL(err, CR_ERR_RANGE,
+                       "%s: %lld targets of %lld vertices need more than the %llu-byte BIN chunk",
+                       g->source, (long long)nt, (long long)nraw, (unsigned long long)g->bin_len);
     float *raw = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
     float *dis = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
     int32_t *map = cr_malloc((size_t)nraw * sizeof(int32_t), err);
@@ -912,8 +915,19 @@ cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames,
     char *buf;
     size_t len;
     CR_TRY(cr_file_read_all(path, &buf, &len, err));
-    glb_in g = {.source = path};
-    cr_status st = open_container(&g, (const unsigned char *)buf, len, err);
+    cr_status st = cr_glb_read_sequence_mem(buf, len, path, rest, frames, nframes, fps, err);
+    free(buf);
+    return st;
+}
+
+cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *source, cr_mesh **rest,
+                                   float **frames, int32_t *nframes, float *fps, cr_error *err) {
+    *rest = NULL;
+    *frames = NULL;
+    *nframes = 0;
+    *fps = 0.0f;
+    glb_in g = {.source = source};
+    cr_status st = open_container(&g, data, len, err);
     if (st == CR_OK) st = read_mesh(&g, rest, err);
     if (st == CR_OK) st = read_sequence(&g, *rest, frames, nframes, err);
     if (st == CR_OK) *fps = read_fps(&g);
@@ -922,6 +936,5 @@ cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames,
         *rest = NULL;
     }
     cJSON_Delete(g.root);
-    free(buf);
     return st;
 }
