@@ -9,6 +9,11 @@
 source "$(dirname "$0")/lib_cli.sh" "$1"
 vc=$2
 
+if [[ ! -s /usr/share/javascript/three/build/three.min.js ]]; then
+  echo "view.sh: SKIP: three.js is not installed (Debian libjs-three; scripts/deps.sh installs it)" >&2
+  exit 77
+fi
+
 # --- the tool --------------------------------------------------------------------------
 "$crease" primitive plane --res 12 -o "$tmp/cloth.obj" >/dev/null
 "$crease" primitive sphere -o "$tmp/sphere.obj" >/dev/null
