@@ -211,5 +211,7 @@ int cmd_garment(int argc, char **argv);
 void help_garment(void);
 int cmd_eval(int argc, char **argv);
 void help_eval(void);
+int cmd_view(int argc, char **argv);
+void help_view(void);
 
 #endif

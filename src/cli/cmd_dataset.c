@@ -126,6 +126,8 @@ int cmd_dataset(int argc, char **argv) {
                 "the simulator's projection: %.3f%%)\n",
                 def.garments[g], 100.0 * r.max_inside_share[g],
                 100.0 * r.max_inside_share_solver[g]);
+    if (r.done + r.skipped > 0)
+        fprintf(stderr, "view: crease view %s -o %s/view\n", def.out_dir, def.out_dir);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "dataset");

@@ -205,6 +205,13 @@ int cmd_simulate(int argc, char **argv) {
     if (!o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
                 done, r.vertices, per_frame, 1e3 * run->max_penetration_m);
+    const char *collider = def.body_mesh ? def.body_mesh : def.object;
+    if (!o.quiet && collider && def.body)
+        fprintf(stderr, "view: crease view %s+%s@%s -o %s/view\n", r.glb, def.body, collider,
+                o.out);
+    else if (!o.quiet)
+        fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r.glb, collider ? "+" : "",
+                collider ? collider : "", o.out);
     if (o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "simulate");

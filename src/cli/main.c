@@ -32,6 +32,8 @@ static const cli_command commands[] = {
      cmd_garment, help_garment},
     {"eval", "compare a predicted garment sequence with a reference by every paper's metrics",
      cmd_eval, help_eval},
+    {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
+     cmd_view, help_view},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 
