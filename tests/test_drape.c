@@ -342,6 +342,65 @@ static void cap(const float *p, float *q) { /* onto a sphere of radius 2 m, isom
     q[0] = (float)(x * s), q[2] = (float)(z * s), q[1] = (float)(p[1] - R * (1 - cos(a)));
 }
 
+/* The training loss (cr_drape_batch_loss) and the evaluation
+ * (cr_drape_batch_eval) are one weighted sum of the same four terms: their
+ * weighted terms agree, and the per-structure scores add up to the total. */
+CR_TEST(drape, batch_loss_and_eval_are_one_weighted_sum) {
+    cr_drape_def d = coarse_def(CR_DRAPE_INR_UNIFORM);
+    drape_scene s;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_drape_scene_create(&d, &s, &err), &err);
+    cr_drape_model *m = NULL;
+    CR_CHECK_OK(cr_drape_model_create(&d, s.rest, &m, &err), &err);
+    drape_loss_ctx lc;
+    CR_CHECK_OK(cr_drape_loss_ctx_create(&d, s.bvh, &lc, &err), &err);
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
+    CR_REQUIRE(m && ctx);
+    enum { NS = 64 };
+    float c[2 * NS], th[NS];
+    for (int i = 0; i < NS; i++) {
+        c[2 * i] = 0.35f + 0.3f * (i % 8) / 7.0f;
+        c[2 * i + 1] = 0.35f + 0.3f * (i / 8) / 7.0f;
+        th[i] = 0.1f * i;
+    }
+    drape_batch b;
+    CR_CHECK_OK(cr_drape_batch_alloc(&b, NS, &err), &err);
+    CR_CHECK_OK(cr_drape_batch_build(&b, m, c, th, NS, 0.02f, 1, &err), &err);
+    CR_REQUIRE(b.n == NS);
+    /* the cloth lowered 3 mm into the ball's top and rippled: every term non-zero */
+    float *xs = malloc((size_t)b.n * 18 * sizeof(float));
+    CR_REQUIRE(xs);
+    for (int64_t i = 0; i < 6 * b.n; i++) {
+        const float *p = &b.p0[3 * i];
+        xs[3 * i] = 1.01f * p[0], xs[3 * i + 2] = p[2];
+        xs[3 * i + 1] = p[1] - d.gap - 0.003f + 0.002f * sinf(40.0f * p[0]);
+    }
+    cr_tensor *terms[4];
+    cr_tensor *loss =
+        cr_drape_batch_loss(ctx, &lc, &b, cr_nn_from(ctx, 2, (int64_t[]){6 * b.n, 3}, xs), terms);
+    CR_REQUIRE(loss);
+    double sums[4] = {0}, total = 0.0;
+    float per[NS];
+    CR_CHECK_OK(cr_drape_batch_eval(ctx, &lc, &b, xs, sums, per, &err), &err);
+    for (int k = 0; k < 4; k++) {
+        CR_CHECK(terms[k]->data[0] != 0.0f);
+        CR_CHECK_NEAR(sums[k], terms[k]->data[0], 1e-6 * fabs(sums[k]));
+        total += sums[k];
+    }
+    CR_CHECK(sums[3] > 0.0); /* in contact */
+    CR_CHECK_NEAR(loss->data[0], total, 1e-5 * fabs(total));
+    double per_total = 0.0;
+    for (int i = 0; i < NS; i++)
+        per_total += per[i];
+    CR_CHECK_NEAR(per_total, total, 1e-5 * fabs(total));
+    free(xs);
+    cr_drape_batch_free(&b);
+    cr_nn_ctx_destroy(ctx);
+    cr_drape_loss_ctx_free(&lc);
+    cr_drape_model_destroy(m);
+    cr_drape_scene_free(&s);
+}
+
 CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
     cr_drape_def d = coarse_def(CR_DRAPE_MESH);
     d.mesh_res = 101;
