@@ -46,7 +46,9 @@ void cr_drape_loss_ctx_free(drape_loss_ctx *lc);
 /* The four terms, strain, bend, gravity, collision, at positions x (P,3)
  * through the generic loss op: each an energy (1), or with per_element its
  * elements' energies ((E), (H), (P), (P)). Gravity and collision take P from
- * x. NULL entries on error (the context records it). */
+ * x (this sets their counts: one caller at a time per drape_loss_ctx; the
+ * terms already on the tape are not affected). NULL entries on error (the
+ * context records it). */
 void cr_drape_loss_terms(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const cr_drape_strain *strain,
                          const cr_drape_bend *bend, cr_tensor *x, int per_element, cr_tensor *t[4]);
 /* The weights of the four terms: w, with gravity over the six vertices of a
