@@ -156,20 +156,20 @@ typedef struct cr_sim_def {
                                      friction acts when material.friction > 0 and a collider */
     int plasticity;               /* 1: update rest angles after every substep */
     cr_plastic_rule plastic_rule;
-    double max_speed;          /* m/s: a faster vertex means the substep diverged (default 50) */
-    double max_penetration;    /* m: a vertex deeper inside the collider means the substep
-                                  diverged (default 0.05) */
-    cr_sim_solver solver;      /* default CR_SIM_SOLVER_NEWTON */
-    int vbd_iterations;        /* VBD sweeps per substep at most (default 20); stops earlier when
-                                  a sweep's largest vertex move is below newton_tol h */
-    int vbd_static_iterations; /* VBD sweeps of a static solve (default 4000) */
-    double vbd_chebyshev;      /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
-                                  an extrapolation that raises the objective is dropped */
-    int vbd_hessian_every;     /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
-                                  every this many sweeps, gradients every sweep (default 4: the
-                                  Hessians are most of a kernel's cost) */
-    double vbd_damping;        /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
-                                  in Newton's potential, so it moves the solution) */
+    double max_speed;       /* m/s: a faster vertex means the substep diverged (default 50) */
+    double max_penetration; /* m: a vertex deeper inside the collider means the substep
+                               diverged (default 0.05) */
+    cr_sim_solver solver;   /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
+                               solves (cr_sim_solve_static, quasi_static) use Newton always */
+    int vbd_iterations;     /* VBD sweeps per substep at most (default 20); stops earlier when
+                               a sweep's largest vertex move is below newton_tol h */
+    double vbd_chebyshev;   /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
+                               an extrapolation that raises the objective is dropped */
+    int vbd_hessian_every;  /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
+                               every this many sweeps, gradients every sweep (default 4: the
+                               Hessians are most of a kernel's cost) */
+    double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
+                               in Newton's potential, so it moves the solution) */
     cr_sim_iteration_fn on_iteration; /* Newton steps, or VBD sweeps (energy after the sweep) */
     void *on_iteration_ctx;
     uint32_t cookie;

@@ -78,7 +78,6 @@ cr_sim_def cr_sim_default_def(void) {
     d.max_penetration = 0.05;
     d.solver = CR_SIM_SOLVER_NEWTON;
     d.vbd_iterations = 20;
-    d.vbd_static_iterations = 4000;
     d.vbd_chebyshev = 0.9;
     d.vbd_damping = 0.0;
     d.vbd_hessian_every = 4;
@@ -485,10 +484,16 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     s->terms[s->t_drag].weight = dynamic && d->damping > 0.0 ? 1.0 : 0.0;
     double g = sqrt(d->gravity[0] * d->gravity[0] + d->gravity[1] * d->gravity[1] +
                     d->gravity[2] * d->gravity[2]);
-    const int vbd = d->solver == CR_SIM_SOLVER_VBD;
+    /* VBD steps dynamic substeps; static solves (cr_sim_solve_static,
+     * quasi-static frames) use Newton with either solver: without inertia a
+     * Gauss-Seidel sweep has no mass term to bound its blocks, and 4000
+     * sweeps left a 16 x 16 drape unconverged. */
+    const int vbd = d->solver == CR_SIM_SOLVER_VBD && dynamic;
+    if (!vbd && !s->chol)
+        CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
     newton_opts o;
     if (vbd)
-        o.max_iterations = dynamic ? d->vbd_iterations : d->vbd_static_iterations;
+        o.max_iterations = d->vbd_iterations;
     else
         o.max_iterations = dynamic ? d->newton_max_iterations : d->static_max_iterations;
     o.h = dynamic ? h : 0.0;

@@ -113,9 +113,7 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
               "unknown solver %d", (int)d->solver);
     CHECK_DEF(d->vbd_hessian_every >= 1, "vbd_hessian_every must be >= 1, got %d",
               d->vbd_hessian_every);
-    CHECK_DEF(d->vbd_iterations >= 1 && d->vbd_static_iterations >= 1,
-              "VBD iteration limits must be >= 1, got %d and %d", d->vbd_iterations,
-              d->vbd_static_iterations);
+    CHECK_DEF(d->vbd_iterations >= 1, "vbd_iterations must be >= 1, got %d", d->vbd_iterations);
     CHECK_DEF(isfinite(d->vbd_chebyshev) && d->vbd_chebyshev >= 0.0 && d->vbd_chebyshev < 1.0,
               "vbd_chebyshev must be in [0, 1), got %g", d->vbd_chebyshev);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
@@ -215,6 +213,8 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
     s->t_friction = s->friction ? s->nterms : -1;
     if (s->friction) cr_friction_term(s->friction, &t), add_term(s, t);
     CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
+    /* VBD's simulator analyses the Cholesky pattern only when a static solve
+     * first needs it (sim.c). */
     if (d->solver == CR_SIM_SOLVER_VBD)
         CR_TRY(cr_vbd_create(s, &s->vbd, err));
     else

@@ -393,13 +393,16 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
             else if (gk > gnorm)
                 gnorm = gk;
         }
-        double e = cr_sim_eval(s, s->x, NULL, 0);
+        /* The objective is needed only to test an extrapolation or to report
+         * the sweep; the substep's last one is evaluated below. */
+        const int accel = rho > 0.0 && it > 0;
+        double e = accel || d->on_iteration ? cr_sim_eval(s, s->x, NULL, 0) : 0.0;
         if (!finite || !isfinite(e) || !all_finite_vbd(s->x, n3)) {
             snprintf(s->why, sizeof s->why,
                      "non-finite energy (%g) or gradient at VBD iteration %d", e, it);
             return CR_FAIL(err, CR_ERR_DIVERGED, "%s", s->why);
         }
-        if (rho > 0.0 && it > 0) {
+        if (accel) {
             omega = omega == 1.0 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
             memcpy(tv, s->term_values, sizeof tv);
             double *xt = s->xt;
@@ -428,5 +431,7 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     }
     rep->newton_iterations += it;
     if (!converged) rep->newton_capped++;
+    if (!(rho > 0.0 && it > 1) && !d->on_iteration)
+        cr_sim_eval(s, s->x, NULL, 0); /* the report's */
     return CR_OK;
 }
