@@ -15,6 +15,13 @@
  * again at every Newton iterate. A quasi-static mode drops the inertia and
  * minimises P to equilibrium.
  *
+ * A second solver for the same potential, vertex block descent (def.solver =
+ * CR_SIM_SOLVER_VBD; Chen et al. 2024; src/phys/vbd.c): per-vertex 3x3
+ * Newton steps from the element kernels' gradients and Hessian blocks,
+ * Gauss-Seidel over a vertex colouring, no factorisation. It steps dynamic
+ * substeps; static solves use Newton with either solver. Deterministic at
+ * any thread count. Its accuracy and limits: docs/physics.md.
+ *
  *   cr_sim_def def = cr_sim_default_def();
  *   CR_TRY(cr_material_preset("cotton", &def.material, err));
  *   def.collider = sphere;                           borrowed during create
