@@ -15,7 +15,7 @@ crease=$1
 out=${2:-build/bench_peers}
 root=$(cd "$(dirname "$0")/.." && pwd)
 peer=${CREASE_PEERS_DIR:-$root/../shared/peers}/blender_drape.py  # CREASE_PEERS_DIR: for a worktree
-frames=120
+frames=${PEERS_FRAMES:-120}  # PEERS_FRAMES, PEERS_RES: a shorter run
 threads=2
 
 if [[ ! -f $peer ]]; then
@@ -48,7 +48,7 @@ print(d[sys.argv[2]])' "$1" "$2"
 mkdir -p "$out"
 printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s\n' res vertices "blender" \
   "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm"
-for res in 64 128; do
+for res in ${PEERS_RES:-64 128}; do
   b=$out/blender$res
   c=$out/crease$res
   mkdir -p "$b" "$c"
