@@ -210,6 +210,7 @@ typedef struct cr_scene_sim_def {
     int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
+    int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
     const int32_t *pins;         /* (npins) vertices held at their initial positions */
     int32_t npins;
     const char *out_dir; /* created when missing; required */
@@ -250,6 +251,7 @@ typedef struct cr_scene_drape_static_def {
     int32_t coarse;            /* > 0: settle a coarse x coarse cloth and start the res x res
                                   static solve from its rest shape (cr_scene_settle_coarse);
                                   below res. 0 (default): off */
+    int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
     const char *out_dir;       /* required */
     int render_size;           /* final.png's side (default 800) */
     int quiet;                 /* 1: no progress bar */

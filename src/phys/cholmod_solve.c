@@ -19,8 +19,8 @@
  */
 #include "crease/phys_solve.h"
 
-#include <math.h>
 #include <cblas.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <suitesparse/cholmod.h>

@@ -78,6 +78,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     def->plasticity = o->plastic;
+    def->solver = (cr_sim_solver)o->solver;
     def->pinned = o->pins;
     def->npinned = o->npins;
     CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
@@ -192,6 +193,7 @@ cr_status cr_scene_drape_static(const cr_scene_drape_static_def *d,
     CR_TRY(drape_validate(d, err));
     cr_sim_def def = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &def.material, err));
+    def.solver = (cr_sim_solver)d->solver;
     cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;
