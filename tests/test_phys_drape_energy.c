@@ -15,6 +15,7 @@
 #include "crease/bvh.h"
 #include "crease/phys_energies.h"
 #include "crease/primitives.h"
+#include "energy_fd.h"
 #include "phys/lapack.h"
 #include "test.h"
 
@@ -27,42 +28,14 @@
 
 /* ------------------------------------------------------------ helpers -- */
 
-static double kval(const cr_energy_term *t, int32_t e, const double *x) {
-    return t->kernel(t->data, e, x, NULL, NULL);
-}
-
-static double max_abs(const double *a, int n) {
-    double m = 0.0;
-    for (int i = 0; i < n; i++)
-        m = fmax(m, fabs(a[i]));
-    return m;
-}
-
-/* Max |analytic - FD| gradient error relative to max |gradient|. */
-static double grad_rel_error(const cr_energy_term *t, int32_t e, const double *x0, double h) {
-    const int n = 3 * t->nvert;
-    double x[12], g[12], err = 0.0;
-    t->kernel(t->data, e, x0, g, NULL);
-    memcpy(x, x0, sizeof(double) * (size_t)n);
-    for (int i = 0; i < n; i++) {
-        x[i] = x0[i] + h;
-        const double ep = kval(t, e, x);
-        x[i] = x0[i] - h;
-        const double em = kval(t, e, x);
-        x[i] = x0[i];
-        err = fmax(err, fabs(g[i] - (ep - em) / (2.0 * h)));
-    }
-    return err / fmax(max_abs(g, n), 1e-300);
-}
-
 /* The kernel's gradient with and without H asked for: the same numbers. */
 static int grad_same_with_hessian(const cr_energy_term *t, int32_t e, const double *x) {
     double g1[12], g2[12], H[144];
     const int n = 3 * t->nvert;
     const double v1 = t->kernel(t->data, e, x, g1, NULL), v2 = t->kernel(t->data, e, x, g2, H);
-    if (v1 != v2 || v1 != kval(t, e, x)) return 0;
+    if (v1 != v2 || v1 != fd_kval(t, e, x)) return 0;
     for (int i = 0; i < n; i++)
-        if (fabs(g1[i] - g2[i]) > 1e-12 * fmax(max_abs(g1, n), 1e-300)) return 0;
+        if (fabs(g1[i] - g2[i]) > 1e-12 * fmax(fd_max_abs(g1, n), 1e-300)) return 0;
     return 1;
 }
 
@@ -89,7 +62,7 @@ static double rel_diff(const double *a, const double *b, int n) {
     double d = 0.0;
     for (int i = 0; i < n; i++)
         d = fmax(d, fabs(a[i] - b[i]));
-    return d / fmax(fmax(max_abs(a, n), max_abs(b, n)), 1e-300);
+    return d / fmax(fmax(fd_max_abs(a, n), fd_max_abs(b, n)), 1e-300);
 }
 
 /* Kernel Hessian against FD of the kernel gradient (relative error). */
@@ -119,7 +92,7 @@ static double min_eig_rel(const double *H, int n) {
 }
 
 static int is_symmetric(const double *H, int n) {
-    const double s = max_abs(H, n * n);
+    const double s = fd_max_abs(H, n * n);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < i; j++)
             if (fabs(H[i * n + j] - H[j * n + i]) > 1e-12 * s) return 0;
@@ -155,10 +128,10 @@ CR_TEST(phys_drape_energy, strain) {
     double x[6] = {0.3, 0.2, -0.1};
     for (int c = 0; c < 3; c++)
         x[3 + c] = x[c] + 1.1 * L * dir[c];
-    CR_CHECK_NEAR(kval(&t, 0, x), 0.01, 1e-12);
+    CR_CHECK_NEAR(fd_kval(&t, 0, x), 0.01, 1e-12);
     for (int c = 0; c < 3; c++)
         x[3 + c] = x[c] + L * dir[c];
-    CR_CHECK_NEAR(kval(&t, 0, x), 0.0, 1e-24);
+    CR_CHECK_NEAR(fd_kval(&t, 0, x), 0.0, 1e-24);
 
     cr_rng r = cr_rng_make(7, 0);
     for (int trial = 0; trial < 20; trial++) {
@@ -171,7 +144,7 @@ CR_TEST(phys_drape_energy, strain) {
             x[c] = 0.2 * cr_rng_normal(&r);
             x[3 + c] = x[c] + len * u[c] / sqrt(n);
         }
-        CR_CHECK(grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
+        CR_CHECK(fd_grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
         CR_CHECK(grad_same_with_hessian(&t, 0, x));
         CR_CHECK(kernel_hessian_psd(&t, 0, x));
         double H[36], Hfd[36], g[6];
@@ -184,15 +157,15 @@ CR_TEST(phys_drape_energy, strain) {
             for (int i = 0; i < 36; i++)
                 D[i] = H[i] - Hfd[i];
             eigenvalues(D, 6, w);
-            CR_CHECK(w[0] > -1e-5 * max_abs(H, 36));
-            CR_CHECK(w[5] > 1e-3 * max_abs(H, 36)); /* and differs: the clamp acted */
+            CR_CHECK(w[0] > -1e-5 * fd_max_abs(H, 36));
+            CR_CHECK(w[5] > 1e-3 * fd_max_abs(H, 36)); /* and differs: the clamp acted */
         }
     }
 
     /* coincident ends: no gradient, energy 1 */
     double xc[6] = {0.1, 0.1, 0.1, 0.1, 0.1, 0.1}, gc[6], Hc[36];
     CR_CHECK_NEAR(t.kernel(t.data, 1, xc, gc, Hc), 1.0, 1e-12);
-    CR_CHECK(max_abs(gc, 6) == 0.0 && max_abs(Hc, 36) == 0.0);
+    CR_CHECK(fd_max_abs(gc, 6) == 0.0 && fd_max_abs(Hc, 36) == 0.0);
 
     /* storage reused once warm; bad elements refused naming the edge */
     const int32_t *elem = t.elem;
@@ -240,7 +213,7 @@ CR_TEST(phys_drape_energy, bend) {
     for (int k = 0; k <= 8; k++) {
         const double phi = k * 0.35;
         hinge(phi, 0.01, x);
-        CR_CHECK_NEAR(kval(&t, 0, x), 2.0 - 2.0 * cos(phi), 1e-12);
+        CR_CHECK_NEAR(fd_kval(&t, 0, x), 2.0 - 2.0 * cos(phi), 1e-12);
     }
 
     /* gradient against differences on random hinges near a fold */
@@ -249,7 +222,7 @@ CR_TEST(phys_drape_energy, bend) {
         hinge(0.1 + 0.12 * trial, 0.02, x);
         for (int i = 0; i < 12; i++)
             x[i] += 0.002 * cr_rng_normal(&r);
-        CR_CHECK(grad_rel_error(&t, 0, x, FD_STEP * 0.01) < FD_RTOL);
+        CR_CHECK(fd_grad_rel_error(&t, 0, x, FD_STEP * 0.01) < FD_RTOL);
         CR_CHECK(grad_same_with_hessian(&t, 0, x));
         CR_CHECK(kernel_hessian_psd(&t, 0, x));
     }
@@ -272,7 +245,7 @@ CR_TEST(phys_drape_energy, bend) {
     /* a degenerate face: 0, no gradient */
     double xd[12] = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0.5, -1, 0.3}, gd[12], Hd[144];
     CR_CHECK(t.kernel(t.data, 0, xd, gd, Hd) == 0.0);
-    CR_CHECK(max_abs(gd, 12) == 0.0 && max_abs(Hd, 144) == 0.0);
+    CR_CHECK(fd_max_abs(gd, 12) == 0.0 && fd_max_abs(Hd, 144) == 0.0);
 
     const int32_t *elem = t.elem;
     CR_CHECK_OK(cr_drape_bend_set(b, hinges, 1, 4, &err), &err);
@@ -300,8 +273,8 @@ CR_TEST(phys_drape_energy, gravity) {
     CR_CHECK_NEAR(t.kernel(t.data, 3, x, gr, H), 1e-4 * 9.81 * -0.25, 1e-18);
     CR_CHECK(gr[0] == 0.0 && gr[2] == 0.0);
     CR_CHECK_NEAR(gr[1], 1e-4 * 9.81, 1e-18);
-    CR_CHECK(max_abs(H, 9) == 0.0);
-    CR_CHECK(grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
+    CR_CHECK(fd_max_abs(H, 9) == 0.0);
+    CR_CHECK(fd_grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
     cr_drape_gravity_destroy(g);
     CR_CHECK(cr_drape_gravity_create(NAN, 9.81, &g, &err) == CR_ERR_NAN && g == NULL);
     cr_drape_gravity_destroy(NULL);
@@ -335,12 +308,12 @@ CR_TEST(phys_drape_energy, collision_vertex) {
         for (int d = 0; d < 3; d++)
             x[d] = vp[3 * v + d] + depth[k] * vn[3 * v + d];
         const double m = fmin(depth[k] - eps, 0.0);
-        CR_CHECK_NEAR(kval(&t, 0, x), m * m, 1e-12);
+        CR_CHECK_NEAR(fd_kval(&t, 0, x), m * m, 1e-12);
         if (m == 0.0) continue;
         /* a small tangential offset keeps the vertex nearest: the FD sees one plane */
         for (int d = 0; d < 3; d++)
             x[d] += 1e-4 * (d == 0 ? 1.0 : -0.5);
-        CR_CHECK(grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
+        CR_CHECK(fd_grad_rel_error(&t, 0, x, FD_STEP) < FD_RTOL);
         CR_CHECK(hess_rel_error(&t, 0, x, FD_STEP) < 1e-5); /* exact: s linear in x */
         CR_CHECK(kernel_hessian_psd(&t, 0, x));
         CR_CHECK(grad_same_with_hessian(&t, 0, x));
@@ -350,9 +323,9 @@ CR_TEST(phys_drape_energy, collision_vertex) {
     for (int d = 0; d < 3; d++)
         far[d] = vp[d] + 0.0025 * vn[d];
     const double away[3] = {1.0, 0.0, 0.0};
-    CR_CHECK(t.kernel(t.data, 0, far, g, H) == 0.0 && max_abs(g, 3) == 0.0);
-    CR_CHECK(t.kernel(t.data, 0, away, g, H) == 0.0 && max_abs(g, 3) == 0.0);
-    CR_CHECK(max_abs(H, 9) == 0.0);
+    CR_CHECK(t.kernel(t.data, 0, far, g, H) == 0.0 && fd_max_abs(g, 3) == 0.0);
+    CR_CHECK(t.kernel(t.data, 0, away, g, H) == 0.0 && fd_max_abs(g, 3) == 0.0);
+    CR_CHECK(fd_max_abs(H, 9) == 0.0);
     cr_drape_collision_destroy(c);
     CR_CHECK(cr_drape_collision_create(bvh, (cr_drape_collision_mode)7, eps, &c, &err) ==
              CR_ERR_INVALID);
@@ -382,13 +355,13 @@ CR_TEST(phys_drape_energy, collision_sdf) {
     const double s_true[4] = {-0.003, -0.004, -0.001, 0.0015};
     for (int k = 0; k < 4; k++) {
         const double m = s_true[k] - eps;
-        CR_CHECK_NEAR(kval(&t, 0, pts[k]), m * m, 1e-9);
-        CR_CHECK(grad_rel_error(&t, 0, pts[k], 1e-5) < 1e-4);
+        CR_CHECK_NEAR(fd_kval(&t, 0, pts[k]), m * m, 1e-9);
+        CR_CHECK(fd_grad_rel_error(&t, 0, pts[k], 1e-5) < 1e-4);
         CR_CHECK(hess_rel_error(&t, 0, pts[k], 1e-5) < 1e-3); /* a plane: exact */
         CR_CHECK(kernel_hessian_psd(&t, 0, pts[k]));
     }
     const double clear[3] = {0.0, 0.21, 0.0};
-    CR_CHECK(kval(&t, 0, clear) == 0.0);
+    CR_CHECK(fd_kval(&t, 0, clear) == 0.0);
     cr_drape_collision_destroy(c);
     cr_bvh_destroy(bvh);
 
@@ -412,10 +385,10 @@ CR_TEST(phys_drape_energy, collision_sdf) {
                 ctr += bp[3 * tri[3 * f + k] + d] / 3.0;
             x[d] = ctr - depth * fn[3 * f + d];
         }
-        CR_CHECK_NEAR(kval(&t, 0, x), (depth + eps) * (depth + eps), 1e-9);
+        CR_CHECK_NEAR(fd_kval(&t, 0, x), (depth + eps) * (depth + eps), 1e-9);
         /* the closest point comes back in float: 3e-8 m of noise in s, so a
          * longer step (s is linear in x within the face) */
-        CR_CHECK(grad_rel_error(&t, 0, x, 1e-4) < 1e-3);
+        CR_CHECK(fd_grad_rel_error(&t, 0, x, 1e-4) < 1e-3);
         CR_CHECK(kernel_hessian_psd(&t, 0, x));
     }
     cr_drape_collision_destroy(c);
