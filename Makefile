@@ -4,12 +4,17 @@ PEERS   ?= sim,nn
 RELEASE := build/release
 ASAN    := build/asan
 FUZZ    := build/fuzz
+OPT     := build/opt
+CLANG   := build/clang
+# Warnings are errors in every build made here (CMake's default is off, for packagers).
+WERROR  := -DCREASE_WERROR=ON
 OUT     ?= out
 FUZZ_SMOKE_S ?= 10
 FUZZ_LONG_S  ?= 300
 PREFIX  ?= /usr/local
 
-.PHONY: all deps build run check test test-long test-asan fuzz-smoke fuzz bench bench-peers install clean
+.PHONY: all deps build run check test test-long test-asan build-opt test-clang fuzz-build fuzz-smoke \
+        fuzz bench bench-peers install clean
 
 all: build
 
@@ -17,7 +22,8 @@ deps:
 	@bash scripts/deps.sh
 
 $(RELEASE)/CMakeCache.txt:
-	cmake -S . -B $(RELEASE) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_INSTALL_PREFIX=$(PREFIX) >/dev/null
+	cmake -S . -B $(RELEASE) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_INSTALL_PREFIX=$(PREFIX) \
+	      $(WERROR) >/dev/null
 
 build: deps $(RELEASE)/CMakeCache.txt
 	cmake --build $(RELEASE) -j $(JOBS)
@@ -36,16 +42,33 @@ test-long: build
 	$(RELEASE)/bench_sim tube10k 2 1500
 
 test-asan: deps
-	cmake -S . -B $(ASAN) -DCMAKE_BUILD_TYPE=Debug -DCREASE_SANITIZE=ON \
+	cmake -S . -B $(ASAN) -DCMAKE_BUILD_TYPE=Debug -DCREASE_SANITIZE=ON $(WERROR) \
 	      -DCMAKE_C_FLAGS_DEBUG="-O1 -g" >/dev/null
 	cmake --build $(ASAN) -j $(JOBS)
 	cd $(ASAN) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	      ctest --output-on-failure -j $(JOBS) -LE long
 
 $(FUZZ)/CMakeCache.txt:
-	CC=clang cmake -S . -B $(FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCREASE_FUZZ=ON -DCREASE_OPENMP=OFF \
+	CC=clang cmake -S . -B $(FUZZ) -DCMAKE_BUILD_TYPE=Debug -DCREASE_FUZZ=ON -DCREASE_OPENMP=OFF $(WERROR) \
 	      -DCMAKE_C_FLAGS="-O1 -g -fsanitize=address,undefined -fsanitize=fuzzer-no-link" \
 	      -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
+
+# CMake's Release type (-O3 -DNDEBUG) as a packager builds it, so that build cannot break
+# unseen: compiled (library, tool, tests, benchmarks, examples), not run.
+$(OPT)/CMakeCache.txt:
+	cmake -S . -B $(OPT) -DCMAKE_BUILD_TYPE=Release $(WERROR) >/dev/null
+
+build-opt: deps $(OPT)/CMakeCache.txt
+	cmake --build $(OPT) -j $(JOBS)
+
+# The same Release type with clang and OpenMP (libomp), and the tests run: another
+# compiler's warnings, optimiser and OpenMP runtime.
+$(CLANG)/CMakeCache.txt:
+	CC=clang cmake -S . -B $(CLANG) -DCMAKE_BUILD_TYPE=Release $(WERROR) >/dev/null
+
+test-clang: deps $(CLANG)/CMakeCache.txt
+	cmake --build $(CLANG) -j $(JOBS)
+	cd $(CLANG) && ctest --output-on-failure -j $(JOBS) -LE long
 
 fuzz-build: deps $(FUZZ)/CMakeCache.txt
 	cmake --build $(FUZZ) -j $(JOBS)
@@ -56,8 +79,8 @@ fuzz-smoke: fuzz-build
 fuzz: fuzz-build
 	@bash scripts/fuzz.sh $(FUZZ) $(FUZZ_LONG_S)
 
-check: test test-asan fuzz-smoke
-	@echo "check: all tests passed (release, sanitizers, fuzz smoke)"
+check: test build-opt test-clang test-asan fuzz-smoke
+	@echo "check: all tests passed (release, Release -O3 build, clang, sanitizers, fuzz smoke)"
 
 bench: build
 	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done

@@ -205,10 +205,10 @@ static void fidelity(const bench_opts *o) {
         for (int b = 0; b < CR_DRAPE_H_BANDS; b++) {
             char band[32];
             if (b == 0)
-                snprintf(band, sizeof band, ">%.0fcm", 100 * cr_drape_h_band_edges_m[1]);
+                snprintf(band, sizeof band, ">%.0fcm", 100 * cr_eval_h_band_edges_m[1]);
             else
-                snprintf(band, sizeof band, "%.0f-%.0fcm", 100 * cr_drape_h_band_edges_m[b + 1],
-                         100 * cr_drape_h_band_edges_m[b]);
+                snprintf(band, sizeof band, "%.0f-%.0fcm", 100 * cr_eval_h_band_edges_m[b + 1],
+                         100 * cr_eval_h_band_edges_m[b]);
             printf(" %7s", band);
         }
         printf("\n");

@@ -11,26 +11,43 @@
  *           swinging about the top like a leg (0.15 rad at 0.8 Hz) and
  *           pushing the cloth around.
  * The first frames of a scene include its setup transient; the split is
- * summed over all frames. Threads: all, or the second argument.
+ * summed over the frames finished (cr_scene_run, the loop `crease simulate`
+ * and the datasets use). Threads: all, or the second argument.
  *
- * Usage: bench_sim [scene] [threads] [frames]
+ * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
  *   scene: all (default), sphere, tube5k, tube10k, tube40k
  *   frames: 30 by default (10 for tube40k)
+ *   --solver: newton (default) or vbd times that solver; compare runs a
+ *   converged Newton reference (newton_tol 1e-5 m/s, no relative
+ *   tolerance, 40 iterations), Newton at its default cap of 8 and VBD at
+ *   its defaults, and prints each one's mean and largest vertex distance to
+ *   the reference after the last frame.
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
-#include "crease/phys_sim.h"
 #include "crease/primitives.h"
+#include "crease/scene.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct scene_stats {
-    double seconds, assembly, factor, solve, collision;
-    int64_t newton, factorisations, frames, backoffs, capped;
-    double max_pen;
-    int diverged;
-} scene_stats;
+/* Long runs (the 1,500-frame tube) show progress every 100 frames. */
+static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
+                          const cr_scene_run_stats *st, cr_error *err) {
+    (void)sim, (void)rep, (void)err;
+    if (st->frames % 100 == 0) {
+        printf("sim %s: frame %d, %.3f s/frame so far, max penetration %.2f mm\n",
+               (const char *)ctx, st->frames, st->seconds / st->frames,
+               1e3 * st->max_penetration_m);
+        fflush(stdout);
+    }
+    return CR_OK;
+}
+
+static int solver_mode = 0; /* 0 newton, 1 vbd, 2 compare */
+
+/* After a run: its final positions (V,3), for compare; owned here. */
+static double *last_positions = NULL;
 
 static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, int frames) {
     cr_error err = {0};
@@ -41,44 +58,66 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
         return 1;
     }
     double setup = cr_time_now() - t0;
-    scene_stats st = {0};
-    for (int f = 0; f < frames; f++) {
-        cr_sim_report rep;
-        cr_status status = cr_sim_step(s, &rep, &err);
-        st.seconds += rep.seconds, st.assembly += rep.seconds_assembly;
-        st.factor += rep.seconds_factor, st.solve += rep.seconds_solve;
-        st.collision += rep.seconds_collision;
-        st.newton += rep.newton_iterations, st.factorisations += rep.factorisations;
-
-        st.backoffs += rep.backoffs, st.capped += rep.newton_capped;
-        st.max_pen = fmax(st.max_pen, rep.max_penetration_m);
-        st.frames++;
-        if ((f + 1) % 100 == 0) { /* long runs (the 1,500-frame tube) show progress */
-            printf("sim %s: frame %d, %.3f s/frame so far, max penetration %.2f mm\n", name, f + 1,
-                   st.seconds / st.frames, 1e3 * st.max_pen);
-            fflush(stdout);
-        }
-        if (status != CR_OK) {
-            st.diverged = 1;
-            printf("sim %s: stopped at frame %d: %s\n", name, f, err.msg);
-            break;
-        }
-    }
-    double n = (double)st.frames, tot = st.seconds > 0 ? st.seconds : 1;
-    printf("sim %s V=%d: %.3f s/frame over %lld frames (setup %.2f s)\n", name, garment->nv,
-           st.seconds / n, (long long)st.frames, setup);
+    cr_scene_run_stats st;
+    cr_status status = cr_scene_run(s, frames, NULL, progress, (void *)name, &st, &err);
+    int stopped = status != CR_OK;
+    if (stopped) printf("sim %s: stopped at frame %d: %s\n", name, st.frames, err.msg);
+    double n = st.frames > 0 ? (double)st.frames : 1.0, tot = st.seconds > 0 ? st.seconds : 1;
+    printf("sim %s V=%d solver %s: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
+           cr_sim_solver_name(def->solver), st.seconds / n, st.frames, setup);
     printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
            "%.0f%%, other %.0f%%\n",
-           name, 100 * st.assembly / tot, 100 * st.factor / tot, 100 * st.solve / tot,
-           100 * st.collision / tot,
-           100 * (tot - st.assembly - st.factor - st.solve - st.collision) / tot);
+           name, 100 * st.seconds_assembly / tot, 100 * st.seconds_factor / tot,
+           100 * st.seconds_solve / tot, 100 * st.seconds_collision / tot,
+           100 *
+               (tot - st.seconds_assembly - st.seconds_factor - st.seconds_solve -
+                st.seconds_collision) /
+               tot);
     printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
            "%lld backoffs, max penetration before projection %.2f mm, %s\n",
-           name, st.newton / n, st.factorisations / n, (long long)st.capped, (long long)st.backoffs,
-           1e3 * st.max_pen, st.diverged ? "DIVERGED" : "no divergence");
+           name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.backoffs,
+           1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
+    free(last_positions);
+    last_positions = malloc(sizeof(double) * 3 * (size_t)garment->nv);
+    if (last_positions)
+        memcpy(last_positions, cr_sim_positions(s), sizeof(double) * 3 * (size_t)garment->nv);
     cr_sim_destroy(s);
-    return st.diverged;
+    return stopped;
+}
+
+/* One scene with the chosen solver, or the three runs of compare. */
+static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
+    cr_sim_def d = *base;
+    if (solver_mode < 2) {
+        d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
+        return run(name, garment, &d, frames);
+    }
+    int64_t n3 = 3 * (int64_t)garment->nv;
+    d.newton_tol = 1e-5, d.newton_rtol = 0.0, d.newton_max_iterations = 40;
+    int rc = run(name, garment, &d, frames);
+    double *ref = last_positions;
+    last_positions = NULL;
+    if (!ref) return 1;
+    for (int k = 0; k < 2; k++) {
+        d = *base;
+        d.solver = k == 0 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
+        rc |= run(name, garment, &d, frames);
+        if (!last_positions) continue;
+        double mean = 0.0, worst = 0.0;
+        for (int64_t i = 0; i < n3; i += 3) {
+            double dx = last_positions[i] - ref[i], dy = last_positions[i + 1] - ref[i + 1],
+                   dz = last_positions[i + 2] - ref[i + 2], r = sqrt(dx * dx + dy * dy + dz * dz);
+            mean += r / garment->nv;
+            worst = fmax(worst, r);
+        }
+        printf("sim %s accuracy %s%s after %d frames: mean %.2f mm, largest %.2f mm from "
+               "converged Newton\n",
+               name, cr_sim_solver_name(d.solver), k == 0 ? " (capped at 8)" : " (defaults)",
+               frames, 1e3 * mean, 1e3 * worst);
+    }
+    free(ref);
+    return rc;
 }
 
 static int bench_sphere(int frames) {
@@ -94,7 +133,7 @@ static int bench_sphere(int frames) {
     cr_sim_def d = cr_sim_default_def();
     cr_material_preset("cotton", &d.material, &err);
     d.collider = sphere;
-    int rc = run("sphere128", cloth, &d, frames);
+    int rc = run_mode("sphere128", cloth, &d, frames);
     cr_mesh_destroy(cloth);
     cr_mesh_destroy(sphere);
     return rc;
@@ -141,7 +180,7 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
     cr_material_preset("cotton", &d.material, &err);
     d.pinned = pins, d.npinned = npins;
     d.collider = cap, d.collider_frames = seq, d.collider_nframes = frames;
-    int rc = seq ? run(name, tube, &d, frames) : 1;
+    int rc = seq ? run_mode(name, tube, &d, frames) : 1;
     free(seq);
     free(pins);
     cr_mesh_destroy(tube);
@@ -150,6 +189,19 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
 }
 
 int main(int argc, char **argv) {
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--solver") && i + 1 < argc) {
+            const char *m = argv[i + 1];
+            solver_mode = !strcmp(m, "vbd") ? 1 : !strcmp(m, "compare") ? 2 : 0;
+            if (solver_mode == 0 && strcmp(m, "newton")) {
+                fprintf(stderr, "bench_sim: --solver newton|vbd|compare, got %s\n", m);
+                return 2;
+            }
+            for (int j = i; j + 2 < argc; j++)
+                argv[j] = argv[j + 2];
+            argc -= 2;
+            break;
+        }
     const char *which = argc > 1 ? argv[1] : "all";
     if (argc > 2) cr_set_thread_count(atoi(argv[2]));
     int frames = argc > 3 ? atoi(argv[3]) : 30, big = argc > 3 ? frames : 10;
@@ -160,7 +212,6 @@ int main(int argc, char **argv) {
     if (all || !strcmp(which, "sphere")) rc |= bench_sphere(frames);
     if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
     if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
-    if (all || !strcmp(which, "tube40k"))
-        rc |= bench_tube("tube40k", 200, 199, big); /* 40,000 */
+    if (all || !strcmp(which, "tube40k")) rc |= bench_tube("tube40k", 200, 199, big);   /* 40,000 */
     return rc;
 }

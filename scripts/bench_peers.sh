@@ -4,9 +4,10 @@
 #   sim  crease's simulator and Blender's cloth solver on the same scene: a
 #        1 m square cloth of (res+1)^2 vertices at y = 0.5 dropped on a sphere
 #        of radius 0.3 m, 120 frames at 30 fps, at res = 64 and 128 quads per
-#        side. Prints seconds per frame for both, their ratio (Blender /
-#        crease: above 1 means crease is faster) and each one's deepest vertex
-#        inside the sphere at the end. The harness is
+#        side. Prints seconds per frame for Blender and for crease with each
+#        solver (Newton, VBD: `--solver`), the ratios (Blender / crease: above
+#        1 means crease is faster) and each one's deepest vertex inside the
+#        sphere. PEERS_FRAMES, PEERS_RES: a shorter run. The harness is
 #        ../shared/peers/blender_drape.py (its docstring gives the scene and
 #        timing rules). Installs Debian's `blender` if it is missing (root).
 #   nn   the neural engine and PyTorch 1.13 on the CPU: `crease fit --model
@@ -30,7 +31,7 @@ peers=${CREASE_PEERS:-$root/../shared/peers}
 [[ -d $peers || -n ${CREASE_PEERS:-} ]] || peers=$root/../../shared/peers
 peer=$peers/blender_drape.py
 bindir=$(cd "$(dirname "$crease")" && pwd)
-frames=120
+frames=${PEERS_FRAMES:-120}
 threads=${BENCH_THREADS:-2}
 status=0
 
@@ -63,9 +64,9 @@ sim_peers() {
   fi
 
   mkdir -p "$out"
-  printf '%-6s %-9s %-16s %-16s %-9s %-18s %-18s\n' res vertices "blender s/frame" "crease s/frame" ratio \
-    "blender depth mm" "crease depth mm"
-  for res in 64 128; do
+  printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s\n' res vertices "blender" \
+    "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm"
+  for res in ${PEERS_RES:-64 128}; do
     b=$out/blender$res
     c=$out/crease$res
     mkdir -p "$b" "$c"
@@ -73,18 +74,24 @@ sim_peers() {
       --threads $threads --collider sphere --out "$b" >"$b/log.txt" 2>&1 ||
       { echo "bench-peers: blender failed at res $res, see $b/log.txt" >&2; return 1; }
     "$crease" primitive plane --res $((res + 1)) --size 1 -o "$c/cloth.obj" >/dev/null
-    OMP_NUM_THREADS=$threads "$crease" simulate --garment "$c/cloth.obj" --garment-offset 0,0.5,0 \
-      --object sphere --frames $frames --fps 30 --material cotton -o "$c" --quiet --json \
-      >"$c/summary.json" 2>"$c/log.txt" ||
-      { echo "bench-peers: crease simulate failed at res $res, see $c/log.txt" >&2; return 1; }
+    for solver in newton vbd; do
+      mkdir -p "$c/$solver"
+      OMP_NUM_THREADS=$threads "$crease" simulate --garment "$c/cloth.obj" --garment-offset 0,0.5,0 \
+        --object sphere --frames $frames --fps 30 --material cotton --solver $solver -o "$c/$solver" \
+        --quiet --json >"$c/$solver/summary.json" 2>"$c/$solver/log.txt" ||
+        { echo "bench-peers: crease simulate --solver $solver failed at res $res, see $c/$solver/log.txt" >&2; return 1; }
+    done
     bs=$(field "$b/result.json" seconds_per_frame)
-    cs=$(field "$c/summary.json" seconds_per_frame)
+    ns=$(field "$c/newton/summary.json" seconds_per_frame)
+    vs=$(field "$c/vbd/summary.json" seconds_per_frame)
     bp=$(field "$b/result.json" max_penetration_m)
-    cp=$(field "$c/summary.json" max_penetration_m)
-    awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v cs="$cs" -v bp="$bp" -v cp="$cp" \
-      'BEGIN { printf "%-6d %-9d %-16.4f %-16.4f %-9.2f %-18.3f %-18.3f\n", r, v, bs, cs, bs / cs, 1e3 * bp, 1e3 * cp }'
+    np=$(field "$c/newton/summary.json" max_penetration_m)
+    vp=$(field "$c/vbd/summary.json" max_penetration_m)
+    awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v bp="$bp" \
+      -v np="$np" -v vp="$vp" 'BEGIN { printf "%-6d %-9d %-10.4f %-10.4f %-10.4f %-8.2f %-8.2f %-10.3f %-10.3f %-10.3f\n",
+        r, v, bs, ns, vs, bs / ns, bs / vs, 1e3 * bp, 1e3 * np, 1e3 * vp }'
   done
-  echo "(ratio = blender / crease seconds per frame; crease depth is the deepest vertex inside the"
+  echo "(seconds per frame; ratio-n, ratio-v = blender / crease Newton, VBD; crease depth is the deepest vertex inside the"
   echo " sphere before projection over the run, blender's at the last frame; outputs in $out)"
 }
 

@@ -13,8 +13,11 @@ packages=(
   libcjson-dev      # JSON configs and manifests
   libopenblas-openmp-dev  # GEMM for the neural engine, on the OpenMP thread pool
   libsuitesparse-dev      # CHOLMOD: sparse Cholesky for the simulator's Newton solves
-  clang             # fuzz targets (libFuzzer)
+  clang             # the clang build of `make check` and the fuzz targets (libFuzzer)
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
+  libomp-dev        # OpenMP runtime for the clang build
+  libjs-three       # three.js r111 and OrbitControls, copied beside the page `crease view` writes
+  chromium          # headless browser for the `crease view` test (tests/view.sh)
 )
 
 missing=()

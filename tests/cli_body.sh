@@ -57,6 +57,13 @@ check "glb magic" bash -c "head -c 4 '$tmp/squat.glb' | grep -q glTF"
 check "pose-body --motion" bash -c "'$crease' pose-body --motion '$tmp/jump.npz' --frames 3 --res 64 \
   -o '$tmp/jump.pc2' --json > '$tmp/jump.json'"
 check "motion frames cut" grep -q '"frames":3,' "$tmp/jump.json"
+# a file resampled to 60 fps (8 frames at 30 are 15 at 60), with and without the 1 s ease-in
+check "pose-body --fps" bash -c "'$crease' pose-body --motion '$tmp/jump.npz' --fps 60 --ease-in 0 \
+  --res 64 -o '$tmp/jump60.pc2' --json > '$tmp/jump60.json'"
+check "resampled frames" grep -q '"frames":15,' "$tmp/jump60.json"
+check "source rate" grep -q '"source_fps":30,' "$tmp/jump60.json"
+check "pose-body ease-in" bash -c "'$crease' pose-body --motion '$tmp/jump.npz' --res 64 \
+  -o '$tmp/jumpe.pc2' --json | grep -q '\"ease_in_frames\":30,'"
 
 # --- bad input and usage -----------------------------------------------------------------
 expect_exit 2 "unknown shape 'fat'" body --shape fat -o "$tmp/x.obj"
@@ -71,7 +78,8 @@ expect_exit 2 "one of --clip" pose-body --clip walk --motion "$tmp/jump.npz" -o 
 expect_exit 2 "unknown clip" pose-body --clip moonwalk -o "$tmp/x.pc2"
 expect_exit 2 "expected .pc2 or .glb" pose-body --clip walk -o "$tmp/x.obj"
 expect_exit 2 "--rest" pose-body --motion "$tmp/jump.npz" --rest upright -o "$tmp/x.pc2"
-expect_exit 2 "--fps" pose-body --motion "$tmp/jump.npz" --fps 60 -o "$tmp/x.pc2"
+expect_exit 2 "--ground" pose-body --motion "$tmp/jump.npz" --ground floor -o "$tmp/x.pc2"
+expect_exit 2 "read a --motion file" pose-body --clip walk --scale 0.01 -o "$tmp/x.pc2"
 expect_exit 1 "missing.npz" pose-body --motion "$tmp/missing.npz" --res 64 -o "$tmp/x.pc2"
 
 echo "cli_body: $passed passed, $failed failed"

@@ -18,6 +18,16 @@ check "dataset layout" test -s "$tmp/data/manifest.json" -a -s "$tmp/data/bodies
   -a -s "$tmp/data/sequences/tshirt_low_normal_walk/result.json"
 check "dataset resumes" bash -c "'$crease' dataset --garments tshirt --motions walk \
   --low-vertices 600 --frames 4 -o '$tmp/data' --quiet --json | grep -q '\"skipped\":1,'"
+# a motion file at 60 fps: resampled to the dataset's 30, eased in from the rest pose
+"$crease" motion --clip walk --frames 13 --fps 60 -o "$tmp/walk60.npz" >/dev/null 2>&1
+check "dataset on a file" "$crease" dataset --garments tshirt --motions "$tmp/walk60.npz" \
+  --low-vertices 600 --frames 2 -o "$tmp/data60" --quiet
+m60="$tmp/data60/manifest.json"
+check "manifest source rate" grep -Eq '"source_fps":[[:space:]]*60' "$m60"
+check "manifest used rate" grep -Eq '"fps":[[:space:]]*30,' "$m60"
+# 13 frames at 60 fps are 7 at 30, after the 1 s ease-in's 30
+check "manifest frames" grep -Eq '"frames":[[:space:]]*37,' "$m60"
+check "manifest ease-in" grep -Eq '"ease_in_frames":[[:space:]]*30' "$m60"
 seq="$tmp/data/sequences/tshirt_low_normal_walk/garment.pc2"
 check "render a frame, garment on body" "$crease" render \
   "$tmp/data/garments/normal/tshirt_low.obj" --pc2 "$seq" \

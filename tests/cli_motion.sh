@@ -150,6 +150,18 @@ check "bvh 25 fps" grep -q '"fps":25,' "$tmp/turn.json"
 # the left knee goes 20 -> 25 -> 30 degrees: 5 degrees a frame at 25 fps is 2.18 rad/s
 check "bvh knee speed" json_between "$tmp/turn.json" max_angular_speed_rad_s 2.1 2.3
 check "bvh knee joint" grep -q '"max_angular_speed_joint":"left_knee"' "$tmp/turn.json"
+check "bvh --fps" bash -c "'$crease' motion --input '$tmp/turn.bvh' --fps 50 --json > '$tmp/turn50.json'"
+check "bvh 50 fps frames" grep -q '"frames":5,' "$tmp/turn50.json"
+check "bvh source rate" grep -q '"source_fps":25,' "$tmp/turn50.json"
+check "bvh frame range" bash -c "'$crease' motion --input '$tmp/turn.bvh' --start-frame 1 --end-frame 2 --json | grep -q '\"frames\":2,'"
+expect_exit 1 "frames 0 to 2" motion --input "$tmp/turn.bvh" --start-frame 5
+expect_exit 2 "read a file" motion --clip walk --scale 2 -o "$tmp/x.npz"
+# simulate on a motion file: the mannequin posed by it, eased in from the rest pose
+"$crease" garment --type tshirt --res 500 -o "$tmp/shirt.obj" >/dev/null 2>&1
+check "simulate --motion" bash -c "'$crease' simulate --garment '$tmp/shirt.obj' --motion '$tmp/turn.bvh' \
+  --ease-in 0.1 --frames 2 --quiet -o '$tmp/sim' --json | grep -q '\"frames\":2,'"
+expect_exit 2 "--motion poses the mannequin" simulate --garment "$tmp/shirt.obj" \
+  --motion "$tmp/turn.bvh" --object sphere --frames 2 -o "$tmp/sim"
 check "bvh npz back" bash -c "'$crease' motion --input '$tmp/turn.npz' --json | grep -q '\"frames\":3,'"
 
 # --- bad input and usage ------------------------------------------------------------------

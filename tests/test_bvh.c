@@ -9,6 +9,7 @@
  * corners), and the triangular prism, whose 120-degree edge turns make a
  * face-normal sign test fail where pseudo-normals succeed (checked by hand
  * by disabling the edge and vertex pseudo-normals: this test then fails). */
+#include "base/vec3.h"
 #include "crease/bvh.h"
 #include "crease/diffgeo.h"
 #include "crease/primitives.h"
@@ -22,25 +23,12 @@ static const double PI = 3.14159265358979323846;
 
 /* --------------------------------------------------------- references -- */
 
-static void sub(const float *a, const float *b, double out[3]) {
-    for (int d = 0; d < 3; d++)
-        out[d] = (double)a[d] - b[d];
-}
-static double dot(const double *a, const double *b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static void cross(const double *a, const double *b, double out[3]) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 static double seg_dist2(const float *a, const float *b, const double p[3]) {
     double e[3], q[3];
-    sub(b, a, e);
+    sub3fd(b, a, e);
     for (int d = 0; d < 3; d++)
         q[d] = p[d] - a[d];
-    double ee = dot(e, e), t = ee > 0 ? dot(q, e) / ee : 0;
+    double ee = dot3d(e, e), t = ee > 0 ? dot3d(q, e) / ee : 0;
     t = t < 0 ? 0 : (t > 1 ? 1 : t);
     double r = 0;
     for (int d = 0; d < 3; d++)
@@ -50,24 +38,24 @@ static double seg_dist2(const float *a, const float *b, const double p[3]) {
 
 static double ref_tri_dist2(const float *a, const float *b, const float *c, const double p[3]) {
     double ab[3], ac[3], n[3];
-    sub(b, a, ab);
-    sub(c, a, ac);
-    cross(ab, ac, n);
-    double nn = dot(n, n);
+    sub3fd(b, a, ab);
+    sub3fd(c, a, ac);
+    cross3d(ab, ac, n);
+    double nn = dot3d(n, n);
     if (nn > 0) {
         double ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-        double h = dot(ap, n) / nn, q[3];
+        double h = dot3d(ap, n) / nn, q[3];
         for (int d = 0; d < 3; d++)
             q[d] = p[d] - h * n[d];
         const float *v[3] = {a, b, c};
         int inside = 1;
         for (int k = 0; k < 3; k++) {
             double e[3], w[3], x[3];
-            sub(v[(k + 1) % 3], v[k], e);
+            sub3fd(v[(k + 1) % 3], v[k], e);
             for (int d = 0; d < 3; d++)
                 w[d] = q[d] - v[k][d];
-            cross(e, w, x);
-            if (dot(x, n) < 0) inside = 0;
+            cross3d(e, w, x);
+            if (dot3d(x, n) < 0) inside = 0;
         }
         if (inside) return h * h * nn;
     }
@@ -96,9 +84,10 @@ static double winding(const cr_mesh *m, const double p[3]) {
             b[d] = m->pos[3 * m->tri[3 * f + 1] + d] - p[d];
             c[d] = m->pos[3 * m->tri[3 * f + 2] + d] - p[d];
         }
-        cross(b, c, bc);
-        double la = sqrt(dot(a, a)), lb = sqrt(dot(b, b)), lc = sqrt(dot(c, c));
-        w += 2 * atan2(dot(a, bc), la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la);
+        cross3d(b, c, bc);
+        double la = sqrt(dot3d(a, a)), lb = sqrt(dot3d(b, b)), lc = sqrt(dot3d(c, c));
+        w += 2 * atan2(dot3d(a, bc),
+                       la * lb * lc + dot3d(a, b) * lc + dot3d(a, c) * lb + dot3d(b, c) * la);
     }
     return w / (4 * PI);
 }
@@ -247,10 +236,10 @@ CR_TEST(bvh, signed_distance_sphere) {
         double ab[3], ac[3], n[3],
             a[3] = {m->pos[3 * m->tri[3 * f]], m->pos[3 * m->tri[3 * f] + 1],
                     m->pos[3 * m->tri[3 * f] + 2]};
-        sub(&m->pos[3 * m->tri[3 * f + 1]], &m->pos[3 * m->tri[3 * f]], ab);
-        sub(&m->pos[3 * m->tri[3 * f + 2]], &m->pos[3 * m->tri[3 * f]], ac);
-        cross(ab, ac, n);
-        sag = fmax(sag, 1.0 - dot(a, n) / sqrt(dot(n, n)));
+        sub3fd(&m->pos[3 * m->tri[3 * f + 1]], &m->pos[3 * m->tri[3 * f]], ab);
+        sub3fd(&m->pos[3 * m->tri[3 * f + 2]], &m->pos[3 * m->tri[3 * f]], ac);
+        cross3d(ab, ac, n);
+        sag = fmax(sag, 1.0 - dot3d(a, n) / sqrt(dot3d(n, n)));
     }
     check_signed_distance(m, "icosphere", 1, sphere_sdf, sag + 1e-5);
     cr_mesh_destroy(m);
@@ -413,16 +402,16 @@ static double ref_ray(const cr_mesh *m, const float *o, const float *dir, double
                     *c = &m->pos[3 * m->tri[3 * f + 2]];
         /* Solve o + t dir = a + u (b - a) + v (c - a) by Cramer's rule. */
         double e1[3], e2[3], s[3], n[3];
-        sub(b, a, e1);
-        sub(c, a, e2);
-        sub(o, a, s);
-        cross(e1, e2, n);
-        double det = -dot(dd, n);
+        sub3fd(b, a, e1);
+        sub3fd(c, a, e2);
+        sub3fd(o, a, s);
+        cross3d(e1, e2, n);
+        double det = -dot3d(dd, n);
         if (det == 0) continue;
-        double t = dot(s, n) / det;
+        double t = dot3d(s, n) / det;
         double sxd[3];
-        cross(s, dd, sxd);
-        double u = dot(e2, sxd) / det, v = -dot(e1, sxd) / det;
+        cross3d(s, dd, sxd);
+        double u = dot3d(e2, sxd) / det, v = -dot3d(e1, sxd) / det;
         if (u >= 0 && v >= 0 && u + v <= 1 && t >= 0 && t <= best) best = t, *face = f;
     }
     return best;
@@ -468,14 +457,14 @@ CR_TEST(bvh, raycast_and_nearest_vertex_match_brute_force) {
             double best = INFINITY;
             for (int32_t v = 0; v < m->nv; v++) {
                 double e[3];
-                sub(&m->pos[3 * v], o, e);
-                best = fmin(best, dot(e, e));
+                sub3fd(&m->pos[3 * v], o, e);
+                best = fmin(best, dot3d(e, e));
             }
             float vd;
             int32_t v = cr_bvh_nearest_vertex(b, o, INFINITY, &vd);
             double e[3];
-            sub(&m->pos[3 * v], o, e);
-            if (dot(e, e) != best || fabs(vd - sqrt(best)) > 1e-6 * sqrt(best)) bad_vertex++;
+            sub3fd(&m->pos[3 * v], o, e);
+            if (dot3d(e, e) != best || fabs(vd - sqrt(best)) > 1e-6 * sqrt(best)) bad_vertex++;
         }
         CR_CHECK(hits > n / 10);
         CR_CHECK(bad_ray == 0);

@@ -368,6 +368,7 @@ static char *bvh_text(int mixamo, int zup, const rig_frames *r) {
 static cr_status load_bvh(const char *text, int recenter, cr_motion **m, cr_error *err) {
     cr_motion_import_def def = cr_motion_import_default_def();
     def.recenter = recenter;
+    def.retarget = 0; /* rotations relative to the rig's T-pose, as written */
     return cr_motion_read_bvh_mem(text, strlen(text), "rig.bvh", &def, m, err);
 }
 
@@ -425,7 +426,7 @@ CR_TEST(motion, bvh_rotations_folding_units_and_frames) {
     }
     /* A given scale overrides the guess. */
     cr_motion_import_def def = cr_motion_import_default_def();
-    def.recenter = 0, def.bvh_scale = 0.1f;
+    def.recenter = 0, def.bvh_scale = 0.1f, def.retarget = 0;
     CR_CHECK_OK(cr_motion_read_bvh_mem(text, strlen(text), "rig.bvh", &def, &m, &err), &err);
     if (m) CR_CHECK_NEAR(m->trans[2], 2.0, 1e-5);
     cr_motion_destroy(m);
@@ -610,6 +611,7 @@ CR_TEST(motion, npz_round_trip_and_amass_files) {
     for (int recenter = 1; recenter >= 0; recenter--) {
         cr_motion_import_def def = cr_motion_import_default_def();
         def.recenter = recenter;
+        def.retarget = 0; /* SMPL's T-pose rest, as written */
         cr_motion *m = NULL;
         CR_CHECK_OK(cr_motion_import(path, &def, &m, &err), &err);
         if (!m) continue;

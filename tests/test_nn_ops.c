@@ -287,15 +287,21 @@ CR_TEST(nn_ops, reductions) {
 /* ------------------------------------------------------------- matmul -- */
 
 typedef struct mm_case {
-    int ta, tb, batched, grouped, linear, bias;
+    int ta, tb, batched, grouped, bias;
     const int32_t *group;
 } mm_case;
 
+/* Two inputs: A and B, or x and the grouped weights. */
 static cr_tensor *build_mm(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     const mm_case *m = user;
     if (m->grouped) return cr_nn_matmul_grouped(ctx, in[0], in[1], m->group, m->tb);
-    if (m->linear) return cr_nn_linear(ctx, in[0], in[1], m->bias ? in[2] : NULL);
     return cr_nn_matmul(ctx, in[0], in[1], m->ta, m->tb);
+}
+
+/* x and W, and the bias as a third input when m->bias. */
+static cr_tensor *build_linear(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const mm_case *m = user;
+    return cr_nn_linear(ctx, in[0], in[1], m->bias ? in[2] : NULL);
 }
 
 CR_TEST(nn_ops, gemm_matches_naive_reference) {
@@ -377,12 +383,12 @@ CR_TEST(nn_ops, matmul_grouped_and_linear) {
     float bias[5];
     nn_gradcheck_fill(bias, 5, -1, 1, 0, 43);
     for (int with_bias = 0; with_bias < 2; with_bias++) {
-        mm_case m = {.linear = 1, .bias = with_bias};
+        mm_case m = {.bias = with_bias};
         cr_nn_ctx_reset(ctx);
         cr_tensor *ts[3] = {cr_nn_from(ctx, 3, (int64_t[]){2, 3, 4}, x),
                             cr_nn_from(ctx, 2, (int64_t[]){5, 4}, w),
                             cr_nn_from(ctx, 1, (int64_t[]){5}, bias)};
-        cr_tensor *y = build_mm(ctx, ts, &m);
+        cr_tensor *y = build_linear(ctx, ts, &m);
         CR_REQUIRE(y && y->ndim == 3 && y->shape[2] == 5);
         for (int r = 0; r < 6; r++)
             for (int o = 0; o < 5; o++) {
@@ -394,7 +400,7 @@ CR_TEST(nn_ops, matmul_grouped_and_linear) {
         nn_gradcheck_input in[3] = {nn_gradcheck_in(3, (int64_t[]){2, 3, 4}, x),
                                     nn_gradcheck_in(2, (int64_t[]){5, 4}, w),
                                     nn_gradcheck_in(1, (int64_t[]){5}, bias)};
-        CR_CHECK(nn_gradcheck_quick("linear", with_bias ? 3 : 2, in, NULL, build_mm, &m) == 0);
+        CR_CHECK(nn_gradcheck_quick("linear", with_bias ? 3 : 2, in, NULL, build_linear, &m) == 0);
     }
     cr_nn_ctx_destroy(ctx);
 }

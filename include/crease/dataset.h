@@ -28,7 +28,9 @@
  * thread); one that fails (divergence, bad input) is recorded with its
  * reason and the others go on. Every file is written atomically.
  *
- * Garments start in the body's rest pose, where every motion starts. The
+ * Garments start in the body's rest pose, where every motion starts (clips
+ * by construction, files by their ease-in: body sample 0 is the rest
+ * pose). The
  * waistband of a skirt or of trousers (its highest boundary loop) is pinned
  * and carried by the body through the garment's own skinning weights: with
  * no self-collision and penalty friction, a skirt would otherwise slide
@@ -38,6 +40,7 @@
 #define CREASE_DATASET_H
 
 #include "crease/base.h"
+#include "crease/motion.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -55,17 +58,25 @@ typedef struct cr_dataset_def {
     int nbodies;
     const char *const *res; /* "low", "high" */
     int nres;
-    int32_t low_vertices;  /* default 2000 */
-    int32_t high_vertices; /* default 8000 */
-    int32_t frames;        /* simulated frames per sequence (default 150) */
-    float fps;             /* default 30 */
-    const char *material;  /* preset name (default "cotton") */
-    int plastic;           /* 1: plastic bending (epnet's ground truth) */
+    int32_t low_vertices;     /* default 2000 */
+    int32_t high_vertices;    /* default 8000 */
+    int32_t frames;           /* simulated frames per sequence (default 150) */
+    float fps;                /* default 30 */
+    const char *material;     /* preset name (default "cotton") */
+    int plastic;              /* 1: plastic bending (epnet's ground truth) */
     double max_collider_step; /* m: frames where the body moves further run more substeps
                                  (cr_sim_def.max_collider_step; default 0.15: the run and
                                  jump clips get 2-3, the others 1) */
-    uint64_t seed;         /* recorded in the manifest (the simulator has no randomness) */
-    int quiet;             /* 1: no progress bar */
+    int solver;               /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    uint64_t seed;            /* recorded in the manifest (the simulator has no randomness) */
+    int quiet;                /* 1: no progress bar */
+    /* Motion files (clips are made at fps and start at the rest pose): read
+     * with motion_import, then made ready by cr_motion_prepare with
+     * motion_prepare (frames used, a calibration frame dropped, resampled to
+     * fps (its own fps field is ignored), grounded on the default mannequin's
+     * feet, eased in from the rest pose over 1 s). Set by the default def. */
+    cr_motion_import_def motion_import;
+    cr_motion_prepare_def motion_prepare;
     uint32_t cookie;
 } cr_dataset_def;
 

@@ -41,7 +41,8 @@
  * continuation (skipped or refused, never misread); PLY colours and other
  * properties (skipped); glTF node transforms, skins, sparse accessors,
  * external buffers, files with several meshes or primitives (refused), and
- * morph targets on reading (the base mesh is read).
+ * morph targets in cr_glb_read (the base mesh is read; cr_glb_read_sequence
+ * reads them).
  *
  * Ownership: meshes returned through `out` belong to the caller
  * (cr_mesh_destroy); cr_pc2.frames belongs to the cr_pc2 (cr_pc2_free).
@@ -128,6 +129,19 @@ cr_status cr_glb_write(const char *path, const cr_mesh *m, cr_error *err);
  *   frames: (T,V,3) positions, m, V = rest->nv, T = nframes >= 1; fps > 0. */
 cr_status cr_glb_write_sequence(const char *path, const cr_mesh *rest, const float *frames,
                                 int32_t nframes, float fps, cr_error *err);
+
+/* Read such a sequence back: `rest` is the base mesh as cr_glb_read gives it
+ * (welded at seams), frames (T,V,3) positions, m, over its V vertices (base
+ * plus morph target i; a seam copy lands on its welded vertex), T the number
+ * of morph targets, or 1 (the base) for a file without them; *fps is
+ * 1 / (t1 - t0) of the first animation sampler, or 0 when the file has no
+ * animation of two keys or more. Targets must not share bytes: the frames
+ * never take more memory than the file's BIN chunk. The caller frees *frames
+ * and destroys *rest; on failure both are NULL. */
+cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames, int32_t *nframes,
+                               float *fps, cr_error *err);
+cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *source, cr_mesh **rest,
+                                   float **frames, int32_t *nframes, float *fps, cr_error *err);
 
 /* ------------------------------------------------------------------ PC2 -- */
 

@@ -13,11 +13,14 @@
  * world: +Y up, the body facing +Z, its left side at +X), and a root
  * translation: the pelvis sits at rest position + trans.
  *
- * Rest poses differ. Procedural clips are written against the procedural
- * mannequin's A-pose (arms 40 degrees below horizontal). AMASS poses are relative
- * to SMPL's T-pose, BVH rotations to the rig's own rest (the OFFSETs,
- * usually a T-pose). cr_motion_rebase re-expresses a motion against another
- * rest pose, e.g. a T-pose motion against the A-pose mannequin.
+ * One rest pose: zero rotations are the default mannequin's A-pose (arms 40
+ * degrees below horizontal) for every motion. Procedural clips and crease's
+ * .npz are written against it; the loaders bring the rest into it (a BVH
+ * retargeted by bone directions from its rig's own rest, AMASS re-expressed
+ * from SMPL's T-pose; cr_motion_import_def.retarget = 0 keeps theirs).
+ * cr_motion_rebase re-expresses a motion against another rest pose (an SMPL
+ * body's T-pose). cr_motion_prepare makes a loaded motion ready to simulate a
+ * garment on: frames used, calibration frame, rate, ground, ease-in.
  *
  * Foreign motions (BVH, AMASS) are brought into crease's frame on loading:
  * Z-up data is turned to Y-up, a rig facing another way is turned to face
@@ -70,6 +73,12 @@ const char *cr_motion_clip_summary(const char *name);
 typedef struct cr_motion_import_def {
     float bvh_scale; /* metres per BVH length unit; 0 (default) infers it from the rig's height */
     int recenter;    /* 1 (default): foreign motions start at x = z = 0 facing +Z */
+    /* 1 (default): foreign motions come out relative to crease's one rest
+     * pose, the default mannequin's A-pose: a BVH retargeted by bone
+     * directions from its rig's own rest (T-pose, A-pose, splayed legs, ...),
+     * an AMASS file re-expressed from SMPL's T-pose. 0: rotations stay
+     * relative to the rig's rest (BVH) or SMPL's T-pose (AMASS). */
+    int retarget;
     uint32_t cookie; /* set by cr_motion_import_default_def */
 } cr_motion_import_def;
 
@@ -109,6 +118,92 @@ float cr_motion_max_angular_speed(const cr_motion *m, int *joint);
  * rotations: R'_j = G_p R_j G_j^-1. Example: a T-pose motion on the A-pose
  * mannequin takes the A-pose as a pose of the T-pose. */
 void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]);
+
+/* The A-pose of a mannequin with arms `arm_angle_deg` below horizontal as
+ * a pose of the T-pose (each upper arm turned down about -+Z): what
+ * cr_motion_rebase takes to play a T-pose motion on that A-pose. */
+void cr_motion_apose_from_tpose(float arm_angle_deg, float rest[CR_NJOINTS * 3]);
+
+/* Largest joint angular speed as cr_motion_max_angular_speed, with the frame
+ * f where it happens (between frames f - 1 and f); either may be NULL. */
+float cr_motion_max_angular_speed_at(const cr_motion *m, int *joint, int32_t *frame);
+
+/* A copy of m at `fps`: the same duration T / fps (ceil-free: samples at
+ * k / fps for k < floor((T - 1) fps / m->fps) + 1), joint rotations slerped
+ * and the translation interpolated linearly between the two nearest frames.
+ * fps in (0, 1000]. */
+cr_status cr_motion_resample(const cr_motion *m, float fps, cr_motion **out, cr_error *err);
+
+/* Frames [first, last] of m (inclusive) as a new motion. */
+cr_status cr_motion_slice(const cr_motion *m, int32_t first, int32_t last, cr_motion **out,
+                          cr_error *err);
+
+/* 1 when frame 0 is a calibration frame: some joint turns by more than
+ * 0.35 rad from frame 0 to frame 1 while the next steps are at least five
+ * times smaller (a T-pose held before a capture starts). *jump (may be
+ * NULL) gets the largest angle from frame 0 to 1, rad. */
+int cr_motion_is_calibration_start(const cr_motion *m, float *jump);
+
+/* A copy of m that starts at the rest pose (zero rotations and translation,
+ * where a garment is fitted) and eases into m's frame 0 over `seconds` (the
+ * first round(seconds fps) frames), then plays m. Per joint the rotation is
+ * m_0 exp(p(u)), p a quintic in the tangent space at m_0 from log(m_0^-1)
+ * with zero velocity and acceleration at the rest to zero with m's velocity
+ * at frame 0 (so the velocity is continuous into the motion): a slerp from
+ * the rest eased by 1 - 10u^3 + 15u^4 - 6u^5 plus the velocity term. The
+ * translation likewise. seconds 0 copies m. */
+cr_status cr_motion_ease_in(const cr_motion *m, float seconds, cr_motion **out, cr_error *err);
+
+/* How a motion is grounded on a body (cr_motion_ground). */
+typedef enum cr_motion_ground_mode {
+    CR_MOTION_GROUND_NONE = 0,
+    CR_MOTION_GROUND_CLIP, /* one shift: the lowest foot point over the clip on y = 0 */
+    CR_MOTION_GROUND_FRAME /* per frame: each frame's lowest foot point on y = 0 */
+} cr_motion_ground_mode;
+
+/* Shift m's translation in y so the lowest point of body b's feet (the
+ * vertices skinned mostly to the ankles and feet), posed by m, touches
+ * y = 0 over the clip (CR_MOTION_GROUND_CLIP) or at each frame. *shift_m
+ * (may be NULL) gets the clip's shift. b NULL: the default mannequin (a
+ * coarse one, built here). */
+cr_status cr_motion_ground(cr_motion *m, const cr_body_model *b, cr_motion_ground_mode mode,
+                           float *shift_m, cr_error *err);
+
+/* A motion file made ready to simulate a garment on (cr_motion_prepare). */
+typedef struct cr_motion_prepare_def {
+    float fps;            /* resample to this rate; 0 (default) keeps the motion's */
+    int32_t start_frame;  /* first frame used, of the motion as loaded; default 0 */
+    int32_t end_frame;    /* last frame used (inclusive); -1 (default) the last */
+    int drop_calibration; /* 1 (default): a calibration frame 0 is dropped, with a note */
+    float ease_in_s;      /* s from the rest pose into the first used frame; 1 (default); 0 none */
+    cr_motion_ground_mode ground; /* CR_MOTION_GROUND_CLIP (default) */
+    float max_angular_speed;      /* rad/s: above it, a warning names joint and frame; 30 */
+    uint32_t cookie;              /* set by cr_motion_prepare_default_def */
+} cr_motion_prepare_def;
+
+cr_motion_prepare_def cr_motion_prepare_default_def(void);
+
+typedef struct cr_motion_prepare_report {
+    float source_fps;      /* the motion's rate before resampling */
+    int32_t source_frames; /* its frames */
+    int32_t first_frame;   /* the frames used, of the source */
+    int32_t last_frame;
+    int calibration_dropped; /* 1 when frame 0 was dropped as a calibration frame */
+    int32_t ease_frames;     /* frames of ease-in before the first used frame */
+    float ground_shift_m;    /* added to trans.y (CR_MOTION_GROUND_CLIP) */
+    float max_angular_speed; /* rad/s, of the result */
+    int max_speed_joint;     /* where */
+    int32_t max_speed_frame;
+} cr_motion_prepare_report;
+
+/* Every step a loaded motion takes before a garment is simulated on it, in
+ * this order: frames [start_frame, end_frame] (a calibration frame 0
+ * dropped when start_frame is 0), resampled to def->fps, grounded on body b
+ * (NULL: the default mannequin), eased in from the rest pose; then the
+ * angular speed is checked. def NULL: the defaults; rep may be NULL. */
+cr_status cr_motion_prepare(const cr_motion *m, const cr_motion_prepare_def *def,
+                            const cr_body_model *b, cr_motion **out, cr_motion_prepare_report *rep,
+                            cr_error *err);
 
 /* ---------------------------------------------------------- SMPL bodies -- */
 

@@ -14,6 +14,7 @@
  *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
  *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
  *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
+ *   pin        vertex    k/2 |x_i - target_i|^2 over the pinned vertices          pin.c
  *
  * Threading: _create/_update/_set mutate and must not overlap a kernel call;
  * kernels are pure and may run on many threads at once.
@@ -56,6 +57,21 @@ void cr_membrane_set_hessian(cr_membrane *e, cr_hessian_mode mode);
 const double *cr_membrane_rest_areas(const cr_membrane *e); /* (F) m^2 */
 void cr_membrane_term(const cr_membrane *e, cr_energy_term *out);
 
+/* The membrane's stretch or shear part alone (epnet's STE and SHE). For
+ * Baraff-Witkin, the stretch condition A0 k_s/2 ((|w_u| - 1)^2 + (|w_v| - 1)^2)
+ * or the shear A0 k_sh/2 (w_u . w_v)^2. For StVK, with the Green strain E:
+ * stretch A0 (mu (E11^2 + E22^2) + lambda/2 (E11 + E22)^2), shear
+ * A0 2 mu E12^2; the two sum to the full density. CR_MEMBRANE_ALL gives
+ * cr_membrane_term's term. Each part has its own gradient and Hessian
+ * (projected per cr_membrane_set_hessian). Term names "membrane",
+ * "membrane_stretch", "membrane_shear". */
+typedef enum cr_membrane_part {
+    CR_MEMBRANE_ALL = 0,
+    CR_MEMBRANE_STRETCH,
+    CR_MEMBRANE_SHEAR
+} cr_membrane_part;
+void cr_membrane_term_part(const cr_membrane *e, cr_membrane_part part, cr_energy_term *out);
+
 /* ------------------------------------------------------------- bending -- */
 
 /* Interior hinges of `t` (built from `rest`) with per-hinge stiffness
@@ -80,6 +96,12 @@ double *cr_bending_rest_angles(cr_bending *b);
  * with diffgeo.h's sign convention. */
 void cr_bending_angles(const cr_bending *b, const double *x, double *theta);
 void cr_bending_term(const cr_bending *b, cr_energy_term *out);
+/* The kernel of hinge h with the rest angle theta_rest (rad) given instead of
+ * b's own (a plastic rest angle predicted per sample): value, gradient g (12)
+ * and Hessian H (12x12) as cr_energy_kernel, and g_rest (may be NULL) gets
+ * dE/dtheta_rest = -k_e (theta - theta_rest), wrapped as the energy is. */
+double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                              double *g, double *H, double *g_rest);
 
 /* ------------------------------------------------------------- gravity -- */
 
@@ -123,10 +145,34 @@ void cr_collision_update(cr_collision *c, const double *x, const float *dist,
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
+/* The penalty of one vertex at signed distance d (m) from the collider whose
+ * distance gradient (the outward unit normal) is n: k max(eps - d, 0)^3, J,
+ * with k (J/m^3) and eps (m) from the material; g (3) gets its gradient
+ * -3 k (eps - d)^2 n and H (3x3) its Hessian 6 k (eps - d) n n^T, each when
+ * not NULL. The kernel of cr_collision_term, for callers with their own
+ * distances (the losses). */
+double cr_collision_penalty(double k, double eps, double d, const double n[3], double *g,
+                            double *H);
 /* 1 when vertex i lay within the thickness (dist_i < eps) at the last update;
  * then normal (3) gets n_i and *force the penalty's normal force magnitude
  * 3 k (eps - dist_i)^2, N. Else 0 and nothing is written. */
 int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], double *force);
+
+/* ----------------------------------------------------------------- pin -- */
+
+/* Soft pinning of chosen vertices to targets: E = k/2 sum_j |x_{v_j} - t_j|^2
+ * over the n pinned vertices v_j, gradient k (x - t), Hessian k I (PSD).
+ * k in N/m. Targets start at 0: set them with cr_pin_set_targets. Fails with
+ * CR_ERR_RANGE naming the first vertex outside [0, nv), CR_ERR_INVALID for
+ * a negative or non-finite k. Copies the indices. */
+typedef struct cr_pin cr_pin;
+cr_status cr_pin_create(int32_t nv, const int32_t *vertices, int32_t n, double stiffness,
+                        cr_pin **out, cr_error *err);
+void cr_pin_destroy(cr_pin *p);
+/* Copy the targets (n,3), m, in the order of the vertices given to create. */
+void cr_pin_set_targets(cr_pin *p, const double *targets);
+int32_t cr_pin_count(const cr_pin *p);
+void cr_pin_term(const cr_pin *p, cr_energy_term *out);
 
 /* ------------------------------------------------------------ friction -- */
 
@@ -153,6 +199,73 @@ void cr_friction_update(cr_friction *f, const cr_collision *c, const double *x_s
                         const double *collider_disp);
 int32_t cr_friction_contact_count(const cr_friction *f);
 void cr_friction_term(const cr_friction *f, cr_energy_term *out);
+
+/* ------------------------------------------- drape losses (paper 000) -- */
+
+/* The four losses of Shu et al.'s implicit neural drape (../shared/papers/000,
+ * sec. 3.3), as energies over element arrays that change every training step
+ * (the sampled local structures): each _set copies the new elements into
+ * storage that only grows, so a warm term allocates nothing per step.
+ * Kernels take the element's vertices in double (the positions are float
+ * tensors on the tape; the kernels compute in double, as drape did).
+ *
+ *   energy          element  E per element                                  file
+ *   drape strain    edge     ((l - L)/L)^2, L the edge's rest length (eq. 19) drape_strain.c
+ *   drape bend      hinge    |n_A - n_B|^2, unit face normals (eq. 22)        drape_bend.c
+ *   drape gravity   vertex   m g y, height along +Y (eq. 24)                  drape_gravity.c
+ *   drape collision vertex   min(s - eps, 0)^2, s the distance to an object   drape_collision.c
+ *                            along its normal (eq. 26)
+ *
+ * Hessians: strain exact with its negative eigenvalue (compressed edge)
+ * clamped, in closed form; bend and collision Gauss-Newton (2 J^T J of the
+ * residual), PSD by construction; gravity zero. */
+
+/* Edges (E,2) with per-edge rest lengths. */
+typedef struct cr_drape_strain cr_drape_strain;
+/* cap: edges to allocate for up front (0 is fine: _set grows). */
+cr_status cr_drape_strain_create(int32_t cap, cr_drape_strain **out, cr_error *err);
+void cr_drape_strain_destroy(cr_drape_strain *s);
+/* Copy ne edges (E,2), each index in [0, nv), and their rest lengths (E) m,
+ * positive and finite. CR_ERR_RANGE or CR_ERR_INVALID naming the first bad
+ * edge (the term is then empty). */
+cr_status cr_drape_strain_set(cr_drape_strain *s, const int32_t *edges, const float *rest,
+                              int32_t ne, int32_t nv, cr_error *err);
+void cr_drape_strain_term(const cr_drape_strain *s, cr_energy_term *out);
+
+/* Hinges (H,4) in topology.h's layout: face A = (x0,x1,x2), face B =
+ * (x1,x0,x3). A degenerate face gives 0 and no gradient. */
+typedef struct cr_drape_bend cr_drape_bend;
+cr_status cr_drape_bend_create(int32_t cap, cr_drape_bend **out, cr_error *err);
+void cr_drape_bend_destroy(cr_drape_bend *b);
+/* Copy nh hinges (H,4), each index in [0, nv); CR_ERR_RANGE naming the first bad one. */
+cr_status cr_drape_bend_set(cr_drape_bend *b, const int32_t *hinges, int32_t nh, int32_t nv,
+                            cr_error *err);
+void cr_drape_bend_term(const cr_drape_bend *b, cr_energy_term *out);
+
+/* m g y per point: one mass m (kg) for every point, g (m/s^2) the
+ * acceleration's magnitude, height along +Y. Gradient (0, m g, 0). */
+typedef struct cr_drape_gravity cr_drape_gravity;
+cr_status cr_drape_gravity_create(double mass, double g, cr_drape_gravity **out, cr_error *err);
+void cr_drape_gravity_destroy(cr_drape_gravity *g);
+void cr_drape_gravity_set_count(cr_drape_gravity *g, int32_t n); /* points: element i is vertex i */
+void cr_drape_gravity_term(const cr_drape_gravity *g, cr_energy_term *out);
+
+/* min(s - eps, 0)^2 per point against a static object, s by: */
+typedef enum cr_drape_collision_mode {
+    CR_DRAPE_COLLIDE_VERTEX = 0, /* eq. 26: s = (x - v) . n_v, v the nearest object vertex, n_v
+                                    its angle-weighted normal (v held fixed in the gradient) */
+    CR_DRAPE_COLLIDE_SDF         /* s the signed distance to the surface (BVH, pseudo-normals) */
+} cr_drape_collision_mode;
+typedef struct cr_bvh cr_bvh; /* crease/bvh.h */
+typedef struct cr_drape_collision cr_drape_collision;
+/* object: the object's BVH (borrowed, must outlive the term, not refitted);
+ * eps: the band, m. Points outside the object's bounding box grown by |eps|
+ * skip the search (value 0). */
+cr_status cr_drape_collision_create(const cr_bvh *object, cr_drape_collision_mode mode, double eps,
+                                    cr_drape_collision **out, cr_error *err);
+void cr_drape_collision_destroy(cr_drape_collision *c);
+void cr_drape_collision_set_count(cr_drape_collision *c, int32_t n); /* points */
+void cr_drape_collision_term(const cr_drape_collision *c, cr_energy_term *out);
 
 #ifdef __cplusplus
 }

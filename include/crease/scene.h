@@ -1,12 +1,22 @@
-/* crease/scene.h: scenes and outputs around the simulator, shared by
- * `crease simulate`, `crease drape-static` and the benchmarks.
+/* crease/scene.h: the scene layer above the simulator (phys/) and the
+ * bodies (body/): scenes, a run's record, the one step-record-report loop,
+ * and the runs behind `crease simulate` and `crease drape-static` (the
+ * datasets of `crease dataset` are in crease/dataset.h).
  *
+ * A whole run, as `crease simulate` does it:
+ *   cr_scene_sim_def d = cr_scene_sim_default_def();
+ *   d.garment = "cloth.obj", d.object = "sphere", d.frames = 30, d.out_dir = "out";
+ *   cr_scene_sim_result r;
+ *   CR_TRY(cr_scene_simulate(&d, &r, err));       r.run: frames, timings, divergence
+ *
+ * Or by parts:
  *   cr_mesh *obj = NULL;
  *   CR_TRY(cr_scene_object_create("sphere", &obj, err));     or "F.obj"
  *   ... cr_sim_create with def.collider = obj ...
  *   cr_scene_record *rec = NULL;
  *   CR_TRY(cr_scene_record_create("out/frames.jsonl", sim, garment, frames + 1, &rec, err));
- *   for each frame: cr_sim_step(sim, &rep, ...); cr_scene_record_frame(rec, sim, &rep, err);
+ *   cr_scene_run_stats stats;
+ *   cr_scene_run(sim, frames, rec, NULL, NULL, &stats, err);  step, record, sum
  *   cr_scene_record_write(rec, "out/sim.pc2", "out/sim.glb", 30, err);
  *
  * What it leaves out: cameras and colours beyond a fixed two-object render,
@@ -127,6 +137,15 @@ int32_t cr_scene_record_samples(const cr_scene_record *r);
 /* (V,3) positions of the last sample, m; owned by the record. */
 const float *cr_scene_record_last(const cr_scene_record *r);
 
+/* Also keep the simulator's rest angles (plasticity's) with every sample
+ * from now on, sample 0 included: call right after create. Hinges in
+ * cr_topology_build's order on the garment, as cr_eval_input's rest angles. */
+cr_status cr_scene_record_keep_rest_angles(cr_scene_record *r, const cr_sim *sim, cr_error *err);
+/* Write the kept rest angles as a float32 (T,H) .npy, rad (what `crease
+ * eval --rest-angles` reads); CR_ERR_INVALID when none were kept. */
+cr_status cr_scene_record_write_rest_angles(const cr_scene_record *r, const char *npy_path,
+                                            cr_error *err);
+
 /* Write the samples as a PC2 (start frame 0, one sample per frame) and a glb
  * morph-target sequence at `fps`; either path may be NULL to skip it. */
 cr_status cr_scene_record_write(const cr_scene_record *r, const char *pc2_path,
@@ -134,6 +153,125 @@ cr_status cr_scene_record_write(const cr_scene_record *r, const char *pc2_path,
 
 /* The garment at the last sample, as a new mesh (faces and UVs kept). */
 cr_status cr_scene_record_mesh(const cr_scene_record *r, cr_mesh **out, cr_error *err);
+
+/* --------------------------------------------------------------- runs -- */
+
+/* What cr_scene_run did, summed over the frames it finished (a frame that
+ * diverged counts in none of the sums). */
+typedef struct cr_scene_run_stats {
+    int frames;              /* frames finished */
+    double seconds;          /* solver wall time, s */
+    double seconds_assembly; /* its split, as in cr_sim_report */
+    double seconds_factor;
+    double seconds_solve;
+    double seconds_collision;
+    long long newton_iterations;
+    long long factorisations;
+    long long newton_capped;    /* substeps that stopped at the iteration limit */
+    long long backoffs;         /* failed attempts retried with more substeps */
+    double max_penetration_m;   /* deepest vertex inside the collider before projection */
+    double max_projected_share; /* largest share of the vertices projected out of the
+                                   collider per substep in a frame (rep.projected / (V *
+                                   substeps)): what the solver let through */
+    int diverged;               /* 1: frame `frames + 1` failed for good */
+    char failure[200];          /* then: the solver's reason */
+} cr_scene_run_stats;
+
+/* Called after every finished frame (1-based sim frame in rep->frame) with the
+ * stats so far, this frame included. A failure stops the run and is returned. */
+typedef cr_status (*cr_scene_frame_fn)(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
+                                       const cr_scene_run_stats *so_far, cr_error *err);
+
+/* The step-record-report loop of every run: step `sim` `frames` times; log
+ * each frame in `rec` (may be NULL; a diverged frame is logged too, with its
+ * failure) and keep its positions; sum the stats; call on_frame (may be NULL).
+ * A frame that diverges ends the run: CR_ERR_DIVERGED with the solver's
+ * message in err, stats->diverged and stats->failure set, the frames before it
+ * recorded. Any other failure (solver, record, on_frame) is returned as is. */
+cr_status cr_scene_run(cr_sim *sim, int frames, cr_scene_record *rec, cr_scene_frame_fn on_frame,
+                       void *ctx, cr_scene_run_stats *stats, cr_error *err);
+
+/* Size of the output paths in the results below. */
+#define CR_SCENE_PATH 1200
+
+/* `crease simulate`: a garment against a collider, static or animated. */
+typedef struct cr_scene_sim_def {
+    const char *garment;         /* garment mesh (.obj, .ply, .glb): the initial state; required */
+    const float *garment_offset; /* NULL, or (3) m: the garment is moved by it first */
+    const char *object;          /* collider: a named object or a mesh (cr_scene_object_create) */
+    const char *body_mesh;       /* or a body mesh as the collider (not with object) */
+    const char *body;            /* PC2 animating the collider (frame f moves from sample f to
+                                    f + 1, held at the last); needs object or body_mesh */
+    const char *material;        /* preset (default "cotton") */
+    const char *material_json;   /* field overrides (cr_material_load_json), or NULL */
+    int frames;                  /* frames to simulate, >= 1 (required) */
+    float fps;                   /* default 30 */
+    int substeps;                /* 0: cr_sim_def's default */
+    int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
+    float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
+    int plastic;                 /* 1: plastic bending */
+    int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    const int32_t *pins;         /* (npins) vertices held at their initial positions */
+    int32_t npins;
+    const char *out_dir; /* created when missing; required */
+    int render_size;     /* last.png's side, pixels (default 800) */
+    int quiet;           /* 1: no progress bar */
+} cr_scene_sim_def;
+
+cr_scene_sim_def cr_scene_sim_default_def(void);
+
+typedef struct cr_scene_sim_result {
+    cr_scene_run_stats run; /* frames simulated, timings, divergence */
+    int32_t vertices;       /* the garment's */
+    char material[32];      /* the material's name */
+    /* outputs under out_dir: sim.pc2 and sim.glb (sample 0 the initial state),
+       frames.jsonl (a line per frame), last.png (the last frame with the collider) and,
+       with plasticity, rest_angles.npy ((T,H) float32 rad per sample; else rest_angles[0] 0) */
+    char pc2[CR_SCENE_PATH], glb[CR_SCENE_PATH], log[CR_SCENE_PATH], png[CR_SCENE_PATH];
+    char rest_angles[CR_SCENE_PATH];
+} cr_scene_sim_result;
+
+/* Read, set up, simulate (cr_scene_run), write the outputs. A run that
+ * diverges still writes the frames before it and returns CR_OK with
+ * out->run.diverged set; a bad input fails naming it (CR_ERR_INVALID for a
+ * bad def field or material, the readers' errors for files, CR_ERR_SHAPE for
+ * an animation whose vertex count is not the collider's). */
+cr_status cr_scene_simulate(const cr_scene_sim_def *def, cr_scene_sim_result *out, cr_error *err);
+
+/* `crease drape-static`: the quasi-static drape of a square cloth over an object. */
+typedef struct cr_scene_drape_static_def {
+    const char *object;        /* a named object or a mesh (cr_scene_object_create); required */
+    int32_t res;               /* cloth vertices per side, >= 2 (default 64) */
+    float size;                /* cloth side, m (default 1) */
+    float gap;                 /* cloth height above the object's top, m (default 0.05) */
+    const char *material;      /* preset (default "cotton") */
+    const char *material_json; /* field overrides, or NULL */
+    int max_frames;            /* dynamic settling frames at most (default 150; 0: static
+                                  solve from the flat start) */
+    int32_t coarse;            /* > 0: settle a coarse x coarse cloth and start the res x res
+                                  static solve from its rest shape (cr_scene_settle_coarse);
+                                  below res. 0 (default): off */
+    int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    const char *out_dir;       /* required */
+    int render_size;           /* final.png's side (default 800) */
+    int quiet;                 /* 1: no progress bar */
+} cr_scene_drape_static_def;
+
+cr_scene_drape_static_def cr_scene_drape_static_default_def(void);
+
+typedef struct cr_scene_drape_static_result {
+    cr_scene_settle_stats settle; /* both stages summed (the coarse one's frames included) */
+    int32_t vertices;
+    char material[32];
+    /* outputs under out_dir: final.obj, final.png, frames.jsonl (a line per frame and the
+       static solve), sim.pc2 (every state) */
+    char obj[CR_SCENE_PATH], png[CR_SCENE_PATH], log[CR_SCENE_PATH], pc2[CR_SCENE_PATH];
+} cr_scene_drape_static_result;
+
+/* Lay the cloth above the object, settle it to rest (cr_scene_settle, or the
+ * coarse-to-fine path), write the outputs. */
+cr_status cr_scene_drape_static(const cr_scene_drape_static_def *def,
+                                cr_scene_drape_static_result *out, cr_error *err);
 
 #ifdef __cplusplus
 }

@@ -18,6 +18,7 @@
  *
  * Left out: cutting along curves that are not level sets of vertex fields.
  */
+#include "base/vec3.h"
 #include "garment_internal.h"
 
 #include <math.h>
@@ -79,11 +80,6 @@ static int32_t find_key(const int64_t *keys, int32_t n, int64_t k) {
     return -1;
 }
 
-static float dist2(const float *a, const float *b) {
-    float d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-}
-
 /* Triangulate the polygon poly (3 or 4 vertices, in order) into m as new
  * faces, the first one overwriting face `f`. */
 static void emit_polygon(gcutmesh *m, int32_t f, const int32_t *poly, int n, int *first) {
@@ -96,7 +92,7 @@ static void emit_polygon(gcutmesh *m, int32_t f, const int32_t *poly, int n, int
         for (int i = 0; i < 4; i++)
             p[i] = &m->pos[3 * (size_t)poly[i]];
         nt = 2;
-        if (dist2(p[0], p[2]) <= dist2(p[1], p[3])) {
+        if (dist2f(p[0], p[2]) <= dist2f(p[1], p[3])) {
             int32_t a[3] = {poly[0], poly[1], poly[2]}, b[3] = {poly[0], poly[2], poly[3]};
             memcpy(t[0], a, sizeof a), memcpy(t[1], b, sizeof b);
         } else {

@@ -45,6 +45,7 @@
  * Left out: curvature-adaptive edge lengths, and remeshing of non-manifold
  * input (the base mesh is checked manifold before it gets here).
  */
+#include "base/vec3.h"
 #include "garment_internal.h"
 
 #include <math.h>
@@ -101,21 +102,10 @@ static float *P(const rm *m, int32_t v) {
     return &m->pos[3 * (size_t)v];
 }
 
-static float len2(const float *a, const float *b) {
-    float d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-}
-
 static void tri_normal(const float *a, const float *b, const float *c, float n[3]) {
-    float u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    float v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    n[0] = u[1] * v[2] - u[2] * v[1];
-    n[1] = u[2] * v[0] - u[0] * v[2];
-    n[2] = u[0] * v[1] - u[1] * v[0];
-}
-
-static float dot3(const float *a, const float *b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    float u[3], v[3];
+    sub3f(b, a, u), sub3f(c, a, v);
+    cross3f(u, v, n);
 }
 
 /* Smallest angle of triangle (a, b, c), via the cosines (monotone). Returns
@@ -127,8 +117,8 @@ static float max_cos(const float *a, const float *b, const float *c) {
         const float *o = p[k], *x = p[(k + 1) % 3], *y = p[(k + 2) % 3];
         float u[3] = {x[0] - o[0], x[1] - o[1], x[2] - o[2]};
         float v[3] = {y[0] - o[0], y[1] - o[1], y[2] - o[2]};
-        float d = sqrtf(dot3(u, u) * dot3(v, v));
-        float cs = d > 0.0f ? dot3(u, v) / d : 1.0f;
+        float d = sqrtf(dot3f(u, u) * dot3f(v, v));
+        float cs = d > 0.0f ? dot3f(u, v) / d : 1.0f;
         if (cs > worst) worst = cs;
     }
     return worst;
@@ -311,10 +301,10 @@ static void project_feature(const rm *m, int32_t key, float p[3]) {
         const float *a = &m->seg[6 * (size_t)s], *b = a + 3;
         float ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
         float ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-        float l2 = dot3(ab, ab), t = l2 > 0.0f ? dot3(ap, ab) / l2 : 0.0f;
+        float l2 = dot3f(ab, ab), t = l2 > 0.0f ? dot3f(ap, ab) / l2 : 0.0f;
         t = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
         float c[3] = {a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]};
-        float d = len2(c, p);
+        float d = dist2f(c, p);
         if (d < best) best = d, memcpy(q, c, sizeof q);
     }
     memcpy(p, q, sizeof q);
@@ -386,7 +376,7 @@ static cr_status split_edge(rm *m, int32_t h, cr_error *err) {
         memcpy(q[k], chord, sizeof chord);
         tri_normal(q[0], q[1], q[2], n0);
         memcpy(q[k], keep, sizeof keep);
-        if (!(dot3(n0, n1) > 0.5f * sqrtf(dot3(n0, n0) * dot3(n1, n1)))) {
+        if (!(dot3f(n0, n1) > 0.5f * sqrtf(dot3f(n0, n0) * dot3f(n1, n1)))) {
             memcpy(P(m, mid), chord, sizeof chord);
             break;
         }
@@ -448,12 +438,12 @@ static int collapse_edge(rm *m, int32_t h, int remove_origin, float hi) {
         int32_t f = he[i] / 3;
         if (f == fh || f == fg) continue;
         const float *x = P(m, m->tri[nxt(he[i])]), *y = P(m, m->tri[prv(he[i])]);
-        if (len2(pk, x) > hi * hi || len2(pk, y) > hi * hi) return 0;
+        if (dist2f(pk, x) > hi * hi || dist2f(pk, y) > hi * hi) return 0;
         float n0[3], n1[3];
         tri_normal(P(m, r), x, y, n0);
         tri_normal(pk, x, y, n1);
-        float l0 = sqrtf(dot3(n0, n0)), l1 = sqrtf(dot3(n1, n1));
-        if (!(dot3(n0, n1) > 0.5f * l0 * l1)) return 0;
+        float l0 = sqrtf(dot3f(n0, n0)), l1 = sqrtf(dot3f(n1, n1));
+        if (!(dot3f(n0, n1) > 0.5f * l0 * l1)) return 0;
     }
     /* Rename r to k in its surviving faces, glue the edges of the two dying
      * faces, kill them. */
@@ -512,13 +502,13 @@ static int flip_edge(rm *m, int32_t h, int mode, int32_t *val, const uint8_t *bn
     float nf[3], ng[3], n1[3], n2[3];
     tri_normal(pa, pb, pc, nf);
     tri_normal(pb, pa, pd, ng);
-    float lf = sqrtf(dot3(nf, nf)), lg = sqrtf(dot3(ng, ng));
-    if (!(lf > 0.0f && lg > 0.0f) || dot3(nf, ng) < cosf(MAX_FLIP_DIHEDRAL) * lf * lg) return 0;
+    float lf = sqrtf(dot3f(nf, nf)), lg = sqrtf(dot3f(ng, ng));
+    if (!(lf > 0.0f && lg > 0.0f) || dot3f(nf, ng) < cosf(MAX_FLIP_DIHEDRAL) * lf * lg) return 0;
     float avg[3] = {nf[0] / lf + ng[0] / lg, nf[1] / lf + ng[1] / lg, nf[2] / lf + ng[2] / lg};
     tri_normal(pa, pd, pc, n1);
     tri_normal(pd, pb, pc, n2);
-    float l1 = sqrtf(dot3(n1, n1)), l2 = sqrtf(dot3(n2, n2));
-    if (!(dot3(n1, avg) > 0.5f * l1 && dot3(n2, avg) > 0.5f * l2)) return 0;
+    float l1 = sqrtf(dot3f(n1, n1)), l2 = sqrtf(dot3f(n2, n2));
+    if (!(dot3f(n1, avg) > 0.5f * l1 && dot3f(n2, avg) > 0.5f * l2)) return 0;
     if (mode == FLIP_ANGLE) {
         float old_c = fmaxf(max_cos(pa, pb, pc), max_cos(pb, pa, pd));
         float new_c = fmaxf(max_cos(pa, pd, pc), max_cos(pd, pb, pc));
@@ -546,7 +536,7 @@ static int flip_edge(rm *m, int32_t h, int mode, int32_t *val, const uint8_t *bn
 /* ---------------------------------------------------------------- passes -- */
 
 static float edge_len2(const rm *m, int32_t h) {
-    return len2(P(m, m->tri[h]), P(m, m->tri[nxt(h)]));
+    return dist2f(P(m, m->tri[h]), P(m, m->tri[nxt(h)]));
 }
 
 /* Whether the face of half-edge h is a cap over its edge: the opposite
@@ -556,9 +546,9 @@ static int is_cap(const rm *m, int32_t h) {
     const float *a = P(m, m->tri[h]), *b = P(m, m->tri[nxt(h)]), *c = P(m, m->tri[prv(h)]);
     float ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
           ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-    float l2 = dot3(ab, ab), t = dot3(ac, ab) / l2, n[3];
+    float l2 = dot3f(ab, ab), t = dot3f(ac, ab) / l2, n[3];
     tri_normal(a, b, c, n);
-    return t > 0.0f && t < 1.0f && dot3(n, n) < 0.04f * l2 * l2;
+    return t > 0.0f && t < 1.0f && dot3f(n, n) < 0.04f * l2 * l2;
 }
 
 static cr_status split_pass(rm *m, float hi, cr_error *err) {
@@ -674,7 +664,7 @@ static void relax_range(void *vctx, int64_t begin, int64_t end) {
             const float *x = P(m, m->tri[nxt(he[i])]), *y = P(m, m->tri[prv(he[i])]);
             float fn[3];
             tri_normal(p, x, y, fn);
-            double A = 0.5 * sqrt((double)dot3(fn, fn));
+            double A = 0.5 * sqrt((double)dot3f(fn, fn));
             for (int d = 0; d < 3; d++) {
                 acc[d] += A * (p[d] + x[d] + y[d]) / 3.0;
                 nrm[d] += 0.5 * fn[d];
@@ -728,7 +718,7 @@ static double mesh_area(const cr_mesh *m) {
         const int32_t *t = &m->tri[3 * f];
         tri_normal(&m->pos[3 * (size_t)t[0]], &m->pos[3 * (size_t)t[1]], &m->pos[3 * (size_t)t[2]],
                    n);
-        area += 0.5 * sqrt((double)dot3(n, n));
+        area += 0.5 * sqrt((double)dot3f(n, n));
     }
     return area;
 }
@@ -736,8 +726,8 @@ static double mesh_area(const cr_mesh *m) {
 static float mean_edge(const cr_mesh *m) {
     double s = 0.0;
     for (int32_t h = 0; h < 3 * m->nf; h++)
-        s +=
-            sqrt((double)len2(&m->pos[3 * (size_t)m->tri[h]], &m->pos[3 * (size_t)m->tri[nxt(h)]]));
+        s += sqrt(
+            (double)dist2f(&m->pos[3 * (size_t)m->tri[h]], &m->pos[3 * (size_t)m->tri[nxt(h)]]));
     return m->nf > 0 ? (float)(s / (3.0 * m->nf)) : 0.0f;
 }
 
@@ -792,7 +782,7 @@ cr_status cr_garment_remesh(const gfield *field, const cr_mesh *base, const int3
     for (int32_t f = 0; st == CR_OK && f < m.nf; f++) {
         float n[3];
         tri_normal(P(&m, m.tri[3 * f]), P(&m, m.tri[3 * f + 1]), P(&m, m.tri[3 * f + 2]), n);
-        A += 0.5 * sqrt((double)dot3(n, n));
+        A += 0.5 * sqrt((double)dot3f(n, n));
         for (int k = 0; k < 3; k++)
             if (m.twin[3 * f + k] < 0) Pb += sqrt((double)edge_len2(&m, 3 * f + k));
     }

@@ -42,6 +42,7 @@
  */
 #include "garment_internal.h"
 
+#include "base/vec3.h"
 #include "crease/body.h"
 #include "crease/isosurface.h"
 #include "crease/topology.h"
@@ -82,19 +83,15 @@ typedef struct gfn {
     float sign;       /* FN_ARM: +1 positive on the arm, -1 off it */
 } gfn;
 
-static float dot3(const float *a, const float *b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 static float fn_eval(const gfn *c, const float p[3], const float w[2]) {
     float d[3] = {p[0] - c->p[0], p[1] - c->p[1], p[2] - c->p[2]};
     switch (c->kind) {
     case FN_PLANE:
-        return dot3(d, c->n);
+        return dot3f(d, c->n);
     case FN_SPHERE:
-        return sqrtf(dot3(d, d)) - c->r;
+        return sqrtf(dot3f(d, d)) - c->r;
     case FN_ARM_END:
-        return fmaxf(c->r - dot3(d, c->n), WEIGHT_SCALE_M * (0.5f - w[c->side]));
+        return fmaxf(c->r - dot3f(d, c->n), WEIGHT_SCALE_M * (0.5f - w[c->side]));
     case FN_ARM:
         return c->sign * WEIGHT_SCALE_M * (w[c->side] - 0.5f);
     }
@@ -125,14 +122,10 @@ static const float *joint(const gbody *b, int j) {
     return &b->model->joints[3 * j];
 }
 
-static void set3(float *v, float x, float y, float z) {
-    v[0] = x, v[1] = y, v[2] = z;
-}
-
 static gfn plane_y(float y, float up) {
     gfn c = {.kind = FN_PLANE};
-    set3(c.p, 0.0f, y, 0.0f);
-    set3(c.n, 0.0f, up, 0.0f);
+    set3f(c.p, 0.0f, y, 0.0f);
+    set3f(c.n, 0.0f, up, 0.0f);
     return c;
 }
 
@@ -146,7 +139,7 @@ static gfn arm_fn(int side, float sign) {
 static gfn arm_end(const gbody *b, int side, int ja, int jb, float frac, float back) {
     const float *A = joint(b, ja), *B = joint(b, jb);
     gfn c = {.kind = FN_ARM_END, .side = side};
-    float d[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, len = sqrtf(dot3(d, d));
+    float d[3] = {B[0] - A[0], B[1] - A[1], B[2] - A[2]}, len = sqrtf(dot3f(d, d));
     memcpy(c.p, A, sizeof c.p);
     for (int k = 0; k < 3; k++)
         c.n[k] = d[k] / len;
@@ -166,11 +159,11 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     cr_bvh_hit hit;
     cr_bvh_closest(b->bvh, N, INFINITY, &hit);
     gfn neck = {.kind = FN_SPHERE};
-    set3(neck.p, N[0], N[1] + 0.055f * s, N[2] + 0.02f * s);
+    set3f(neck.p, N[0], N[1] + 0.055f * s, N[2] + 0.02f * s);
     neck.r = hit.distance + 0.055f * s;
     gfn front = {.kind = FN_PLANE};
-    set3(front.p, 0.0f, 0.0f, 0.5f * (LS[2] + RS[2]));
-    set3(front.n, 0.0f, 0.0f, 1.0f);
+    set3f(front.p, 0.0f, 0.0f, 0.5f * (LS[2] + RS[2]));
+    set3f(front.n, 0.0f, 0.0f, 1.0f);
 
     /* Tops end above the crotch (below it a tight hem would split round
      * each leg). */
@@ -254,8 +247,8 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
         sp->cut[sp->ncut++] = plane_y(end, 1.0f);
         front.p[2] = 0.5f * (joint(b, CR_JOINT_LEFT_HIP)[2] + joint(b, CR_JOINT_RIGHT_HIP)[2]);
         gfn left = {.kind = FN_PLANE};
-        set3(left.p, P[0], 0.0f, 0.0f);
-        set3(left.n, 1.0f, 0.0f, 0.0f);
+        set3f(left.p, P[0], 0.0f, 0.0f);
+        set3f(left.n, 1.0f, 0.0f, 0.0f);
         sp->seam[sp->nseam++] = front;
         sp->seam[sp->nseam++] = left;
         static const char *four[] = {"front_left", "front_right", "back_left", "back_right"};

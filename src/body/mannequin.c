@@ -39,6 +39,7 @@
  */
 #include "mannequin_internal.h"
 
+#include "base/vec3.h"
 #include "crease/diffgeo.h"
 #include "crease/isosurface.h"
 #include "crease/topology.h"
@@ -83,17 +84,7 @@ cr_status cr_mannequin_preset(const char *name, cr_mannequin_def *def, cr_error 
                    name);
 }
 
-/* ------------------------------------------------------- small vectors -- */
-
-static float dot3(const float *a, const float *b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void normalize3(float *v) {
-    float n = sqrtf(dot3(v, v));
-    for (int d = 0; d < 3; d++)
-        v[d] /= n;
-}
+/* ---------------------------------------------------------- min and max -- */
 
 /* fminf and fmaxf honour NaN rules that keep gcc from inlining them; the
  * field is evaluated millions of times and never sees a NaN. */
@@ -138,7 +129,7 @@ static float cone_distance(const prim *q, const float p[3]) {
 static void to_local(const prim *q, const float p[3], float l[3]) {
     float d[3] = {p[0] - q->a[0], p[1] - q->a[1], p[2] - q->a[2]};
     for (int r = 0; r < 3; r++)
-        l[r] = dot3(&q->axes[3 * r], d);
+        l[r] = dot3f(&q->axes[3 * r], d);
 }
 
 /* Quilez's first-order ellipsoid distance k0 (k0 - 1) / k1. */
@@ -219,7 +210,7 @@ float cr_mannequin_prim_distance(const mannequin_shape *s, const prim *q, const 
 static int prim_beyond(const prim *q, const float p[3], float level) {
     float d[3] = {p[0] - q->centre[0], p[1] - q->centre[1], p[2] - q->centre[2]};
     float t = max2((level + q->cull_b) / q->cull_a, q->cull_min);
-    return dot3(d, d) >= t * t;
+    return dot3f(d, d) >= t * t;
 }
 
 float cr_mannequin_field(void *ctx, const float p[3]) {
@@ -248,10 +239,6 @@ static const float torso_keys[TORSO_KEYS][6] = {
     {1.370f, 0.172f, 0.107f, 0.000f, 0.7f, 0.0f},  {1.420f, 0.160f, 0.092f, -0.010f, 0.3f, 0.0f},
     {1.470f, 0.090f, 0.070f, -0.018f, 0.0f, 0.0f}};
 
-static void set3(float *v, float x, float y, float z) {
-    v[0] = x, v[1] = y, v[2] = z;
-}
-
 static prim *add_prim(mannequin_shape *s, prim_kind kind, body_part part, float blend) {
     CR_ASSERT(s->nprims < MAX_PRIMS);
     prim *q = &s->prims[s->nprims++];
@@ -279,7 +266,7 @@ static prim *add_oriented(mannequin_shape *s, prim_kind kind, body_part part, fl
     q->axes[6] = ax[1] * ay[2] - ax[2] * ay[1];
     q->axes[7] = ax[2] * ay[0] - ax[0] * ay[2];
     q->axes[8] = ax[0] * ay[1] - ax[1] * ay[0];
-    set3(q->half, hx, hy, hz);
+    set3f(q->half, hx, hy, hz);
     return q;
 }
 
@@ -288,7 +275,7 @@ static const float X_AXIS[3] = {1, 0, 0}, Y_AXIS[3] = {0, 1, 0};
 static void set_plane(chain_plane *pl, const float *p, const float *n, float half) {
     memcpy(pl->p, p, sizeof pl->p);
     memcpy(pl->n, n, sizeof pl->n);
-    normalize3(pl->n);
+    normalize3f_div(pl->n);
     pl->half = half;
 }
 
@@ -327,12 +314,12 @@ static void build_limbs(mannequin_shape *s, const cr_mannequin_def *def, float s
     add_cone(s, leg, 0.025f, K, 0.050f * g, A, 0.033f * g);
     float calf[3] = {K[0] - side * 0.003f, 0.36f, K[2] - 0.02f};
     float shin[3] = {A[0] - K[0], A[1] - K[1], A[2] - K[2]};
-    normalize3(shin);
+    normalize3f_div(shin);
     float shin_x[3] = {-shin[1], shin[0], 0.0f};
-    normalize3(shin_x);
+    normalize3f_div(shin_x);
     add_oriented(s, PRIM_ELLIPSOID, leg, 0.03f, calf, shin_x, shin, 0.050f * g, 0.11f, 0.052f * g);
     float u[3] = {F[0] - A[0], 0.0f, F[2] - A[2]};
-    normalize3(u);
+    normalize3f_div(u);
     float across[3] = {u[2], 0.0f, -u[0]};
     /* Both boxes reach below y = 0, where the field's ground cut flattens the soles. */
     float heel_c[3] = {A[0] + 0.025f * u[0], 0.022f, A[2] + 0.025f * u[2]};
@@ -381,12 +368,12 @@ static void build_limbs(mannequin_shape *s, const cr_mannequin_def *def, float s
 static void build_joints(float *J, const cr_mannequin_def *def) {
     const float g = def->girth - 1.0f, hp = def->hips - 1.0f, ch = def->chest - 1.0f;
     float ang = def->arm_angle_deg * (float)M_PI / 180.0f;
-    set3(&J[3 * CR_JOINT_PELVIS], 0.0f, 0.955f, -0.005f);
-    set3(&J[3 * CR_JOINT_SPINE1], 0.0f, 1.065f, -0.020f);
-    set3(&J[3 * CR_JOINT_SPINE2], 0.0f, 1.190f, -0.012f);
-    set3(&J[3 * CR_JOINT_SPINE3], 0.0f, 1.250f, -0.005f);
-    set3(&J[3 * CR_JOINT_NECK], 0.0f, 1.465f, -0.020f);
-    set3(&J[3 * CR_JOINT_HEAD], 0.0f, 1.535f, 0.000f);
+    set3f(&J[3 * CR_JOINT_PELVIS], 0.0f, 0.955f, -0.005f);
+    set3f(&J[3 * CR_JOINT_SPINE1], 0.0f, 1.065f, -0.020f);
+    set3f(&J[3 * CR_JOINT_SPINE2], 0.0f, 1.190f, -0.012f);
+    set3f(&J[3 * CR_JOINT_SPINE3], 0.0f, 1.250f, -0.005f);
+    set3f(&J[3 * CR_JOINT_NECK], 0.0f, 1.465f, -0.020f);
+    set3f(&J[3 * CR_JOINT_HEAD], 0.0f, 1.535f, 0.000f);
     for (int side = 0; side < 2; side++) {
         float sx = side == 0 ? 1.0f : -1.0f; /* left joints are on +X */
         int l = side == 0;
@@ -395,22 +382,26 @@ static void build_joints(float *J, const cr_mannequin_def *def) {
         float *S = &J[3 * (l ? CR_JOINT_LEFT_SHOULDER : CR_JOINT_RIGHT_SHOULDER)];
         float *E = &J[3 * (l ? CR_JOINT_LEFT_ELBOW : CR_JOINT_RIGHT_ELBOW)];
         float *W = &J[3 * (l ? CR_JOINT_LEFT_WRIST : CR_JOINT_RIGHT_WRIST)];
-        set3(C, sx * (0.075f + 0.5f * shoulder_out), 1.370f, -0.020f);
-        set3(S, sx * (0.175f + shoulder_out), 1.405f, -0.020f);
+        set3f(C, sx * (0.075f + 0.5f * shoulder_out), 1.370f, -0.020f);
+        set3f(S, sx * (0.175f + shoulder_out), 1.405f, -0.020f);
         float dir[3] = {sx * cosf(ang), -sinf(ang), 0.0f};
         for (int d = 0; d < 3; d++)
             E[d] = S[d] + 0.27f * dir[d];
         for (int d = 0; d < 3; d++)
             W[d] = E[d] + 0.26f * dir[d];
-        set3(&J[3 * (l ? CR_JOINT_LEFT_HIP : CR_JOINT_RIGHT_HIP)], sx * (0.085f + hip_out), 0.865f,
-             0.0f);
-        set3(&J[3 * (l ? CR_JOINT_LEFT_KNEE : CR_JOINT_RIGHT_KNEE)], sx * (0.095f + 0.05f * g),
-             0.490f, 0.010f);
+        set3f(&J[3 * (l ? CR_JOINT_LEFT_HIP : CR_JOINT_RIGHT_HIP)], sx * (0.085f + hip_out), 0.865f,
+              0.0f);
+        set3f(&J[3 * (l ? CR_JOINT_LEFT_KNEE : CR_JOINT_RIGHT_KNEE)], sx * (0.095f + 0.05f * g),
+              0.490f, 0.010f);
         float ax = sx * (0.088f + 0.03f * g);
-        set3(&J[3 * (l ? CR_JOINT_LEFT_ANKLE : CR_JOINT_RIGHT_ANKLE)], ax, 0.080f, -0.035f);
-        set3(&J[3 * (l ? CR_JOINT_LEFT_FOOT : CR_JOINT_RIGHT_FOOT)], ax + sx * 0.02f, 0.025f,
-             0.090f);
+        set3f(&J[3 * (l ? CR_JOINT_LEFT_ANKLE : CR_JOINT_RIGHT_ANKLE)], ax, 0.080f, -0.035f);
+        set3f(&J[3 * (l ? CR_JOINT_LEFT_FOOT : CR_JOINT_RIGHT_FOOT)], ax + sx * 0.02f, 0.025f,
+              0.090f);
     }
+}
+
+void cr_mannequin_rest_joints(const cr_mannequin_def *def, float J[CR_NJOINTS * 3]) {
+    build_joints(J, def);
 }
 
 static void build_torso(torso_profile *t, const cr_mannequin_def *def) {
@@ -471,7 +462,7 @@ static void compute_bounds(mannequin_shape *s) {
                 hi[d] = max2(q->a[d] + q->ra, q->b[d] + q->rb);
             }
             float hl[3] = {q->b[0] - q->a[0], q->b[1] - q->a[1], q->b[2] - q->a[2]};
-            q->r = 0.5f * sqrtf(dot3(hl, hl)) + max2(q->ra, q->rb);
+            q->r = 0.5f * sqrtf(dot3f(hl, hl)) + max2(q->ra, q->rb);
             q->cull_a = 1.0f, q->cull_b = q->r, q->cull_min = 0.0f; /* an exact distance */
         } else if (q->kind == PRIM_TORSO) {
             const torso_profile *t = &s->torso;
@@ -480,15 +471,15 @@ static void compute_bounds(mannequin_shape *s) {
                 amax = max2(amax, t->a[k]);
                 zlo = min2(zlo, t->c[k] - t->b[k]), zhi = max2(zhi, t->c[k] + t->b[k]);
             }
-            set3(lo, -amax, t->y0, zlo);
-            set3(hi, amax, t->y1, zhi);
+            set3f(lo, -amax, t->y0, zlo);
+            set3f(hi, amax, t->y1, zhi);
             for (int d = 0; d < 3; d++)
                 q->centre[d] = 0.5f * (lo[d] + hi[d]);
             q->r = INFINITY;
             q->cull_a = 1.0f, q->cull_b = INFINITY, q->cull_min = 0.0f; /* never skipped */
         } else {
             memcpy(q->centre, q->a, sizeof q->centre);
-            q->r = sqrtf(dot3(q->half, q->half));
+            q->r = sqrtf(dot3f(q->half, q->half));
             if (q->kind == PRIM_BOX) {
                 q->cull_a = 1.0f, q->cull_b = q->r, q->cull_min = 0.0f;
             } else {

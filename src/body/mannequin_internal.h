@@ -90,4 +90,9 @@ float cr_mannequin_field(void *ctx, const float p[3]);
 cr_status cr_mannequin_skin_weights(const mannequin_shape *s, const cr_mesh *mesh,
                                     int32_t *skin_joint, float *skin_weight, cr_error *err);
 
+/* The rest joints the mannequin of `def` has, up to its scale and height
+ * offset (directions are exact): what motions are retargeted onto without
+ * building a mesh. */
+void cr_mannequin_rest_joints(const cr_mannequin_def *def, float J[CR_NJOINTS * 3]);
+
 #endif

@@ -3,7 +3,7 @@
  * against another rest pose, and turning a foreign motion into crease's
  * frame (motion_internal.h).
  *
- * Leaves out resampling and blending between motions.
+ * Resampling, slicing, grounding and the ease-in are in motion_prepare.c.
  *
  * Reference: Loper et al. 2015 (SMPL's pose convention: local axis-angle
  * rotations in world-aligned rest frames).
@@ -18,6 +18,7 @@ cr_motion_import_def cr_motion_import_default_def(void) {
     memset(&d, 0, sizeof d);
     d.bvh_scale = 0.0f;
     d.recenter = 1;
+    d.retarget = 1;
     d.cookie = MOTION_IMPORT_COOKIE;
     return d;
 }
@@ -68,9 +69,10 @@ cr_status cr_motion_validate(const cr_motion *m, const char *source, cr_error *e
     return CR_OK;
 }
 
-float cr_motion_max_angular_speed(const cr_motion *m, int *joint) {
+float cr_motion_max_angular_speed_at(const cr_motion *m, int *joint, int32_t *frame) {
     double best = 0;
     int best_j = 0;
+    int32_t best_f = 0;
     for (int32_t f = 1; f < m->nframes; f++)
         for (int j = 0; j < CR_NJOINTS; j++) {
             double a[4], b[4], ai[4], rel[4];
@@ -79,10 +81,22 @@ float cr_motion_max_angular_speed(const cr_motion *m, int *joint) {
             q_conj(a, ai);
             q_mul(ai, b, rel);
             double angle = q_angle(rel);
-            if (angle > best) best = angle, best_j = j;
+            if (angle > best) best = angle, best_j = j, best_f = f;
         }
     if (joint) *joint = best_j;
+    if (frame) *frame = best_f;
     return (float)(best * m->fps);
+}
+
+float cr_motion_max_angular_speed(const cr_motion *m, int *joint) {
+    return cr_motion_max_angular_speed_at(m, joint, NULL);
+}
+
+void cr_motion_apose_from_tpose(float arm_angle_deg, float rest[CR_NJOINTS * 3]) {
+    memset(rest, 0, CR_NJOINTS * 3 * sizeof(float));
+    float a = (float)(arm_angle_deg * M_PI / 180.0);
+    rest[3 * CR_JOINT_LEFT_SHOULDER + 2] = -a; /* left arm (+X) turns towards -Y */
+    rest[3 * CR_JOINT_RIGHT_SHOULDER + 2] = a;
 }
 
 void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]) {

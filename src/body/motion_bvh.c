@@ -14,9 +14,11 @@
  * "mixamorig:Hips"; lower case; '_', '-', '.' and spaces removed; SMPL FBX's
  * "m_avg_" prefix dropped) and matched against per-rig tables (SMPL, Mixamo,
  * CMU, generic DAZ/Poser); the rig matching the most joints wins. Each SMPL
- * joint takes its rig joint's world rotation, so unmapped joints between two
- * mapped ones (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child
- * below them, and an SMPL joint the rig lacks (a collar) gets the identity.
+ * joint is retargeted by bone directions (see `retarget` below): its bone
+ * points where the rig's bone points, with the rig's twist, whatever rest
+ * the rig was written against. Unmapped joints between two mapped ones
+ * (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child below
+ * them, and an SMPL joint the rig lacks (a collar) moves with its parent.
  * Joints below the mapped ones (fingers, toe ends) are dropped, and so are
  * translations of joints other than the pelvis.
  *
@@ -28,14 +30,15 @@
  * scaled to a 1.65 m joint height with a warning. The rest pelvis is taken to
  * stand with the rig's lowest rest joint on the ground, so the translation is
  * the pelvis's displacement from there; with `recenter` frame 0 is then moved
- * to x = z = 0 facing +Z. Rotations are relative to the rig's rest pose
- * (usually a T-pose): see cr_motion_rebase for an A-pose body.
+ * to x = z = 0 facing +Z. Known rigs' units come first (cgspeed's CMU
+ * conversion: 0.056444 m; Mixamo: cm).
  *
  * References: Meredith and Maddock 2001, "Motion capture file formats
  * explained" (BVH); Blender's io_anim_bvh importer (channel order and
  * position semantics); the CMU mocap BVH conversion (cgspeed) and Mixamo's
  * rig for the joint names.
  */
+#include "body/mannequin_internal.h"
 #include "body/motion_internal.h"
 #include "geom/io_text.h"
 
@@ -50,6 +53,9 @@ static const char *const channel_names[6] = {"Xposition", "Yposition", "Zpositio
 static const double DEG = M_PI / 180.0;
 static const double JOINT_HEIGHT_M = 1.65; /* head to toe joints of a 1.75 m person, m */
 static const double FRAME_TIME_MAX = 10.0; /* s */
+/* cgspeed's CMU BVH: the ASF's length unit, 0.45 inch scaled by 1 / 0.45 ...
+ * as the conversion's readme gives it, (1 / 0.45) 2.54 / 100 m per unit. */
+#define CMU_UNIT_M 0.056444
 
 typedef struct bvh_joint {
     char name[NAME_MAX_LEN + 1];
@@ -279,6 +285,9 @@ static cr_status parse_motion(bvh_file *b, cr_error *err) {
 typedef struct bvh_rig {
     const char *name;
     const char *joints[CR_NJOINTS]; /* normalised candidates, '|'-separated, best first */
+    /* The rig's known unit, m, taken when its rest height (units) is in
+     * [unit_lo, unit_hi]; 0: infer from the height. */
+    double unit_m, unit_lo, unit_hi;
 } bvh_rig;
 
 static const bvh_rig rigs[] = {
@@ -304,17 +313,26 @@ static const bvh_rig rigs[] = {
       "leftelbow|lelbow",
       "rightelbow|relbow",
       "leftwrist|lwrist",
-      "rightwrist|rwrist"}},
+      "rightwrist|rwrist"},
+     0.0,
+     0.0,
+     0.0},
     {"Mixamo",
      {"hips",        "leftupleg",    "rightupleg",    "spine",    "leftleg",     "rightleg",
       "spine1",      "leftfoot",     "rightfoot",     "spine2",   "lefttoebase", "righttoebase",
       "neck",        "leftshoulder", "rightshoulder", "head",     "leftarm",     "rightarm",
-      "leftforearm", "rightforearm", "lefthand",      "righthand"}},
+      "leftforearm", "rightforearm", "lefthand",      "righthand"},
+     0.01,
+     80.0,
+     300.0},
     {"CMU",
      {"hips",        "leftupleg",    "rightupleg",    "lowerback", "leftleg",     "rightleg",
       "spine",       "leftfoot",     "rightfoot",     "spine1",    "lefttoebase", "righttoebase",
       "neck",        "leftshoulder", "rightshoulder", "head",      "leftarm",     "rightarm",
-      "leftforearm", "rightforearm", "lefthand",      "righthand"}},
+      "leftforearm", "rightforearm", "lefthand",      "righthand"},
+     CMU_UNIT_M,
+     12.0,
+     45.0},
     {"generic (DAZ/Poser)",
      {"hip|hips",
       "lthigh|lthighbend|leftthigh",
@@ -337,7 +355,10 @@ static const bvh_rig rigs[] = {
       "lforearm|lforearmbend",
       "rforearm|rforearmbend",
       "lhand",
-      "rhand"}},
+      "rhand"},
+     0.0,
+     0.0,
+     0.0},
 };
 enum { NRIGS = sizeof rigs / sizeof rigs[0] };
 
@@ -374,7 +395,7 @@ static int is_ancestor(const bvh_file *b, int anc, int j) {
     return 0;
 }
 
-static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], cr_error *err) {
+static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr_error *err) {
     char(*norm)[NAME_MAX_LEN + 1] = cr_malloc((size_t)b->n * sizeof *norm, err);
     if (!norm) return CR_ERR_MEMORY;
     for (int i = 0; i < b->n; i++)
@@ -417,6 +438,7 @@ static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], cr_error *er
     }
     cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source, rigs[best].name,
            best_score);
+    *rig = best;
     return CR_OK;
 }
 
@@ -492,7 +514,8 @@ static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double 
     return CR_OK;
 }
 
-static double rig_scale(const bvh_file *b, double (*p)[3], const double turn[4], double given) {
+static double rig_scale(const bvh_file *b, int rig, double (*p)[3], const double turn[4],
+                        double given) {
     if (given > 0) return given;
     double lo = INFINITY, hi = -INFINITY;
     for (int i = 0; i < b->n; i++) {
@@ -501,6 +524,14 @@ static double rig_scale(const bvh_file *b, double (*p)[3], const double turn[4],
         lo = fmin(lo, v[1]), hi = fmax(hi, v[1]);
     }
     double h = hi - lo;
+    /* Known rigs first: cgspeed's CMU conversion keeps the ASF's unit (0.45
+     * inch, a joint height of about 24 units) and Mixamo writes centimetres. */
+    if (rigs[rig].unit_m > 0 && h >= rigs[rig].unit_lo && h <= rigs[rig].unit_hi) {
+        cr_log(rigs[rig].unit_m != 0.01 ? CR_LOG_INFO : CR_LOG_DEBUG,
+               "%s: %s rig, %g units high: %g m per unit", b->t.source, rigs[rig].name, h,
+               rigs[rig].unit_m);
+        return rigs[rig].unit_m;
+    }
     if (h >= 0.8 && h <= 3.0) return 1.0;
     if (h >= 80.0 && h <= 300.0) return 0.01;
     double s = h > 1e-9 ? JOINT_HEIGHT_M / h : 1.0;
@@ -510,50 +541,145 @@ static double rig_scale(const bvh_file *b, double (*p)[3], const double turn[4],
     return s;
 }
 
-/* World rotations and the pelvis position of one frame (file units). */
-static void frame_pose(const bvh_file *b, const float *row, int pelvis, double (*w)[4],
-                       double pos[3]) {
-    double chain_pos[3] = {0};
-    int chain[MAX_JOINTS], nchain = 0; /* positions are needed along the pelvis chain only */
-    for (int j = pelvis; j >= 0; j = b->j[j].parent)
-        chain[nchain++] = j;
+/* World rotations and positions of every joint in one frame (file units). */
+static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], double (*pos)[3]) {
     for (int i = 0; i < b->n; i++) {
         const bvh_joint *jt = &b->j[i];
-        double q[4];
+        double q[4], t[3] = {jt->offset[0], jt->offset[1], jt->offset[2]};
         q_identity(q);
         for (int c = 0; c < jt->nchan; c++) {
             int ch = jt->chan[c];
-            if (ch < CH_XROT) continue;
+            if (ch < CH_XROT) {
+                t[ch] = row[jt->col + c];
+                continue;
+            }
             double r[4];
             q_axis(ch == CH_XROT, ch == CH_YROT, ch == CH_ZROT, row[jt->col + c] * DEG, r);
             q_mul(q, r, q);
         }
-        if (jt->parent >= 0)
+        if (jt->parent >= 0) {
             q_mul(w[jt->parent], q, w[i]);
-        else
+            q_rotate(w[jt->parent], t, t);
+            for (int k = 0; k < 3; k++)
+                pos[i][k] = pos[jt->parent][k] + t[k];
+        } else {
             memcpy(w[i], q, sizeof q);
+            memcpy(pos[i], t, sizeof t);
+        }
     }
-    /* Root first: each chain joint sits at its parent plus the parent's turn of its offset. */
-    for (int c = nchain - 1; c >= 0; c--) {
-        const bvh_joint *jt = &b->j[chain[c]];
-        double t[3] = {jt->offset[0], jt->offset[1], jt->offset[2]};
-        for (int k = 0; k < jt->nchan; k++)
-            if (jt->chan[k] < CH_XROT) t[jt->chan[k]] = row[jt->col + k];
-        if (jt->parent >= 0) q_rotate(w[jt->parent], t, t);
+}
+
+/* ----------------------------------------------------------- retargeting -- */
+
+/* The bone each SMPL joint turns: towards this child (-1: a leaf, which
+ * moves with its parent's alignment). */
+static const int8_t bone_child[CR_NJOINTS] = {3,  4,  5,  6,  7,  8,  9,  10, 11, 12, -1,
+                                              -1, 15, 16, 17, -1, 18, 19, 20, 21, -1, -1};
+
+/* Retargeting by bone directions. For SMPL joint j with bone child c, d_j is
+ * the rig's rest bone (rig joint of j to rig joint of c) and e_j the body's
+ * (canonical mannequin, turned into the rig's frame); A_j carries e_j onto
+ * d_j by the shortest arc. A frame's world rotation of j is then
+ * Q_j W_j A_j, W_j the rig joint's world rotation and Q_j the shortest arc
+ * from W_j A_j e_j to the rig's bone as posed (the identity unless folded
+ * joints lie between the two, CMU's Neck1). So the body's bone points where
+ * the rig's does, with the rig's twist about it. */
+typedef struct retarget {
+    int child[CR_NJOINTS];   /* bone end per joint (descending past missing, coincident ones) */
+    double e[CR_NJOINTS][3]; /* the body's rest bone, unit, rig frame */
+    double align[CR_NJOINTS][4];
+} retarget;
+
+static void shortest_arc(const double a[3], const double b[3], double q[4]) {
+    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    if (d < -1.0 + 1e-12) { /* opposite: half a turn about any perpendicular axis */
+        double p[3] = {0, 0, 0};
+        p[fabs(a[0]) < 0.9 ? 0 : 1] = 1;
+        c[0] = a[1] * p[2] - a[2] * p[1], c[1] = a[2] * p[0] - a[0] * p[2];
+        c[2] = a[0] * p[1] - a[1] * p[0];
+        d = -1.0;
+        q[0] = 0;
+    } else {
+        q[0] = 1.0 + d;
+    }
+    q[1] = c[0], q[2] = c[1], q[3] = c[2];
+    double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (int k = 0; k < 4; k++)
+        q[k] /= n;
+}
+
+static int unit3(const double v[3], double out[3], double eps) {
+    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
+    for (int k = 0; k < 3; k++)
+        out[k] = v[k] / n;
+    return 1;
+}
+
+static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const double turn[4],
+                           double height, retarget *rt) {
+    float canon[CR_NJOINTS * 3];
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cr_mannequin_rest_joints(&md, canon);
+    double turn_inv[4];
+    q_conj(turn, turn_inv);
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        int p = cr_joint_parent[j];
+        rt->child[j] = -1;
+        if (p >= 0)
+            memcpy(rt->align[j], rt->align[p], sizeof rt->align[j]);
+        else
+            q_identity(rt->align[j]);
+        if (map[j] < 0) continue;
+        for (int c = bone_child[j]; c >= 0; c = bone_child[c]) {
+            if (map[c] < 0) continue;
+            double d[3], e[3];
+            for (int k = 0; k < 3; k++) {
+                d[k] = rest[map[c]][k] - rest[map[j]][k];
+                e[k] = (double)canon[3 * c + k] - (double)canon[3 * j + k];
+            }
+            q_rotate(turn_inv, e, e);
+            if (!unit3(d, d, 1e-3 * height) || !unit3(e, e, 1e-6)) continue;
+            rt->child[j] = c;
+            memcpy(rt->e[j], e, sizeof e);
+            shortest_arc(e, d, rt->align[j]);
+            break;
+        }
+    }
+}
+
+/* World rotations of SMPL's joints in one frame, in the rig's frame. */
+static void retarget_frame(const retarget *rt, const int map[CR_NJOINTS], double (*w)[4],
+                           double (*pos)[3], double g[CR_NJOINTS][4]) {
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        int p = cr_joint_parent[j];
+        if (map[j] < 0) {
+            memcpy(g[j], g[p], sizeof g[j]);
+            continue;
+        }
+        q_mul(w[map[j]], rt->align[j], g[j]);
+        int c = rt->child[j];
+        if (c < 0) continue;
+        double cur[3], act[3], q[4];
+        q_rotate(g[j], rt->e[j], cur);
         for (int k = 0; k < 3; k++)
-            chain_pos[k] += t[k];
+            act[k] = pos[map[c]][k] - pos[map[j]][k];
+        if (!unit3(act, act, 1e-12)) continue;
+        shortest_arc(cur, act, q);
+        q_mul(q, g[j], g[j]);
     }
-    memcpy(pos, chain_pos, sizeof chain_pos);
 }
 
 static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
                               cr_error *err) {
-    int map[CR_NJOINTS];
-    CR_TRY(map_joints(b, map, err));
+    int map[CR_NJOINTS], rig = 0;
+    CR_TRY(map_joints(b, map, &rig, err));
     double(*rest)[3] = cr_malloc((size_t)b->n * sizeof *rest, err);
     double(*w)[4] = cr_malloc((size_t)b->n * sizeof *w, err);
+    double(*pos)[3] = cr_malloc((size_t)b->n * sizeof *pos, err);
     cr_motion *m = NULL;
-    cr_status st = rest && w ? CR_OK : CR_ERR_MEMORY;
+    cr_status st = rest && w && pos ? CR_OK : CR_ERR_MEMORY;
     motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
     if (st == CR_OK) {
         rest_positions(b, rest);
@@ -563,26 +689,32 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     if (fabs(fps - round(fps)) < 0.01) fps = round(fps); /* 0.0333333 s is 30 fps */
     if (st == CR_OK) st = cr_motion_create(b->nframes, (float)fps, &m, err);
     if (st == CR_OK) {
-        double s = rig_scale(b, rest, fix.world, def->bvh_scale), lowest = INFINITY;
+        double s = rig_scale(b, rig, rest, fix.world, def->bvh_scale), lowest = INFINITY,
+               highest = -INFINITY;
         for (int i = 0; i < b->n; i++) {
             double v[3];
             q_rotate(fix.world, rest[i], v);
-            lowest = fmin(lowest, s * v[1]);
+            lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
         }
+        retarget rt;
+        if (def->retarget) retarget_setup(map, rest, fix.world, (highest - lowest) / s, &rt);
         q_rotate(fix.world, rest[map[0]], fix.origin);
         for (int k = 0; k < 3; k++)
             fix.origin[k] *= s;
         fix.origin[1] -= lowest;
         for (int f = 0; f < b->nframes; f++) {
-            double pos[3], wj[CR_NJOINTS][4];
-            frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, map[0], w, pos);
+            double wj[CR_NJOINTS][4];
+            frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
+            if (def->retarget) retarget_frame(&rt, map, w, pos, wj);
             float *pose = m->poses + (size_t)f * CR_NJOINTS * 3;
             for (int j = 0; j < CR_NJOINTS; j++) {
                 int p = cr_joint_parent[j];
-                if (map[j] >= 0)
-                    memcpy(wj[j], w[map[j]], sizeof wj[j]);
-                else
-                    memcpy(wj[j], wj[p], sizeof wj[j]);
+                if (!def->retarget) {
+                    if (map[j] >= 0)
+                        memcpy(wj[j], w[map[j]], sizeof wj[j]);
+                    else
+                        memcpy(wj[j], wj[p], sizeof wj[j]);
+                }
                 double local[4];
                 if (p < 0) {
                     memcpy(local, wj[j], sizeof local);
@@ -594,12 +726,13 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
                 q_to_aa(local, pose + 3 * j);
             }
             for (int k = 0; k < 3; k++)
-                m->trans[(size_t)f * 3 + (size_t)k] = (float)(s * pos[k]);
+                m->trans[(size_t)f * 3 + (size_t)k] = (float)(s * pos[map[0]][k]);
         }
         cr_motion_fix_frame(m, &fix);
     }
     free(rest);
     free(w);
+    free(pos);
     if (st != CR_OK) {
         cr_motion_destroy(m);
         return st;

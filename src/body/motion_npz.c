@@ -26,6 +26,7 @@
  * SMPL+H / SMPL-X joint orders (Romero et al. 2017, Pavlakos et al. 2019).
  */
 #include "body/motion_internal.h"
+#include "crease/body.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -158,6 +159,13 @@ cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motio
             motion_frame_fix fix = {.recenter = up == 0 && def->recenter, .recenter_height = 1};
             q_axis(1, 0, 0, -M_PI / 2, fix.world); /* Z-up to Y-up: (x, y, z) -> (x, z, -y) */
             cr_motion_fix_frame(m, &fix);
+        }
+        if (up == 0 && def->retarget) {
+            /* AMASS poses are relative to SMPL's T-pose: re-expressed against
+             * the mannequin's A-pose, crease's one rest. */
+            float apose[CR_NJOINTS * 3];
+            cr_motion_apose_from_tpose(cr_mannequin_default_def().arm_angle_deg, apose);
+            cr_motion_rebase(m, apose);
         }
     }
     cr_npy_free(&poses);

@@ -55,7 +55,7 @@ int cli_usage(const char *cmd, const char *fmt, ...) __attribute__((format(print
  *         crease simulate: --frames expects an integer in [1, 100000000], got 'x'
  *         crease simulate: unknown option '--frams'
  *         crease simulate: option --frames needs a value
- *         crease simulate: --collision expects vertex or sdf, got 'box'
+ *         crease drape: --collision expects vertex or sdf, got 'box'
  *   - `--help` / `-h` anywhere: main.c prints the command's help_<cmd>() before the
  *     command runs. Help texts are written per command; keep them in step with the table.
  *
@@ -115,6 +115,8 @@ typedef struct cli_opt {
         .name = "-o", .alias = "--output", .kind = CLI_OPT_STRING,                                 \
         .dst = CLI_PTR_(const char *, dst_)                                                        \
     }
+/* --solver's values (cli_common.c): "newton", "vbd", NULL; parse with cr_sim_solver_parse. */
+extern const char *const cli_solvers[];
 #define CLI_END                                                                                    \
     { .name = NULL }
 #define CLI_PTR_(type_, p_) ((void *)(1 ? (p_) : (type_ *)0))
@@ -137,6 +139,50 @@ int cli_is_help(const char *s);
 /* Print the summary object on stdout (one line) and free it. */
 void cli_json_print(cJSON *obj);
 cJSON *cli_json_float_array(const float *v, int n);
+
+/* The options of every command that reads a motion file (cli_motion.c): --scale,
+ * --start-frame, --end-frame, --ease-in, --ground; --fps is each command's own (it also
+ * sets a clip's rate). cli_motion_file_load imports the file (scale) and prepares it
+ * (cr_motion_prepare: frames, calibration frame, rate, ground, ease-in). */
+typedef struct cli_motion_file {
+    float fps;          /* 0: the file's rate */
+    float scale;        /* metres per BVH unit, 0: the rig's known unit or inferred */
+    float ease_in;      /* s */
+    int start_frame;    /* of the file */
+    int end_frame;      /* -1: the last */
+    int start_set;      /* --start-frame given: a calibration frame 0 is kept */
+    int no_recenter;    /* keep the file's position and heading */
+    const char *ground; /* clip, frame or none */
+} cli_motion_file;
+extern const char *const cli_ground_choices[];
+#define CLI_MOTION_FILE_OPTS(mf_)                                                                  \
+    CLI_FLOAT("--scale", &(mf_)->scale, 1e-6, 1e6),                                                \
+        {.name = "--start-frame",                                                                  \
+         .kind = CLI_OPT_INT,                                                                      \
+         .dst = &(mf_)->start_frame,                                                               \
+         .lo = 0,                                                                                  \
+         .hi = 1e9,                                                                                \
+         .seen = &(mf_)->start_set},                                                               \
+        CLI_INT("--end-frame", &(mf_)->end_frame, 0, 1e9),                                         \
+        CLI_FLOAT("--ease-in", &(mf_)->ease_in, 0, 60),                                            \
+        CLI_CHOICE("--ground", &(mf_)->ground, cli_ground_choices)
+/* Defaults: the file's rate and frames, clip grounding, `ease_in` seconds. */
+cli_motion_file cli_motion_file_default(float ease_in);
+struct cr_motion;
+struct cr_body_model;
+struct cr_motion_prepare_report;
+struct cr_motion_import_def;
+struct cr_motion_prepare_def;
+/* The library's defs for these options (what cli_motion_file_load uses). */
+void cli_motion_file_defs(const cli_motion_file *mf, struct cr_motion_import_def *imp,
+                          struct cr_motion_prepare_def *pd);
+/* b: the body grounded on (NULL: the default mannequin); rep may be NULL. */
+cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf,
+                               const struct cr_body_model *b, struct cr_motion **out,
+                               struct cr_motion_prepare_report *rep, cr_error *err);
+/* The prepared file in a --json summary: source_fps, source_frames, first_frame,
+ * last_frame, calibration_dropped, ease_in_frames, ground_shift_m. */
+void cli_motion_file_json(cJSON *j, const struct cr_motion_prepare_report *rep);
 
 /* Commands */
 int cmd_info(int argc, char **argv);
@@ -165,5 +211,9 @@ int cmd_drape(int argc, char **argv);
 void help_drape(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
+int cmd_eval(int argc, char **argv);
+void help_eval(void);
+int cmd_view(int argc, char **argv);
+void help_view(void);
 
 #endif

@@ -2,6 +2,7 @@
  * reference simulator and write a self-describing dataset (crease/dataset.h). */
 #include "cli.h"
 #include "crease/dataset.h"
+#include "crease/phys_sim.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -23,9 +24,21 @@ void help_dataset(void) {
            "  --low-vertices N     vertices of a low-resolution garment (default 2000)\n"
            "  --high-vertices N    vertices of a high-resolution garment (default 8000)\n"
            "  --frames N           frames simulated per sequence (default 150)\n"
-           "  --fps F              frames per second (default 30)\n"
+           "  --fps F              frames per second (default 30); motion files are resampled\n"
+           "                       to it (the manifest gives each motion's source_fps)\n"
+           "  --scale S            metres per BVH unit of the motion files (default: the rig's\n"
+           "                       known unit or inferred from its height)\n"
+           "  --start-frame N, --end-frame N  the frames of each motion file used (default\n"
+           "                       all; a calibration T-pose frame 0 is dropped unless\n"
+           "                       --start-frame is given)\n"
+           "  --ease-in S          motion files start at the rest pose, where garments are\n"
+           "                       fitted, and ease into their first frame over S s (default 1)\n"
+           "  --ground MODE        clip (default), frame or none: motion files grounded on the\n"
+           "                       mannequin's feet\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --plastic            plastic bending (epnet's ground truth)\n"
+           "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+           "                       or vbd (vertex block descent, no factorisation)\n"
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
            "                       more substeps (default 0.15; 0: always one)\n"
            "  --seed S             recorded in the manifest (default 1)\n"
@@ -65,7 +78,9 @@ int cmd_dataset(int argc, char **argv) {
         lists[i].n = 0;
     cr_dataset_def def = cr_dataset_default_def();
     int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
+    cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
+    const char *solver = NULL;
     const cli_opt opts[] = {
         CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
         CLI_CUSTOM("--motions", parse_list, &lists[1], 1),
@@ -84,15 +99,19 @@ int cmd_dataset(int argc, char **argv) {
          .lo = 0,
          .hi = 10,
          .seen = &step_given},
+        CLI_CHOICE("--solver", &solver, cli_solvers),
         CLI_FLAG("--plastic", &def.plastic),
         CLI_FLAG("--quiet", &def.quiet),
         CLI_FLAG("--json", &json),
+        CLI_MOTION_FILE_OPTS(&mf),
         CLI_END,
     };
     int rc = cli_parse("dataset", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     def.seed = (uint64_t)seed;
+    cli_motion_file_defs(&mf, &def.motion_import, &def.motion_prepare);
     if (step_given) def.max_collider_step = max_step;
+    def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
     if (lists[1].n == 0) return cli_usage("dataset", "missing --motions LIST");
@@ -113,6 +132,8 @@ int cmd_dataset(int argc, char **argv) {
                 "the simulator's projection: %.3f%%)\n",
                 def.garments[g], 100.0 * r.max_inside_share[g],
                 100.0 * r.max_inside_share_solver[g]);
+    if (r.done + r.skipped > 0)
+        fprintf(stderr, "view: crease view %s -o %s/view\n", def.out_dir, def.out_dir);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "dataset");

@@ -138,6 +138,10 @@ static void report(const cr_drape_def *def, const cr_drape_result *r) {
             "deepest %.3g mm\n",
             cr_drape_variant_name(def->variant), (long long)r->params, r->epochs, r->seconds, conv,
             r->initial.total, r->terms.total, 1e3 * r->max_penetration_m);
+    if (r->glb_path[0])
+        fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r->glb_path,
+                def->scene == CR_DRAPE_OBJECT ? "+" : "",
+                def->scene == CR_DRAPE_OBJECT ? def->object_path : "", def->out_dir);
     if (r->png_path[0])
         fprintf(stderr, "  %s\n  %s\n  %s\n  %s%s%s\n", r->obj_path, r->png_path, r->loss_png,
                 r->log_path, r->sampler_png[0] ? "\n  " : "", r->sampler_png);

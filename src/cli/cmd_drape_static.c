@@ -1,11 +1,11 @@
 /* cmd_drape_static.c: `crease drape-static`: the quasi-static equilibrium of
  * a 1 m square cloth laid flat above an object, the reference the drape
- * method is compared with. Scene and outputs come from scene.h; the
- * equilibrium from cr_sim_solve_static. */
+ * method is compared with: parse, one library call (cr_scene_drape_static,
+ * crease/scene.h), report. */
 #include "cli.h"
+#include "crease/phys_sim.h"
 #include "crease/scene.h"
 
-#include <math.h>
 #include <string.h>
 
 enum { RENDER_SIZE = 800 };
@@ -35,32 +35,14 @@ void help_drape_static(void) {
            "  --quiet              no progress bar\n"
            "  -o DIR               outputs: final.obj, final.png, frames.jsonl (one line per\n"
            "                       frame and the static solve), sim.pc2 (every state)\n"
-           "  --json               end with a JSON summary on stdout\n");
-}
-
-/* Every state goes to the record; settling frames also move the bar. */
-typedef struct state_ctx {
-    cr_scene_record *rec;
-    cr_progress bar;
-} state_ctx;
-
-static cr_status record_state(void *vctx, const cr_sim *sim, const cr_sim_report *rep, int frame,
-                              double rms_speed, cr_error *err) {
-    state_ctx *c = vctx;
-    CR_TRY(cr_scene_record_frame(c->rec, sim, rep, err));
-    if (frame > 0) cr_progress_update(&c->bar, frame, "rms speed %.2g m/s", rms_speed);
-    return CR_OK;
-}
-
-static cr_status coarse_progress(void *vctx, const cr_sim *sim, const cr_sim_report *rep, int frame,
-                                 double rms_speed, cr_error *err) {
-    (void)sim, (void)rep, (void)err;
-    if (frame > 0) cr_progress_update(vctx, frame, "coarse, rms speed %.2g m/s", rms_speed);
-    return CR_OK;
+           "  --json               end with a JSON summary on stdout\n"
+           "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+           "                       or vbd (vertex block descent, no factorisation)\n");
 }
 
 int cmd_drape_static(int argc, char **argv) {
     const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL;
+    const char *solver = NULL;
     int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0, npos = 0;
     float gap = 0.05f;
     const cli_opt opts[] = {
@@ -72,6 +54,7 @@ int cmd_drape_static(int argc, char **argv) {
         CLI_FLOAT("--gap", &gap, 0.0, 10.0),
         CLI_INT("--max-frames", &max_frames, 0, 1000000),
         CLI_INT("--coarse", &coarse, 2, 1024),
+        CLI_CHOICE("--solver", &solver, cli_solvers),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
         CLI_END,
@@ -83,91 +66,43 @@ int cmd_drape_static(int argc, char **argv) {
     if (coarse >= res)
         return cli_usage("drape-static", "--coarse %d must be below --res %d", coarse, res);
     cr_error err = {0};
-    cr_sim_def def = cr_sim_default_def();
-    if (cr_material_preset(material, &def.material, &err) != CR_OK)
+    cr_material m;
+    if (cr_material_preset(material, &m, &err) != CR_OK)
         return cli_usage("drape-static", "%s", err.msg);
-
-    cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
-    cr_sim *sim = NULL;
-    cr_scene_record *rec = NULL;
-    char path[1200], obj_path[1200], png_path[1200];
-    cr_status st = CR_OK;
-    cr_scene_settle_stats stats = {0}, coarse_stats = {0};
-    state_ctx ctx = {0};
-    if (material_json) st = cr_material_load_json(material_json, &def.material, &err);
-    if (st == CR_OK) st = cr_scene_object_create(object, &obj, &err);
-    if (st == CR_OK) st = cr_scene_cloth_above(obj, res, CLOTH_SIZE, gap, &cloth, &err);
-    def.collider = obj;
-    if (st == CR_OK && coarse > 0) {
-        /* Settle the coarse cloth, refine its rest shape onto the fine one,
-         * and let the fine one only solve statically from there. */
-        cr_progress bar;
-        cr_progress_begin(&bar, "drape-static", max_frames, quiet);
-        st = cr_scene_settle_coarse(&def, obj, coarse, CLOTH_SIZE, gap, max_frames,
-                                    CR_SCENE_SETTLED_SPEED, coarse_progress, &bar, cloth, res,
-                                    &coarse_stats, &err);
-        cr_progress_end(&bar);
+    cr_scene_drape_static_def def = cr_scene_drape_static_default_def();
+    def.object = object, def.res = res, def.size = CLOTH_SIZE, def.gap = gap;
+    def.material = material, def.material_json = material_json;
+    def.max_frames = max_frames, def.coarse = coarse;
+    def.solver = cr_sim_solver_parse(solver ? solver : "newton");
+    def.out_dir = out, def.render_size = RENDER_SIZE, def.quiet = quiet;
+    cr_scene_drape_static_result r;
+    if (cr_scene_drape_static(&def, &r, &err) != CR_OK) return cli_fail(&err);
+    const cr_scene_settle_stats *stats = &r.settle;
+    if (!quiet)
+        fprintf(stderr,
+                "drape-static: %d settling frames + static solve, %lld Newton "
+                "iterations, %.2f s, deepest %.3g mm\n",
+                stats->settle_frames, stats->newton, stats->seconds,
+                1e3 * stats->max_penetration_m);
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "drape-static");
+        cJSON_AddStringToObject(j, "object", object);
+        cJSON_AddNumberToObject(j, "res", res);
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddStringToObject(j, "material", r.material);
+        if (coarse > 0) cJSON_AddNumberToObject(j, "coarse", coarse);
+        cJSON_AddNumberToObject(j, "settle_frames", stats->settle_frames);
+        cJSON_AddBoolToObject(j, "converged", stats->converged);
+        cJSON_AddNumberToObject(j, "max_penetration_m", stats->max_penetration_m);
+        cJSON_AddNumberToObject(j, "newton_iterations", (double)stats->newton);
+        cJSON_AddNumberToObject(j, "contacts", stats->contacts);
+        cJSON_AddNumberToObject(j, "seconds", stats->seconds);
+        cJSON *o = cJSON_AddObjectToObject(j, "outputs");
+        cJSON_AddStringToObject(o, "obj", r.obj);
+        cJSON_AddStringToObject(o, "png", r.png);
+        cJSON_AddStringToObject(o, "log", r.log);
+        cli_json_print(j);
     }
-    if (st == CR_OK) st = cr_sim_create(&def, cloth, &sim, &err);
-    if (st == CR_OK) st = cr_mkdir_p(out, &err);
-    if (st == CR_OK) {
-        snprintf(path, sizeof path, "%s/frames.jsonl", out);
-        st = cr_scene_record_create(path, sim, cloth, max_frames + 2, &rec, &err);
-    }
-    if (st == CR_OK) {
-        int frames = coarse > 0 ? 0 : max_frames;
-        ctx.rec = rec;
-        cr_progress_begin(&ctx.bar, "drape-static", frames, quiet || frames == 0);
-        st = cr_scene_settle(sim, frames, CR_SCENE_SETTLED_SPEED, record_state, &ctx, &stats, &err);
-        cr_progress_end(&ctx.bar);
-    }
-    stats.seconds += coarse_stats.seconds;
-    stats.newton += coarse_stats.newton;
-    stats.settle_frames += coarse_stats.settle_frames;
-    stats.max_penetration_m = fmax(stats.max_penetration_m, coarse_stats.max_penetration_m);
-    if (st == CR_OK) {
-        snprintf(obj_path, sizeof obj_path, "%s/final.obj", out);
-        snprintf(png_path, sizeof png_path, "%s/final.png", out);
-        snprintf(path, sizeof path, "%s/sim.pc2", out);
-        st = cr_scene_record_mesh(rec, &final, &err);
-        if (st == CR_OK) st = cr_mesh_write(obj_path, final, &err);
-        if (st == CR_OK) st = cr_scene_record_write(rec, path, NULL, 1.0f, &err);
-        if (st == CR_OK) st = cr_scene_render(png_path, final, NULL, obj, NULL, RENDER_SIZE, &err);
-    }
-    if (st == CR_OK) {
-        if (!quiet)
-            fprintf(stderr,
-                    "drape-static: %d settling frames + static solve, %lld Newton "
-                    "iterations, %.2f s, deepest %.3g mm\n",
-                    stats.settle_frames, stats.newton, stats.seconds,
-                    1e3 * stats.max_penetration_m);
-        if (json) {
-            cJSON *j = cJSON_CreateObject();
-            cJSON_AddStringToObject(j, "command", "drape-static");
-            cJSON_AddStringToObject(j, "object", object);
-            cJSON_AddNumberToObject(j, "res", res);
-            cJSON_AddNumberToObject(j, "vertices", cloth->nv);
-            cJSON_AddStringToObject(j, "material", def.material.name);
-            if (coarse > 0) cJSON_AddNumberToObject(j, "coarse", coarse);
-            cJSON_AddNumberToObject(j, "settle_frames", stats.settle_frames);
-            cJSON_AddBoolToObject(j, "converged", stats.converged);
-            cJSON_AddNumberToObject(j, "max_penetration_m", stats.max_penetration_m);
-            cJSON_AddNumberToObject(j, "newton_iterations", (double)stats.newton);
-            cJSON_AddNumberToObject(j, "contacts", stats.contacts);
-            cJSON_AddNumberToObject(j, "seconds", stats.seconds);
-            cJSON *o = cJSON_AddObjectToObject(j, "outputs");
-            cJSON_AddStringToObject(o, "obj", obj_path);
-            cJSON_AddStringToObject(o, "png", png_path);
-            snprintf(path, sizeof path, "%s/frames.jsonl", out);
-            cJSON_AddStringToObject(o, "log", path);
-            cli_json_print(j);
-        }
-    }
-    cr_mesh_destroy(final);
-    cr_scene_record_destroy(rec);
-    cr_sim_destroy(sim);
-    cr_mesh_destroy(cloth);
-    cr_mesh_destroy(obj);
-    if (st != CR_OK) return cli_fail(&err);
     return CLI_OK;
 }

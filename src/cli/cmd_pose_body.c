@@ -5,7 +5,6 @@
 #include "crease/body.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
-#include "crease/npz.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -24,28 +23,29 @@ void help_pose_body(void) {
            "  --motion FILE    a .bvh or .npz motion (crease's own or AMASS-style)\n"
            "  --frames N       clip length (default 120); for a file, the first N frames\n"
            "                   (default all)\n"
-           "  --fps F          clip frame rate (default 30)\n"
-           "  --rest POSE      what a --motion's rotations are relative to: apose (the\n"
-           "                   mannequin's rest; crease's motions) or tpose (BVH rigs, AMASS),\n"
-           "                   which is re-expressed against the A-pose. Default: apose for\n"
-           "                   crease's .npz, tpose for .bvh and AMASS .npz\n"
+           "  --fps F          clip frame rate (default 30); a file is resampled to F (slerp;\n"
+           "                   default: the file's rate)\n"
+           "  --scale S        metres per BVH unit (default: the rig's known unit or inferred)\n"
+           "  --start-frame N  first frame of the file used (default 0; a calibration T-pose\n"
+           "                   frame 0 is dropped unless --start-frame is given)\n"
+           "  --end-frame N    last frame of the file used (default: the last)\n"
+           "  --ease-in S      a file's motion starts at the rest pose (where garments are\n"
+           "                   fitted) and eases into its first frame over S s (default 1; 0:\n"
+           "                   none)\n"
+           "  --ground MODE    clip (default: the body's lowest foot point over the clip on\n"
+           "                   y = 0), frame (each frame) or none\n"
+           "  --rest POSE      apose (default): the motion is relative to crease's one rest,\n"
+           "                   the mannequin's A-pose (every loader retargets onto it); tpose:\n"
+           "                   a crease .npz written against SMPL's T-pose by another tool\n"
            "  --json           end with a JSON summary on stdout: frames, fps, vertices,\n"
            "                   faces, paths, seconds\n");
-}
-
-/* The mannequin's A-pose as a pose of the T-pose: each upper arm turned down
- * about +-Z at the shoulder. */
-static void apose_from_tpose(float arm_angle_deg, float *rest) {
-    memset(rest, 0, CR_NJOINTS * 3 * sizeof(float));
-    float a = arm_angle_deg * 3.14159265f / 180.0f;
-    rest[3 * CR_JOINT_LEFT_SHOULDER + 2] = -a; /* left arm (+X) turns towards -Y */
-    rest[3 * CR_JOINT_RIGHT_SHOULDER + 2] = a;
 }
 
 typedef struct pose_opts {
     const char *shape, *clip, *motion, *rest, *out;
     float height, fps;
-    int res, frames, json;
+    int res, frames, json, file_set;
+    cli_motion_file mf;
 } pose_opts;
 
 static int parse(int argc, char **argv, pose_opts *o) {
@@ -62,6 +62,7 @@ static int parse(int argc, char **argv, pose_opts *o) {
         CLI_FLOAT("--fps", &o->fps, 1e-3, 1000),
         CLI_INT("--res", &o->res, 32, 512),
         CLI_INT("--frames", &o->frames, 1, 1000000),
+        CLI_MOTION_FILE_OPTS(&o->mf),
         CLI_END,
     };
     int rc = cli_parse("pose-body", argc, argv, opts, NULL, 0, &npos);
@@ -70,9 +71,11 @@ static int parse(int argc, char **argv, pose_opts *o) {
         return cli_usage("pose-body", "give one of --clip NAME or --motion FILE");
     if (o->clip && !cr_motion_clip_summary(o->clip))
         return cli_usage("pose-body", "unknown clip '%s' (see 'crease motion --list')", o->clip);
-    if (o->motion && o->fps > 0.0f)
-        return cli_usage("pose-body", "--fps sets a --clip's rate; a file keeps its own");
+    o->mf.fps = o->fps;
     if (o->clip && o->rest) return cli_usage("pose-body", "--rest applies to a --motion file");
+    if (o->clip && (o->mf.scale > 0 || o->mf.start_set || o->mf.end_frame >= 0))
+        return cli_usage("pose-body",
+                         "--scale, --start-frame and --end-frame read a --motion file");
     if (!o->out) return cli_usage("pose-body", "missing -o OUT.pc2 or OUT.glb");
     char ext[16];
     cr_path_ext(o->out, ext, sizeof ext);
@@ -81,30 +84,15 @@ static int parse(int argc, char **argv, pose_opts *o) {
     return CLI_OK;
 }
 
-/* crease's own motion files carry an up_axis member; AMASS files do not, and
- * their rotations are relative to SMPL's T-pose. */
-static int is_crease_npz(const char *path) {
-    cr_npz *z = NULL;
-    cr_error err = {0};
-    if (cr_npz_open(path, &z, &err) != CR_OK) return 0;
-    int has = cr_npz_has(z, "up_axis");
-    cr_npz_close(z);
-    return has;
-}
-
-static cr_status load_motion(const pose_opts *o, float arm_angle_deg, cr_motion **m,
-                             cr_error *err) {
+static cr_status load_motion(const pose_opts *o, const cr_body_model *b, float arm_angle_deg,
+                             cr_motion **m, cr_motion_prepare_report *rep, cr_error *err) {
     if (o->clip)
         return cr_motion_clip(o->clip, o->frames ? o->frames : 120, o->fps > 0 ? o->fps : 30.0f, m,
                               err);
-    CR_TRY(cr_motion_load(o->motion, m, err));
-    char ext[16];
-    cr_path_ext(o->motion, ext, sizeof ext);
-    const char *rest = o->rest;
-    if (!rest) rest = strcmp(ext, "bvh") == 0 || !is_crease_npz(o->motion) ? "tpose" : "apose";
-    if (strcmp(rest, "tpose") == 0) {
+    CR_TRY(cli_motion_file_load(o->motion, &o->mf, b, m, rep, err));
+    if (o->rest && strcmp(o->rest, "tpose") == 0) {
         float apose[CR_NJOINTS * 3];
-        apose_from_tpose(arm_angle_deg, apose);
+        cr_motion_apose_from_tpose(arm_angle_deg, apose);
         cr_motion_rebase(*m, apose);
     }
     if (o->frames && o->frames < (*m)->nframes) (*m)->nframes = o->frames;
@@ -119,7 +107,7 @@ static void sibling_obj(const char *path, char *out, size_t cap) {
 }
 
 int cmd_pose_body(int argc, char **argv) {
-    pose_opts o = {.shape = "normal"};
+    pose_opts o = {.shape = "normal", .mf = cli_motion_file_default(1.0f)};
     int rc = parse(argc, argv, &o);
     if (rc != CLI_OK) return rc;
     cr_error err = {0};
@@ -134,8 +122,9 @@ int cmd_pose_body(int argc, char **argv) {
     cr_motion *m = NULL;
     float *frames = NULL;
     char obj_path[1024] = "";
-    cr_status st = load_motion(&o, def.arm_angle_deg, &m, &err);
-    if (st == CR_OK) st = cr_mannequin_create(&def, &b, &err);
+    cr_motion_prepare_report rep;
+    cr_status st = cr_mannequin_create(&def, &b, &err);
+    if (st == CR_OK) st = load_motion(&o, b, def.arm_angle_deg, &m, &rep, &err);
     if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, &err);
     char ext[16];
     cr_path_ext(o.out, ext, sizeof ext);
@@ -155,6 +144,7 @@ int cmd_pose_body(int argc, char **argv) {
             cJSON_AddStringToObject(j, "clip", o.clip);
         else
             cJSON_AddStringToObject(j, "motion", o.motion);
+        if (o.motion) cli_motion_file_json(j, &rep);
         cJSON_AddNumberToObject(j, "frames", m->nframes);
         cJSON_AddNumberToObject(j, "fps", m->fps);
         cJSON_AddNumberToObject(j, "vertices", b->rest->nv);

@@ -1,8 +1,12 @@
 /* cmd_simulate.c: `crease simulate`: run the reference cloth simulator on a
  * garment against a static object or an animated body, writing the sequence
- * (PC2, glb), a per-frame JSON lines log and a picture of the last frame. The
- * scene and output code is in scene.h; this file parses and reports. */
+ * (PC2, glb), a per-frame JSON lines log and a picture of the last frame:
+ * parse, one library call (cr_scene_simulate, crease/scene.h), report. */
 #include "cli.h"
+#include "crease/body.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+#include "crease/phys_sim.h"
 #include "crease/scene.h"
 
 #include <stdlib.h>
@@ -11,40 +15,51 @@
 enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 
 void help_simulate(void) {
-    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2)\n"
-           "                       --frames N -o DIR [options]\n\n"
-           "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
-           "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
-           "PC2 of the same vertex count). The garment's positions are the initial state.\n\n"
-           "options:\n"
-           "  --garment G          garment mesh (.obj, .ply, .glb), required\n"
-           "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
-           "                       box (0.4) or a mesh file; static unless --body animates it\n"
-           "  --body-mesh B        body mesh: the collider's faces\n"
-           "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
-           "                       f+1, held at the last); vertex count must match the collider\n"
-           "  --frames N           frames to simulate (required, >= 1)\n"
-           "  --material M         cotton (default), silk, denim or knit\n"
-           "  --material-json F    override material fields from a JSON object\n"
-           "  --plastic            plastic bending: rest angles follow large folds\n"
-           "  --pin i,j,...        vertices held at their initial positions\n"
-           "  --substeps S         implicit Euler steps per frame (default 1)\n"
-           "  --max-collider-step M  more substeps in frames where the collider moves further\n"
-           "                       than M metres, ceil(motion / M) (default 0: off)\n"
-           "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
-           "                       twice as fast and damps bending, docs/physics.md)\n"
-           "  --fps F              frames per second (default 30)\n"
-           "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
-           "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
-           "                       frames.jsonl (one line per frame), last.png\n"
-           "  --quiet              no progress bar\n"
-           "  --json               end with a JSON summary on stdout\n\n"
-           "A frame the solver cannot finish even with 8x the substeps is reported (frame and\n"
-           "reason); what was simulated before it is written, and the exit code is 1.\n");
+    printf(
+        "usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
+        "                       --motion FILE)\n"
+        "                       --frames N -o DIR [options]\n\n"
+        "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
+        "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
+        "PC2 of the same vertex count). The garment's positions are the initial state.\n\n"
+        "options:\n"
+        "  --garment G          garment mesh (.obj, .ply, .glb), required\n"
+        "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
+        "                       box (0.4) or a mesh file; static unless --body animates it\n"
+        "  --body-mesh B        body mesh: the collider's faces\n"
+        "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
+        "                       f+1, held at the last); vertex count must match the collider\n"
+        "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
+        "                       resampled to --fps, starting at the rest pose (where\n"
+        "                       garments are fitted) and easing in, written as DIR/body.obj\n"
+        "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
+        "                       --ease-in S (default 1) and --ground as in pose-body\n"
+        "  --frames N           frames to simulate (required, >= 1)\n"
+        "  --material M         cotton (default), silk, denim or knit\n"
+        "  --material-json F    override material fields from a JSON object\n"
+        "  --plastic            plastic bending: rest angles follow large folds (rest_angles.npy)\n"
+        "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+        "                       or vbd (vertex block descent, no factorisation)\n"
+        "  --pin i,j,...        vertices held at their initial positions\n"
+        "  --substeps S         implicit Euler steps per frame (default 1)\n"
+        "  --max-collider-step M  more substeps in frames where the collider moves further\n"
+        "                       than M metres, ceil(motion / M) (default 0: off)\n"
+        "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
+        "                       twice as fast and damps bending, docs/physics.md)\n"
+        "  --fps F              frames per second (default 30)\n"
+        "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
+        "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
+        "                       frames.jsonl (one line per frame), last.png\n"
+        "  --quiet              no progress bar\n"
+        "  --json               end with a JSON summary on stdout\n\n"
+        "A frame the solver cannot finish even with 8x the substeps is reported (frame and\n"
+        "reason); what was simulated before it is written, and the exit code is 1.\n");
 }
 
 typedef struct {
-    const char *garment, *object, *body_mesh, *body, *material, *material_json, *out;
+    const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
+    const char *solver;
+    cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
     int32_t *pins;
@@ -95,6 +110,8 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_STR("--object", &o->object),
         CLI_STR("--body-mesh", &o->body_mesh),
         CLI_STR("--body", &o->body),
+        CLI_STR("--motion", &o->motion),
+        CLI_MOTION_FILE_OPTS(&o->mf),
         CLI_STR("--material", &o->material),
         CLI_STR("--material-json", &o->material_json),
         CLI_OUTPUT(&o->out),
@@ -109,6 +126,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
          .fn = parse_vec3,
          .dst = o->offset,
          .seen = &o->has_offset},
+        CLI_CHOICE("--solver", &o->solver, cli_solvers),
         CLI_FLAG("--plastic", &o->plastic),
         CLI_FLAG("--quiet", &o->quiet),
         CLI_FLAG("--json", &o->json),
@@ -119,6 +137,9 @@ static int parse(int argc, char **argv, sim_opts *o) {
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
+    if (o->motion && (o->object || o->body_mesh || o->body))
+        return cli_usage("simulate",
+                         "--motion poses the mannequin: no --object, --body-mesh, --body");
     if (o->object && o->body_mesh)
         return cli_usage("simulate", "give --object or --body-mesh, not both");
     if (o->body && !o->object && !o->body_mesh)
@@ -128,155 +149,104 @@ static int parse(int argc, char **argv, sim_opts *o) {
     return CLI_OK;
 }
 
-/* Everything a run holds, released together. */
-typedef struct {
-    cr_mesh *garment, *collider;
-    cr_pc2 anim;
-    cr_sim *sim;
-    cr_scene_record *rec;
-} sim_run;
-
-static void run_free(sim_run *r, sim_opts *o) {
-    cr_scene_record_destroy(r->rec);
-    cr_sim_destroy(r->sim);
-    cr_pc2_free(&r->anim);
-    cr_mesh_destroy(r->collider);
-    cr_mesh_destroy(r->garment);
-    free(o->pins);
-}
-
-static cr_status setup(const sim_opts *o, sim_run *r, cr_sim_def *def, cr_error *err) {
-    if (o->material_json) CR_TRY(cr_material_load_json(o->material_json, &def->material, err));
-    CR_TRY(cr_mesh_read(o->garment, &r->garment, err));
-    if (o->has_offset) cr_mesh_transform(r->garment, 1.0f, o->offset);
-    const char *cname = o->object ? o->object : o->body_mesh;
-    if (cname) {
-        CR_TRY(o->object ? cr_scene_object_create(o->object, &r->collider, err)
-                         : cr_mesh_read(o->body_mesh, &r->collider, err));
-        def->collider = r->collider;
-    }
-    if (o->body) {
-        CR_TRY(cr_scene_animation_read(o->body, r->collider, cname, &r->anim, err));
-        def->collider_frames = r->anim.frames;
-        def->collider_nframes = r->anim.nframes;
-        if (r->anim.nframes < o->frames + 1)
-            cr_log(CR_LOG_WARN, "%s: %d samples for %d frames; the collider holds its last pose",
-                   o->body, r->anim.nframes, o->frames);
-    }
-    def->dt = 1.0 / o->fps;
-    if (o->substeps > 0) def->substeps = o->substeps;
-    def->max_collider_step = o->max_collider_step;
-    if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
-    def->plasticity = o->plastic;
-    def->pinned = o->pins;
-    def->npinned = o->npins;
-    CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
-    CR_TRY(cr_mkdir_p(o->out, err));
-    char path[1200];
-    snprintf(path, sizeof path, "%s/frames.jsonl", o->out);
-    return cr_scene_record_create(path, r->sim, r->garment, o->frames + 1, &r->rec, err);
+/* --motion: the mannequin the garments are fitted on, posed by the prepared file (at --fps,
+ * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
+ * collider, and the body beside the garment for rendering. */
+static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap, cr_error *err) {
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cli_motion_file mf = o->mf;
+    mf.fps = o->fps;
+    snprintf(mesh, cap, "%s/body.obj", o->out);
+    snprintf(pc2, cap, "%s/body.pc2", o->out);
+    cr_body_model *b = NULL;
+    cr_motion *m = NULL;
+    float *frames = NULL;
+    cr_status st = cr_mkdir_p(o->out, err);
+    if (st == CR_OK) st = cr_mannequin_create(&md, &b, err);
+    if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
+    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, err);
+    if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
+    if (st == CR_OK) st = cr_pc2_write(pc2, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, err);
+    free(frames);
+    cr_motion_destroy(m);
+    cr_body_model_destroy(b);
+    return st;
 }
 
 int cmd_simulate(int argc, char **argv) {
-    sim_opts o = {.material = "cotton", .fps = 30.0f};
+    sim_opts o = {.material = "cotton", .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
     int rc = parse(argc, argv, &o);
+    cr_error err = {0};
+    cr_material material;
+    if (rc == CLI_OK && cr_material_preset(o.material, &material, &err) != CR_OK)
+        rc = cli_usage("simulate", "%s", err.msg);
     if (rc != CLI_OK) {
         free(o.pins);
         return rc;
     }
-    cr_error err = {0};
-    cr_sim_def def = cr_sim_default_def();
-    if (cr_material_preset(o.material, &def.material, &err) != CR_OK) {
-        free(o.pins);
-        return cli_usage("simulate", "%s", err.msg);
-    }
-    sim_run r = {0};
-    if (setup(&o, &r, &def, &err) != CR_OK) {
-        run_free(&r, &o);
-        return cli_fail(&err);
-    }
-
-    cr_progress bar;
-    cr_progress_begin(&bar, "simulate", o.frames, o.quiet);
-    cr_sim_report rep = {0};
-    double max_pen = 0.0, seconds = 0.0, split[4] = {0};
-    long long newton = 0;
-    int done = 0, backoffs = 0;
+    cr_scene_sim_def def = cr_scene_sim_default_def();
+    def.garment = o.garment, def.garment_offset = o.has_offset ? o.offset : NULL;
+    def.object = o.object, def.body_mesh = o.body_mesh, def.body = o.body;
+    def.material = o.material, def.material_json = o.material_json;
+    def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
+    def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
+    def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
+    def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");
+    def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
+    char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;
-    cr_error sim_err = {0};
-    while (done < o.frames) {
-        cr_status step = cr_sim_step(r.sim, &rep, &sim_err);
-        if (step != CR_OK && step != CR_ERR_DIVERGED) {
-            st = step;
-            err = sim_err;
-            break;
-        }
-        st = cr_scene_record_frame(r.rec, r.sim, &rep, &err);
-        if (step == CR_ERR_DIVERGED || st != CR_OK) break;
-        done++;
-        if (rep.max_penetration_m > max_pen) max_pen = rep.max_penetration_m;
-        seconds += rep.seconds;
-        split[0] += rep.seconds_assembly, split[1] += rep.seconds_factor;
-        split[2] += rep.seconds_solve, split[3] += rep.seconds_collision;
-        newton += rep.newton_iterations;
-        backoffs += rep.backoffs;
-        cr_progress_update(&bar, done, "%d Newton its, %.2f mm deepest", rep.newton_iterations,
-                           1e3 * rep.max_penetration_m);
-    }
-    cr_progress_end(&bar);
-    int diverged = rep.diverged;
-    if (diverged)
+    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &err);
+    if (o.motion) def.body_mesh = body_mesh, def.body = body_pc2;
+    cr_scene_sim_result r;
+    if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);
+    free(o.pins);
+    if (st != CR_OK) return cli_fail(&err);
+
+    const cr_scene_run_stats *run = &r.run;
+    int done = run->frames;
+    double per_frame = done ? run->seconds / done : 0.0;
+    if (run->diverged)
         fprintf(stderr,
                 "crease simulate: diverged at frame %d: %s; writing the %d frames before it\n",
-                done + 1, rep.failure, done);
-
-    char pc2[1200], glb[1200], png[1200], log[1200];
-    snprintf(pc2, sizeof pc2, "%s/sim.pc2", o.out);
-    snprintf(glb, sizeof glb, "%s/sim.glb", o.out);
-    snprintf(png, sizeof png, "%s/last.png", o.out);
-    snprintf(log, sizeof log, "%s/frames.jsonl", o.out);
-    if (st == CR_OK) st = cr_scene_record_write(r.rec, pc2, glb, o.fps, &err);
-    if (st == CR_OK) {
-        const float *cpos = NULL;
-        if (r.anim.frames) {
-            int32_t k = done < r.anim.nframes - 1 ? done : r.anim.nframes - 1;
-            cpos = r.anim.frames + (size_t)k * (size_t)r.anim.nv * 3;
-        }
-        st = cr_scene_render(png, r.garment, cr_scene_record_last(r.rec), r.collider, cpos,
-                             RENDER_SIZE, &err);
-    }
-    if (st == CR_OK && !o.quiet)
+                done + 1, run->failure, done);
+    if (!o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
-                done, r.garment->nv, done ? seconds / done : 0.0, 1e3 * max_pen);
-    if (st == CR_OK && o.json) {
+                done, r.vertices, per_frame, 1e3 * run->max_penetration_m);
+    const char *collider = def.body_mesh ? def.body_mesh : def.object;
+    if (!o.quiet && collider && def.body)
+        fprintf(stderr, "view: crease view %s+%s@%s -o %s/view\n", r.glb, def.body, collider,
+                o.out);
+    else if (!o.quiet)
+        fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r.glb, collider ? "+" : "",
+                collider ? collider : "", o.out);
+    if (o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "simulate");
         cJSON_AddNumberToObject(j, "frames", done);
         cJSON_AddNumberToObject(j, "frames_requested", o.frames);
-        cJSON_AddBoolToObject(j, "diverged", diverged);
-        if (diverged) {
+        cJSON_AddBoolToObject(j, "diverged", run->diverged);
+        if (run->diverged) {
             cJSON_AddNumberToObject(j, "diverged_frame", done + 1);
-            cJSON_AddStringToObject(j, "failure", rep.failure);
+            cJSON_AddStringToObject(j, "failure", run->failure);
         }
-        cJSON_AddNumberToObject(j, "vertices", r.garment->nv);
-        cJSON_AddStringToObject(j, "material", def.material.name);
-        cJSON_AddNumberToObject(j, "max_penetration_m", max_pen);
-        cJSON_AddNumberToObject(j, "seconds_per_frame", done ? seconds / done : 0.0);
-        cJSON_AddNumberToObject(j, "seconds_assembly", split[0]);
-        cJSON_AddNumberToObject(j, "seconds_factor", split[1]);
-        cJSON_AddNumberToObject(j, "seconds_solve", split[2]);
-        cJSON_AddNumberToObject(j, "seconds_collision", split[3]);
-        cJSON_AddNumberToObject(j, "newton_iterations", (double)newton);
-        cJSON_AddNumberToObject(j, "backoffs", backoffs);
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddStringToObject(j, "material", r.material);
+        cJSON_AddNumberToObject(j, "max_penetration_m", run->max_penetration_m);
+        cJSON_AddNumberToObject(j, "seconds_per_frame", per_frame);
+        cJSON_AddNumberToObject(j, "seconds_assembly", run->seconds_assembly);
+        cJSON_AddNumberToObject(j, "seconds_factor", run->seconds_factor);
+        cJSON_AddNumberToObject(j, "seconds_solve", run->seconds_solve);
+        cJSON_AddNumberToObject(j, "seconds_collision", run->seconds_collision);
+        cJSON_AddNumberToObject(j, "newton_iterations", (double)run->newton_iterations);
+        cJSON_AddNumberToObject(j, "backoffs", (double)run->backoffs);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cJSON *out = cJSON_AddObjectToObject(j, "outputs");
-        cJSON_AddStringToObject(out, "pc2", pc2);
-        cJSON_AddStringToObject(out, "glb", glb);
-        cJSON_AddStringToObject(out, "log", log);
-        cJSON_AddStringToObject(out, "png", png);
+        cJSON_AddStringToObject(out, "pc2", r.pc2);
+        cJSON_AddStringToObject(out, "glb", r.glb);
+        cJSON_AddStringToObject(out, "log", r.log);
+        if (r.rest_angles[0]) cJSON_AddStringToObject(out, "rest_angles", r.rest_angles);
+        cJSON_AddStringToObject(out, "png", r.png);
         cli_json_print(j);
     }
-    run_free(&r, &o);
-    if (st != CR_OK) return cli_fail(&err);
-    return diverged ? CLI_BAD_INPUT : CLI_OK;
+    return run->diverged ? CLI_BAD_INPUT : CLI_OK;
 }

@@ -30,12 +30,17 @@ static const cli_command commands[] = {
      cmd_drape, help_drape},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
      cmd_garment, help_garment},
+    {"eval", "compare a predicted garment sequence with a reference by every paper's metrics",
+     cmd_eval, help_eval},
+    {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
+     cmd_view, help_view},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 
 static void usage(FILE *to) {
-    fprintf(to, "crease %s: neural garment simulation with fine and persistent wrinkles\n\n"
-                "usage: crease <command> [options]\n\ncommands:\n",
+    fprintf(to,
+            "crease %s: neural garment simulation with fine and persistent wrinkles\n\n"
+            "usage: crease <command> [options]\n\ncommands:\n",
             "0.1.0");
     for (int i = 0; i < COMMAND_COUNT; i++)
         fprintf(to, "  %-12s %s\n", commands[i].name, commands[i].summary);

@@ -11,6 +11,7 @@
  *
  * Left out: packet/SIMD traversal, any-hit (shadow) rays, winding numbers.
  */
+#include "base/vec3.h"
 #include "bvh_internal.h"
 
 #include <math.h>
@@ -39,10 +40,6 @@ typedef struct tri_closest {
     cr_bvh_feature feature;
     int local;
 } tri_closest;
-
-static double dot3(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 static void set_closest(tri_closest *r, const double *a, const double *ab, const double *ac,
                         double w1, double w2, const double p[3], cr_bvh_feature feature,
@@ -74,7 +71,7 @@ static void closest_degenerate(const double *a, const double *ab, const double *
             e[d] = a[d] + to[k][0] * ab[d] + to[k][1] * ac[d] - s[d];
             q[d] = p[d] - s[d];
         }
-        double ee = dot3(e, e), t = ee > 0 ? dot3(q, e) / ee : 0.0;
+        double ee = dot3d(e, e), t = ee > 0 ? dot3d(q, e) / ee : 0.0;
         t = t < 0 ? 0 : (t > 1 ? 1 : t);
         tri_closest c;
         double w1 = from[k][0] + t * (to[k][0] - from[k][0]);
@@ -102,9 +99,9 @@ static void closest_on_triangle(const float *fa, const float *fb, const float *f
         bp[d] = p[d] - fb[d];
         cp[d] = p[d] - fc[d];
     }
-    double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
-    double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-    double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    double d1 = dot3d(ab, ap), d2 = dot3d(ac, ap);
+    double d3 = dot3d(ab, bp), d4 = dot3d(ac, bp);
+    double d5 = dot3d(ab, cp), d6 = dot3d(ac, cp);
     double va = d3 * d6 - d5 * d4, vb = d5 * d2 - d1 * d6, vc = d1 * d4 - d3 * d2;
     if (d1 <= 0 && d2 <= 0) {
         set_closest(r, a, ab, ac, 0, 0, p, CR_BVH_VERTEX, 0);
@@ -203,7 +200,7 @@ static void pseudo_normal(const cr_bvh *b, int32_t f, const tri_closest *c, doub
             for (int d = 0; d < 3; d++)
                 n[d] += b->fnormal[3 * (size_t)g + d];
     }
-    double len = sqrt(dot3(n, n));
+    double len = sqrt(dot3d(n, n));
     if (len > 0)
         for (int d = 0; d < 3; d++)
             n[d] /= len;
@@ -318,17 +315,17 @@ static double ray_triangle(const float *fa, const float *fb, const float *fc, co
     pv[0] = dir[1] * e2[2] - dir[2] * e2[1];
     pv[1] = dir[2] * e2[0] - dir[0] * e2[2];
     pv[2] = dir[0] * e2[1] - dir[1] * e2[0];
-    double det = dot3(e1, pv);
+    double det = dot3d(e1, pv);
     if (det == 0.0) return -1;
     double inv = 1.0 / det;
-    double u = dot3(tv, pv) * inv;
+    double u = dot3d(tv, pv) * inv;
     if (u < 0 || u > 1) return -1;
     qv[0] = tv[1] * e1[2] - tv[2] * e1[1];
     qv[1] = tv[2] * e1[0] - tv[0] * e1[2];
     qv[2] = tv[0] * e1[1] - tv[1] * e1[0];
-    double v = dot3(dir, qv) * inv;
+    double v = dot3d(dir, qv) * inv;
     if (v < 0 || u + v > 1) return -1;
-    double t = dot3(e2, qv) * inv;
+    double t = dot3d(e2, qv) * inv;
     if (t < 0 || t > t_best) return -1;
     *u_out = u, *v_out = v;
     return t;

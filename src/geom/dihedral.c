@@ -13,24 +13,11 @@
  * Left out: the Hessian (Tamstorf & Grinspun eq. 11 onwards); bending energies
  * that need it live in phys/.
  */
+#include "base/vec3.h"
 #include "crease/diffgeo.h"
 
 #include <math.h>
 #include <string.h>
-
-static void sub3d(const float a[3], const float b[3], double out[3]) {
-    out[0] = (double)a[0] - b[0], out[1] = (double)a[1] - b[1], out[2] = (double)a[2] - b[2];
-}
-
-static void cross3d(const double a[3], const double b[3], double out[3]) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static double dot3d(const double a[3], const double b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 /* Shared by the value and the gradient: unnormalised normals NA of (x0,x1,x2)
  * and NB of (x1,x0,x3), the edge e = x1 - x0, and theta. Returns 0 (and
@@ -44,10 +31,10 @@ typedef struct hinge_geom {
 static int hinge_setup(const float x0[3], const float x1[3], const float x2[3], const float x3[3],
                        hinge_geom *g) {
     double a2[3], b0[3], b3[3];
-    sub3d(x1, x0, g->e);
-    sub3d(x2, x0, a2);
-    sub3d(x0, x1, b0);
-    sub3d(x3, x1, b3);
+    sub3fd(x1, x0, g->e);
+    sub3fd(x2, x0, a2);
+    sub3fd(x0, x1, b0);
+    sub3fd(x3, x1, b3);
     cross3d(g->e, a2, g->na);
     cross3d(b0, b3, g->nb);
     g->elen = sqrt(dot3d(g->e, g->e));
@@ -80,8 +67,8 @@ float cr_dihedral_angle_grad(const float x0[3], const float x1[3], const float x
     double d2[3] = {g.na[0] * sa, g.na[1] * sa, g.na[2] * sa};
     double d3[3] = {g.nb[0] * sb, g.nb[1] * sb, g.nb[2] * sb};
     double a2[3], a3[3];
-    sub3d(x2, x0, a2);
-    sub3d(x3, x0, a3);
+    sub3fd(x2, x0, a2);
+    sub3fd(x3, x0, a3);
     double e2 = g.elen * g.elen;
     double ta = dot3d(a2, g.e) / e2, tb = dot3d(a3, g.e) / e2;
     for (int d = 0; d < 3; d++) {

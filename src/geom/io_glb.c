@@ -7,9 +7,12 @@
  * of unsigned byte, short or int, or none. Every accessor is checked against
  * its buffer view, every view against the buffer, the buffer against the BIN
  * chunk and the chunks against the file, in 64-bit arithmetic, before any
- * element is read. Node transforms, skins, morph targets, sparse accessors,
- * external buffers and multi-mesh files are not read (the last three are
- * refused rather than misread).
+ * element is read. Node transforms, skins, sparse accessors, external
+ * buffers and multi-mesh files are not read (the last three are refused
+ * rather than misread); morph targets only by cr_glb_read_sequence, which
+ * adds each target's POSITION to the base and maps the file's seam copies
+ * onto the welded vertices (the weld's own first-appearance order, rebuilt
+ * with a hash of the position bits).
  *
  * Writer: POSITION with min/max, NORMAL when present, TEXCOORD_0 and
  * _CREASE_UV when the mesh has UVs, u32 indices, vertices split at UV seams.
@@ -78,10 +81,12 @@ static const cJSON *json_at(const cJSON *arr, uint64_t i) {
                : NULL;
 }
 
-/* obj[key] as an integer in [0, max]; `dflt` when absent and not `required`. */
+/* obj[key] as an integer in [0, max]; `dflt` when absent and not `required`.
+ * *out is 0 on failure, so no caller ever holds an unset value. */
 static cr_status json_uint(const glb_in *g, const cJSON *obj, const char *where, const char *key,
                            int required, uint64_t dflt, uint64_t max, uint64_t *out,
                            cr_error *err) {
+    *out = 0;
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v && !required) {
         *out = dflt;
@@ -784,4 +789,154 @@ cr_status cr_glb_write_sequence(const char *path, const cr_mesh *rest, const flo
             return CR_FAIL(err, CR_ERR_NAN, "%s: frame %lld vertex %lld is not finite", path,
                            (long long)(i / (3 * (int64_t)rest->nv)), (long long)(i / 3 % rest->nv));
     return write_glb(path, rest, frames, nframes, fps, err);
+}
+
+/* ======================================================= sequence reader == */
+
+/* Hash of a position's bits, for mapping file vertices onto welded ones. */
+static uint64_t pos_hash(const float *p) {
+    uint32_t b[3];
+    memcpy(b, p, sizeof b);
+    uint64_t h = 1469598103934665603ull;
+    for (int k = 0; k < 3; k++)
+        h = (h ^ b[k]) * 1099511628211ull;
+    return h;
+}
+
+/* map[j] = the vertex of `m` (welded, V) with the bits of file vertex j (V'
+ * positions raw). Weld keeps first appearances in order, so first
+ * appearances here are numbered 0, 1, ... in the same way. */
+static cr_status weld_map(const float *raw, int64_t nraw, const cr_mesh *m, int32_t *map,
+                          const char *source, cr_error *err) {
+    uint64_t cap = 16;
+    while (cap < 2 * (uint64_t)nraw)
+        cap *= 2;
+    int32_t *slot = cr_malloc(cap * sizeof(int32_t), err);
+    if (!slot) return CR_ERR_MEMORY;
+    for (uint64_t s = 0; s < cap; s++)
+        slot[s] = -1;
+    int32_t next = 0;
+    for (int64_t j = 0; j < nraw; j++) {
+        const float *p = raw + 3 * j;
+        uint64_t s = pos_hash(p) & (cap - 1);
+        while (slot[s] >= 0 && memcmp(raw + 3 * (int64_t)slot[s], p, 3 * sizeof(float)) != 0)
+            s = (s + 1) & (cap - 1);
+        if (slot[s] < 0) {
+            slot[s] = (int32_t)j;
+            map[j] = next++;
+        } else {
+            map[j] = map[slot[s]];
+        }
+    }
+    free(slot);
+    if (next != m->nv)
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: %d distinct base positions but the welded mesh has %d vertices", source,
+                       next, m->nv);
+    return CR_OK;
+}
+
+/* The frame rate of animations[0]: 1 / (t1 - t0) of its first sampler's input. */
+static float read_fps(const glb_in *g) {
+    const cJSON *anim = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
+    const cJSON *smp = json_at(cJSON_GetObjectItemCaseSensitive(anim, "samplers"), 0);
+    const cJSON *in = cJSON_GetObjectItemCaseSensitive(smp, "input");
+    glb_acc a;
+    cr_error ignored = {0};
+    if (!cJSON_IsNumber(in) || in->valuedouble < 0 ||
+        get_accessor(g, (uint64_t)in->valuedouble, &a, &ignored) != CR_OK || a.ctype != CT_F32 ||
+        a.ncomp != 1 || a.count < 2)
+        return 0.0f;
+    float t0 = io_f32(io_le32(a.base)), t1 = io_f32(io_le32(a.base + a.stride));
+    if (!(isfinite(t1 - t0) && t1 > t0)) return 0.0f;
+    /* The writer stores i / fps in float: 1 / (t1 - t0) of 30 fps reads 29.999998. */
+    double fps = 1.0 / ((double)t1 - (double)t0), whole = round(fps);
+    return (float)(fabs(fps - whole) < 1e-4 * whole ? whole : fps);
+}
+
+static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int32_t *nframes,
+                               cr_error *err) {
+    const cJSON *prim = NULL;
+    CR_TRY(get_primitive(g, &prim, err));
+    glb_acc pa;
+    int has_p;
+    CR_TRY(get_attribute(g, cJSON_GetObjectItemCaseSensitive(prim, "attributes"), "POSITION", &pa,
+                         &has_p, err));
+    const cJSON *targets = cJSON_GetObjectItemCaseSensitive(prim, "targets");
+    int64_t nt = cJSON_IsArray(targets) ? cJSON_GetArraySize(targets) : 0;
+    int64_t nraw = pa.count, nv = m->nv;
+    /* Targets that share bytes could ask for T x V floats from a small file: a crease
+     * sequence stores every target whole, so the output never outgrows the BIN chunk. */
+    if ((uint64_t)nt * (uint64_t)nraw * 12 > g->bin_len)
+        return CR_FAIL(err, CR_ERR_RANGE,
+                       "%s: %lld targets of %lld vertices need more than the %llu-byte BIN chunk",
+                       g->source, (long long)nt, (long long)nraw, (unsigned long long)g->bin_len);
+    float *raw = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
+    float *dis = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
+    int32_t *map = cr_malloc((size_t)nraw * sizeof(int32_t), err);
+    float *out = cr_malloc((size_t)(nt > 0 ? nt : 1) * (size_t)nv * 3 * sizeof(float), err);
+    cr_status st = raw && dis && map && out ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) st = read_floats(g, &pa, "POSITION", raw, err);
+    if (st == CR_OK) st = weld_map(raw, nraw, m, map, g->source, err);
+    for (int64_t t = 0; st == CR_OK && t < (nt > 0 ? nt : 1); t++) {
+        char name[64];
+        snprintf(name, sizeof name, "targets[%lld].POSITION", (long long)t);
+        memset(dis, 0, (size_t)nraw * 3 * sizeof(float));
+        if (nt > 0) {
+            glb_acc ta;
+            int has_t;
+            st = get_attribute(g, json_at(targets, (uint64_t)t), "POSITION", &ta, &has_t, err);
+            if (st == CR_OK && !has_t)
+                st = CR_FAIL(err, CR_ERR_PARSE, "%s: %s is missing", g->source, name);
+            if (st == CR_OK) st = expect_float(g, &ta, name, 3, nraw, err);
+            if (st == CR_OK) st = read_floats(g, &ta, name, dis, err);
+        }
+        /* Seam copies land on their welded vertex with the same value as the original. */
+        for (int64_t j = 0; st == CR_OK && j < nraw; j++)
+            for (int k = 0; k < 3; k++)
+                out[(t * nv + map[j]) * 3 + k] = raw[3 * j + k] + dis[3 * j + k];
+    }
+    free(raw);
+    free(dis);
+    free(map);
+    if (st != CR_OK) {
+        free(out);
+        return st;
+    }
+    *frames = out;
+    *nframes = (int32_t)(nt > 0 ? nt : 1);
+    return CR_OK;
+}
+
+cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames, int32_t *nframes,
+                               float *fps, cr_error *err) {
+    *rest = NULL;
+    *frames = NULL;
+    *nframes = 0;
+    *fps = 0.0f;
+    char *buf;
+    size_t len;
+    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    cr_status st = cr_glb_read_sequence_mem(buf, len, path, rest, frames, nframes, fps, err);
+    free(buf);
+    return st;
+}
+
+cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *source, cr_mesh **rest,
+                                   float **frames, int32_t *nframes, float *fps, cr_error *err) {
+    *rest = NULL;
+    *frames = NULL;
+    *nframes = 0;
+    *fps = 0.0f;
+    glb_in g = {.source = source};
+    cr_status st = open_container(&g, data, len, err);
+    if (st == CR_OK) st = read_mesh(&g, rest, err);
+    if (st == CR_OK) st = read_sequence(&g, *rest, frames, nframes, err);
+    if (st == CR_OK) *fps = read_fps(&g);
+    if (st != CR_OK) {
+        cr_mesh_destroy(*rest);
+        *rest = NULL;
+    }
+    cJSON_Delete(g.root);
+    return st;
 }

@@ -331,10 +331,11 @@ static const int64_t int_lo[] = {0, INT8_MIN, 0, INT16_MIN, 0, INT32_MIN, 0};
 static const int64_t int_hi[] = {0,          INT8_MAX,  UINT8_MAX, INT16_MAX,
                                  UINT16_MAX, INT32_MAX, UINT32_MAX};
 
-/* One value of type `type` as a double (integers up to 32 bits are exact). */
+/* One value of type `type` as a double (integers up to 32 bits are exact); 0 on failure. */
 static cr_status read_value(ply_reader *r, const ply_elem *el, int64_t item, ptype type,
                             const char *what, double *out, cr_error *err) {
     char at[160];
+    *out = 0;
     if (r->format == FMT_ASCII) {
         const char *b, *e;
         int got;
@@ -387,6 +388,7 @@ static cr_status read_value(ply_reader *r, const ply_elem *el, int64_t item, pty
 
 static cr_status read_list_count(ply_reader *r, const ply_elem *el, int64_t item, const ply_prop *p,
                                  int64_t *n, cr_error *err) {
+    *n = 0;
     double v;
     CR_TRY(read_value(r, el, item, p->count_type, "a list length", &v, err));
     if (v < 0) {

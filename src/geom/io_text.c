@@ -144,6 +144,7 @@ static int token_copy(const char *b, const char *e, char buf[NUMBER_MAX]) {
 
 cr_status cr_io_text_double(const io_text *t, const char *b, const char *e, const char *what,
                             double *out, cr_error *err) {
+    *out = 0;
     char buf[NUMBER_MAX], snip[48];
     cr_io_text_snippet(b, e, snip, sizeof snip);
     if (!token_copy(b, e, buf))
@@ -164,6 +165,7 @@ cr_status cr_io_text_double(const io_text *t, const char *b, const char *e, cons
 
 cr_status cr_io_text_float(const io_text *t, const char *b, const char *e, const char *what,
                            float *out, cr_error *err) {
+    *out = 0;
     double v;
     CR_TRY(cr_io_text_double(t, b, e, what, &v, err));
     if (fabs(v) > FLT_MAX) {
@@ -178,6 +180,7 @@ cr_status cr_io_text_float(const io_text *t, const char *b, const char *e, const
 
 cr_status cr_io_text_int(const io_text *t, const char *b, const char *e, const char *what,
                          int64_t *out, cr_error *err) {
+    *out = 0;
     char buf[NUMBER_MAX], snip[48];
     cr_io_text_snippet(b, e, snip, sizeof snip);
     const char *s = b + (b < e && (*b == '-' || *b == '+'));

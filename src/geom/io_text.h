@@ -39,7 +39,8 @@ int cr_io_text_token(io_text *t, const char **b, const char **e);
 cr_status cr_io_text_token_any(io_text *t, const char **b, const char **e, int *got, cr_error *err);
 
 /* Parse the whole token as a number. `what` names the expected value in the
- * message ("x coordinate"). Non-finite values fail with CR_ERR_NAN. */
+ * message ("x coordinate"). Non-finite values fail with CR_ERR_NAN.
+ * cr_io_text_double, _float and _int set *out to 0 when they fail. */
 cr_status cr_io_text_double(const io_text *t, const char *b, const char *e, const char *what,
                             double *out, cr_error *err);
 /* Like cr_io_text_double, also refusing values a float cannot hold. */

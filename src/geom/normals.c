@@ -1,15 +1,12 @@
 /* normals.c: face normals and areas, area- and angle-weighted vertex normals.
  * Angle weighting gives the pseudo-normal that makes inside/outside tests
  * exact at vertices (Baerentzen & Aanaes, IEEE TVCG 2005). */
+#include "base/vec3.h"
 #include "crease/diffgeo.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-static void sub3(const float a[3], const float b[3], float out[3]) {
-    out[0] = a[0] - b[0], out[1] = a[1] - b[1], out[2] = a[2] - b[2];
-}
 
 float cr_triangle_normal(const float a[3], const float b[3], const float c[3], float n[3]) {
     double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
@@ -40,8 +37,8 @@ void cr_mesh_face_normals(const cr_mesh *m, float *normals, float *areas) {
 /* atan2 keeps the angle accurate near 0 and pi, where acos of a dot product is not. */
 double cr_triangle_corner_angle(const float a[3], const float b[3], const float c[3]) {
     float u[3], v[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
+    sub3f(b, a, u);
+    sub3f(c, a, v);
     double cx = (double)u[1] * v[2] - (double)u[2] * v[1];
     double cy = (double)u[2] * v[0] - (double)u[0] * v[2];
     double cz = (double)u[0] * v[1] - (double)u[1] * v[0];

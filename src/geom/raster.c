@@ -27,6 +27,7 @@
  * "Models of light reflection for computer synthesized pictures", 1977.
  */
 #include "raster.h"
+#include "base/vec3.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -259,18 +260,6 @@ static void scan_triangle(const raster_frame *fr, int64_t gid, tile_buf *tb) {
 
 /* -------------------------------------------------------------- shading -- */
 
-static float dot3(const float a[3], const float b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void normalize3(float v[3]) {
-    float len2 = dot3(v, v);
-    if (len2 > 0.0f) {
-        float inv = 1.0f / sqrtf(len2);
-        v[0] *= inv, v[1] *= inv, v[2] *= inv;
-    }
-}
-
 /* Distance in samples from the point with screen barycentrics l to the
  * nearest edge of triangle v: l_k times the height over the edge opposite k. */
 static float edge_distance(const raster_vert *const v[3], const float l[3]) {
@@ -315,11 +304,11 @@ static void shade_sample(const raster_frame *fr, const tile_buf *tb, size_t s, i
     for (int k = 0; k < 3; k++)
         for (int c = 0; c < 3; c++)
             n[c] += pw[k] * v[k]->n[c];
-    if (dot3(n, n) < 1e-12f) {
+    if (dot3f(n, n) < 1e-12f) {
         /* Normals cancelled (folded or degenerate neighbourhood): face the camera. */
         n[0] = n[1] = 0.0f, n[2] = -1.0f;
     } else {
-        normalize3(n);
+        normalize3f(n);
         if (back) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
     }
 
@@ -343,16 +332,16 @@ static void shade_sample(const raster_frame *fr, const tile_buf *tb, size_t s, i
         for (int c = 0; c < 3; c++)
             base[c] *= fr->back_tint[c];
 
-    float ndl = dot3(n, fr->light);
+    float ndl = dot3f(n, fr->light);
     float lit = fr->ambient + fr->diffuse * (ndl > 0.0f ? ndl : 0.0f);
     float spec = 0.0f;
     if (ndl > 0.0f && fr->specular > 0.0f) {
         /* Towards the eye from the surface: minus the sample's view ray. */
         float view[3] = {-((float)sx + 0.5f - fr->cx), ((float)sy + 0.5f - fr->cy), -fr->focal};
-        normalize3(view);
+        normalize3f(view);
         float h[3] = {view[0] + fr->light[0], view[1] + fr->light[1], view[2] + fr->light[2]};
-        normalize3(h);
-        float ndh = dot3(n, h);
+        normalize3f(h);
+        float ndh = dot3f(n, h);
         if (ndh > fr->spec_cut) spec = fr->specular * powf(ndh, fr->shininess);
     }
     /* Clamp per sample, so a blown-out highlight cannot bleed into the

@@ -16,6 +16,7 @@
  */
 #include "raster.h"
 
+#include "base/vec3.h"
 #include "crease/diffgeo.h"
 
 #include <math.h>
@@ -266,38 +267,23 @@ typedef struct project_ctx {
     float near;          /* m */
 } project_ctx;
 
-static float dot3(const float a[3], const float b[3]) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 static void project_range(void *ctx, int64_t begin, int64_t end) {
     const project_ctx *pc = ctx;
     for (int64_t i = begin; i < end; i++) {
         const float *p = pc->pos + 3 * i, *n = pc->normal + 3 * i;
         float d[3] = {p[0] - pc->eye[0], p[1] - pc->eye[1], p[2] - pc->eye[2]};
         raster_vert *rv = &pc->out[i];
-        rv->n[0] = dot3(n, pc->right), rv->n[1] = dot3(n, pc->up), rv->n[2] = dot3(n, pc->fwd);
-        float z = dot3(d, pc->fwd);
+        rv->n[0] = dot3f(n, pc->right), rv->n[1] = dot3f(n, pc->up), rv->n[2] = dot3f(n, pc->fwd);
+        float z = dot3f(d, pc->fwd);
         rv->x = rv->y = 0, rv->iz = 0.0f;
         if (!(z > pc->near)) continue;
-        float sx = pc->cx + pc->focal * dot3(d, pc->right) / z;
-        float sy = pc->cy - pc->focal * dot3(d, pc->up) / z;
+        float sx = pc->cx + pc->focal * dot3f(d, pc->right) / z;
+        float sy = pc->cy - pc->focal * dot3f(d, pc->up) / z;
         if (!(fabsf(sx) < RASTER_GUARD_SAMPLES) || !(fabsf(sy) < RASTER_GUARD_SAMPLES)) continue;
         rv->x = (int32_t)lrintf(sx * (float)(1 << RASTER_SUBPIXEL_BITS));
         rv->y = (int32_t)lrintf(sy * (float)(1 << RASTER_SUBPIXEL_BITS));
         rv->iz = 1.0f / z;
     }
-}
-
-static void cross3(const float a[3], const float b[3], float out[3]) {
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static void normalize3(float v[3]) {
-    float inv = 1.0f / sqrtf(dot3(v, v));
-    v[0] *= inv, v[1] *= inv, v[2] *= inv;
 }
 
 static cr_status render_frame(const cr_render_def *def, const scene *sc, float yaw_deg,
@@ -327,9 +313,9 @@ static cr_status render_frame(const cr_render_def *def, const scene *sc, float y
         pc.fwd[k] = -dir[k];
     }
     const float world_up[3] = {0.0f, 1.0f, 0.0f};
-    cross3(pc.fwd, world_up, pc.right);
-    normalize3(pc.right);
-    cross3(pc.right, pc.fwd, pc.up);
+    cross3f(pc.fwd, world_up, pc.right);
+    normalize3f(pc.right);
+    cross3f(pc.right, pc.fwd, pc.up);
     fr.focal = (float)(0.5 * (fr.sw < fr.sh ? fr.sw : fr.sh) / tan(half_fov));
     fr.cx = 0.5f * (float)fr.sw, fr.cy = 0.5f * (float)fr.sh;
     pc.focal = fr.focal, pc.cx = fr.cx, pc.cy = fr.cy;
@@ -343,7 +329,7 @@ static cr_status render_frame(const cr_render_def *def, const scene *sc, float y
     /* The user's light is (right, up, towards the viewer); ours looks forward. */
     fr.light[0] = def->light_dir[0], fr.light[1] = def->light_dir[1];
     fr.light[2] = -def->light_dir[2];
-    normalize3(fr.light);
+    normalize3f(fr.light);
     fr.ambient = def->ambient, fr.diffuse = def->diffuse;
     fr.specular = def->specular, fr.shininess = def->shininess;
     fr.spec_cut = expf(logf(1e-3f) / def->shininess);

@@ -30,10 +30,10 @@
 #include "phys/dihedral64.h"
 
 struct cr_bending {
-    int32_t nh;          /* H */
-    int32_t *hinge;      /* (H,4) x0, x1, x2, x3 */
-    double *ke;          /* (H) k_b l^2 / (4 (A1 + A2)), J/rad^2 */
-    double *rest;        /* (H) theta_rest, rad */
+    int32_t nh;     /* H */
+    int32_t *hinge; /* (H,4) x0, x1, x2, x3 */
+    double *ke;     /* (H) k_b l^2 / (4 (A1 + A2)), J/rad^2 */
+    double *rest;   /* (H) theta_rest, rad */
     cr_hessian_mode mode;
 };
 
@@ -47,7 +47,8 @@ static double tri_area(const double *p, const double *q, const double *r) {
 
 static void gather(const float *pos, const int32_t *idx, int n, double *x) {
     for (int k = 0; k < n; k++)
-        for (int d = 0; d < 3; d++) x[3 * k + d] = pos[3 * (int64_t)idx[k] + d];
+        for (int d = 0; d < 3; d++)
+            x[3 * k + d] = pos[3 * (int64_t)idx[k] + d];
 }
 
 cr_status cr_bending_create(const cr_mesh *rest, const cr_topology *t, const cr_material *mat,
@@ -118,7 +119,8 @@ void cr_bending_angles(const cr_bending *b, const double *x, double *theta) {
         double xe[12];
         const int32_t *idx = b->hinge + 4 * (int64_t)h;
         for (int k = 0; k < 4; k++)
-            for (int d = 0; d < 3; d++) xe[3 * k + d] = x[3 * (int64_t)idx[k] + d];
+            for (int d = 0; d < 3; d++)
+                xe[3 * k + d] = x[3 * (int64_t)idx[k] + d];
         theta[h] = cr_dihedral64_angle(xe);
     }
 }
@@ -129,23 +131,25 @@ static double wrap_angle(double d) {
     return d <= -M_PI ? d + 2.0 * M_PI : d;
 }
 
-static double bending_kernel(const void *data, int32_t e, const double *xe, double *g,
-                             double *H) {
-    const cr_bending *b = data;
-    const double ke = b->ke[e];
+double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                              double *g, double *H, double *g_rest) {
+    const double ke = b->ke[h];
     if (!g && !H) {
-        const double d = wrap_angle(cr_dihedral64_angle(xe) - b->rest[e]);
+        const double d = wrap_angle(cr_dihedral64_angle(xe) - theta_rest);
+        if (g_rest) *g_rest = -ke * d;
         return 0.5 * ke * d * d;
     }
     double gy[9], Hy[81];
     int ok = 0;
     const int exact = H && b->mode == CR_HESSIAN_PROJECTED;
     const double theta = cr_dihedral64_derivs_y(xe, gy, exact ? Hy : NULL, &ok);
-    const double d = wrap_angle(theta - b->rest[e]);
+    const double d = wrap_angle(theta - theta_rest);
+    if (g_rest) *g_rest = -ke * d; /* the wrap is locally the identity */
     if (g) {
         double gx[12];
         cr_dihedral64_grad_x(gy, gx);
-        for (int k = 0; k < 12; k++) g[k] = ke * d * gx[k];
+        for (int k = 0; k < 12; k++)
+            g[k] = ke * d * gx[k];
     }
     if (H) {
         /* In y: k_e (gy gy^T + d Hy), or its Gauss-Newton part alone. */
@@ -156,6 +160,11 @@ static double bending_kernel(const void *data, int32_t e, const double *xe, doub
         cr_dihedral64_hess_x(Hy, H);
     }
     return 0.5 * ke * d * d;
+}
+
+static double bending_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
+    const cr_bending *b = data;
+    return cr_bending_kernel_rest(b, e, b->rest[e], xe, g, H, NULL);
 }
 
 void cr_bending_term(const cr_bending *b, cr_energy_term *out) {

@@ -20,13 +20,13 @@
 #include <string.h>
 
 struct cr_collision {
-    int32_t nv;      /* V */
-    double eps;      /* m */
-    double k;        /* J/m^3 */
-    double *x;       /* (V,3) linearisation points, m */
-    double *dist;    /* (V) signed distance there, m */
-    double *normal;  /* (V,3) unit outward normals (zero when not reached) */
-    double max_pen;  /* m */
+    int32_t nv;     /* V */
+    double eps;     /* m */
+    double k;       /* J/m^3 */
+    double *x;      /* (V,3) linearisation points, m */
+    double *dist;   /* (V) signed distance there, m */
+    double *normal; /* (V,3) unit outward normals (zero when not reached) */
+    double max_pen; /* m */
 };
 
 cr_status cr_collision_create(int32_t nv, const cr_material *mat, cr_collision **out,
@@ -48,7 +48,8 @@ cr_status cr_collision_create(int32_t nv, const cr_material *mat, cr_collision *
         return err ? err->status : CR_ERR_MEMORY;
     }
     /* Until the first update every vertex is far away. */
-    for (int32_t i = 0; i < nv; i++) c->dist[i] = INFINITY;
+    for (int32_t i = 0; i < nv; i++)
+        c->dist[i] = INFINITY;
     *out = c;
     return CR_OK;
 }
@@ -61,8 +62,7 @@ void cr_collision_destroy(cr_collision *c) {
     free(c);
 }
 
-void cr_collision_update(cr_collision *c, const double *x, const float *dist,
-                         const float *normal) {
+void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal) {
     CR_ASSERT(c && x && dist && normal);
     memcpy(c->x, x, sizeof(double) * 3 * (size_t)c->nv);
     double min_d = INFINITY;
@@ -70,7 +70,8 @@ void cr_collision_update(cr_collision *c, const double *x, const float *dist,
         /* A non-finite distance is a query that reached nothing. */
         const int far = !isfinite(dist[i]);
         c->dist[i] = far ? INFINITY : (double)dist[i];
-        for (int d = 0; d < 3; d++) c->normal[3 * i + d] = far ? 0.0 : (double)normal[3 * i + d];
+        for (int d = 0; d < 3; d++)
+            c->normal[3 * i + d] = far ? 0.0 : (double)normal[3 * i + d];
         min_d = fmin(min_d, c->dist[i]);
     }
     c->max_pen = min_d < 0.0 ? -min_d : 0.0;
@@ -89,6 +90,24 @@ int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], dou
     return 1;
 }
 
+double cr_collision_penalty(double k, double eps, double d, const double n[3], double *g,
+                            double *H) {
+    const double s = eps - d;
+    if (!(s > 0.0)) {
+        if (g) memset(g, 0, 3 * sizeof(double));
+        if (H) memset(H, 0, 9 * sizeof(double));
+        return 0.0;
+    }
+    if (g)
+        for (int i = 0; i < 3; i++)
+            g[i] = -3.0 * k * s * s * n[i];
+    if (H)
+        for (int p = 0; p < 3; p++)
+            for (int q = 0; q < 3; q++)
+                H[3 * p + q] = 6.0 * k * s * n[p] * n[q];
+    return k * s * s * s;
+}
+
 static double collision_kernel(const void *data, int32_t e, const double *xe, double *g,
                                double *H) {
     const cr_collision *c = data;
@@ -97,18 +116,7 @@ static double collision_kernel(const void *data, int32_t e, const double *xe, do
     const double d = isfinite(dist) ? dist + n[0] * (xe[0] - x0[0]) + n[1] * (xe[1] - x0[1]) +
                                           n[2] * (xe[2] - x0[2])
                                     : INFINITY;
-    const double s = c->eps - d;
-    if (!(s > 0.0)) {
-        if (g) memset(g, 0, 3 * sizeof(double));
-        if (H) memset(H, 0, 9 * sizeof(double));
-        return 0.0;
-    }
-    if (g)
-        for (int k = 0; k < 3; k++) g[k] = -3.0 * c->k * s * s * n[k];
-    if (H)
-        for (int p = 0; p < 3; p++)
-            for (int q = 0; q < 3; q++) H[3 * p + q] = 6.0 * c->k * s * n[p] * n[q];
-    return c->k * s * s * s;
+    return cr_collision_penalty(c->k, c->eps, d, n, g, H);
 }
 
 void cr_collision_term(const cr_collision *c, cr_energy_term *out) {

@@ -8,23 +8,11 @@
  * variables, which keeps it to a few 3x3 products).
  */
 #include "phys/dihedral64.h"
+#include "base/vec3.h"
 
 #include <math.h>
 #include <string.h>
 
-static inline double dot3(const double *a, const double *b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static inline void cross3(const double *a, const double *b, double *c) {
-    c[0] = a[1] * b[2] - a[2] * b[1];
-    c[1] = a[2] * b[0] - a[0] * b[2];
-    c[2] = a[0] * b[1] - a[1] * b[0];
-}
-static inline void sub3(const double *a, const double *b, double *c) {
-    c[0] = a[0] - b[0];
-    c[1] = a[1] - b[1];
-    c[2] = a[2] - b[2];
-}
 /* C = A B for 3x3 row-major. */
 static void mul33(const double *A, const double *B, double *C) {
     for (int i = 0; i < 3; i++)
@@ -41,44 +29,45 @@ static void skew(const double *w, double *W) {
 static void dinv(const double *a, double a2, double *D) {
     const double s = 1.0 / (a2 * a2);
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) D[3 * i + j] = s * ((i == j ? a2 : 0.0) - 2.0 * a[i] * a[j]);
+        for (int j = 0; j < 3; j++)
+            D[3 * i + j] = s * ((i == j ? a2 : 0.0) - 2.0 * a[i] * a[j]);
 }
 
 static double angle_from(const double *e, const double *u, const double *v, double L) {
     double NA[3], NB[3], c[3];
-    cross3(e, u, NA);
-    cross3(v, e, NB);
-    cross3(NB, NA, c);
+    cross3d(e, u, NA);
+    cross3d(v, e, NB);
+    cross3d(NB, NA, c);
     /* atan2 ignores the positive scales |NA|, |NB|: no normalisation needed. */
-    return atan2(dot3(c, e) / L, dot3(NA, NB));
+    return atan2(dot3d(c, e) / L, dot3d(NA, NB));
 }
 
 double cr_dihedral64_angle(const double *x) {
     double e[3], u[3], v[3];
-    sub3(x + 3, x, e);
-    sub3(x + 6, x, u);
-    sub3(x + 9, x, v);
-    const double L = sqrt(dot3(e, e));
+    sub3d(x + 3, x, e);
+    sub3d(x + 6, x, u);
+    sub3d(x + 9, x, v);
+    const double L = sqrt(dot3d(e, e));
     if (!(L > 0.0)) return 0.0;
     return angle_from(e, u, v, L);
 }
 
 double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) {
     double e[3], u[3], v[3];
-    sub3(x + 3, x, e);
-    sub3(x + 6, x, u);
-    sub3(x + 9, x, v);
-    const double L2 = dot3(e, e);
-    const double scale = fmax(L2, fmax(dot3(u, u), dot3(v, v)));
+    sub3d(x + 3, x, e);
+    sub3d(x + 6, x, u);
+    sub3d(x + 9, x, v);
+    const double L2 = dot3d(e, e);
+    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
     const double L = sqrt(L2);
     const double theta = L > 0.0 ? angle_from(e, u, v, L) : 0.0;
     double eh[3] = {e[0] / L, e[1] / L, e[2] / L}, a[3], b[3];
     int good = L2 > 1e-24 * scale;
     if (good) {
-        cross3(eh, u, a);
-        cross3(v, eh, b);
+        cross3d(eh, u, a);
+        cross3d(v, eh, b);
     }
-    const double a2 = good ? dot3(a, a) : 0.0, b2 = good ? dot3(b, b) : 0.0;
+    const double a2 = good ? dot3d(a, a) : 0.0, b2 = good ? dot3d(b, b) : 0.0;
     good = good && a2 > 1e-24 * scale && b2 > 1e-24 * scale;
     *ok = good;
     if (!good) {
@@ -86,7 +75,7 @@ double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) 
         if (Hy) memset(Hy, 0, 81 * sizeof(double));
         return theta;
     }
-    const double alpha = dot3(u, e) / L2, beta = dot3(v, e) / L2;
+    const double alpha = dot3d(u, e) / L2, beta = dot3d(v, e) / L2;
     double gu[3], gv[3];
     for (int i = 0; i < 3; i++) {
         gu[i] = a[i] / a2;
@@ -105,15 +94,18 @@ double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) 
     skew(u, Ux);
     skew(v, Vx);
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) P[3 * i + j] = ((i == j) - eh[i] * eh[j]) / L;
+        for (int j = 0; j < 3; j++)
+            P[3 * i + j] = ((i == j) - eh[i] * eh[j]) / L;
     /* d gu/du = Da [^e]x, d gv/dv = -Db [^e]x (a = [^e]x u, b = -[^e]x v). */
     mul33(Da, Ex, Huu);
     mul33(Db, Ex, Hvv);
-    for (int k = 0; k < 9; k++) Hvv[k] = -Hvv[k];
+    for (int k = 0; k < 9; k++)
+        Hvv[k] = -Hvv[k];
     /* d gu/de = Da (-[u]x) P/L, d gv/de = Db [v]x P/L (a = -[u]x ^e, b = [v]x ^e). */
     mul33(Ux, P, T);
     mul33(Da, T, Hue);
-    for (int k = 0; k < 9; k++) Hue[k] = -Hue[k];
+    for (int k = 0; k < 9; k++)
+        Hue[k] = -Hue[k];
     mul33(Vx, P, T);
     mul33(Db, T, Hve);
     /* d ge/de with ge = -alpha gu - beta gv and grad alpha = (u - 2 alpha e)/L^2. */

@@ -15,12 +15,12 @@
 #include "crease/phys_energies.h"
 
 struct cr_membrane {
-    int32_t nf;              /* F */
-    int32_t *tri;            /* (F,3) vertex indices */
-    double *dminv;           /* (F,4) Dm^-1, row-major 2x2, 1/m */
-    double *area;            /* (F) rest area A0, m^2 */
+    int32_t nf;    /* F */
+    int32_t *tri;  /* (F,3) vertex indices */
+    double *dminv; /* (F,4) Dm^-1, row-major 2x2, 1/m */
+    double *area;  /* (F) rest area A0, m^2 */
     cr_membrane_model model;
-    double mu, lambda;       /* StVK, J/m^2 */
+    double mu, lambda;         /* StVK, J/m^2 */
     double k_stretch, k_shear; /* Baraff-Witkin, J/m^2 */
     cr_hessian_mode mode;
 };
@@ -65,8 +65,16 @@ static inline void cr_membrane_to_x(const double *c, double area, const double *
  * a plane. */
 void cr_membrane_project_hf(const double *f, double *HF);
 
-double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g,
-                               double *H);
+/* The kernels, whole and by part (cr_membrane_part). */
+double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g, double *H);
+double cr_membrane_stvk_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                       double *H);
+double cr_membrane_stvk_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                     double *H);
 double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, double *g, double *H);
+double cr_membrane_bw_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                     double *H);
+double cr_membrane_bw_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                   double *H);
 
 #endif

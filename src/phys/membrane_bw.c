@@ -20,15 +20,17 @@
 
 #include <math.h>
 
-double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
-    const cr_membrane *m = data;
+/* The density with the stretch condition scaled by cs and the shear by csh
+ * (each 0 or 1; (1, 1) is the whole membrane). */
+static double bw_eval(const cr_membrane *m, double cs, double csh, int32_t e, const double *xe,
+                      double *g, double *H) {
     double f[6], c[6];
     cr_membrane_deform(m, e, xe, f, c);
     const double *fu = f, *fv = f + 3;
     const double nu = sqrt(fu[0] * fu[0] + fu[1] * fu[1] + fu[2] * fu[2]);
     const double nv = sqrt(fv[0] * fv[0] + fv[1] * fv[1] + fv[2] * fv[2]);
     const double s = fu[0] * fv[0] + fu[1] * fv[1] + fu[2] * fv[2];
-    const double ks = m->k_stretch, ksh = m->k_shear;
+    const double ks = cs * m->k_stretch, ksh = csh * m->k_shear;
     const double psi =
         0.5 * ks * ((nu - 1.0) * (nu - 1.0) + (nv - 1.0) * (nv - 1.0)) + 0.5 * ksh * s * s;
     if (!g && !H) return m->area[e] * psi;
@@ -51,10 +53,10 @@ double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, doub
         for (int p = 0; p < 3; p++)
             for (int q = 0; q < 3; q++) {
                 const double I = p == q ? 1.0 : 0.0;
-                HF[6 * p + q] = ks * (hu[p] * hu[q] + tu * (I - hu[p] * hu[q])) +
-                                ksh * fv[p] * fv[q];
-                HF[6 * (3 + p) + 3 + q] = ks * (hv[p] * hv[q] + tv * (I - hv[p] * hv[q])) +
-                                          ksh * fu[p] * fu[q];
+                HF[6 * p + q] =
+                    ks * (hu[p] * hu[q] + tu * (I - hu[p] * hu[q])) + ksh * fv[p] * fv[q];
+                HF[6 * (3 + p) + 3 + q] =
+                    ks * (hv[p] * hv[q] + tv * (I - hv[p] * hv[q])) + ksh * fu[p] * fu[q];
                 HF[6 * p + 3 + q] = ksh * (fv[p] * fu[q] + (exact ? s * I : 0.0));
                 HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
             }
@@ -62,4 +64,18 @@ double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, doub
     }
     cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
     return m->area[e] * psi;
+}
+
+double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
+    return bw_eval(data, 1.0, 1.0, e, xe, g, H);
+}
+
+double cr_membrane_bw_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                     double *H) {
+    return bw_eval(data, 1.0, 0.0, e, xe, g, H);
+}
+
+double cr_membrane_bw_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                   double *H) {
+    return bw_eval(data, 0.0, 1.0, e, xe, g, H);
 }

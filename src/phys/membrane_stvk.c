@@ -66,9 +66,11 @@ cr_status cr_membrane_create(const cr_mesh *rest, int use_uv_rest, float uv_scal
             const float *p1 = rest->pos + 3 * (int64_t)rest->tri[3 * f + 1];
             const float *p2 = rest->pos + 3 * (int64_t)rest->tri[3 * f + 2];
             double t1[3], t2[3];
-            for (int d = 0; d < 3; d++) t1[d] = (double)p1[d] - p0[d], t2[d] = (double)p2[d] - p0[d];
+            for (int d = 0; d < 3; d++)
+                t1[d] = (double)p1[d] - p0[d], t2[d] = (double)p2[d] - p0[d];
             const double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-            const double along = l1 > 0.0 ? (t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]) / l1 : 0.0;
+            const double along =
+                l1 > 0.0 ? (t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]) / l1 : 0.0;
             const double t22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2];
             const double across = sqrt(fmax(t22 - along * along, 0.0));
             D[0] = l1, D[1] = along, D[2] = 0.0, D[3] = across;
@@ -107,13 +109,22 @@ const double *cr_membrane_rest_areas(const cr_membrane *m) {
 }
 
 void cr_membrane_term(const cr_membrane *m, cr_energy_term *out) {
+    cr_membrane_term_part(m, CR_MEMBRANE_ALL, out);
+}
+
+void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energy_term *out) {
     CR_ASSERT(m && out);
+    CR_ASSERT(part == CR_MEMBRANE_ALL || part == CR_MEMBRANE_STRETCH || part == CR_MEMBRANE_SHEAR);
+    static const cr_energy_kernel kernels[2][3] = {
+        {cr_membrane_stvk_kernel, cr_membrane_stvk_stretch_kernel, cr_membrane_stvk_shear_kernel},
+        {cr_membrane_bw_kernel, cr_membrane_bw_stretch_kernel, cr_membrane_bw_shear_kernel}};
+    static const char *const names[3] = {"membrane", "membrane_stretch", "membrane_shear"};
     memset(out, 0, sizeof *out);
-    out->name = "membrane";
+    out->name = names[part];
     out->nelem = m->nf;
     out->nvert = 3;
     out->elem = m->tri;
-    out->kernel = m->model == CR_MEMBRANE_STVK ? cr_membrane_stvk_kernel : cr_membrane_bw_kernel;
+    out->kernel = kernels[m->model == CR_MEMBRANE_STVK ? 0 : 1][part];
     out->data = m;
     out->weight = 1.0;
 }
@@ -143,14 +154,16 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     double r[3], nr = 0.0;
     if (n0 > 0.0) {
         const double along = (f1[0] * f0[0] + f1[1] * f0[1] + f1[2] * f0[2]) / (n0 * n0);
-        for (int d = 0; d < 3; d++) r[d] = f1[d] - along * f0[d];
+        for (int d = 0; d < 3; d++)
+            r[d] = f1[d] - along * f0[d];
         nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     }
     if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) {
         cr_psd_project(HF, 6);
         return;
     }
-    for (int d = 0; d < 3; d++) R[3 * d] = f0[d] / n0, R[3 * d + 1] = r[d] / nr;
+    for (int d = 0; d < 3; d++)
+        R[3 * d] = f0[d] / n0, R[3 * d + 1] = r[d] / nr;
     R[2] = R[3] * R[7] - R[6] * R[4];
     R[5] = R[6] * R[1] - R[0] * R[7];
     R[8] = R[0] * R[4] - R[3] * R[1];
@@ -170,7 +183,8 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     for (int j = 0; j < 2; j++)
         for (int a = 0; a < 2; a++)
             for (int l = 0; l < 2; l++)
-                for (int b = 0; b < 2; b++) A[4 * (2 * j + a) + 2 * l + b] = B[6 * (3 * j + a) + 3 * l + b];
+                for (int b = 0; b < 2; b++)
+                    A[4 * (2 * j + a) + 2 * l + b] = B[6 * (3 * j + a) + 3 * l + b];
     cr_psd_project(A, 4);
     project2(N);
     /* Back: the in-plane/normal coupling is zero in exact arithmetic. */
@@ -178,7 +192,8 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     for (int j = 0; j < 2; j++)
         for (int a = 0; a < 2; a++)
             for (int l = 0; l < 2; l++)
-                for (int b = 0; b < 2; b++) B[6 * (3 * j + a) + 3 * l + b] = A[4 * (2 * j + a) + 2 * l + b];
+                for (int b = 0; b < 2; b++)
+                    B[6 * (3 * j + a) + 3 * l + b] = A[4 * (2 * j + a) + 2 * l + b];
     B[6 * 2 + 2] = N[0], B[6 * 2 + 5] = B[6 * 5 + 2] = N[1], B[6 * 5 + 5] = N[2];
     for (int j = 0; j < 2; j++)
         for (int l = 0; l < 2; l++)
@@ -192,24 +207,26 @@ void cr_membrane_project_hf(const double *f, double *HF) {
                 }
 }
 
-double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g,
-                               double *H) {
-    const cr_membrane *m = data;
+/* The StVK density with the stretch terms (mu (E11^2 + E22^2) + lambda/2
+ * tr(E)^2) scaled by cs and the shear term (2 mu E12^2) by csh, each 0 or 1:
+ * (1, 1) is the full density, bit for bit. */
+static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, const double *xe,
+                        double *g, double *H) {
     double f[6], c[6];
     cr_membrane_deform(m, e, xe, f, c);
     const double *f0 = f, *f1 = f + 3;
     const double a = f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2];
     const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
     const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
-    const double mu = m->mu, lambda = m->lambda, tr = a + b - 2.0;
-    const double psi =
-        mu * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0) + 0.5 * cc * cc) +
-        0.125 * lambda * tr * tr;
+    const double mu_s = cs * m->mu, lambda = cs * m->lambda, mu_sh = csh * m->mu;
+    const double tr = a + b - 2.0;
+    const double psi = mu_s * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0)) +
+                       mu_sh * 0.5 * cc * cc + 0.125 * lambda * tr * tr;
     if (!g && !H) return m->area[e] * psi;
     /* S = 2 mu E + lambda tr(E) I, so P = F S: gF_0 = S00 f0 + S01 f1, ... */
-    const double S00 = mu * (a - 1.0) + 0.5 * lambda * tr;
-    const double S11 = mu * (b - 1.0) + 0.5 * lambda * tr;
-    const double S01 = mu * cc;
+    const double S00 = mu_s * (a - 1.0) + 0.5 * lambda * tr;
+    const double S11 = mu_s * (b - 1.0) + 0.5 * lambda * tr;
+    const double S01 = mu_sh * cc;
     double gF[6], HF[36];
     for (int d = 0; d < 3; d++) {
         gF[d] = S00 * f0[d] + S01 * f1[d];
@@ -219,12 +236,12 @@ double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, do
         /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
          * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
          * and da/df0 = 2 f0, db/df1 = 2 f1, dc/df0 = f1, dc/df1 = f0. */
-        const double k = 2.0 * mu + lambda;
+        const double k = 2.0 * mu_s + lambda;
         for (int p = 0; p < 3; p++)
             for (int q = 0; q < 3; q++) {
-                HF[6 * p + q] = k * f0[p] * f0[q] + mu * f1[p] * f1[q];
-                HF[6 * (3 + p) + 3 + q] = k * f1[p] * f1[q] + mu * f0[p] * f0[q];
-                HF[6 * p + 3 + q] = lambda * f0[p] * f1[q] + mu * f1[p] * f0[q];
+                HF[6 * p + q] = k * f0[p] * f0[q] + mu_sh * f1[p] * f1[q];
+                HF[6 * (3 + p) + 3 + q] = k * f1[p] * f1[q] + mu_sh * f0[p] * f0[q];
+                HF[6 * p + 3 + q] = lambda * f0[p] * f1[q] + mu_sh * f1[p] * f0[q];
                 HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
             }
         if (m->mode == CR_HESSIAN_PROJECTED) {
@@ -241,4 +258,19 @@ double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, do
     }
     cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
     return m->area[e] * psi;
+}
+
+double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g,
+                               double *H) {
+    return stvk_eval(data, 1.0, 1.0, e, xe, g, H);
+}
+
+double cr_membrane_stvk_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                       double *H) {
+    return stvk_eval(data, 1.0, 0.0, e, xe, g, H);
+}
+
+double cr_membrane_stvk_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                     double *H) {
+    return stvk_eval(data, 0.0, 1.0, e, xe, g, H);
 }

@@ -40,6 +40,8 @@ cr_dataset_def cr_dataset_default_def(void) {
     d.material = "cotton";
     d.seed = 1;
     d.max_collider_step = 0.15;
+    d.motion_import = cr_motion_import_default_def();
+    d.motion_prepare = cr_motion_prepare_default_def();
     d.cookie = DATASET_COOKIE;
     return d;
 }
@@ -206,10 +208,20 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
     int64_t step = 0;
     for (int m = 0; m < d->nmotions; m++) {
         motion_label(d->motions[m], ds->motion_name[m], sizeof ds->motion_name[m]);
-        if (is_clip(d->motions[m]))
+        cr_motion_prepare_report *rep = &ds->motion_rep[m];
+        if (is_clip(d->motions[m])) {
             CR_TRY(cr_motion_clip(d->motions[m], d->frames + 1, d->fps, &ds->motion[m], err));
-        else
-            CR_TRY(cr_motion_load(d->motions[m], &ds->motion[m], err));
+            rep->source_fps = d->fps, rep->source_frames = ds->motion[m]->nframes;
+            rep->last_frame = ds->motion[m]->nframes - 1;
+        } else {
+            cr_motion *raw = NULL;
+            cr_motion_prepare_def pd = d->motion_prepare;
+            pd.fps = d->fps;
+            CR_TRY(cr_motion_import(d->motions[m], &d->motion_import, &raw, err));
+            cr_status st = cr_motion_prepare(raw, &pd, NULL, &ds->motion[m], rep, err);
+            cr_motion_destroy(raw);
+            CR_TRY(st);
+        }
         char path[CR_DATASET_PATH];
         snprintf(path, sizeof path, "%s/motions/%s.npz", d->out_dir, ds->motion_name[m]);
         CR_TRY(cr_motion_save(path, ds->motion[m], err));

@@ -29,6 +29,7 @@ typedef struct dataset {
     int32_t res_vertices[2];
     char motion_name[CR_DATASET_MAX_ITEMS][64];
     cr_motion *motion[CR_DATASET_MAX_ITEMS];
+    cr_motion_prepare_report motion_rep[CR_DATASET_MAX_ITEMS]; /* source rate, frames used */
     cr_body_model *body[CR_DATASET_MAX_ITEMS];
     float *posed[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS]; /* [body][motion] (T,Vb,3) */
     cr_garment *garment[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS][2]; /* [body][garment][res] */

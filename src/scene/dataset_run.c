@@ -10,7 +10,6 @@
 #include "dataset_internal.h"
 
 #include "crease/bvh.h"
-#include "crease/phys_sim.h"
 #include "crease/scene.h"
 #include "crease/topology.h"
 
@@ -180,6 +179,26 @@ static double inside_share(cr_bvh *bvh, const float *posed, int32_t nframes, int
     return (double)inside / nv;
 }
 
+/* The stored frames' share of vertices inside the body, the largest so far. */
+typedef struct inside_ctx {
+    cr_bvh *bvh;
+    const float *posed;
+    int32_t nframes;
+    float *xf, *dist;
+    double max_share;
+} inside_ctx;
+
+static cr_status count_inside(void *vctx, const cr_sim *sim, const cr_sim_report *rep,
+                              const cr_scene_run_stats *so_far, cr_error *err) {
+    (void)rep;
+    inside_ctx *c = vctx;
+    double share =
+        inside_share(c->bvh, c->posed, c->nframes, so_far->frames, sim, c->xf, c->dist, err);
+    if (isnan(share)) return err ? err->status : CR_ERR_MEMORY;
+    c->max_share = fmax(c->max_share, share);
+    return CR_OK;
+}
+
 static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     const cr_dataset_def *d = &ds->def;
     const cr_garment *g = ds->garment[q->b][q->g][q->r];
@@ -192,6 +211,7 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     CR_TRY(cr_material_preset(d->material, &sd.material, err));
     sd.dt = 1.0 / d->fps;
     sd.plasticity = d->plastic;
+    sd.solver = (cr_sim_solver)d->solver;
     sd.collider = body->rest;
     sd.collider_frames = ds->posed[q->b][q->m];
     sd.collider_nframes = mo->nframes;
@@ -220,23 +240,14 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
                           err);
     snprintf(path, sizeof path, "%s/frames.jsonl", dir);
     if (st == CR_OK) st = cr_scene_record_create(path, sim, g->mesh, d->frames + 1, &rec, err);
-    for (int32_t f = 0; f < d->frames && st == CR_OK; f++) {
-        cr_sim_report rep;
-        st = cr_sim_step(sim, &rep, err);
-        cr_status logged = cr_scene_record_frame(rec, sim, &rep, err);
-        if (st == CR_OK) st = logged;
-        if (st != CR_OK) break;
-        double solver = rep.projected / ((double)nv * (rep.substeps > 0 ? rep.substeps : 1));
-        double stored =
-            inside_share(bvh, sd.collider_frames, mo->nframes, f + 1, sim, xf, dist, err);
-        if (isnan(stored)) {
-            st = err ? err->status : CR_ERR_MEMORY;
-            break;
-        }
-        q->max_inside_share = fmax(q->max_inside_share, stored);
-        q->max_inside_share_solver = fmax(q->max_inside_share_solver, solver);
-        q->max_penetration_m = fmax(q->max_penetration_m, rep.max_penetration_m);
-        q->frames_done = f + 1;
+    if (st == CR_OK) {
+        inside_ctx ic = {bvh, sd.collider_frames, mo->nframes, xf, dist, 0.0};
+        cr_scene_run_stats run = {0};
+        st = cr_scene_run(sim, d->frames, rec, count_inside, &ic, &run, err);
+        q->max_inside_share = ic.max_share;
+        q->max_inside_share_solver = run.max_projected_share;
+        q->max_penetration_m = run.max_penetration_m;
+        q->frames_done = run.frames;
     }
     snprintf(path, sizeof path, "%s/garment.pc2", dir);
     if (st == CR_OK) st = cr_scene_record_write(rec, path, NULL, d->fps, err);
@@ -362,6 +373,13 @@ static cJSON *manifest(const dataset *ds) {
         add_path(o, "path", "motions/%s.npz", ds->motion_name[m]);
         cJSON_AddNumberToObject(o, "frames", ds->motion[m]->nframes);
         cJSON_AddNumberToObject(o, "fps", ds->motion[m]->fps);
+        const cr_motion_prepare_report *rep = &ds->motion_rep[m];
+        cJSON_AddNumberToObject(o, "source_fps", rep->source_fps);
+        cJSON_AddNumberToObject(o, "source_frames", rep->source_frames);
+        cJSON_AddNumberToObject(o, "first_frame", rep->first_frame);
+        cJSON_AddNumberToObject(o, "last_frame", rep->last_frame);
+        cJSON_AddBoolToObject(o, "calibration_dropped", rep->calibration_dropped);
+        cJSON_AddNumberToObject(o, "ease_in_frames", rep->ease_frames);
         cJSON_AddItemToArray(motions, o);
     }
     cJSON *garments = cJSON_AddArrayToObject(j, "garments");

@@ -109,7 +109,7 @@ cr_status cr_drape_model_create(const cr_drape_def *def, const cr_mesh *rest, cr
         /* The network moves the cloth in units of its own size, so Adam's
          * steps (about lr per parameter) drape a 5 m cloth as fast, relative
          * to its size, as a 1 m one; 1 exactly for the built-in 1 m cloth. */
-        float scale = cr_drape_chart_scale(rest);
+        float scale = cr_eval_chart_scale(rest);
         m->out_scale = fabsf(scale - 1.0f) < 1e-5f || !(scale > 0.0f) ? 1.0f : scale;
         if (st == CR_OK) st = centre_output(m, err);
     } else if (st == CR_OK) {

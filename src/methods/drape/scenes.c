@@ -275,21 +275,6 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     return st;
 }
 
-float cr_drape_chart_scale(const cr_mesh *m) {
-    double a3 = 0.0, a2 = 0.0;
-    for (int32_t f = 0; f < m->nf; f++) {
-        float n[3];
-        const int32_t *t = &m->tri[3 * (int64_t)f], *tu = &m->tri_uv[3 * (int64_t)f];
-        a3 += 0.5 * cr_triangle_normal(&m->pos[3 * (int64_t)t[0]], &m->pos[3 * (int64_t)t[1]],
-                                       &m->pos[3 * (int64_t)t[2]], n);
-        const float *p = &m->uv[2 * (int64_t)tu[0]], *q = &m->uv[2 * (int64_t)tu[1]],
-                    *r = &m->uv[2 * (int64_t)tu[2]];
-        a2 += 0.5 * fabs(((double)q[0] - p[0]) * ((double)r[1] - p[1]) -
-                         ((double)q[1] - p[1]) * ((double)r[0] - p[0]));
-    }
-    return a2 > 0.0 ? (float)sqrt(a3 / a2) : 1.0f;
-}
-
 /* Side of the built-in scenes' cloth, m, and the default's proportions. */
 #define TABLE4_CLOTH_SIZE 1.0f
 #define CLOTH_PER_EXTENT (5.0f / 3.0f)
@@ -325,7 +310,7 @@ cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_erro
         st = cr_scene_cloth_above(s->object, def->mesh_res, s->cloth_size, s->drop_height, &s->rest,
                                   err);
     }
-    if (st == CR_OK) s->metres_per_uv = cr_drape_chart_scale(s->rest);
+    if (st == CR_OK) s->metres_per_uv = cr_eval_chart_scale(s->rest);
     if (st != CR_OK) cr_drape_scene_free(s);
     return st;
 }
@@ -392,6 +377,11 @@ cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene
         out->w.strain = 3.0f * def->w.strain;
         out->w.bend = (float)(0.5 * def->w.bend * side * side / d2);
     }
+    if (st == CR_OK) st = cr_drape_strain_create(out->ne, &out->strain, err);
+    if (st == CR_OK)
+        st = cr_drape_strain_set(out->strain, out->edges, out->rest, out->ne, m->nv, err);
+    if (st == CR_OK) st = cr_drape_bend_create(out->nh, &out->bend, err);
+    if (st == CR_OK) st = cr_drape_bend_set(out->bend, out->hinges, out->nh, m->nv, err);
     cr_topology_destroy(t);
     if (st != CR_OK) cr_drape_mesh_losses_free(out);
     return st;
@@ -399,5 +389,7 @@ cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene
 
 void cr_drape_mesh_losses_free(drape_mesh_losses *ml) {
     free(ml->edges), free(ml->rest), free(ml->hinges);
+    cr_drape_strain_destroy(ml->strain);
+    cr_drape_bend_destroy(ml->bend);
     memset(ml, 0, sizeof *ml);
 }

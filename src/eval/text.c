@@ -1,18 +1,19 @@
-/* text.c: a 5x7 bitmap font for the few labels the drape method draws
- * itself (plot axes, the names under the compare picture): lower-case
- * letters (upper case is drawn as lower), digits and a little punctuation.
- * The glyphs were drawn for this file.
+/* text.c: a 5x7 bitmap font for the few labels the library draws itself
+ * (plot axes and legends, colour bars, the names under drape's compare
+ * picture): lower-case letters (upper case is drawn as lower), digits and a
+ * little punctuation. The glyphs were drawn for this file (moved here from
+ * methods/drape so every report shares them).
  *
  * Leaves out: kerning, anti-aliasing, any other character (drawn as a box).
  */
-#include "drape_internal.h"
+#include "crease/eval.h"
 
 #include <ctype.h>
 #include <string.h>
 
 enum { GLYPH_W = 5, GLYPH_H = 7, GLYPH_ADVANCE = 6 };
 
-static const char GLYPH_CHARS[] = "abcdefghijklmnopqrstuvwxyz0123456789 .-+:%/()_=";
+static const char GLYPH_CHARS[] = "abcdefghijklmnopqrstuvwxyz0123456789 .-+:%/()_=,|";
 static const uint8_t GLYPHS[][7] = {
     {0x00, 0x00, 0x0e, 0x01, 0x0f, 0x11, 0x0f}, /* a */
     {0x10, 0x10, 0x1e, 0x11, 0x11, 0x11, 0x1e}, /* b */
@@ -61,6 +62,8 @@ static const uint8_t GLYPHS[][7] = {
     {0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08}, /* ) */
     {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1f}, /* _ */
     {0x00, 0x00, 0x1f, 0x00, 0x1f, 0x00, 0x00}, /* = */
+    {0x00, 0x00, 0x00, 0x00, 0x0c, 0x04, 0x08}, /* , */
+    {0x04, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}, /* | */
 };
 
 static const uint8_t BOX[GLYPH_H] = {0x1f, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1f};
@@ -70,12 +73,12 @@ static const uint8_t *glyph(char c) {
     return p && c ? GLYPHS[p - GLYPH_CHARS] : BOX;
 }
 
-int cr_drape_text_width(const char *text, int scale) {
+int cr_plot_text_width(const char *text, int scale) {
     int n = (int)strlen(text);
     return n ? (n * GLYPH_ADVANCE - 1) * scale : 0;
 }
 
-void cr_drape_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]) {
+void cr_plot_text(cr_image *img, int x, int y, int scale, const char *text, const uint8_t rgb[3]) {
     for (int k = 0; text[k]; k++) {
         const uint8_t *g = glyph(text[k]);
         int gx = x + k * GLYPH_ADVANCE * scale;
