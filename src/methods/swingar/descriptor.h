@@ -15,16 +15,19 @@
  *      ablation of its Table I);
  *   3. affinity K = exp(-D^2 / (2 sigma^2)), sigma = sigma_scale x the median
  *      of the pairwise distances between the samples (so the descriptor does
- *      not change when the garment is scaled: the shape, not the size);
- *   4. B = K[samples] (z,z) = U Lambda U^T (LAPACK dsyev), Nystrom extension
- *      Q^ = K U Lambda^-1 (V,z) (Fowlkes et al. 2004), A^ = Q^ Lambda Q^T;
- *   5. the eigenvalues of W^1/2 A^ W^1/2, W = diag(vertex area / total area):
- *      an orthonormalisation of Q^ in the area-weighted inner product. They
- *      approximate the spectrum of the kernel's integral operator on the
- *      surface, hence do not depend on the vertex count (remeshing) and sum to
- *      about 1 (trace of the weighted kernel: sum_i w_i K(i,i) = 1).
- * Eigenvalues of B below 1e-10 of its largest (numerical noise of a smooth
- * kernel) are dropped; their entries of the descriptor are 0.
+ *      not change when the garment is scaled: it describes the shape, the size
+ *      reaches the network through the vertex positions);
+ *   4. B (z,z), the affinity of the samples, weighted as a quadrature of the
+ *      kernel's integral operator: B_w = W_s^1/2 B W_s^1/2, W_s = share of the
+ *      surface area in each sample's geodesic Voronoi cell; its eigenvalues
+ *      (LAPACK dsyev) are the descriptor: the paper's Lambda, normalised so
+ *      that they approximate the operator's spectrum (independent of V and z
+ *      in the limit) and sum to exactly 1 (the trace);
+ *   5. on request, the Nystrom extension of the eigenvectors to every vertex,
+ *      Q^ = K U Lambda^-1 in weighted form (Fowlkes et al. 2004; the paper's
+ *      Fig. 4 shows these).
+ * The geodesic kernel is not positive definite: the smallest entries can be
+ * negative (a few 1e-4 at the default width); they stay, sorted last.
  */
 #ifndef CREASE_METHODS_SWINGAR_DESCRIPTOR_H
 #define CREASE_METHODS_SWINGAR_DESCRIPTOR_H
@@ -60,9 +63,11 @@ cr_status cr_swingar_descriptor(const cr_mesh *mesh, const cr_swingar_descriptor
 
 /* What the descriptor computed besides the eigenvalues. Any pointer may be NULL. */
 typedef struct {
-    float *eigenvectors; /* (V,z) row-major: column k is the Nystrom-extended eigenvector of
-                            eigenvalue k, orthonormal in the area-weighted inner product
-                            (sum_i w_i q_ik q_il = delta_kl); 0 columns for dropped values */
+    float *eigenvectors; /* (V,z) row-major: column k is the Nystrom-extended eigenfunction of
+                            eigenvalue k, f_k(x) = sum_a K(x, s_a) ws_a f_k(s_a) / lambda_k,
+                            orthonormal on the samples in the cell weights (sum_a ws_a f_k f_l
+                            = delta_kl) and about so over all vertices in the vertex-area
+                            weights; 0 columns for eigenvalues under 1e-9 of the largest */
     int32_t *sample_idx; /* (z) the FPS vertices, in the order picked */
     float *sigma;        /* (1) the kernel width used, m */
 } cr_swingar_descriptor_extra;
@@ -73,8 +78,10 @@ cr_status cr_swingar_descriptor_full(const cr_mesh *mesh, const cr_swingar_descr
                                      cr_error *err);
 
 /* The exact counterpart, for tests and small meshes: the eigenvalues of
- * W^1/2 K W^1/2 with K the (V,V) affinity of all vertices, at the kernel width
- * `sigma` (m), sorted descending: eigenvalues (V). O(V^2) memory, O(V^3) time. */
+ * W^1/2 K W^1/2 with K the (V,V) affinity of all vertices and W their area
+ * shares, at the kernel width `sigma` (m), sorted descending: eigenvalues (V).
+ * Equal to cr_swingar_descriptor with samples = V at the same sigma.
+ * O(V^2) memory, O(V^3) time. */
 cr_status cr_swingar_descriptor_exact(const cr_mesh *mesh, cr_swingar_affinity affinity,
                                       float sigma, float *eigenvalues, cr_error *err);
 
