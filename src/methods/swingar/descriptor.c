@@ -34,6 +34,9 @@
 
 #include <cblas.h>
 #include <math.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -62,7 +65,17 @@ static cr_status eig_sym(double *a, int n, double *w, int vectors, cr_error *err
     lwork = info == 0 && query > 3 * n ? (int)query : 3 * n;
     double *work = cr_malloc((size_t)lwork * sizeof(double), err);
     if (!work) return CR_ERR_MEMORY;
+#ifdef _OPENMP
+    /* As in phys/energy.c: OpenBLAS's OpenMP build spreads the BLAS calls
+     * inside dsyev over omp_get_max_threads() threads; for z <= 512 one is
+     * faster, and on a loaded machine two were measured 13x slower. */
+    const int team = omp_in_parallel() ? 0 : omp_get_max_threads();
+    if (team > 1) omp_set_num_threads(1);
     dsyev_(jobz, "U", &n, a, &n, w, work, &lwork, &info);
+    if (team > 1) omp_set_num_threads(team);
+#else
+    dsyev_(jobz, "U", &n, a, &n, w, work, &lwork, &info);
+#endif
     free(work);
     if (info != 0)
         return CR_FAIL(err, CR_ERR_DIVERGED,
