@@ -342,7 +342,7 @@ cr_status cr_swingar_descriptor_full(const cr_mesh *m, const cr_swingar_descript
                 double dab = k.dS[a * Z + b];
                 k.B[a * Z + b] = sqrt(k.ws[a] * k.ws[b]) * exp(-dab * dab * inv2s2);
             }
-        st = eig_sym(k.B, z, k.mu, 1, err);
+        st = eig_sym(k.B, z, k.mu, extra && extra->eigenvectors, err);
     }
     for (int32_t a = 0; st == CR_OK && a < z; a++)
         eigenvalues[a] = (float)k.mu[z - 1 - a];
