@@ -68,7 +68,7 @@ static cr_status eig_sym(double *a, int n, double *w, int vectors, cr_error *err
 #ifdef _OPENMP
     /* As in phys/energy.c: OpenBLAS's OpenMP build spreads the BLAS calls
      * inside dsyev over omp_get_max_threads() threads; for z <= 512 one is
-     * faster, and on a loaded machine two were measured 13x slower. */
+     * faster, and on a loaded machine two were measured 15x slower. */
     const int team = omp_in_parallel() ? 0 : omp_get_max_threads();
     if (team > 1) omp_set_num_threads(1);
     dsyev_(jobz, "U", &n, a, &n, w, work, &lwork, &info);
