@@ -178,8 +178,8 @@ cr_status cr_garment_variant_parse(const char *spec, cr_garment_variant *out, cr
 cr_status cr_garment_variant_build(cr_garment_variant *v, const cr_body_model *body,
                                    cr_garment_template **out, cr_error *err);
 
-/* The exact spec of a def: every table key with %.9g values (reads back
- * bit for bit), e.g. "dress:length=1.1:flare=20.5:...". */
+/* The exact spec of a def: every table key the type uses, with %.9g values
+ * (reads back bit for bit), and res, e.g. "dress:length=1.1:flare=20.5:...". */
 void cr_garment_def_spec(const cr_garment_def *def, char *out, size_t cap);
 
 typedef struct cr_garment {

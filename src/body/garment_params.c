@@ -194,8 +194,9 @@ cr_status cr_garment_variant_parse(const char *spec, cr_garment_variant *out, cr
 void cr_garment_def_spec(const cr_garment_def *def, char *out, size_t cap) {
     size_t n = (size_t)snprintf(out, cap, "%s", cr_garment_type_name(def->type));
     for (int i = 0; i < CR_GARMENT_NPARAMS && n < cap; i++)
-        n += (size_t)snprintf(out + n, cap - n, ":%s=%.9g", params[i].key,
-                              (double)cr_garment_param_get(def, i));
+        if (params[i].sample_lo[def->type] != 0.0f || params[i].sample_hi[def->type] != 0.0f)
+            n += (size_t)snprintf(out + n, cap - n, ":%s=%.9g", params[i].key,
+                                  (double)cr_garment_param_get(def, i));
     if (n < cap) snprintf(out + n, cap - n, ":res=%d", def->target_vertices);
 }
 

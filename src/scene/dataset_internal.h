@@ -26,6 +26,10 @@ typedef struct dataset_seq {
 typedef struct dataset {
     cr_dataset_def def;
     cr_garment_type garment_type[CR_DATASET_MAX_ITEMS];
+    cr_garment_variant variant[CR_DATASET_MAX_ITEMS]; /* as parsed; .label names files */
+    /* [body][garment]: the variant as built on that body (a random draw that
+     * fails the checks on one body is replaced there only) */
+    cr_garment_variant built[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS];
     int32_t res_vertices[2];
     char motion_name[CR_DATASET_MAX_ITEMS][64];
     cr_motion *motion[CR_DATASET_MAX_ITEMS];
