@@ -6,6 +6,7 @@
  * jumpsuit has its openings, UVs and weights. */
 #include "crease/body.h"
 #include "crease/garment.h"
+#include "crease/topology.h"
 #include "test.h"
 
 #include <stdlib.h>
@@ -146,4 +147,162 @@ CR_TEST(garment_params, random_vest) {
 }
 CR_TEST(garment_params, random_jumpsuit) {
     random_variants(CR_GARMENT_JUMPSUIT);
+}
+
+/* ----------------------------------------------------- keys and ranges -- */
+
+CR_TEST(garment_params, out_of_range_refused) {
+    cr_error err = {0};
+    cr_garment_def d = cr_garment_default_def(CR_GARMENT_DRESS);
+    CR_CHECK(cr_garment_param_set(&d, "length", 2.0, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "length") && strstr(err.msg, "0.5 to 1.5"));
+    CR_CHECK(d.length_scale == 1.0f); /* unchanged */
+    CR_CHECK(cr_garment_param_set(&d, "colour", 1.0, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "colour") && strstr(err.msg, "neck"));
+    CR_CHECK_OK(cr_garment_param_set(&d, "flare", 45.0, &err), &err); /* ends included */
+    CR_CHECK(d.flare_deg == 45.0f);
+    cr_garment_variant v;
+    CR_CHECK(cr_garment_variant_parse("dress:flare=60", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "dress:flare=60") && strstr(err.msg, "flare") &&
+             strstr(err.msg, "0 to 45"));
+    CR_CHECK(cr_garment_variant_parse("dress:neck=-0.5", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "neck") && strstr(err.msg, "-0.02 to 0.08"));
+    CR_CHECK(cr_garment_variant_parse("dress:flare", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_garment_variant_parse("dress:flare=abc", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_garment_variant_parse("dress:seed=1.5", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_garment_variant_parse("poncho:seed=1", &v, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "jumpsuit") != NULL); /* the known types are listed */
+    /* The library refuses a def whose field is off, naming field and key. */
+    d = cr_garment_default_def(CR_GARMENT_TSHIRT);
+    d.sleeve_scale = 3.0f;
+    cr_garment *g = NULL;
+    CR_CHECK(cr_garment_create(&d, body64(), &g, &err) == CR_ERR_INVALID && !g);
+    CR_CHECK(strstr(err.msg, "sleeve_scale") && strstr(err.msg, "sleeve") &&
+             strstr(err.msg, "0.5 to 1.5"));
+    /* Given keys and labels. */
+    CR_CHECK_OK(cr_garment_variant_parse("tshirt:length=0.8:sleeve=1.2:seed=4", &v, &err), &err);
+    CR_CHECK(v.random && v.seed == 4 && v.def.length_scale == 0.8f && v.def.sleeve_scale == 1.2f);
+    CR_CHECK(v.given ==
+             (1u << cr_garment_param_find("length") | 1u << cr_garment_param_find("sleeve")));
+    CR_CHECK(!strcmp(v.label, "tshirt_length0.8_sleeve1.2_seed4"));
+    /* Every sampled range lies in the accepted one; empty ranges only for
+     * the types that ignore the key. */
+    for (int i = 0; i < CR_GARMENT_NPARAMS; i++) {
+        const cr_garment_param *p = cr_garment_param_at(i);
+        CR_CHECK(cr_garment_param_find(p->key) == i);
+        for (int t = 0; t < CR_GARMENT_USER; t++) {
+            float lo = p->sample_lo[t], hi = p->sample_hi[t];
+            cr_garment_def d0 = cr_garment_default_def((cr_garment_type)t);
+            float def = cr_garment_param_get(&d0, i);
+            if (lo == 0.0f && hi == 0.0f) continue;
+            CR_CHECK(lo < hi && lo >= p->lo - 1e-6 && hi <= p->hi + 1e-6);
+            /* The default lies in the sampled range (the variants surround it). */
+            CR_CHECK(def >= lo && def <= hi);
+        }
+    }
+    CR_CHECK(cr_garment_param_at(CR_GARMENT_NPARAMS) == NULL);
+}
+
+/* ----------------------------------------------------------- determinism -- */
+
+CR_TEST(garment_params, seeded_generation_is_deterministic) {
+    cr_error err = {0};
+    for (int t = 0; t < CR_GARMENT_USER; t++) {
+        cr_garment_def a = cr_garment_random_def((cr_garment_type)t, 7, 0);
+        cr_garment_def b = cr_garment_random_def((cr_garment_type)t, 7, 0);
+        cr_garment_def c = cr_garment_random_def((cr_garment_type)t, 8, 0);
+        cr_garment_def r = cr_garment_random_def((cr_garment_type)t, 7, 1);
+        CR_CHECK(memcmp(&a, &b, sizeof a) == 0);
+        CR_CHECK(a.length_scale != c.length_scale && a.length_scale != r.length_scale);
+        /* The exact spec reads back bit for bit. */
+        char spec[256];
+        cr_garment_def_spec(&a, spec, sizeof spec);
+        cr_garment_variant v;
+        CR_CHECK_OK(cr_garment_variant_parse(spec, &v, &err), &err);
+        for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
+            CR_CHECK(cr_garment_param_get(&v.def, i) == cr_garment_param_get(&a, i));
+    }
+    /* The same spec builds the same garment, bit for bit. */
+    uint64_t h[2] = {0, 1};
+    cr_garment_def used[2];
+    for (int k = 0; k < 2; k++) {
+        cr_garment_variant v;
+        CR_CHECK_OK(cr_garment_variant_parse("skirt:seed=11:res=1000", &v, &err), &err);
+        cr_garment_template *t = NULL;
+        CR_CHECK_OK(cr_garment_variant_build(&v, body64(), &t, &err), &err);
+        cr_garment *g = NULL;
+        if (t) CR_CHECK_OK(cr_garment_template_instantiate(t, 1000, body64(), &g, &err), &err);
+        if (g) h[k] = garment_hash(g);
+        used[k] = v.def;
+        cr_garment_destroy(g);
+        cr_garment_template_destroy(t);
+    }
+    CR_CHECK(h[0] == h[1]);
+    CR_CHECK(memcmp(&used[0], &used[1], sizeof used[0]) == 0);
+    /* ... and differs from the default skirt. */
+    CR_CHECK(used[0].flare_deg != cr_garment_default_def(CR_GARMENT_SKIRT).flare_deg);
+}
+
+/* -------------------------------------------------------------- jumpsuit -- */
+
+/* One piece from the neck to the ankles: closed at the waist and crotch
+ * (no opening between the armholes and the leg ends), its five openings at
+ * the right heights, one UV chart per panel, legs skinned to the legs. */
+CR_TEST(garment_params, jumpsuit) {
+    cr_error err = {0};
+    cr_body_model *body = body64();
+    CR_REQUIRE(body);
+    cr_garment_def def = cr_garment_default_def(CR_GARMENT_JUMPSUIT);
+    def.target_vertices = 2000;
+    cr_garment *g = NULL;
+    CR_CHECK_OK(cr_garment_create(&def, body, &g, &err), &err);
+    CR_REQUIRE(g);
+    cr_garment_quality q;
+    CR_CHECK_OK(cr_garment_check(g, body, &q, &err), &err);
+    CR_CHECK(q.boundary_loops == 5 && q.panels == 4 && q.uv_flipped == 0);
+    printf("    jumpsuit: %d vertices, %.4f above 20 deg (min %.1f), clearance %.1f mm, UV area "
+           "error %.2f%%\n",
+           q.vertices, (double)q.share_min_angle_above_20deg, (double)q.min_angle_deg,
+           1000.0 * q.min_clearance_m, 100.0 * q.uv_area_error);
+    cr_topology *t = NULL;
+    CR_CHECK_OK(cr_topology_build(g->mesh, &t, &err), &err);
+    CR_REQUIRE(t);
+    const float knee = body->joints[3 * CR_JOINT_LEFT_KNEE + 1];
+    const float hip = body->joints[3 * CR_JOINT_LEFT_HIP + 1];
+    const float neck = body->joints[3 * CR_JOINT_NECK + 1];
+    int low = 0, high = 0;
+    for (int32_t l = 0; l < t->nloop; l++) {
+        double y = 0.0;
+        for (int32_t k = t->loop_off[l]; k < t->loop_off[l + 1]; k++)
+            y += g->mesh->pos[3 * t->loop_vert[k] + 1];
+        y /= t->loop_off[l + 1] - t->loop_off[l];
+        low += y < knee;                      /* the leg ends */
+        high += y > hip + 0.5 * (neck - hip); /* neck and armholes */
+    }
+    CR_CHECK(low == 2 && high == 3);
+    cr_topology_destroy(t);
+    /* Below the knees every vertex follows a leg's joints. */
+    int off_leg = 0, below = 0;
+    for (int32_t v = 0; v < g->mesh->nv; v++) {
+        if (g->mesh->pos[3 * v + 1] > knee - 0.05f) continue;
+        below++;
+        int j = g->skin_joint[4 * v];
+        off_leg +=
+            !(j == CR_JOINT_LEFT_KNEE || j == CR_JOINT_RIGHT_KNEE || j == CR_JOINT_LEFT_ANKLE ||
+              j == CR_JOINT_RIGHT_ANKLE || j == CR_JOINT_LEFT_FOOT || j == CR_JOINT_RIGHT_FOOT);
+    }
+    CR_CHECK(below > 100 && off_leg == 0);
+    /* Every panel is one chart: a face's UV corners are its panel's only. */
+    int32_t *owner = malloc((size_t)g->mesh->nuv * sizeof(int32_t)), shared = 0;
+    for (int32_t i = 0; i < g->mesh->nuv; i++)
+        owner[i] = -1;
+    for (int32_t f = 0; f < g->mesh->nf; f++)
+        for (int k = 0; k < 3; k++) {
+            int32_t u = g->mesh->tri_uv[3 * f + k];
+            shared += owner[u] >= 0 && owner[u] != g->panel[f];
+            owner[u] = g->panel[f];
+        }
+    CR_CHECK(shared == 0);
+    free(owner);
+    cr_garment_destroy(g);
 }
