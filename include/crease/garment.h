@@ -8,6 +8,8 @@
  *   skinning the garment with the body's pose                 cr_garment_pose
  *   high vertex -> (low face, barycentric), gdsr Eq. 1        cr_garment_correspondence
  *   a user OBJ checked and pushed out of the body             cr_garment_load_user, _fit_user
+ *   shape parameters by key, seeded random variants           cr_garment_param_*, _random_def,
+ *     ("dress:seed=3", "tshirt:length=0.8"), quality targets    cr_garment_variant_*, _check
  *
  *   cr_garment_def def = cr_garment_default_def(CR_GARMENT_TSHIRT);
  *   def.target_vertices = 8000;
@@ -42,7 +44,8 @@
  * high resolution garment correspond through UV space (gdsr, Eq. 1).
  *
  * Deterministic: the same def and body give the same garment bit for bit,
- * whatever the thread count (there is no random element, hence no seed).
+ * whatever the thread count (the build has no random element; a random
+ * variant is a def drawn from a seed before the build).
  * Units: m. Thread safety: reentrant; a built template or garment is read-only.
  */
 #ifndef CREASE_GARMENT_H
