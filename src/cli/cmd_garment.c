@@ -47,7 +47,8 @@ void help_garment(void) {
            "  --json           end with a JSON summary on stdout: type, vertices, faces,\n"
            "                   share_min_angle_above_20deg, min_angle_deg, min_clearance_m,\n"
            "                   boundary_loops, panels, uv_scale_m, paths, seconds, params and\n"
-           "                   spec (the exact variant), seed and attempts with --random (and\n"
+           "                   spec (the exact variant), seed, attempts and the last rejected\n"
+           "                   draw's reason with --random (and\n"
            "                   layers for a layer list)\n\n"
            "shape parameters (accepted range; the defaults per type rebuild the plain types;\n"
            "a layer list raises each layer's clearance to clear the one below):\n");
@@ -340,6 +341,7 @@ int cmd_garment(int argc, char **argv) {
             if (o.random) {
                 cJSON_AddNumberToObject(j, "seed", o.seed);
                 cJSON_AddNumberToObject(j, "attempts", v.attempts);
+                if (v.rejected[0]) cJSON_AddStringToObject(j, "rejected", v.rejected);
             }
             if (o.render) cJSON_AddItemToArray(arr, cJSON_CreateString(o.render));
             cJSON_AddItemToObject(j, "paths", arr);
