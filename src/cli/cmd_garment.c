@@ -47,9 +47,8 @@ void help_garment(void) {
            "  --json           end with a JSON summary on stdout: type, vertices, faces,\n"
            "                   share_min_angle_above_20deg, min_angle_deg, min_clearance_m,\n"
            "                   boundary_loops, panels, uv_scale_m, paths, seconds, params and\n"
-           "                   spec (the exact variant), seed, attempts and the last rejected\n"
-           "                   draw's reason with --random (and\n"
-           "                   layers for a layer list)\n\n"
+           "                   spec (the exact variant); with --random also seed, attempts and\n"
+           "                   rejected (why the last rejected draw failed); layers for a list\n\n"
            "shape parameters (accepted range; the defaults per type rebuild the plain types;\n"
            "a layer list raises each layer's clearance to clear the one below):\n");
     for (int i = 0; i < CR_GARMENT_NPARAMS; i++) {
