@@ -87,13 +87,17 @@ typedef struct cr_garment_def {
     float clearance_m;         /* offset of the tight parts from the body, m, [0.005, 0.1]; default
                                   0.01 (t-shirt, long sleeve, dress top), 0.02 (vest), 0.015
                                   (trousers, skirt waist). Every vertex ends at least 5 mm out. */
-    float flare_deg;           /* skirt and dress: half-angle of the cone the skirt widens along
-                                  below the waist, degrees, [0, 45] (default 12 skirt, 15 dress;
-                                  ignored by the other types) */
+    float flare_deg;           /* skirt, dress and long shirts: half-angle of the cone the skirt
+                                  widens along below the waist, degrees, [0, 45] (default 15
+                                  dress, 12 the others; ignored by trousers, vest, jumpsuit) */
     float length_scale;        /* hem, sleeve and leg lengths as a multiple of the type's
-                                  default, [0.5, 1.5] (default 1); tops stop 2 cm below the
-                                  hip joints (above the crotch), long sleeves always reach
-                                  the wrists, trousers stop above the ankles */
+                                  default, [0.5, 1.5] (default 1); a t-shirt or long sleeve
+                                  whose hem would pass 2 cm below the hip joints becomes a
+                                  long shirt (below the waist the dress's flared envelope, as
+                                  a tight hem would split round each leg), long sleeves
+                                  always reach the wrists (see sleeve_scale), trousers and
+                                  jumpsuit legs stop above the ankles; vest hems stop 2 cm
+                                  below the hip joints */
     float grid_m;              /* cell of the grid the level set is sampled on, m, [0.004, 0.03]
                                   (default 0.01): finer follows the body more closely, costs
                                   cubically */

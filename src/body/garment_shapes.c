@@ -175,9 +175,20 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     switch (def->type) {
     case CR_GARMENT_TSHIRT:
     case CR_GARMENT_LONGSLEEVE: {
-        float hem = fmaxf(N[1] - ls * (N[1] - (hip_y + 0.005f * s)), top_hem_min);
+        float hem = N[1] - ls * (N[1] - (hip_y + 0.005f * s));
         sp->tight = 1;
-        sp->tight_lo = hem;
+        if (hem >= top_hem_min) {
+            sp->tight_lo = hem;
+        } else {
+            /* A long shirt: below the waist the dress's envelope takes over
+             * (a tight hem would split round each leg). */
+            sp->tight_lo = waist_y - 0.06f * s;
+            sp->loose = 1;
+            sp->loose_clear = def->clearance_m + 0.005f;
+            sp->waist_y = waist_y;
+            sp->flare = def->flare_deg * (float)M_PI / 180.0f;
+            sp->loose_lo = hem;
+        }
         sp->cut[sp->ncut++] = plane_y(hem, 1.0f);
         sp->cut[sp->ncut++] = neck;
         for (int side = 0; side < 2; side++) {
