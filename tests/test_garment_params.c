@@ -11,6 +11,7 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* Mannequin grid: coarse to keep the tests quick. */
 enum { BODY_RES = 64 };
@@ -89,6 +90,7 @@ static void random_variants(cr_garment_type type) {
     CR_REQUIRE(body64());
     int resampled = 0;
     double t0 = cr_time_now();
+    clock_t c0 = clock();
     float worst_angle = 1.0f, worst_clear = 1.0f;
     for (int s = 1; s <= NVARIANTS; s++) {
         cr_garment_variant v;
@@ -109,21 +111,16 @@ static void random_variants(cr_garment_type type) {
             if (p->sample_lo[type] != 0.0f || p->sample_hi[type] != 0.0f)
                 CR_CHECK(x >= p->sample_lo[type] && x <= p->sample_hi[type]);
         }
-        cr_garment *g = NULL;
-        CR_CHECK_OK(cr_garment_template_instantiate(t, VARIANT_VERTICES, body64(), &g, &err), &err);
-        cr_garment_quality q;
-        if (g) CR_CHECK_OK(cr_garment_check(g, body64(), &q, &err), &err);
-        if (g) {
-            worst_angle = fminf(worst_angle, q.share_min_angle_above_20deg);
-            worst_clear = fminf(worst_clear, q.min_clearance_m);
-        }
-        cr_garment_destroy(g);
+        /* The figures cr_garment_check held to the targets. */
+        worst_angle = fminf(worst_angle, v.quality.share_min_angle_above_20deg);
+        worst_clear = fminf(worst_clear, v.quality.min_clearance_m);
+        CR_CHECK(v.quality.vertices > 0 && v.quality.boundary_loops == cr_garment_openings(type));
         cr_garment_template_destroy(t);
     }
     printf("    %-10s %d variants, %d resampled, worst share above 20 deg %.4f, clearance %.1f mm, "
-           "%.1f s\n",
+           "%.1f s (%.1f s CPU)\n",
            cr_garment_type_name(type), NVARIANTS, resampled, (double)worst_angle,
-           1000.0 * worst_clear, cr_time_now() - t0);
+           1000.0 * worst_clear, cr_time_now() - t0, (double)(clock() - c0) / CLOCKS_PER_SEC);
     CR_CHECK(resampled <= 2);
 }
 

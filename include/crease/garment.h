@@ -117,6 +117,22 @@ typedef struct cr_garment_def {
 /* Defaults for a type (not CR_GARMENT_USER), as listed field by field above. */
 cr_garment_def cr_garment_default_def(cr_garment_type type);
 
+/* Quality figures of a garment (cr_garment_measure, cr_garment_check below). */
+typedef struct cr_garment_quality {
+    int32_t vertices, faces;
+    int32_t boundary_loops; /* openings: neck, hem, sleeves, legs */
+    int32_t panels;
+    float share_min_angle_above_20deg; /* faces whose smallest angle exceeds 20 deg, 0..1 */
+    float min_angle_deg;               /* smallest angle of any face, degrees */
+    float min_clearance_m;             /* smallest signed distance from a vertex to the body, m */
+    float share_outward;               /* faces whose normal points away from the body, 0..1 */
+    float max_weight_sum_error;        /* max |sum of a vertex's skin weights - 1| */
+    float uv_area_error; /* max over panels of |UV area * uv_scale^2 / 3-D area - 1| */
+    int manifold;        /* 1: an oriented 2-manifold with boundary, no defects */
+    int32_t uv_flipped;  /* faces whose UV triangle has non-positive area */
+    int32_t bad_joints;  /* skin joint indices outside the skeleton */
+} cr_garment_quality;
+
 /* A garment fitted to a body at no particular resolution (see templates below). */
 typedef struct cr_garment_template cr_garment_template;
 
@@ -164,10 +180,11 @@ typedef struct cr_garment_variant {
     cr_garment_def def; /* defaults, then given values (drawn ones after _build) */
     int random;         /* seed= was given */
     uint64_t seed;
-    uint32_t given;     /* bit i: table row i given explicitly */
-    int32_t attempts;   /* set by _build: draws made until one passed (1 for the first) */
-    char rejected[160]; /* set by _build: why the last rejected draw failed ("" if none) */
-    char label[96];     /* file-name safe: "dress", "dress_seed3", "tshirt_length0.8" */
+    uint32_t given;             /* bit i: table row i given explicitly */
+    int32_t attempts;           /* set by _build: draws made until one passed (1 for the first) */
+    char rejected[160];         /* set by _build: why the last rejected draw failed ("" if none) */
+    cr_garment_quality quality; /* set by _build: the checked instance's figures */
+    char label[128];            /* file-name safe: "dress", "dress_seed3", "tshirt_length0.8" */
 } cr_garment_variant;
 
 /* Parse a spec (CR_ERR_INVALID naming the spec and the bad part). */
@@ -255,21 +272,6 @@ cr_status cr_garment_pose(const cr_garment *g, const cr_body_model *body, const 
                           const float *trans, float *out, cr_error *err);
 
 /* ------------------------------------------------------------ quality -- */
-
-typedef struct cr_garment_quality {
-    int32_t vertices, faces;
-    int32_t boundary_loops; /* openings: neck, hem, sleeves, legs */
-    int32_t panels;
-    float share_min_angle_above_20deg; /* faces whose smallest angle exceeds 20 deg, 0..1 */
-    float min_angle_deg;               /* smallest angle of any face, degrees */
-    float min_clearance_m;             /* smallest signed distance from a vertex to the body, m */
-    float share_outward;               /* faces whose normal points away from the body, 0..1 */
-    float max_weight_sum_error;        /* max |sum of a vertex's skin weights - 1| */
-    float uv_area_error; /* max over panels of |UV area * uv_scale^2 / 3-D area - 1| */
-    int manifold;        /* 1: an oriented 2-manifold with boundary, no defects */
-    int32_t uv_flipped;  /* faces whose UV triangle has non-positive area */
-    int32_t bad_joints;  /* skin joint indices outside the skeleton */
-} cr_garment_quality;
 
 /* Measure g against its body (rest pose). CR_ERR_MEMORY, or errors from
  * building the body's BVH. */

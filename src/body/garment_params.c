@@ -202,13 +202,13 @@ void cr_garment_def_spec(const cr_garment_def *def, char *out, size_t cap) {
 
 /* One draw built and checked; *out the template when it passed. */
 static cr_status build_checked(const cr_garment_def *d, const cr_body_model *body,
-                               cr_garment_template **out, cr_error *err) {
+                               cr_garment_template **out, cr_garment_quality *q, cr_error *err) {
     *out = NULL;
     cr_garment_template *t = NULL;
     CR_TRY(cr_garment_template_create(d, body, &t, err));
     cr_garment *g = NULL;
     cr_status st = cr_garment_template_instantiate(t, d->target_vertices, body, &g, err);
-    if (st == CR_OK) st = cr_garment_check(g, body, NULL, err);
+    if (st == CR_OK) st = cr_garment_check(g, body, q, err);
     cr_garment_destroy(g);
     if (st != CR_OK)
         cr_garment_template_destroy(t);
@@ -224,7 +224,7 @@ cr_status cr_garment_variant_build(cr_garment_variant *v, const cr_body_model *b
     cr_garment_template *t = NULL;
     if (!v->random) {
         v->attempts = 1;
-        CR_TRY(build_checked(&v->def, body, &t, err));
+        CR_TRY(build_checked(&v->def, body, &t, &v->quality, err));
     } else {
         cr_status st = CR_OK;
         for (int32_t a = 0; a < CR_GARMENT_RANDOM_ATTEMPTS; a++) {
@@ -234,7 +234,7 @@ cr_status cr_garment_variant_build(cr_garment_variant *v, const cr_body_model *b
             d.remesh_iterations = v->def.remesh_iterations;
             for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
                 if (v->given >> i & 1u) *field(&d, i) = cr_garment_param_get(&v->def, i);
-            st = build_checked(&d, body, &t, err);
+            st = build_checked(&d, body, &t, &v->quality, err);
             v->attempts = a + 1;
             if (st == CR_OK) {
                 v->def = d;

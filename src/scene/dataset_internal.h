@@ -13,7 +13,7 @@ typedef enum seq_state { SEQ_PENDING = 0, SEQ_SKIPPED, SEQ_DONE, SEQ_FAILED } se
 
 typedef struct dataset_seq {
     int g, m, b, r; /* garment, motion, body, resolution indices */
-    char id[160];   /* <garment>_<res>_<body>_<motion> */
+    char id[256];   /* <garment label>_<res>_<body>_<motion> */
     seq_state state;
     double max_inside_share;        /* largest share of a stored frame's vertices inside the body */
     double max_inside_share_solver; /* ... of a substep's, before the simulator's projection */

@@ -411,6 +411,7 @@ static cJSON *manifest(const dataset *ds) {
                 if (v->random) {
                     cJSON_AddNumberToObject(o, "seed", (double)v->seed);
                     cJSON_AddNumberToObject(o, "attempts", v->attempts);
+                    if (v->rejected[0]) cJSON_AddStringToObject(o, "rejected", v->rejected);
                 }
                 cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
                 cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
