@@ -301,5 +301,16 @@ CR_TEST(garment_params, jumpsuit) {
         }
     CR_CHECK(shared == 0);
     free(owner);
+    /* The checks are not vacuous: spoilt weights, then a flipped UV
+     * triangle, are refused by name. */
+    g->skin_weight[0] += 0.1f;
+    CR_CHECK(cr_garment_check(g, body, NULL, &err) == CR_ERR_TOPOLOGY);
+    CR_CHECK(strstr(err.msg, "skin weights") != NULL);
+    g->skin_weight[0] -= 0.1f;
+    CR_CHECK_OK(cr_garment_check(g, body, NULL, &err), &err);
+    int32_t *c = &g->mesh->tri_uv[0], keep = c[1];
+    c[1] = c[2], c[2] = keep;
+    CR_CHECK(cr_garment_check(g, body, NULL, &err) == CR_ERR_TOPOLOGY);
+    CR_CHECK(strstr(err.msg, "UVs") != NULL);
     cr_garment_destroy(g);
 }
