@@ -2,8 +2,9 @@
  * cr_garment_params table): the defaults build the very garments the
  * templates built before they had parameters (hashes recorded then), random
  * variants of every type pass the quality checks, out-of-range values are
- * refused naming the key, seeded generation is deterministic, and the
- * jumpsuit has its openings, UVs and weights. */
+ * refused naming the key, seeded generation is deterministic, the
+ * jumpsuit has its openings, UVs and weights, and a long t-shirt passes the
+ * crotch. */
 #include "crease/body.h"
 #include "crease/garment.h"
 #include "crease/topology.h"
@@ -313,4 +314,37 @@ CR_TEST(garment_params, jumpsuit) {
     CR_CHECK(cr_garment_check(g, body, NULL, &err) == CR_ERR_TOPOLOGY);
     CR_CHECK(strstr(err.msg, "UVs") != NULL);
     cr_garment_destroy(g);
+}
+
+/* ------------------------------------------------------------ long shirt -- */
+
+/* A t-shirt at length 1.4 reaches below the crotch as one skirt (the
+ * dress's envelope below the waist): the top's four openings, the hem loop
+ * below the hip joints, every check passed; at length 1 it stays a t-shirt
+ * ending above the crotch. */
+CR_TEST(garment_params, long_shirt) {
+    cr_error err = {0};
+    cr_body_model *body = body64();
+    CR_REQUIRE(body);
+    const float hip = body->joints[3 * CR_JOINT_LEFT_HIP + 1];
+    for (int k = 0; k < 2; k++) {
+        cr_garment_variant v;
+        CR_CHECK_OK(cr_garment_variant_parse(k ? "tshirt:length=1.4:res=1500" : "tshirt:res=1500",
+                                             &v, &err),
+                    &err);
+        cr_garment_template *t = NULL;
+        CR_CHECK_OK(cr_garment_variant_build(&v, body, &t, &err), &err);
+        cr_garment *g = NULL;
+        if (t) CR_CHECK_OK(cr_garment_template_instantiate(t, 1500, body, &g, &err), &err);
+        cr_garment_template_destroy(t);
+        if (!g) continue;
+        CR_CHECK(v.quality.boundary_loops == 4 && v.quality.panels == 6);
+        float lowest = INFINITY;
+        for (int32_t i = 0; i < g->mesh->nv; i++)
+            lowest = fminf(lowest, g->mesh->pos[3 * i + 1]);
+        printf("    tshirt length %.1f: hem at %.3f m, hip joints at %.3f m\n", k ? 1.4 : 1.0,
+               (double)lowest, (double)hip);
+        CR_CHECK(k ? lowest < hip - 0.1f : lowest > hip - 0.03f);
+        cr_garment_destroy(g);
+    }
 }
