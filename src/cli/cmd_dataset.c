@@ -17,7 +17,13 @@ void help_dataset(void) {
            "same command completes an interrupted run. Sequences run in parallel; one that\n"
            "fails is reported and skipped.\n\n"
            "options:\n"
-           "  --garments LIST      tshirt, longsleeve, skirt, dress, trousers, vest (required)\n"
+           "  --garments LIST      tshirt, longsleeve, skirt, dress, trousers, vest, jumpsuit, or\n"
+           "                       variants TYPE:key=value:... (keys: crease garment --help;\n"
+           "                       seed=N draws a random variant, e.g. dress:seed=3,\n"
+           "                       tshirt:length=0.8:sleeve=1.2) (required)\n"
+           "  --garment-variants N each listed garment becomes N random variants\n"
+           "                       GARMENT:seed=S+k, k = 0 .. N-1, S the --seed (at most 64 in\n"
+           "                       all); the manifest gives each one's parameters and spec\n"
            "  --motions LIST       clips (crease motion --list) or .npz/.bvh files (required)\n"
            "  --bodies LIST        mannequin presets: slim, normal, heavy (default normal)\n"
            "  --res LIST           low and/or high (default low)\n"
@@ -41,7 +47,8 @@ void help_dataset(void) {
            "                       or vbd (vertex block descent, no factorisation)\n"
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
            "                       more substeps (default 0.15; 0: always one)\n"
-           "  --seed S             recorded in the manifest (default 1)\n"
+           "  --seed S             recorded in the manifest; the first variant seed of\n"
+           "                       --garment-variants (default 1)\n"
            "  -o DIR               the dataset folder (required)\n"
            "  --quiet              no progress bars\n"
            "  --json               end with a JSON summary on stdout\n\n"
@@ -77,7 +84,7 @@ int cmd_dataset(int argc, char **argv) {
     for (int i = 0; i < 4; i++)
         lists[i].n = 0;
     cr_dataset_def def = cr_dataset_default_def();
-    int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
+    int json = 0, seed = (int)def.seed, npos = 0, step_given = 0, variants = 0;
     cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
     const char *solver = NULL;
@@ -93,6 +100,7 @@ int cmd_dataset(int argc, char **argv) {
         CLI_FLOAT("--fps", &def.fps, 0.01, 1000),
         CLI_STR("--material", &def.material),
         CLI_INT("--seed", &seed, 0, 2147483647L),
+        CLI_INT("--garment-variants", &variants, 1, CR_DATASET_MAX_ITEMS),
         {.name = "--max-collider-step",
          .kind = CLI_OPT_FLOAT,
          .dst = &max_step,
@@ -114,6 +122,26 @@ int cmd_dataset(int argc, char **argv) {
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
+    if (variants > 0) {
+        /* GARMENT -> GARMENT:seed=S, GARMENT:seed=S+1, ... */
+        static char expanded[CR_DATASET_MAX_ITEMS][160];
+        static const char *items[CR_DATASET_MAX_ITEMS];
+        if ((long)lists[0].n * variants > CR_DATASET_MAX_ITEMS)
+            return cli_usage("dataset", "--garment-variants %d of %d garments: at most %d in all",
+                             variants, lists[0].n, CR_DATASET_MAX_ITEMS);
+        int n = 0;
+        for (int g = 0; g < lists[0].n; g++)
+            for (int k = 0; k < variants; k++, n++) {
+                if (strstr(lists[0].items[g], "seed="))
+                    return cli_usage("dataset", "--garment-variants: '%s' already has a seed",
+                                     lists[0].items[g]);
+                snprintf(expanded[n], sizeof expanded[n], "%.120s:seed=%lld", lists[0].items[g],
+                         (long long)seed + k);
+                items[n] = expanded[n];
+            }
+        memcpy(lists[0].items, items, (size_t)n * sizeof items[0]);
+        lists[0].n = n;
+    }
     if (lists[1].n == 0) return cli_usage("dataset", "missing --motions LIST");
     static const char *const normal[] = {"normal"}, *const low[] = {"low"};
     def.garments = lists[0].items, def.ngarments = lists[0].n;
