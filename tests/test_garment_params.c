@@ -80,10 +80,12 @@ CR_TEST(garment_params, defaults_reproduce_old_meshes) {
 
 /* ------------------------------------------------------- random variants -- */
 
-/* Variants per type (the 20) and their vertex count. */
-enum { NVARIANTS = 20, VARIANT_VERTICES = 1000 };
+/* Variants per type and their vertex count: 5 here to keep `make check`
+ * short (about 2 s a type); the issue's 20 per type were measured once
+ * (docs/garments.md) with NVARIANTS = 20. */
+enum { NVARIANTS = 5, VARIANT_VERTICES = 1000 };
 
-/* Every draw of seeds 1..20 of one type passes cr_garment_check at its
+/* Every draw of seeds 1..NVARIANTS of one type passes cr_garment_check at its
  * first attempt (the generator would resample otherwise: counted, must be
  * rare) and lies in the type's sampled ranges. */
 static void random_variants(cr_garment_type type) {
@@ -122,7 +124,7 @@ static void random_variants(cr_garment_type type) {
            "%.1f s (%.1f s CPU)\n",
            cr_garment_type_name(type), NVARIANTS, resampled, (double)worst_angle,
            1000.0 * worst_clear, cr_time_now() - t0, (double)(clock() - c0) / CLOCKS_PER_SEC);
-    CR_CHECK(resampled <= 2);
+    CR_CHECK(resampled <= 1);
 }
 
 CR_TEST(garment_params, random_tshirt) {
