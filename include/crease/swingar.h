@@ -64,6 +64,7 @@ typedef struct cr_swingar_def {
     int zero_last;        /* 1: last layers of the blend, skinning and corrective heads start at
                              zero, so an untrained model is the skinned garment (default 1) */
     float corr_scale;     /* m: the corrective head's tanh output times this (default 0.1) */
+    int affinity;         /* descriptor affinity: 0 geodesic (default), 1 Euclidean (ablation) */
     uint32_t cookie;      /* set by cr_swingar_default_def */
 } cr_swingar_def;
 
@@ -186,16 +187,16 @@ typedef struct cr_swingar_data {
     cr_swingar_sequence *sequences; /* only sequences whose status is "done" */
 } cr_swingar_data;
 
-/* A function that computes the descriptor of a rest mesh (z floats); NULL in
- * cr_swingar_data_load gives zeros. */
-typedef cr_status (*cr_swingar_descriptor_fn)(const cr_mesh *mesh, int32_t z, float *out,
-                                              cr_error *err);
-/* The descriptor the project uses (the spectral descriptor when it is built
- * in; see docs/swingar_model.md), or NULL. */
-cr_swingar_descriptor_fn cr_swingar_default_descriptor(void);
+/* The spectral descriptor (sec. III-B, src/methods/swingar/descriptor.c) of
+ * a rest mesh: z eigenvalues into out. affinity: 0 geodesic (the paper's),
+ * 1 Euclidean (Table I's ablation). CR_ERR_RANGE when z exceeds the vertex
+ * count. */
+cr_status cr_swingar_compute_descriptor(const cr_mesh *mesh, int32_t z, int affinity, float *out,
+                                        cr_error *err);
 
 /* Read a dataset folder (manifest.json). Errors name the file. */
-cr_status cr_swingar_data_load(const char *dir, int32_t z, cr_swingar_descriptor_fn descriptor,
+/* with_descriptor 0: the garments' descriptors stay zero. */
+cr_status cr_swingar_data_load(const char *dir, int32_t z, int with_descriptor, int affinity,
                                cr_swingar_data *out, cr_error *err);
 void cr_swingar_data_free(cr_swingar_data *d);
 
@@ -251,6 +252,8 @@ cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_dat
 /* Save the weights and the def (in the checkpoint's config) / load them. */
 cr_status cr_swingar_save(const char *path, cr_swingar *m, cr_error *err);
 cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err);
+/* The def stored in a model or checkpoint, without its weights. */
+cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err);
 
 /* Predict a whole motion (frames 0..T-1), one frame at a time, without
  * gradients: out (T,V,3) caller-allocated. */

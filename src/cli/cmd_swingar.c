@@ -36,6 +36,7 @@ void help_swingar(void) {
            "  --test-motions A,B     test when all its given axes are held out, train when none\n"
            "  --test-bodies A,B      is, unused otherwise\n"
            "  --no-descriptor        E_a sees zeros (the ablation without the global descriptor)\n"
+           "  --affinity A           geodesic (default, the paper's) or euclidean (ablation)\n"
            "  --seed N               initialisation and shuffling (default 1)\n"
            "  --quiet                no progress bar\n\n"
            "run:\n"
@@ -75,6 +76,7 @@ static int parse_held(const char *cmd, const char *opt, const char *const *v, vo
 }
 
 static const char *const sizes[] = {"paper", "cpu", "tiny", NULL};
+static const char *const affinities[] = {"geodesic", "euclidean", NULL};
 
 static void apply_size(const char *size, cr_swingar_def *d) {
     if (strcmp(size, "cpu") == 0) {
@@ -97,6 +99,7 @@ static int cmd_train(int argc, char **argv) {
         held[i].n = 0;
     cr_swingar_train_def t = cr_swingar_train_default_def();
     const char *dataset = NULL, *out = NULL, *resume = NULL, *size = "paper";
+    const char *affinity = "geodesic";
     int json = 0, no_desc = 0, seed = 1, npos = 0;
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
@@ -113,6 +116,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_CUSTOM("--test-motions", parse_held, &held[1], 1),
         CLI_CUSTOM("--test-bodies", parse_held, &held[2], 1),
         CLI_FLAG("--no-descriptor", &no_desc),
+        CLI_CHOICE("--affinity", &affinity, affinities),
         CLI_INT("--seed", &seed, 0, 2147483647),
         CLI_FLAG("--quiet", &t.quiet),
         CLI_FLAG("--json", &json),
@@ -127,10 +131,13 @@ static int cmd_train(int argc, char **argv) {
     t.seed = (uint64_t)seed;
     t.checkpoint = out;
     t.resume = resume;
+    t.model.affinity = strcmp(affinity, "euclidean") == 0;
     cr_error err = {0};
+    /* a resumed run keeps the checkpoint's widths and descriptor */
+    if (resume && cr_swingar_read_def(resume, &t.model, &err) != CR_OK) return cli_fail(&err);
     cr_swingar_data data;
-    cr_status st = cr_swingar_data_load(dataset, t.model.descriptor_len,
-                                        cr_swingar_default_descriptor(), &data, &err);
+    cr_status st = cr_swingar_data_load(dataset, t.model.descriptor_len, t.model.use_descriptor,
+                                        t.model.affinity, &data, &err);
     if (st != CR_OK) return cli_fail(&err);
     int8_t *is_test = malloc((size_t)data.nsequences);
     if (!is_test) {
@@ -151,8 +158,7 @@ static int cmd_train(int argc, char **argv) {
                 "swingar: %d train / %d test sequences, %lld parameters, %d epochs in %.1f s; "
                 "vertex error %.2f -> %.2f cm%s\n",
                 ntrain, ntest, (long long)r.params, r.epochs_done, r.seconds, 100 * r.first_vert_m,
-                100 * r.last_vert_m,
-                cr_swingar_default_descriptor() ? "" : " (descriptor: zeros, not built in)");
+                100 * r.last_vert_m, t.model.use_descriptor ? "" : " (no descriptor)");
     if (st == CR_OK && json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar train");
@@ -166,9 +172,10 @@ static int cmd_train(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "last_loss", r.last_loss);
         cJSON_AddNumberToObject(j, "first_vert_m", r.first_vert_m);
         cJSON_AddNumberToObject(j, "last_vert_m", r.last_vert_m);
-        cJSON_AddNumberToObject(j, "test_vert_m", r.test_vert_m);
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
-        cJSON_AddBoolToObject(j, "descriptor", cr_swingar_default_descriptor() != NULL);
+        cJSON_AddBoolToObject(j, "descriptor", t.model.use_descriptor);
+        cJSON_AddStringToObject(j, "affinity", t.model.affinity ? "euclidean" : "geodesic");
+        if (r.test_vert_m >= 0) cJSON_AddNumberToObject(j, "test_vert_m", r.test_vert_m);
         cli_json_print(j);
     }
     cr_swingar_destroy(m);
@@ -276,10 +283,10 @@ static int cmd_run(int argc, char **argv) {
                                  pred + (size_t)t * V * 3, &err);
     } else if (st == CR_OK) {
         const cr_swingar_def *d = cr_swingar_get_def(m);
-        cr_swingar_descriptor_fn fn = cr_swingar_default_descriptor();
         desc = calloc((size_t)d->descriptor_len, sizeof(float));
         if (!desc) st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
-        if (st == CR_OK && fn) st = fn(g->mesh, d->descriptor_len, desc, &err);
+        if (st == CR_OK && d->use_descriptor)
+            st = cr_swingar_compute_descriptor(g->mesh, d->descriptor_len, d->affinity, desc, &err);
         if (st == CR_OK)
             st = cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, b, desc,
                                            d->descriptor_len, &sg, &err);

@@ -4,6 +4,8 @@
  * and body. */
 #include "swingar_internal.h"
 
+#include "descriptor.h"
+
 #include "crease/body.h"
 #include "crease/bvh.h"
 #include "crease/diffgeo.h"
@@ -112,8 +114,12 @@ cr_status cr_swingar_garment_create(const cr_mesh *rest, const int32_t *skin_joi
 
 /* --------------------------------------------------------- descriptor -- */
 
-cr_swingar_descriptor_fn cr_swingar_default_descriptor(void) {
-    return NULL;
+cr_status cr_swingar_compute_descriptor(const cr_mesh *mesh, int32_t z, int affinity, float *out,
+                                        cr_error *err) {
+    cr_swingar_descriptor_opts o = cr_swingar_descriptor_default_opts();
+    o.samples = z;
+    o.affinity = affinity ? CR_SWINGAR_AFFINITY_EUCLIDEAN : CR_SWINGAR_AFFINITY_GEODESIC;
+    return cr_swingar_descriptor_full(mesh, &o, out, NULL, err);
 }
 
 /* ------------------------------------------------------------ dataset -- */
@@ -175,7 +181,7 @@ static cr_status load_body(const char *dir, const cJSON *jb, cr_swingar_body *b,
 }
 
 static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar_data *d, int32_t z,
-                              cr_swingar_descriptor_fn descriptor, cr_swingar_garment **out,
+                              int with_descriptor, int affinity, cr_swingar_garment **out,
                               char key[160], cr_error *err) {
     const char *type = jstr(jg, "type"), *body = jstr(jg, "body"), *res = jstr(jg, "res");
     const char *mesh = jstr(jg, "mesh"), *skin = jstr(jg, "skin");
@@ -199,9 +205,9 @@ static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar
     cr_status st = cr_npz_open(path, &zf, err);
     if (st == CR_OK) st = npz_get(zf, path, "skin_joint", CR_NPY_AS_I32, m->nv, 4, &sj, err);
     if (st == CR_OK) st = npz_get(zf, path, "skin_weight", CR_NPY_AS_F32, m->nv, 4, &sw, err);
-    if (st == CR_OK && descriptor) {
+    if (st == CR_OK && with_descriptor) {
         desc = malloc(sizeof(float) * (size_t)z);
-        st = desc ? descriptor(m, z, desc, err)
+        st = desc ? cr_swingar_compute_descriptor(m, z, affinity, desc, err)
                   : CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
     }
     if (st == CR_OK) st = cr_swingar_garment_create(m, sj.i32, sw.f32, bm, desc, z, out, err);
@@ -285,7 +291,7 @@ void cr_swingar_data_free(cr_swingar_data *d) {
     memset(d, 0, sizeof *d);
 }
 
-cr_status cr_swingar_data_load(const char *dir, int32_t z, cr_swingar_descriptor_fn descriptor,
+cr_status cr_swingar_data_load(const char *dir, int32_t z, int with_descriptor, int affinity,
                                cr_swingar_data *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     snprintf(out->dir, sizeof out->dir, "%s", dir);
@@ -315,8 +321,8 @@ cr_status cr_swingar_data_load(const char *dir, int32_t z, cr_swingar_descriptor
         out->nbodies = i + 1;
     }
     for (int i = 0; i < ng && st == CR_OK; i++) {
-        st = load_garment(dir, cJSON_GetArrayItem(jg, i), out, z, descriptor, &out->garments[i],
-                          out->garment_key[i], err);
+        st = load_garment(dir, cJSON_GetArrayItem(jg, i), out, z, with_descriptor, affinity,
+                          &out->garments[i], out->garment_key[i], err);
         if (st == CR_OK) out->ngarments = i + 1;
     }
     for (int i = 0; i < ns && st == CR_OK; i++) {

@@ -67,6 +67,7 @@ cr_status cr_swingar_def_validate(const cr_swingar_def *d, cr_error *err) {
     SWG_CHECK(isfinite(d->alpha) && d->alpha >= 0, "alpha");
     SWG_CHECK(d->norm >= CR_GAT_NORM_NONE && d->norm <= CR_GAT_NORM_RECEIVER, "norm");
     SWG_CHECK(isfinite(d->corr_scale) && d->corr_scale > 0, "corr_scale");
+    SWG_CHECK(d->affinity == 0 || d->affinity == 1, "affinity");
 #undef SWG_CHECK
     /* The element-wise products of the paper fix three pairs of widths. */
     if (d->garment_width[1] != d->motion_hidden)
@@ -255,7 +256,9 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
     cr_tensor *desc = d->use_descriptor
                           ? cr_nn_wrap(ctx, 2, (int64_t[]){1, d->descriptor_len}, g->descriptor)
                           : cr_nn_zeros(ctx, 2, (int64_t[]){1, d->descriptor_len});
-    cr_tensor *s = cr_mlp_forward(ctx, m->shape, desc);
+    /* the eigenvalues sum to about 1 (descriptor.h): times z they are of order 1 */
+    cr_tensor *s =
+        cr_mlp_forward(ctx, m->shape, cr_nn_mul_scalar(ctx, desc, (float)d->descriptor_len));
     cr_tensor *skinmat =
         cr_nn_reshape(ctx, cr_linear_forward(ctx, &m->skin, s), 2, (int64_t[]){d->state_width, J});
     cr_tensor *logw0 = cr_nn_new(ctx, 2, (int64_t[]){V, J});

@@ -166,6 +166,10 @@ static cr_status read_config(const char *path, cr_swingar_def *def, cJSON **trai
     return s;
 }
 
+cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err) {
+    return read_config(path, def, NULL, err);
+}
+
 cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err) {
     *out = NULL;
     cr_swingar_def d;
