@@ -255,11 +255,12 @@ cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err);
 /* The def stored in a model or checkpoint, without its weights. */
 cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err);
 
-/* Predict a whole motion (frames 0..T-1), one frame at a time, without
- * gradients: out (T,V,3) caller-allocated. */
+/* Predict a whole motion (frames 0..T-1) without gradients, `chunk` frames
+ * per forward (0: 8; each forward also recomputes the two coarse frames
+ * before its first): out (T,V,3) caller-allocated. arena_bytes 0: 512 MiB. */
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
-                             const cr_swingar_motion *mo, size_t arena_bytes, float *out,
-                             cr_error *err);
+                             const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
+                             float *out, cr_error *err);
 
 #ifdef __cplusplus
 }

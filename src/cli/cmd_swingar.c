@@ -38,7 +38,8 @@ void help_swingar(void) {
            "  --no-descriptor        E_a sees zeros (the ablation without the global descriptor)\n"
            "  --affinity A           geodesic (default, the paper's) or euclidean (ablation)\n"
            "  --seed N               initialisation and shuffling (default 1)\n"
-           "  --quiet                no progress bar\n\n"
+           "  --quiet                no progress bar\n"
+           "  --arena-mb N           per-step memory of train and run (default 1024)\n\n"
            "run:\n"
            "  --model MODEL          a model written by `swingar train`\n"
            "  --garment G.obj        any garment mesh with UVs, fitted to the body first\n"
@@ -46,6 +47,7 @@ void help_swingar(void) {
            "  --body B               slim, normal (default) or heavy\n"
            "  --frames N             frames of a clip (default 120)\n"
            "  --fps F                frames per second (default 30)\n"
+           "  --chunk K              frames per forward (default 8; memory grows with K)\n"
            "  --skinned              write the garment skinned by its own weights instead (the\n"
            "                         baseline the model improves on)\n"
            "  -o OUT                 OUT/garment.pc2, OUT/garment.glb, OUT/body.pc2,\n"
@@ -100,7 +102,7 @@ static int cmd_train(int argc, char **argv) {
     cr_swingar_train_def t = cr_swingar_train_default_def();
     const char *dataset = NULL, *out = NULL, *resume = NULL, *size = "paper";
     const char *affinity = "geodesic";
-    int json = 0, no_desc = 0, seed = 1, npos = 0;
+    int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024;
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
         CLI_OUTPUT(&out),
@@ -119,6 +121,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_CHOICE("--affinity", &affinity, affinities),
         CLI_INT("--seed", &seed, 0, 2147483647),
         CLI_FLAG("--quiet", &t.quiet),
+        CLI_INT("--arena-mb", &arena_mb, 16, 1 << 20),
         CLI_FLAG("--json", &json),
         CLI_END,
     };
@@ -129,6 +132,7 @@ static int cmd_train(int argc, char **argv) {
     apply_size(size, &t.model);
     t.model.use_descriptor = !no_desc;
     t.seed = (uint64_t)seed;
+    t.arena_bytes = (size_t)arena_mb << 20;
     t.checkpoint = out;
     t.resume = resume;
     t.model.affinity = strcmp(affinity, "euclidean") == 0;
@@ -186,7 +190,7 @@ static int cmd_train(int argc, char **argv) {
 
 typedef struct run_opts {
     const char *model, *garment, *motion, *body, *out;
-    int frames, skinned, json;
+    int frames, skinned, json, arena_mb, chunk;
     float fps;
     cli_motion_file mf;
 } run_opts;
@@ -245,6 +249,8 @@ static int cmd_run(int argc, char **argv) {
         CLI_INT("--frames", &o.frames, 1, 1000000),
         CLI_FLOAT("--fps", &o.fps, 1e-3, 1000),
         CLI_FLAG("--skinned", &o.skinned),
+        CLI_INT("--arena-mb", &o.arena_mb, 16, 1 << 20),
+        CLI_INT("--chunk", &o.chunk, 1, 60),
         CLI_MOTION_FILE_OPTS(&o.mf),
         CLI_OUTPUT(&o.out),
         CLI_FLAG("--json", &o.json),
@@ -291,7 +297,8 @@ static int cmd_run(int argc, char **argv) {
             st = cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, b, desc,
                                            d->descriptor_len, &sg, &err);
         cr_swingar_motion sm = {T, b->joints, mo ? mo->poses : NULL, mo ? mo->trans : NULL};
-        if (st == CR_OK) st = cr_swingar_predict(m, sg, &sm, 0, pred, &err);
+        if (st == CR_OK)
+            st = cr_swingar_predict(m, sg, &sm, (size_t)o.arena_mb << 20, o.chunk, pred, &err);
     }
     double seconds = cr_time_now() - t0;
     if (st == CR_OK) st = write_outputs(&o, g, b, pred, body, T, &err);

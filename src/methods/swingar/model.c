@@ -355,8 +355,10 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
 }
 
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
-                             const cr_swingar_motion *mo, size_t arena_bytes, float *out,
-                             cr_error *err) {
+                             const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
+                             float *out, cr_error *err) {
+    if (chunk <= 0) chunk = SWG_PREDICT_CHUNK;
+    if (chunk > SWG_MAX_WINDOW) chunk = SWG_MAX_WINDOW;
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = arena_bytes ? arena_bytes : (size_t)512 << 20;
     cr_nn_ctx *ctx = NULL;
@@ -364,8 +366,8 @@ cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     const int64_t V = g->rest->nv;
     cr_status st = CR_OK;
-    for (int32_t t0 = 0; t0 < mo->nframes && st == CR_OK; t0 += SWG_PREDICT_CHUNK) {
-        int32_t K = mo->nframes - t0 < SWG_PREDICT_CHUNK ? mo->nframes - t0 : SWG_PREDICT_CHUNK;
+    for (int32_t t0 = 0; t0 < mo->nframes && st == CR_OK; t0 += chunk) {
+        int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
         cr_nn_ctx_reset(ctx);
         cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, t0, K, NULL);
         st = cr_nn_ctx_error(ctx, err);
