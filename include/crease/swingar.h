@@ -200,11 +200,12 @@ cr_status cr_swingar_data_load(const char *dir, int32_t z, int with_descriptor, 
                                cr_swingar_data *out, cr_error *err);
 void cr_swingar_data_free(cr_swingar_data *d);
 
-/* Split: a sequence is test when its garment, motion and body are all in the
- * held-out lists, train when none of them is, and unused otherwise (so no
- * garment, motion or body is shared). Empty lists (n = 0) hold nothing out:
- * every sequence trains. is_test (nsequences) gets 1 test, 0 train, -1
- * unused. Names are manifest names (garment type, motion name, body name). */
+/* Split: a sequence is test when its garment, motion and body are held out
+ * on every axis whose list is given (n > 0), train when none of the three is
+ * held out, and unused otherwise, so no garment, motion or body is shared.
+ * All lists empty: every sequence trains. is_test (nsequences) gets 1 test,
+ * 0 train, -1 unused. Names are the manifest's (garment type, motion name,
+ * body name). */
 void cr_swingar_split(const cr_swingar_data *d, const char *const *garments, int ng,
                       const char *const *motions, int nm, const char *const *bodies, int nb,
                       int8_t *is_test);
@@ -244,8 +245,9 @@ typedef struct cr_swingar_train_result {
     int64_t params;
 } cr_swingar_train_result;
 
-/* Train (or resume) a model on d; on return *model (created here unless
- * resuming into... see docs) holds the weights. The caller destroys it. */
+/* Train a model on d, or continue def->resume (whose model def is used
+ * instead of def->model); *model gets the trained model, which the caller
+ * destroys. def->checkpoint is rewritten after every epoch. */
 cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_data *d,
                            cr_swingar **model, cr_swingar_train_result *res, cr_error *err);
 
