@@ -34,6 +34,9 @@
 
 #include <cblas.h>
 #include <math.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -62,7 +65,17 @@ static cr_status eig_sym(double *a, int n, double *w, int vectors, cr_error *err
     lwork = info == 0 && query > 3 * n ? (int)query : 3 * n;
     double *work = cr_malloc((size_t)lwork * sizeof(double), err);
     if (!work) return CR_ERR_MEMORY;
+#ifdef _OPENMP
+    /* As in phys/energy.c: OpenBLAS's OpenMP build spreads the BLAS calls
+     * inside dsyev over omp_get_max_threads() threads; for z <= 512 one is
+     * faster, and on a loaded machine two were measured 15x slower. */
+    const int team = omp_in_parallel() ? 0 : omp_get_max_threads();
+    if (team > 1) omp_set_num_threads(1);
     dsyev_(jobz, "U", &n, a, &n, w, work, &lwork, &info);
+    if (team > 1) omp_set_num_threads(team);
+#else
+    dsyev_(jobz, "U", &n, a, &n, w, work, &lwork, &info);
+#endif
     free(work);
     if (info != 0)
         return CR_FAIL(err, CR_ERR_DIVERGED,
@@ -234,16 +247,28 @@ static void work_free(work *k) {
     free(k->P);
 }
 
-/* ws: each vertex's area goes to its nearest sample (lowest index on ties). */
-static void voronoi_weights(const work *k, int32_t nv, int32_t z, double *ws) {
+/* ws: each vertex's area goes to its nearest sample (lowest index on ties).
+ * Row by row, so d is read in memory order. */
+static cr_status voronoi_weights(const work *k, int32_t nv, int32_t z, double *ws, cr_error *err) {
+    float *best = cr_malloc((size_t)nv * sizeof(float), err);
+    int32_t *cell = cr_malloc((size_t)nv * sizeof(int32_t), err);
+    if (!best || !cell) {
+        free(best), free(cell);
+        return CR_ERR_MEMORY;
+    }
+    memcpy(best, k->d, (size_t)nv * sizeof(float));
+    memset(cell, 0, (size_t)nv * sizeof(int32_t));
+    for (int32_t a = 1; a < z; a++) {
+        const float *row = &k->d[(size_t)a * nv];
+        for (int32_t i = 0; i < nv; i++)
+            if (row[i] < best[i]) best[i] = row[i], cell[i] = a;
+    }
     for (int32_t a = 0; a < z; a++)
         ws[a] = 0;
-    for (int32_t i = 0; i < nv; i++) {
-        int32_t best = 0;
-        for (int32_t a = 1; a < z; a++)
-            if (k->d[(size_t)a * nv + i] < k->d[(size_t)best * nv + i]) best = a;
-        ws[best] += k->w[i];
-    }
+    for (int32_t i = 0; i < nv; i++)
+        ws[cell[i]] += k->w[i];
+    free(best), free(cell);
+    return CR_OK;
 }
 
 /* f_c(x) = 1/mu_c sum_a K(x, s_a) sqrt(ws_a) v_c[a] for the eigenpairs above
@@ -311,14 +336,14 @@ cr_status cr_swingar_descriptor_full(const cr_mesh *m, const cr_swingar_descript
     if (st == CR_OK) st = distances(m, t, idx, z, k.d, err);
     double sigma = 0;
     if (st == CR_OK) {
-        voronoi_weights(&k, nv, z, k.ws);
-        for (size_t a = 0; a < Z; a++)
+        st = voronoi_weights(&k, nv, z, k.ws, err);
+        for (size_t a = 0; st == CR_OK && a < Z; a++)
             for (size_t b = 0; b < Z; b++)
                 k.dS[a * Z + b] =
                     o->affinity == CR_SWINGAR_AFFINITY_GEODESIC
                         ? 0.5 * ((double)k.d[a * V + idx[b]] + k.d[b * V + idx[a]])
                         : euclid(&m->pos[3 * (size_t)idx[a]], &m->pos[3 * (size_t)idx[b]]);
-        st = median_sigma(k.dS, z, o->sigma_scale, &sigma, err);
+        if (st == CR_OK) st = median_sigma(k.dS, z, o->sigma_scale, &sigma, err);
     }
     if (st == CR_OK) {
         /* The quadrature of the kernel's integral operator on the samples
@@ -329,7 +354,7 @@ cr_status cr_swingar_descriptor_full(const cr_mesh *m, const cr_swingar_descript
                 double dab = k.dS[a * Z + b];
                 k.B[a * Z + b] = sqrt(k.ws[a] * k.ws[b]) * exp(-dab * dab * inv2s2);
             }
-        st = eig_sym(k.B, z, k.mu, 1, err);
+        st = eig_sym(k.B, z, k.mu, extra && extra->eigenvectors, err);
     }
     for (int32_t a = 0; st == CR_OK && a < z; a++)
         eigenvalues[a] = (float)k.mu[z - 1 - a];
