@@ -34,6 +34,8 @@ static const cli_command commands[] = {
      cmd_eval, help_eval},
     {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
      cmd_view, help_view},
+    {"swingar", "train SwinGar's one-model-for-many-garments estimator, or animate a garment",
+     cmd_swingar, help_swingar},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 
