@@ -55,32 +55,10 @@ void help_dataset(void) {
            "Exit code 1 when a sequence failed (the others are written).\n");
 }
 
-enum { MAX_LIST_CHARS = 4096 };
-
-typedef struct list_opt {
-    char buf[MAX_LIST_CHARS];
-    const char *items[CR_DATASET_MAX_ITEMS];
-    int n;
-} list_opt;
-
-/* "a,b,c" (copied into the list's buffer) -> its items. */
-static int parse_list(const char *cmd, const char *opt, const char *const *v, void *dst) {
-    list_opt *l = dst;
-    if (strlen(v[0]) >= MAX_LIST_CHARS) return cli_usage(cmd, "%s: list too long", opt);
-    strcpy(l->buf, v[0]);
-    l->n = 0;
-    for (char *save = NULL, *tok = strtok_r(l->buf, ",", &save); tok;
-         tok = strtok_r(NULL, ",", &save)) {
-        if (l->n == CR_DATASET_MAX_ITEMS)
-            return cli_usage(cmd, "%s: at most %d items", opt, CR_DATASET_MAX_ITEMS);
-        l->items[l->n++] = tok;
-    }
-    if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
-    return CLI_OK;
-}
+_Static_assert(CLI_LIST_MAX_ITEMS == CR_DATASET_MAX_ITEMS, "a list option holds a dataset axis");
 
 int cmd_dataset(int argc, char **argv) {
-    static list_opt lists[4]; /* garments, motions, bodies, res */
+    static cli_list lists[4]; /* garments, motions, bodies, res */
     for (int i = 0; i < 4; i++)
         lists[i].n = 0;
     cr_dataset_def def = cr_dataset_default_def();
@@ -89,10 +67,10 @@ int cmd_dataset(int argc, char **argv) {
     float max_step = 0.0f; /* parsed as a float, as the option always was */
     const char *solver = NULL;
     const cli_opt opts[] = {
-        CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
-        CLI_CUSTOM("--motions", parse_list, &lists[1], 1),
-        CLI_CUSTOM("--bodies", parse_list, &lists[2], 1),
-        CLI_CUSTOM("--res", parse_list, &lists[3], 1),
+        CLI_CUSTOM("--garments", cli_parse_list, &lists[0], 1),
+        CLI_CUSTOM("--motions", cli_parse_list, &lists[1], 1),
+        CLI_CUSTOM("--bodies", cli_parse_list, &lists[2], 1),
+        CLI_CUSTOM("--res", cli_parse_list, &lists[3], 1),
         CLI_OUTPUT(&def.out_dir),
         CLI_INT("--frames", &def.frames, 1, 100000),
         CLI_INT("--low-vertices", &def.low_vertices, 500, 100000),

@@ -55,28 +55,6 @@ void help_swingar(void) {
            "  --json                 end with a JSON summary on stdout\n");
 }
 
-enum { MAX_HELD = 16, MAX_HELD_CHARS = 2048 };
-
-typedef struct held_list {
-    char buf[MAX_HELD_CHARS];
-    const char *items[MAX_HELD];
-    int n;
-} held_list;
-
-static int parse_held(const char *cmd, const char *opt, const char *const *v, void *dst) {
-    held_list *l = dst;
-    if (strlen(v[0]) >= MAX_HELD_CHARS) return cli_usage(cmd, "%s: list too long", opt);
-    strcpy(l->buf, v[0]);
-    l->n = 0;
-    for (char *save = NULL, *tok = strtok_r(l->buf, ",", &save); tok;
-         tok = strtok_r(NULL, ",", &save)) {
-        if (l->n == MAX_HELD) return cli_usage(cmd, "%s: at most %d items", opt, MAX_HELD);
-        l->items[l->n++] = tok;
-    }
-    if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
-    return CLI_OK;
-}
-
 static const char *const sizes[] = {"paper", "cpu", "tiny", NULL};
 static const char *const affinities[] = {"geodesic", "euclidean", NULL};
 
@@ -96,7 +74,7 @@ static void apply_size(const char *size, cr_swingar_def *d) {
 }
 
 static int cmd_train(int argc, char **argv) {
-    static held_list held[3];
+    static cli_list held[3];
     for (int i = 0; i < 3; i++)
         held[i].n = 0;
     cr_swingar_train_def t = cr_swingar_train_default_def();
@@ -114,9 +92,9 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--lr", &t.lr, 1e-8, 1),
         CLI_INT("--stall-epochs", &t.stall_epochs, 1, 1000000),
         CLI_FLOAT("--stall-rel", &t.stall_rel, 0, 1),
-        CLI_CUSTOM("--test-garments", parse_held, &held[0], 1),
-        CLI_CUSTOM("--test-motions", parse_held, &held[1], 1),
-        CLI_CUSTOM("--test-bodies", parse_held, &held[2], 1),
+        CLI_CUSTOM("--test-garments", cli_parse_list, &held[0], 1),
+        CLI_CUSTOM("--test-motions", cli_parse_list, &held[1], 1),
+        CLI_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1),
         CLI_FLAG("--no-descriptor", &no_desc),
         CLI_CHOICE("--affinity", &affinity, affinities),
         CLI_INT("--seed", &seed, 0, 2147483647),
