@@ -215,5 +215,7 @@ int cmd_eval(int argc, char **argv);
 void help_eval(void);
 int cmd_view(int argc, char **argv);
 void help_view(void);
+int cmd_swingar_sdf(int argc, char **argv);
+void help_swingar_sdf(void);
 
 #endif

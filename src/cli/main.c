@@ -34,6 +34,7 @@ static const cli_command commands[] = {
      cmd_eval, help_eval},
     {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
      cmd_view, help_view},
+    {"swingar-sdf", "train or measure SwinGar's body SDF", cmd_swingar_sdf, help_swingar_sdf},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

@@ -176,6 +176,14 @@ typedef struct cr_swingar_sdf_train_result {
 cr_status cr_swingar_sdf_train(const cr_swingar_sdf_train_def *def, cr_swingar_sdf **out,
                                cr_swingar_sdf_train_result *res, cr_error *err);
 
+/* Motions named by a comma-separated list (at most 32): procedural clip
+ * names (clip_frames frames at 30 fps) or motion files (a name with '.' or
+ * '/', cr_motion_load). *out (count) and each motion belong to the caller:
+ * cr_swingar_sdf_motions_free. */
+cr_status cr_swingar_sdf_motions_load(const char *list, int32_t clip_frames, cr_motion ***out,
+                                      int *count, cr_error *err);
+void cr_swingar_sdf_motions_free(cr_motion **m, int count);
+
 /* ------------------------------------------------- collision removal -- */
 
 /* A signed distance field: fills s (N) at x (N,3), m, and, when grad is not
@@ -238,6 +246,50 @@ typedef struct cr_swingar_collide_stats {
 cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *pos,
                                       const cr_topology *topo, const cr_swingar_sdf_source *src,
                                       cr_swingar_collide_stats *stats, cr_error *err);
+
+/* ---------------------------------------------------------- measuring -- */
+
+/* How well and how fast the neural field stands in for the exact one, on
+ * held-out frames: the SDF error near the body, and eq. 10 with both fields
+ * on a garment skinned to each frame (cr_garment_pose), judged by the exact
+ * BVH distance. */
+typedef struct cr_swingar_sdf_measure_def {
+    const char *motions;      /* comma-separated clips or files (default "walk") */
+    const char *shape;        /* mannequin preset (default "normal") */
+    int32_t body_resolution;  /* default 110, as training */
+    int32_t clip_frames;      /* default 90, as training */
+    int32_t first_frame;      /* default 3: between training's every-6th frames */
+    int32_t frame_stride;     /* default 6 */
+    int32_t max_frames;       /* per motion (default 15) */
+    int garment;              /* cr_garment_type (default CR_GARMENT_DRESS) */
+    int32_t garment_vertices; /* default 10000 */
+    float band_m;             /* error band: points with |s| < band_m (default 0.02) */
+    int32_t band_samples;     /* points drawn near the surface per frame (default 4000) */
+    cr_swingar_collide_def collide;
+    uint64_t seed;   /* default 1 */
+    uint32_t cookie; /* set by cr_swingar_sdf_measure_default_def */
+} cr_swingar_sdf_measure_def;
+
+cr_swingar_sdf_measure_def cr_swingar_sdf_measure_default_def(void);
+
+typedef struct cr_swingar_sdf_measure_result {
+    int64_t frames, body_vertices, garment_vertices;
+    int64_t band_points;            /* points within the band, all frames */
+    double err_mean_mm, err_max_mm; /* |S - s| over them */
+    double err_p99_mm;
+    double sign_agree;          /* share of band points with the right sign */
+    double garment_err_mean_mm; /* |S - s| at garment vertices within the band */
+    double garment_err_max_mm;
+    double ratio_before, ratio_neural, ratio_exact; /* % garment vertices inside (exact s < 0) */
+    double missed;       /* share of exactly-inside vertices the net did not flag */
+    double false_alarms; /* vertices the net flagged that were outside, per frame */
+    /* medians over frames, ms */
+    double ms_neural, ms_neural_detect, ms_exact, ms_exact_detect, ms_bvh_refit;
+    double mean_move_neural_mm, mean_move_exact_mm;
+} cr_swingar_sdf_measure_result;
+
+cr_status cr_swingar_sdf_measure(const cr_swingar_sdf_measure_def *def, cr_swingar_sdf *net,
+                                 cr_swingar_sdf_measure_result *res, cr_error *err);
 
 #ifdef __cplusplus
 }

@@ -88,10 +88,33 @@ static cr_status split_list(const char *s, const char *what, char names[][NAME_C
     return CR_OK;
 }
 
-static cr_status load_motion(const cr_swingar_sdf_train_def *d, const char *name, cr_motion **out,
-                             cr_error *err) {
-    if (strchr(name, '.') || strchr(name, '/')) return cr_motion_load(name, out, err);
-    return cr_motion_clip(name, d->clip_frames, 30.0f, out, err);
+cr_status cr_swingar_sdf_motions_load(const char *list, int32_t clip_frames, cr_motion ***out,
+                                      int *count, cr_error *err) {
+    char names[MAX_LIST][NAME_CAP];
+    *out = NULL;
+    *count = 0;
+    int n;
+    CR_TRY(split_list(list, "motion", names, &n, err));
+    cr_motion **m = calloc((size_t)n, sizeof *m);
+    if (!m) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: motions");
+    cr_status st = CR_OK;
+    for (int i = 0; st == CR_OK && i < n; i++)
+        st = strchr(names[i], '.') || strchr(names[i], '/')
+                 ? cr_motion_load(names[i], &m[i], err)
+                 : cr_motion_clip(names[i], clip_frames, 30.0f, &m[i], err);
+    if (st != CR_OK) {
+        cr_swingar_sdf_motions_free(m, n);
+        return st;
+    }
+    *out = m;
+    *count = n;
+    return CR_OK;
+}
+
+void cr_swingar_sdf_motions_free(cr_motion **m, int count) {
+    for (int i = 0; m && i < count; i++)
+        cr_motion_destroy(m[i]);
+    free(m);
 }
 
 static cr_status pool_reserve(sdf_pool *pl, int64_t need, int64_t poses, cr_error *err) {
@@ -201,6 +224,8 @@ typedef struct pose_set {
     cr_body_model **bodies;
     int nbodies;
     int32_t *body_of; /* (count) */
+    cr_motion **motions;
+    int nmotions;
 } pose_set;
 
 static void poses_free(pose_set *ps) {
@@ -208,14 +233,16 @@ static void poses_free(pose_set *ps) {
         free(ps->verts[i]);
     for (int i = 0; i < ps->nbodies; i++)
         cr_body_model_destroy(ps->bodies[i]);
+    cr_swingar_sdf_motions_free(ps->motions, ps->nmotions);
     free(ps->verts), free(ps->cond), free(ps->bodies), free(ps->body_of);
 }
 
 static cr_status build_poses(const cr_swingar_sdf_train_def *d, pose_set *ps, cr_error *err) {
-    char shapes[MAX_LIST][NAME_CAP], motions[MAX_LIST][NAME_CAP];
+    char shapes[MAX_LIST][NAME_CAP];
     int nshape, nmotion;
     CR_TRY(split_list(d->shapes, "shape", shapes, &nshape, err));
-    CR_TRY(split_list(d->motions, "motion", motions, &nmotion, err));
+    CR_TRY(cr_swingar_sdf_motions_load(d->motions, d->clip_frames, &ps->motions, &nmotion, err));
+    ps->nmotions = nmotion;
     ps->bodies = calloc((size_t)nshape, sizeof *ps->bodies);
     if (!ps->bodies) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: bodies");
     int64_t cap = 0;
@@ -228,8 +255,7 @@ static cr_status build_poses(const cr_swingar_sdf_train_def *d, pose_set *ps, cr
         const cr_body_model *body = ps->bodies[b];
         int64_t nv = body->rest->nv;
         for (int mi = 0; mi < nmotion; mi++) {
-            cr_motion *mo = NULL;
-            CR_TRY(load_motion(d, motions[mi], &mo, err));
+            const cr_motion *mo = ps->motions[mi];
             float *seq = NULL;
             cr_status st = cr_body_pose_motion(body, mo, &seq, err);
             for (int32_t f = 0; st == CR_OK && f < mo->nframes; f += d->frame_stride) {
@@ -260,7 +286,6 @@ static cr_status build_poses(const cr_swingar_sdf_train_def *d, pose_set *ps, cr
                 ps->count++;
             }
             free(seq);
-            cr_motion_destroy(mo);
             CR_TRY(st);
         }
     }
