@@ -38,8 +38,9 @@ void help_swingar_sdf(void) {
            "  --shape NAME         mannequin preset (default normal)\n"
            "  --first F            first frame (default 3, between training's every 6th)\n"
            "  --stride K           frame step (default 6); --max-frames N per motion (15)\n"
-           "  --garment TYPE       skinned garment type (default dress)\n"
+           "  --garment TYPE       skinned garment type (default tshirt)\n"
            "  --garment-vertices N garment size (default 10000)\n"
+           "  --lag N              garment skinned N frames behind the body (default 4)\n"
            "  --frames N, --resolution N   as in training (90, 110)\n\n"
            "both: --quiet, --json (a summary on stdout)\n");
 }
@@ -112,7 +113,7 @@ static int train(int argc, char **argv) {
 
 static int measure(int argc, char **argv) {
     cr_swingar_sdf_measure_def d = cr_swingar_sdf_measure_default_def();
-    const char *model = NULL, *garment = "dress";
+    const char *model = NULL, *garment = "tshirt";
     int json = 0, quiet = 0, npos = 0;
     const cli_opt opts[] = {
         CLI_STR("--model", &model),
@@ -123,6 +124,7 @@ static int measure(int argc, char **argv) {
         CLI_INT("--max-frames", &d.max_frames, 1, 100000),
         CLI_STR("--garment", &garment),
         CLI_INT("--garment-vertices", &d.garment_vertices, 500, 100000),
+        CLI_INT("--lag", &d.garment_lag, 0, 100000),
         CLI_INT("--frames", &d.clip_frames, 1, 100000),
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_FLAG("--quiet", &quiet),

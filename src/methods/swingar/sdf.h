@@ -261,10 +261,15 @@ typedef struct cr_swingar_sdf_measure_def {
     int32_t first_frame;      /* default 3: between training's every-6th frames */
     int32_t frame_stride;     /* default 6 */
     int32_t max_frames;       /* per motion (default 15) */
-    int garment;              /* cr_garment_type (default CR_GARMENT_DRESS) */
+    int garment;              /* cr_garment_type (default CR_GARMENT_TSHIRT) */
     int32_t garment_vertices; /* default 10000 */
-    float band_m;             /* error band: points with |s| < band_m (default 0.02) */
-    int32_t band_samples;     /* points drawn near the surface per frame (default 4000) */
+    /* The garment is skinned to the pose garment_lag frames earlier than the
+     * body's (default 4, 0.13 s at 30 fps): skinned to the same pose it never
+     * enters the body, and a lagging garment stands in for a prediction whose
+     * cloth trails the limbs (where a network's collisions come from). */
+    int32_t garment_lag;
+    float band_m;         /* error band: points with |s| < band_m (default 0.02) */
+    int32_t band_samples; /* points drawn near the surface per frame (default 4000) */
     cr_swingar_collide_def collide;
     uint64_t seed;   /* default 1 */
     uint32_t cookie; /* set by cr_swingar_sdf_measure_default_def */

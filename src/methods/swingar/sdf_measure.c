@@ -4,15 +4,16 @@
  *   - the SDF error |S - s| at points near the body (surface + N(0,
  *     (band/2)^2) per axis, kept when |s| < band) and at the garment's
  *     vertices within the band, and the sign agreement;
- *   - eq. 10 on a garment skinned to each frame with the neural field and
- *     with the exact one: the share of vertices inside the body (by the exact
+ *   - eq. 10 on a garment skinned to the pose garment_lag frames earlier
+ *     (a trailing garment, the stand-in for a prediction), with the neural
+ *     field and with the exact one: the share of vertices inside the body (by the exact
  *     distance) before and after, and the time per frame of each removal (the
  *     exact one also needs the posed body's BVH refit, timed on its own).
  * Times are medians over the frames, on the threads the caller allows.
  *
- * Leaves out: predicted garments (the skinned garment stands in for a
- * network's output; its collisions are where skinning pushes cloth into the
- * body: armpits, elbows, a skirt between the legs).
+ * Leaves out: predicted garments (the lagging skinned garment stands in
+ * for a network's output: its collisions are where limbs swing into cloth
+ * that has not followed yet).
  */
 #include "methods/swingar/sdf.h"
 
@@ -25,6 +26,9 @@
 #include <string.h>
 
 static const uint32_t MEASURE_DEF_COOKIE = 0x4d534446u;
+/* A vertex counts as inside when its exact S is below -10 um: one moved
+ * exactly onto the surface may read -1e-7 m from float32 rounding. */
+static const float INSIDE_TOL_M = 1e-5f;
 
 cr_swingar_sdf_measure_def cr_swingar_sdf_measure_default_def(void) {
     return (cr_swingar_sdf_measure_def){.motions = "walk",
@@ -34,8 +38,9 @@ cr_swingar_sdf_measure_def cr_swingar_sdf_measure_default_def(void) {
                                         .first_frame = 3,
                                         .frame_stride = 6,
                                         .max_frames = 15,
-                                        .garment = CR_GARMENT_DRESS,
+                                        .garment = CR_GARMENT_TSHIRT,
                                         .garment_vertices = 10000,
+                                        .garment_lag = 4,
                                         .band_m = 0.02f,
                                         .band_samples = 4000,
                                         .collide = cr_swingar_collide_default_def(),
@@ -67,7 +72,7 @@ static int64_t count_inside(const cr_bvh *bvh, const float *x, int64_t n, float 
     cr_bvh_signed_distance_batch(bvh, x, n, INFINITY, s, NULL, NULL);
     int64_t c = 0;
     for (int64_t i = 0; i < n; i++)
-        c += s[i] < 0;
+        c += s[i] < -INSIDE_TOL_M;
     return c;
 }
 
@@ -84,7 +89,11 @@ static cr_status measure_frame(const cr_swingar_sdf_measure_def *d, cr_swingar_s
     double t0 = cr_time_now();
     CR_TRY(cr_bvh_refit(bvh, b->body, err));
     b->t[4][fi] = cr_time_now() - t0;
-    CR_TRY(cr_garment_pose(g, body, pose, NULL, b->gpos, err));
+    int32_t fg = f > d->garment_lag ? f - d->garment_lag : 0;
+    const float *gpose = &mo->poses[(int64_t)fg * 3 * CR_NJOINTS];
+    /* the lag is in the joint rotations only: the garment keeps up with the
+     * root translation (removed from both) */
+    CR_TRY(cr_garment_pose(g, body, gpose, NULL, b->gpos, err));
     float cond[CR_SWINGAR_SDF_COND_DIM];
     cr_swingar_sdf_condition(md, pose, cond);
 
@@ -109,7 +118,7 @@ static cr_status measure_frame(const cr_swingar_sdf_measure_def *d, cr_swingar_s
     int64_t before = count_inside(bvh, b->gpos, ng, b->gs);
     CR_TRY(cr_swingar_sdf_eval(net, b->gpos, ng, cond, b->gs_net, NULL, err));
     for (int64_t i = 0; i < ng; i++) {
-        int in = b->gs[i] < 0, flagged = b->gs_net[i] < 0;
+        int in = b->gs[i] < -INSIDE_TOL_M, flagged = b->gs_net[i] < 0;
         if (in && !flagged) res->missed += 1;
         if (!in && flagged) res->false_alarms += 1;
         if (fabsf(b->gs[i]) < d->band_m) {
@@ -232,10 +241,11 @@ cr_status cr_swingar_sdf_measure(const cr_swingar_sdf_measure_def *d, cr_swingar
         return CR_FAIL(err, CR_ERR_INVALID,
                        "swingar sdf-measure: the model has no body conditioning (cond_dim %d)",
                        cr_swingar_sdf_get_def(net)->cond_dim);
-    if (d->first_frame < 0 || d->frame_stride < 1 || d->max_frames < 1 || d->band_samples < 0 ||
-        !(d->band_m > 0))
+    if (d->first_frame < 0 || d->garment_lag < 0 || d->frame_stride < 1 || d->max_frames < 1 ||
+        d->band_samples < 0 || !(d->band_m > 0))
         return CR_FAIL(err, CR_ERR_INVALID,
-                       "swingar sdf-measure: need first_frame >= 0, frame_stride, max_frames >= 1, "
+                       "swingar sdf-measure: need first_frame, garment_lag >= 0, frame_stride, "
+                       "max_frames >= 1, "
                        "band_samples >= 0, band_m > 0");
     cr_mannequin_def md = cr_mannequin_default_def();
     CR_TRY(cr_mannequin_preset(d->shape, &md, err));
