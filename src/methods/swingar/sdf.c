@@ -84,9 +84,9 @@ static cr_status add_layer(cr_nn_params *p, const char *prefix, int i, int64_t o
 
 /* SAL's geometric initialisation: hidden weights N(0, sqrt(2/out)), zero
  * biases, the last layer N(sqrt(pi/W), 1e-4) with bias -r, which makes a
- * ReLU-like net approximate |x~| - r. The residual skips make the output
- * scale differ from 1 (about 1.5), so the last layer is then rescaled by the
- * measured mean output on the unit sphere. The fusion block of the body
+ * ReLU-like net approximate |x~| - r. The residual skips change the output
+ * scale, so the last layer is then rescaled by the measured mean output on
+ * the unit sphere. The fusion block of the body
  * branch starts at zero, so the untrained field is the same sphere for every
  * pose and the body branch is learned from there. */
 static cr_status init_weights(cr_swingar_sdf *net, cr_error *err) {
@@ -265,6 +265,10 @@ cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_
 cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, const float *cond,
                               float *s, float *grad, cr_error *err) {
     const cr_swingar_sdf_def *d = &net->def;
+    if (d->cond_dim > 0 && !cond)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "swingar sdf: the model takes a conditioning vector of %d, got none",
+                       d->cond_dim);
     cr_nn_ctx *ctx = net->ctx;
     int was = cr_nn_ctx_grad_enabled(ctx);
     cr_nn_ctx_set_grad_enabled(ctx, 0);
