@@ -66,6 +66,11 @@ static cr_swingar_sdf *fit_sphere(int steps) {
     CR_CHECK_OK(cr_nn_ctx_create(&cd, &ctx, &err), &err);
     cr_rng rng = cr_rng_make(7, 0);
     float x[3 * SPHERE_BATCH], s[SPHERE_BATCH], n[3 * SPHERE_BATCH];
+    /* the tangents of this small net, (256,3,32), sit just above the engine's
+     * parallel threshold, where waking OpenMP threads costs more than the
+     * work: on a loaded machine 800 steps took minutes instead of seconds */
+    int threads = cr_thread_count();
+    cr_set_thread_count(1);
     for (int it = 0; ctx && opt && it < steps; it++) {
         sphere_batch(&rng, x, s, n);
         cr_nn_ctx_reset(ctx);
@@ -77,6 +82,7 @@ static cr_swingar_sdf *fit_sphere(int steps) {
         CR_CHECK_OK(cr_nn_backward(ctx, loss, &err), &err);
         CR_CHECK_OK(cr_optim_step(opt, &err), &err);
     }
+    cr_set_thread_count(threads);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);
     return net;
