@@ -227,5 +227,7 @@ int cmd_view(int argc, char **argv);
 void help_view(void);
 int cmd_swingar(int argc, char **argv);
 void help_swingar(void);
+int cmd_swingar_sdf(int argc, char **argv);
+void help_swingar_sdf(void);
 
 #endif

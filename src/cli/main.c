@@ -36,6 +36,7 @@ static const cli_command commands[] = {
      cmd_view, help_view},
     {"swingar", "train SwinGar's one-model-for-many-garments estimator, or animate a garment",
      cmd_swingar, help_swingar},
+    {"swingar-sdf", "train or measure SwinGar's body SDF", cmd_swingar_sdf, help_swingar_sdf},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 
