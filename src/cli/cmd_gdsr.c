@@ -1,0 +1,281 @@
+/* cmd_gdsr.c: `crease gdsr train|run`: garment dynamic super-resolution
+ * (paper 001, docs/gdsr.md): train on low/high pairs of a `crease dataset`
+ * folder, or roll a trained model out on a clip and measure it, with
+ * barycentric upsampling and GDSR(-d) in the same table. */
+#include "cli.h"
+#include "crease/eval.h"
+#include "crease/gdsr.h"
+#include "crease/mesh_io.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void help_gdsr(void) {
+    printf(
+        "usage: crease gdsr train --dataset DIR --motions M1,M2 -o OUT [options]\n"
+        "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n\n"
+        "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
+        "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
+        "common:\n"
+        "  --dataset DIR        a `crease dataset` folder with --res low,high\n"
+        "  --garment G          garment type (default tshirt)\n"
+        "  --body B             body preset (default normal)\n"
+        "  --quiet              no progress\n"
+        "  --json               end with a JSON summary on stdout\n"
+        "train:\n"
+        "  --motions LIST       training clips\n"
+        "  --epochs N           (default 20)\n"
+        "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
+        "  --halve-every N      N epochs (default 50)\n"
+        "  --noise M            input noise, m (default 0.003)\n"
+        "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.1)\n"
+        "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
+        "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
+        "  --latent N --steps N --wire-width N   model sizes\n"
+        "  --seed S             (default 1)\n"
+        "  --resume             continue from OUT/checkpoint.safetensors\n"
+        "  --checkpoint-every N epochs (default 5)\n"
+        "  -o OUT               model.safetensors, checkpoint.safetensors, log.jsonl\n"
+        "run:\n"
+        "  --model F            a model.safetensors from gdsr train\n"
+        "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
+        "  --motion M           the clip to super-resolve\n"
+        "  --eps E              collision margin, m (default 0.002)\n"
+        "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
+        "                       high.obj, summary.json\n");
+}
+
+static int split(char *s, const char **out, int cap) {
+    int n = 0;
+    for (char *t = strtok(s, ","); t && n < cap; t = strtok(NULL, ","))
+        out[n++] = t;
+    return n;
+}
+
+static int cmd_train(int argc, char **argv) {
+    const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motions = NULL;
+    int quiet = 0, json = 0, nodec = 0, paper = 0, latent = 0, steps = -1, wirew = 0, seed = 1;
+    cr_gdsr_train_def def = cr_gdsr_train_default_def();
+    const cli_opt opts[] = {
+        CLI_STR("--dataset", &dataset),
+        CLI_STR("--garment", &garment),
+        CLI_STR("--body", &body),
+        CLI_STR("--motions", &motions),
+        CLI_INT("--epochs", &def.epochs, 1, 100000),
+        CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
+        CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
+        CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
+        CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
+        CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
+        CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
+        CLI_FLAG("--no-decoder", &nodec),
+        CLI_FLAG("--paper-sizes", &paper),
+        CLI_INT("--latent", &latent, 4, 1024),
+        CLI_INT("--steps", &steps, 0, 32),
+        CLI_INT("--wire-width", &wirew, 2, 256),
+        CLI_INT("--seed", &seed, 0, 1000000000),
+        CLI_FLAG("--resume", &def.resume),
+        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000),
+        CLI_OUTPUT(&def.out_dir),
+        CLI_FLAG("--quiet", &quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int npos = 0;
+    int rc = cli_parse("gdsr train", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!dataset) return cli_usage("gdsr train", "missing --dataset DIR");
+    if (!motions) return cli_usage("gdsr train", "missing --motions LIST");
+    if (!def.out_dir) return cli_usage("gdsr train", "missing -o OUT");
+    if (paper) def.model = cr_gdsr_model_paper_def();
+    if (latent) def.model.latent = latent;
+    if (steps >= 0) def.model.steps = steps;
+    if (wirew) def.model.wire_width = wirew;
+    def.model.use_decoder = !nodec;
+    def.model.seed = (uint64_t)seed;
+    def.quiet = quiet;
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", motions);
+    const char *ms[CR_GDSR_MAX_CLIPS];
+    int nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
+    cr_error err = {0};
+    cr_gdsr_data d;
+    if (cr_gdsr_data_load(dataset, garment, body, ms, nm, &d, &err) != CR_OK) return cli_fail(&err);
+    cr_gdsr_train_result r;
+    cr_status st = cr_gdsr_train(&def, &d, &r, &err);
+    int vl = d.low->nv, vh = d.high->nv;
+    cr_gdsr_data_free(&d);
+    if (st != CR_OK) return cli_fail(&err);
+    fprintf(stderr,
+            "gdsr train: %lld parameters, %d -> %d vertices, epochs %d..%d, loss %.4g -> %.4g "
+            "(coarse %.3g m, fine %.3g m, normal %.3g), %.1f s\n  %s/model.safetensors\n",
+            (long long)r.params, vl, vh, r.resumed_from, r.epochs, r.first_loss, r.last_loss,
+            r.last_coarse, r.last_fine, r.last_normal, r.seconds, def.out_dir);
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "gdsr train");
+        cJSON_AddNumberToObject(j, "params", (double)r.params);
+        cJSON_AddNumberToObject(j, "low_vertices", vl);
+        cJSON_AddNumberToObject(j, "high_vertices", vh);
+        cJSON_AddNumberToObject(j, "epochs", r.epochs);
+        cJSON_AddNumberToObject(j, "resumed_from", r.resumed_from);
+        cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
+        cJSON_AddNumberToObject(j, "loss", r.last_loss);
+        cJSON_AddNumberToObject(j, "coarse_l1_m", r.last_coarse);
+        cJSON_AddNumberToObject(j, "fine_l1_m", r.last_fine);
+        cJSON_AddNumberToObject(j, "normal_l1", r.last_normal);
+        cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cli_json_print(j);
+    }
+    return CLI_OK;
+}
+
+static const cr_eval_metric shown[] = {
+    CR_EVAL_MED, CR_EVAL_NORMAL_ANGLE, CR_EVAL_SSIM,           CR_EVAL_E_U,
+    CR_EVAL_E_V, CR_EVAL_E_UV,         CR_EVAL_COLLISION_RATIO};
+enum { NSHOWN = sizeof shown / sizeof shown[0] };
+
+static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const float *pred,
+                         const char *name, cJSON *table, cr_error *err) {
+    cr_eval_def ed = cr_eval_default_def();
+    /* frames 2.. (the model starts at frame 2) */
+    int64_t nh3 = (int64_t)d->high->nv * 3;
+    cr_eval_input in = {.garment = d->high,
+                        .nframes = cl->nframes - 2,
+                        .pred = pred + 2 * nh3,
+                        .ref = cl->high + 2 * nh3,
+                        .body_mesh = d->body,
+                        .body = cl->body + (int64_t)2 * d->body->nv * 3,
+                        .body_nframes = cl->nframes - 2,
+                        .pred_name = name};
+    cr_eval_result r = {0};
+    CR_TRY(cr_eval_run(&ed, &in, &r, err));
+    cJSON *o = cJSON_AddObjectToObject(table, name);
+    fprintf(stderr, "  %-10s", name);
+    for (int k = 0; k < NSHOWN; k++) {
+        double v = r.summary[shown[k]].mean;
+        cJSON_AddNumberToObject(o, cr_eval_metric_name(shown[k]), v);
+        fprintf(stderr, " %11.4g", v);
+    }
+    if (r.has_spectrum) {
+        cJSON_AddNumberToObject(o, "h_band_high_pred", r.h_band_pred[CR_EVAL_H_BANDS - 1]);
+        cJSON_AddNumberToObject(o, "h_band_high_ref", r.h_band_ref[CR_EVAL_H_BANDS - 1]);
+        fprintf(stderr, " %11.4g %11.4g", r.h_band_pred[CR_EVAL_H_BANDS - 1],
+                r.h_band_ref[CR_EVAL_H_BANDS - 1]);
+    }
+    fprintf(stderr, "\n");
+    cr_eval_result_free(&r);
+    return CR_OK;
+}
+
+static int cmd_run(int argc, char **argv) {
+    const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
+    const char *model = NULL, *baseline = NULL, *out = NULL;
+    float eps = 0.002f;
+    int quiet = 0, json = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--dataset", &dataset),
+        CLI_STR("--garment", &garment),
+        CLI_STR("--body", &body),
+        CLI_STR("--motion", &motion),
+        CLI_STR("--model", &model),
+        CLI_STR("--baseline-model", &baseline),
+        CLI_FLOAT("--eps", &eps, 0, 0.05),
+        CLI_OUTPUT(&out),
+        CLI_FLAG("--quiet", &quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int npos = 0;
+    int rc = cli_parse("gdsr run", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!dataset || !motion || !model || !out)
+        return cli_usage("gdsr run", "needs --dataset, --motion, --model and -o");
+    cr_error err = {0};
+    cr_gdsr_data d;
+    if (cr_gdsr_data_load(dataset, garment, body, &motion, 1, &d, &err) != CR_OK)
+        return cli_fail(&err);
+    cr_gdsr_model *m = NULL, *mb = NULL;
+    cr_gdsr_rollout_result r = {0}, rb = {0};
+    cJSON *j = cJSON_CreateObject();
+    cJSON *table = NULL;
+    char path[1100];
+    int status = CLI_BAD_INPUT;
+    const cr_gdsr_clip *cl = &d.clip[0];
+    if (cr_mkdir_p(out, &err) != CR_OK) goto done;
+    if (cr_gdsr_model_load(model, &m, &err) != CR_OK) goto done;
+    if (cr_gdsr_rollout(m, &d, 0, eps, &r, &err) != CR_OK) goto done;
+    if (baseline && (cr_gdsr_model_load(baseline, &mb, &err) != CR_OK ||
+                     cr_gdsr_rollout(mb, &d, 0, eps, &rb, &err) != CR_OK))
+        goto done;
+    struct {
+        const char *name;
+        const float *x;
+    } outs[] = {{"gdsr", r.gdsr},
+                {"gdsr_raw", r.gdsr_raw},
+                {"upsampled", r.upsampled},
+                {"reference", cl->high},
+                {"gdsr_nodec", rb.gdsr}};
+    for (int k = 0; k < 5; k++) {
+        if (!outs[k].x) continue;
+        snprintf(path, sizeof path, "%s/%s.pc2", out, outs[k].name);
+        if (cr_pc2_write(path, outs[k].x, d.high->nv, cl->nframes, 0, 1, &err) != CR_OK) goto done;
+    }
+    snprintf(path, sizeof path, "%s/high.obj", out);
+    if (cr_obj_write(path, d.high, &err) != CR_OK) goto done;
+    snprintf(path, sizeof path, "%s/body.pc2", out);
+    if (cr_pc2_write(path, cl->body, d.body->nv, cl->nframes, 0, 1, &err) != CR_OK) goto done;
+    snprintf(path, sizeof path, "%s/body.obj", out);
+    if (cr_obj_write(path, d.body, &err) != CR_OK) goto done;
+    fprintf(stderr,
+            "gdsr run %s: %d frames, %d -> %d vertices, %.4f s per frame (gdsr + handling); "
+            "inside the body: %.3f %% before handling, %.3f %% after\n",
+            motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame, 100 * r.inside_before,
+            100 * r.inside_after);
+    fprintf(stderr, "  %-10s", "");
+    for (int k = 0; k < NSHOWN; k++)
+        fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
+    fprintf(stderr, " %11s %11s\n", "hband_pred", "hband_ref");
+    table = cJSON_AddObjectToObject(j, "metrics");
+    if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
+    if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
+    if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+    cJSON_AddStringToObject(j, "command", "gdsr run");
+    cJSON_AddStringToObject(j, "motion", motion);
+    cJSON_AddNumberToObject(j, "frames", cl->nframes);
+    cJSON_AddNumberToObject(j, "low_vertices", d.low->nv);
+    cJSON_AddNumberToObject(j, "high_vertices", d.high->nv);
+    cJSON_AddNumberToObject(j, "seconds_per_frame", r.seconds_per_frame);
+    cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
+    cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
+    {
+        char *s = cJSON_Print(j);
+        snprintf(path, sizeof path, "%s/summary.json", out);
+        FILE *f = fopen(path, "w");
+        if (f && s) fputs(s, f);
+        if (f) fclose(f);
+        free(s);
+    }
+    if (json) {
+        cli_json_print(j);
+        j = NULL;
+    }
+    status = CLI_OK;
+done:
+    if (status != CLI_OK) cli_fail(&err);
+    cJSON_Delete(j);
+    cr_gdsr_rollout_free(&r);
+    cr_gdsr_rollout_free(&rb);
+    cr_gdsr_model_destroy(m);
+    cr_gdsr_model_destroy(mb);
+    cr_gdsr_data_free(&d);
+    return status;
+}
+
+int cmd_gdsr(int argc, char **argv) {
+    if (argc < 2) return cli_usage("gdsr", "missing a subcommand: train or run");
+    if (strcmp(argv[1], "train") == 0) return cmd_train(argc - 1, argv + 1);
+    if (strcmp(argv[1], "run") == 0) return cmd_run(argc - 1, argv + 1);
+    return cli_usage("gdsr", "unknown subcommand '%s' (train, run)", argv[1]);
+}
