@@ -167,7 +167,7 @@ typedef struct cr_gdsr_train_def {
     float noise_m;        /* Gaussian noise on the input C (paper 0.003 m) */
     float w_coarse;       /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
     float w_fine;         /* L1 of the high garment - reference (default 1) */
-    float w_normal;       /* high-resolution face-normal L1 (Eq. 14-style) (default 0.1) */
+    float w_normal;       /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
     int checkpoint_every; /* epochs between checkpoints (default 5; 0: at the end) */
     int resume;           /* 1: continue from <out>/checkpoint.safetensors */
     const char *out_dir;  /* checkpoint.safetensors, log.jsonl, model.safetensors */

@@ -29,7 +29,7 @@ void help_gdsr(void) {
         "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
         "  --halve-every N      N epochs (default 50)\n"
         "  --noise M            input noise, m (default 0.003)\n"
-        "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.1)\n"
+        "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
         "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
         "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
         "  --latent N --steps N --wire-width N   model sizes\n"
@@ -240,6 +240,7 @@ static int cmd_run(int argc, char **argv) {
     table = cJSON_AddObjectToObject(j, "metrics");
     if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
     if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
+    if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
     if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
     cJSON_AddStringToObject(j, "command", "gdsr run");
     cJSON_AddStringToObject(j, "motion", motion);

@@ -23,7 +23,7 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .noise_m = 0.003f,
                            .w_coarse = 1.0f,
                            .w_fine = 1.0f,
-                           .w_normal = 0.1f,
+                           .w_normal = 0.01f,
                            .checkpoint_every = 5,
                            .cookie = CR_GDSR_COOKIE};
     return d;
@@ -394,8 +394,8 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         if (t < 2) { /* no history yet: the upsampled input */
             memcpy(raw, up, (size_t)nh3 * sizeof(float));
             memcpy(fin, up, (size_t)nh3 * sizeof(float));
-            int64_t in = push_out(bv, fin, Vh, 0.0f, sd, nrm, NULL);
-            (void)in;
+            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
             continue;
         }
         double t0 = cr_time_now();
@@ -419,6 +419,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         for (int64_t i = 0; i < nh3; i++)
             fin[i] += hpush[i];
         push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+        push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL); /* concave spots: once more */
         tsum += cr_time_now() - t0;
         tcount++;
         for (int64_t i = 0; i < nh3; i++)
