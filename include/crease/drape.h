@@ -64,6 +64,7 @@
 #include "crease/eval.h"
 #include "crease/mesh.h"
 #include "crease/nn.h"
+#include "crease/phys_energies.h"
 #include "crease/uvlookup.h"
 
 #ifdef __cplusplus
@@ -99,10 +100,8 @@ const char *cr_drape_scene_name(cr_drape_scene s);
 /* Accepts the four named scenes (not "object": that is --object FILE). */
 cr_status cr_drape_scene_parse(const char *name, cr_drape_scene *out, cr_error *err);
 
-typedef enum cr_drape_collision_mode {
-    CR_DRAPE_COLLIDE_VERTEX = 0, /* eq. 26: nearest object vertex and its normal */
-    CR_DRAPE_COLLIDE_SDF         /* signed distance to the surface (BVH, pseudo-normals) */
-} cr_drape_collision_mode;
+/* cr_drape_collision_mode (CR_DRAPE_COLLIDE_VERTEX, _SDF): phys_energies.h, with the
+ * collision energy. */
 
 /* Loss weights (Table 4). */
 typedef struct cr_drape_weights {
@@ -126,8 +125,10 @@ typedef struct cr_drape_def {
     cr_drape_variant variant;
 
     /* scene */
-    float cloth_size; /* m, side of the square cloth (default 1) */
-    float gap;        /* m, height of the square cloth above the object's top (default 0.05) */
+    float cloth_size; /* m, side of the square cloth; 0 (the default): from the object,
+                         cr_drape_cloth_placement */
+    float gap;        /* m, drop height of the square cloth above the object's top; < 0 (the
+                         default): from the cloth's size */
     int mesh_res;     /* vertices per side of the mesh variants' grid (default 128) */
 
     /* losses */
@@ -205,9 +206,20 @@ typedef struct cr_drape_result {
     cr_drape_terms terms;     /* last evaluation on the fixed structures */
     cr_drape_terms initial;   /* first evaluation (the flat start of a fresh run) */
     double max_penetration_m; /* deepest output vertex inside the object (signed distance) */
+    double cloth_size_m;      /* side of the square cloth used, m (0: a user's cloth) */
+    double drop_height_m;     /* its height above the object's top at the start, m */
     char obj_path[1024], glb_path[1024], png_path[1024], loss_png[1024], log_path[1024],
         sampler_png[1024], checkpoint_path[1024]; /* written files; "" when not written */
 } cr_drape_result;
+
+/* The square cloth's side and drop height for def on an object whose
+ * bounding box is lo..hi (Y up). Given values win. Otherwise the side is 1 m
+ * on the built-in scenes (Table 4's cloth; the ball's 0.6 m diameter is 3/5
+ * of it) and 5/3 of the object's larger horizontal extent on a user's object,
+ * so a sphere of any size is covered as the ball is; the drop height is 5 %
+ * of the side (the ball's 5 cm). */
+void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const float hi[3],
+                              float *size, float *drop_height);
 
 /* Train, evaluate and (with out_dir) write: drape.obj and drape.glb (the
  * surface at out_res, the object alongside in object.obj), drape.png (cloth
@@ -278,26 +290,9 @@ extern const int32_t cr_drape_struct_hinges[CR_DRAPE_STRUCT_HINGES][4];
  * E = C + A - B, F = A + B - C. Every vertex lies within 2s/sqrt(3) of the centre. */
 void cr_drape_structures(const float *centre, const float *theta, int64_t n, float side, float *uv);
 
-/* ------------------------------------------------------ the loss ops -- */
-
-/* Fused tape ops with analytic backward (double inside). x (P,3) are
- * positions in m. Each returns per-element values (not yet weighted); index
- * arrays are copied into the step, so the caller may reuse them.
- *
- * strain: edges (E,2) into x, rest lengths (E) > 0 -> (E) ((|xi - xj| - L) / L)^2 (eq. 19).
- * bend: hinges (H,4) -> (H) |nA - nB|^2, nA the unit normal of (x0,x1,x2), nB of
- *   (x1,x0,x3) (eq. 22); a degenerate face gives 0 and no gradient.
- * gravity: (P) mass g y (eq. 24 per point, height along +Y).
- * collision: (P) min(s - eps, 0)^2 (eq. 26) with s = (x - v) . n_v for the nearest object
- *   vertex v (CR_DRAPE_COLLIDE_VERTEX), or s the signed distance (CR_DRAPE_COLLIDE_SDF).
- *   Points outside the object's bounding box grown by eps skip the search (value 0).
- *   The BVH must outlive the step. */
-cr_tensor *cr_drape_strain(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *edges, const float *rest,
-                           int64_t ne);
-cr_tensor *cr_drape_bend(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *hinges, int64_t nh);
-cr_tensor *cr_drape_gravity(cr_nn_ctx *ctx, cr_tensor *x, float mass, float g);
-cr_tensor *cr_drape_collision(cr_nn_ctx *ctx, cr_tensor *x, const cr_bvh *object,
-                              cr_drape_collision_mode mode, float eps);
+/* The four losses are energies of phys/ (phys_energies.h: cr_drape_strain,
+ * cr_drape_bend, cr_drape_gravity, cr_drape_collision), on the tape through
+ * cr_loss_energy (losses.h). */
 
 /* ------------------------------------------------------------- model -- */
 
