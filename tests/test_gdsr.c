@@ -1,11 +1,15 @@
 /* test_gdsr.c: gdsr's features (Eq. 2-5), the decoder's rotation
  * equivariance, the hyper-net's WIRE field, training lowering its loss and
- * bit-exact resume. */
+ * bit-exact resume, the untrained model being upsampling, the regularisers
+ * (values against crease eval, gradients against finite differences). */
+#include "crease/eval.h"
 #include "crease/gdsr.h"
+#include "crease/losses.h"
 #include "crease/mesh_io.h"
 #include "crease/nn_optim.h"
 #include "crease/primitives.h"
 #include "methods/gdsr/gdsr_internal.h"
+#include "nn_gradcheck.h"
 #include "test.h"
 
 #include <math.h>
@@ -253,6 +257,7 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     cr_error err = {0};
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
     def.model = tiny_def();
+    def.model.out_scale = 1.0f; /* 48 steps: the unscaled outputs' fast pace */
     def.epochs = 8;
     def.lr = 3e-3f;
     def.noise_m = 0.0005f;
@@ -316,5 +321,137 @@ CR_TEST(gdsr, resume_is_bit_exact) {
     snprintf(pa, sizeof pa, "%s/model.safetensors", a);
     snprintf(pb, sizeof pb, "%s/model.safetensors", b);
     CR_CHECK(files_equal(pa, pb));
+    cr_gdsr_data_free(&d);
+}
+
+CR_TEST(gdsr, untrained_model_is_upsampling) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    cr_gdsr_model *m = NULL;
+    cr_gdsr_model_def def = tiny_def();
+    CR_CHECK_OK(cr_gdsr_model_create(&def, &m, &err), &err);
+    cr_gdsr_rollout_result r;
+    CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, &r, &err), &err);
+    double worst = 0;
+    for (int64_t i = 0; i < (int64_t)r.nframes * r.nv_high * 3; i++)
+        worst = fmax(worst, fabs((double)r.gdsr_raw[i] - r.upsampled[i]));
+    CR_CHECK(worst < 1e-6); /* E and A's last layers start at zero */
+    cr_gdsr_rollout_free(&r);
+    cr_gdsr_model_destroy(m);
+    cr_gdsr_data_free(&d);
+}
+
+/* The 9x9 sheet of tiny_data, deformed: stretched, sheared and waved. */
+static void deform(const cr_mesh *hi, float *x, float amp) {
+    for (int32_t i = 0; i < hi->nv; i++) {
+        const float *p = hi->pos + 3 * i;
+        x[3 * i] = 1.1f * p[0] + 0.05f * p[2];
+        x[3 * i + 1] = p[1] + amp * sinf(9 * p[0]) * cosf(7 * p[2]);
+        x[3 * i + 2] = 0.95f * p[2];
+    }
+}
+
+CR_TEST(gdsr, regularisers_are_eval_strains_and_vanish_at_the_reference) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_reg reg;
+    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
+    float *x = malloc((size_t)hi->nv * 3 * sizeof(float));
+    float *ref = malloc((size_t)hi->nv * 3 * sizeof(float));
+    deform(hi, x, 0.01f);
+    /* stretch and shear against crease eval's e_u + e_v and e_uv (equal
+     * triangle areas: the area-weighted mean is the plain one) */
+    cr_eval_def ed = cr_eval_default_def();
+    ed.ssim_side = 16;
+    cr_eval_input in = {.garment = hi, .nframes = 1, .pred = x, .ref = x};
+    cr_eval_result er = {0};
+    CR_CHECK_OK(cr_eval_run(&ed, &in, &er, &err), &err);
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = (size_t)16 << 20;
+    cr_nn_ctx *ctx = NULL;
+    CR_REQUIRE(cr_nn_ctx_create(&cd, &ctx, &err) == CR_OK);
+    cr_tensor *t[4];
+    cr_tensor *X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
+    cr_gdsr_reg_terms(ctx, &reg, X, x, &t[0], &t[1], &t[2], &t[3]);
+    double eu = er.summary[CR_EVAL_E_U].mean + er.summary[CR_EVAL_E_V].mean;
+    double euv = er.summary[CR_EVAL_E_UV].mean;
+    CR_CHECK(eu > 1e-3 && euv > 1e-4);
+    CR_CHECK_NEAR(t[0]->data[0], eu, 1e-3 * eu);
+    CR_CHECK_NEAR(t[1]->data[0], euv, 1e-3 * euv);
+    CR_CHECK(t[2]->data[0] < 1e-12f && t[3]->data[0] == 0.0f); /* x is the reference */
+    /* one vertex moved by delta: the Laplacian's L1 is delta (1 + sum 1/deg_j) / 3V */
+    memcpy(ref, x, (size_t)hi->nv * 3 * sizeof(float));
+    int32_t k = hi->nv / 2;
+    const float delta = 0.01f;
+    x[3 * k + 1] += delta;
+    double want = delta;
+    for (int32_t a = reg.topo->vv_off[k]; a < reg.topo->vv_off[k + 1]; a++) {
+        int32_t j = reg.topo->vv[a];
+        want += delta / (reg.topo->vv_off[j + 1] - reg.topo->vv_off[j]);
+    }
+    want /= 3.0 * hi->nv;
+    cr_nn_ctx_reset(ctx);
+    X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
+    cr_gdsr_reg_terms(ctx, &reg, X, ref, &t[0], &t[1], &t[2], &t[3]);
+    CR_CHECK_NEAR(t[3]->data[0], want, 1e-4 * want);
+    CR_CHECK(t[2]->data[0] > 0); /* the moved vertex bends its hinges */
+    cr_nn_ctx_destroy(ctx);
+    cr_eval_result_free(&er);
+    free(x);
+    free(ref);
+    cr_gdsr_reg_free(&reg);
+    cr_gdsr_data_free(&d);
+}
+
+typedef struct reg_check {
+    gdsr_reg *reg;
+    const float *ref;
+    float scale[4];
+} reg_check;
+
+static cr_tensor *build_reg(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    reg_check *c = user;
+    cr_tensor *t[4];
+    cr_gdsr_reg_terms(ctx, c->reg, in[0], c->ref, &t[0], &t[1], &t[2], &t[3]);
+    return cr_loss_weighted_sum(ctx, t, c->scale, 4, NULL);
+}
+
+CR_TEST(gdsr, regulariser_gradients_match_finite_differences) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_reg reg;
+    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
+    int64_t n = (int64_t)hi->nv * 3;
+    float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
+    deform(hi, ref, 0.01f);
+    /* x = ref + noise of 2 cm: the Laplacian's |.| stays clear of its kink */
+    nn_gradcheck_fill(x, n, -0.02f, 0.02f, 0.005f, 5);
+    for (int64_t i = 0; i < n; i++)
+        x[i] += ref[i];
+    /* scales that make each term's gradient of order one */
+    reg_check c = {.reg = &reg, .ref = ref, .scale = {30.0f, 30.0f, 30.0f, 3.0f * hi->nv}};
+    for (int k = 0; k < 4; k++) {
+        reg_check one = c;
+        for (int j = 0; j < 4; j++)
+            one.scale[j] = j == k ? c.scale[j] : 0.0f;
+        nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
+        nn_gradcheck_def gd = nn_gradcheck_default_def();
+        const char *names[4] = {"stretch", "shear", "bend", "laplacian"};
+        gd.name = names[k];
+        gd.step = 2e-4;
+        gd.max_elems = 60;
+        gd.arena_bytes = (size_t)32 << 20;
+        nn_gradcheck_result res;
+        CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_reg, &one, &res) == 0);
+        CR_CHECK(res.checked == 60);
+    }
+    free(x);
+    free(ref);
+    cr_gdsr_reg_free(&reg);
     cr_gdsr_data_free(&d);
 }

@@ -119,6 +119,8 @@ typedef struct cr_gdsr_model_def {
     float omega0, s0;     /* WIRE (paper 5, 10) */
     int use_decoder;      /* 1: E on (gdsr); 0: GDSR(-d), C^ = C */
     float sigma_b;        /* body interaction radius, m (0.015) */
+    float out_scale;      /* E's and A's outputs times this, m per unit: a small start keeps
+                             Adam's first steps below the data's mm errors (default 0.01) */
     uint64_t seed;        /* initialisation (default 1) */
     uint32_t cookie;
 } cr_gdsr_model_def;
@@ -160,14 +162,25 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 typedef struct cr_gdsr_train_def {
     cr_gdsr_model_def model;
-    int epochs;           /* passes over every training frame (default 20) */
-    float lr;             /* AdamW base rate (paper 1e-4) */
-    int lr_halve_every;   /* epochs between halvings (paper 50) */
-    float weight_decay;   /* AdamW (default 0.01, torch's) */
-    float noise_m;        /* Gaussian noise on the input C (paper 0.003 m) */
-    float w_coarse;       /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
-    float w_fine;         /* L1 of the high garment - reference (default 1) */
-    float w_normal;       /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
+    int epochs;         /* passes over every training frame (default 20) */
+    float lr;           /* AdamW base rate (paper 1e-4) */
+    int lr_halve_every; /* epochs between halvings (paper 50) */
+    float weight_decay; /* AdamW (default 0.01, torch's) */
+    float noise_m;      /* Gaussian noise on the input C (paper 0.003 m) */
+    float w_coarse;     /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
+    float w_fine;       /* L1 of the high garment - reference (default 1) */
+    float w_normal;     /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
+    /* Regularisers on the high-resolution output X (Eq. 15-19), each a mean:
+     *   w_stretch  Baraff-Witkin stretch ((|w_u|-1)^2 + (|w_v|-1)^2), area-weighted mean
+     *   w_shear    Baraff-Witkin shear (w_u . w_v)^2, area-weighted mean
+     *   w_bend     k_e/2 (theta(X) - theta(X_ref))^2 per hinge (dihedral angles toward the
+     *              reference's as rest angles), mean over hinges, k_e with k_b = 1
+     *   w_laplacian  L1 of the uniform Laplacian of X - X_ref, mean per coordinate
+     * membrane and bending through the loss op (losses.h); rest shape the
+     * rest high mesh laid flat (crease eval's default). */
+    float w_stretch, w_shear, w_bend, w_laplacian;
+    int val_clips;        /* the last val_clips clips of the data are not trained on: each epoch
+                             rolls them out and logs their MED against upsampling's (default 0) */
     int checkpoint_every; /* epochs between checkpoints (default 5; 0: at the end) */
     int resume;           /* 1: continue from <out>/checkpoint.safetensors */
     const char *out_dir;  /* checkpoint.safetensors, log.jsonl, model.safetensors */
@@ -183,6 +196,8 @@ typedef struct cr_gdsr_train_result {
     double first_loss; /* mean loss of the first epoch this call ran */
     double last_loss;  /* of the last */
     double last_coarse, last_fine, last_normal;
+    double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
+    double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
     double seconds;
     int64_t params;
 } cr_gdsr_train_result;

@@ -30,6 +30,15 @@ void help_gdsr(void) {
         "  --halve-every N      N epochs (default 50)\n"
         "  --noise M            input noise, m (default 0.003)\n"
         "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
+        "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
+        "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
+        "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
+        "                       (default 0.1)\n"
+        "  --w-laplacian W      L1 of the uniform Laplacian of the error, m (default 1)\n"
+        "  --out-scale S        E's and A's outputs times S m (default 0.01; small = a gentle\n"
+        "                       start from upsampling)\n"
+        "  --val-motions LIST   held-out clips rolled out each epoch: log.jsonl's val_med_m\n"
+        "                       against val_upsampled_med_m\n"
         "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
         "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
         "  --latent N --steps N --wire-width N   model sizes\n"
@@ -55,6 +64,8 @@ static int split(char *s, const char **out, int cap) {
 
 static int cmd_train(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motions = NULL;
+    const char *val = NULL;
+    float out_scale = 0;
     int quiet = 0, json = 0, nodec = 0, paper = 0, latent = 0, steps = -1, wirew = 0, seed = 1;
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
     const cli_opt opts[] = {
@@ -69,6 +80,12 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
         CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
         CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
+        CLI_FLOAT("--w-stretch", &def.w_stretch, 0, 1e6),
+        CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
+        CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
+        CLI_FLOAT("--w-laplacian", &def.w_laplacian, 0, 1e6),
+        CLI_FLOAT("--out-scale", &out_scale, 1e-6, 10),
+        CLI_STR("--val-motions", &val),
         CLI_FLAG("--no-decoder", &nodec),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--latent", &latent, 4, 1024),
@@ -94,11 +111,17 @@ static int cmd_train(int argc, char **argv) {
     if (wirew) def.model.wire_width = wirew;
     def.model.use_decoder = !nodec;
     def.model.seed = (uint64_t)seed;
+    if (out_scale > 0) def.model.out_scale = out_scale;
     def.quiet = quiet;
-    char buf[1024];
+    char buf[1024], vbuf[1024];
     snprintf(buf, sizeof buf, "%s", motions);
     const char *ms[CR_GDSR_MAX_CLIPS];
     int nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
+    if (val) { /* validation clips go last: cr_gdsr_train leaves them out of training */
+        snprintf(vbuf, sizeof vbuf, "%s", val);
+        def.val_clips = split(vbuf, ms + nm, CR_GDSR_MAX_CLIPS - nm);
+        nm += def.val_clips;
+    }
     cr_error err = {0};
     cr_gdsr_data d;
     if (cr_gdsr_data_load(dataset, garment, body, ms, nm, &d, &err) != CR_OK) return cli_fail(&err);
@@ -109,9 +132,14 @@ static int cmd_train(int argc, char **argv) {
     if (st != CR_OK) return cli_fail(&err);
     fprintf(stderr,
             "gdsr train: %lld parameters, %d -> %d vertices, epochs %d..%d, loss %.4g -> %.4g "
-            "(coarse %.3g m, fine %.3g m, normal %.3g), %.1f s\n  %s/model.safetensors\n",
+            "(coarse %.3g m, fine %.3g m, normal %.3g, stretch %.3g, shear %.3g, bend %.3g, "
+            "laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
             (long long)r.params, vl, vh, r.resumed_from, r.epochs, r.first_loss, r.last_loss,
-            r.last_coarse, r.last_fine, r.last_normal, r.seconds, def.out_dir);
+            r.last_coarse, r.last_fine, r.last_normal, r.last_stretch, r.last_shear, r.last_bend,
+            r.last_laplacian, r.seconds, def.out_dir);
+    if (def.val_clips > 0)
+        fprintf(stderr, "  held-out MED %.5f m, upsampling's %.5f m\n", r.last_val_med,
+                r.val_upsampled_med);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "gdsr train");
@@ -125,6 +153,14 @@ static int cmd_train(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "coarse_l1_m", r.last_coarse);
         cJSON_AddNumberToObject(j, "fine_l1_m", r.last_fine);
         cJSON_AddNumberToObject(j, "normal_l1", r.last_normal);
+        cJSON_AddNumberToObject(j, "stretch", r.last_stretch);
+        cJSON_AddNumberToObject(j, "shear", r.last_shear);
+        cJSON_AddNumberToObject(j, "bend", r.last_bend);
+        cJSON_AddNumberToObject(j, "laplacian_l1_m", r.last_laplacian);
+        if (def.val_clips > 0) {
+            cJSON_AddNumberToObject(j, "val_med_m", r.last_val_med);
+            cJSON_AddNumberToObject(j, "val_upsampled_med_m", r.val_upsampled_med);
+        }
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
         cli_json_print(j);
     }

@@ -21,6 +21,7 @@ cr_gdsr_model_def cr_gdsr_model_default_def(void) {
                            .s0 = 10.0f,
                            .use_decoder = 1,
                            .sigma_b = 0.015f,
+                           .out_scale = 0.01f,
                            .seed = 1,
                            .cookie = CR_GDSR_COOKIE};
     return d;
@@ -56,6 +57,7 @@ cr_status cr_gdsr_model_def_validate(const cr_gdsr_model_def *d, cr_error *err) 
     RANGE(omega0, 0.01f, 100.0f)
     RANGE(s0, 0.0f, 100.0f)
     RANGE(sigma_b, 1e-4f, 1.0f)
+    RANGE(out_scale, 1e-6f, 10.0f)
 #undef RANGE
     return CR_OK;
 }
@@ -134,8 +136,13 @@ cr_status cr_gdsr_model_create(const cr_gdsr_model_def *def, cr_gdsr_model **out
         for (int l = 1; l < def->wire_layers - 1; l++)
             for (int64_t i = 0; i < 2 * (w * w + w); i++)
                 b[o++] = r * (2.0f * cr_rng_uniformf(&rng) - 1.0f);
-        for (int64_t i = 0; i < 2 * (3 * w + 3); i++)
+        /* the last WIRE layer's rows of the head, weights and bias, at zero:
+         * the residual is exactly zero until training moves them */
+        int64_t last = 2 * (3 * w + 3), in = head->in; /* weight (P, in) */
+        for (int64_t i = 0; i < last; i++)
             b[o++] = 0.0f;
+        memset(head->weight->data + (m->nparams - last) * in, 0,
+               (size_t)(last * in) * sizeof(float));
     }
     *out = m;
     return CR_OK;
@@ -191,7 +198,8 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
     cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){V, 3}, c);
     cr_tensor *e1, *e2, *n;
     face_frames(ctx, x, low, &e1, &e2, &n); /* x has no grad: constant frames */
-    cr_tensor *local = cr_mlp_forward(ctx, m->dec, corner_concat(ctx, f, low)); /* (F,9) */
+    cr_tensor *local = cr_nn_mul_scalar(
+        ctx, cr_mlp_forward(ctx, m->dec, corner_concat(ctx, f, low)), m->def.out_scale); /* (F,9) */
     local = cr_nn_reshape(ctx, local, 2, (int64_t[]){3 * F, 3});
     /* R per corner: rows e1, e2, n of its face */
     cr_tensor *R = cr_nn_concat(ctx, 3, (cr_tensor *[]){e1, e2, n}, 1); /* (F,9) */
@@ -323,7 +331,8 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
                                      cr_nn_from(ctx, 2, (int64_t[]){Vh, 1}, bw[k]));
             s = k == 0 ? t : cr_nn_add(ctx, s, t);
         }
-        cr_tensor *r = cr_gdsr_hyper(ctx, m, low, hf, Vh, d->face, d->bary); /* (Vh,3) */
+        cr_tensor *r = cr_nn_mul_scalar(ctx, cr_gdsr_hyper(ctx, m, low, hf, Vh, d->face, d->bary),
+                                        m->def.out_scale); /* (Vh,3) */
         cr_tensor *e1, *e2, *n;
         face_frames(ctx, chat, low, &e1, &e2, &n);
         cr_tensor *fr[3] = {e1, e2, n};
@@ -342,7 +351,7 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 /* ---------------------------------------------------- def as JSON -- */
 
-char *gdsr_model_def_json(const cr_gdsr_model_def *d) {
+char *cr_gdsr_model_def_json(const cr_gdsr_model_def *d) {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddNumberToObject(j, "latent", d->latent);
     cJSON_AddNumberToObject(j, "steps", d->steps);
@@ -356,13 +365,14 @@ char *gdsr_model_def_json(const cr_gdsr_model_def *d) {
     cJSON_AddNumberToObject(j, "s0", d->s0);
     cJSON_AddNumberToObject(j, "use_decoder", d->use_decoder);
     cJSON_AddNumberToObject(j, "sigma_b", d->sigma_b);
+    cJSON_AddNumberToObject(j, "out_scale", d->out_scale);
     cJSON_AddNumberToObject(j, "seed", (double)d->seed);
     char *s = cJSON_PrintUnformatted(j);
     cJSON_Delete(j);
     return s;
 }
 
-cr_status gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr_error *err) {
+cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr_error *err) {
     *d = cr_gdsr_model_default_def();
     cJSON *j = json ? cJSON_Parse(json) : NULL;
     if (!j) return CR_FAIL(err, CR_ERR_PARSE, "gdsr model: no or unreadable model definition");
@@ -377,6 +387,9 @@ cr_status gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr_er
         if (cJSON_IsNumber(v)) *ivals[k] = v->valueint;
     }
     cJSON *v;
+    d->out_scale = 1.0f; /* models written before the field: unscaled outputs */
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "out_scale")))
+        d->out_scale = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "omega0"))) d->omega0 = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "s0"))) d->s0 = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_b"))) d->sigma_b = (float)v->valuedouble;

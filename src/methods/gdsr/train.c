@@ -6,6 +6,7 @@
 #include "gdsr_internal.h"
 
 #include "crease/bvh.h"
+#include "crease/losses.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/nn_optim.h"
 
@@ -24,6 +25,10 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_coarse = 1.0f,
                            .w_fine = 1.0f,
                            .w_normal = 0.01f,
+                           .w_stretch = 1.0f,
+                           .w_shear = 1.0f,
+                           .w_bend = 0.1f,
+                           .w_laplacian = 1.0f,
                            .checkpoint_every = 5,
                            .cookie = CR_GDSR_COOKIE};
     return d;
@@ -85,7 +90,7 @@ static void state_push(frame_state *fs, const float *chat, const float *c, int64
 }
 
 static cr_status save_model(const char *path, cr_gdsr_model *m, cr_error *err) {
-    char *js = gdsr_model_def_json(&m->def);
+    char *js = cr_gdsr_model_def_json(&m->def);
     if (!js) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
     cr_st_meta meta[1] = {{"gdsr_model", js}};
     cr_status st = cr_safetensors_save_params(path, m->params, meta, 1, err);
@@ -98,7 +103,7 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
     cr_safetensors sf = {0};
     CR_TRY(cr_safetensors_read(path, &sf, err));
     cr_gdsr_model_def def;
-    cr_status st = gdsr_model_def_from_json(cr_safetensors_meta(&sf, "gdsr_model"), &def, err);
+    cr_status st = cr_gdsr_model_def_from_json(cr_safetensors_meta(&sf, "gdsr_model"), &def, err);
     cr_gdsr_model *m = NULL;
     if (st == CR_OK) st = cr_gdsr_model_create(&def, &m, err);
     if (st == CR_OK) st = cr_safetensors_to_params(&sf, path, m->params, 1, err);
@@ -108,6 +113,34 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
         return st;
     }
     *out = m;
+    return CR_OK;
+}
+
+/* Mean vertex distance (m) of the model's raw output and of upsampling to
+ * the reference over clips first.. of d, frames 2.. (the model's). */
+static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *med,
+                          double *med_up, cr_error *err) {
+    double s = 0, su = 0;
+    int64_t n = 0;
+    int32_t Vh = d->high->nv;
+    for (int c = first; c < d->nclips; c++) {
+        cr_gdsr_rollout_result r;
+        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, &r, err));
+        for (int32_t t = 2; t < r.nframes; t++)
+            for (int32_t i = 0; i < Vh; i++) {
+                const float *x = r.gdsr_raw + ((int64_t)t * Vh + i) * 3,
+                            *u = r.upsampled + ((int64_t)t * Vh + i) * 3,
+                            *h = d->clip[c].high + ((int64_t)t * Vh + i) * 3;
+                double a = 0, b = 0;
+                for (int k = 0; k < 3; k++)
+                    a += (double)(x[k] - h[k]) * (x[k] - h[k]),
+                        b += (double)(u[k] - h[k]) * (u[k] - h[k]);
+                s += sqrt(a), su += sqrt(b), n++;
+            }
+        cr_gdsr_rollout_free(&r);
+    }
+    *med = n ? s / n : NAN;
+    *med_up = n ? su / n : NAN;
     return CR_OK;
 }
 
@@ -121,9 +154,17 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     if (def->epochs < 1 || !(def->lr > 0) || def->lr_halve_every < 1 || !(def->noise_m >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: epochs >= 1, lr > 0, lr_halve_every >= 1, noise_m >= 0");
+    if (!(def->w_stretch >= 0 && def->w_shear >= 0 && def->w_bend >= 0 && def->w_laplacian >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian must be >= 0");
+    if (def->val_clips < 0 || def->val_clips >= d->nclips)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: val_clips %d with %d clips (one or more must train)",
+                       def->val_clips, d->nclips);
     CR_TRY(cr_mkdir_p(def->out_dir, err));
+    int ntrain = d->nclips - def->val_clips;
     int64_t steps_per_epoch = 0;
-    for (int c = 0; c < d->nclips; c++)
+    for (int c = 0; c < ntrain; c++)
         if (d->clip[c].nframes > 2) steps_per_epoch += d->clip[c].nframes - 2;
     if (steps_per_epoch < 1)
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: no clip has 3 frames or more");
@@ -138,6 +179,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     float *bp[CR_GDSR_MAX_CLIPS] = {0};
     int32_t *hcols[3] = {0};
     frame_state fs = {0};
+    gdsr_reg reg = {0};
     FILE *log = NULL;
     char ckpt[1100], model_path[1100], log_path[1100];
     snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
@@ -158,6 +200,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     cd.arena_bytes = (size_t)768 << 20;
     if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
     if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
+    if ((st = cr_gdsr_reg_create(high, &reg, err)) != CR_OK) goto done;
     node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
     e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
     e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
@@ -178,7 +221,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
     }
-    for (int c = 0; c < d->nclips; c++) {
+    for (int c = 0; c < ntrain; c++) {
         bp[c] = malloc((size_t)d->clip[c].nframes * nl3 * sizeof(float));
         if (!bp[c]) {
             st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
@@ -208,9 +251,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         goto done;
     }
     for (int ep = epoch0; ep < def->epochs; ep++) {
-        double sum = 0, sc = 0, sf = 0, sn = 0;
+        double sum = 0, sc = 0, sf = 0, sn = 0, sr[4] = {0};
         int64_t n = 0;
-        for (int c = 0; c < d->nclips; c++) {
+        for (int c = 0; c < ntrain; c++) {
             const cr_gdsr_clip *cl = &d->clip[c];
             fs.have = 0;
             for (int32_t t = 2; t < cl->nframes; t++) {
@@ -232,10 +275,13 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 cr_tensor *ln = cr_nn_mean(
                     ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, X, high, hcols),
                                                   face_normals_t(ctx, Hs, high, hcols))));
-                cr_tensor *loss = cr_nn_add(ctx,
-                                            cr_nn_add(ctx, cr_nn_mul_scalar(ctx, lc, def->w_coarse),
-                                                      cr_nn_mul_scalar(ctx, lf, def->w_fine)),
-                                            cr_nn_mul_scalar(ctx, ln, def->w_normal));
+                cr_tensor *rt[4] = {0};
+                cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
+                cr_tensor *terms[7] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3]};
+                const float w[7] = {def->w_coarse, def->w_fine, def->w_normal,   def->w_stretch,
+                                    def->w_shear,  def->w_bend, def->w_laplacian};
+                cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, 7, NULL);
+                if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
                 cr_nn_params_zero_grad(m->params);
                 if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
                 if ((st = cr_optim_step(opt, err)) != CR_OK) goto done;
@@ -243,6 +289,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 sc += lc->data[0];
                 sf += lf->data[0];
                 sn += ln->data[0];
+                for (int k = 0; k < 4; k++)
+                    sr[k] += rt[k]->data[0];
                 n++;
                 state_push(&fs, chat->data, cin, nl3);
             }
@@ -252,19 +300,36 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         out->last_coarse = sc / n;
         out->last_fine = sf / n;
         out->last_normal = sn / n;
+        out->last_stretch = sr[0] / n;
+        out->last_shear = sr[1] / n;
+        out->last_bend = sr[2] / n;
+        out->last_laplacian = sr[3] / n;
         if (ep == epoch0) out->first_loss = out->last_loss;
+        out->last_val_med = out->val_upsampled_med = NAN;
+        if (def->val_clips > 0 && (st = validate(m, d, ntrain, &out->last_val_med,
+                                                 &out->val_upsampled_med, err)) != CR_OK)
+            goto done;
         fprintf(log,
                 "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
-                "\"normal_l1\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
+                "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
+                "\"laplacian_l1_m\":%.9g,\"val_med_m\":%.9g,\"val_upsampled_med_m\":%.9g,"
+                "\"lr\":%.6g,\"seconds\":%.3f}\n",
                 ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
+                out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
+                isnan(out->last_val_med) ? -1.0 : out->last_val_med,
+                isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
                 (double)cr_optim_lr(opt), cr_time_now() - t0);
         fflush(log);
         if (!def->quiet)
-            fprintf(stderr, "\rgdsr train: epoch %d/%d loss %.4g (coarse %.3g m, fine %.3g m)",
-                    ep + 1, def->epochs, out->last_loss, out->last_coarse, out->last_fine);
+            fprintf(
+                stderr,
+                "\rgdsr train: epoch %d/%d loss %.4g (coarse %.3g m, fine %.3g m, val MED %.4g m "
+                "vs upsampling %.4g m)",
+                ep + 1, def->epochs, out->last_loss, out->last_coarse, out->last_fine,
+                out->last_val_med, out->val_upsampled_med);
         int every = def->checkpoint_every;
         if ((every > 0 && (ep + 1) % every == 0) || ep + 1 == def->epochs) {
-            char *js = gdsr_model_def_json(&m->def);
+            char *js = cr_gdsr_model_def_json(&m->def);
             cr_checkpoint_meta meta = {.epoch = ep + 1,
                                        .step = cr_optim_step_count(opt),
                                        .seed = def->model.seed,
@@ -295,6 +360,7 @@ done:
     free(fs.chat2);
     free(fs.dprev);
     cr_gdsr_graph_free(&g);
+    cr_gdsr_reg_free(&reg);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);
     cr_gdsr_model_destroy(m);
