@@ -39,7 +39,8 @@ typedef struct cr_gdsr_clip {
     char motion[64];
     int32_t nframes; /* T samples (the dataset's frames + 1) */
     float *low;      /* (T,Vl,3) low-resolution simulation C */
-    float *high;     /* (T,Vh,3) high-resolution simulation (reference) */
+    float *high;     /* (T,Vh,3) high-resolution simulation (reference); NULL when the
+                        dataset has none for the motion (roll-out only) */
     float *body;     /* (T,Vb,3) posed body */
 } cr_gdsr_clip;
 
@@ -167,6 +168,8 @@ typedef struct cr_gdsr_train_def {
     int lr_halve_every; /* epochs between halvings (paper 50) */
     float weight_decay; /* AdamW (default 0.01, torch's) */
     float noise_m;      /* Gaussian noise on the input C (paper 0.003 m) */
+    int noise_on_base;  /* 1: the noisy C is also the base C^ = C + d and S[C^] start from
+                           (the model must denoise); 0: features only (default) */
     float w_coarse;     /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
     float w_fine;       /* L1 of the high garment - reference (default 1) */
     float w_normal;     /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */

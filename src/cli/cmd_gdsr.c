@@ -28,7 +28,8 @@ void help_gdsr(void) {
         "  --epochs N           (default 20)\n"
         "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
         "  --halve-every N      N epochs (default 50)\n"
-        "  --noise M            input noise, m (default 0.003)\n"
+        "  --noise M            input noise, m (default 0.003), on the features only\n"
+        "  --noise-on-base      also on the C that C^ and the upsampling start from\n"
         "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
         "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
         "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
@@ -52,7 +53,10 @@ void help_gdsr(void) {
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
-        "                       high.obj, summary.json\n");
+        "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
+        "                       E_v, E_uv over the frames)\n"
+        "A motion without a high sequence in the dataset is rolled out without a reference\n"
+        "(no metrics table; the strain over frames and collisions are still measured).\n");
 }
 
 static int split(char *s, const char **out, int cap) {
@@ -77,6 +81,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
         CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
         CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
+        CLI_FLAG("--noise-on-base", &def.noise_on_base),
         CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
         CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
         CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
@@ -205,6 +210,100 @@ static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const fl
     return CR_OK;
 }
 
+/* E_u, E_v, E_uv of every frame of gdsr and of upsampling (crease eval's
+ * functions; the prediction as its own reference): strain.csv and
+ * strain.png (log axes), and the last frame's values against frame 2's in
+ * the JSON (the roll-out's drift). */
+static cr_status strain_over_frames(const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+                                    const cr_gdsr_rollout_result *r, const char *out, cJSON *j,
+                                    cr_error *err) {
+    static const cr_eval_metric em[3] = {CR_EVAL_E_U, CR_EVAL_E_V, CR_EVAL_E_UV};
+    static const char *names[3] = {"e_u", "e_v", "e_uv"};
+    int32_t T = cl->nframes;
+    double *v = malloc((size_t)T * 7 * sizeof(double)); /* frame, 3 gdsr, 3 upsampled */
+    if (!v) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    cr_status st = CR_OK;
+    for (int p = 0; p < 2 && st == CR_OK; p++) {
+        const float *x = p ? r->upsampled : r->gdsr;
+        cr_eval_def ed = cr_eval_default_def();
+        ed.ssim_side = 16;
+        cr_eval_input in = {.garment = d->high, .nframes = T, .pred = x, .ref = x};
+        cr_eval_result er = {0};
+        if ((st = cr_eval_run(&ed, &in, &er, err)) != CR_OK) break;
+        for (int32_t t = 0; t < T; t++) {
+            v[7 * t] = t;
+            for (int k = 0; k < 3; k++)
+                v[7 * t + 1 + 3 * p + k] = cr_eval_value(&er, t, em[k]);
+        }
+        cr_eval_result_free(&er);
+    }
+    char path[1100];
+    cr_atomic_file f;
+    snprintf(path, sizeof path, "%s/strain.csv", out);
+    if (st == CR_OK && (st = cr_atomic_open(&f, path, err)) == CR_OK) {
+        fprintf(f.fp, "frame,gdsr_e_u,gdsr_e_v,gdsr_e_uv,upsampled_e_u,upsampled_e_v,"
+                      "upsampled_e_uv\n");
+        for (int32_t t = 0; t < T; t++)
+            fprintf(f.fp, "%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", t, v[7 * t + 1], v[7 * t + 2],
+                    v[7 * t + 3], v[7 * t + 4], v[7 * t + 5], v[7 * t + 6]);
+        st = cr_atomic_commit(&f, err);
+    }
+    double *col = st == CR_OK ? malloc((size_t)T * 7 * sizeof(double)) : NULL;
+    if (st == CR_OK && !col) st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    if (st == CR_OK) {
+        for (int c = 0; c < 7; c++)
+            for (int32_t t = 0; t < T; t++)
+                col[(int64_t)c * T + t] = v[7 * t + c];
+        cr_plot_series ser[6];
+        cr_plot_panel pan[3];
+        char label[6][48];
+        for (int k = 0; k < 3; k++) {
+            for (int p = 0; p < 2; p++) {
+                snprintf(label[2 * k + p], sizeof label[0], "%s %s", p ? "upsampling" : "gdsr",
+                         names[k]);
+                ser[2 * k + p] =
+                    (cr_plot_series){.name = label[2 * k + p],
+                                     .x = col,
+                                     .y = col + (int64_t)(1 + 3 * p + k) * T,
+                                     .n = T,
+                                     .rgb = {p ? 120 : 200, p ? 120 : 40, p ? 120 : 40}};
+            }
+            pan[k] = (cr_plot_panel){.series = ser + 2 * k, .nseries = 2, .log_y = 1};
+        }
+        cr_image img = {0};
+        snprintf(path, sizeof path, "%s/strain.png", out);
+        if ((st = cr_plot_lines(pan, 3, "frame", "gdsr roll-out: e_u, e_v, e_uv", 900, 700, &img,
+                                err)) == CR_OK)
+            st = cr_image_write_png(&img, path, err);
+        cr_image_free(&img);
+        /* frame 2 is the model's first; the last shows any drift */
+        int32_t a = T > 2 ? 2 : 0, b = T - 1;
+        cJSON *o = cJSON_AddObjectToObject(j, "strain");
+        cJSON_AddNumberToObject(o, "first_frame", a);
+        cJSON_AddNumberToObject(o, "last_frame", b);
+        for (int k = 0; k < 3; k++) {
+            char key[64];
+            snprintf(key, sizeof key, "gdsr_%s_first", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * a + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_last", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * b + 1 + k]);
+            double mx = 0;
+            for (int32_t t = a; t <= b; t++)
+                mx = fmax(mx, v[7 * t + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_max", names[k]);
+            cJSON_AddNumberToObject(o, key, mx);
+        }
+        fprintf(stderr,
+                "  strain, frame %d -> %d: e_u %.3g -> %.3g, e_v %.3g -> %.3g, e_uv %.3g -> %.3g "
+                "(%s/strain.png)\n",
+                a, b, v[7 * a + 1], v[7 * b + 1], v[7 * a + 2], v[7 * b + 2], v[7 * a + 3],
+                v[7 * b + 3], out);
+    }
+    free(col);
+    free(v);
+    return st;
+}
+
 static int cmd_run(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
     const char *model = NULL, *baseline = NULL, *out = NULL;
@@ -251,7 +350,7 @@ static int cmd_run(int argc, char **argv) {
     } outs[] = {{"gdsr", r.gdsr},
                 {"gdsr_raw", r.gdsr_raw},
                 {"upsampled", r.upsampled},
-                {"reference", cl->high},
+                {"reference", cl->high}, /* NULL: a low-only roll-out */
                 {"gdsr_nodec", rb.gdsr}};
     for (int k = 0; k < 5; k++) {
         if (!outs[k].x) continue;
@@ -269,15 +368,18 @@ static int cmd_run(int argc, char **argv) {
             "inside the body: %.3f %% before handling, %.3f %% after\n",
             motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame, 100 * r.inside_before,
             100 * r.inside_after);
-    fprintf(stderr, "  %-10s", "");
-    for (int k = 0; k < NSHOWN; k++)
-        fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
-    fprintf(stderr, " %11s %11s\n", "hband_pred", "hband_ref");
-    table = cJSON_AddObjectToObject(j, "metrics");
-    if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
-    if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
-    if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
-    if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+    if (cl->high) {
+        fprintf(stderr, "  %-10s", "");
+        for (int k = 0; k < NSHOWN; k++)
+            fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
+        fprintf(stderr, " %11s %11s\n", "hband_pred", "hband_ref");
+        table = cJSON_AddObjectToObject(j, "metrics");
+        if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
+        if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
+        if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
+        if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+    }
+    if (strain_over_frames(&d, cl, &r, out, j, &err) != CR_OK) goto done;
     cJSON_AddStringToObject(j, "command", "gdsr run");
     cJSON_AddStringToObject(j, "motion", motion);
     cJSON_AddNumberToObject(j, "frames", cl->nframes);

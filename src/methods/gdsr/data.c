@@ -125,7 +125,10 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
         if ((st = read_pc2(path, out->low->nv, 0, &c->low, &T, err)) != CR_OK) goto fail;
         snprintf(path, sizeof path, "%s/sequences/%s_high_%s_%s/garment.pc2", dir, garment, body,
                  motions[i]);
-        if ((st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK) goto fail;
+        /* no high sequence (a low-only roll-out input): clip.high stays NULL */
+        FILE *hf = fopen(path, "rb");
+        if (hf) fclose(hf);
+        if (hf && (st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK) goto fail;
         snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", dir, body, motions[i]);
         if ((st = read_pc2(path, out->body->nv, T, &c->body, &T2, err)) != CR_OK) goto fail;
         c->nframes = T;

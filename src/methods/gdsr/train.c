@@ -161,6 +161,11 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: val_clips %d with %d clips (one or more must train)",
                        def->val_clips, d->nclips);
+    for (int c = 0; c < d->nclips; c++)
+        if (!d->clip[c].high)
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "gdsr train: clip '%s' has no high-resolution reference",
+                           d->clip[c].motion);
     CR_TRY(cr_mkdir_p(def->out_dir, err));
     int ntrain = d->nclips - def->val_clips;
     int64_t steps_per_epoch = 0;
@@ -267,7 +272,10 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                                node, e0, e1);
                 cr_nn_ctx_reset(ctx);
                 cr_tensor *chat = NULL;
-                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, cin, &chat);
+                /* noise_on_base 0: the noise reaches the features only, and
+                 * C^ and S[C^] start from the clean C (nothing to denoise) */
+                const float *base = def->noise_on_base ? cin : ct;
+                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, base, &chat);
                 cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, cstar);
                 cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
                 cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
@@ -292,7 +300,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 for (int k = 0; k < 4; k++)
                     sr[k] += rt[k]->data[0];
                 n++;
-                state_push(&fs, chat->data, cin, nl3);
+                state_push(&fs, chat->data, base, nl3);
             }
         }
         out->epochs = ep + 1;
