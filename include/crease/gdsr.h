@@ -163,16 +163,17 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 typedef struct cr_gdsr_train_def {
     cr_gdsr_model_def model;
-    int epochs;         /* passes over every training frame (default 20) */
-    float lr;           /* AdamW base rate (paper 1e-4) */
-    int lr_halve_every; /* epochs between halvings (paper 50) */
-    float weight_decay; /* AdamW (default 0.01, torch's) */
-    float noise_m;      /* Gaussian noise on the input C (paper 0.003 m) */
-    int noise_on_base;  /* 1: the noisy C is also the base C^ = C + d and S[C^] start from
-                           (the model must denoise); 0: features only (default) */
-    float w_coarse;     /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
-    float w_fine;       /* L1 of the high garment - reference (default 1) */
-    float w_normal;     /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
+    int epochs;              /* passes over every training frame (default 20) */
+    float lr;                /* AdamW base rate (paper 1e-4) */
+    int lr_halve_every;      /* epochs between halvings (paper 50) */
+    float weight_decay;      /* AdamW (default 0.01, torch's) */
+    float noise_m;           /* Gaussian noise on the input C (paper 0.003 m) */
+    int noise_features_only; /* 0: the noisy C is also the base C^ = C + d and S[C^] start
+                                from, so the model learns to denoise (default); 1: the noise
+                                reaches the features only */
+    float w_coarse;          /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
+    float w_fine;            /* L1 of the high garment - reference (default 1) */
+    float w_normal;          /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
     /* Regularisers on the high-resolution output X (Eq. 15-19), each a mean:
      *   w_stretch  Baraff-Witkin stretch ((|w_u|-1)^2 + (|w_v|-1)^2), area-weighted mean
      *   w_shear    Baraff-Witkin shear (w_u . w_v)^2, area-weighted mean
@@ -224,7 +225,8 @@ typedef struct cr_gdsr_rollout_result {
     float *upsampled;                   /* (T,Vh,3) barycentric upsampling of C */
     double inside_before, inside_after; /* largest share of high vertices inside the body on a
                                            frame, before and after handling */
-    double seconds_per_frame;           /* gdsr, handling included */
+    double seconds_per_frame;           /* gdsr, handling included, wall clock */
+    double cpu_seconds_per_frame;       /* the same in process CPU time (clock()) */
 } cr_gdsr_rollout_result;
 
 /* Run the model over clip k of d, feeding back its own corrections;

@@ -28,8 +28,8 @@ void help_gdsr(void) {
         "  --epochs N           (default 20)\n"
         "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
         "  --halve-every N      N epochs (default 50)\n"
-        "  --noise M            input noise, m (default 0.003), on the features only\n"
-        "  --noise-on-base      also on the C that C^ and the upsampling start from\n"
+        "  --noise M            input noise on C, m (default 0.003)\n"
+        "  --noise-features-only  not on the C that C^ and the upsampling start from\n"
         "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
         "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
         "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
@@ -52,6 +52,7 @@ void help_gdsr(void) {
         "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
+        "  --frames N           only the clip's first N frames\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
         "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
         "                       E_v, E_uv over the frames)\n"
@@ -81,7 +82,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
         CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
         CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
-        CLI_FLAG("--noise-on-base", &def.noise_on_base),
+        CLI_FLAG("--noise-features-only", &def.noise_features_only),
         CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
         CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
         CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
@@ -308,7 +309,7 @@ static int cmd_run(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
     const char *model = NULL, *baseline = NULL, *out = NULL;
     float eps = 0.002f;
-    int quiet = 0, json = 0;
+    int quiet = 0, json = 0, frames = 0;
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
         CLI_STR("--garment", &garment),
@@ -317,6 +318,7 @@ static int cmd_run(int argc, char **argv) {
         CLI_STR("--model", &model),
         CLI_STR("--baseline-model", &baseline),
         CLI_FLOAT("--eps", &eps, 0, 0.05),
+        CLI_INT("--frames", &frames, 3, 1000000),
         CLI_OUTPUT(&out),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
@@ -337,6 +339,7 @@ static int cmd_run(int argc, char **argv) {
     cJSON *table = NULL;
     char path[1100];
     int status = CLI_BAD_INPUT;
+    if (frames > 0 && frames < d.clip[0].nframes) d.clip[0].nframes = frames; /* the first N */
     const cr_gdsr_clip *cl = &d.clip[0];
     if (cr_mkdir_p(out, &err) != CR_OK) goto done;
     if (cr_gdsr_model_load(model, &m, &err) != CR_OK) goto done;
@@ -364,10 +367,11 @@ static int cmd_run(int argc, char **argv) {
     snprintf(path, sizeof path, "%s/body.obj", out);
     if (cr_obj_write(path, d.body, &err) != CR_OK) goto done;
     fprintf(stderr,
-            "gdsr run %s: %d frames, %d -> %d vertices, %.4f s per frame (gdsr + handling); "
+            "gdsr run %s: %d frames, %d -> %d vertices, %.4f s per frame (gdsr + handling; "
+            "%.4f s CPU); "
             "inside the body: %.3f %% before handling, %.3f %% after\n",
-            motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame, 100 * r.inside_before,
-            100 * r.inside_after);
+            motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame,
+            r.cpu_seconds_per_frame, 100 * r.inside_before, 100 * r.inside_after);
     if (cl->high) {
         fprintf(stderr, "  %-10s", "");
         for (int k = 0; k < NSHOWN; k++)
@@ -386,6 +390,7 @@ static int cmd_run(int argc, char **argv) {
     cJSON_AddNumberToObject(j, "low_vertices", d.low->nv);
     cJSON_AddNumberToObject(j, "high_vertices", d.high->nv);
     cJSON_AddNumberToObject(j, "seconds_per_frame", r.seconds_per_frame);
+    cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
     cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
     cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
     {

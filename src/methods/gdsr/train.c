@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 cr_gdsr_train_def cr_gdsr_train_default_def(void) {
     cr_gdsr_train_def d = {.model = cr_gdsr_model_default_def(),
@@ -103,10 +104,16 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
     cr_safetensors sf = {0};
     CR_TRY(cr_safetensors_read(path, &sf, err));
     cr_gdsr_model_def def;
-    cr_status st = cr_gdsr_model_def_from_json(cr_safetensors_meta(&sf, "gdsr_model"), &def, err);
+    /* a checkpoint keeps the def as its "config" and loads as plain weights */
+    const char *js = cr_safetensors_meta(&sf, "gdsr_model");
+    int ckpt = !js;
+    if (ckpt) js = cr_safetensors_meta(&sf, "config");
+    cr_status st = cr_gdsr_model_def_from_json(js, &def, err);
     cr_gdsr_model *m = NULL;
     if (st == CR_OK) st = cr_gdsr_model_create(&def, &m, err);
-    if (st == CR_OK) st = cr_safetensors_to_params(&sf, path, m->params, 1, err);
+    if (st == CR_OK)
+        st = ckpt ? cr_checkpoint_load(path, m->params, NULL, NULL, err)
+                  : cr_safetensors_to_params(&sf, path, m->params, 1, err);
     cr_safetensors_free(&sf);
     if (st != CR_OK) {
         cr_gdsr_model_destroy(m);
@@ -272,9 +279,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                                node, e0, e1);
                 cr_nn_ctx_reset(ctx);
                 cr_tensor *chat = NULL;
-                /* noise_on_base 0: the noise reaches the features only, and
-                 * C^ and S[C^] start from the clean C (nothing to denoise) */
-                const float *base = def->noise_on_base ? cin : ct;
+                /* noise_features_only: C^ and S[C^] start from the clean C
+                 * (nothing to denoise) */
+                const float *base = def->noise_features_only ? ct : cin;
                 cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, base, &chat);
                 cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, cstar);
                 cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
@@ -456,7 +463,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     if ((st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err)) != CR_OK)
         goto done;
-    double tsum = 0;
+    double tsum = 0, csum = 0;
     int tcount = 0;
     for (int32_t t = 0; t < T; t++) {
         const float *ct = cl->low + t * nl3;
@@ -473,6 +480,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
             continue;
         }
         double t0 = cr_time_now();
+        clock_t c0 = clock();
         frame_features(d, &g, cl->low, t, ct, bp + t * nl3, &fs, m->def.sigma_b, node, e0, e1);
         cr_nn_ctx_reset(ctx);
         cr_tensor *ch = NULL;
@@ -495,6 +503,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
         push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL); /* concave spots: once more */
         tsum += cr_time_now() - t0;
+        csum += (double)(clock() - c0) / CLOCKS_PER_SEC;
         tcount++;
         for (int64_t i = 0; i < nh3; i++)
             if (!isfinite(fin[i])) {
@@ -519,6 +528,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         }
     }
     out->seconds_per_frame = tcount ? tsum / tcount : 0;
+    out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
     st = CR_OK;
 done:
     free(bp);
