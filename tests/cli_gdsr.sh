@@ -26,12 +26,12 @@ small=(--dataset "$tmp/data" --motions walk --latent 32 --steps 2 --wire-width 8
 check "gdsr train 3 epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs 3 -o '$tmp/m' --json > '$tmp/t1.json'"
 check "gdsr train resumes to 40" bash -c "'$crease' gdsr train ${small[*]} --epochs 40 --resume -o '$tmp/m' --json > '$tmp/t2.json'"
 check "train fields" json_has "$tmp/t2.json" command params epochs resumed_from first_loss loss \
-  coarse_l1_m fine_l1_m normal_l1 seconds
+  coarse_l1_m fine_l1_m normal_l1 stretch shear bend laplacian_l1_m seconds
 check "resumed from 3" grep -q '"resumed_from":3,' "$tmp/t2.json"
 check "log: 40 lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq 40 ]]"
 check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
 check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
-  -a -s "$tmp/r/summary.json"
+  -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv"
 # metric K of the table: the first value is upsampling's, the second gdsr's
 vals() { grep -o "\"$2\":[-0-9.eE+]*" "$1" | cut -d: -f2 | tr '\n' ' '; }
 better() { # better FILE KEY FACTOR [higher]: gdsr's value beats FACTOR x upsampling's
@@ -50,6 +50,7 @@ check "gdsr run training clip" bash -c "'$crease' gdsr run --dataset '$tmp/data'
 check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" normal_angle_deg))" \
   better "$tmp/w.json" normal_angle_deg 1.0
 check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
+expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
 
 echo "cli_gdsr: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]
