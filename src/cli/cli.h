@@ -219,6 +219,8 @@ int cmd_dataset(int argc, char **argv);
 void help_dataset(void);
 int cmd_drape(int argc, char **argv);
 void help_drape(void);
+int cmd_gdsr(int argc, char **argv);
+void help_gdsr(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
 int cmd_eval(int argc, char **argv);
