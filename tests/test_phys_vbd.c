@@ -4,6 +4,7 @@
 #include "crease/bvh.h"
 #include "crease/phys_sim.h"
 #include "crease/primitives.h"
+#include "phys/sim_internal.h"
 #include "test.h"
 #include <math.h>
 #include <stdio.h>
@@ -133,6 +134,40 @@ CR_TEST(phys_vbd, converges_to_newton) {
     cr_mesh_destroy(m);
 }
 
+/* The sweep gathers each vertex's gradient and Hessian block from the
+ * energies' vertex-block kernels (cr_energy_term.vertex_block); without them
+ * (terms that have none) it slices the element kernels' full gradient and
+ * Hessian instead. Both give the same trajectory, to roundoff. */
+CR_TEST(phys_vbd, vertex_blocks_match_full_kernels) {
+    cr_mesh *m = hanging_cloth(10, 0.5f, 0.04f);
+    CR_REQUIRE(m);
+    cr_sim_def d = vbd_def();
+    int32_t pins[2] = {0, 9};
+    d.pinned = pins, d.npinned = 2;
+    cr_error err = {0};
+    cr_sim *a = NULL, *b = NULL;
+    CR_CHECK_OK(cr_sim_create(&d, m, &a, &err), &err);
+    CR_CHECK_OK(cr_sim_create(&d, m, &b, &err), &err);
+    CR_REQUIRE(a && b);
+    int blocks = 0;
+    for (int t = 0; t < b->nterms; t++) {
+        blocks += b->terms[t].vertex_block != NULL;
+        b->terms[t].vertex_block = NULL;
+    }
+    CR_CHECK(blocks == 2); /* membrane and bending */
+    double worst = 0.0;
+    for (int f = 0; f < 5; f++) {
+        CR_CHECK_OK(cr_sim_step(a, NULL, &err), &err);
+        CR_CHECK_OK(cr_sim_step(b, NULL, &err), &err);
+        worst = fmax(worst, max_diff(cr_sim_positions(a), cr_sim_positions(b), 3 * (int64_t)m->nv));
+    }
+    printf("    blocks vs full kernels: largest difference %.2e m after 5 frames\n", worst);
+    CR_CHECK(worst < 1e-9);
+    cr_sim_destroy(a);
+    cr_sim_destroy(b);
+    cr_mesh_destroy(m);
+}
+
 /* Every sweep lowers the objective, with and without Chebyshev. */
 CR_TEST(phys_vbd, energy_decreases_per_iteration) {
     cr_mesh *m = hanging_cloth(12, 0.5f, 0.03f);
@@ -186,7 +221,7 @@ static double deepest_inside(const cr_mesh *collider, const double *x, int32_t n
 }
 
 /* The 32 x 32 drop of test_phys_sim.c with VBD: rests outside the sphere,
- * on top of it. Before the projection VBD leaves vertices deeper than Newton
+ * draped over its top. Before the projection VBD leaves vertices deeper than Newton
  * (5.5 mm measured against Newton's < 2 mm: 20 sweeps do not push the last
  * millimetres out against the membrane), so that bound is 1 cm here. */
 CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
@@ -216,8 +251,21 @@ CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
     CR_CHECK(deepest < 1e-3);
     CR_CHECK(pen < 1e-2);
     CR_CHECK(rep.contacts > 10);
+    /* It drapes over the top. The cloth's centre creeps sideways: at 20
+     * sweeps a substep the unconverged membrane leaves a residual force that
+     * friction does not hold (converged Newton: no creep). Measured 8 cm
+     * over the 30 frames before the vertex blocks (the centre then back at
+     * y 0.307 by chance) and 7.9 cm after (y 0.290, on the sphere's side). */
     int32_t centre = 16 * 32 + 16;
-    CR_CHECK(x[3 * centre + 1] > 0.298);
+    double top = -INFINITY;
+    for (int32_t i = 0; i < cloth->nv; i++)
+        top = fmax(top, x[3 * i + 1]);
+    const double creep = hypot(x[3 * centre] - cloth->pos[3 * centre],
+                               x[3 * centre + 2] - cloth->pos[3 * centre + 2]);
+    printf("    highest vertex %.4f m, centre at %.4f m, crept %.1f cm\n", top, x[3 * centre + 1],
+           1e2 * creep);
+    CR_CHECK(top > 0.298 && top < 0.34);
+    CR_CHECK(x[3 * centre + 1] > 0.28 && creep < 0.1);
     CR_CHECK(x[1] < 0.25);
     cr_sim_destroy(s);
     cr_mesh_destroy(cloth);
