@@ -609,7 +609,7 @@ CR_TEST(phys_energy, stvk_projection_closed_form) {
         memcpy(Hex, HF, sizeof Hex);
         indefinite = min_eig_rel(Hex, 6) < -1e-6;
         projected += indefinite;
-        cr_membrane_project_hf(f, HF, NULL);
+        cr_membrane_project_hf(f, HF);
         double K[36];
         for (int a = 0; a < 6; a++)
             for (int b = 0; b < 6; b++)

@@ -79,11 +79,10 @@ static inline void cr_membrane_to_vertex(const double *c, double area, int k, co
  * depend on F only through f0, f1, so their HF splits exactly into an
  * in-plane 4x4 block (perturbations within span(f0, f1)) and a normal 2x2
  * block (perturbations along the normal n); the two are projected apart,
- * the 2x2 in closed form, the 4x4 by an eigensolve or, when stvk = {mu,
- * lambda} is not NULL and HF is that whole StVK density's, in closed form
- * (membrane_stvk.c). Falls back to the whole 6x6 when f0, f1 do not span a
- * plane. */
-void cr_membrane_project_hf(const double *f, double *HF, const double *stvk);
+ * the 2x2 in closed form, the 4x4 by an eigensolve (the whole StVK density
+ * does its own in closed form instead, membrane_stvk.c). Falls back to the
+ * whole 6x6 when f0, f1 do not span a plane. */
+void cr_membrane_project_hf(const double *f, double *HF);
 
 /* The kernels, whole and by part (cr_membrane_part). */
 double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g, double *H);

@@ -61,7 +61,7 @@ static double bw_eval(const cr_membrane *m, double cs, double csh, int32_t e, in
                 HF[6 * p + 3 + q] = ksh * (fv[p] * fu[q] + (exact ? s * I : 0.0));
                 HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
             }
-        if (exact) cr_membrane_project_hf(f, HF, NULL);
+        if (exact) cr_membrane_project_hf(f, HF);
     }
     if (k < 0)
         cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);

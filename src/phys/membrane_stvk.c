@@ -235,53 +235,34 @@ static void rotate_in(const double *R, const double *HF, int j, int l, double *B
             B[3 * a + b] = R[a] * T[b] + R[3 + a] * T[3 + b] + R[6 + a] * T[6 + b];
 }
 
-void cr_membrane_project_hf(const double *f, double *HF, const double *stvk) {
+/* The frame of f = (f0, f1): R[3d + k] is component d of basis vector
+ * k = p1 = f0/|f0|, p2 (f1 orthogonalised), n = p1 x p2, and F's in-plane
+ * part is [[a, b], [0, d]]. 0 when f0, f1 do not span a plane. */
+static int plane_frame(const double *f, double *R, double *a, double *b, double *d) {
     const double *f0 = f, *f1 = f + 3;
     const double n0 = sqrt(f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2]);
     const double n1 = sqrt(f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2]);
-    double R[9]; /* R[3d + k]: component d of basis vector k = p1, p2, n */
     double r[3], nr = 0.0, along = 0.0;
     if (n0 > 0.0) {
         along = (f1[0] * f0[0] + f1[1] * f0[1] + f1[2] * f0[2]) / (n0 * n0);
-        for (int d = 0; d < 3; d++)
-            r[d] = f1[d] - along * f0[d];
+        for (int k = 0; k < 3; k++)
+            r[k] = f1[k] - along * f0[k];
         nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     }
-    if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) {
-        cr_psd_project(HF, 6);
-        return;
-    }
-    for (int d = 0; d < 3; d++)
-        R[3 * d] = f0[d] / n0, R[3 * d + 1] = r[d] / nr;
+    if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) return 0;
+    for (int k = 0; k < 3; k++)
+        R[3 * k] = f0[k] / n0, R[3 * k + 1] = r[k] / nr;
     R[2] = R[3] * R[7] - R[6] * R[4];
     R[5] = R[6] * R[1] - R[0] * R[7];
     R[8] = R[0] * R[4] - R[3] * R[1];
-    const double nrm[3] = {R[2], R[5], R[8]};
-    /* A: the in-plane 4x4 (index 2j + a), N: the normal 2x2, of the blocks
-     * in the rotated frame B_jl = R^T HF_jl R (HF symmetric: B_10 = B_01^T). */
-    double A[16],
-        N[3] = {normal_form(nrm, HF, 0, 0), normal_form(nrm, HF, 0, 1), normal_form(nrm, HF, 1, 1)};
-    if (stvk) {
-        stvk_inplane_projected(stvk[0], stvk[1], n0, along * n0, nr, A);
-    } else {
-        double B00[9], B01[9], B11[9];
-        rotate_in(R, HF, 0, 0, B00);
-        rotate_in(R, HF, 0, 1, B01);
-        rotate_in(R, HF, 1, 1, B11);
-        const double *Bj[2][2] = {{B00, B01}, {NULL, B11}};
-        for (int j = 0; j < 2; j++)
-            for (int l = j; l < 2; l++)
-                for (int a = 0; a < 2; a++)
-                    for (int b = 0; b < 2; b++) {
-                        const double v = Bj[j][l][3 * a + b];
-                        A[4 * (2 * j + a) + 2 * l + b] = v;
-                        A[4 * (2 * l + b) + 2 * j + a] = v;
-                    }
-        cr_psd_project(A, 4);
-    }
-    project2(N);
-    /* Back, HF_jl = R B_jl R^T with B_jl = [[A_jl, 0], [0, N_jl]]: the
-     * in-plane/normal coupling is zero in exact arithmetic. */
+    *a = n0, *b = along * n0, *d = nr;
+    return 1;
+}
+
+/* HF from the rotated frame: HF_jl = R B_jl R^T with B_jl = [[A_jl, 0],
+ * [0, N_jl]] (A the in-plane 4x4, index 2j + a; N the normal 2x2 as
+ * (N00, N01, N11)): the in-plane/normal coupling is zero in exact arithmetic. */
+static void hf_from_frame(const double *R, const double *A, const double *N, double *HF) {
     for (int j = 0; j < 2; j++)
         for (int l = j; l < 2; l++) {
             const double nn = N[j + l];
@@ -306,6 +287,56 @@ void cr_membrane_project_hf(const double *f, double *HF, const double *stvk) {
                         double *hqp = HF + 6 * (3 * j + q) + 3 * l + p;
                         *hpq = *hqp = 0.5 * (*hpq + *hqp);
                     }
+        }
+}
+
+void cr_membrane_project_hf(const double *f, double *HF) {
+    double R[9], a, b, d;
+    if (!plane_frame(f, R, &a, &b, &d)) {
+        cr_psd_project(HF, 6);
+        return;
+    }
+    const double nrm[3] = {R[2], R[5], R[8]};
+    /* The blocks in the rotated frame B_jl = R^T HF_jl R (HF symmetric:
+     * B_10 = B_01^T): A their in-plane 4x4, N their normal 2x2. */
+    double A[16], N[3] = {normal_form(nrm, HF, 0, 0), normal_form(nrm, HF, 0, 1),
+                          normal_form(nrm, HF, 1, 1)};
+    double B00[9], B01[9], B11[9];
+    rotate_in(R, HF, 0, 0, B00);
+    rotate_in(R, HF, 0, 1, B01);
+    rotate_in(R, HF, 1, 1, B11);
+    const double *Bj[2][2] = {{B00, B01}, {NULL, B11}};
+    for (int j = 0; j < 2; j++)
+        for (int l = j; l < 2; l++)
+            for (int p = 0; p < 2; p++)
+                for (int q = 0; q < 2; q++) {
+                    const double v = Bj[j][l][3 * p + q];
+                    A[4 * (2 * j + p) + 2 * l + q] = v;
+                    A[4 * (2 * l + q) + 2 * j + p] = v;
+                }
+    cr_psd_project(A, 4);
+    project2(N);
+    hf_from_frame(R, A, N, HF);
+}
+
+/* Vertex k's block, area sum_jl c_kj c_kl HF_jl, of the HF that
+ * hf_from_frame(R, A, N) would build, without building it. */
+static void block_from_frame(const double *R, const double *A, const double *N, const double *c,
+                             int k, double area, double *H) {
+    const double c0 = c[2 * k], c1 = c[2 * k + 1], w[2] = {c0, c1};
+    double X[4] = {0.0, 0.0, 0.0, 0.0}; /* in-plane 2x2 */
+    for (int j = 0; j < 2; j++)
+        for (int l = 0; l < 2; l++)
+            for (int p = 0; p < 2; p++)
+                for (int q = 0; q < 2; q++)
+                    X[2 * p + q] += w[j] * w[l] * A[4 * (2 * j + p) + 2 * l + q];
+    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
+    for (int p = 0; p < 3; p++)
+        for (int q = p; q < 3; q++) {
+            const double v = R[3 * p] * (X[0] * R[3 * q] + X[1] * R[3 * q + 1]) +
+                             R[3 * p + 1] * (X[2] * R[3 * q] + X[3] * R[3 * q + 1]) +
+                             xn * R[3 * p + 2] * R[3 * q + 2];
+            H[3 * p + q] = H[3 * q + p] = area * v;
         }
 }
 
@@ -335,19 +366,52 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
         gF[d] = S00 * f0[d] + S01 * f1[d];
         gF[3 + d] = S01 * f0[d] + S11 * f1[d];
     }
-    if (H) {
+    const int projected = H && m->mode == CR_HESSIAN_PROJECTED;
+    const int stress_psd = S00 >= 0.0 && S11 >= 0.0 && S00 * S11 >= S01 * S01;
+    double R[9], fa, fb, fd;
+    /* The whole density is isotropic (its parts are not): its projection
+     * has a closed form in the plane, and its normal block is S. */
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && plane_frame(f, R, &fa, &fb, &fd)) {
+        double A[16], N[3] = {S00, S01, S11};
+        stvk_inplane_projected(m->mu, m->lambda, fa, fb, fd, A);
+        project2(N);
+        if (k >= 0) {
+            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+            block_from_frame(R, A, N, c, k, m->area[e], H);
+            return m->area[e] * psi;
+        }
+        hf_from_frame(R, A, N, HF);
+    } else if (H && k >= 0 && !(projected && !stress_psd)) {
+        /* The block in closed form: sum_jl c_kj c_kl HF_jl with the HF below
+         * is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
+         * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
+        const double c0 = c[2 * k], c1 = c[2 * k + 1], area = m->area[e];
+        const double cs2 = projected ? c0 * c0 * S00 + 2.0 * c0 * c1 * S01 + c1 * c1 * S11 : 0.0;
+        double w[3], sv[3];
+        for (int d = 0; d < 3; d++)
+            w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
+        for (int p = 0; p < 3; p++)
+            for (int q = p; q < 3; q++) {
+                const double v = lambda * w[p] * w[q] +
+                                 2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
+                                 mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
+                H[3 * p + q] = H[3 * q + p] = area * v;
+            }
+        cr_membrane_to_vertex(c, area, k, gF, NULL, g, NULL);
+        return area * psi;
+    } else if (H) {
         /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
          * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
          * and da/df0 = 2 f0, db/df1 = 2 f1, dc/df0 = f1, dc/df1 = f0. */
-        const double k = 2.0 * mu_s + lambda;
+        const double kk = 2.0 * mu_s + lambda;
         for (int p = 0; p < 3; p++)
             for (int q = 0; q < 3; q++) {
-                HF[6 * p + q] = k * f0[p] * f0[q] + mu_sh * f1[p] * f1[q];
-                HF[6 * (3 + p) + 3 + q] = k * f1[p] * f1[q] + mu_sh * f0[p] * f0[q];
+                HF[6 * p + q] = kk * f0[p] * f0[q] + mu_sh * f1[p] * f1[q];
+                HF[6 * (3 + p) + 3 + q] = kk * f1[p] * f1[q] + mu_sh * f0[p] * f0[q];
                 HF[6 * p + 3 + q] = lambda * f0[p] * f1[q] + mu_sh * f1[p] * f0[q];
                 HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
             }
-        if (m->mode == CR_HESSIAN_PROJECTED) {
+        if (projected) {
             /* The stress part S (x) I3. */
             for (int p = 0; p < 3; p++) {
                 HF[6 * p + p] += S00;
@@ -355,11 +419,7 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
                 HF[6 * p + 3 + p] += S01;
                 HF[6 * (3 + p) + p] += S01;
             }
-            const int stress_psd = S00 >= 0.0 && S11 >= 0.0 && S00 * S11 >= S01 * S01;
-            /* The closed form is the whole isotropic StVK's (the parts alone
-             * are not isotropic). */
-            const double lame[2] = {m->mu, m->lambda};
-            if (!stress_psd) cr_membrane_project_hf(f, HF, cs == 1.0 && csh == 1.0 ? lame : NULL);
+            if (!stress_psd) cr_membrane_project_hf(f, HF);
         }
     }
     if (k < 0)
