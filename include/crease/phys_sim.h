@@ -168,7 +168,7 @@ typedef struct cr_sim_def {
                                diverged (default 0.05) */
     cr_sim_solver solver;   /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
                                solves (cr_sim_solve_static, quasi_static) use Newton always */
-    int vbd_iterations;     /* VBD sweeps per substep at most (default 20); stops earlier when
+    int vbd_iterations;     /* VBD sweeps per substep at most (default 30); stops earlier when
                                a sweep's largest vertex move is below newton_tol h */
     double vbd_chebyshev;   /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
                                an extrapolation that raises the objective is dropped */
