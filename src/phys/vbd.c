@@ -17,16 +17,20 @@
  *
  * Safeguards the paper leaves out, which make every iteration a descent on
  * the objective (for the collider's linearisation of that iteration):
- *   - a per-vertex backtracking line search on the vertex's local energy
- *     (the elements around it plus its one-vertex terms, which is the whole
- *     objective as a function of x_i), Armijo with def.armijo, at most
- *     VBD_LINE_SEARCH halvings, else the vertex stays;
+ *   - the vertices take full Newton steps, and an iteration whose objective
+ *     is above its start runs again from there with a per-vertex
+ *     backtracking line search on the vertex's local energy (the elements
+ *     around it plus its one-vertex terms, which is the whole objective as
+ *     a function of x_i), Armijo with def.armijo, at most VBD_LINE_SEARCH
+ *     halvings, else the vertex stays; the searches then stay on for the
+ *     substep (almost every vertex takes its full step, so searching them
+ *     all every sweep was a value evaluation of every element for nothing);
  *   - Chebyshev acceleration (paper sec. 3.7; Wang 2015):
  *       x^{n+1} = w_{n+1} (xbar^{n+1} - x^{n-1}) + x^{n-1},
  *       w_1 = 1, w_2 = 2/(2 - rho^2), w_{n+1} = 4/(4 - rho^2 w_n),
  *     is kept only when the objective at the extrapolated iterate is no
- *     higher than at the sweep's own xbar; otherwise the sweep's iterate
- *     stays and w restarts at 1.
+ *     higher than at the iteration's start; otherwise the sweep's own
+ *     iterate is used and w restarts at 1.
  *
  * Damping (paper sec. 3.5): with def.vbd_damping k_d > 0, each vertex adds
  * the Rayleigh stiffness damping of its elements, k_d/h H_i (x_i - x_i^t) to
@@ -40,10 +44,12 @@
  * o->tol; o->rtol is not used: a Gauss-Seidel sweep's move shrinks long
  * before the iterate converges. Pinned vertices are not coloured.
  *
- * Cost per iteration: every element kernel runs once per vertex of the
- * element with its Hessian (a triangle 3 times, a hinge 4) and about as
- * often without it (the line search), plus two value-only evaluations of
- * the whole objective for the Chebyshev test.
+ * Cost per iteration: every element's vertex-block kernel
+ * (cr_energy_term.vertex_block: that vertex's gradient and 3x3 block only)
+ * runs once per vertex of the element (a triangle 3 times, a hinge 4); a
+ * term without one has its full kernel sliced. Plus one value-only
+ * evaluation of the whole objective (two when the extrapolation is
+ * rejected or the sweep retried).
  */
 #include <math.h>
 #include <stdlib.h>
