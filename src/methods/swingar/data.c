@@ -187,7 +187,9 @@ static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar
     const char *mesh = jstr(jg, "mesh"), *skin = jstr(jg, "skin");
     if (!type || !body || !res || !mesh || !skin)
         return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: a garment lacks a field", dir);
-    snprintf(key, 160, "%s/%s_%s", body, type, res);
+    /* a variant (dress:seed=3) is named by its label, which sequences refer to */
+    const char *label = jstr(jg, "label");
+    snprintf(key, 160, "%s/%s_%s", body, label ? label : type, res);
     const cr_body_model *bm = NULL;
     for (int32_t b = 0; b < d->nbodies; b++)
         if (strcmp(d->bodies[b].name, body) == 0) bm = d->bodies[b].model;
