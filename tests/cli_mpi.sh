@@ -24,5 +24,35 @@ done
 check "manifest: four done" test "$(grep -c '"status":[[:space:]]*"done"' "$tmp/two/manifest.json")" -eq 4
 check "rerun skips all" bash -c "${mpi[*]} '$crease' ${args[*]} -o '$tmp/two' --json | grep -q '\"skipped\":4,'"
 
+# crease fit, data-parallel: 2 ranks with the same global batch end within
+# 1e-5 relative of the 1-rank run (parameters, when python3 can read the
+# checkpoints; the final error always)
+fit=(fit --model mlp --epochs 3 --no-stop --train-res 64 --eval-res 64 --batch 512 --json)
+"$crease" "${fit[@]}" -o "$tmp/fit1" 2>/dev/null | tail -n 1 > "$tmp/fit1.json"
+"${mpi[@]}" "$crease" "${fit[@]}" -o "$tmp/fit2" 2>/dev/null | tail -n 1 > "$tmp/fit2.json"
+rel() { grep -o '"rel_l2":[^,]*' "$1" | cut -d: -f2; }
+check "fit: one report from 2 ranks" test "$(grep -c command "$tmp/fit2.json")" -eq 1
+check "fit: rel_l2 within 1e-5 at 2 ranks" awk -v a="$(rel "$tmp/fit1.json")" \
+  -v b="$(rel "$tmp/fit2.json")" 'BEGIN { d = a - b; if (d < 0) d = -d; exit !(a > 0 && d / a < 1e-5) }'
+if command -v python3 >/dev/null; then
+  check "fit: parameters within 1e-5 at 2 ranks" python3 - "$tmp/fit1/checkpoint.safetensors" \
+    "$tmp/fit2/checkpoint.safetensors" <<'PY'
+import json, struct, sys
+def load(p):
+    b = open(p, 'rb').read(); n = struct.unpack('<Q', b[:8])[0]; h = json.loads(b[8:8 + n])
+    out = {}
+    for k, v in h.items():
+        if k == '__metadata__' or v.get('dtype') != 'F32' or k.startswith('optim'): continue
+        s, e = v['data_offsets']; out[k] = struct.unpack('<%df' % ((e - s) // 4), b[8 + n + s:8 + n + e])
+    return out
+a, b = load(sys.argv[1]), load(sys.argv[2])
+assert a and a.keys() == b.keys()
+for k in a:
+    scale = max(max(abs(x) for x in a[k]), 1e-12)
+    err = max(abs(x - y) for x, y in zip(a[k], b[k])) / scale
+    assert err < 1e-5, (k, err)
+PY
+fi
+
 echo "cli_mpi: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]
