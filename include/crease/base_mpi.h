@@ -2,7 +2,9 @@
  * (CMake finds it; -DCREASE_MPI=OFF leaves it out) these calls wrap
  * MPI_COMM_WORLD; without it the process is rank 0 of 1, every collective
  * is a copy or nothing, and cr_mpi_init refuses a launch by mpirun/srun with
- * more than one rank (it would run the same job N times over).
+ * more than one rank (it would run the same job N times over). With MPI, a
+ * process not launched as one of several ranks does not initialise MPI
+ * either: it is rank 0 of 1 as without it.
  *
  *   CR_TRY(cr_mpi_init(&argc, &argv, err));
  *   ... cr_mpi_rank(), cr_mpi_size(), collectives ...

@@ -8,6 +8,7 @@
 #include <mpi.h>
 #endif
 
+/* mpi_started: 0 before init, 1 outside MPI (one rank), 2 after MPI_Init. */
 static int mpi_rank = 0, mpi_size = 1, mpi_started = 0;
 
 int cr_mpi_available(void) {
@@ -26,7 +27,6 @@ int cr_mpi_size(void) {
     return mpi_size;
 }
 
-#ifndef CREASE_HAVE_MPI
 /* The rank count a launcher announced in the environment, or 1. */
 static int launched_size(void) {
     const char *vars[] = {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "SLURM_NTASKS"};
@@ -41,21 +41,27 @@ static int launched_size(void) {
     }
     return 1;
 }
-#endif
 
 cr_status cr_mpi_init(int *argc, char ***argv, cr_error *err) {
     if (mpi_started) return CR_OK;
+    int n = launched_size();
 #ifdef CREASE_HAVE_MPI
+    /* A process not started as one of several ranks stays out of MPI: a
+     * singleton MPI_Init costs time, and Open MPI's allocations it never
+     * frees would be leaks under the sanitizers in every command. */
+    if (n <= 1) {
+        mpi_started = 1;
+        return CR_OK;
+    }
     int provided = 0;
     if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS)
         return CR_FAIL(err, CR_ERR_IO, "mpi: MPI_Init_thread failed");
     MPI_Comm_rank(MPI_COMM_WORLD, &mpi_rank);
     MPI_Comm_size(MPI_COMM_WORLD, &mpi_size);
-    mpi_started = 1;
+    mpi_started = 2;
     return CR_OK;
 #else
     (void)argc, (void)argv;
-    int n = launched_size();
     if (n > 1)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "mpi: launched as one of %d ranks, but this crease was built without MPI "
@@ -68,7 +74,7 @@ cr_status cr_mpi_init(int *argc, char ***argv, cr_error *err) {
 
 void cr_mpi_finalize(void) {
 #ifdef CREASE_HAVE_MPI
-    if (mpi_started) MPI_Finalize();
+    if (mpi_started == 2) MPI_Finalize();
 #endif
     mpi_started = 0, mpi_rank = 0, mpi_size = 1;
 }
