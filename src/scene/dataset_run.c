@@ -15,6 +15,7 @@
 #include "crease/topology.h"
 
 #include <cjson/cJSON.h>
+#include <glob.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -208,6 +209,14 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     char dir[CR_DATASET_PATH], path[CR_DATASET_PATH + 32];
     seq_dir(ds, q, dir, sizeof dir);
     CR_TRY(cr_mkdir_p(dir, err));
+    /* A run killed while writing one of this sequence's files left its
+     * temporary (cr_atomic_open's <name>.tmp.<pid>): the rerun removes it. */
+    snprintf(path, sizeof path, "%s/*.tmp.*", dir);
+    glob_t stale;
+    if (glob(path, 0, NULL, &stale) == 0)
+        for (size_t i = 0; i < stale.gl_pathc; i++)
+            remove(stale.gl_pathv[i]);
+    globfree(&stale);
     cr_sim_def sd = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &sd.material, err));
     sd.dt = 1.0 / d->fps;
