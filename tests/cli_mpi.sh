@@ -79,10 +79,7 @@ check "failure: then equals 1 rank's" same_dataset "$tmp/one" "$tmp/fail"
 # first sequence is done, then the same command again.
 "${mpi[@]}" "$crease" "${args[@]}" -o "$tmp/kill" 2>/dev/null &
 pid=$!
-for _ in $(seq 1200); do
-  [[ -n "$(done_seqs "$tmp/kill")" ]] && break
-  sleep 0.05
-done
+while kill -0 $pid 2>/dev/null && [[ -z "$(done_seqs "$tmp/kill")" ]]; do sleep 0.05; done
 kill -TERM $pid
 wait $pid
 finished=$(done_seqs "$tmp/kill")
