@@ -84,11 +84,6 @@ check: test build-opt test-clang test-asan fuzz-smoke
 bench: build
 	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done
 
-# Dataset and fit throughput at 1 and 2 MPI ranks, and the expected scaling (docs/mpi.md).
-.PHONY: bench-mpi
-bench-mpi: build
-	@bash bench/bench_mpi.sh $(RELEASE)/crease
-
 # Side by side with Blender's cloth solver (installs Debian's blender; never in `make check`).
 bench-peers: build
 	@bash scripts/bench_peers.sh $(RELEASE)/crease $(RELEASE)/bench_peers
@@ -98,3 +93,8 @@ install: build
 
 clean:
 	rm -rf build
+
+# Dataset and fit throughput at 1 and 2 MPI ranks, and the expected scaling (docs/mpi.md).
+.PHONY: bench-mpi
+bench-mpi: build
+	@bash bench/bench_mpi.sh $(RELEASE)/crease
