@@ -1,5 +1,6 @@
 # crease: a thin front over CMake. `make run` and `make check` are the README's two commands.
 JOBS    ?= $(shell nproc)
+PEERS   ?= sim,nn
 RELEASE := build/release
 ASAN    := build/asan
 FUZZ    := build/fuzz
@@ -84,9 +85,10 @@ check: test build-opt test-clang test-asan fuzz-smoke
 bench: build
 	@for b in $(RELEASE)/bench_*; do echo "== $$b"; $$b || exit 1; done
 
-# Side by side with Blender's cloth solver (installs Debian's blender; never in `make check`).
+# Side by side with Blender's cloth solver and PyTorch (installs Debian's blender and
+# python3-torch there only; never in `make check`); PEERS=sim or PEERS=nn for one part.
 bench-peers: build
-	@bash scripts/bench_peers.sh $(RELEASE)/crease $(RELEASE)/bench_peers
+	@bash scripts/bench_peers.sh $(RELEASE)/crease $(RELEASE)/bench_peers $(PEERS)
 
 install: build
 	cmake --install $(RELEASE) --prefix $(PREFIX)

@@ -74,9 +74,9 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
                 st.seconds_collision) /
                tot);
     printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
-           "%lld backoffs, max penetration before projection %.2f mm, %s\n",
-           name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.backoffs,
-           1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
+           "%lld VBD retries, %lld backoffs, max penetration before projection %.2f mm, %s\n",
+           name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.vbd_retries,
+           st.backoffs, 1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
     free(last_positions);
     last_positions = malloc(sizeof(double) * 3 * (size_t)garment->nv);

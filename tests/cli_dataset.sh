@@ -18,6 +18,14 @@ check "dataset layout" test -s "$tmp/data/manifest.json" -a -s "$tmp/data/bodies
   -a -s "$tmp/data/sequences/tshirt_low_normal_walk/result.json"
 check "dataset resumes" bash -c "'$crease' dataset --garments tshirt --motions walk \
   --low-vertices 600 --frames 4 -o '$tmp/data' --quiet --json | grep -q '\"skipped\":1,'"
+# garment variants: a spec and --garment-variants, named by their labels, specs in the manifest
+check "dataset variants" "$crease" dataset --garments skirt:flare=25 --garment-variants 2 --seed 4 \
+  --motions walk --low-vertices 800 --frames 1 -o "$tmp/datav" --quiet
+check "variant files" test -s "$tmp/datav/garments/normal/skirt_flare25_seed4_low.obj" \
+  -a -s "$tmp/datav/sequences/skirt_flare25_seed5_low_normal_walk/garment.pc2"
+check "variant spec" grep -Eq '"spec":[[:space:]]*"skirt:length=[0-9.]+:flare=25:' \
+  "$tmp/datav/manifest.json"
+expect_exit 1 "flare = 99" dataset --garments skirt:flare=99 --motions walk -o "$tmp/datab" --quiet
 # a motion file at 60 fps: resampled to the dataset's 30, eased in from the rest pose
 "$crease" motion --clip walk --frames 13 --fps 60 -o "$tmp/walk60.npz" >/dev/null 2>&1
 check "dataset on a file" "$crease" dataset --garments tshirt --motions "$tmp/walk60.npz" \

@@ -41,6 +41,23 @@ check "skirt glb posed picture" bash -c "'$crease' garment --type skirt --flare 
   -o '$tmp/s.glb' --render '$tmp/s.png' --size 128 --clip walk --frame 10 2>/dev/null"
 check "skirt glb magic" bash -c "head -c 4 '$tmp/s.glb' | grep -q glTF"
 
+# --- random variants and named shape parameters ------------------------------------------
+check "help lists parameters" bash -c "'$crease' garment --help | grep -q -- '--sleeve *0.5 to 1.5'"
+check "random dress" bash -c "'$crease' garment --type dress --random --seed 3 --body-res 64 --res 1000 \
+  -o '$tmp/r1.obj' --json > '$tmp/r1.json'"
+check "random fields" json_has "$tmp/r1.json" params spec seed attempts
+check "random dress again" bash -c "'$crease' garment --type dress --random --seed 3 --body-res 64 \
+  --res 1000 -o '$tmp/r2.obj' --json > '$tmp/r2.json'"
+check "random is seeded" cmp -s "$tmp/r1.obj" "$tmp/r2.obj"
+check "random named override" bash -c "'$crease' garment --type dress --random --seed 3 --flare 30 \
+  --body-res 64 --res 1000 -o '$tmp/r3.obj' --json | grep -q '\"flare\":30,'"
+check "jumpsuit 5 openings" bash -c "'$crease' garment --type jumpsuit --length 0.7 --neck 0.02 \
+  --body-res 64 --res 1000 -o '$tmp/j.obj' --json | grep -q '\"boundary_loops\":5,'"
+expect_exit 2 "--length expects a number in \\[0.5, 1.5\\]" garment --type dress --length 2 -o "$tmp/x.obj"
+expect_exit 2 "--neck expects a number in \\[-0.02, 0.08\\]" garment --type dress --neck 1 -o "$tmp/x.obj"
+expect_exit 2 "--seed needs --random" garment --type dress --seed 3 -o "$tmp/x.obj"
+expect_exit 2 "not a layer list" garment --type tshirt,vest --random -o "$tmp/x.obj"
+
 # --- a user garment: the t-shirt fitted back onto the body -------------------------------
 check "user" bash -c "'$crease' garment --user '$tmp/t.obj' --body-res 72 --clearance 0.012 -o '$tmp/u.obj' \
   --json > '$tmp/u.json'"

@@ -680,3 +680,54 @@ CR_TEST(drape, bad_input_is_refused_by_name) {
     d.resume = 1;
     CR_CHECK(cr_drape_run(&d, &r, NULL, &err) != CR_OK);
 }
+
+/* The square cloth's size and drop height follow the object unless given: a
+ * built-in scene keeps Table 4's 1 m cloth 5 cm up; a user's 3 m box gets a
+ * 5 m cloth 25 cm up and a 0.3 m sphere a 0.5 m one 2.5 cm up; the rest cloth
+ * the scene builds is that wide and that high. */
+CR_TEST(drape, cloth_size_and_drop_height_follow_the_object) {
+    float size, drop;
+    const float ball_lo[3] = {-0.3f, -0.3f, -0.3f}, ball_hi[3] = {0.3f, 0.3f, 0.3f};
+    cr_drape_def d = cr_drape_default_def(CR_DRAPE_BALL);
+    cr_drape_cloth_placement(&d, ball_lo, ball_hi, &size, &drop);
+    CR_CHECK(size == 1.0f);
+    CR_CHECK_NEAR(drop, 0.05, 1e-7);
+    d = cr_drape_default_def(CR_DRAPE_OBJECT);
+    const float box_lo[3] = {-1.5f, 0.0f, -1.0f}, box_hi[3] = {1.5f, 3.0f, 1.0f};
+    cr_drape_cloth_placement(&d, box_lo, box_hi, &size, &drop);
+    CR_CHECK_NEAR(size, 5.0, 1e-5);
+    CR_CHECK_NEAR(drop, 0.25, 1e-6);
+    const float s_lo[3] = {-0.15f, -0.15f, -0.15f}, s_hi[3] = {0.15f, 0.15f, 0.15f};
+    cr_drape_cloth_placement(&d, s_lo, s_hi, &size, &drop);
+    CR_CHECK_NEAR(size, 0.5, 1e-5);
+    CR_CHECK_NEAR(drop, 0.025, 1e-6);
+    d.cloth_size = 2.0f; /* given values win, and the drop follows the given size */
+    cr_drape_cloth_placement(&d, box_lo, box_hi, &size, &drop);
+    CR_CHECK(size == 2.0f);
+    CR_CHECK_NEAR(drop, 0.1, 1e-6);
+    d.gap = 0.0f;
+    cr_drape_cloth_placement(&d, box_lo, box_hi, &size, &drop);
+    CR_CHECK(drop == 0.0f);
+
+    /* The scene places the cloth so: a 3 m box (edge 3, centred) below a 5 m cloth. */
+    char path[512];
+    snprintf(path, sizeof path, "%s/drape_box3.obj", cr_test_tmpdir());
+    cr_mesh *box = NULL;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_prim_box(3.0f, 3.0f, 3.0f, 2, &box, &err), &err);
+    CR_REQUIRE(box);
+    CR_CHECK_OK(cr_mesh_write(path, box, &err), &err);
+    cr_mesh_destroy(box);
+    d = cr_drape_default_def(CR_DRAPE_OBJECT);
+    d.object_path = path;
+    d.mesh_res = 16;
+    drape_scene s;
+    CR_CHECK_OK(cr_drape_scene_create(&d, &s, &err), &err);
+    float lo[3], hi[3];
+    cr_mesh_bounds(s.rest, lo, hi);
+    CR_CHECK_NEAR(hi[0] - lo[0], 5.0, 1e-4);
+    CR_CHECK_NEAR(hi[2] - lo[2], 5.0, 1e-4);
+    CR_CHECK_NEAR(lo[1], 1.5 + 0.25, 1e-4);
+    CR_CHECK_NEAR(s.cloth_size, 5.0, 1e-4);
+    cr_drape_scene_free(&s);
+}

@@ -125,7 +125,7 @@ static void check_uvs(const cr_garment *g) {
 
 CR_TEST(garment, types_three_resolutions) {
     /* Openings and panels per type. */
-    static const int loops[] = {4, 4, 2, 4, 3, 4}, panels[] = {6, 6, 2, 2, 4, 2};
+    static const int loops[] = {4, 4, 2, 4, 3, 4, 5}, panels[] = {6, 6, 2, 2, 4, 2, 4};
     static const int32_t res[3] = {2000, 3000, 5000};
     cr_error err = {0};
     for (int type = 0; type < CR_GARMENT_USER; type++)

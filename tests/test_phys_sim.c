@@ -141,8 +141,9 @@ static int scene_make(scene *s, int32_t n, uint64_t seed) {
 
 static void spring_terms(scene *s, cr_energy_term *t) {
     memset(t, 0, 2 * sizeof *t);
-    t[0] = (cr_energy_term){"springs", s->topo->ne, 2, s->topo->edge, spring_kernel, &s->sp, 1.0};
-    t[1] = (cr_energy_term){"anchor", s->mesh->nv, 1, NULL, anchor_kernel, &s->an, 1.0};
+    t[0] = (cr_energy_term){"springs",     s->topo->ne, 2,   s->topo->edge,
+                            spring_kernel, &s->sp,      1.0, NULL};
+    t[1] = (cr_energy_term){"anchor", s->mesh->nv, 1, NULL, anchor_kernel, &s->an, 1.0, NULL};
 }
 
 /* Dense brute force: value, gradient (3V) and Hessian (3V x 3V). */
@@ -197,8 +198,8 @@ CR_TEST(phys_sim, assembly_matches_dense_sum) {
     anchor extra = {3.0, NULL};
     cr_energy_term t[4];
     spring_terms(&s, t);
-    t[2] = (cr_energy_term){"quad4", s.topo->nh, 4, s.topo->hinge, quad4_kernel, NULL, 0.5};
-    t[3] = (cr_energy_term){"repeat", 5, 1, rep_elem, anchor_kernel, &extra, 2.0};
+    t[2] = (cr_energy_term){"quad4", s.topo->nh, 4, s.topo->hinge, quad4_kernel, NULL, 0.5, NULL};
+    t[3] = (cr_energy_term){"repeat", 5, 1, rep_elem, anchor_kernel, &extra, 2.0, NULL};
     cr_error err = {0};
     cr_assembly *a = NULL;
     CR_CHECK_OK(cr_assembly_create(t, 4, nv, &a, &err), &err);
@@ -235,7 +236,7 @@ CR_TEST(phys_sim, assembly_matches_dense_sum) {
     CR_CHECK(memcmp(H, Hd, n * n * sizeof(double)) == 0);
     /* Out-of-range elements are refused. */
     int32_t bad[2] = {0, nv};
-    cr_energy_term tb = {"bad", 1, 2, bad, spring_kernel, &s.sp, 1.0};
+    cr_energy_term tb = {"bad", 1, 2, bad, spring_kernel, &s.sp, 1.0, NULL};
     cr_assembly *ab = NULL;
     CR_CHECK(cr_assembly_create(&tb, 1, nv, &ab, &err) == CR_ERR_RANGE && !ab);
     cr_assembly_destroy(a);

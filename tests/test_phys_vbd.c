@@ -4,6 +4,7 @@
 #include "crease/bvh.h"
 #include "crease/phys_sim.h"
 #include "crease/primitives.h"
+#include "phys/sim_internal.h"
 #include "test.h"
 #include <math.h>
 #include <stdio.h>
@@ -133,6 +134,40 @@ CR_TEST(phys_vbd, converges_to_newton) {
     cr_mesh_destroy(m);
 }
 
+/* The sweep gathers each vertex's gradient and Hessian block from the
+ * energies' vertex-block kernels (cr_energy_term.vertex_block); without them
+ * (terms that have none) it slices the element kernels' full gradient and
+ * Hessian instead. Both give the same trajectory, to roundoff. */
+CR_TEST(phys_vbd, vertex_blocks_match_full_kernels) {
+    cr_mesh *m = hanging_cloth(10, 0.5f, 0.04f);
+    CR_REQUIRE(m);
+    cr_sim_def d = vbd_def();
+    int32_t pins[2] = {0, 9};
+    d.pinned = pins, d.npinned = 2;
+    cr_error err = {0};
+    cr_sim *a = NULL, *b = NULL;
+    CR_CHECK_OK(cr_sim_create(&d, m, &a, &err), &err);
+    CR_CHECK_OK(cr_sim_create(&d, m, &b, &err), &err);
+    CR_REQUIRE(a && b);
+    int blocks = 0;
+    for (int t = 0; t < b->nterms; t++) {
+        blocks += b->terms[t].vertex_block != NULL;
+        b->terms[t].vertex_block = NULL;
+    }
+    CR_CHECK(blocks == 2); /* membrane and bending */
+    double worst = 0.0;
+    for (int f = 0; f < 5; f++) {
+        CR_CHECK_OK(cr_sim_step(a, NULL, &err), &err);
+        CR_CHECK_OK(cr_sim_step(b, NULL, &err), &err);
+        worst = fmax(worst, max_diff(cr_sim_positions(a), cr_sim_positions(b), 3 * (int64_t)m->nv));
+    }
+    printf("    blocks vs full kernels: largest difference %.2e m after 5 frames\n", worst);
+    CR_CHECK(worst < 1e-9);
+    cr_sim_destroy(a);
+    cr_sim_destroy(b);
+    cr_mesh_destroy(m);
+}
+
 /* Every sweep lowers the objective, with and without Chebyshev. */
 CR_TEST(phys_vbd, energy_decreases_per_iteration) {
     cr_mesh *m = hanging_cloth(12, 0.5f, 0.03f);
@@ -186,9 +221,10 @@ static double deepest_inside(const cr_mesh *collider, const double *x, int32_t n
 }
 
 /* The 32 x 32 drop of test_phys_sim.c with VBD: rests outside the sphere,
- * on top of it. Before the projection VBD leaves vertices deeper than Newton
- * (5.5 mm measured against Newton's < 2 mm: 20 sweeps do not push the last
- * millimetres out against the membrane), so that bound is 1 cm here. */
+ * draped over its top. Before the projection VBD leaves vertices deeper than
+ * Newton (3.6 mm measured at 30 sweeps, 5.5 mm at 20, against Newton's
+ * < 2 mm: the sweeps do not push the last millimetres out against the
+ * membrane), so that bound is 1 cm here. */
 CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
     enum { FRAMES = 30 };
     cr_mesh *cloth = flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
@@ -216,18 +252,34 @@ CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
     CR_CHECK(deepest < 1e-3);
     CR_CHECK(pen < 1e-2);
     CR_CHECK(rep.contacts > 10);
+    /* It drapes over the top. The cloth's centre creeps sideways: the
+     * unconverged membrane leaves a residual force that friction does not
+     * hold (converged Newton: no creep). Measured over the 30 frames: 10 cm
+     * at 20 sweeps before the vertex blocks (the centre then back at y 0.307
+     * by chance), 7 cm at 20 sweeps after, 2.8 cm at 30 (the default). */
     int32_t centre = 16 * 32 + 16;
-    CR_CHECK(x[3 * centre + 1] > 0.298);
+    double top = -INFINITY;
+    for (int32_t i = 0; i < cloth->nv; i++)
+        top = fmax(top, x[3 * i + 1]);
+    const double creep = hypot(x[3 * centre] - cloth->pos[3 * centre],
+                               x[3 * centre + 2] - cloth->pos[3 * centre + 2]);
+    printf("    highest vertex %.4f m, centre at %.4f m, crept %.1f cm\n", top, x[3 * centre + 1],
+           1e2 * creep);
+    CR_CHECK(top > 0.298 && top < 0.34);
+    CR_CHECK(x[3 * centre + 1] > 0.28 && creep < 0.1);
     CR_CHECK(x[1] < 0.25);
     cr_sim_destroy(s);
     cr_mesh_destroy(cloth);
     cr_mesh_destroy(sphere);
 }
 
-/* The door-like swing of test_phys_sim.c. At 20 sweeps VBD dissipates far
- * less than converged implicit Euler (whose numerical damping ends the
- * swing in 4 s): the kinetic energy falls non-monotonically, to 2 % of its
- * peak after 10 s (measured), so the test runs 10 s and asks for 5 %. */
+/* The door-like swing of test_phys_sim.c. Unconverged (every substep takes
+ * all its sweeps), VBD dissipates far less than converged implicit Euler
+ * (whose numerical damping ends the swing in 4 s): the kinetic energy falls
+ * non-monotonically and can surge again (a later peak above the first: the
+ * unconverged iterate adds energy), to 2 % of its peak after 10 s (measured
+ * at 30 sweeps; 2 % at 20 before the vertex blocks, 5.1 % at 20 after: the
+ * outcome is chaotic in roundoff), so the test runs 10 s and asks for 5 %. */
 CR_TEST(phys_vbd, hanging_cloth_settles) {
     cr_mesh *m = flat_cloth(12, 0.5f, 0.0f);
     CR_REQUIRE(m);

@@ -16,7 +16,8 @@
  *   bodies/<body>/skin.npz                     joints (22,3), skin_joint (V,4), skin_weight (V,4)
  *   bodies/<body>/<motion>.pc2                 the posed body, frames + 1 samples
  *   motions/<motion>.npz                       the motion (crease's motion .npz)
- *   garments/<body>/<garment>_<res>.obj        rest garment with UVs
+ *   garments/<body>/<garment>_<res>.obj        rest garment with UVs (<garment>: the
+ *                                              variant's label, e.g. dress_seed3)
  *   garments/<body>/<garment>_<res>_skin.npz   skin_joint (V,4), skin_weight (V,4), panel (F)
  *   garments/<body>/<garment>_high_from_low.npz  face (Vh), bary (Vh,3): gdsr Eq. 1
  *   sequences/<garment>_<res>_<body>_<motion>/garment.pc2   frames + 1 samples
@@ -46,11 +47,14 @@
 extern "C" {
 #endif
 
-#define CR_DATASET_MAX_ITEMS 16
+#define CR_DATASET_MAX_ITEMS 64
 
 typedef struct cr_dataset_def {
     const char *out_dir;
-    const char *const *garments; /* garment types (garment.h names) */
+    const char *const *garments; /* garment variants: a type ("dress") or a variant spec
+                                    (cr_garment_variant_parse: "dress:seed=3",
+                                    "tshirt:length=0.8:sleeve=1.2"); files and ids use the
+                                    variant's label ("dress_seed3") */
     int ngarments;
     const char *const *motions; /* clip names (motion.h) or motion files (.npz, .bvh) */
     int nmotions;

@@ -125,8 +125,10 @@ typedef struct cr_drape_def {
     cr_drape_variant variant;
 
     /* scene */
-    float cloth_size; /* m, side of the square cloth (default 1) */
-    float gap;        /* m, height of the square cloth above the object's top (default 0.05) */
+    float cloth_size; /* m, side of the square cloth; 0 (the default): from the object,
+                         cr_drape_cloth_placement */
+    float gap;        /* m, drop height of the square cloth above the object's top; < 0 (the
+                         default): from the cloth's size */
     int mesh_res;     /* vertices per side of the mesh variants' grid (default 128) */
 
     /* losses */
@@ -204,9 +206,20 @@ typedef struct cr_drape_result {
     cr_drape_terms terms;     /* last evaluation on the fixed structures */
     cr_drape_terms initial;   /* first evaluation (the flat start of a fresh run) */
     double max_penetration_m; /* deepest output vertex inside the object (signed distance) */
+    double cloth_size_m;      /* side of the square cloth used, m (0: a user's cloth) */
+    double drop_height_m;     /* its height above the object's top at the start, m */
     char obj_path[1024], glb_path[1024], png_path[1024], loss_png[1024], log_path[1024],
         sampler_png[1024], checkpoint_path[1024]; /* written files; "" when not written */
 } cr_drape_result;
+
+/* The square cloth's side and drop height for def on an object whose
+ * bounding box is lo..hi (Y up). Given values win. Otherwise the side is 1 m
+ * on the built-in scenes (Table 4's cloth; the ball's 0.6 m diameter is 3/5
+ * of it) and 5/3 of the object's larger horizontal extent on a user's object,
+ * so a sphere of any size is covered as the ball is; the drop height is 5 %
+ * of the side (the ball's 5 cm). */
+void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const float hi[3],
+                              float *size, float *drop_height);
 
 /* Train, evaluate and (with out_dir) write: drape.obj and drape.glb (the
  * surface at out_res, the object alongside in object.obj), drape.png (cloth

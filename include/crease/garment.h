@@ -8,6 +8,8 @@
  *   skinning the garment with the body's pose                 cr_garment_pose
  *   high vertex -> (low face, barycentric), gdsr Eq. 1        cr_garment_correspondence
  *   a user OBJ checked and pushed out of the body             cr_garment_load_user, _fit_user
+ *   shape parameters by key, seeded random variants           cr_garment_param_*, _random_def,
+ *     ("dress:seed=3", "tshirt:length=0.8"), quality targets    cr_garment_variant_*, _check
  *
  *   cr_garment_def def = cr_garment_default_def(CR_GARMENT_TSHIRT);
  *   def.target_vertices = 8000;
@@ -42,7 +44,8 @@
  * high resolution garment correspond through UV space (gdsr, Eq. 1).
  *
  * Deterministic: the same def and body give the same garment bit for bit,
- * whatever the thread count (there is no random element, hence no seed).
+ * whatever the thread count (the build has no random element; a random
+ * variant is a def drawn from a seed before the build).
  * Units: m. Thread safety: reentrant; a built template or garment is read-only.
  */
 #ifndef CREASE_GARMENT_H
@@ -62,11 +65,12 @@ typedef enum cr_garment_type {
     CR_GARMENT_DRESS,      /* sleeveless top and a flared skirt to the knees */
     CR_GARMENT_TROUSERS,   /* waist to the ankles */
     CR_GARMENT_VEST,       /* sleeveless, worn over a t-shirt (more clearance) */
+    CR_GARMENT_JUMPSUIT,   /* sleeveless top and trousers in one piece, neck to the ankles */
     CR_GARMENT_USER,       /* loaded from a file (cr_garment_load_user) */
     CR_GARMENT_TYPE_COUNT
 } cr_garment_type;
 
-/* "tshirt", "longsleeve", "skirt", "dress", "trousers", "vest", "user". */
+/* "tshirt", "longsleeve", "skirt", "dress", "trousers", "vest", "jumpsuit", "user". */
 const char *cr_garment_type_name(cr_garment_type type);
 /* Type by name; CR_ERR_INVALID naming the unknown type and listing the known
  * ones ("user" is not accepted: user garments come from a file). */
@@ -83,24 +87,124 @@ typedef struct cr_garment_def {
     float clearance_m;         /* offset of the tight parts from the body, m, [0.005, 0.1]; default
                                   0.01 (t-shirt, long sleeve, dress top), 0.02 (vest), 0.015
                                   (trousers, skirt waist). Every vertex ends at least 5 mm out. */
-    float flare_deg;           /* skirt and dress: half-angle of the cone the skirt widens along
-                                  below the waist, degrees, [0, 45] (default 12 skirt, 15 dress;
-                                  ignored by the other types) */
+    float flare_deg;           /* skirt, dress and long shirts: half-angle of the cone the skirt
+                                  widens along below the waist, degrees, [0, 45] (default 15
+                                  dress, 12 the others; ignored by trousers, vest, jumpsuit) */
     float length_scale;        /* hem, sleeve and leg lengths as a multiple of the type's
-                                  default, [0.5, 1.5] (default 1); tops stop 2 cm below the
-                                  hip joints (above the crotch), long sleeves always reach
-                                  the wrists, trousers stop above the ankles */
+                                  default, [0.5, 1.5] (default 1); a t-shirt or long sleeve
+                                  whose hem would pass 2 cm below the hip joints becomes a
+                                  long shirt (below the waist the dress's flared envelope, as
+                                  a tight hem would split round each leg), long sleeves
+                                  always reach the wrists (see sleeve_scale), trousers and
+                                  jumpsuit legs stop above the ankles; vest hems stop 2 cm
+                                  below the hip joints */
     float grid_m;              /* cell of the grid the level set is sampled on, m, [0.004, 0.03]
                                   (default 0.01): finer follows the body more closely, costs
                                   cubically */
     int32_t remesh_iterations; /* isotropic remeshing rounds from the polygonised surface,
                                   [1, 50] (default 8); an instance refines the template's
                                   reference mesh in half as many (at least 3) */
+    float sleeve_scale;        /* t-shirt: sleeve end as a multiple of its default place (60% of
+                                  the upper arm, times length_scale; at most 95% of it); long
+                                  sleeve: the share of the way from the elbow to 1.5 cm before
+                                  the wrist (above 1 changes nothing); [0.5, 1.5] (default 1;
+                                  ignored by the sleeveless types) */
+    float neck_m;              /* neckline: added to the radius of the sphere that cuts it, m,
+                                  [-0.02, 0.08] (default 0; ignored by skirt and trousers) */
     uint32_t cookie;           /* set by cr_garment_default_def; a hand-zeroed def is a bug */
 } cr_garment_def;
 
 /* Defaults for a type (not CR_GARMENT_USER), as listed field by field above. */
 cr_garment_def cr_garment_default_def(cr_garment_type type);
+
+/* Quality figures of a garment (cr_garment_measure, cr_garment_check below). */
+typedef struct cr_garment_quality {
+    int32_t vertices, faces;
+    int32_t boundary_loops; /* openings: neck, hem, sleeves, legs */
+    int32_t panels;
+    float share_min_angle_above_20deg; /* faces whose smallest angle exceeds 20 deg, 0..1 */
+    float min_angle_deg;               /* smallest angle of any face, degrees */
+    float min_clearance_m;             /* smallest signed distance from a vertex to the body, m */
+    float share_outward;               /* faces whose normal points away from the body, 0..1 */
+    float max_weight_sum_error;        /* max |sum of a vertex's skin weights - 1| */
+    float uv_area_error; /* max over panels of |UV area * uv_scale^2 / 3-D area - 1| */
+    int manifold;        /* 1: an oriented 2-manifold with boundary, no defects */
+    int32_t uv_flipped;  /* faces whose UV triangle has non-positive area */
+    int32_t bad_joints;  /* skin joint indices outside the skeleton */
+} cr_garment_quality;
+
+/* A garment fitted to a body at no particular resolution (see templates below). */
+typedef struct cr_garment_template cr_garment_template;
+
+/* ---------------------------------------------------- shape parameters -- */
+
+/* The shape parameters of cr_garment_def by key, one row each: what the
+ * CLI's options (--length ...), variant specs ("dress:length=0.9") and the
+ * random generator go through. A row's accepted range is what
+ * cr_garment_create takes; its sampled range (per type) is where the random
+ * generator draws and where every variant has been checked to pass
+ * cr_garment_check. A type whose sampled range is empty (lo = hi = 0) does
+ * not use the parameter. */
+typedef struct cr_garment_param {
+    const char *key;   /* "length", "sleeve", "flare", "clearance", "neck" */
+    const char *field; /* the cr_garment_def field: "length_scale", ... */
+    const char *unit;  /* "x" (a multiple), "deg", "m" */
+    const char *help;  /* one line */
+    double lo, hi;     /* accepted range, both ends included */
+    float sample_lo[CR_GARMENT_USER], sample_hi[CR_GARMENT_USER]; /* per type */
+} cr_garment_param;
+
+#define CR_GARMENT_NPARAMS 5
+
+/* Row i (0 <= i < CR_GARMENT_NPARAMS); NULL past the end. */
+const cr_garment_param *cr_garment_param_at(int i);
+/* Row index of a key, or -1. */
+int cr_garment_param_find(const char *key);
+/* Read and write def's field of row i. */
+float cr_garment_param_get(const cr_garment_def *def, int i);
+/* Set a parameter by key: CR_ERR_INVALID naming an unknown key (and listing
+ * the keys) or the key and its range for a value outside it. */
+cr_status cr_garment_param_set(cr_garment_def *def, const char *key, double value, cr_error *err);
+
+/* A random variant's def: each parameter the type uses drawn uniformly in
+ * its sampled range from cr_rng_make(seed, type + CR_GARMENT_TYPE_COUNT *
+ * attempt) in row order; the others keep their defaults. attempt 0 is the
+ * first draw; cr_garment_variant_build takes further attempts when a draw
+ * fails the checks. Pure: no body, no build. */
+cr_garment_def cr_garment_random_def(cr_garment_type type, uint64_t seed, int32_t attempt);
+
+/* A garment variant as text: "TYPE" or "TYPE:key=value:key=value..." with
+ * the keys of the table, plus "seed=N" for a random variant (given keys
+ * override the drawn values), "res=N" for target_vertices. */
+typedef struct cr_garment_variant {
+    cr_garment_def def; /* defaults, then given values (drawn ones after _build) */
+    int random;         /* seed= was given */
+    uint64_t seed;
+    uint32_t given;             /* bit i: table row i given explicitly */
+    int32_t attempts;           /* set by _build: draws made until one passed (1 for the first) */
+    char rejected[160];         /* set by _build: why the last rejected draw failed ("" if none) */
+    cr_garment_quality quality; /* set by _build: the checked instance's figures */
+    char label[128];            /* file-name safe: "dress", "dress_seed3", "tshirt_length0.8" */
+} cr_garment_variant;
+
+/* Parse a spec (CR_ERR_INVALID naming the spec and the bad part). */
+cr_status cr_garment_variant_parse(const char *spec, cr_garment_variant *out, cr_error *err);
+
+/* Most draws a random variant takes before giving up. */
+#define CR_GARMENT_RANDOM_ATTEMPTS 8
+
+/* Fix v->def on `body` and build its template (*out, may be NULL to only
+ * check): a random variant draws (attempt 0, 1, ...; given keys override),
+ * builds, instantiates at v->def.target_vertices and keeps the first draw
+ * that passes cr_garment_check; after CR_GARMENT_RANDOM_ATTEMPTS failures
+ * CR_ERR_TOPOLOGY with the last reason. A fixed variant is built and
+ * checked once. */
+cr_status cr_garment_variant_build(cr_garment_variant *v, const cr_body_model *body,
+                                   cr_garment_template **out, cr_error *err);
+
+/* The exact spec of a def: every table key the type uses, with %.9g values
+ * (reads back bit for bit), and res, e.g. "dress:length=1.1:flare=20.5:...". */
+void cr_garment_def_spec(const cr_garment_def *def, char *out, size_t cap);
 
 typedef struct cr_garment {
     cr_garment_type type;
@@ -131,8 +235,6 @@ cr_status cr_garment_create(const cr_garment_def *def, const cr_body_model *body
 /* A garment fitted to a body at no particular resolution: the cut surface,
  * its seams and the UV layout. Instantiating it at two vertex counts gives a
  * low/high pair sharing the UV layout (and uv_scale_m). */
-typedef struct cr_garment_template cr_garment_template;
-
 cr_status cr_garment_template_create(const cr_garment_def *def, const cr_body_model *body,
                                      cr_garment_template **out, cr_error *err);
 /* A garment with about target_vertices vertices ([500, 100000]). The body
@@ -171,23 +273,23 @@ cr_status cr_garment_pose(const cr_garment *g, const cr_body_model *body, const 
 
 /* ------------------------------------------------------------ quality -- */
 
-typedef struct cr_garment_quality {
-    int32_t vertices, faces;
-    int32_t boundary_loops; /* openings: neck, hem, sleeves, legs */
-    int32_t panels;
-    float share_min_angle_above_20deg; /* faces whose smallest angle exceeds 20 deg, 0..1 */
-    float min_angle_deg;               /* smallest angle of any face, degrees */
-    float min_clearance_m;             /* smallest signed distance from a vertex to the body, m */
-    float share_outward;               /* faces whose normal points away from the body, 0..1 */
-    float max_weight_sum_error;        /* max |sum of a vertex's skin weights - 1| */
-    float uv_area_error; /* max over panels of |UV area * uv_scale^2 / 3-D area - 1| */
-    int manifold;        /* 1: an oriented 2-manifold with boundary, no defects */
-} cr_garment_quality;
-
 /* Measure g against its body (rest pose). CR_ERR_MEMORY, or errors from
  * building the body's BVH. */
 cr_status cr_garment_measure(const cr_garment *g, const cr_body_model *body,
                              cr_garment_quality *out, cr_error *err);
+
+/* Openings a procedural type has: 4 tops and dress, 2 skirt, 3 trousers,
+ * 5 jumpsuit. */
+int32_t cr_garment_openings(cr_garment_type type);
+
+/* Measure g (into *q, may be NULL) and hold it to the quality targets: at
+ * least 99% of faces with every angle above 20 degrees, every vertex 5 mm
+ * out of the body, manifold with the type's openings, 99% of faces facing
+ * away from the body, UVs present and unflipped with panel areas within 3%,
+ * weights summing to 1 within 1e-5 on valid joints. CR_ERR_TOPOLOGY naming
+ * the first figure that misses. */
+cr_status cr_garment_check(const cr_garment *g, const cr_body_model *body, cr_garment_quality *q,
+                           cr_error *err);
 
 /* ----------------------------------------------------- correspondence -- */
 

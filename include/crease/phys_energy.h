@@ -37,15 +37,26 @@ enum { CR_ENERGY_MAX_VERTS = 4 }; /* hinges touch four vertices: 12x12 Hessians 
 typedef double (*cr_energy_kernel)(const void *data, int32_t e, const double *xe, double *g,
                                    double *H);
 
+/* Vertex block of element e for its local vertex k (0 <= k < nvert), for
+ * solvers that move one vertex at a time (vertex block descent): returns the
+ * element's energy, the same bits as the kernel's value; when g is not NULL,
+ * writes dE/dx_k (3) there, and when H is not NULL, the (k,k) 3x3 block of
+ * the kernel's PSD-projected Hessian (row-major); both equal the kernel's
+ * up to roundoff, at a fraction of its cost (no full gradient, no 3n x 3n
+ * Hessian). Pure like the kernel. */
+typedef double (*cr_energy_vertex_kernel)(const void *data, int32_t e, int k, const double *xe,
+                                          double *g, double *H);
+
 typedef struct cr_energy_term {
-    const char *name;         /* "membrane", "bending", "gravity", ... (JSON field names) */
-    int32_t nelem;            /* elements */
-    int nvert;                /* vertices per element, 1..CR_ENERGY_MAX_VERTS */
-    const int32_t *elem;      /* (nelem, nvert) vertex indices; NULL when nvert == 1 and
-                                 element e is vertex e */
+    const char *name;    /* "membrane", "bending", "gravity", ... (JSON field names) */
+    int32_t nelem;       /* elements */
+    int nvert;           /* vertices per element, 1..CR_ENERGY_MAX_VERTS */
+    const int32_t *elem; /* (nelem, nvert) vertex indices; NULL when nvert == 1 and
+                            element e is vertex e */
     cr_energy_kernel kernel;
-    const void *data;         /* the energy's own struct (borrowed) */
-    double weight;            /* multiplies value, gradient and Hessian (default 1) */
+    const void *data;                     /* the energy's own struct (borrowed) */
+    double weight;                        /* multiplies value, gradient and Hessian (default 1) */
+    cr_energy_vertex_kernel vertex_block; /* optional (NULL: callers slice the kernel's) */
 } cr_energy_term;
 
 /* Element e's vertex indices into idx (nvert). */

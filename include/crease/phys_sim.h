@@ -168,13 +168,13 @@ typedef struct cr_sim_def {
                                diverged (default 0.05) */
     cr_sim_solver solver;   /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
                                solves (cr_sim_solve_static, quasi_static) use Newton always */
-    int vbd_iterations;     /* VBD sweeps per substep at most (default 20); stops earlier when
+    int vbd_iterations;     /* VBD sweeps per substep at most (default 30); stops earlier when
                                a sweep's largest vertex move is below newton_tol h */
     double vbd_chebyshev;   /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
                                an extrapolation that raises the objective is dropped */
     int vbd_hessian_every;  /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
-                               every this many sweeps, gradients every sweep (default 4: the
-                               Hessians are most of a kernel's cost) */
+                               every this many sweeps, gradients every sweep (default 1: the
+                               vertex blocks are cheap, and a stale block overshoots) */
     double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
                                in Newton's potential, so it moves the solution) */
     cr_sim_iteration_fn on_iteration; /* Newton steps, or VBD sweeps (energy after the sweep) */
@@ -207,6 +207,7 @@ typedef struct cr_sim_report {
     double seconds_factor;    /* CHOLMOD numeric factorisations */
     double seconds_solve;     /* triangular solves */
     double seconds_collision; /* BVH refits and signed-distance queries */
+    int vbd_retries;          /* VBD sweeps whose objective rose, run again with line searches */
 } cr_sim_report;
 
 typedef struct cr_sim cr_sim;

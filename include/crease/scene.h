@@ -168,6 +168,7 @@ typedef struct cr_scene_run_stats {
     long long newton_iterations;
     long long factorisations;
     long long newton_capped;    /* substeps that stopped at the iteration limit */
+    long long vbd_retries;      /* VBD sweeps run again with line searches (cr_sim_report) */
     long long backoffs;         /* failed attempts retried with more substeps */
     double max_penetration_m;   /* deepest vertex inside the collider before projection */
     double max_projected_share; /* largest share of the vertices projected out of the

@@ -36,7 +36,7 @@
 #define MIN_CLEARANCE_M 0.0052f
 
 static const char *const type_names[CR_GARMENT_TYPE_COUNT] = {
-    "tshirt", "longsleeve", "skirt", "dress", "trousers", "vest", "user"};
+    "tshirt", "longsleeve", "skirt", "dress", "trousers", "vest", "jumpsuit", "user"};
 
 const char *cr_garment_type_name(cr_garment_type type) {
     return type >= 0 && type < CR_GARMENT_TYPE_COUNT ? type_names[type] : "unknown";
@@ -49,7 +49,8 @@ cr_status cr_garment_type_parse(const char *name, cr_garment_type *out, cr_error
             return CR_OK;
         }
     return CR_FAIL(err, CR_ERR_INVALID,
-                   "garment: unknown type '%s' (tshirt, longsleeve, skirt, dress, trousers, vest)",
+                   "garment: unknown type '%s' (tshirt, longsleeve, skirt, dress, trousers, vest, "
+                   "jumpsuit)",
                    name);
 }
 
@@ -58,13 +59,17 @@ cr_garment_def cr_garment_default_def(cr_garment_type type) {
     cr_garment_def d = {0};
     d.type = type;
     d.target_vertices = 8000;
-    d.clearance_m = type == CR_GARMENT_VEST                                   ? 0.02f
-                    : type == CR_GARMENT_TROUSERS || type == CR_GARMENT_SKIRT ? 0.015f
-                                                                              : 0.01f;
+    d.clearance_m =
+        type == CR_GARMENT_VEST ? 0.02f
+        : type == CR_GARMENT_TROUSERS || type == CR_GARMENT_SKIRT || type == CR_GARMENT_JUMPSUIT
+            ? 0.015f
+            : 0.01f;
     d.flare_deg = type == CR_GARMENT_DRESS ? 15.0f : 12.0f;
     d.length_scale = 1.0f;
     d.grid_m = 0.01f;
     d.remesh_iterations = 8;
+    d.sleeve_scale = 1.0f;
+    d.neck_m = 0.0f;
     d.cookie = GARMENT_DEF_COOKIE;
     return d;
 }
@@ -78,17 +83,13 @@ static cr_status check_def(const cr_garment_def *d, cr_error *err) {
         const char *name;
         double v, lo, hi;
     } f[] = {{"target_vertices", d->target_vertices, 500, 100000},
-             {"clearance_m", d->clearance_m, 0.005, 0.1},
-             {"flare_deg", d->flare_deg, 0, 45},
-             {"length_scale", d->length_scale, 0.5, 1.5},
              {"grid_m", d->grid_m, 0.004, 0.03},
              {"remesh_iterations", d->remesh_iterations, 1, 50}};
     for (size_t i = 0; i < sizeof f / sizeof f[0]; i++)
-        /* The bounds are decimal; a float field holds them rounded down. */
-        if (!(f[i].v >= f[i].lo * (1.0 - 1e-6) && f[i].v <= f[i].hi * (1.0 + 1e-6)))
+        if (!cr_garment_in_range(f[i].v, f[i].lo, f[i].hi))
             return CR_FAIL(err, CR_ERR_INVALID, "garment: %s = %g (need %g to %g)", f[i].name,
                            f[i].v, f[i].lo, f[i].hi);
-    return CR_OK;
+    return cr_garment_params_check(d, err);
 }
 
 void cr_garment_destroy(cr_garment *g) {
@@ -307,8 +308,11 @@ cr_status cr_garment_measure(const cr_garment *g, const cr_body_model *body,
     cr_topology_destroy(t);
     for (int32_t v = 0; v < m->nv; v++) {
         double s = 0.0;
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < 4; k++) {
             s += g->skin_weight[4 * v + k];
+            out->bad_joints +=
+                !(g->skin_joint[4 * v + k] >= 0 && g->skin_joint[4 * v + k] < CR_NJOINTS);
+        }
         out->max_weight_sum_error = fmaxf(out->max_weight_sum_error, (float)fabs(s - 1.0));
     }
     cr_bvh *bvh = NULL;
@@ -347,6 +351,8 @@ cr_status cr_garment_measure(const cr_garment *g, const cr_body_model *body,
             const float *u1 = &m->uv[2 * (size_t)m->tri_uv[3 * f + 1]];
             const float *u2 = &m->uv[2 * (size_t)m->tri_uv[3 * f + 2]];
             int32_t p = g->panel[f];
+            out->uv_flipped +=
+                (u1[0] - u0[0]) * (u2[1] - u0[1]) - (u1[1] - u0[1]) * (u2[0] - u0[0]) <= 0.0f;
             a3[p] += area[f];
             a2[p] += 0.5 * fabs((double)(u1[0] - u0[0]) * (u2[1] - u0[1]) -
                                 (double)(u1[1] - u0[1]) * (u2[0] - u0[0]));

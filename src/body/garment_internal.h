@@ -10,6 +10,15 @@
 #include "crease/bvh.h"
 #include "crease/garment.h"
 
+/* ----------------------------------------------------------- parameters -- */
+
+/* lo <= v <= hi, with the decimal bounds widened by 1e-6 (a float field
+ * holds them rounded). */
+int cr_garment_in_range(double v, double lo, double hi);
+/* Every shape parameter of d in its accepted range (garment_params.c);
+ * CR_ERR_INVALID naming the field, its key and the range. */
+cr_status cr_garment_params_check(const cr_garment_def *d, cr_error *err);
+
 /* ---------------------------------------------------------------- field -- */
 
 /* A scalar field on a regular grid, negative inside the garment's level set

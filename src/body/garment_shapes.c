@@ -160,7 +160,7 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     cr_bvh_closest(b->bvh, N, INFINITY, &hit);
     gfn neck = {.kind = FN_SPHERE};
     set3f(neck.p, N[0], N[1] + 0.055f * s, N[2] + 0.02f * s);
-    neck.r = hit.distance + 0.055f * s;
+    neck.r = hit.distance + 0.055f * s + def->neck_m;
     gfn front = {.kind = FN_PLANE};
     set3f(front.p, 0.0f, 0.0f, 0.5f * (LS[2] + RS[2]));
     set3f(front.n, 0.0f, 0.0f, 1.0f);
@@ -175,18 +175,32 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
     switch (def->type) {
     case CR_GARMENT_TSHIRT:
     case CR_GARMENT_LONGSLEEVE: {
-        float hem = fmaxf(N[1] - ls * (N[1] - (hip_y + 0.005f * s)), top_hem_min);
+        float hem = N[1] - ls * (N[1] - (hip_y + 0.005f * s));
         sp->tight = 1;
-        sp->tight_lo = hem;
+        if (hem >= top_hem_min) {
+            sp->tight_lo = hem;
+        } else {
+            /* A long shirt: below the waist the dress's envelope takes over
+             * (a tight hem would split round each leg). */
+            sp->tight_lo = waist_y - 0.06f * s;
+            sp->loose = 1;
+            sp->loose_clear = def->clearance_m + 0.005f;
+            sp->waist_y = waist_y;
+            sp->flare = def->flare_deg * (float)M_PI / 180.0f;
+            sp->loose_lo = hem;
+        }
         sp->cut[sp->ncut++] = plane_y(hem, 1.0f);
         sp->cut[sp->ncut++] = neck;
         for (int side = 0; side < 2; side++) {
             int sh = side ? CR_JOINT_RIGHT_SHOULDER : CR_JOINT_LEFT_SHOULDER;
             int el = side ? CR_JOINT_RIGHT_ELBOW : CR_JOINT_LEFT_ELBOW;
             int wr = side ? CR_JOINT_RIGHT_WRIST : CR_JOINT_LEFT_WRIST;
-            sp->cut[sp->ncut++] = def->type == CR_GARMENT_TSHIRT
-                                      ? arm_end(b, side, sh, el, fminf(0.6f * ls, 0.95f), 0.0f)
-                                      : arm_end(b, side, el, wr, -1.0f, 0.015f * s);
+            gfn end =
+                def->type == CR_GARMENT_TSHIRT
+                    ? arm_end(b, side, sh, el, fminf(0.6f * ls * def->sleeve_scale, 0.95f), 0.0f)
+                    : arm_end(b, side, el, wr, -1.0f, 0.015f * s);
+            if (def->type == CR_GARMENT_LONGSLEEVE) end.r *= fminf(def->sleeve_scale, 1.0f);
+            sp->cut[sp->ncut++] = end;
         }
         sp->seam[sp->nseam++] = front;
         sp->seam[sp->nseam++] = arm_fn(0, 1.0f);
@@ -236,16 +250,32 @@ static void spec_build(const cr_garment_def *def, const gbody *b, gspec *sp) {
         sp->cut[sp->ncut++] = plane_y(hem, 1.0f);
         break;
     }
-    case CR_GARMENT_TROUSERS: {
+    case CR_GARMENT_TROUSERS:
+    case CR_GARMENT_JUMPSUIT: {
+        /* The jumpsuit: the trousers' legs and a sleeveless top in one
+         * level set, with the trousers' four panels running up to the
+         * shoulders. */
+        int jump = def->type == CR_GARMENT_JUMPSUIT;
         float top = P[1] + 0.045f * s;
         float end = fmaxf(top - ls * (top - (ankle_y + 0.045f * s)), ankle_y + 0.03f * s);
+        float hip_z = 0.5f * (joint(b, CR_JOINT_LEFT_HIP)[2] + joint(b, CR_JOINT_RIGHT_HIP)[2]);
         sp->tight = 1;
         sp->no_arms = 1;
         sp->tight_lo = end;
-        sp->tight_hi = top;
-        sp->cut[sp->ncut++] = plane_y(top, -1.0f);
+        if (!jump) {
+            sp->tight_hi = top;
+            sp->cut[sp->ncut++] = plane_y(top, -1.0f);
+        }
         sp->cut[sp->ncut++] = plane_y(end, 1.0f);
-        front.p[2] = 0.5f * (joint(b, CR_JOINT_LEFT_HIP)[2] + joint(b, CR_JOINT_RIGHT_HIP)[2]);
+        if (jump) {
+            sp->cut[sp->ncut++] = neck;
+            sp->cut[sp->ncut++] = arm_fn(0, -1.0f);
+            sp->cut[sp->ncut++] = arm_fn(1, -1.0f);
+            /* Side seams halfway between the shoulders' and the hips' planes. */
+            front.p[2] = 0.5f * (front.p[2] + hip_z);
+        } else {
+            front.p[2] = hip_z;
+        }
         gfn left = {.kind = FN_PLANE};
         set3f(left.p, P[0], 0.0f, 0.0f);
         set3f(left.n, 1.0f, 0.0f, 0.0f);

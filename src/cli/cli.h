@@ -136,6 +136,16 @@ int cli_parse_float(const char *cmd, const char *opt, const char *s, double lo, 
 /* "--help" or "-h". */
 int cli_is_help(const char *s);
 
+/* A comma-separated list option, "a,b,c": CLI_CUSTOM(name, cli_parse_list, &list, 1)
+ * copies the value into buf and points items into it. */
+enum { CLI_LIST_MAX_ITEMS = 64, CLI_LIST_MAX_CHARS = 4096 };
+typedef struct cli_list {
+    char buf[CLI_LIST_MAX_CHARS];
+    const char *items[CLI_LIST_MAX_ITEMS];
+    int n;
+} cli_list;
+int cli_parse_list(const char *cmd, const char *opt, const char *const *v, void *dst);
+
 /* Print the summary object on stdout (one line) and free it. */
 void cli_json_print(cJSON *obj);
 cJSON *cli_json_float_array(const float *v, int n);
@@ -209,11 +219,17 @@ int cmd_dataset(int argc, char **argv);
 void help_dataset(void);
 int cmd_drape(int argc, char **argv);
 void help_drape(void);
+int cmd_gdsr(int argc, char **argv);
+void help_gdsr(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
 int cmd_eval(int argc, char **argv);
 void help_eval(void);
 int cmd_view(int argc, char **argv);
 void help_view(void);
+int cmd_swingar(int argc, char **argv);
+void help_swingar(void);
+int cmd_swingar_sdf(int argc, char **argv);
+void help_swingar_sdf(void);
 
 #endif

@@ -169,3 +169,18 @@ cJSON *cli_json_float_array(const float *v, int n) {
         cJSON_AddItemToArray(arr, cJSON_CreateNumber(v[i]));
     return arr;
 }
+
+int cli_parse_list(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    cli_list *l = dst;
+    if (strlen(v[0]) >= CLI_LIST_MAX_CHARS) return cli_usage(cmd, "%s: list too long", opt);
+    strcpy(l->buf, v[0]);
+    l->n = 0;
+    for (char *save = NULL, *tok = strtok_r(l->buf, ",", &save); tok;
+         tok = strtok_r(NULL, ",", &save)) {
+        if (l->n == CLI_LIST_MAX_ITEMS)
+            return cli_usage(cmd, "%s: at most %d items", opt, CLI_LIST_MAX_ITEMS);
+        l->items[l->n++] = tok;
+    }
+    if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
+    return CLI_OK;
+}

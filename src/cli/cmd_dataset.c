@@ -19,7 +19,13 @@ void help_dataset(void) {
            "same command completes an interrupted run. Sequences run in parallel; one that\n"
            "fails is reported and skipped.\n\n"
            "options:\n"
-           "  --garments LIST      tshirt, longsleeve, skirt, dress, trousers, vest (required)\n"
+           "  --garments LIST      tshirt, longsleeve, skirt, dress, trousers, vest, jumpsuit, or\n"
+           "                       variants TYPE:key=value:... (keys: crease garment --help;\n"
+           "                       seed=N draws a random variant, e.g. dress:seed=3,\n"
+           "                       tshirt:length=0.8:sleeve=1.2) (required)\n"
+           "  --garment-variants N each listed garment becomes N random variants\n"
+           "                       GARMENT:seed=S+k, k = 0 .. N-1, S the --seed (at most 64 in\n"
+           "                       all); the manifest gives each one's parameters and spec\n"
            "  --motions LIST       clips (crease motion --list) or .npz/.bvh files (required)\n"
            "  --bodies LIST        mannequin presets: slim, normal, heavy (default normal)\n"
            "  --res LIST           low and/or high (default low)\n"
@@ -43,51 +49,30 @@ void help_dataset(void) {
            "                       or vbd (vertex block descent, no factorisation)\n"
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
            "                       more substeps (default 0.15; 0: always one)\n"
-           "  --seed S             recorded in the manifest (default 1)\n"
+           "  --seed S             recorded in the manifest; the first variant seed of\n"
+           "                       --garment-variants (default 1)\n"
            "  -o DIR               the dataset folder (required)\n"
            "  --quiet              no progress bars\n"
            "  --json               end with a JSON summary on stdout\n\n"
            "Exit code 1 when a sequence failed (the others are written).\n");
 }
 
-enum { MAX_LIST_CHARS = 4096 };
-
-typedef struct list_opt {
-    char buf[MAX_LIST_CHARS];
-    const char *items[CR_DATASET_MAX_ITEMS];
-    int n;
-} list_opt;
-
-/* "a,b,c" (copied into the list's buffer) -> its items. */
-static int parse_list(const char *cmd, const char *opt, const char *const *v, void *dst) {
-    list_opt *l = dst;
-    if (strlen(v[0]) >= MAX_LIST_CHARS) return cli_usage(cmd, "%s: list too long", opt);
-    strcpy(l->buf, v[0]);
-    l->n = 0;
-    for (char *save = NULL, *tok = strtok_r(l->buf, ",", &save); tok;
-         tok = strtok_r(NULL, ",", &save)) {
-        if (l->n == CR_DATASET_MAX_ITEMS)
-            return cli_usage(cmd, "%s: at most %d items", opt, CR_DATASET_MAX_ITEMS);
-        l->items[l->n++] = tok;
-    }
-    if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
-    return CLI_OK;
-}
+_Static_assert(CLI_LIST_MAX_ITEMS == CR_DATASET_MAX_ITEMS, "a list option holds a dataset axis");
 
 int cmd_dataset(int argc, char **argv) {
-    static list_opt lists[4]; /* garments, motions, bodies, res */
+    static cli_list lists[4]; /* garments, motions, bodies, res */
     for (int i = 0; i < 4; i++)
         lists[i].n = 0;
     cr_dataset_def def = cr_dataset_default_def();
-    int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
+    int json = 0, seed = (int)def.seed, npos = 0, step_given = 0, variants = 0;
     cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
     const char *solver = NULL;
     const cli_opt opts[] = {
-        CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
-        CLI_CUSTOM("--motions", parse_list, &lists[1], 1),
-        CLI_CUSTOM("--bodies", parse_list, &lists[2], 1),
-        CLI_CUSTOM("--res", parse_list, &lists[3], 1),
+        CLI_CUSTOM("--garments", cli_parse_list, &lists[0], 1),
+        CLI_CUSTOM("--motions", cli_parse_list, &lists[1], 1),
+        CLI_CUSTOM("--bodies", cli_parse_list, &lists[2], 1),
+        CLI_CUSTOM("--res", cli_parse_list, &lists[3], 1),
         CLI_OUTPUT(&def.out_dir),
         CLI_INT("--frames", &def.frames, 1, 100000),
         CLI_INT("--low-vertices", &def.low_vertices, 500, 100000),
@@ -95,6 +80,7 @@ int cmd_dataset(int argc, char **argv) {
         CLI_FLOAT("--fps", &def.fps, 0.01, 1000),
         CLI_STR("--material", &def.material),
         CLI_INT("--seed", &seed, 0, 2147483647L),
+        CLI_INT("--garment-variants", &variants, 1, CR_DATASET_MAX_ITEMS),
         {.name = "--max-collider-step",
          .kind = CLI_OPT_FLOAT,
          .dst = &max_step,
@@ -116,6 +102,26 @@ int cmd_dataset(int argc, char **argv) {
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
+    if (variants > 0) {
+        /* GARMENT -> GARMENT:seed=S, GARMENT:seed=S+1, ... */
+        static char expanded[CR_DATASET_MAX_ITEMS][160];
+        static const char *items[CR_DATASET_MAX_ITEMS];
+        if ((long)lists[0].n * variants > CR_DATASET_MAX_ITEMS)
+            return cli_usage("dataset", "--garment-variants %d of %d garments: at most %d in all",
+                             variants, lists[0].n, CR_DATASET_MAX_ITEMS);
+        int n = 0;
+        for (int g = 0; g < lists[0].n; g++)
+            for (int k = 0; k < variants; k++, n++) {
+                if (strstr(lists[0].items[g], "seed="))
+                    return cli_usage("dataset", "--garment-variants: '%s' already has a seed",
+                                     lists[0].items[g]);
+                snprintf(expanded[n], sizeof expanded[n], "%.120s:seed=%lld", lists[0].items[g],
+                         (long long)seed + k);
+                items[n] = expanded[n];
+            }
+        memcpy(lists[0].items, items, (size_t)n * sizeof items[0]);
+        lists[0].n = n;
+    }
     if (lists[1].n == 0) return cli_usage("dataset", "missing --motions LIST");
     static const char *const normal[] = {"normal"}, *const low[] = {"low"};
     def.garments = lists[0].items, def.ngarments = lists[0].n;

@@ -10,7 +10,7 @@
 void help_drape(void) {
     printf(
         "usage: crease drape [--scene S | --object F] [--variant V] -o DIR [options]\n\n"
-        "Drape a square 1 m cloth, laid flat 5 cm above an object, by minimising strain, bend,\n"
+        "Drape a square cloth, laid flat above an object, by minimising strain, bend,\n"
         "gravity and collision losses over an implicit neural surface p = p0(u,v) + MLP(GE(u,v))\n"
         "(Shu et al., docs/drape.md). The losses are computed on local structures (a triangle\n"
         "and its three edge neighbours, side 0.001 in UV, randomly rotated) at points drawn from\n"
@@ -19,6 +19,10 @@ void help_drape(void) {
         "  --scene S            ball (default), torus, prism or table (Table 4 weights)\n"
         "  --object F           drape over this mesh instead (OBJ, PLY, glb; Y up)\n"
         "  --cloth F            rest cloth mesh with UVs in [0,1]^2, used where it is\n"
+        "  --cloth-size S       side of the square cloth, m (default: 1 on the built-in scenes,\n"
+        "                       5/3 of the object's larger horizontal extent with --object)\n"
+        "  --drop-height H      its height above the object's top, m (default 5 %% of its side;\n"
+        "                       --gap is the same option)\n"
         "  --variant V          inr-adaptive (default), inr-uniform, inr-mesh or mesh\n"
         "  --compare            run all four variants into DIR/<variant>/ and write\n"
         "                       DIR/compare.png with their renders side by side\n"
@@ -110,6 +114,8 @@ static cJSON *result_json(const cr_drape_def *def, const cr_drape_result *r) {
     cJSON_AddNumberToObject(j, "total", r->terms.total);
     cJSON_AddItemToObject(j, "initial", terms_object(&r->initial));
     cJSON_AddNumberToObject(j, "max_penetration_m", r->max_penetration_m);
+    cJSON_AddNumberToObject(j, "cloth_size_m", r->cloth_size_m);
+    cJSON_AddNumberToObject(j, "drop_height_m", r->drop_height_m);
     cJSON_AddNumberToObject(j, "resumed_from_epoch", r->resumed_from);
     cJSON *o = cJSON_AddObjectToObject(j, "outputs");
     add_path(o, "obj", r->obj_path);
@@ -194,6 +200,7 @@ int cmd_drape(int argc, char **argv) {
         CLI_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0),
         CLI_FLOAT("--mu", &def.mu, 0.0, 1.0),
         CLI_FLOAT("--tol", &def.converge_tol, 0.0, 1.0),
+        CLI_FLOAT("--drop-height", &def.gap, 0.0, 1e3),
         CLI_FLOAT("--gap", &def.gap, 0.0, 1e3),
         CLI_FLOAT("--cloth-size", &def.cloth_size, 1e-3, 1e3),
         CLI_END,

@@ -16,13 +16,14 @@ enum { MAX_LAYERS = 4 };
 void help_garment(void) {
     printf(
         "usage: crease garment --type TYPE[,TYPE...] [options] -o FILE\n"
+        "       crease garment --type TYPE --random [--seed N] [options] -o FILE\n"
         "       crease garment --user GARMENT.obj [options] -o FILE\n\n"
         "Build a garment fitted to the procedural mannequin's rest pose: a manifold mesh with\n"
         "openings, outward normals, good triangles (at least 99%% with every angle above 20\n"
         "degrees), at least 5 mm outside the body, UV charts per panel (front, back, sleeve\n"
         "halves, trouser quarters) and skinning weights. FILE is .obj, .ply or .glb.\n\n"
         "options:\n"
-        "  --type TYPE      tshirt, longsleeve, skirt, dress, trousers or vest; a comma list\n"
+        "  --type TYPE      tshirt, longsleeve, skirt, dress, trousers, vest or jumpsuit; a list\n"
         "                   builds layers worn over each other, innermost first (e.g.\n"
         "                   tshirt,vest), written as FILE with _TYPE before the extension\n"
         "  --user FILE      check a garment mesh with UVs (manifold, orientation, UVs, size\n"
@@ -32,12 +33,12 @@ void help_garment(void) {
         "  --shape NAME     body preset: slim, normal (default) or heavy\n"
         "  --height M       body height, m, 1 to 2.5 (default 1.75)\n"
         "  --body-res N     mannequin grid cells over the height, 32 to 512 (default 110)\n"
-        "  --clearance M    offset of the tight parts from the body, m, 0.005 to 0.1\n"
-        "                   (default per type: 0.01, vest 0.02, trousers and skirt 0.015;\n"
-        "                   a layer list raises each layer to clear the one below)\n"
-        "  --flare DEG      skirt and dress: cone half-angle below the waist, 0 to 45\n"
-        "  --length F       hem, sleeve and leg length as a multiple of the default, 0.5 to 1.5\n"
         "  --grid M         level-set grid cell, m, 0.004 to 0.03 (default 0.01)\n"
+        "  --random         draw the shape parameters of one --type (uniform in each one's\n"
+        "                   sampled range, docs/garments.md); a draw failing the quality\n"
+        "                   checks is replaced by the next (at most 8); named parameters\n"
+        "                   below override the drawn values\n"
+        "  --seed N         the draw, 0 to 2147483647 (default 1; needs --random)\n"
         "  -o FILE          output mesh (required)\n"
         "  --render PNG     picture of the garment on the body\n"
         "  --size N         picture size in pixels (default 720)\n"
@@ -47,20 +48,28 @@ void help_garment(void) {
         "  --frame N        the clip's frame (default 15)\n"
         "  --json           end with a JSON summary on stdout: type, vertices, faces,\n"
         "                   share_min_angle_above_20deg, min_angle_deg, min_clearance_m,\n"
-        "                   boundary_loops, panels, uv_scale_m, paths, seconds (and layers\n"
-        "                   for a layer list)\n");
+        "                   boundary_loops, panels, uv_scale_m, paths, seconds, params and\n"
+        "                   spec (the exact variant); with --random also seed, attempts and\n"
+        "                   rejected (why the last rejected draw failed); layers for a list\n\n"
+        "shape parameters (accepted range; the defaults per type rebuild the plain types;\n"
+        "a layer list raises each layer's clearance to clear the one below):\n");
+    for (int i = 0; i < CR_GARMENT_NPARAMS; i++) {
+        const cr_garment_param *p = cr_garment_param_at(i);
+        printf("  --%-10s %g to %g %s: %s\n", p->key, p->lo, p->hi, p->unit, p->help);
+    }
 }
 
 typedef struct garment_opts {
     const char *types, *user, *out, *render, *shape, *clip;
-    int res, size, frame, json, body_res;
-    float height, clearance, flare, length, grid, yaw;
-    int set_clearance, set_flare, set_length, set_grid, set_height;
+    int res, size, frame, json, body_res, random, seed;
+    float height, grid, yaw;
+    float param[CR_GARMENT_NPARAMS];
+    int set_param[CR_GARMENT_NPARAMS], set_grid, set_height, set_seed;
 } garment_opts;
 
 static int parse(int argc, char **argv, garment_opts *o) {
     int npos = 0;
-    const cli_opt opts[] = {
+    const cli_opt fixed[] = {
         CLI_FLAG("--json", &o->json),
         CLI_STR("--type", &o->types),
         CLI_STR("--user", &o->user),
@@ -73,24 +82,13 @@ static int parse(int argc, char **argv, garment_opts *o) {
         CLI_INT("--size", &o->size, 16, 8192),
         CLI_INT("--frame", &o->frame, 0, 100000),
         CLI_FLOAT("--yaw", &o->yaw, -1e4, 1e4),
-        {.name = "--clearance",
-         .kind = CLI_OPT_FLOAT,
-         .dst = &o->clearance,
-         .lo = 0.005,
-         .hi = 0.1,
-         .seen = &o->set_clearance},
-        {.name = "--flare",
-         .kind = CLI_OPT_FLOAT,
-         .dst = &o->flare,
+        CLI_FLAG("--random", &o->random),
+        {.name = "--seed",
+         .kind = CLI_OPT_INT,
+         .dst = &o->seed,
          .lo = 0,
-         .hi = 45,
-         .seen = &o->set_flare},
-        {.name = "--length",
-         .kind = CLI_OPT_FLOAT,
-         .dst = &o->length,
-         .lo = 0.5,
-         .hi = 1.5,
-         .seen = &o->set_length},
+         .hi = 2147483647.0,
+         .seen = &o->set_seed},
         {.name = "--grid",
          .kind = CLI_OPT_FLOAT,
          .dst = &o->grid,
@@ -103,12 +101,30 @@ static int parse(int argc, char **argv, garment_opts *o) {
          .lo = 1.0,
          .hi = 2.5,
          .seen = &o->set_height},
-        CLI_END,
     };
+    /* The shape parameters' rows come from the library's table. */
+    enum { NFIXED = sizeof fixed / sizeof fixed[0] };
+    static char names[CR_GARMENT_NPARAMS][32];
+    cli_opt opts[NFIXED + CR_GARMENT_NPARAMS + 1];
+    memcpy(opts, fixed, sizeof fixed);
+    for (int i = 0; i < CR_GARMENT_NPARAMS; i++) {
+        const cr_garment_param *p = cr_garment_param_at(i);
+        snprintf(names[i], sizeof names[i], "--%s", p->key);
+        opts[NFIXED + i] = (cli_opt){.name = names[i],
+                                     .kind = CLI_OPT_FLOAT,
+                                     .dst = &o->param[i],
+                                     .lo = p->lo,
+                                     .hi = p->hi,
+                                     .seen = &o->set_param[i]};
+    }
+    opts[NFIXED + CR_GARMENT_NPARAMS] = (cli_opt)CLI_END;
     int rc = cli_parse("garment", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!o->out) return cli_usage("garment", "missing -o FILE");
     if (!o->types == !o->user) return cli_usage("garment", "give one of --type or --user");
+    if (o->set_seed && !o->random) return cli_usage("garment", "--seed needs --random");
+    if (o->random && (o->user || strchr(o->types, ',')))
+        return cli_usage("garment", "--random makes one --type, not a layer list or --user");
     return CLI_OK;
 }
 
@@ -176,16 +192,45 @@ static cJSON *quality_json(const cr_garment *g, const cr_garment_quality *q, con
     return j;
 }
 
-/* Build (or load) the garments into g; n of them. */
+/* One --random variant: drawn, checked, instantiated at --res. */
+static cr_status build_random(const garment_opts *o, const cr_body_model *body, cr_garment **g,
+                              cr_garment_variant *v, int *usage, cr_error *err) {
+    if (cr_garment_variant_parse(o->types, v, err) != CR_OK) {
+        *usage = 1;
+        return CR_ERR_INVALID;
+    }
+    v->random = 1, v->seed = (uint64_t)o->seed;
+    v->def.target_vertices = o->res;
+    if (o->set_grid) v->def.grid_m = o->grid;
+    for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
+        if (o->set_param[i]) {
+            CR_TRY(cr_garment_param_set(&v->def, cr_garment_param_at(i)->key, o->param[i], err));
+            v->given |= 1u << i;
+        }
+    cr_garment_template *t = NULL;
+    CR_TRY(cr_garment_variant_build(v, body, &t, err));
+    cr_status st = cr_garment_template_instantiate(t, o->res, body, g, err);
+    cr_garment_template_destroy(t);
+    return st;
+}
+
+/* Build (or load) the garments into g; n of them; defs_out (n) the defs
+ * built (not for --user). */
 static cr_status build(const garment_opts *o, const cr_body_model *body, cr_garment **g, int *n,
-                       int *usage, cr_error *err) {
+                       cr_garment_def *defs, cr_garment_variant *v, int *usage, cr_error *err) {
     if (o->user) {
         cr_garment_user_def ud = cr_garment_user_default_def();
-        if (o->set_clearance) ud.clearance_m = o->clearance;
+        int ic = cr_garment_param_find("clearance");
+        if (o->set_param[ic]) ud.clearance_m = o->param[ic];
         *n = 1;
         return cr_garment_load_user(o->user, &ud, body, &g[0], err);
     }
-    cr_garment_def defs[MAX_LAYERS];
+    if (o->random) {
+        *n = 1;
+        cr_status st = build_random(o, body, g, v, usage, err);
+        defs[0] = v->def;
+        return st;
+    }
     char list[256];
     snprintf(list, sizeof list, "%s", o->types);
     *n = 0;
@@ -200,9 +245,9 @@ static cr_status build(const garment_opts *o, const cr_body_model *body, cr_garm
         }
         cr_garment_def d = cr_garment_default_def(type);
         d.target_vertices = o->res;
-        if (o->set_clearance) d.clearance_m = o->clearance;
-        if (o->set_flare) d.flare_deg = o->flare;
-        if (o->set_length) d.length_scale = o->length;
+        for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
+            if (o->set_param[i])
+                CR_TRY(cr_garment_param_set(&d, cr_garment_param_at(i)->key, o->param[i], err));
         if (o->set_grid) d.grid_m = o->grid;
         /* Each layer clears the one below by at least the layer gap. */
         if (*n > 0 && d.clearance_m < defs[*n - 1].clearance_m + CR_GARMENT_LAYER_GAP)
@@ -216,8 +261,19 @@ static cr_status build(const garment_opts *o, const cr_body_model *body, cr_garm
     return cr_garment_create_layers(defs, *n, body, g, err);
 }
 
+/* The parameters a garment was built with and its exact spec. */
+static void params_json(cJSON *j, const cr_garment_def *d) {
+    cJSON *p = cJSON_AddObjectToObject(j, "params");
+    for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
+        cJSON_AddNumberToObject(p, cr_garment_param_at(i)->key, cr_garment_param_get(d, i));
+    char spec[256];
+    cr_garment_def_spec(d, spec, sizeof spec);
+    cJSON_AddStringToObject(j, "spec", spec);
+}
+
 int cmd_garment(int argc, char **argv) {
-    garment_opts o = {.res = 8000, .size = 720, .frame = 15, .yaw = 30.0f, .shape = "normal"};
+    garment_opts o = {
+        .res = 8000, .size = 720, .frame = 15, .yaw = 30.0f, .shape = "normal", .seed = 1};
     int rc = parse(argc, argv, &o);
     if (rc != CLI_OK) return rc;
     cr_error err = {0};
@@ -239,7 +295,9 @@ int cmd_garment(int argc, char **argv) {
     if (cr_mannequin_create(&md, &body, &err) != CR_OK) return cli_fail(&err);
     cr_garment *g[MAX_LAYERS] = {0};
     int n = 0, usage = 0;
-    cr_status st = build(&o, body, g, &n, &usage, &err);
+    cr_garment_def defs[MAX_LAYERS];
+    cr_garment_variant v = {0};
+    cr_status st = build(&o, body, g, &n, defs, &v, &usage, &err);
     double seconds = cr_time_now() - t0;
     char paths[MAX_LAYERS][1024];
     cr_garment_quality q[MAX_LAYERS];
@@ -268,7 +326,9 @@ int cmd_garment(int argc, char **argv) {
                 angle = angle < q[i].min_angle_deg ? angle : q[i].min_angle_deg;
                 clear = clear < q[i].min_clearance_m ? clear : q[i].min_clearance_m;
                 cJSON_AddItemToArray(arr, cJSON_CreateString(paths[i]));
-                cJSON_AddItemToArray(layers, quality_json(g[i], &q[i], paths[i]));
+                cJSON *lj = quality_json(g[i], &q[i], paths[i]);
+                if (!o.user) params_json(lj, &defs[i]);
+                cJSON_AddItemToArray(layers, lj);
             }
             cJSON_AddNumberToObject(j, "vertices", nv);
             cJSON_AddNumberToObject(j, "faces", nf);
@@ -278,6 +338,12 @@ int cmd_garment(int argc, char **argv) {
             cJSON_AddNumberToObject(j, "boundary_loops", q[0].boundary_loops);
             cJSON_AddNumberToObject(j, "panels", q[0].panels);
             cJSON_AddNumberToObject(j, "uv_scale_m", g[0]->uv_scale_m);
+            if (!o.user) params_json(j, &defs[0]);
+            if (o.random) {
+                cJSON_AddNumberToObject(j, "seed", o.seed);
+                cJSON_AddNumberToObject(j, "attempts", v.attempts);
+                if (v.rejected[0]) cJSON_AddStringToObject(j, "rejected", v.rejected);
+            }
             if (o.render) cJSON_AddItemToArray(arr, cJSON_CreateString(o.render));
             cJSON_AddItemToObject(j, "paths", arr);
             if (n > 1)

@@ -30,12 +30,18 @@ static const cli_command commands[] = {
      cmd_dataset, help_dataset},
     {"drape", "drape a cloth over an object with an implicit neural surface (drape paper)",
      cmd_drape, help_drape},
+    {"gdsr",
+     "garment dynamic super-resolution: train on low/high pairs, run on a clip (gdsr paper)",
+     cmd_gdsr, help_gdsr},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
      cmd_garment, help_garment},
     {"eval", "compare a predicted garment sequence with a reference by every paper's metrics",
      cmd_eval, help_eval},
     {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
      cmd_view, help_view},
+    {"swingar", "train SwinGar's one-model-for-many-garments estimator, or animate a garment",
+     cmd_swingar, help_swingar},
+    {"swingar-sdf", "train or measure SwinGar's body SDF", cmd_swingar_sdf, help_swingar_sdf},
 };
 enum { COMMAND_COUNT = sizeof commands / sizeof commands[0] };
 

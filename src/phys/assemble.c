@@ -390,11 +390,17 @@ double cr_assembly_eval(cr_assembly *a, const cr_energy_term *terms, const doubl
                 CR_ASSERT(term->nvert == p->nvert && term->nelem == p->nelem &&
                           term->elem == p->elem);
                 c.slot = p->slot;
-                for (int col = 0; col < p->ncolour; col++) {
-                    c.elems = p->order + p->colour_off[col];
-                    cr_parallel_for(p->colour_off[col + 1] - p->colour_off[col], COLOUR_GRAIN,
-                                    eval_range, &c);
-                }
+                if (!grad && !want_hessian) {
+                    /* Values alone write only their own slot: no colours needed,
+                     * one parallel region (VBD's per-sweep objective). */
+                    c.elems = p->order;
+                    cr_parallel_for(p->colour_off[p->ncolour], COLOUR_GRAIN, eval_range, &c);
+                } else
+                    for (int col = 0; col < p->ncolour; col++) {
+                        c.elems = p->order + p->colour_off[col];
+                        cr_parallel_for(p->colour_off[col + 1] - p->colour_off[col], COLOUR_GRAIN,
+                                        eval_range, &c);
+                    }
             } else if (term->elem) {
                 /* May repeat a vertex and change between calls: serial, in order. */
                 c.evals = &sum;

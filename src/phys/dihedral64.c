@@ -165,3 +165,59 @@ void cr_dihedral64_hess_x(const double *Hy, double *Hx) {
                     Hx[12 * (3 * (I + 1) + p) + 3 * (J + 1) + q] = Hy[9 * (3 * I + p) + 3 * J + q];
         }
 }
+
+double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok) {
+    double e[3], u[3], v[3], NA[3], NB[3];
+    sub3d(x + 3, x, e);
+    sub3d(x + 6, x, u);
+    sub3d(x + 9, x, v);
+    const double L2 = dot3d(e, e);
+    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
+    const double L = sqrt(L2);
+    /* angle_from's operations, in its order: the same bits. */
+    cross3d(e, u, NA);
+    cross3d(v, e, NB);
+    double theta = 0.0;
+    if (L > 0.0) {
+        double c[3];
+        cross3d(NB, NA, c);
+        theta = atan2(dot3d(c, e) / L, dot3d(NA, NB));
+    }
+    /* a = ^e x u = NA/L and b = v x ^e = NB/L, so a/|a|^2 = NA L/|NA|^2. */
+    const double A2 = dot3d(NA, NA), B2 = dot3d(NB, NB);
+    *ok = L2 > 1e-24 * scale && A2 > 1e-24 * scale * L2 && B2 > 1e-24 * scale * L2;
+    if (!*ok) {
+        gk[0] = gk[1] = gk[2] = 0.0;
+        return theta;
+    }
+    const double su = L / A2, sv = L / B2;
+    double cu, cv; /* gk = cu NA + cv NB */
+    if (k == 2) {
+        cu = su, cv = 0.0;
+    } else if (k == 3) {
+        cu = 0.0, cv = sv;
+    } else {
+        const double alpha = dot3d(u, e) / L2, beta = dot3d(v, e) / L2;
+        /* g_e = -alpha g_u - beta g_v; g_x0 = -(g_e + g_u + g_v). */
+        cu = k == 1 ? -alpha * su : (alpha - 1.0) * su;
+        cv = k == 1 ? -beta * sv : (beta - 1.0) * sv;
+    }
+    for (int i = 0; i < 3; i++)
+        gk[i] = cu * NA[i] + cv * NB[i];
+    return theta;
+}
+
+void cr_dihedral64_hess_x_block(const double *Hy, int k, double *Hk) {
+    for (int p = 0; p < 3; p++)
+        for (int q = 0; q < 3; q++) {
+            if (k > 0) {
+                Hk[3 * p + q] = Hy[9 * (3 * (k - 1) + p) + 3 * (k - 1) + q];
+                continue;
+            }
+            double t = 0.0; /* as hess_x's t: the sum of all nine blocks */
+            for (int I = 0; I < 3; I++)
+                for (int J = 0; J < 3; J++)
+                    t += Hy[9 * (3 * I + p) + 3 * J + q];
+            Hk[3 * p + q] = t;
+        }
+}

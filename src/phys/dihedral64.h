@@ -36,4 +36,13 @@ void cr_dihedral64_grad_x(const double *gy, double *gx);
 /* Hessian in x (12x12) from Hy (9x9): Hx = J^T Hy J. */
 void cr_dihedral64_hess_x(const double *Hy, double *Hx);
 
+/* Vertex k's share (k = 0..3): theta (returned, the same bits as
+ * cr_dihedral64_angle) and d theta/dx_k (3), equal to the row of
+ * cr_dihedral64_derivs_y + cr_dihedral64_grad_x up to roundoff, from the two
+ * face normals alone. Degenerate hinges as there (gk 0, *ok 0). */
+double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok);
+
+/* The (k,k) 3x3 block of cr_dihedral64_hess_x's Hx, from Hy (9x9). */
+void cr_dihedral64_hess_x_block(const double *Hy, int k, double *Hk);
+
 #endif

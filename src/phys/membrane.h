@@ -57,12 +57,31 @@ static inline void cr_membrane_to_x(const double *c, double area, const double *
                     }
 }
 
+/* Vertex k's rows of cr_membrane_to_x: g (3) and, when not NULL, the (k,k)
+ * block H (9), the same expressions as the whole map's. */
+static inline void cr_membrane_to_vertex(const double *c, double area, int k, const double *gF,
+                                         const double *HF, double *g, double *H) {
+    if (g)
+        for (int d = 0; d < 3; d++)
+            g[d] = area * (c[2 * k] * gF[d] + c[2 * k + 1] * gF[3 + d]);
+    if (H)
+        for (int p = 0; p < 3; p++)
+            for (int q = 0; q < 3; q++) {
+                double s = 0.0;
+                for (int j = 0; j < 2; j++)
+                    for (int l = 0; l < 2; l++)
+                        s += c[2 * k + j] * c[2 * k + l] * HF[6 * (3 * j + p) + 3 * l + q];
+                H[3 * p + q] = area * s;
+            }
+}
+
 /* Project HF (6x6, index 3j+d) onto the PSD cone. Both membrane energies
  * depend on F only through f0, f1, so their HF splits exactly into an
  * in-plane 4x4 block (perturbations within span(f0, f1)) and a normal 2x2
  * block (perturbations along the normal n); the two are projected apart,
- * the 2x2 in closed form. Falls back to the whole 6x6 when f0, f1 do not span
- * a plane. */
+ * the 2x2 in closed form, the 4x4 by an eigensolve (the whole StVK density
+ * does its own in closed form instead, membrane_stvk.c). Falls back to the
+ * whole 6x6 when f0, f1 do not span a plane. */
 void cr_membrane_project_hf(const double *f, double *HF);
 
 /* The kernels, whole and by part (cr_membrane_part). */
@@ -75,6 +94,19 @@ double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, doub
 double cr_membrane_bw_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
                                      double *H);
 double cr_membrane_bw_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
+                                   double *H);
+/* Their vertex blocks (cr_energy_vertex_kernel), same order. */
+double cr_membrane_stvk_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
+                               double *H);
+double cr_membrane_stvk_stretch_vertex(const void *data, int32_t e, int k, const double *xe,
+                                       double *g, double *H);
+double cr_membrane_stvk_shear_vertex(const void *data, int32_t e, int k, const double *xe,
+                                     double *g, double *H);
+double cr_membrane_bw_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
+                             double *H);
+double cr_membrane_bw_stretch_vertex(const void *data, int32_t e, int k, const double *xe,
+                                     double *g, double *H);
+double cr_membrane_bw_shear_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
                                    double *H);
 
 #endif

@@ -21,9 +21,10 @@
 #include <math.h>
 
 /* The density with the stretch condition scaled by cs and the shear by csh
- * (each 0 or 1; (1, 1) is the whole membrane). */
-static double bw_eval(const cr_membrane *m, double cs, double csh, int32_t e, const double *xe,
-                      double *g, double *H) {
+ * (each 0 or 1; (1, 1) is the whole membrane). k < 0: the whole element's g
+ * and H; k = 0..2: vertex k's g (3) and block H (9) alone. */
+static double bw_eval(const cr_membrane *m, double cs, double csh, int32_t e, int k,
+                      const double *xe, double *g, double *H) {
     double f[6], c[6];
     cr_membrane_deform(m, e, xe, f, c);
     const double *fu = f, *fv = f + 3;
@@ -62,20 +63,38 @@ static double bw_eval(const cr_membrane *m, double cs, double csh, int32_t e, co
             }
         if (exact) cr_membrane_project_hf(f, HF);
     }
-    cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
+    if (k < 0)
+        cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
+    else
+        cr_membrane_to_vertex(c, m->area[e], k, gF, H ? HF : NULL, g, H);
     return m->area[e] * psi;
 }
 
 double cr_membrane_bw_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
-    return bw_eval(data, 1.0, 1.0, e, xe, g, H);
+    return bw_eval(data, 1.0, 1.0, e, -1, xe, g, H);
 }
 
 double cr_membrane_bw_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
                                      double *H) {
-    return bw_eval(data, 1.0, 0.0, e, xe, g, H);
+    return bw_eval(data, 1.0, 0.0, e, -1, xe, g, H);
 }
 
 double cr_membrane_bw_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
                                    double *H) {
-    return bw_eval(data, 0.0, 1.0, e, xe, g, H);
+    return bw_eval(data, 0.0, 1.0, e, -1, xe, g, H);
+}
+
+double cr_membrane_bw_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
+                             double *H) {
+    return bw_eval(data, 1.0, 1.0, e, k, xe, g, H);
+}
+
+double cr_membrane_bw_stretch_vertex(const void *data, int32_t e, int k, const double *xe,
+                                     double *g, double *H) {
+    return bw_eval(data, 1.0, 0.0, e, k, xe, g, H);
+}
+
+double cr_membrane_bw_shear_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
+                                   double *H) {
+    return bw_eval(data, 0.0, 1.0, e, k, xe, g, H);
 }

@@ -118,6 +118,9 @@ void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energ
     static const cr_energy_kernel kernels[2][3] = {
         {cr_membrane_stvk_kernel, cr_membrane_stvk_stretch_kernel, cr_membrane_stvk_shear_kernel},
         {cr_membrane_bw_kernel, cr_membrane_bw_stretch_kernel, cr_membrane_bw_shear_kernel}};
+    static const cr_energy_vertex_kernel blocks[2][3] = {
+        {cr_membrane_stvk_vertex, cr_membrane_stvk_stretch_vertex, cr_membrane_stvk_shear_vertex},
+        {cr_membrane_bw_vertex, cr_membrane_bw_stretch_vertex, cr_membrane_bw_shear_vertex}};
     static const char *const names[3] = {"membrane", "membrane_stretch", "membrane_shear"};
     memset(out, 0, sizeof *out);
     out->name = names[part];
@@ -125,6 +128,7 @@ void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energ
     out->nvert = 3;
     out->elem = m->tri;
     out->kernel = kernels[m->model == CR_MEMBRANE_STVK ? 0 : 1][part];
+    out->vertex_block = blocks[m->model == CR_MEMBRANE_STVK ? 0 : 1][part];
     out->data = m;
     out->weight = 1.0;
 }
@@ -132,7 +136,7 @@ void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energ
 /* Clamp the symmetric 2x2 [[a, b], [b, c]] (m[0], m[1], m[2]) to PSD. */
 static void project2(double *m) {
     const double a = m[0], b = m[1], c = m[2];
-    const double mean = 0.5 * (a + c), r = hypot(0.5 * (a - c), b);
+    const double mean = 0.5 * (a + c), r = sqrt(0.25 * (a - c) * (a - c) + b * b);
     const double l1 = mean + r, l2 = mean - r;
     if (l2 >= 0.0) return;
     if (l1 <= 0.0) {
@@ -141,77 +145,207 @@ static void project2(double *m) {
     }
     /* Keep l1 v v^T; of the two expressions for v take the longer. */
     double v0 = b, v1 = l1 - a;
-    if (hypot(l1 - c, b) > hypot(v0, v1)) v0 = l1 - c, v1 = b;
+    if ((l1 - c) * (l1 - c) + b * b > v0 * v0 + v1 * v1) v0 = l1 - c, v1 = b;
     const double s = l1 / (v0 * v0 + v1 * v1);
     m[0] = s * v0 * v0, m[1] = s * v0 * v1, m[2] = s * v1 * v1;
 }
 
-void cr_membrane_project_hf(const double *f, double *HF) {
+/* The in-plane 4x4 of StVK's Hessian in F, eigen-clamped in closed form.
+ * In the frame (p1, p2) of cr_membrane_project_hf, F's in-plane part is
+ * M = [[a, b], [0, d]] (a = |f0|, d > 0: never inverted). StVK is
+ * isotropic, so with M = U diag(s1, s2) V^T its Hessian's eigenvectors are
+ * known (Smith, De Goes & Kim 2019, "Analytic eigensystems for isotropic
+ * distortion energies", 2-D case): twist (u2 v1^T - u1 v2^T)/sqrt2 with
+ * eigenvalue (psi_1 + psi_2)/(s1 + s2), flip (u1 v2^T + u2 v1^T)/sqrt2 with
+ * (psi_1 - psi_2)/(s1 - s2), and the scaling modes u_p v_p^T mixed by the
+ * 2x2 Hessian of psi(s1, s2). For
+ *     psi = mu/4 ((s1^2 - 1)^2 + (s2^2 - 1)^2) + lambda/8 (s1^2 + s2^2 - 2)^2
+ * these are mu (s1^2 -+ s1 s2 + s2^2 - 1) + lambda/2 (s1^2 + s2^2 - 2), both
+ * without a division, and psi_pp = mu (3 s_p^2 - 1) + lambda/2 (s1^2 + s2^2 - 2)
+ * + lambda s_p^2, psi_12 = lambda s1 s2. The same matrix as cr_psd_project
+ * of the rotated block, to roundoff (tested), at a fraction of a Jacobi
+ * eigensolve. A: (4x4, index 2j + component) as in cr_membrane_project_hf. */
+static void stvk_inplane_projected(double mu, double lambda, double a, double b, double d,
+                                   double *A) {
+    /* V from the eigenvectors of M^T M = [[a^2, ab], [ab, b^2 + d^2]]. */
+    const double x = a * a - (b * b + d * d), y = 2.0 * a * b, r = sqrt(x * x + y * y);
+    const double s1 = sqrt(0.5 * (a * a + b * b + d * d + r)), s2 = a * d / s1;
+    double c = 1.0, sn = 0.0; /* v1 = (c, sn) at angle atan2(y, x)/2 */
+    if (r > 0.0) {
+        if (x >= 0.0) {
+            c = sqrt(0.5 * (1.0 + x / r));
+            sn = y / (2.0 * r * c);
+        } else {
+            sn = copysign(sqrt(0.5 * (1.0 - x / r)), y);
+            c = y / (2.0 * r * sn);
+        }
+    }
+    const double v1[2] = {c, sn}, v2[2] = {-sn, c};
+    /* u1 = M v1 / s1; u2 = its perpendicular (det U = det M / det V > 0). */
+    double u1[2] = {(a * c + b * sn) / s1, d * sn / s1};
+    const double un = sqrt(u1[0] * u1[0] + u1[1] * u1[1]);
+    u1[0] /= un, u1[1] /= un;
+    const double u2[2] = {-u1[1], u1[0]};
+    const double i2 = s1 * s1 + s2 * s2 - 2.0;
+    double lt = mu * (s1 * s1 - s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    double lf = mu * (s1 * s1 + s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    double hs[3] = {mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1,
+                    lambda * s1 * s2,
+                    mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2};
+    lt = fmax(lt, 0.0), lf = fmax(lf, 0.0);
+    project2(hs);
+    /* Modes as vec(D), D[comp][col] at index 2 col + comp. */
+    double w1[4], w2[4], wt[4], wf[4];
+    for (int j = 0; j < 2; j++)
+        for (int q = 0; q < 2; q++) {
+            const int i = 2 * j + q;
+            w1[i] = u1[q] * v1[j];
+            w2[i] = u2[q] * v2[j];
+            wt[i] = M_SQRT1_2 * (u2[q] * v1[j] - u1[q] * v2[j]);
+            wf[i] = M_SQRT1_2 * (u1[q] * v2[j] + u2[q] * v1[j]);
+        }
+    for (int i = 0; i < 4; i++)
+        for (int k = i; k < 4; k++) {
+            const double v = hs[0] * w1[i] * w1[k] + hs[1] * (w1[i] * w2[k] + w2[i] * w1[k]) +
+                             hs[2] * w2[i] * w2[k] + lt * wt[i] * wt[k] + lf * wf[i] * wf[k];
+            A[4 * i + k] = A[4 * k + i] = v;
+        }
+}
+
+/* n^T M n for the 3x3 block M of HF at block (j, l). */
+static double normal_form(const double *n, const double *HF, int j, int l) {
+    double s = 0.0;
+    for (int p = 0; p < 3; p++) {
+        const double *m = HF + 6 * (3 * j + p) + 3 * l;
+        s += n[p] * (m[0] * n[0] + m[1] * n[1] + m[2] * n[2]);
+    }
+    return s;
+}
+
+/* B = R^T M R for the 3x3 block M of HF at block (j, l) (row stride 6). */
+static void rotate_in(const double *R, const double *HF, int j, int l, double *B) {
+    double T[9];
+    for (int p = 0; p < 3; p++)
+        for (int b = 0; b < 3; b++) {
+            const double *m = HF + 6 * (3 * j + p) + 3 * l;
+            T[3 * p + b] = m[0] * R[b] + m[1] * R[3 + b] + m[2] * R[6 + b];
+        }
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            B[3 * a + b] = R[a] * T[b] + R[3 + a] * T[3 + b] + R[6 + a] * T[6 + b];
+}
+
+/* The frame of f = (f0, f1): R[3d + k] is component d of basis vector
+ * k = p1 = f0/|f0|, p2 (f1 orthogonalised), n = p1 x p2, and F's in-plane
+ * part is [[a, b], [0, d]]. 0 when f0, f1 do not span a plane. */
+static int plane_frame(const double *f, double *R, double *a, double *b, double *d) {
     const double *f0 = f, *f1 = f + 3;
     const double n0 = sqrt(f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2]);
     const double n1 = sqrt(f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2]);
-    double R[9]; /* R[3d + k]: component d of basis vector k = p1, p2, n */
-    double r[3], nr = 0.0;
+    double r[3], nr = 0.0, along = 0.0;
     if (n0 > 0.0) {
-        const double along = (f1[0] * f0[0] + f1[1] * f0[1] + f1[2] * f0[2]) / (n0 * n0);
-        for (int d = 0; d < 3; d++)
-            r[d] = f1[d] - along * f0[d];
+        along = (f1[0] * f0[0] + f1[1] * f0[1] + f1[2] * f0[2]) / (n0 * n0);
+        for (int k = 0; k < 3; k++)
+            r[k] = f1[k] - along * f0[k];
         nr = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
     }
-    if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) {
-        cr_psd_project(HF, 6);
-        return;
-    }
-    for (int d = 0; d < 3; d++)
-        R[3 * d] = f0[d] / n0, R[3 * d + 1] = r[d] / nr;
+    if (!(nr > 1e-8 * n1) || !(n0 > 0.0)) return 0;
+    for (int k = 0; k < 3; k++)
+        R[3 * k] = f0[k] / n0, R[3 * k + 1] = r[k] / nr;
     R[2] = R[3] * R[7] - R[6] * R[4];
     R[5] = R[6] * R[1] - R[0] * R[7];
     R[8] = R[0] * R[4] - R[3] * R[1];
-    /* Blocks in the rotated frame: B_jl = R^T HF_jl R. */
-    double B[36];
+    *a = n0, *b = along * n0, *d = nr;
+    return 1;
+}
+
+/* HF from the rotated frame: HF_jl = R B_jl R^T with B_jl = [[A_jl, 0],
+ * [0, N_jl]] (A the in-plane 4x4, index 2j + a; N the normal 2x2 as
+ * (N00, N01, N11)): the in-plane/normal coupling is zero in exact arithmetic. */
+static void hf_from_frame(const double *R, const double *A, const double *N, double *HF) {
     for (int j = 0; j < 2; j++)
-        for (int l = 0; l < 2; l++)
-            for (int a = 0; a < 3; a++)
-                for (int b = 0; b < 3; b++) {
-                    double s = 0.0;
-                    for (int p = 0; p < 3; p++)
-                        for (int q = 0; q < 3; q++)
-                            s += R[3 * p + a] * HF[6 * (3 * j + p) + 3 * l + q] * R[3 * q + b];
-                    B[6 * (3 * j + a) + 3 * l + b] = s;
-                }
-    double A[16], N[3] = {B[6 * 2 + 2], B[6 * 2 + 5], B[6 * 5 + 5]};
-    for (int j = 0; j < 2; j++)
-        for (int a = 0; a < 2; a++)
-            for (int l = 0; l < 2; l++)
-                for (int b = 0; b < 2; b++)
-                    A[4 * (2 * j + a) + 2 * l + b] = B[6 * (3 * j + a) + 3 * l + b];
-    cr_psd_project(A, 4);
-    project2(N);
-    /* Back: the in-plane/normal coupling is zero in exact arithmetic. */
-    memset(B, 0, sizeof B);
-    for (int j = 0; j < 2; j++)
-        for (int a = 0; a < 2; a++)
-            for (int l = 0; l < 2; l++)
-                for (int b = 0; b < 2; b++)
-                    B[6 * (3 * j + a) + 3 * l + b] = A[4 * (2 * j + a) + 2 * l + b];
-    B[6 * 2 + 2] = N[0], B[6 * 2 + 5] = B[6 * 5 + 2] = N[1], B[6 * 5 + 5] = N[2];
-    for (int j = 0; j < 2; j++)
-        for (int l = 0; l < 2; l++)
+        for (int l = j; l < 2; l++) {
+            const double nn = N[j + l];
+            const double *a0 = A + 4 * (2 * j) + 2 * l, *a1 = A + 4 * (2 * j + 1) + 2 * l;
+            double T[9]; /* B_jl R^T */
+            for (int q = 0; q < 3; q++) {
+                T[q] = a0[0] * R[3 * q] + a0[1] * R[3 * q + 1];
+                T[3 + q] = a1[0] * R[3 * q] + a1[1] * R[3 * q + 1];
+                T[6 + q] = nn * R[3 * q + 2];
+            }
             for (int p = 0; p < 3; p++)
                 for (int q = 0; q < 3; q++) {
-                    double s = 0.0;
-                    for (int a = 0; a < 3; a++)
-                        for (int b = 0; b < 3; b++)
-                            s += R[3 * p + a] * B[6 * (3 * j + a) + 3 * l + b] * R[3 * q + b];
-                    HF[6 * (3 * j + p) + 3 * l + q] = s;
+                    const double v =
+                        R[3 * p] * T[q] + R[3 * p + 1] * T[3 + q] + R[3 * p + 2] * T[6 + q];
+                    HF[6 * (3 * j + p) + 3 * l + q] = v;
+                    if (j != l) HF[6 * (3 * l + q) + 3 * j + p] = v;
                 }
+            if (j == l) /* symmetric in exact arithmetic: keep it so in floats */
+                for (int p = 0; p < 3; p++)
+                    for (int q = p + 1; q < 3; q++) {
+                        double *hpq = HF + 6 * (3 * j + p) + 3 * l + q;
+                        double *hqp = HF + 6 * (3 * j + q) + 3 * l + p;
+                        *hpq = *hqp = 0.5 * (*hpq + *hqp);
+                    }
+        }
+}
+
+void cr_membrane_project_hf(const double *f, double *HF) {
+    double R[9], a, b, d;
+    if (!plane_frame(f, R, &a, &b, &d)) {
+        cr_psd_project(HF, 6);
+        return;
+    }
+    const double nrm[3] = {R[2], R[5], R[8]};
+    /* The blocks in the rotated frame B_jl = R^T HF_jl R (HF symmetric:
+     * B_10 = B_01^T): A their in-plane 4x4, N their normal 2x2. */
+    double A[16], N[3] = {normal_form(nrm, HF, 0, 0), normal_form(nrm, HF, 0, 1),
+                          normal_form(nrm, HF, 1, 1)};
+    double B00[9], B01[9], B11[9];
+    rotate_in(R, HF, 0, 0, B00);
+    rotate_in(R, HF, 0, 1, B01);
+    rotate_in(R, HF, 1, 1, B11);
+    const double *Bj[2][2] = {{B00, B01}, {NULL, B11}};
+    for (int j = 0; j < 2; j++)
+        for (int l = j; l < 2; l++)
+            for (int p = 0; p < 2; p++)
+                for (int q = 0; q < 2; q++) {
+                    const double v = Bj[j][l][3 * p + q];
+                    A[4 * (2 * j + p) + 2 * l + q] = v;
+                    A[4 * (2 * l + q) + 2 * j + p] = v;
+                }
+    cr_psd_project(A, 4);
+    project2(N);
+    hf_from_frame(R, A, N, HF);
+}
+
+/* Vertex k's block, area sum_jl c_kj c_kl HF_jl, of the HF that
+ * hf_from_frame(R, A, N) would build, without building it. */
+static void block_from_frame(const double *R, const double *A, const double *N, const double *c,
+                             int k, double area, double *H) {
+    const double c0 = c[2 * k], c1 = c[2 * k + 1], w[2] = {c0, c1};
+    double X[4] = {0.0, 0.0, 0.0, 0.0}; /* in-plane 2x2 */
+    for (int j = 0; j < 2; j++)
+        for (int l = 0; l < 2; l++)
+            for (int p = 0; p < 2; p++)
+                for (int q = 0; q < 2; q++)
+                    X[2 * p + q] += w[j] * w[l] * A[4 * (2 * j + p) + 2 * l + q];
+    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
+    for (int p = 0; p < 3; p++)
+        for (int q = p; q < 3; q++) {
+            const double v = R[3 * p] * (X[0] * R[3 * q] + X[1] * R[3 * q + 1]) +
+                             R[3 * p + 1] * (X[2] * R[3 * q] + X[3] * R[3 * q + 1]) +
+                             xn * R[3 * p + 2] * R[3 * q + 2];
+            H[3 * p + q] = H[3 * q + p] = area * v;
+        }
 }
 
 /* The StVK density with the stretch terms (mu (E11^2 + E22^2) + lambda/2
  * tr(E)^2) scaled by cs and the shear term (2 mu E12^2) by csh, each 0 or 1:
- * (1, 1) is the full density, bit for bit. */
-static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, const double *xe,
-                        double *g, double *H) {
+ * (1, 1) is the full density, bit for bit. k < 0: the whole element's g (9)
+ * and H (81); k = 0..2: vertex k's g (3) and block H (9) alone. */
+static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, int k,
+                        const double *xe, double *g, double *H) {
     double f[6], c[6];
     cr_membrane_deform(m, e, xe, f, c);
     const double *f0 = f, *f1 = f + 3;
@@ -232,19 +366,52 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
         gF[d] = S00 * f0[d] + S01 * f1[d];
         gF[3 + d] = S01 * f0[d] + S11 * f1[d];
     }
-    if (H) {
+    const int projected = H && m->mode == CR_HESSIAN_PROJECTED;
+    const int stress_psd = S00 >= 0.0 && S11 >= 0.0 && S00 * S11 >= S01 * S01;
+    double R[9], fa, fb, fd;
+    /* The whole density is isotropic (its parts are not): its projection
+     * has a closed form in the plane, and its normal block is S. */
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && plane_frame(f, R, &fa, &fb, &fd)) {
+        double A[16], N[3] = {S00, S01, S11};
+        stvk_inplane_projected(m->mu, m->lambda, fa, fb, fd, A);
+        project2(N);
+        if (k >= 0) {
+            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+            block_from_frame(R, A, N, c, k, m->area[e], H);
+            return m->area[e] * psi;
+        }
+        hf_from_frame(R, A, N, HF);
+    } else if (H && k >= 0 && !(projected && !stress_psd)) {
+        /* The block in closed form: sum_jl c_kj c_kl HF_jl with the HF below
+         * is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
+         * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
+        const double c0 = c[2 * k], c1 = c[2 * k + 1], area = m->area[e];
+        const double cs2 = projected ? c0 * c0 * S00 + 2.0 * c0 * c1 * S01 + c1 * c1 * S11 : 0.0;
+        double w[3], sv[3];
+        for (int d = 0; d < 3; d++)
+            w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
+        for (int p = 0; p < 3; p++)
+            for (int q = p; q < 3; q++) {
+                const double v = lambda * w[p] * w[q] +
+                                 2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
+                                 mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
+                H[3 * p + q] = H[3 * q + p] = area * v;
+            }
+        cr_membrane_to_vertex(c, area, k, gF, NULL, g, NULL);
+        return area * psi;
+    } else if (H) {
         /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
          * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
          * and da/df0 = 2 f0, db/df1 = 2 f1, dc/df0 = f1, dc/df1 = f0. */
-        const double k = 2.0 * mu_s + lambda;
+        const double kk = 2.0 * mu_s + lambda;
         for (int p = 0; p < 3; p++)
             for (int q = 0; q < 3; q++) {
-                HF[6 * p + q] = k * f0[p] * f0[q] + mu_sh * f1[p] * f1[q];
-                HF[6 * (3 + p) + 3 + q] = k * f1[p] * f1[q] + mu_sh * f0[p] * f0[q];
+                HF[6 * p + q] = kk * f0[p] * f0[q] + mu_sh * f1[p] * f1[q];
+                HF[6 * (3 + p) + 3 + q] = kk * f1[p] * f1[q] + mu_sh * f0[p] * f0[q];
                 HF[6 * p + 3 + q] = lambda * f0[p] * f1[q] + mu_sh * f1[p] * f0[q];
                 HF[6 * (3 + q) + p] = HF[6 * p + 3 + q];
             }
-        if (m->mode == CR_HESSIAN_PROJECTED) {
+        if (projected) {
             /* The stress part S (x) I3. */
             for (int p = 0; p < 3; p++) {
                 HF[6 * p + p] += S00;
@@ -252,25 +419,42 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
                 HF[6 * p + 3 + p] += S01;
                 HF[6 * (3 + p) + p] += S01;
             }
-            const int stress_psd = S00 >= 0.0 && S11 >= 0.0 && S00 * S11 >= S01 * S01;
             if (!stress_psd) cr_membrane_project_hf(f, HF);
         }
     }
-    cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
+    if (k < 0)
+        cr_membrane_to_x(c, m->area[e], gF, H ? HF : NULL, g, H);
+    else
+        cr_membrane_to_vertex(c, m->area[e], k, gF, H ? HF : NULL, g, H);
     return m->area[e] * psi;
 }
 
 double cr_membrane_stvk_kernel(const void *data, int32_t e, const double *xe, double *g,
                                double *H) {
-    return stvk_eval(data, 1.0, 1.0, e, xe, g, H);
+    return stvk_eval(data, 1.0, 1.0, e, -1, xe, g, H);
 }
 
 double cr_membrane_stvk_stretch_kernel(const void *data, int32_t e, const double *xe, double *g,
                                        double *H) {
-    return stvk_eval(data, 1.0, 0.0, e, xe, g, H);
+    return stvk_eval(data, 1.0, 0.0, e, -1, xe, g, H);
 }
 
 double cr_membrane_stvk_shear_kernel(const void *data, int32_t e, const double *xe, double *g,
                                      double *H) {
-    return stvk_eval(data, 0.0, 1.0, e, xe, g, H);
+    return stvk_eval(data, 0.0, 1.0, e, -1, xe, g, H);
+}
+
+double cr_membrane_stvk_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
+                               double *H) {
+    return stvk_eval(data, 1.0, 1.0, e, k, xe, g, H);
+}
+
+double cr_membrane_stvk_stretch_vertex(const void *data, int32_t e, int k, const double *xe,
+                                       double *g, double *H) {
+    return stvk_eval(data, 1.0, 0.0, e, k, xe, g, H);
+}
+
+double cr_membrane_stvk_shear_vertex(const void *data, int32_t e, int k, const double *xe,
+                                     double *g, double *H) {
+    return stvk_eval(data, 0.0, 1.0, e, k, xe, g, H);
 }

@@ -77,10 +77,10 @@ cr_sim_def cr_sim_default_def(void) {
     d.max_speed = 50.0;
     d.max_penetration = 0.05;
     d.solver = CR_SIM_SOLVER_NEWTON;
-    d.vbd_iterations = 20;
+    d.vbd_iterations = 30;
     d.vbd_chebyshev = 0.9;
     d.vbd_damping = 0.0;
-    d.vbd_hessian_every = 4;
+    d.vbd_hessian_every = 1;
     d.cookie = CR_SIM_DEF_COOKIE;
     return d;
 }

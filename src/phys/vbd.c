@@ -17,16 +17,20 @@
  *
  * Safeguards the paper leaves out, which make every iteration a descent on
  * the objective (for the collider's linearisation of that iteration):
- *   - a per-vertex backtracking line search on the vertex's local energy
- *     (the elements around it plus its one-vertex terms, which is the whole
- *     objective as a function of x_i), Armijo with def.armijo, at most
- *     VBD_LINE_SEARCH halvings, else the vertex stays;
+ *   - the vertices take full Newton steps, and an iteration whose objective
+ *     is above its start runs again from there with a per-vertex
+ *     backtracking line search on the vertex's local energy (the elements
+ *     around it plus its one-vertex terms, which is the whole objective as
+ *     a function of x_i), Armijo with def.armijo, at most VBD_LINE_SEARCH
+ *     halvings, else the vertex stays; the searches then stay on for the
+ *     substep (almost every vertex takes its full step, so searching them
+ *     all every sweep was a value evaluation of every element for nothing);
  *   - Chebyshev acceleration (paper sec. 3.7; Wang 2015):
  *       x^{n+1} = w_{n+1} (xbar^{n+1} - x^{n-1}) + x^{n-1},
  *       w_1 = 1, w_2 = 2/(2 - rho^2), w_{n+1} = 4/(4 - rho^2 w_n),
  *     is kept only when the objective at the extrapolated iterate is no
- *     higher than at the sweep's own xbar; otherwise the sweep's iterate
- *     stays and w restarts at 1.
+ *     higher than at the iteration's start; otherwise the sweep's own
+ *     iterate is used and w restarts at 1.
  *
  * Damping (paper sec. 3.5): with def.vbd_damping k_d > 0, each vertex adds
  * the Rayleigh stiffness damping of its elements, k_d/h H_i (x_i - x_i^t) to
@@ -40,10 +44,12 @@
  * o->tol; o->rtol is not used: a Gauss-Seidel sweep's move shrinks long
  * before the iterate converges. Pinned vertices are not coloured.
  *
- * Cost per iteration: every element kernel runs once per vertex of the
- * element with its Hessian (a triangle 3 times, a hinge 4) and about as
- * often without it (the line search), plus two value-only evaluations of
- * the whole objective for the Chebyshev test.
+ * Cost per iteration: every element's vertex-block kernel
+ * (cr_energy_term.vertex_block: that vertex's gradient and 3x3 block only)
+ * runs once per vertex of the element (a triangle 3 times, a hinge 4); a
+ * term without one has its full kernel sliced. Plus one value-only
+ * evaluation of the whole objective (two when the extrapolation is
+ * rejected or the sweep retried).
  */
 #include <math.h>
 #include <stdlib.h>
@@ -69,6 +75,7 @@ struct cr_vbd {
     double *move, *gnorm;           /* (V) per vertex of the last sweep, m and N */
     double *hel;                    /* (V,9) each vertex's elastic Hessian block, N/m, as of
                                        the last sweep that evaluated it */
+    int t_collision;                /* the term a collider query changes, or -1 */
 };
 
 void cr_vbd_destroy(cr_vbd *v) {
@@ -90,6 +97,9 @@ cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
     cr_vbd *v = cr_calloc(1, sizeof *v, err);
     if (!v) return err ? err->status : CR_ERR_MEMORY;
     v->nv = nv;
+    v->t_collision = -1;
+    for (int t = 0; t < s->nterms; t++)
+        if (s->collision && s->terms[t].data == (const void *)s->collision) v->t_collision = t;
     cr_status st = CR_OK;
     int32_t *colour = NULL;
     v->inc_off = cr_calloc((size_t)nv + 1, sizeof(int64_t), err);
@@ -194,6 +204,7 @@ typedef struct sweep_ctx {
     double kd_h;          /* damping k_d / h (k_d in s): a multiple of the Hessian */
     double max_step;      /* m */
     int fresh;            /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
+    int line_search;      /* 1: each vertex backtracks on its local energy; 0: full steps */
 } sweep_ctx;
 
 /* The local objective of vertex i with x_i = xi and the other vertices at
@@ -230,13 +241,26 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double x
         if (term->weight == 0.0) continue;
         const int nvert = term->nvert, n = 3 * nvert, a = in->local;
         const int32_t *ev = term->elem + (int64_t)nvert * in->elem;
-        double xe[3 * CR_ENERGY_MAX_VERTS], ge[3 * CR_ENERGY_MAX_VERTS];
-        double He[9 * CR_ENERGY_MAX_VERTS * CR_ENERGY_MAX_VERTS];
+        double xe[3 * CR_ENERGY_MAX_VERTS];
         for (int b = 0; b < nvert; b++) {
             const double *src = b == a ? xi : s->x + 3 * (int64_t)ev[b];
             xe[3 * b] = src[0], xe[3 * b + 1] = src[1], xe[3 * b + 2] = src[2];
         }
         double w = term->weight;
+        if (term->vertex_block) {
+            double gb[3], Hb[9];
+            e +=
+                w * term->vertex_block(term->data, in->elem, a, xe, g ? gb : NULL, Hel ? Hb : NULL);
+            if (g)
+                for (int r = 0; r < 3; r++)
+                    g[r] += w * gb[r];
+            if (Hel)
+                for (int r = 0; r < 9; r++)
+                    Hel[r] += w * Hb[r];
+            continue;
+        }
+        /* No block kernel: slice the element's. */
+        double ge[3 * CR_ENERGY_MAX_VERTS], He[9 * CR_ENERGY_MAX_VERTS * CR_ENERGY_MAX_VERTS];
         e += w * term->kernel(term->data, in->elem, xe, g ? ge : NULL, Hel ? He : NULL);
         if (g)
             for (int r = 0; r < 3; r++)
@@ -318,6 +342,13 @@ static void vertex_step(const sweep_ctx *c, int32_t i) {
             dx[k] *= c->max_step / len;
     double gd = g[0] * dx[0] + g[1] * dx[1] + g[2] * dx[2];
     if (!(gd < 0.0)) return;
+    if (!c->line_search) {
+        /* The sweep's objective is checked instead (cr_vbd_solve). */
+        for (int k = 0; k < 3; k++)
+            xi[k] = xo[k] + dx[k];
+        v->move[i] = len;
+        return;
+    }
     double alpha = 1.0;
     for (int ls = 0; ls <= VBD_LINE_SEARCH; ls++, alpha *= 0.5) {
         double xn[3];
@@ -346,10 +377,54 @@ static void sweep_range(void *vctx, int64_t begin, int64_t end) {
 
 /* --------------------------------------------------------------- solve -- */
 
+/* One sweep: the colours one after the other, each one's vertices in parallel. */
+static void sweep(cr_sim *s, cr_vbd *v, sweep_ctx *c) {
+    double t = cr_time_now();
+    for (int col = 0; col < v->ncol; col++) {
+        c->verts = v->col_vert + v->col_off[col];
+        cr_parallel_for(v->col_off[col + 1] - v->col_off[col], VBD_GRAIN, sweep_range, c);
+    }
+    s->rep->seconds_assembly += cr_time_now() - t;
+}
+
+/* The largest vertex gradient of the last sweep into *gnorm, in a fixed
+ * order; 0 when one was not finite. */
+static int sweep_gnorm(const cr_vbd *v, double *gnorm) {
+    int finite = 1;
+    *gnorm = 0.0;
+    for (int32_t k = 0; k < v->col_off[v->ncol]; k++) {
+        double gk = v->gnorm[v->col_vert[k]];
+        if (!isfinite(gk))
+            finite = 0;
+        else if (gk > *gnorm)
+            *gnorm = gk;
+    }
+    return finite;
+}
+
 static int all_finite_vbd(const double *a, int64_t n) {
     for (int64_t k = 0; k < n; k++)
         if (!isfinite(a[k])) return 0;
     return 1;
+}
+
+/* The objective at x after term t (one-vertex, nvert 1) changed: its value
+ * again, the others' from the last evaluation, summed as cr_assembly_eval
+ * sums them (the same bits as evaluating everything). */
+static double reeval_term(cr_sim *s, int t, const double *x) {
+    if (t >= 0) {
+        const cr_energy_term *term = &s->terms[t];
+        double sum = 0.0;
+        CR_ASSERT(term->nvert == 1 && !term->elem);
+        if (term->weight != 0.0)
+            for (int32_t e = 0; e < term->nelem; e++)
+                sum += term->weight * term->kernel(term->data, e, x + 3 * (int64_t)e, NULL, NULL);
+        s->term_values[t] = sum;
+    }
+    double total = 0.0;
+    for (int k = 0; k < s->nterms; k++)
+        total += s->term_values[k];
+    return total;
 }
 
 cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
@@ -368,54 +443,61 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
         for (int32_t e = 0; e < term->nelem; e++)
             v->map[t][term->elem[e]] = e;
     }
-    sweep_ctx c = {s, v, NULL, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1};
+    sweep_ctx c = {s, v, NULL, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1, 0};
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
     int converged = 0, it;
     memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));
+    /* The objective at the sweep's start, for the current linearisation of
+     * the collider (only the collision term changes with it). */
+    double e_start = cr_sim_eval(s, s->x, NULL, 0);
     for (it = 0; it < o->max_iterations && !converged; it++) {
-        if (it > 0) cr_sim_query_collider(s, s->x, o->base_radius + 2.0 * moved);
+        if (it > 0 && s->bvh) {
+            cr_sim_query_collider(s, s->x, o->base_radius + 2.0 * moved);
+            e_start = reeval_term(s, v->t_collision, s->x);
+        }
         memcpy(v->xa, v->xb, (size_t)n3 * sizeof(double)); /* x^{n-1} */
         memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));  /* x^n */
-        double t = cr_time_now();
         c.fresh = it % d->vbd_hessian_every == 0;
-        for (int col = 0; col < v->ncol; col++) {
-            c.verts = v->col_vert + v->col_off[col];
-            cr_parallel_for(v->col_off[col + 1] - v->col_off[col], VBD_GRAIN, sweep_range, &c);
-        }
-        rep->seconds_assembly += cr_time_now() - t;
+        sweep(s, v, &c);
         double gnorm = 0.0;
-        int finite = 1;
-        for (int32_t k = 0; k < v->col_off[v->ncol]; k++) {
-            double gk = v->gnorm[v->col_vert[k]];
-            if (!isfinite(gk))
-                finite = 0;
-            else if (gk > gnorm)
-                gnorm = gk;
+        int finite = sweep_gnorm(v, &gnorm);
+        /* Chebyshev's extrapolation, kept when the objective there is not
+         * above the sweep's start; else the sweep's own iterate, when it is
+         * not above either; else the sweep again from its start with the
+         * vertices' line searches, which then stay on for the substep. */
+        double e = NAN;
+        int kept = 0;
+        if (rho > 0.0 && it > 0 && finite) {
+            double w = omega == 1.0 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
+            double *xt = s->xt;
+            for (int64_t k = 0; k < n3; k++)
+                xt[k] = w * (s->x[k] - v->xa[k]) + v->xa[k];
+            memcpy(tv, s->term_values, sizeof tv);
+            double ea = cr_sim_eval(s, xt, NULL, 0);
+            if (isfinite(ea) && ea <= e_start) {
+                memcpy(s->x, xt, (size_t)n3 * sizeof(double));
+                e = ea, omega = w, kept = 1;
+            } else {
+                memcpy(s->term_values, tv, sizeof tv);
+            }
         }
-        /* The objective is needed only to test an extrapolation or to report
-         * the sweep; the substep's last one is evaluated below. */
-        const int accel = rho > 0.0 && it > 0;
-        double e = accel || d->on_iteration ? cr_sim_eval(s, s->x, NULL, 0) : 0.0;
+        if (!kept) {
+            omega = 1.0;
+            e = cr_sim_eval(s, s->x, NULL, 0);
+            if (!(finite && e <= e_start) && !c.line_search) {
+                c.line_search = 1;
+                rep->vbd_retries++;
+                memcpy(s->x, v->xb, (size_t)n3 * sizeof(double));
+                sweep(s, v, &c);
+                finite = sweep_gnorm(v, &gnorm);
+                e = cr_sim_eval(s, s->x, NULL, 0);
+            }
+        }
         if (!finite || !isfinite(e) || !all_finite_vbd(s->x, n3)) {
             snprintf(s->why, sizeof s->why,
                      "non-finite energy (%g) or gradient at VBD iteration %d", e, it);
             return CR_FAIL(err, CR_ERR_DIVERGED, "%s", s->why);
-        }
-        if (accel) {
-            omega = omega == 1.0 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
-            memcpy(tv, s->term_values, sizeof tv);
-            double *xt = s->xt;
-            for (int64_t k = 0; k < n3; k++)
-                xt[k] = omega * (s->x[k] - v->xa[k]) + v->xa[k];
-            double ea = cr_sim_eval(s, xt, NULL, 0);
-            if (isfinite(ea) && ea <= e) {
-                memcpy(s->x, xt, (size_t)n3 * sizeof(double));
-                e = ea;
-            } else {
-                memcpy(s->term_values, tv, sizeof tv);
-                omega = 1.0;
-            }
         }
         double step = 0.0;
         for (int32_t i = 0; i < s->nv; i++) {
@@ -428,10 +510,9 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
         moved += step;
         if (d->on_iteration) d->on_iteration(d->on_iteration_ctx, it, e, gnorm, step);
         if (step < o->tol) converged = 1;
+        e_start = e;
     }
     rep->newton_iterations += it;
     if (!converged) rep->newton_capped++;
-    if (!(rho > 0.0 && it > 1) && !d->on_iteration)
-        cr_sim_eval(s, s->x, NULL, 0); /* the report's */
     return CR_OK;
 }

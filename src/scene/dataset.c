@@ -82,8 +82,15 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
     if (!(d->max_collider_step >= 0.0 && d->max_collider_step <= 10.0))
         return CR_FAIL(err, CR_ERR_INVALID, "dataset: max_collider_step = %g m, need 0 to 10",
                        d->max_collider_step);
-    for (int i = 0; i < d->ngarments; i++)
-        CR_TRY(cr_garment_type_parse(d->garments[i], &ds->garment_type[i], err));
+    for (int i = 0; i < d->ngarments; i++) {
+        CR_TRY(cr_garment_variant_parse(d->garments[i], &ds->variant[i], err));
+        ds->garment_type[i] = ds->variant[i].def.type;
+        for (int j = 0; j < i; j++)
+            if (!strcmp(ds->variant[i].label, ds->variant[j].label))
+                return CR_FAIL(err, CR_ERR_INVALID,
+                               "dataset: garments '%s' and '%s' have the same label '%s'",
+                               d->garments[j], d->garments[i], ds->variant[i].label);
+    }
     for (int i = 0; i < d->nbodies; i++) {
         cr_mannequin_def md = cr_mannequin_default_def();
         CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
@@ -243,16 +250,26 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
                                 ds->motion[m]->nframes, 0.0f, 1.0f, err));
         }
         for (int g = 0; g < d->ngarments; g++) {
-            cr_garment_def gd = cr_garment_default_def(ds->garment_type[g]);
+            /* A random variant is drawn and checked at the lowest resolution
+             * asked; a fixed one is built as given. */
+            cr_garment_variant *v = &ds->built[b][g];
+            *v = ds->variant[g];
+            v->def.target_vertices = ds->res_vertices[0];
+            for (int r = 1; r < d->nres; r++)
+                if (ds->res_vertices[r] < v->def.target_vertices)
+                    v->def.target_vertices = ds->res_vertices[r];
             cr_garment_template *t = NULL;
-            CR_TRY(cr_garment_template_create(&gd, ds->body[b], &t, err));
+            if (v->random)
+                CR_TRY(cr_garment_variant_build(v, ds->body[b], &t, err));
+            else
+                CR_TRY(cr_garment_template_create(&v->def, ds->body[b], &t, err));
             cr_status st = CR_OK;
             for (int r = 0; r < d->nres && st == CR_OK; r++) {
                 st = cr_garment_template_instantiate(t, ds->res_vertices[r], ds->body[b],
                                                      &ds->garment[b][g][r], err);
                 if (st == CR_OK)
-                    st = write_garment(ds, d->bodies[b], d->garments[g], d->res[r],
-                                       ds->garment[b][g][r], err);
+                    st = write_garment(ds, d->bodies[b], v->label, d->res[r], ds->garment[b][g][r],
+                                       err);
             }
             cr_garment_template_destroy(t);
             CR_TRY(st);
@@ -263,9 +280,9 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
                 else
                     hi = r;
             if (lo >= 0 && hi >= 0)
-                CR_TRY(write_correspondence(ds, d->bodies[b], d->garments[g], ds->garment[b][g][lo],
+                CR_TRY(write_correspondence(ds, d->bodies[b], v->label, ds->garment[b][g][lo],
                                             ds->garment[b][g][hi], err));
-            cr_progress_update(bar, ++step, "%s on %s", d->garments[g], d->bodies[b]);
+            cr_progress_update(bar, ++step, "%s on %s", v->label, d->bodies[b]);
         }
     }
     return CR_OK;

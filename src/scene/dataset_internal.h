@@ -13,7 +13,7 @@ typedef enum seq_state { SEQ_PENDING = 0, SEQ_SKIPPED, SEQ_DONE, SEQ_FAILED } se
 
 typedef struct dataset_seq {
     int g, m, b, r; /* garment, motion, body, resolution indices */
-    char id[160];   /* <garment>_<res>_<body>_<motion> */
+    char id[256];   /* <garment label>_<res>_<body>_<motion> */
     seq_state state;
     double max_inside_share;        /* largest share of a stored frame's vertices inside the body */
     double max_inside_share_solver; /* ... of a substep's, before the simulator's projection */
@@ -26,6 +26,10 @@ typedef struct dataset_seq {
 typedef struct dataset {
     cr_dataset_def def;
     cr_garment_type garment_type[CR_DATASET_MAX_ITEMS];
+    cr_garment_variant variant[CR_DATASET_MAX_ITEMS]; /* as parsed; .label names files */
+    /* [body][garment]: the variant as built on that body (a random draw that
+     * fails the checks on one body is replaced there only) */
+    cr_garment_variant built[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS];
     int32_t res_vertices[2];
     char motion_name[CR_DATASET_MAX_ITEMS][64];
     cr_motion *motion[CR_DATASET_MAX_ITEMS];

@@ -65,7 +65,7 @@ cr_status cr_dataset_plan(dataset *ds, cr_error *err) {
                 for (int m = 0; m < d->nmotions; m++, k++) {
                     dataset_seq *q = &ds->seq[k];
                     q->b = b, q->g = g, q->r = r, q->m = m;
-                    snprintf(q->id, sizeof q->id, "%s_%s_%s_%s", d->garments[g], d->res[r],
+                    snprintf(q->id, sizeof q->id, "%s_%s_%s_%s", ds->variant[g].label, d->res[r],
                              d->bodies[b], ds->motion_name[m]);
                     q->state = already_done(ds, q) ? SEQ_SKIPPED : SEQ_PENDING;
                 }
@@ -424,17 +424,32 @@ static cJSON *manifest(const dataset *ds) {
         for (int g = 0; g < d->ngarments; g++)
             for (int r = 0; r < d->nres; r++) {
                 const cr_garment *gm = ds->garment[b][g][r];
+                const cr_garment_variant *v = &ds->built[b][g];
+                const char *label = ds->variant[g].label;
                 cJSON *o = cJSON_CreateObject();
-                cJSON_AddStringToObject(o, "type", d->garments[g]);
+                cJSON_AddStringToObject(o, "type", cr_garment_type_name(ds->garment_type[g]));
+                cJSON_AddStringToObject(o, "variant", d->garments[g]);
+                cJSON_AddStringToObject(o, "label", label);
                 cJSON_AddStringToObject(o, "body", d->bodies[b]);
                 cJSON_AddStringToObject(o, "res", d->res[r]);
-                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], d->garments[g],
-                         d->res[r]);
-                add_path(o, "skin", "garments/%s/%s_%s_skin.npz", d->bodies[b], d->garments[g],
-                         d->res[r]);
+                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], label, d->res[r]);
+                add_path(o, "skin", "garments/%s/%s_%s_skin.npz", d->bodies[b], label, d->res[r]);
                 if (d->nres == 2)
                     add_path(o, "high_from_low", "garments/%s/%s_high_from_low.npz", d->bodies[b],
-                             d->garments[g]);
+                             label);
+                /* What regenerates it: the parameters and their exact spec. */
+                cJSON *p = cJSON_AddObjectToObject(o, "params");
+                for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
+                    cJSON_AddNumberToObject(p, cr_garment_param_at(i)->key,
+                                            cr_garment_param_get(&v->def, i));
+                char spec[256];
+                cr_garment_def_spec(&v->def, spec, sizeof spec);
+                cJSON_AddStringToObject(o, "spec", spec);
+                if (v->random) {
+                    cJSON_AddNumberToObject(o, "seed", (double)v->seed);
+                    cJSON_AddNumberToObject(o, "attempts", v->attempts);
+                    if (v->rejected[0]) cJSON_AddStringToObject(o, "rejected", v->rejected);
+                }
                 cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
                 cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
                 cJSON_AddNumberToObject(o, "uv_scale_m", gm ? gm->uv_scale_m : 0);
@@ -446,7 +461,7 @@ static cJSON *manifest(const dataset *ds) {
         const dataset_seq *q = &ds->seq[i];
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "id", q->id);
-        cJSON_AddStringToObject(o, "garment", d->garments[q->g]);
+        cJSON_AddStringToObject(o, "garment", ds->variant[q->g].label);
         cJSON_AddStringToObject(o, "res", d->res[q->r]);
         cJSON_AddStringToObject(o, "body", d->bodies[q->b]);
         cJSON_AddStringToObject(o, "motion", ds->motion_name[q->m]);

@@ -20,6 +20,8 @@ typedef struct drape_scene {
     cr_mesh *rest;       /* the rest cloth (square plane at mesh_res, or the user's) */
     int square;          /* 1: the built-in square cloth (chart = all of [0,1]^2) */
     float metres_per_uv; /* sqrt(3-D area / UV area) of the rest cloth */
+    float cloth_size;    /* square cloth: its side and drop height, m (0 for a user's cloth) */
+    float drop_height;
 } drape_scene;
 
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err);

@@ -7,16 +7,15 @@
  *       has it (grid nodes U(+-1e-4), Instant-NGP's range; the MLP's layers
  *       by cr_mlp's defaults), with the last bias shifted so the output is
  *       zero at the chart centre: the start is the rest shape to about
- *       1e-4 m. A zero last layer would start exactly there but blocks every
- *       gradient into the grid until that layer has grown.
- *       Hidden activation: softplus (beta 10) by default, ReLU as an option.
- *       The paper names none; a ReLU network is piecewise linear in the grid
- *       features, so its surface bends only along kinks that 1 mm structures
- *       rarely straddle, and in our runs it stays a smooth dome where the
- *       softplus network drapes and folds (docs/drape.md).
- *   mesh: the rest mesh's vertex positions are the free variables; between
- *       vertices the surface is the piecewise-linear interpolation (one fused
- *       op), so it can be scored on local structures like the INR.
+ *       1e-4 m. The MLP's output is in units of the cloth's size (metres per
+ *       UV unit), so clothes of any size drape at the same relative pace. A zero last layer would
+ * start exactly there but blocks every gradient into the grid until that layer has grown. Hidden
+ * activation: softplus (beta 10) by default, ReLU as an option. The paper names none; a ReLU
+ * network is piecewise linear in the grid features, so its surface bends only along kinks that 1 mm
+ * structures rarely straddle, and in our runs it stays a smooth dome where the softplus network
+ * drapes and folds (docs/drape.md). mesh: the rest mesh's vertex positions are the free variables;
+ * between vertices the surface is the piecewise-linear interpolation (one fused op), so it can be
+ * scored on local structures like the INR.
  *
  * Leaves out: hash encodings, per-panel networks for multi-panel garments.
  */
@@ -39,6 +38,7 @@ struct cr_drape_model {
     cr_nn_params *params;
     cr_grid_encoding *grid; /* INR */
     cr_mlp *mlp;            /* INR */
+    float out_scale;        /* INR: metres per output unit, the rest chart's metres per UV */
     cr_tensor *verts;       /* mesh: (V,3) "vertices" */
     float *vert_uv;         /* (V,2) the first UV a face gives each vertex */
 };
@@ -106,6 +106,11 @@ cr_status cr_drape_model_create(const cr_drape_def *def, const cr_mesh *rest, cr
             md.widths[i] = def->mlp_hidden;
         md.widths[def->mlp_layers] = 3;
         if (st == CR_OK) st = cr_mlp_create(&md, m->params, "mlp", &rng, &m->mlp, err);
+        /* The network moves the cloth in units of its own size, so Adam's
+         * steps (about lr per parameter) drape a 5 m cloth as fast, relative
+         * to its size, as a 1 m one; 1 exactly for the built-in 1 m cloth. */
+        float scale = cr_eval_chart_scale(rest);
+        m->out_scale = fabsf(scale - 1.0f) < 1e-5f || !(scale > 0.0f) ? 1.0f : scale;
         if (st == CR_OK) st = centre_output(m, err);
     } else if (st == CR_OK) {
         st = cr_nn_params_add(m->params, "vertices", 2, (int64_t[]){rest->nv, 3}, &m->verts, err);
@@ -256,6 +261,7 @@ cr_tensor *cr_drape_model_forward(cr_nn_ctx *ctx, cr_drape_model *m, const float
     cr_tensor *u = cr_nn_from(ctx, 2, (int64_t[]){n, 2}, uv);
     cr_tensor *base = cr_nn_from(ctx, 2, (int64_t[]){n, 3}, p0);
     cr_tensor *d = cr_mlp_forward(ctx, m->mlp, cr_grid_encoding_forward(ctx, m->grid, u));
+    if (m->out_scale != 1.0f) d = cr_nn_mul_scalar(ctx, d, m->out_scale);
     return cr_nn_add(ctx, base, d);
 }
 

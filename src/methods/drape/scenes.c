@@ -76,8 +76,8 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
     cr_drape_def d = {
         .scene = scene,
         .variant = CR_DRAPE_INR_ADAPTIVE,
-        .cloth_size = 1.0f,
-        .gap = 0.05f,
+        .cloth_size = 0.0f, /* from the object */
+        .gap = -1.0f,       /* from the cloth's size */
         .mesh_res = 128,
         .w = {.strain = 0.005f, .bend = 0.0005f, .gravity = 2.0f, .collision = soft ? 1e6f : 1e7f},
         .point_mass = 1e-4f,
@@ -140,8 +140,8 @@ cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
         return CR_FAIL(err, CR_ERR_INVALID, "drape: variant %d out of range", (int)d->variant);
     if (d->scene == CR_DRAPE_OBJECT && !d->object_path)
         return CR_FAIL(err, CR_ERR_INVALID, "drape: the object scene needs an object mesh file");
-    CR_TRY(check_f("cloth_size", d->cloth_size, 1e-3, 1e3, err));
-    CR_TRY(check_f("gap", d->gap, 0.0, 1e3, err));
+    if (d->cloth_size != 0.0f) CR_TRY(check_f("cloth_size", d->cloth_size, 1e-3, 1e3, err));
+    if (!(d->gap < 0.0f)) CR_TRY(check_f("gap", d->gap, 0.0, 1e3, err));
     CR_TRY(check_i("mesh_res", d->mesh_res, 2, 2048, err));
     CR_TRY(check_f("w_strain", d->w.strain, 0.0, 1e12, err));
     CR_TRY(check_f("w_bend", d->w.bend, 0.0, 1e12, err));
@@ -275,6 +275,23 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     return st;
 }
 
+/* Side of the built-in scenes' cloth, m, and the default's proportions. */
+#define TABLE4_CLOTH_SIZE 1.0f
+#define CLOTH_PER_EXTENT (5.0f / 3.0f)
+#define DROP_PER_SIZE 0.05f
+
+void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const float hi[3],
+                              float *size, float *drop_height) {
+    float s = def->cloth_size;
+    if (s == 0.0f) {
+        float extent = fmaxf(hi[0] - lo[0], hi[2] - lo[2]);
+        s = def->scene != CR_DRAPE_OBJECT ? TABLE4_CLOTH_SIZE : CLOTH_PER_EXTENT * extent;
+        if (!(s >= 1e-3f)) s = TABLE4_CLOTH_SIZE; /* a point or a vertical sheet: no extent */
+    }
+    *size = s;
+    *drop_height = def->gap >= 0.0f ? def->gap : DROP_PER_SIZE * s;
+}
+
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
     memset(s, 0, sizeof *s);
     cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
@@ -287,7 +304,10 @@ cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_erro
         st = read_cloth(def->cloth_path, &s->rest, err);
     } else if (st == CR_OK) {
         s->square = 1;
-        st = cr_scene_cloth_above(s->object, def->mesh_res, def->cloth_size, def->gap, &s->rest,
+        float lo[3], hi[3];
+        cr_mesh_bounds(s->object, lo, hi);
+        cr_drape_cloth_placement(def, lo, hi, &s->cloth_size, &s->drop_height);
+        st = cr_scene_cloth_above(s->object, def->mesh_res, s->cloth_size, s->drop_height, &s->rest,
                                   err);
     }
     if (st == CR_OK) s->metres_per_uv = cr_eval_chart_scale(s->rest);

@@ -1,0 +1,243 @@
+/* crease/gdsr.h: garment dynamic super-resolution (GDSR, paper 001): a
+ * low-resolution garment simulation C and the body go in, a high-resolution
+ * garment with fine wrinkles comes out, frame after frame, feeding its own
+ * previous correction back as an input.
+ *
+ *   load a low/high pair and clips from a `crease dataset` folder   cr_gdsr_data_load
+ *   graph features of Eq. 2-5 for one frame                        cr_gdsr_features
+ *   the model: Mesh-Graph-Net H, decoder E, Mesh-Hyper-Net A       cr_gdsr_model_*
+ *   training (Eq. 13-19 subset), resumable checkpoints             cr_gdsr_train
+ *   roll-out on a clip, collision handling (Eq. 26-27), baselines  cr_gdsr_rollout
+ *
+ * Pipeline per frame t (docs/gdsr.md):
+ *   H:  node features (Eq. 4) and edge features (Eq. 5) on the low mesh
+ *       over 1-ring and 2-ring edge sets -> per-vertex features split
+ *       decoder_features / hyper_features (paper: 128 / 512)
+ *   E:  per low triangle, displacements of its 3 corners in the triangle's
+ *       local frame of C_t (Eq. 8), averaged per vertex (Eq. 9): C^ = C + d
+ *   A:  per low triangle, the weights of a complex WIRE MLP from its three
+ *       vertices' hyper features (Eq. 10), evaluated at each high vertex's
+ *       barycentric coordinates (Eq. 11) for a residual in the triangle's
+ *       frame of C^ (Eq. 12), added to the barycentric upsampling of C^.
+ *
+ * Units: m. Deterministic for a seed. The library prints nothing.
+ */
+#ifndef CREASE_GDSR_H
+#define CREASE_GDSR_H
+
+#include "crease/mesh.h"
+#include "crease/nn.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------- data -- */
+
+/* One garment on one body at two resolutions, plus clips. */
+typedef struct cr_gdsr_clip {
+    char motion[64];
+    int32_t nframes; /* T samples (the dataset's frames + 1) */
+    float *low;      /* (T,Vl,3) low-resolution simulation C */
+    float *high;     /* (T,Vh,3) high-resolution simulation (reference); NULL when the
+                        dataset has none for the motion (roll-out only) */
+    float *body;     /* (T,Vb,3) posed body */
+} cr_gdsr_clip;
+
+enum { CR_GDSR_MAX_CLIPS = 16 };
+
+typedef struct cr_gdsr_data {
+    cr_mesh *low, *high, *body; /* rest meshes (low and high with UVs) */
+    int32_t *face;              /* (Vh) low face under each high vertex (Eq. 1) */
+    float *bary;                /* (Vh,3) its barycentric weights */
+    int32_t *coarse_from_high;  /* (Vl) high vertex nearest each low vertex at rest: the
+                                   ground-truth coarse shape C*_i = high[coarse_from_high[i]] */
+    int32_t nclips;
+    cr_gdsr_clip clip[CR_GDSR_MAX_CLIPS];
+} cr_gdsr_data;
+
+/* Read garments/<body>/<garment>_{low,high}.obj, the _high_from_low.npz
+ * correspondence, bodies/<body>/rest.obj and, per motion,
+ * bodies/<body>/<motion>.pc2 and sequences/<garment>_{low,high}_<body>_<motion>/garment.pc2
+ * from a `crease dataset` folder. CR_ERR_IO / CR_ERR_SHAPE naming the file. */
+cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *body,
+                            const char *const *motions, int nmotions, cr_gdsr_data *out,
+                            cr_error *err);
+/* Build data from meshes and arrays in memory (tests): copies everything;
+ * the correspondence is computed through UVs (cr_garment_correspondence). */
+cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, const cr_mesh *body,
+                                   int32_t nframes, const float *low_frames,
+                                   const float *high_frames, const float *body_frames,
+                                   cr_gdsr_data *out, cr_error *err);
+void cr_gdsr_data_free(cr_gdsr_data *d); /* zeroes it; a zeroed struct is a no-op */
+
+/* Barycentric upsampling (Eq. 1 applied to low positions (Vl,3)): out (Vh,3). */
+void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out);
+
+/* --------------------------------------------------------- features -- */
+
+enum { CR_GDSR_NODE_FEATURES = 19, CR_GDSR_EDGE_FEATURES = 8 };
+
+/* The low mesh's graph: 1-ring edges (both directions) and 2-ring edges
+ * (vertex pairs at graph distance exactly 2, both directions). */
+typedef struct cr_gdsr_graph {
+    int32_t nv;
+    int64_t ne[2];
+    int32_t *snd[2], *rcv[2];
+} cr_gdsr_graph;
+
+cr_status cr_gdsr_graph_build(const cr_mesh *low, cr_gdsr_graph *out, cr_error *err);
+void cr_gdsr_graph_free(cr_gdsr_graph *g);
+
+/* What the features of one frame are made from (all (Vl,3) unless said). */
+typedef struct cr_gdsr_frame_in {
+    const float *c, *c_prev, *c_prev2;   /* C_t, C_{t-1}, C_{t-2} */
+    const float *d_prev;                 /* the previous correction d_{t-1} (NULL: zero) */
+    const float *chat_prev, *chat_prev2; /* C^_{t-1}, C^_{t-2} (NULL: C_{t-1}, C_{t-2}) */
+    const float *body_point;             /* (Vl,3) closest body point to each C_t vertex */
+} cr_gdsr_frame_in;
+
+/* Node features (Vl, 19), Eq. 4: vertex normal of C_t (3); velocity and
+ * acceleration of C in cm per frame (3 + 3); the body interaction vector
+ * (closest body point - x) / sigma_b when closer than sigma_b, else 0, and
+ * its length (3 + 1, Eq. 2-3); d_{t-1} in cm (3); the corrected velocity
+ * C^_{t-1} - C^_{t-2} in cm (3). Edge features (E_s, 8) per edge set, Eq. 5:
+ * rest offset x_j - x_i and its length, current offset and its length, in dm. */
+void cr_gdsr_features(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
+                      float sigma_b, float *node, float *edge0, float *edge1);
+
+/* ------------------------------------------------------------ model -- */
+
+typedef struct cr_gdsr_model_def {
+    int latent;           /* H's latent width (paper 128; default 64) */
+    int steps;            /* message-passing steps (paper 6; default 4) */
+    int mlp_hidden;       /* hidden layers per MLP of H (default 1; paper's code 2) */
+    int decoder_features; /* features per vertex for E (paper 128; default 32) */
+    int hyper_features;   /* features per vertex for A (paper 512; default 32) */
+    int gen_hidden;       /* A's generator hidden width (default 64) */
+    int wire_layers;      /* complex WIRE MLP layers (paper 5) */
+    int wire_width;       /* its hidden width (default 16) */
+    float omega0, s0;     /* WIRE (paper 5, 10) */
+    int use_decoder;      /* 1: E on (gdsr); 0: GDSR(-d), C^ = C */
+    float sigma_b;        /* body interaction radius, m (0.015) */
+    float out_scale;      /* E's and A's outputs times this, m per unit: a small start keeps
+                             Adam's first steps below the data's mm errors (default 0.01) */
+    uint64_t seed;        /* initialisation (default 1) */
+    uint32_t cookie;
+} cr_gdsr_model_def;
+
+cr_gdsr_model_def cr_gdsr_model_default_def(void);
+/* The paper's sizes: latent 128, 6 steps, 2 hidden layers, 128 / 512. */
+cr_gdsr_model_def cr_gdsr_model_paper_def(void);
+cr_status cr_gdsr_model_def_validate(const cr_gdsr_model_def *def, cr_error *err);
+
+typedef struct cr_gdsr_model cr_gdsr_model;
+
+cr_status cr_gdsr_model_create(const cr_gdsr_model_def *def, cr_gdsr_model **out, cr_error *err);
+void cr_gdsr_model_destroy(cr_gdsr_model *m);
+cr_nn_params *cr_gdsr_model_params(cr_gdsr_model *m);
+const cr_gdsr_model_def *cr_gdsr_model_get_def(const cr_gdsr_model *m);
+
+/* Decoder E alone (Eq. 8-9): per-vertex features f (Vl, decoder_features)
+ * and the low positions c (Vl,3) -> displacement d (Vl,3): per triangle an
+ * MLP on its three corners' features gives 9 numbers, three displacements
+ * in the triangle's frame (e1 along the first edge, n the face normal,
+ * e2 = n x e1), rotated to world and averaged over each vertex's triangles. */
+cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *f,
+                          const float *c);
+
+/* Hyper-net A alone (Eq. 10-11): per-vertex hyper features h (Vl, hyper_features),
+ * for M query points their low face and barycentric (b1, b2) -> (M,3), the
+ * WIRE field of each face's generated network. */
+cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
+                         int64_t npoints, const int32_t *face, const float *bary);
+
+/* One frame forward: features (Vl,19) and edge features -> *chat (Vl,3),
+ * the corrected coarse garment, and returns the high-resolution garment
+ * (Vh,3) = S[C^] + residual in the frame of C^ (Eq. 12). */
+cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data *d,
+                           const cr_gdsr_graph *g, const float *node, const float *edge0,
+                           const float *edge1, const float *c, cr_tensor **chat);
+
+/* --------------------------------------------------------- training -- */
+
+typedef struct cr_gdsr_train_def {
+    cr_gdsr_model_def model;
+    int epochs;              /* passes over every training frame (default 20) */
+    float lr;                /* AdamW base rate (paper 1e-4) */
+    int lr_halve_every;      /* epochs between halvings (paper 50) */
+    float weight_decay;      /* AdamW (default 0.01, torch's) */
+    float noise_m;           /* Gaussian noise on the input C (paper 0.003 m) */
+    int noise_features_only; /* 0: the noisy C is also the base C^ = C + d and S[C^] start
+                                from, so the model learns to denoise (default); 1: the noise
+                                reaches the features only */
+    float w_coarse;          /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
+    float w_fine;            /* L1 of the high garment - reference (default 1) */
+    float w_normal;          /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
+    /* Regularisers on the high-resolution output X (Eq. 15-19), each a mean:
+     *   w_stretch  Baraff-Witkin stretch ((|w_u|-1)^2 + (|w_v|-1)^2), area-weighted mean
+     *   w_shear    Baraff-Witkin shear (w_u . w_v)^2, area-weighted mean
+     *   w_bend     k_e/2 (theta(X) - theta(X_ref))^2 per hinge (dihedral angles toward the
+     *              reference's as rest angles), mean over hinges, k_e with k_b = 1
+     *   w_laplacian  L1 of the uniform Laplacian of X - X_ref, mean per coordinate
+     * membrane and bending through the loss op (losses.h); rest shape the
+     * rest high mesh laid flat (crease eval's default). */
+    float w_stretch, w_shear, w_bend, w_laplacian;
+    int val_clips;        /* the last val_clips clips of the data are not trained on: each epoch
+                             rolls them out and logs their MED against upsampling's (default 0) */
+    int checkpoint_every; /* epochs between checkpoints (default 5; 0: at the end) */
+    int resume;           /* 1: continue from <out>/checkpoint.safetensors */
+    const char *out_dir;  /* checkpoint.safetensors, log.jsonl, model.safetensors */
+    int quiet;
+    uint32_t cookie;
+} cr_gdsr_train_def;
+
+cr_gdsr_train_def cr_gdsr_train_default_def(void);
+
+typedef struct cr_gdsr_train_result {
+    int epochs;        /* completed (including resumed ones) */
+    int resumed_from;  /* epoch the run resumed at (0: fresh) */
+    double first_loss; /* mean loss of the first epoch this call ran */
+    double last_loss;  /* of the last */
+    double last_coarse, last_fine, last_normal;
+    double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
+    double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
+    double seconds;
+    int64_t params;
+} cr_gdsr_train_result;
+
+/* Train on every clip of d (frames in order, each clip rolled out on the
+ * model's own previous corrections). Writes out_dir/checkpoint.safetensors
+ * (resumable), model.safetensors (weights + the model def as JSON) and
+ * log.jsonl (one line per epoch). progress (may be NULL) gets each epoch. */
+cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
+                        cr_gdsr_train_result *out, cr_error *err);
+
+/* Load model.safetensors (or a checkpoint) written by cr_gdsr_train. */
+cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *err);
+
+/* --------------------------------------------------------- roll-out -- */
+
+typedef struct cr_gdsr_rollout_result {
+    int32_t nframes, nv_high;
+    float *gdsr;                        /* (T,Vh,3) after collision handling */
+    float *gdsr_raw;                    /* (T,Vh,3) before */
+    float *upsampled;                   /* (T,Vh,3) barycentric upsampling of C */
+    double inside_before, inside_after; /* largest share of high vertices inside the body on a
+                                           frame, before and after handling */
+    double seconds_per_frame;           /* gdsr, handling included, wall clock */
+    double cpu_seconds_per_frame;       /* the same in process CPU time (clock()) */
+} cr_gdsr_rollout_result;
+
+/* Run the model over clip k of d, feeding back its own corrections;
+ * collision handling (Eq. 26-27) pushes C^ vertices out of the body to
+ * `eps` along the body's normal, carries that push to the high vertices
+ * through Eq. 1, then pushes out any high vertex still inside. */
+cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps,
+                          cr_gdsr_rollout_result *out, cr_error *err);
+void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

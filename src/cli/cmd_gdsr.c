@@ -1,0 +1,425 @@
+/* cmd_gdsr.c: `crease gdsr train|run`: garment dynamic super-resolution
+ * (paper 001, docs/gdsr.md): train on low/high pairs of a `crease dataset`
+ * folder, or roll a trained model out on a clip and measure it, with
+ * barycentric upsampling and GDSR(-d) in the same table. */
+#include "cli.h"
+#include "crease/eval.h"
+#include "crease/gdsr.h"
+#include "crease/mesh_io.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void help_gdsr(void) {
+    printf(
+        "usage: crease gdsr train --dataset DIR --motions M1,M2 -o OUT [options]\n"
+        "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n\n"
+        "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
+        "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
+        "common:\n"
+        "  --dataset DIR        a `crease dataset` folder with --res low,high\n"
+        "  --garment G          garment type (default tshirt)\n"
+        "  --body B             body preset (default normal)\n"
+        "  --quiet              no progress\n"
+        "  --json               end with a JSON summary on stdout\n"
+        "train:\n"
+        "  --motions LIST       training clips\n"
+        "  --epochs N           (default 20)\n"
+        "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
+        "  --halve-every N      N epochs (default 50)\n"
+        "  --noise M            input noise on C, m (default 0.003)\n"
+        "  --noise-features-only  not on the C that C^ and the upsampling start from\n"
+        "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
+        "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
+        "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
+        "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
+        "                       (default 0.1)\n"
+        "  --w-laplacian W      L1 of the uniform Laplacian of the error, m (default 1)\n"
+        "  --out-scale S        E's and A's outputs times S m (default 0.01; small = a gentle\n"
+        "                       start from upsampling)\n"
+        "  --val-motions LIST   held-out clips rolled out each epoch: log.jsonl's val_med_m\n"
+        "                       against val_upsampled_med_m\n"
+        "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
+        "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
+        "  --latent N --steps N --wire-width N   model sizes\n"
+        "  --seed S             (default 1)\n"
+        "  --resume             continue from OUT/checkpoint.safetensors\n"
+        "  --checkpoint-every N epochs (default 5)\n"
+        "  -o OUT               model.safetensors, checkpoint.safetensors, log.jsonl\n"
+        "run:\n"
+        "  --model F            a model.safetensors from gdsr train\n"
+        "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
+        "  --motion M           the clip to super-resolve\n"
+        "  --eps E              collision margin, m (default 0.002)\n"
+        "  --frames N           only the clip's first N frames\n"
+        "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
+        "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
+        "                       E_v, E_uv over the frames)\n"
+        "A motion without a high sequence in the dataset is rolled out without a reference\n"
+        "(no metrics table; the strain over frames and collisions are still measured).\n");
+}
+
+static int split(char *s, const char **out, int cap) {
+    int n = 0;
+    for (char *t = strtok(s, ","); t && n < cap; t = strtok(NULL, ","))
+        out[n++] = t;
+    return n;
+}
+
+static int cmd_train(int argc, char **argv) {
+    const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motions = NULL;
+    const char *val = NULL;
+    float out_scale = 0;
+    int quiet = 0, json = 0, nodec = 0, paper = 0, latent = 0, steps = -1, wirew = 0, seed = 1;
+    cr_gdsr_train_def def = cr_gdsr_train_default_def();
+    const cli_opt opts[] = {
+        CLI_STR("--dataset", &dataset),
+        CLI_STR("--garment", &garment),
+        CLI_STR("--body", &body),
+        CLI_STR("--motions", &motions),
+        CLI_INT("--epochs", &def.epochs, 1, 100000),
+        CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
+        CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
+        CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
+        CLI_FLAG("--noise-features-only", &def.noise_features_only),
+        CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
+        CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
+        CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
+        CLI_FLOAT("--w-stretch", &def.w_stretch, 0, 1e6),
+        CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
+        CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
+        CLI_FLOAT("--w-laplacian", &def.w_laplacian, 0, 1e6),
+        CLI_FLOAT("--out-scale", &out_scale, 1e-6, 10),
+        CLI_STR("--val-motions", &val),
+        CLI_FLAG("--no-decoder", &nodec),
+        CLI_FLAG("--paper-sizes", &paper),
+        CLI_INT("--latent", &latent, 4, 1024),
+        CLI_INT("--steps", &steps, 0, 32),
+        CLI_INT("--wire-width", &wirew, 2, 256),
+        CLI_INT("--seed", &seed, 0, 1000000000),
+        CLI_FLAG("--resume", &def.resume),
+        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000),
+        CLI_OUTPUT(&def.out_dir),
+        CLI_FLAG("--quiet", &quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int npos = 0;
+    int rc = cli_parse("gdsr train", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!dataset) return cli_usage("gdsr train", "missing --dataset DIR");
+    if (!motions) return cli_usage("gdsr train", "missing --motions LIST");
+    if (!def.out_dir) return cli_usage("gdsr train", "missing -o OUT");
+    if (paper) def.model = cr_gdsr_model_paper_def();
+    if (latent) def.model.latent = latent;
+    if (steps >= 0) def.model.steps = steps;
+    if (wirew) def.model.wire_width = wirew;
+    def.model.use_decoder = !nodec;
+    def.model.seed = (uint64_t)seed;
+    if (out_scale > 0) def.model.out_scale = out_scale;
+    def.quiet = quiet;
+    char buf[1024], vbuf[1024];
+    snprintf(buf, sizeof buf, "%s", motions);
+    const char *ms[CR_GDSR_MAX_CLIPS];
+    int nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
+    if (val) { /* validation clips go last: cr_gdsr_train leaves them out of training */
+        snprintf(vbuf, sizeof vbuf, "%s", val);
+        def.val_clips = split(vbuf, ms + nm, CR_GDSR_MAX_CLIPS - nm);
+        nm += def.val_clips;
+    }
+    cr_error err = {0};
+    cr_gdsr_data d;
+    if (cr_gdsr_data_load(dataset, garment, body, ms, nm, &d, &err) != CR_OK) return cli_fail(&err);
+    cr_gdsr_train_result r;
+    cr_status st = cr_gdsr_train(&def, &d, &r, &err);
+    int vl = d.low->nv, vh = d.high->nv;
+    cr_gdsr_data_free(&d);
+    if (st != CR_OK) return cli_fail(&err);
+    fprintf(stderr,
+            "gdsr train: %lld parameters, %d -> %d vertices, epochs %d..%d, loss %.4g -> %.4g "
+            "(coarse %.3g m, fine %.3g m, normal %.3g, stretch %.3g, shear %.3g, bend %.3g, "
+            "laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
+            (long long)r.params, vl, vh, r.resumed_from, r.epochs, r.first_loss, r.last_loss,
+            r.last_coarse, r.last_fine, r.last_normal, r.last_stretch, r.last_shear, r.last_bend,
+            r.last_laplacian, r.seconds, def.out_dir);
+    if (def.val_clips > 0)
+        fprintf(stderr, "  held-out MED %.5f m, upsampling's %.5f m\n", r.last_val_med,
+                r.val_upsampled_med);
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "gdsr train");
+        cJSON_AddNumberToObject(j, "params", (double)r.params);
+        cJSON_AddNumberToObject(j, "low_vertices", vl);
+        cJSON_AddNumberToObject(j, "high_vertices", vh);
+        cJSON_AddNumberToObject(j, "epochs", r.epochs);
+        cJSON_AddNumberToObject(j, "resumed_from", r.resumed_from);
+        cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
+        cJSON_AddNumberToObject(j, "loss", r.last_loss);
+        cJSON_AddNumberToObject(j, "coarse_l1_m", r.last_coarse);
+        cJSON_AddNumberToObject(j, "fine_l1_m", r.last_fine);
+        cJSON_AddNumberToObject(j, "normal_l1", r.last_normal);
+        cJSON_AddNumberToObject(j, "stretch", r.last_stretch);
+        cJSON_AddNumberToObject(j, "shear", r.last_shear);
+        cJSON_AddNumberToObject(j, "bend", r.last_bend);
+        cJSON_AddNumberToObject(j, "laplacian_l1_m", r.last_laplacian);
+        if (def.val_clips > 0) {
+            cJSON_AddNumberToObject(j, "val_med_m", r.last_val_med);
+            cJSON_AddNumberToObject(j, "val_upsampled_med_m", r.val_upsampled_med);
+        }
+        cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cli_json_print(j);
+    }
+    return CLI_OK;
+}
+
+static const cr_eval_metric shown[] = {
+    CR_EVAL_MED, CR_EVAL_NORMAL_ANGLE, CR_EVAL_SSIM,           CR_EVAL_E_U,
+    CR_EVAL_E_V, CR_EVAL_E_UV,         CR_EVAL_COLLISION_RATIO};
+enum { NSHOWN = sizeof shown / sizeof shown[0] };
+
+static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const float *pred,
+                         const char *name, cJSON *table, cr_error *err) {
+    cr_eval_def ed = cr_eval_default_def();
+    /* frames 2.. (the model starts at frame 2) */
+    int64_t nh3 = (int64_t)d->high->nv * 3;
+    cr_eval_input in = {.garment = d->high,
+                        .nframes = cl->nframes - 2,
+                        .pred = pred + 2 * nh3,
+                        .ref = cl->high + 2 * nh3,
+                        .body_mesh = d->body,
+                        .body = cl->body + (int64_t)2 * d->body->nv * 3,
+                        .body_nframes = cl->nframes - 2,
+                        .pred_name = name};
+    cr_eval_result r = {0};
+    CR_TRY(cr_eval_run(&ed, &in, &r, err));
+    cJSON *o = cJSON_AddObjectToObject(table, name);
+    fprintf(stderr, "  %-10s", name);
+    for (int k = 0; k < NSHOWN; k++) {
+        double v = r.summary[shown[k]].mean;
+        cJSON_AddNumberToObject(o, cr_eval_metric_name(shown[k]), v);
+        fprintf(stderr, " %11.4g", v);
+    }
+    if (r.has_spectrum) {
+        cJSON_AddNumberToObject(o, "h_band_high_pred", r.h_band_pred[CR_EVAL_H_BANDS - 1]);
+        cJSON_AddNumberToObject(o, "h_band_high_ref", r.h_band_ref[CR_EVAL_H_BANDS - 1]);
+        fprintf(stderr, " %11.4g %11.4g", r.h_band_pred[CR_EVAL_H_BANDS - 1],
+                r.h_band_ref[CR_EVAL_H_BANDS - 1]);
+    }
+    fprintf(stderr, "\n");
+    cr_eval_result_free(&r);
+    return CR_OK;
+}
+
+/* E_u, E_v, E_uv of every frame of gdsr and of upsampling (crease eval's
+ * functions; the prediction as its own reference): strain.csv and
+ * strain.png (log axes), and the last frame's values against frame 2's in
+ * the JSON (the roll-out's drift). */
+static cr_status strain_over_frames(const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+                                    const cr_gdsr_rollout_result *r, const char *out, cJSON *j,
+                                    cr_error *err) {
+    static const cr_eval_metric em[3] = {CR_EVAL_E_U, CR_EVAL_E_V, CR_EVAL_E_UV};
+    static const char *names[3] = {"e_u", "e_v", "e_uv"};
+    int32_t T = cl->nframes;
+    double *v = malloc((size_t)T * 7 * sizeof(double)); /* frame, 3 gdsr, 3 upsampled */
+    if (!v) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    cr_status st = CR_OK;
+    for (int p = 0; p < 2 && st == CR_OK; p++) {
+        const float *x = p ? r->upsampled : r->gdsr;
+        cr_eval_def ed = cr_eval_default_def();
+        ed.ssim_side = 16;
+        cr_eval_input in = {.garment = d->high, .nframes = T, .pred = x, .ref = x};
+        cr_eval_result er = {0};
+        if ((st = cr_eval_run(&ed, &in, &er, err)) != CR_OK) break;
+        for (int32_t t = 0; t < T; t++) {
+            v[7 * t] = t;
+            for (int k = 0; k < 3; k++)
+                v[7 * t + 1 + 3 * p + k] = cr_eval_value(&er, t, em[k]);
+        }
+        cr_eval_result_free(&er);
+    }
+    char path[1100];
+    cr_atomic_file f;
+    snprintf(path, sizeof path, "%s/strain.csv", out);
+    if (st == CR_OK && (st = cr_atomic_open(&f, path, err)) == CR_OK) {
+        fprintf(f.fp, "frame,gdsr_e_u,gdsr_e_v,gdsr_e_uv,upsampled_e_u,upsampled_e_v,"
+                      "upsampled_e_uv\n");
+        for (int32_t t = 0; t < T; t++)
+            fprintf(f.fp, "%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", t, v[7 * t + 1], v[7 * t + 2],
+                    v[7 * t + 3], v[7 * t + 4], v[7 * t + 5], v[7 * t + 6]);
+        st = cr_atomic_commit(&f, err);
+    }
+    double *col = st == CR_OK ? malloc((size_t)T * 7 * sizeof(double)) : NULL;
+    if (st == CR_OK && !col) st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    if (st == CR_OK) {
+        for (int c = 0; c < 7; c++)
+            for (int32_t t = 0; t < T; t++)
+                col[(int64_t)c * T + t] = v[7 * t + c];
+        cr_plot_series ser[6];
+        cr_plot_panel pan[3];
+        char label[6][48];
+        for (int k = 0; k < 3; k++) {
+            for (int p = 0; p < 2; p++) {
+                snprintf(label[2 * k + p], sizeof label[0], "%s %s", p ? "upsampling" : "gdsr",
+                         names[k]);
+                ser[2 * k + p] =
+                    (cr_plot_series){.name = label[2 * k + p],
+                                     .x = col,
+                                     .y = col + (int64_t)(1 + 3 * p + k) * T,
+                                     .n = T,
+                                     .rgb = {p ? 120 : 200, p ? 120 : 40, p ? 120 : 40}};
+            }
+            pan[k] = (cr_plot_panel){.series = ser + 2 * k, .nseries = 2, .log_y = 1};
+        }
+        cr_image img = {0};
+        snprintf(path, sizeof path, "%s/strain.png", out);
+        if ((st = cr_plot_lines(pan, 3, "frame", "gdsr roll-out: e_u, e_v, e_uv", 900, 700, &img,
+                                err)) == CR_OK)
+            st = cr_image_write_png(&img, path, err);
+        cr_image_free(&img);
+        /* frame 2 is the model's first; the last shows any drift */
+        int32_t a = T > 2 ? 2 : 0, b = T - 1;
+        cJSON *o = cJSON_AddObjectToObject(j, "strain");
+        cJSON_AddNumberToObject(o, "first_frame", a);
+        cJSON_AddNumberToObject(o, "last_frame", b);
+        for (int k = 0; k < 3; k++) {
+            char key[64];
+            snprintf(key, sizeof key, "gdsr_%s_first", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * a + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_last", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * b + 1 + k]);
+            double mx = 0;
+            for (int32_t t = a; t <= b; t++)
+                mx = fmax(mx, v[7 * t + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_max", names[k]);
+            cJSON_AddNumberToObject(o, key, mx);
+        }
+        fprintf(stderr,
+                "  strain, frame %d -> %d: e_u %.3g -> %.3g, e_v %.3g -> %.3g, e_uv %.3g -> %.3g "
+                "(%s/strain.png)\n",
+                a, b, v[7 * a + 1], v[7 * b + 1], v[7 * a + 2], v[7 * b + 2], v[7 * a + 3],
+                v[7 * b + 3], out);
+    }
+    free(col);
+    free(v);
+    return st;
+}
+
+static int cmd_run(int argc, char **argv) {
+    const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
+    const char *model = NULL, *baseline = NULL, *out = NULL;
+    float eps = 0.002f;
+    int quiet = 0, json = 0, frames = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--dataset", &dataset),
+        CLI_STR("--garment", &garment),
+        CLI_STR("--body", &body),
+        CLI_STR("--motion", &motion),
+        CLI_STR("--model", &model),
+        CLI_STR("--baseline-model", &baseline),
+        CLI_FLOAT("--eps", &eps, 0, 0.05),
+        CLI_INT("--frames", &frames, 3, 1000000),
+        CLI_OUTPUT(&out),
+        CLI_FLAG("--quiet", &quiet),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int npos = 0;
+    int rc = cli_parse("gdsr run", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!dataset || !motion || !model || !out)
+        return cli_usage("gdsr run", "needs --dataset, --motion, --model and -o");
+    cr_error err = {0};
+    cr_gdsr_data d;
+    if (cr_gdsr_data_load(dataset, garment, body, &motion, 1, &d, &err) != CR_OK)
+        return cli_fail(&err);
+    cr_gdsr_model *m = NULL, *mb = NULL;
+    cr_gdsr_rollout_result r = {0}, rb = {0};
+    cJSON *j = cJSON_CreateObject();
+    cJSON *table = NULL;
+    char path[1100];
+    int status = CLI_BAD_INPUT;
+    if (frames > 0 && frames < d.clip[0].nframes) d.clip[0].nframes = frames; /* the first N */
+    const cr_gdsr_clip *cl = &d.clip[0];
+    if (cr_mkdir_p(out, &err) != CR_OK) goto done;
+    if (cr_gdsr_model_load(model, &m, &err) != CR_OK) goto done;
+    if (cr_gdsr_rollout(m, &d, 0, eps, &r, &err) != CR_OK) goto done;
+    if (baseline && (cr_gdsr_model_load(baseline, &mb, &err) != CR_OK ||
+                     cr_gdsr_rollout(mb, &d, 0, eps, &rb, &err) != CR_OK))
+        goto done;
+    struct {
+        const char *name;
+        const float *x;
+    } outs[] = {{"gdsr", r.gdsr},
+                {"gdsr_raw", r.gdsr_raw},
+                {"upsampled", r.upsampled},
+                {"reference", cl->high}, /* NULL: a low-only roll-out */
+                {"gdsr_nodec", rb.gdsr}};
+    for (int k = 0; k < 5; k++) {
+        if (!outs[k].x) continue;
+        snprintf(path, sizeof path, "%s/%s.pc2", out, outs[k].name);
+        if (cr_pc2_write(path, outs[k].x, d.high->nv, cl->nframes, 0, 1, &err) != CR_OK) goto done;
+    }
+    snprintf(path, sizeof path, "%s/high.obj", out);
+    if (cr_obj_write(path, d.high, &err) != CR_OK) goto done;
+    snprintf(path, sizeof path, "%s/body.pc2", out);
+    if (cr_pc2_write(path, cl->body, d.body->nv, cl->nframes, 0, 1, &err) != CR_OK) goto done;
+    snprintf(path, sizeof path, "%s/body.obj", out);
+    if (cr_obj_write(path, d.body, &err) != CR_OK) goto done;
+    fprintf(stderr,
+            "gdsr run %s: %d frames, %d -> %d vertices, %.4f s per frame (gdsr + handling; "
+            "%.4f s CPU); "
+            "inside the body: %.3f %% before handling, %.3f %% after\n",
+            motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame,
+            r.cpu_seconds_per_frame, 100 * r.inside_before, 100 * r.inside_after);
+    if (cl->high) {
+        fprintf(stderr, "  %-10s", "");
+        for (int k = 0; k < NSHOWN; k++)
+            fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
+        fprintf(stderr, " %11s %11s\n", "hband_pred", "hband_ref");
+        table = cJSON_AddObjectToObject(j, "metrics");
+        if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
+        if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
+        if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
+        if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+    }
+    if (strain_over_frames(&d, cl, &r, out, j, &err) != CR_OK) goto done;
+    cJSON_AddStringToObject(j, "command", "gdsr run");
+    cJSON_AddStringToObject(j, "motion", motion);
+    cJSON_AddNumberToObject(j, "frames", cl->nframes);
+    cJSON_AddNumberToObject(j, "low_vertices", d.low->nv);
+    cJSON_AddNumberToObject(j, "high_vertices", d.high->nv);
+    cJSON_AddNumberToObject(j, "seconds_per_frame", r.seconds_per_frame);
+    cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
+    cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
+    cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
+    {
+        char *s = cJSON_Print(j);
+        snprintf(path, sizeof path, "%s/summary.json", out);
+        FILE *f = fopen(path, "w");
+        if (f && s) fputs(s, f);
+        if (f) fclose(f);
+        free(s);
+    }
+    if (json) {
+        cli_json_print(j);
+        j = NULL;
+    }
+    status = CLI_OK;
+done:
+    if (status != CLI_OK) cli_fail(&err);
+    cJSON_Delete(j);
+    cr_gdsr_rollout_free(&r);
+    cr_gdsr_rollout_free(&rb);
+    cr_gdsr_model_destroy(m);
+    cr_gdsr_model_destroy(mb);
+    cr_gdsr_data_free(&d);
+    return status;
+}
+
+int cmd_gdsr(int argc, char **argv) {
+    if (argc < 2) return cli_usage("gdsr", "missing a subcommand: train or run");
+    if (strcmp(argv[1], "train") == 0) return cmd_train(argc - 1, argv + 1);
+    if (strcmp(argv[1], "run") == 0) return cmd_run(argc - 1, argv + 1);
+    return cli_usage("gdsr", "unknown subcommand '%s' (train, run)", argv[1]);
+}

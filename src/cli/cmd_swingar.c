@@ -1,0 +1,310 @@
+/* cmd_swingar.c: `crease swingar train|run`: train SwinGar's estimator on a
+ * dataset written by `crease dataset`, and animate any garment OBJ with UVs
+ * on a motion with a trained model (PC2 + glb + PNG). */
+#include "cli.h"
+
+#include "crease/body.h"
+#include "crease/garment.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+#include "crease/render.h"
+#include "crease/swingar.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void help_swingar(void) {
+    printf("usage: crease swingar train --dataset DIR [--epochs N] -o MODEL [options]\n"
+           "       crease swingar run --model MODEL --garment G.obj --motion M -o OUT [options]\n\n"
+           "SwinGar (paper 002): one network that animates loose garments it has never seen,\n"
+           "from a spectral descriptor of the garment and the body's motion "
+           "(docs/swingar_model.md).\n\n"
+           "train:\n"
+           "  --dataset DIR          a dataset written by `crease dataset`\n"
+           "  --epochs N             epochs (default 10)\n"
+           "  -o MODEL               the model, a resumable checkpoint written every epoch\n"
+           "  --resume MODEL         continue a checkpoint (its widths are used)\n"
+           "  --size S               paper (the paper's widths and heads, default), cpu (heads\n"
+           "                         4 / 4 / 3 / 8 for a 2-core machine) or tiny (for tests)\n"
+           "  --window K             frames predicted per sample (default 8)\n"
+           "  --batch B              samples per Adam step (default 4)\n"
+           "  --lr X                 Adam's rate, cosine-annealed to 0 (default 1e-3)\n"
+           "  --stall-epochs N       vertex loss alone until the vertex error improves by less\n"
+           "  --stall-rel X          than X over N epochs (default 0.02 over 50, the paper's)\n"
+           "  --test-garments A,B    held out: garment types, motions and bodies; a sequence is\n"
+           "  --test-motions A,B     test when all its given axes are held out, train when none\n"
+           "  --test-bodies A,B      is, unused otherwise\n"
+           "  --no-descriptor        E_a sees zeros (the ablation without the global descriptor)\n"
+           "  --affinity A           geodesic (default, the paper's) or euclidean (ablation)\n"
+           "  --seed N               initialisation and shuffling (default 1)\n"
+           "  --quiet                no progress bar\n"
+           "  --arena-mb N           per-step memory of train and run (default 1024)\n\n"
+           "run:\n"
+           "  --model MODEL          a model written by `swingar train`\n"
+           "  --garment G.obj        any garment mesh with UVs, fitted to the body first\n"
+           "  --motion M             a clip name (crease motion --list) or a .bvh / .npz file\n"
+           "  --body B               slim, normal (default) or heavy\n"
+           "  --frames N             frames of a clip (default 120)\n"
+           "  --fps F                frames per second (default 30)\n"
+           "  --chunk K              frames per forward (default 8; memory grows with K)\n"
+           "  --skinned              write the garment skinned by its own weights instead (the\n"
+           "                         baseline the model improves on)\n"
+           "  -o OUT                 OUT/garment.pc2, OUT/garment.glb, OUT/body.pc2,\n"
+           "                         OUT/garment.obj (the fitted rest garment), OUT/last.png\n\n"
+           "  --json                 end with a JSON summary on stdout\n");
+}
+
+static const char *const sizes[] = {"paper", "cpu", "tiny", NULL};
+static const char *const affinities[] = {"geodesic", "euclidean", NULL};
+
+static void apply_size(const char *size, cr_swingar_def *d) {
+    if (strcmp(size, "cpu") == 0) {
+        d->garment_heads = 4, d->state_heads = 4;
+    } else if (strcmp(size, "tiny") == 0) {
+        d->descriptor_len = 16;
+        d->garment_width[0] = 8, d->garment_width[1] = 12, d->garment_heads = 2;
+        d->shape_width[0] = 16, d->shape_width[1] = 8, d->shape_width[2] = 4;
+        d->motion_window = 8, d->motion_hidden = 12;
+        d->body_width[0] = 16, d->body_width[1] = 8, d->body_width[2] = 8;
+        d->state_width = 12, d->state_heads = 2;
+        d->blend_width[0] = 8, d->blend_width[1] = 12, d->blend_heads = 2;
+        d->corr_hidden = 8, d->corr_heads = 2, d->corr_width = 8;
+    }
+}
+
+static int cmd_train(int argc, char **argv) {
+    static cli_list held[3];
+    for (int i = 0; i < 3; i++)
+        held[i].n = 0;
+    cr_swingar_train_def t = cr_swingar_train_default_def();
+    const char *dataset = NULL, *out = NULL, *resume = NULL, *size = "paper";
+    const char *affinity = "geodesic";
+    int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024;
+    const cli_opt opts[] = {
+        CLI_STR("--dataset", &dataset),
+        CLI_OUTPUT(&out),
+        CLI_STR("--resume", &resume),
+        CLI_INT("--epochs", &t.epochs, 1, 1000000),
+        CLI_CHOICE("--size", &size, sizes),
+        CLI_INT("--window", &t.window, 1, 60),
+        CLI_INT("--batch", &t.batch, 1, 100000),
+        CLI_FLOAT("--lr", &t.lr, 1e-8, 1),
+        CLI_INT("--stall-epochs", &t.stall_epochs, 1, 1000000),
+        CLI_FLOAT("--stall-rel", &t.stall_rel, 0, 1),
+        CLI_CUSTOM("--test-garments", cli_parse_list, &held[0], 1),
+        CLI_CUSTOM("--test-motions", cli_parse_list, &held[1], 1),
+        CLI_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1),
+        CLI_FLAG("--no-descriptor", &no_desc),
+        CLI_CHOICE("--affinity", &affinity, affinities),
+        CLI_INT("--seed", &seed, 0, 2147483647),
+        CLI_FLAG("--quiet", &t.quiet),
+        CLI_INT("--arena-mb", &arena_mb, 16, 1 << 20),
+        CLI_FLAG("--json", &json),
+        CLI_END,
+    };
+    int rc = cli_parse("swingar train", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!dataset) return cli_usage("swingar train", "missing --dataset DIR");
+    if (!out) return cli_usage("swingar train", "missing -o MODEL");
+    apply_size(size, &t.model);
+    t.model.use_descriptor = !no_desc;
+    t.seed = (uint64_t)seed;
+    t.arena_bytes = (size_t)arena_mb << 20;
+    t.checkpoint = out;
+    t.resume = resume;
+    t.model.affinity = strcmp(affinity, "euclidean") == 0;
+    cr_error err = {0};
+    /* a resumed run keeps the checkpoint's widths and descriptor */
+    if (resume && cr_swingar_read_def(resume, &t.model, &err) != CR_OK) return cli_fail(&err);
+    cr_swingar_data data;
+    cr_status st = cr_swingar_data_load(dataset, t.model.descriptor_len, t.model.use_descriptor,
+                                        t.model.affinity, &data, &err);
+    if (st != CR_OK) return cli_fail(&err);
+    int8_t *is_test = malloc((size_t)data.nsequences);
+    if (!is_test) {
+        cr_swingar_data_free(&data);
+        return cli_fail(&(cr_error){.msg = "out of memory"});
+    }
+    cr_swingar_split(&data, held[0].items, held[0].n, held[1].items, held[1].n, held[2].items,
+                     held[2].n, is_test);
+    int ntrain = 0, ntest = 0;
+    for (int i = 0; i < data.nsequences; i++)
+        ntrain += is_test[i] == 0, ntest += is_test[i] == 1;
+    t.is_test = is_test;
+    cr_swingar *m = NULL;
+    cr_swingar_train_result r;
+    st = cr_swingar_train(&t, &data, &m, &r, &err);
+    if (st == CR_OK && !t.quiet)
+        fprintf(stderr,
+                "swingar: %d train / %d test sequences, %lld parameters, %d epochs in %.1f s; "
+                "vertex error %.2f -> %.2f cm%s\n",
+                ntrain, ntest, (long long)r.params, r.epochs_done, r.seconds, 100 * r.first_vert_m,
+                100 * r.last_vert_m, t.model.use_descriptor ? "" : " (no descriptor)");
+    if (st == CR_OK && json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "swingar train");
+        cJSON_AddStringToObject(j, "model", out);
+        cJSON_AddNumberToObject(j, "train_sequences", ntrain);
+        cJSON_AddNumberToObject(j, "test_sequences", ntest);
+        cJSON_AddNumberToObject(j, "params", (double)r.params);
+        cJSON_AddNumberToObject(j, "epochs", r.epochs_done);
+        cJSON_AddNumberToObject(j, "switched_epoch", r.switched_epoch);
+        cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
+        cJSON_AddNumberToObject(j, "last_loss", r.last_loss);
+        cJSON_AddNumberToObject(j, "first_vert_m", r.first_vert_m);
+        cJSON_AddNumberToObject(j, "last_vert_m", r.last_vert_m);
+        cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cJSON_AddBoolToObject(j, "descriptor", t.model.use_descriptor);
+        cJSON_AddStringToObject(j, "affinity", t.model.affinity ? "euclidean" : "geodesic");
+        if (r.test_vert_m >= 0) cJSON_AddNumberToObject(j, "test_vert_m", r.test_vert_m);
+        cli_json_print(j);
+    }
+    cr_swingar_destroy(m);
+    free(is_test);
+    cr_swingar_data_free(&data);
+    return st == CR_OK ? CLI_OK : cli_fail(&err);
+}
+
+typedef struct run_opts {
+    const char *model, *garment, *motion, *body, *out;
+    int frames, skinned, json, arena_mb, chunk;
+    float fps;
+    cli_motion_file mf;
+} run_opts;
+
+static cr_status load_motion(const run_opts *o, const cr_body_model *b, cr_motion **m,
+                             cr_error *err) {
+    if (cr_motion_clip_summary(o->motion))
+        return cr_motion_clip(o->motion, o->frames, o->fps, m, err);
+    cli_motion_file mf = o->mf;
+    mf.fps = o->fps;
+    return cli_motion_file_load(o->motion, &mf, b, m, NULL, err);
+}
+
+static cr_status write_outputs(const run_opts *o, const cr_garment *g, const cr_body_model *b,
+                               const float *pred, const float *body, int32_t T, cr_error *err) {
+    char path[1100];
+    CR_TRY(cr_mkdir_p(o->out, err));
+    snprintf(path, sizeof path, "%s/garment.pc2", o->out);
+    CR_TRY(cr_pc2_write(path, pred, g->mesh->nv, T, 0, 1, err));
+    snprintf(path, sizeof path, "%s/body.pc2", o->out);
+    CR_TRY(cr_pc2_write(path, body, b->rest->nv, T, 0, 1, err));
+    snprintf(path, sizeof path, "%s/garment.obj", o->out);
+    CR_TRY(cr_obj_write(path, g->mesh, err));
+    snprintf(path, sizeof path, "%s/garment.glb", o->out);
+    CR_TRY(cr_glb_write_sequence(path, g->mesh, pred, T, o->fps, err));
+    /* the last frame, garment on body */
+    cr_mesh *gm = NULL, *bm = NULL;
+    cr_status st = cr_mesh_clone(g->mesh, &gm, err);
+    if (st == CR_OK) st = cr_mesh_clone(b->rest, &bm, err);
+    if (st == CR_OK) {
+        memcpy(gm->pos, pred + (size_t)(T - 1) * gm->nv * 3, sizeof(float) * gm->nv * 3);
+        memcpy(bm->pos, body + (size_t)(T - 1) * bm->nv * 3, sizeof(float) * bm->nv * 3);
+        free(gm->normal), gm->normal = NULL;
+        free(bm->normal), bm->normal = NULL;
+        cr_render_def rd = cr_render_default_def();
+        rd.width = rd.height = 512;
+        cr_render_object objs[2] = {{.mesh = bm, .color = {0.78f, 0.72f, 0.66f}},
+                                    {.mesh = gm, .color = {0.25f, 0.45f, 0.80f}}};
+        snprintf(path, sizeof path, "%s/last.png", o->out);
+        st = cr_render_to_png(&rd, objs, 2, path, err);
+    }
+    cr_mesh_destroy(gm);
+    cr_mesh_destroy(bm);
+    return st;
+}
+
+static int cmd_run(int argc, char **argv) {
+    run_opts o = {
+        .body = "normal", .frames = 120, .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
+    int npos = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--model", &o.model),
+        CLI_STR("--garment", &o.garment),
+        CLI_STR("--motion", &o.motion),
+        CLI_STR("--body", &o.body),
+        CLI_INT("--frames", &o.frames, 1, 1000000),
+        CLI_FLOAT("--fps", &o.fps, 1e-3, 1000),
+        CLI_FLAG("--skinned", &o.skinned),
+        CLI_INT("--arena-mb", &o.arena_mb, 16, 1 << 20),
+        CLI_INT("--chunk", &o.chunk, 1, 60),
+        CLI_MOTION_FILE_OPTS(&o.mf),
+        CLI_OUTPUT(&o.out),
+        CLI_FLAG("--json", &o.json),
+        CLI_END,
+    };
+    int rc = cli_parse("swingar run", argc, argv, opts, NULL, 0, &npos);
+    if (rc != CLI_OK) return rc;
+    if (!o.model && !o.skinned) return cli_usage("swingar run", "missing --model MODEL");
+    if (!o.garment) return cli_usage("swingar run", "missing --garment G.obj");
+    if (!o.motion) return cli_usage("swingar run", "missing --motion M");
+    if (!o.out) return cli_usage("swingar run", "missing -o OUT");
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    cr_body_model *b = NULL;
+    cr_garment *g = NULL;
+    cr_motion *mo = NULL;
+    cr_swingar_garment *sg = NULL;
+    float *pred = NULL, *body = NULL, *desc = NULL;
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cr_status st = o.model ? cr_swingar_load(o.model, &m, &err) : CR_OK;
+    if (st == CR_OK) st = cr_mannequin_preset(o.body, &md, &err);
+    if (st == CR_OK) st = cr_mannequin_create(&md, &b, &err);
+    if (st == CR_OK) {
+        cr_garment_user_def ud = cr_garment_user_default_def();
+        st = cr_garment_load_user(o.garment, &ud, b, &g, &err);
+    }
+    if (st == CR_OK) st = load_motion(&o, b, &mo, &err);
+    if (st == CR_OK) st = cr_body_pose_motion(b, mo, &body, &err);
+    const int32_t T = mo ? mo->nframes : 0, V = g ? g->mesh->nv : 0;
+    if (st == CR_OK && !(pred = malloc(sizeof(float) * (size_t)T * V * 3)))
+        st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
+    double t0 = cr_time_now();
+    if (st == CR_OK && o.skinned) {
+        for (int32_t t = 0; st == CR_OK && t < T; t++)
+            st = cr_garment_pose(g, b, mo->poses + (size_t)t * CR_NJOINTS * 3, mo->trans + 3 * t,
+                                 pred + (size_t)t * V * 3, &err);
+    } else if (st == CR_OK) {
+        const cr_swingar_def *d = cr_swingar_get_def(m);
+        desc = calloc((size_t)d->descriptor_len, sizeof(float));
+        if (!desc) st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
+        if (st == CR_OK && d->use_descriptor)
+            st = cr_swingar_compute_descriptor(g->mesh, d->descriptor_len, d->affinity, desc, &err);
+        if (st == CR_OK)
+            st = cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, b, desc,
+                                           d->descriptor_len, &sg, &err);
+        cr_swingar_motion sm = {T, b->joints, mo ? mo->poses : NULL, mo ? mo->trans : NULL};
+        if (st == CR_OK)
+            st = cr_swingar_predict(m, sg, &sm, (size_t)o.arena_mb << 20, o.chunk, pred, &err);
+    }
+    double seconds = cr_time_now() - t0;
+    if (st == CR_OK) st = write_outputs(&o, g, b, pred, body, T, &err);
+    if (st == CR_OK && o.json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "command", "swingar run");
+        cJSON_AddStringToObject(j, "out", o.out);
+        cJSON_AddStringToObject(j, "mode", o.skinned ? "skinned" : "model");
+        cJSON_AddNumberToObject(j, "vertices", V);
+        cJSON_AddNumberToObject(j, "frames", T);
+        cJSON_AddNumberToObject(j, "seconds", seconds);
+        cJSON_AddNumberToObject(j, "fps", seconds > 0 ? T / seconds : 0);
+        cli_json_print(j);
+    }
+    free(pred);
+    free(body);
+    free(desc);
+    cr_swingar_garment_destroy(sg);
+    cr_motion_destroy(mo);
+    cr_garment_destroy(g);
+    cr_body_model_destroy(b);
+    cr_swingar_destroy(m);
+    return st == CR_OK ? CLI_OK : cli_fail(&err);
+}
+
+int cmd_swingar(int argc, char **argv) {
+    if (argc < 2) return cli_usage("swingar", "expected 'train' or 'run'");
+    if (strcmp(argv[1], "train") == 0) return cmd_train(argc - 1, argv + 1);
+    if (strcmp(argv[1], "run") == 0) return cmd_run(argc - 1, argv + 1);
+    return cli_usage("swingar", "unknown subcommand '%s' (train or run)", argv[1]);
+}

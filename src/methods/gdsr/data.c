@@ -1,0 +1,363 @@
+/* data.c: gdsr's data (a low/high garment pair, its correspondence, clips
+ * from a `crease dataset` folder), the low mesh's 1-ring / 2-ring graph and
+ * the node and edge features of Eq. 2-5. */
+#include "gdsr_internal.h"
+
+#include "crease/garment.h"
+#include "crease/mesh_io.h"
+#include "crease/npz.h"
+#include "crease/topology.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void cr_gdsr_data_free(cr_gdsr_data *d) {
+    if (!d) return;
+    cr_mesh_destroy(d->low);
+    cr_mesh_destroy(d->high);
+    cr_mesh_destroy(d->body);
+    free(d->face);
+    free(d->bary);
+    free(d->coarse_from_high);
+    for (int i = 0; i < d->nclips; i++) {
+        free(d->clip[i].low);
+        free(d->clip[i].high);
+        free(d->clip[i].body);
+    }
+    memset(d, 0, sizeof *d);
+}
+
+/* C*: for each low vertex the high vertex nearest it at rest (brute force
+ * over a coarse grid would be faster; V_l V_h is a few million here). */
+static cr_status nearest_high(cr_gdsr_data *d, cr_error *err) {
+    int32_t nl = d->low->nv, nh = d->high->nv;
+    d->coarse_from_high = malloc((size_t)nl * sizeof(int32_t));
+    if (!d->coarse_from_high) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    for (int32_t i = 0; i < nl; i++) {
+        const float *p = d->low->pos + 3 * i;
+        double best = INFINITY;
+        int32_t bk = 0;
+        for (int32_t k = 0; k < nh; k++) {
+            const float *q = d->high->pos + 3 * k;
+            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            double s = dx * dx + dy * dy + dz * dz;
+            if (s < best) best = s, bk = k;
+        }
+        d->coarse_from_high[i] = bk;
+    }
+    return CR_OK;
+}
+
+void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out) {
+    cr_garment_apply_correspondence(d->low, low_pos, d->face, d->bary, d->high->nv, out);
+}
+
+static cr_status read_pc2(const char *path, int32_t nv, int32_t want_frames, float **out,
+                          int32_t *nframes, cr_error *err) {
+    cr_pc2 pc = {0};
+    CR_TRY(cr_pc2_read(path, &pc, err));
+    if (pc.nv != nv) {
+        int32_t got = pc.nv;
+        cr_pc2_free(&pc);
+        return CR_FAIL(err, CR_ERR_SHAPE, "%s: %d points per sample, the mesh has %d", path, got,
+                       nv);
+    }
+    if (want_frames > 0 && pc.nframes != want_frames) {
+        int32_t got = pc.nframes;
+        cr_pc2_free(&pc);
+        return CR_FAIL(err, CR_ERR_SHAPE, "%s: %d samples, expected %d", path, got, want_frames);
+    }
+    *out = pc.frames;
+    *nframes = pc.nframes;
+    return CR_OK;
+}
+
+cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *body,
+                            const char *const *motions, int nmotions, cr_gdsr_data *out,
+                            cr_error *err) {
+    memset(out, 0, sizeof *out);
+    if (nmotions < 1 || nmotions > CR_GDSR_MAX_CLIPS)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr: %d motions, need 1..%d", nmotions,
+                       CR_GDSR_MAX_CLIPS);
+    char path[2048];
+    cr_status st;
+    snprintf(path, sizeof path, "%s/garments/%s/%s_low.obj", dir, body, garment);
+    if ((st = cr_mesh_read(path, &out->low, err)) != CR_OK) goto fail;
+    snprintf(path, sizeof path, "%s/garments/%s/%s_high.obj", dir, body, garment);
+    if ((st = cr_mesh_read(path, &out->high, err)) != CR_OK) goto fail;
+    snprintf(path, sizeof path, "%s/bodies/%s/rest.obj", dir, body);
+    if ((st = cr_mesh_read(path, &out->body, err)) != CR_OK) goto fail;
+    snprintf(path, sizeof path, "%s/garments/%s/%s_high_from_low.npz", dir, body, garment);
+    {
+        cr_npz *z = NULL;
+        if ((st = cr_npz_open(path, &z, err)) != CR_OK) goto fail;
+        cr_npy f = {0}, b = {0};
+        st = cr_npz_get(z, "face", CR_NPY_AS_I32, &f, err);
+        if (st == CR_OK) st = cr_npz_get(z, "bary", CR_NPY_AS_F32, &b, err);
+        cr_npz_close(z);
+        if (st == CR_OK && (f.count != out->high->nv || b.count != 3 * (int64_t)out->high->nv))
+            st = CR_FAIL(err, CR_ERR_SHAPE, "%s: face/bary do not match the high mesh's %d", path,
+                         out->high->nv);
+        if (st != CR_OK) {
+            cr_npy_free(&f);
+            cr_npy_free(&b);
+            goto fail;
+        }
+        out->face = f.i32;
+        out->bary = b.f32;
+        for (int32_t k = 0; k < out->high->nv; k++)
+            if (out->face[k] < 0 || out->face[k] >= out->low->nf) {
+                st = CR_FAIL(err, CR_ERR_SHAPE, "%s: face[%d] = %d out of range", path, k,
+                             out->face[k]);
+                goto fail;
+            }
+    }
+    if ((st = nearest_high(out, err)) != CR_OK) goto fail;
+    for (int i = 0; i < nmotions; i++) {
+        cr_gdsr_clip *c = &out->clip[i];
+        out->nclips = i + 1;
+        snprintf(c->motion, sizeof c->motion, "%s", motions[i]);
+        int32_t T = 0, T2 = 0;
+        snprintf(path, sizeof path, "%s/sequences/%s_low_%s_%s/garment.pc2", dir, garment, body,
+                 motions[i]);
+        if ((st = read_pc2(path, out->low->nv, 0, &c->low, &T, err)) != CR_OK) goto fail;
+        snprintf(path, sizeof path, "%s/sequences/%s_high_%s_%s/garment.pc2", dir, garment, body,
+                 motions[i]);
+        /* no high sequence (a low-only roll-out input): clip.high stays NULL */
+        FILE *hf = fopen(path, "rb");
+        if (hf) fclose(hf);
+        if (hf && (st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK) goto fail;
+        snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", dir, body, motions[i]);
+        if ((st = read_pc2(path, out->body->nv, T, &c->body, &T2, err)) != CR_OK) goto fail;
+        c->nframes = T;
+    }
+    return CR_OK;
+fail:
+    cr_gdsr_data_free(out);
+    return st;
+}
+
+cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, const cr_mesh *body,
+                                   int32_t nframes, const float *low_frames,
+                                   const float *high_frames, const float *body_frames,
+                                   cr_gdsr_data *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    cr_status st;
+    if ((st = cr_mesh_clone(low, &out->low, err)) != CR_OK) goto fail;
+    if ((st = cr_mesh_clone(high, &out->high, err)) != CR_OK) goto fail;
+    if ((st = cr_mesh_clone(body, &out->body, err)) != CR_OK) goto fail;
+    out->face = malloc((size_t)high->nv * sizeof(int32_t));
+    out->bary = malloc((size_t)high->nv * 3 * sizeof(float));
+    if (!out->face || !out->bary) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto fail;
+    }
+    if ((st = cr_garment_correspondence(low, high, out->face, out->bary, err)) != CR_OK) goto fail;
+    if ((st = nearest_high(out, err)) != CR_OK) goto fail;
+    out->nclips = 1;
+    cr_gdsr_clip *c = &out->clip[0];
+    snprintf(c->motion, sizeof c->motion, "arrays");
+    c->nframes = nframes;
+    size_t nl = (size_t)nframes * low->nv * 3, nh = (size_t)nframes * high->nv * 3,
+           nb = (size_t)nframes * body->nv * 3;
+    c->low = malloc(nl * sizeof(float));
+    c->high = malloc(nh * sizeof(float));
+    c->body = malloc(nb * sizeof(float));
+    if (!c->low || !c->high || !c->body) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto fail;
+    }
+    memcpy(c->low, low_frames, nl * sizeof(float));
+    memcpy(c->high, high_frames, nh * sizeof(float));
+    memcpy(c->body, body_frames, nb * sizeof(float));
+    return CR_OK;
+fail:
+    cr_gdsr_data_free(out);
+    return st;
+}
+
+/* ------------------------------------------------------------ graph -- */
+
+void cr_gdsr_graph_free(cr_gdsr_graph *g) {
+    if (!g) return;
+    for (int s = 0; s < 2; s++) {
+        free(g->snd[s]);
+        free(g->rcv[s]);
+    }
+    memset(g, 0, sizeof *g);
+}
+
+static int cmp_i32(const void *a, const void *b) {
+    int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+    return (x > y) - (x < y);
+}
+
+cr_status cr_gdsr_graph_build(const cr_mesh *low, cr_gdsr_graph *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    cr_topology *t = NULL;
+    CR_TRY(cr_topology_build(low, &t, err));
+    int32_t nv = low->nv;
+    out->nv = nv;
+    /* adjacency lists (CSR) */
+    int32_t *deg = calloc((size_t)nv + 1, sizeof(int32_t));
+    int32_t *adj = malloc((size_t)2 * t->ne * sizeof(int32_t));
+    int32_t *fill = calloc((size_t)nv, sizeof(int32_t));
+    int32_t *mark = malloc((size_t)nv * sizeof(int32_t));
+    int32_t *tmp = malloc((size_t)nv * sizeof(int32_t));
+    cr_status st = CR_OK;
+    if (!deg || !adj || !fill || !mark || !tmp) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
+    for (int32_t e = 0; e < t->ne; e++) {
+        deg[t->edge[2 * e] + 1]++;
+        deg[t->edge[2 * e + 1] + 1]++;
+    }
+    for (int32_t i = 0; i < nv; i++)
+        deg[i + 1] += deg[i];
+    for (int32_t e = 0; e < t->ne; e++) {
+        int32_t a = t->edge[2 * e], b = t->edge[2 * e + 1];
+        adj[deg[a] + fill[a]++] = b;
+        adj[deg[b] + fill[b]++] = a;
+    }
+    for (int32_t i = 0; i < nv; i++)
+        qsort(adj + deg[i], (size_t)(deg[i + 1] - deg[i]), 4, cmp_i32);
+    /* 1-ring: both directions of every edge */
+    out->ne[0] = 2 * (int64_t)t->ne;
+    out->snd[0] = malloc((size_t)out->ne[0] * sizeof(int32_t));
+    out->rcv[0] = malloc((size_t)out->ne[0] * sizeof(int32_t));
+    if (!out->snd[0] || !out->rcv[0]) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
+    int64_t k = 0;
+    for (int32_t i = 0; i < nv; i++)
+        for (int32_t a = deg[i]; a < deg[i + 1]; a++) {
+            out->rcv[0][k] = i;
+            out->snd[0][k] = adj[a];
+            k++;
+        }
+    /* 2-ring: vertices at distance exactly 2, counted then filled */
+    for (int pass = 0; pass < 2; pass++) {
+        int64_t n2 = 0;
+        for (int32_t i = 0; i < nv; i++)
+            mark[i] = -1;
+        for (int32_t i = 0; i < nv; i++) {
+            mark[i] = i;
+            for (int32_t a = deg[i]; a < deg[i + 1]; a++)
+                mark[adj[a]] = i;
+            int32_t nt = 0;
+            for (int32_t a = deg[i]; a < deg[i + 1]; a++) {
+                int32_t j = adj[a];
+                for (int32_t b = deg[j]; b < deg[j + 1]; b++) {
+                    int32_t q = adj[b];
+                    if (mark[q] == i) continue;
+                    mark[q] = i;
+                    tmp[nt++] = q;
+                }
+            }
+            qsort(tmp, (size_t)nt, 4, cmp_i32);
+            for (int32_t a = 0; a < nt; a++) {
+                if (pass == 1) {
+                    out->rcv[1][n2] = i;
+                    out->snd[1][n2] = tmp[a];
+                }
+                n2++;
+            }
+        }
+        if (pass == 0) {
+            out->ne[1] = n2;
+            out->snd[1] = malloc((size_t)(n2 > 0 ? n2 : 1) * sizeof(int32_t));
+            out->rcv[1] = malloc((size_t)(n2 > 0 ? n2 : 1) * sizeof(int32_t));
+            if (!out->snd[1] || !out->rcv[1]) {
+                st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+                goto done;
+            }
+        }
+    }
+done:
+    free(deg);
+    free(adj);
+    free(fill);
+    free(mark);
+    free(tmp);
+    cr_topology_destroy(t);
+    if (st != CR_OK) cr_gdsr_graph_free(out);
+    return st;
+}
+
+/* --------------------------------------------------------- features -- */
+
+static void vertex_normals(const cr_mesh *m, const float *pos, float *n) {
+    memset(n, 0, (size_t)m->nv * 3 * sizeof(float));
+    for (int32_t f = 0; f < m->nf; f++) {
+        const int32_t *t = m->tri + 3 * f;
+        const float *a = pos + 3 * t[0], *b = pos + 3 * t[1], *c = pos + 3 * t[2];
+        float u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        float v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        float x[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                      u[0] * v[1] - u[1] * v[0]};
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < 3; j++)
+                n[3 * t[k] + j] += x[j];
+    }
+    for (int32_t i = 0; i < m->nv; i++) {
+        float *p = n + 3 * i;
+        float l = sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        if (l > 0)
+            for (int j = 0; j < 3; j++)
+                p[j] /= l;
+    }
+}
+
+void cr_gdsr_features(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
+                      float sigma_b, float *node, float *edge0, float *edge1) {
+    int32_t nv = low->nv;
+    const int F = CR_GDSR_NODE_FEATURES;
+    float *nrm = malloc((size_t)nv * 3 * sizeof(float));
+    if (nrm) vertex_normals(low, in->c, nrm);
+    for (int32_t i = 0; i < nv; i++) {
+        float *o = node + (int64_t)F * i;
+        const float *x = in->c + 3 * i, *x1 = in->c_prev + 3 * i, *x2 = in->c_prev2 + 3 * i;
+        for (int k = 0; k < 3; k++) {
+            o[k] = nrm ? nrm[3 * i + k] : 0.0f;
+            o[3 + k] = 100.0f * (x[k] - x1[k]);
+            o[6 + k] = 100.0f * (x[k] - 2.0f * x1[k] + x2[k]);
+        }
+        const float *bp = in->body_point + 3 * i;
+        float b[3] = {bp[0] - x[0], bp[1] - x[1], bp[2] - x[2]};
+        float bl = sqrtf(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        int near = bl < sigma_b;
+        for (int k = 0; k < 3; k++)
+            o[9 + k] = near ? b[k] / sigma_b : 0.0f;
+        o[12] = near ? bl / sigma_b : 0.0f;
+        const float *h1 = in->chat_prev ? in->chat_prev + 3 * i : x1;
+        const float *h2 = in->chat_prev2 ? in->chat_prev2 + 3 * i : x2;
+        for (int k = 0; k < 3; k++) {
+            o[13 + k] = in->d_prev ? 100.0f * in->d_prev[3 * i + k] : 0.0f;
+            o[16 + k] = 100.0f * (h1[k] - h2[k]);
+        }
+    }
+    free(nrm);
+    float *edges[2] = {edge0, edge1};
+    for (int s = 0; s < 2; s++) {
+        if (!edges[s]) continue;
+        for (int64_t e = 0; e < g->ne[s]; e++) {
+            int32_t i = g->rcv[s][e], j = g->snd[s][e];
+            float *o = edges[s] + (int64_t)CR_GDSR_EDGE_FEATURES * e;
+            float r2 = 0, c2 = 0;
+            for (int k = 0; k < 3; k++) {
+                float r = 10.0f * (low->pos[3 * j + k] - low->pos[3 * i + k]);
+                float c = 10.0f * (in->c[3 * j + k] - in->c[3 * i + k]);
+                o[k] = r;
+                o[4 + k] = c;
+                r2 += r * r;
+                c2 += c * c;
+            }
+            o[3] = sqrtf(r2);
+            o[7] = sqrtf(c2);
+        }
+    }
+}

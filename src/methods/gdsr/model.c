@@ -1,0 +1,399 @@
+/* model.c: gdsr's networks: Mesh-Graph-Net H (sec. 4.2, Eq. 6-7), the
+ * local-frame decoder E (sec. 4.3, Eq. 8-9) and the Mesh-Hyper-Net A with a
+ * complex WIRE target per low triangle (sec. 4.4, Eq. 10-12). */
+#include "gdsr_internal.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+cr_gdsr_model_def cr_gdsr_model_default_def(void) {
+    cr_gdsr_model_def d = {.latent = 64,
+                           .steps = 4,
+                           .mlp_hidden = 1,
+                           .decoder_features = 32,
+                           .hyper_features = 32,
+                           .gen_hidden = 64,
+                           .wire_layers = 5,
+                           .wire_width = 16,
+                           .omega0 = 5.0f,
+                           .s0 = 10.0f,
+                           .use_decoder = 1,
+                           .sigma_b = 0.015f,
+                           .out_scale = 0.01f,
+                           .seed = 1,
+                           .cookie = CR_GDSR_COOKIE};
+    return d;
+}
+
+cr_gdsr_model_def cr_gdsr_model_paper_def(void) {
+    cr_gdsr_model_def d = cr_gdsr_model_default_def();
+    d.latent = 128;
+    d.steps = 6;
+    d.mlp_hidden = 2;
+    d.decoder_features = 128;
+    d.hyper_features = 512;
+    d.gen_hidden = 256;
+    return d;
+}
+
+cr_status cr_gdsr_model_def_validate(const cr_gdsr_model_def *d, cr_error *err) {
+    if (d->cookie != CR_GDSR_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr model def: not made by cr_gdsr_model_default_def");
+#define RANGE(f, lo, hi)                                                                           \
+    if (!(d->f >= (lo) && d->f <= (hi)))                                                           \
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr model def: " #f " outside [%g, %g]",             \
+                       (double)(lo), (double)(hi));
+    RANGE(latent, 4, 1024)
+    RANGE(steps, 0, 32)
+    RANGE(mlp_hidden, 0, 8)
+    RANGE(decoder_features, 1, 1024)
+    RANGE(hyper_features, 1, 2048)
+    RANGE(gen_hidden, 4, 4096)
+    RANGE(wire_layers, 2, 12)
+    RANGE(wire_width, 2, 256)
+    RANGE(omega0, 0.01f, 100.0f)
+    RANGE(s0, 0.0f, 100.0f)
+    RANGE(sigma_b, 1e-4f, 1.0f)
+    RANGE(out_scale, 1e-6f, 10.0f)
+#undef RANGE
+    return CR_OK;
+}
+
+/* Floats of the WIRE target: a real first layer 2 -> w, complex w -> w
+ * layers and a complex w -> 3 last layer (weights and biases, re and im). */
+static int64_t wire_params(const cr_gdsr_model_def *d) {
+    int64_t w = d->wire_width;
+    return 3 * w + (int64_t)(d->wire_layers - 2) * 2 * (w * w + w) + 2 * (3 * w + 3);
+}
+
+void cr_gdsr_model_destroy(cr_gdsr_model *m) {
+    if (!m) return;
+    cr_mpnn_destroy(m->net);
+    cr_mlp_destroy(m->dec);
+    cr_mlp_destroy(m->gen);
+    cr_nn_params_destroy(m->params);
+    free(m);
+}
+
+cr_nn_params *cr_gdsr_model_params(cr_gdsr_model *m) {
+    return m->params;
+}
+const cr_gdsr_model_def *cr_gdsr_model_get_def(const cr_gdsr_model *m) {
+    return &m->def;
+}
+
+cr_status cr_gdsr_model_create(const cr_gdsr_model_def *def, cr_gdsr_model **out, cr_error *err) {
+    *out = NULL;
+    CR_TRY(cr_gdsr_model_def_validate(def, err));
+    cr_gdsr_model *m = calloc(1, sizeof *m);
+    if (!m) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    m->def = *def;
+    cr_status st;
+    cr_rng rng = cr_rng_make(def->seed, 19);
+    if ((st = cr_nn_params_create(&m->params, err)) != CR_OK) goto fail;
+    cr_mpnn_def nd = cr_mpnn_default_def();
+    nd.node_in = CR_GDSR_NODE_FEATURES;
+    nd.edge_sets = 2;
+    nd.edge_in[0] = nd.edge_in[1] = CR_GDSR_EDGE_FEATURES;
+    nd.node_out = (def->use_decoder ? def->decoder_features : 0) + def->hyper_features;
+    nd.latent = def->latent;
+    nd.steps = def->steps;
+    nd.hidden_layers = def->mlp_hidden;
+    if ((st = cr_mpnn_create(&nd, m->params, "H", &rng, &m->net, err)) != CR_OK) goto fail;
+    if (def->use_decoder) {
+        cr_mlp_def ed = cr_mlp_default_def();
+        ed.nlayers = 2;
+        ed.widths[0] = 3 * def->decoder_features;
+        ed.widths[1] = def->latent;
+        ed.widths[2] = 9;
+        if ((st = cr_mlp_create(&ed, m->params, "E", &rng, &m->dec, err)) != CR_OK) goto fail;
+        /* start at C^ = C: the last layer's weights at zero */
+        cr_init_zero(m->dec->layer[1].weight);
+        cr_init_zero(m->dec->layer[1].bias);
+    }
+    m->nparams = wire_params(def);
+    cr_mlp_def gd = cr_mlp_default_def();
+    gd.nlayers = 2;
+    gd.widths[0] = 3 * def->hyper_features;
+    gd.widths[1] = def->gen_hidden;
+    gd.widths[2] = (int)m->nparams;
+    if ((st = cr_mlp_create(&gd, m->params, "A.gen", &rng, &m->gen, err)) != CR_OK) goto fail;
+    /* SIREN's hyper_weight_init: the head's weights scaled down, its bias one
+     * initialisation of the target (PyTorch's U(+-1/sqrt(in))), with the last
+     * WIRE layer at zero so the residual starts at zero. */
+    {
+        cr_linear *head = &m->gen->layer[1];
+        for (int64_t i = 0; i < head->weight->numel; i++)
+            head->weight->data[i] *= 0.01f;
+        float *b = head->bias->data;
+        int64_t w = def->wire_width, o = 0;
+        float r0 = 1.0f / sqrtf(2.0f), r = 1.0f / sqrtf((float)w);
+        for (int64_t i = 0; i < 3 * w; i++)
+            b[o++] = r0 * (2.0f * cr_rng_uniformf(&rng) - 1.0f);
+        for (int l = 1; l < def->wire_layers - 1; l++)
+            for (int64_t i = 0; i < 2 * (w * w + w); i++)
+                b[o++] = r * (2.0f * cr_rng_uniformf(&rng) - 1.0f);
+        /* the last WIRE layer's rows of the head, weights and bias, at zero:
+         * the residual is exactly zero until training moves them */
+        int64_t last = 2 * (3 * w + 3), in = head->in; /* weight (P, in) */
+        for (int64_t i = 0; i < last; i++)
+            b[o++] = 0.0f;
+        memset(head->weight->data + (m->nparams - last) * in, 0,
+               (size_t)(last * in) * sizeof(float));
+    }
+    *out = m;
+    return CR_OK;
+fail:
+    cr_gdsr_model_destroy(m);
+    return st;
+}
+
+/* ---------------------------------------------------------- helpers -- */
+
+static int32_t *tri_column(const cr_mesh *m, int k) {
+    int32_t *c = malloc((size_t)(m->nf > 0 ? m->nf : 1) * sizeof(int32_t));
+    if (c)
+        for (int32_t f = 0; f < m->nf; f++)
+            c[f] = m->tri[3 * f + k];
+    return c;
+}
+
+/* Per-face frames (F,3) e1, e2, n of positions x (V,3) (a tensor, so the
+ * frame of C^ carries gradients). */
+static void face_frames(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *low, cr_tensor **e1,
+                        cr_tensor **e2, cr_tensor **n) {
+    int32_t *t0 = tri_column(low, 0), *t1 = tri_column(low, 1), *t2 = tri_column(low, 2);
+    if (!t0 || !t1 || !t2) {
+        *e1 = *e2 = *n = NULL;
+    } else {
+        cr_tensor *p0 = cr_nn_gather_rows(ctx, x, t0, low->nf);
+        cr_tensor *u = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t1, low->nf), p0);
+        cr_tensor *v = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t2, low->nf), p0);
+        *e1 = cr_nn_normalize(ctx, u, 1e-12f);
+        *n = cr_nn_normalize(ctx, cr_nn_cross(ctx, u, v), 1e-12f);
+        *e2 = cr_nn_cross(ctx, *n, *e1);
+    }
+    free(t0);
+    free(t1);
+    free(t2);
+}
+
+/* Per-triangle concatenation of its corners' features: f (V,D) -> (F,3D). */
+static cr_tensor *corner_concat(cr_nn_ctx *ctx, cr_tensor *f, const cr_mesh *low) {
+    if (!f) return NULL;
+    int64_t D = f->shape[1];
+    cr_tensor *g = cr_nn_gather_rows(ctx, f, low->tri, 3 * (int64_t)low->nf);
+    return cr_nn_reshape(ctx, g, 2, (int64_t[]){low->nf, 3 * D});
+}
+
+/* --------------------------------------------------------- decoder E -- */
+
+cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *f,
+                          const float *c) {
+    if (!m->dec || !f) return NULL;
+    int64_t F = low->nf, V = low->nv;
+    cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){V, 3}, c);
+    cr_tensor *e1, *e2, *n;
+    face_frames(ctx, x, low, &e1, &e2, &n); /* x has no grad: constant frames */
+    cr_tensor *local = cr_nn_mul_scalar(
+        ctx, cr_mlp_forward(ctx, m->dec, corner_concat(ctx, f, low)), m->def.out_scale); /* (F,9) */
+    local = cr_nn_reshape(ctx, local, 2, (int64_t[]){3 * F, 3});
+    /* R per corner: rows e1, e2, n of its face */
+    cr_tensor *R = cr_nn_concat(ctx, 3, (cr_tensor *[]){e1, e2, n}, 1); /* (F,9) */
+    int32_t *rep = malloc((size_t)(3 * F > 0 ? 3 * F : 1) * sizeof(int32_t));
+    float *inv = malloc((size_t)(V > 0 ? V : 1) * sizeof(float));
+    cr_tensor *out = NULL;
+    if (rep && inv) {
+        for (int64_t k = 0; k < 3 * F; k++)
+            rep[k] = (int32_t)(k / 3);
+        cr_tensor *Rc =
+            cr_nn_reshape(ctx, cr_nn_gather_rows(ctx, R, rep, 3 * F), 3, (int64_t[]){3 * F, 3, 3});
+        cr_tensor *dw = cr_nn_matmul(ctx, cr_nn_reshape(ctx, local, 3, (int64_t[]){3 * F, 1, 3}),
+                                     Rc, 0, 0); /* (3F,1,3) */
+        dw = cr_nn_reshape(ctx, dw, 2, (int64_t[]){3 * F, 3});
+        cr_tensor *sum = cr_nn_scatter_add_rows(ctx, dw, low->tri, V);
+        for (int64_t i = 0; i < V; i++)
+            inv[i] = 0.0f;
+        for (int64_t k = 0; k < 3 * F; k++)
+            inv[low->tri[k]] += 1.0f;
+        for (int64_t i = 0; i < V; i++)
+            inv[i] = inv[i] > 0 ? 1.0f / inv[i] : 0.0f;
+        out = cr_nn_mul(ctx, sum, cr_nn_from(ctx, 2, (int64_t[]){V, 1}, inv));
+    }
+    free(rep);
+    free(inv);
+    return out;
+}
+
+/* ------------------------------------------------------ hyper-net A -- */
+
+/* theta columns [off, off + rows*cols) as per-group weights (G,rows,cols). */
+static cr_tensor *theta_w(cr_nn_ctx *ctx, cr_tensor *theta, int64_t *off, int64_t rows,
+                          int64_t cols) {
+    cr_tensor *s = cr_nn_slice(ctx, theta, 1, *off, rows * cols);
+    *off += rows * cols;
+    return s ? cr_nn_reshape(ctx, s, 3, (int64_t[]){theta->shape[0], rows, cols}) : NULL;
+}
+
+static cr_tensor *theta_b(cr_nn_ctx *ctx, cr_tensor *theta, int64_t *off, int64_t n,
+                          const int32_t *group, int64_t M) {
+    cr_tensor *s = cr_nn_slice(ctx, theta, 1, *off, n);
+    *off += n;
+    return cr_nn_gather_rows(ctx, s, group, M);
+}
+
+cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
+                         int64_t M, const int32_t *face, const float *bary) {
+    const cr_gdsr_model_def *d = &m->def;
+    int64_t w = d->wire_width;
+    cr_tensor *theta = cr_mlp_forward(ctx, m->gen, corner_concat(ctx, h, low)); /* (F,P) */
+    float *uv = malloc((size_t)(M > 0 ? M : 1) * 2 * sizeof(float));
+    if (!uv) return NULL;
+    for (int64_t k = 0; k < M; k++) {
+        uv[2 * k] = bary[3 * k + 1];
+        uv[2 * k + 1] = bary[3 * k + 2];
+    }
+    cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){M, 2}, uv);
+    free(uv);
+    int64_t off = 0;
+    cr_tensor *W0 = theta_w(ctx, theta, &off, w, 2);
+    cr_tensor *b0 = theta_b(ctx, theta, &off, w, face, M);
+    cr_tensor *z = cr_nn_add(ctx, cr_nn_matmul_grouped(ctx, x, W0, face, 1), b0);
+    cr_tensor *re = NULL, *im = NULL;
+    cr_wire_activation(ctx, z, NULL, d->omega0, d->s0, &re, &im);
+    for (int l = 1; l < d->wire_layers; l++) {
+        int64_t o = l == d->wire_layers - 1 ? 3 : w;
+        cr_tensor *Wr = theta_w(ctx, theta, &off, o, w);
+        cr_tensor *Wi = theta_w(ctx, theta, &off, o, w);
+        cr_tensor *br = theta_b(ctx, theta, &off, o, face, M);
+        cr_tensor *bi = theta_b(ctx, theta, &off, o, face, M);
+        cr_tensor *yr = cr_nn_add(ctx,
+                                  cr_nn_sub(ctx, cr_nn_matmul_grouped(ctx, re, Wr, face, 1),
+                                            cr_nn_matmul_grouped(ctx, im, Wi, face, 1)),
+                                  br);
+        if (l == d->wire_layers - 1) return yr; /* the real part of the last layer */
+        cr_tensor *yi = cr_nn_add(ctx,
+                                  cr_nn_add(ctx, cr_nn_matmul_grouped(ctx, re, Wi, face, 1),
+                                            cr_nn_matmul_grouped(ctx, im, Wr, face, 1)),
+                                  bi);
+        cr_wire_activation(ctx, yr, yi, d->omega0, d->s0, &re, &im);
+    }
+    return NULL;
+}
+
+/* ---------------------------------------------------------- forward -- */
+
+cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data *d,
+                           const cr_gdsr_graph *g, const float *node, const float *edge0,
+                           const float *edge1, const float *c, cr_tensor **chat_out) {
+    const cr_mesh *low = d->low;
+    int64_t V = low->nv, Vh = d->high->nv;
+    cr_nn_graph graphs[2] = {
+        {.nodes = V, .edges = g->ne[0], .senders = g->snd[0], .receivers = g->rcv[0]},
+        {.nodes = V, .edges = g->ne[1], .senders = g->snd[1], .receivers = g->rcv[1]}};
+    cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){V, CR_GDSR_NODE_FEATURES}, node);
+    cr_tensor *ex[2] = {
+        cr_nn_from(ctx, 2, (int64_t[]){g->ne[0], CR_GDSR_EDGE_FEATURES}, edge0),
+        g->ne[1] > 0 ? cr_nn_from(ctx, 2, (int64_t[]){g->ne[1], CR_GDSR_EDGE_FEATURES}, edge1)
+                     : NULL};
+    cr_tensor *y = cr_mpnn_forward(ctx, m->net, x, graphs, ex, NULL);
+    if (!y) return NULL;
+    cr_tensor *cten = cr_nn_from(ctx, 2, (int64_t[]){V, 3}, c);
+    cr_tensor *chat = cten, *hf = y;
+    if (m->def.use_decoder) {
+        int64_t Dd = m->def.decoder_features;
+        cr_tensor *fd = cr_nn_slice(ctx, y, 1, 0, Dd);
+        hf = cr_nn_slice(ctx, y, 1, Dd, m->def.hyper_features);
+        chat = cr_nn_add(ctx, cten, cr_gdsr_decode(ctx, m, low, fd, c));
+    }
+    if (chat_out) *chat_out = chat;
+    /* S[C^]: barycentric upsampling through Eq. 1, then the residual of A in
+     * the frame of C^'s face (Eq. 12) */
+    int32_t *corner[3];
+    float *bw[3];
+    for (int k = 0; k < 3; k++) {
+        corner[k] = malloc((size_t)Vh * sizeof(int32_t));
+        bw[k] = malloc((size_t)Vh * sizeof(float));
+    }
+    cr_tensor *out = NULL;
+    if (corner[0] && corner[1] && corner[2] && bw[0] && bw[1] && bw[2]) {
+        for (int64_t i = 0; i < Vh; i++)
+            for (int k = 0; k < 3; k++) {
+                corner[k][i] = low->tri[3 * d->face[i] + k];
+                bw[k][i] = d->bary[3 * i + k];
+            }
+        cr_tensor *s = NULL;
+        for (int k = 0; k < 3; k++) {
+            cr_tensor *t = cr_nn_mul(ctx, cr_nn_gather_rows(ctx, chat, corner[k], Vh),
+                                     cr_nn_from(ctx, 2, (int64_t[]){Vh, 1}, bw[k]));
+            s = k == 0 ? t : cr_nn_add(ctx, s, t);
+        }
+        cr_tensor *r = cr_nn_mul_scalar(ctx, cr_gdsr_hyper(ctx, m, low, hf, Vh, d->face, d->bary),
+                                        m->def.out_scale); /* (Vh,3) */
+        cr_tensor *e1, *e2, *n;
+        face_frames(ctx, chat, low, &e1, &e2, &n);
+        cr_tensor *fr[3] = {e1, e2, n};
+        out = s;
+        for (int k = 0; k < 3; k++)
+            out = cr_nn_add(ctx, out,
+                            cr_nn_mul(ctx, cr_nn_slice(ctx, r, 1, k, 1),
+                                      cr_nn_gather_rows(ctx, fr[k], d->face, Vh)));
+    }
+    for (int k = 0; k < 3; k++) {
+        free(corner[k]);
+        free(bw[k]);
+    }
+    return out;
+}
+
+/* ---------------------------------------------------- def as JSON -- */
+
+char *cr_gdsr_model_def_json(const cr_gdsr_model_def *d) {
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "latent", d->latent);
+    cJSON_AddNumberToObject(j, "steps", d->steps);
+    cJSON_AddNumberToObject(j, "mlp_hidden", d->mlp_hidden);
+    cJSON_AddNumberToObject(j, "decoder_features", d->decoder_features);
+    cJSON_AddNumberToObject(j, "hyper_features", d->hyper_features);
+    cJSON_AddNumberToObject(j, "gen_hidden", d->gen_hidden);
+    cJSON_AddNumberToObject(j, "wire_layers", d->wire_layers);
+    cJSON_AddNumberToObject(j, "wire_width", d->wire_width);
+    cJSON_AddNumberToObject(j, "omega0", d->omega0);
+    cJSON_AddNumberToObject(j, "s0", d->s0);
+    cJSON_AddNumberToObject(j, "use_decoder", d->use_decoder);
+    cJSON_AddNumberToObject(j, "sigma_b", d->sigma_b);
+    cJSON_AddNumberToObject(j, "out_scale", d->out_scale);
+    cJSON_AddNumberToObject(j, "seed", (double)d->seed);
+    char *s = cJSON_PrintUnformatted(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr_error *err) {
+    *d = cr_gdsr_model_default_def();
+    cJSON *j = json ? cJSON_Parse(json) : NULL;
+    if (!j) return CR_FAIL(err, CR_ERR_PARSE, "gdsr model: no or unreadable model definition");
+    const char *ikeys[] = {"latent",           "steps",          "mlp_hidden",
+                           "decoder_features", "hyper_features", "gen_hidden",
+                           "wire_layers",      "wire_width",     "use_decoder"};
+    int *ivals[] = {&d->latent,           &d->steps,          &d->mlp_hidden,
+                    &d->decoder_features, &d->hyper_features, &d->gen_hidden,
+                    &d->wire_layers,      &d->wire_width,     &d->use_decoder};
+    for (int k = 0; k < 9; k++) {
+        cJSON *v = cJSON_GetObjectItem(j, ikeys[k]);
+        if (cJSON_IsNumber(v)) *ivals[k] = v->valueint;
+    }
+    cJSON *v;
+    d->out_scale = 1.0f; /* models written before the field: unscaled outputs */
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "out_scale")))
+        d->out_scale = (float)v->valuedouble;
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "omega0"))) d->omega0 = (float)v->valuedouble;
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "s0"))) d->s0 = (float)v->valuedouble;
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_b"))) d->sigma_b = (float)v->valuedouble;
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "seed"))) d->seed = (uint64_t)v->valuedouble;
+    cJSON_Delete(j);
+    return cr_gdsr_model_def_validate(d, err);
+}

@@ -1,0 +1,551 @@
+/* train.c: gdsr training (sec. 4.5): each clip rolled out in frame order on
+ * the model's own previous corrections, input noise on C, L1 on the coarse
+ * shape and on the fine garment, a face-normal term, AdamW with the paper's
+ * halving schedule, resumable checkpoints; the model file and its loader;
+ * roll-out with explicit collision handling (sec. 4.6). */
+#include "gdsr_internal.h"
+
+#include "crease/bvh.h"
+#include "crease/losses.h"
+#include "crease/nn_checkpoint.h"
+#include "crease/nn_optim.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+cr_gdsr_train_def cr_gdsr_train_default_def(void) {
+    cr_gdsr_train_def d = {.model = cr_gdsr_model_default_def(),
+                           .epochs = 20,
+                           .lr = 1e-4f,
+                           .lr_halve_every = 50,
+                           .weight_decay = 0.01f,
+                           .noise_m = 0.003f,
+                           .w_coarse = 1.0f,
+                           .w_fine = 1.0f,
+                           .w_normal = 0.01f,
+                           .w_stretch = 1.0f,
+                           .w_shear = 1.0f,
+                           .w_bend = 0.1f,
+                           .w_laplacian = 1.0f,
+                           .checkpoint_every = 5,
+                           .cookie = CR_GDSR_COOKIE};
+    return d;
+}
+
+/* Closest body point of every low vertex of every frame of a clip. */
+static cr_status body_points(const cr_gdsr_data *d, const cr_gdsr_clip *c, const float *low,
+                             float *out, cr_error *err) {
+    cr_bvh *b = NULL;
+    CR_TRY(cr_bvh_build(c->body, d->body->nv, d->body->tri, d->body->nf, &b, err));
+    int32_t nl = d->low->nv;
+    for (int32_t t = 0; t < c->nframes; t++) {
+        cr_status st = cr_bvh_refit(b, c->body + (int64_t)t * d->body->nv * 3, err);
+        if (st != CR_OK) {
+            cr_bvh_destroy(b);
+            return st;
+        }
+        cr_bvh_closest_batch(b, low + (int64_t)t * nl * 3, nl, INFINITY, NULL,
+                             out + (int64_t)t * nl * 3, NULL, NULL);
+    }
+    cr_bvh_destroy(b);
+    return CR_OK;
+}
+
+/* Face normals (F,3) of positions x (V,3) of mesh m, as a tensor. */
+static cr_tensor *face_normals_t(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *m, int32_t **cols) {
+    cr_tensor *p0 = cr_nn_gather_rows(ctx, x, cols[0], m->nf);
+    cr_tensor *u = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, cols[1], m->nf), p0);
+    cr_tensor *v = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, cols[2], m->nf), p0);
+    return cr_nn_normalize(ctx, cr_nn_cross(ctx, u, v), 1e-12f);
+}
+
+typedef struct frame_state {
+    float *chat1, *chat2, *dprev; /* (Vl,3) C^_{t-1}, C^_{t-2}, d_{t-1} */
+    int have;                     /* frames of the model's own output so far */
+} frame_state;
+
+/* Features of frame t (t >= 2) of clip c, input positions cin (Vl,3). */
+static void frame_features(const cr_gdsr_data *d, const cr_gdsr_graph *g, const float *low,
+                           int32_t t, const float *cin, const float *bp, const frame_state *fs,
+                           float sigma_b, float *node, float *e0, float *e1) {
+    int64_t nl3 = (int64_t)d->low->nv * 3;
+    cr_gdsr_frame_in in = {.c = cin,
+                           .c_prev = low + (t - 1) * nl3,
+                           .c_prev2 = low + (t - 2) * nl3,
+                           .d_prev = fs->have >= 1 ? fs->dprev : NULL,
+                           .chat_prev = fs->have >= 2 ? fs->chat1 : NULL,
+                           .chat_prev2 = fs->have >= 2 ? fs->chat2 : NULL,
+                           .body_point = bp};
+    cr_gdsr_features(d->low, g, &in, sigma_b, node, e0, e1);
+}
+
+static void state_push(frame_state *fs, const float *chat, const float *c, int64_t n3) {
+    memcpy(fs->chat2, fs->chat1, (size_t)n3 * sizeof(float));
+    memcpy(fs->chat1, chat, (size_t)n3 * sizeof(float));
+    for (int64_t i = 0; i < n3; i++)
+        fs->dprev[i] = chat[i] - c[i];
+    fs->have++;
+}
+
+static cr_status save_model(const char *path, cr_gdsr_model *m, cr_error *err) {
+    char *js = cr_gdsr_model_def_json(&m->def);
+    if (!js) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    cr_st_meta meta[1] = {{"gdsr_model", js}};
+    cr_status st = cr_safetensors_save_params(path, m->params, meta, 1, err);
+    free(js);
+    return st;
+}
+
+cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *err) {
+    *out = NULL;
+    cr_safetensors sf = {0};
+    CR_TRY(cr_safetensors_read(path, &sf, err));
+    cr_gdsr_model_def def;
+    /* a checkpoint keeps the def as its "config" and loads as plain weights */
+    const char *js = cr_safetensors_meta(&sf, "gdsr_model");
+    int ckpt = !js;
+    if (ckpt) js = cr_safetensors_meta(&sf, "config");
+    cr_status st = cr_gdsr_model_def_from_json(js, &def, err);
+    cr_gdsr_model *m = NULL;
+    if (st == CR_OK) st = cr_gdsr_model_create(&def, &m, err);
+    if (st == CR_OK)
+        st = ckpt ? cr_checkpoint_load(path, m->params, NULL, NULL, err)
+                  : cr_safetensors_to_params(&sf, path, m->params, 1, err);
+    cr_safetensors_free(&sf);
+    if (st != CR_OK) {
+        cr_gdsr_model_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+/* Mean vertex distance (m) of the model's raw output and of upsampling to
+ * the reference over clips first.. of d, frames 2.. (the model's). */
+static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *med,
+                          double *med_up, cr_error *err) {
+    double s = 0, su = 0;
+    int64_t n = 0;
+    int32_t Vh = d->high->nv;
+    for (int c = first; c < d->nclips; c++) {
+        cr_gdsr_rollout_result r;
+        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, &r, err));
+        for (int32_t t = 2; t < r.nframes; t++)
+            for (int32_t i = 0; i < Vh; i++) {
+                const float *x = r.gdsr_raw + ((int64_t)t * Vh + i) * 3,
+                            *u = r.upsampled + ((int64_t)t * Vh + i) * 3,
+                            *h = d->clip[c].high + ((int64_t)t * Vh + i) * 3;
+                double a = 0, b = 0;
+                for (int k = 0; k < 3; k++)
+                    a += (double)(x[k] - h[k]) * (x[k] - h[k]),
+                        b += (double)(u[k] - h[k]) * (u[k] - h[k]);
+                s += sqrt(a), su += sqrt(b), n++;
+            }
+        cr_gdsr_rollout_free(&r);
+    }
+    *med = n ? s / n : NAN;
+    *med_up = n ? su / n : NAN;
+    return CR_OK;
+}
+
+cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
+                        cr_gdsr_train_result *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    if (def->cookie != CR_GDSR_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: not made by cr_gdsr_train_default_def");
+    if (!def->out_dir) return CR_FAIL(err, CR_ERR_INVALID, "gdsr train def: out_dir not set");
+    if (def->epochs < 1 || !(def->lr > 0) || def->lr_halve_every < 1 || !(def->noise_m >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: epochs >= 1, lr > 0, lr_halve_every >= 1, noise_m >= 0");
+    if (!(def->w_stretch >= 0 && def->w_shear >= 0 && def->w_bend >= 0 && def->w_laplacian >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian must be >= 0");
+    if (def->val_clips < 0 || def->val_clips >= d->nclips)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: val_clips %d with %d clips (one or more must train)",
+                       def->val_clips, d->nclips);
+    for (int c = 0; c < d->nclips; c++)
+        if (!d->clip[c].high)
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "gdsr train: clip '%s' has no high-resolution reference",
+                           d->clip[c].motion);
+    CR_TRY(cr_mkdir_p(def->out_dir, err));
+    int ntrain = d->nclips - def->val_clips;
+    int64_t steps_per_epoch = 0;
+    for (int c = 0; c < ntrain; c++)
+        if (d->clip[c].nframes > 2) steps_per_epoch += d->clip[c].nframes - 2;
+    if (steps_per_epoch < 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: no clip has 3 frames or more");
+
+    const cr_mesh *low = d->low, *high = d->high;
+    int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)high->nv * 3;
+    cr_gdsr_model *m = NULL;
+    cr_optim *opt = NULL;
+    cr_nn_ctx *ctx = NULL;
+    cr_gdsr_graph g = {0};
+    float *node = NULL, *e0 = NULL, *e1 = NULL, *cin = NULL, *cstar = NULL, *nref = NULL;
+    float *bp[CR_GDSR_MAX_CLIPS] = {0};
+    int32_t *hcols[3] = {0};
+    frame_state fs = {0};
+    gdsr_reg reg = {0};
+    FILE *log = NULL;
+    char ckpt[1100], model_path[1100], log_path[1100];
+    snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
+    snprintf(model_path, sizeof model_path, "%s/model.safetensors", def->out_dir);
+    snprintf(log_path, sizeof log_path, "%s/log.jsonl", def->out_dir);
+    cr_status st;
+    double t0 = cr_time_now();
+    if ((st = cr_gdsr_model_create(&def->model, &m, err)) != CR_OK) goto done;
+    out->params = cr_nn_params_numel(m->params);
+    cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
+    od.lr.kind = CR_LR_STEP;
+    od.lr.base = def->lr;
+    od.lr.gamma = 0.5f;
+    od.lr.step_every = (int64_t)def->lr_halve_every * steps_per_epoch;
+    od.weight_decay = def->weight_decay;
+    if ((st = cr_optim_create(&od, m->params, &opt, err)) != CR_OK) goto done;
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = (size_t)768 << 20;
+    if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
+    if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
+    if ((st = cr_gdsr_reg_create(high, &reg, err)) != CR_OK) goto done;
+    node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
+    e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    cin = malloc((size_t)nl3 * sizeof(float));
+    cstar = malloc((size_t)nl3 * sizeof(float));
+    nref = malloc((size_t)high->nf * 3 * sizeof(float));
+    fs.chat1 = malloc((size_t)nl3 * sizeof(float));
+    fs.chat2 = malloc((size_t)nl3 * sizeof(float));
+    fs.dprev = malloc((size_t)nl3 * sizeof(float));
+    for (int k = 0; k < 3; k++) {
+        hcols[k] = malloc((size_t)high->nf * sizeof(int32_t));
+        if (hcols[k])
+            for (int32_t f = 0; f < high->nf; f++)
+                hcols[k][f] = high->tri[3 * f + k];
+    }
+    if (!node || !e0 || !e1 || !cin || !cstar || !nref || !fs.chat1 || !fs.chat2 || !fs.dprev ||
+        !hcols[0] || !hcols[1] || !hcols[2]) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
+    for (int c = 0; c < ntrain; c++) {
+        bp[c] = malloc((size_t)d->clip[c].nframes * nl3 * sizeof(float));
+        if (!bp[c]) {
+            st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+            goto done;
+        }
+        if ((st = body_points(d, &d->clip[c], d->clip[c].low, bp[c], err)) != CR_OK) goto done;
+    }
+
+    int epoch0 = 0;
+    cr_rng rng = cr_rng_make(def->model.seed, 7);
+    if (def->resume) {
+        FILE *f = fopen(ckpt, "rb");
+        if (f) {
+            fclose(f);
+            cr_checkpoint_meta meta = {0};
+            if ((st = cr_checkpoint_load(ckpt, m->params, opt, &meta, err)) != CR_OK) goto done;
+            free(meta.config_json);
+            epoch0 = (int)meta.epoch;
+            rng = meta.rng;
+        }
+    }
+    out->resumed_from = epoch0;
+    out->epochs = epoch0;
+    log = fopen(log_path, epoch0 > 0 ? "a" : "w");
+    if (!log) {
+        st = CR_FAIL(err, CR_ERR_IO, "%s: cannot open for writing", log_path);
+        goto done;
+    }
+    for (int ep = epoch0; ep < def->epochs; ep++) {
+        double sum = 0, sc = 0, sf = 0, sn = 0, sr[4] = {0};
+        int64_t n = 0;
+        for (int c = 0; c < ntrain; c++) {
+            const cr_gdsr_clip *cl = &d->clip[c];
+            fs.have = 0;
+            for (int32_t t = 2; t < cl->nframes; t++) {
+                const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
+                for (int64_t i = 0; i < nl3; i++)
+                    cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
+                for (int32_t i = 0; i < low->nv; i++)
+                    for (int k = 0; k < 3; k++)
+                        cstar[3 * i + k] = ht[3 * d->coarse_from_high[i] + k];
+                frame_features(d, &g, cl->low, t, cin, bp[c] + t * nl3, &fs, def->model.sigma_b,
+                               node, e0, e1);
+                cr_nn_ctx_reset(ctx);
+                cr_tensor *chat = NULL;
+                /* noise_features_only: C^ and S[C^] start from the clean C
+                 * (nothing to denoise) */
+                const float *base = def->noise_features_only ? ct : cin;
+                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, base, &chat);
+                cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, cstar);
+                cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
+                cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
+                cr_tensor *lf = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
+                cr_tensor *ln = cr_nn_mean(
+                    ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, X, high, hcols),
+                                                  face_normals_t(ctx, Hs, high, hcols))));
+                cr_tensor *rt[4] = {0};
+                cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
+                cr_tensor *terms[7] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3]};
+                const float w[7] = {def->w_coarse, def->w_fine, def->w_normal,   def->w_stretch,
+                                    def->w_shear,  def->w_bend, def->w_laplacian};
+                cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, 7, NULL);
+                if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
+                cr_nn_params_zero_grad(m->params);
+                if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
+                if ((st = cr_optim_step(opt, err)) != CR_OK) goto done;
+                sum += loss->data[0];
+                sc += lc->data[0];
+                sf += lf->data[0];
+                sn += ln->data[0];
+                for (int k = 0; k < 4; k++)
+                    sr[k] += rt[k]->data[0];
+                n++;
+                state_push(&fs, chat->data, base, nl3);
+            }
+        }
+        out->epochs = ep + 1;
+        out->last_loss = sum / n;
+        out->last_coarse = sc / n;
+        out->last_fine = sf / n;
+        out->last_normal = sn / n;
+        out->last_stretch = sr[0] / n;
+        out->last_shear = sr[1] / n;
+        out->last_bend = sr[2] / n;
+        out->last_laplacian = sr[3] / n;
+        if (ep == epoch0) out->first_loss = out->last_loss;
+        out->last_val_med = out->val_upsampled_med = NAN;
+        if (def->val_clips > 0 && (st = validate(m, d, ntrain, &out->last_val_med,
+                                                 &out->val_upsampled_med, err)) != CR_OK)
+            goto done;
+        fprintf(log,
+                "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
+                "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
+                "\"laplacian_l1_m\":%.9g,\"val_med_m\":%.9g,\"val_upsampled_med_m\":%.9g,"
+                "\"lr\":%.6g,\"seconds\":%.3f}\n",
+                ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
+                out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
+                isnan(out->last_val_med) ? -1.0 : out->last_val_med,
+                isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
+                (double)cr_optim_lr(opt), cr_time_now() - t0);
+        fflush(log);
+        if (!def->quiet)
+            fprintf(
+                stderr,
+                "\rgdsr train: epoch %d/%d loss %.4g (coarse %.3g m, fine %.3g m, val MED %.4g m "
+                "vs upsampling %.4g m)",
+                ep + 1, def->epochs, out->last_loss, out->last_coarse, out->last_fine,
+                out->last_val_med, out->val_upsampled_med);
+        int every = def->checkpoint_every;
+        if ((every > 0 && (ep + 1) % every == 0) || ep + 1 == def->epochs) {
+            char *js = cr_gdsr_model_def_json(&m->def);
+            cr_checkpoint_meta meta = {.epoch = ep + 1,
+                                       .step = cr_optim_step_count(opt),
+                                       .seed = def->model.seed,
+                                       .rng = rng,
+                                       .loss = (float)out->last_loss,
+                                       .config_json = js};
+            st = cr_checkpoint_save(ckpt, m->params, opt, &meta, err);
+            free(js);
+            if (st != CR_OK) goto done;
+        }
+    }
+    if (!def->quiet) fprintf(stderr, "\n");
+    st = save_model(model_path, m, err);
+done:
+    out->seconds = cr_time_now() - t0;
+    if (log) fclose(log);
+    for (int c = 0; c < CR_GDSR_MAX_CLIPS; c++)
+        free(bp[c]);
+    for (int k = 0; k < 3; k++)
+        free(hcols[k]);
+    free(node);
+    free(e0);
+    free(e1);
+    free(cin);
+    free(cstar);
+    free(nref);
+    free(fs.chat1);
+    free(fs.chat2);
+    free(fs.dprev);
+    cr_gdsr_graph_free(&g);
+    cr_gdsr_reg_free(&reg);
+    cr_nn_ctx_destroy(ctx);
+    cr_optim_destroy(opt);
+    cr_gdsr_model_destroy(m);
+    return st;
+}
+
+/* --------------------------------------------------------- roll-out -- */
+
+void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
+    if (!r) return;
+    free(r->gdsr);
+    free(r->gdsr_raw);
+    free(r->upsampled);
+    memset(r, 0, sizeof *r);
+}
+
+/* Push points of x (n,3) with signed distance below eps out along the
+ * body's normal; returns how many were inside (sd < 0) before. The push of
+ * each point is added to push (may be NULL). */
+static int64_t push_out(cr_bvh *b, float *x, int64_t n, float eps, float *sd, float *nrm,
+                        float *push) {
+    cr_bvh_signed_distance_batch(b, x, n, 0.2f, sd, nrm, NULL);
+    int64_t inside = 0;
+    for (int64_t i = 0; i < n; i++) {
+        if (sd[i] < 0) inside++;
+        if (sd[i] < eps) {
+            float s = eps - sd[i];
+            for (int k = 0; k < 3; k++) {
+                x[3 * i + k] += s * nrm[3 * i + k];
+                if (push) push[3 * i + k] = s * nrm[3 * i + k];
+            }
+        } else if (push) {
+            push[3 * i] = push[3 * i + 1] = push[3 * i + 2] = 0.0f;
+        }
+    }
+    return inside;
+}
+
+cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps,
+                          cr_gdsr_rollout_result *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    if (clip < 0 || clip >= d->nclips)
+        return CR_FAIL(err, CR_ERR_RANGE, "gdsr rollout: clip %d of %d", clip, d->nclips);
+    const cr_gdsr_clip *cl = &d->clip[clip];
+    const cr_mesh *low = d->low;
+    int32_t T = cl->nframes, Vh = d->high->nv;
+    int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
+    out->nframes = T;
+    out->nv_high = Vh;
+    out->gdsr = malloc((size_t)T * nh3 * sizeof(float));
+    out->gdsr_raw = malloc((size_t)T * nh3 * sizeof(float));
+    out->upsampled = malloc((size_t)T * nh3 * sizeof(float));
+    float *bp = malloc((size_t)T * nl3 * sizeof(float));
+    float *node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
+    cr_gdsr_graph g = {0};
+    cr_nn_ctx *ctx = NULL;
+    cr_bvh *bv = NULL;
+    frame_state fs = {0};
+    fs.chat1 = malloc((size_t)nl3 * sizeof(float));
+    fs.chat2 = malloc((size_t)nl3 * sizeof(float));
+    fs.dprev = malloc((size_t)nl3 * sizeof(float));
+    float *chat = malloc((size_t)nl3 * sizeof(float));
+    float *lpush = malloc((size_t)nl3 * sizeof(float));
+    float *hpush = malloc((size_t)nh3 * sizeof(float));
+    float *sd = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * sizeof(float));
+    float *nrm = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * 3 * sizeof(float));
+    float *e0 = NULL, *e1 = NULL;
+    cr_status st;
+    if (!out->gdsr || !out->gdsr_raw || !out->upsampled || !bp || !node || !fs.chat1 || !fs.chat2 ||
+        !fs.dprev || !chat || !lpush || !hpush || !sd || !nrm) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
+    if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
+    e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    if (!e0 || !e1) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
+    if ((st = body_points(d, cl, cl->low, bp, err)) != CR_OK) goto done;
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = (size_t)512 << 20;
+    if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
+    cr_nn_ctx_set_grad_enabled(ctx, 0);
+    if ((st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err)) != CR_OK)
+        goto done;
+    double tsum = 0, csum = 0;
+    int tcount = 0;
+    for (int32_t t = 0; t < T; t++) {
+        const float *ct = cl->low + t * nl3;
+        float *up = out->upsampled + t * nh3, *raw = out->gdsr_raw + t * nh3,
+              *fin = out->gdsr + t * nh3;
+        cr_gdsr_upsample(d, ct, up);
+        if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK)
+            goto done;
+        if (t < 2) { /* no history yet: the upsampled input */
+            memcpy(raw, up, (size_t)nh3 * sizeof(float));
+            memcpy(fin, up, (size_t)nh3 * sizeof(float));
+            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            continue;
+        }
+        double t0 = cr_time_now();
+        clock_t c0 = clock();
+        frame_features(d, &g, cl->low, t, ct, bp + t * nl3, &fs, m->def.sigma_b, node, e0, e1);
+        cr_nn_ctx_reset(ctx);
+        cr_tensor *ch = NULL;
+        cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, ct, &ch);
+        if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
+        if (!X || !ch) {
+            st = CR_FAIL(err, CR_ERR_INVALID, "gdsr rollout: forward failed at frame %d", t);
+            goto done;
+        }
+        memcpy(raw, X->data, (size_t)nh3 * sizeof(float));
+        memcpy(chat, ch->data, (size_t)nl3 * sizeof(float));
+        state_push(&fs, chat, ct, nl3);
+        /* Eq. 26-27: push C^ out of the body, carry the push to the high
+         * vertices through Eq. 1, then any high vertex still inside */
+        memcpy(fin, raw, (size_t)nh3 * sizeof(float));
+        push_out(bv, chat, low->nv, eps, sd, nrm, lpush);
+        cr_gdsr_upsample(d, lpush, hpush);
+        for (int64_t i = 0; i < nh3; i++)
+            fin[i] += hpush[i];
+        push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+        push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL); /* concave spots: once more */
+        tsum += cr_time_now() - t0;
+        csum += (double)(clock() - c0) / CLOCKS_PER_SEC;
+        tcount++;
+        for (int64_t i = 0; i < nh3; i++)
+            if (!isfinite(fin[i])) {
+                st =
+                    CR_FAIL(err, CR_ERR_DIVERGED, "gdsr rollout: non-finite output at frame %d", t);
+                goto done;
+            }
+    }
+    /* inside shares, before and after handling */
+    for (int32_t t = 0; t < T; t++) {
+        if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK)
+            goto done;
+        for (int pass = 0; pass < 2; pass++) {
+            const float *x = (pass ? out->gdsr : out->gdsr_raw) + t * nh3;
+            cr_bvh_signed_distance_batch(bv, x, Vh, 0.2f, sd, NULL, NULL);
+            int64_t in = 0;
+            for (int32_t i = 0; i < Vh; i++)
+                in += sd[i] < 0;
+            double share = (double)in / Vh;
+            double *dst = pass ? &out->inside_after : &out->inside_before;
+            if (share > *dst) *dst = share;
+        }
+    }
+    out->seconds_per_frame = tcount ? tsum / tcount : 0;
+    out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
+    st = CR_OK;
+done:
+    free(bp);
+    free(node);
+    free(e0);
+    free(e1);
+    free(fs.chat1);
+    free(fs.chat2);
+    free(fs.dprev);
+    free(chat);
+    free(lpush);
+    free(hpush);
+    free(sd);
+    free(nrm);
+    cr_bvh_destroy(bv);
+    cr_nn_ctx_destroy(ctx);
+    cr_gdsr_graph_free(&g);
+    if (st != CR_OK) cr_gdsr_rollout_free(out);
+    return st;
+}

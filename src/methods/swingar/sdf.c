@@ -1,0 +1,397 @@
+/* sdf.c: SwinGar's body SDF network (paper 002, sec. III-D and IV): the
+ * two-branch, eight-layer Softplus MLP, its input gradient as tape tensors
+ * (forward-mode tangents), the eq. 8-9 loss, host evaluation in chunks, the
+ * geometric initialisation and safetensors save/load. The architecture and
+ * conventions are documented in sdf.h; the choices in docs/swingar_sdf.md.
+ *
+ * Leaves out: second derivatives beyond what the tape gives (the loss on
+ * grad S is differentiated by the tape through the tangent ops).
+ * References: Atzmon & Lipman, SAL, CVPR 2020 (geometric initialisation);
+ * Gropp et al., IGR, ICML 2020 (eikonal term); Park et al., DeepSDF 2019.
+ */
+#include "methods/swingar/sdf.h"
+
+#include "crease/nn_checkpoint.h"
+#include "crease/nn_layers.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const uint32_t SDF_DEF_COOKIE = 0x53444631u;
+/* Points per evaluation chunk; the arena holds one chunk's values and
+ * tangents (about 50 (CH,W) float blocks; 64 to spare). */
+enum { EVAL_CHUNK = 512, EVAL_BLOCKS = 64 };
+/* Points used to calibrate the geometric initialisation. */
+enum { INIT_PROBES = 512 };
+static const float NORM_EPS = 1e-12f; /* |grad| guard; grad S is O(1) */
+
+/* Eight layers: pos.0-2, body.0-2, fuse.0 (two weight blocks), fuse.1. */
+typedef struct sdf_layer {
+    cr_tensor *w, *b; /* (OUT,IN), (OUT) */
+} sdf_layer;
+
+struct cr_swingar_sdf {
+    cr_swingar_sdf_def def;
+    cr_nn_params *params;
+    sdf_layer pos[3], body[3];
+    cr_tensor *fuse_wp, *fuse_wq, *fuse_b; /* (W,W), (W,W) or NULL, (W) */
+    sdf_layer out;                         /* (1,W), (1) */
+    cr_nn_ctx *ctx;                        /* evaluation */
+};
+
+cr_swingar_sdf_def cr_swingar_sdf_default_def(void) {
+    return (cr_swingar_sdf_def){.width = 512,
+                                .cond_dim = CR_SWINGAR_SDF_COND_DIM,
+                                .softplus_beta = 100.0f,
+                                .center = {0, 0, 0},
+                                .scale = 1.0f,
+                                .init_radius = 0.5f,
+                                .seed = 1,
+                                .cookie = SDF_DEF_COOKIE};
+}
+
+static cr_status check_def(const cr_swingar_sdf_def *d, cr_error *err) {
+    CR_ASSERT(d->cookie == SDF_DEF_COOKIE);
+    if (d->width < 2 || d->width > 4096)
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: width %d outside [2, 4096]", d->width);
+    if (d->cond_dim < 0 || d->cond_dim > 4096)
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: cond_dim %d outside [0, 4096]",
+                       d->cond_dim);
+    if (!(d->softplus_beta > 0) || !(d->scale > 0) || !(d->init_radius >= 0) ||
+        !isfinite(d->center[0] + d->center[1] + d->center[2]))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "swingar sdf: need softplus_beta > 0, scale > 0, init_radius >= 0 and a "
+                       "finite center");
+    return CR_OK;
+}
+
+static cr_status add(cr_nn_params *p, const char *name, int64_t rows, int64_t cols, cr_tensor **out,
+                     cr_error *err) {
+    if (cols > 0) return cr_nn_params_add(p, name, 2, (int64_t[]){rows, cols}, out, err);
+    return cr_nn_params_add(p, name, 1, (int64_t[]){rows}, out, err);
+}
+
+static cr_status add_layer(cr_nn_params *p, const char *prefix, int i, int64_t out, int64_t in,
+                           sdf_layer *l, cr_error *err) {
+    char name[64];
+    snprintf(name, sizeof name, "%s.%d.weight", prefix, i);
+    CR_TRY(add(p, name, out, in, &l->w, err));
+    snprintf(name, sizeof name, "%s.%d.bias", prefix, i);
+    return add(p, name, out, 0, &l->b, err);
+}
+
+/* SAL's geometric initialisation: hidden weights N(0, sqrt(2/out)), zero
+ * biases, the last layer N(sqrt(pi/W), 1e-4) with bias -r, which makes a
+ * ReLU-like net approximate |x~| - r. The residual skips change the output
+ * scale, so the last layer is then rescaled by the measured mean output on
+ * the unit sphere. The fusion block of the body
+ * branch starts at zero, so the untrained field is the same sphere for every
+ * pose and the body branch is learned from there. */
+static cr_status init_weights(cr_swingar_sdf *net, cr_error *err) {
+    const cr_swingar_sdf_def *d = &net->def;
+    cr_rng rng = cr_rng_make(d->seed, 0x5df);
+    int64_t w = d->width;
+    sdf_layer *hidden[6] = {&net->pos[0], &net->pos[1], &net->pos[2]};
+    int nh = 3;
+    if (d->cond_dim > 0)
+        hidden[nh++] = &net->body[0], hidden[nh++] = &net->body[1], hidden[nh++] = &net->body[2];
+    for (int i = 0; i < nh; i++) {
+        cr_nn_fill_normal(hidden[i]->w, &rng, 0.0f, sqrtf(2.0f / (float)w));
+        cr_nn_fill(hidden[i]->b, 0.0f);
+    }
+    cr_nn_fill_normal(net->fuse_wp, &rng, 0.0f, sqrtf(2.0f / (float)w));
+    if (net->fuse_wq) cr_nn_fill(net->fuse_wq, 0.0f);
+    cr_nn_fill(net->fuse_b, 0.0f);
+    cr_nn_fill_normal(net->out.w, &rng, sqrtf((float)M_PI / (float)w), 1e-4f);
+    cr_nn_fill(net->out.b, 0.0f);
+    /* calibrate: mean net output (bias 0) over points on the unit sphere */
+    float *x = malloc(INIT_PROBES * 3 * sizeof(float)), *s = malloc(INIT_PROBES * sizeof(float));
+    float *cond = calloc((size_t)d->cond_dim + 1, sizeof(float));
+    cr_status st = x && s && cond ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: init");
+    for (int i = 0; st == CR_OK && i < INIT_PROBES; i++) {
+        float v[3] = {(float)cr_rng_normal(&rng), (float)cr_rng_normal(&rng),
+                      (float)cr_rng_normal(&rng)};
+        float len = sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + 1e-12f;
+        for (int k = 0; k < 3; k++)
+            x[3 * i + k] = d->center[k] + d->scale * v[k] / len;
+    }
+    if (st == CR_OK) st = cr_swingar_sdf_eval(net, x, INIT_PROBES, cond, s, NULL, err);
+    if (st == CR_OK) {
+        double mean = 0;
+        for (int i = 0; i < INIT_PROBES; i++)
+            mean += s[i] / d->scale;
+        mean /= INIT_PROBES;
+        if (mean > 1e-6) {
+            for (int64_t i = 0; i < net->out.w->numel; i++)
+                net->out.w->data[i] = (float)(net->out.w->data[i] / mean);
+        }
+        net->out.b->data[0] = -d->init_radius;
+    }
+    free(x), free(s), free(cond);
+    return st;
+}
+
+cr_status cr_swingar_sdf_create(const cr_swingar_sdf_def *def, cr_swingar_sdf **out,
+                                cr_error *err) {
+    *out = NULL;
+    CR_TRY(check_def(def, err));
+    cr_swingar_sdf *net = calloc(1, sizeof *net);
+    if (!net) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: out of memory");
+    net->def = *def;
+    int64_t w = def->width;
+    cr_status st = cr_nn_params_create(&net->params, err);
+    for (int i = 0; st == CR_OK && i < 3; i++)
+        st = add_layer(net->params, "pos", i, w, i == 0 ? 3 : w, &net->pos[i], err);
+    for (int i = 0; st == CR_OK && def->cond_dim > 0 && i < 3; i++)
+        st = add_layer(net->params, "body", i, w, i == 0 ? def->cond_dim : w, &net->body[i], err);
+    if (st == CR_OK) st = add(net->params, "fuse.0.weight_p", w, w, &net->fuse_wp, err);
+    if (st == CR_OK && def->cond_dim > 0)
+        st = add(net->params, "fuse.0.weight_q", w, w, &net->fuse_wq, err);
+    if (st == CR_OK) st = add(net->params, "fuse.0.bias", w, 0, &net->fuse_b, err);
+    if (st == CR_OK) st = add_layer(net->params, "fuse", 1, 1, w, &net->out, err);
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes =
+        (size_t)EVAL_CHUNK * (size_t)w * sizeof(float) * EVAL_BLOCKS + ((size_t)16 << 20);
+    if (st == CR_OK) st = cr_nn_ctx_create(&cd, &net->ctx, err);
+    if (st == CR_OK) st = init_weights(net, err);
+    if (st != CR_OK) {
+        cr_swingar_sdf_destroy(net);
+        return st;
+    }
+    *out = net;
+    return CR_OK;
+}
+
+void cr_swingar_sdf_destroy(cr_swingar_sdf *net) {
+    if (!net) return;
+    cr_nn_ctx_destroy(net->ctx);
+    cr_nn_params_destroy(net->params);
+    free(net);
+}
+
+const cr_swingar_sdf_def *cr_swingar_sdf_get_def(const cr_swingar_sdf *net) {
+    return &net->def;
+}
+
+cr_nn_params *cr_swingar_sdf_params(cr_swingar_sdf *net) {
+    return net->params;
+}
+
+void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *pose, float *cond) {
+    cr_mannequin_def n = cr_mannequin_default_def();
+    const cr_mannequin_def *s = shape ? shape : &n;
+    cond[0] = s->height_m - n.height_m;
+    cond[1] = s->girth - n.girth;
+    cond[2] = s->chest - n.chest;
+    cond[3] = s->hips - n.hips;
+    for (int i = 0; i < 3 * CR_NJOINTS; i++)
+        cond[CR_SWINGAR_SDF_SHAPE_DIM + i] = pose ? pose[i] : 0.0f;
+}
+
+/* ------------------------------------------------------------- forward -- */
+
+/* act(z) and, with tangents t (N,3,W) of z, the tangents of act(z). */
+static cr_tensor *softplus_jvp(cr_nn_ctx *ctx, float beta, cr_tensor *z, cr_tensor **t) {
+    if (t && *t) {
+        cr_tensor *d = cr_act_deriv(ctx, CR_ACT_SOFTPLUS, beta, z);
+        int64_t n = z ? z->shape[0] : 0, w = z ? z->shape[1] : 0;
+        *t = cr_nn_mul(ctx, *t, cr_nn_reshape(ctx, d, 3, (int64_t[]){n, 1, w}));
+    }
+    return cr_act_forward(ctx, CR_ACT_SOFTPLUS, beta, z);
+}
+
+cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_tensor *x,
+                                  cr_tensor *cond, const int32_t *cond_row, cr_tensor **grad) {
+    const cr_swingar_sdf_def *d = &net->def;
+    float beta = d->softplus_beta;
+    if (grad) *grad = NULL;
+    if (!x) return NULL;
+    int64_t n = x->numel / 3;
+    cr_tensor *x2 = cr_nn_reshape(ctx, x, 2, (int64_t[]){n, 3});
+    cr_tensor *c = cr_nn_from(ctx, 1, (int64_t[]){3}, d->center);
+    cr_tensor *xn = cr_nn_mul_scalar(ctx, cr_nn_sub(ctx, x2, c), 1.0f / d->scale);
+    /* position branch with tangents d(.)/d(x~): T_0 W_0^T = W_0^T (1,3,W),
+     * kept on the tape through linear(I, W_0) as layer_jacobian.c does. The
+     * chain rule through x~ = (x - c)/scale and S = scale F cancels the
+     * scale, so these are also the tangents of S with respect to x. */
+    cr_tensor *t = NULL;
+    int64_t w = d->width;
+    if (grad) {
+        cr_tensor *eye = cr_nn_zeros(ctx, 2, (int64_t[]){3, 3});
+        if (!eye) return NULL;
+        eye->data[0] = eye->data[4] = eye->data[8] = 1.0f;
+        t = cr_nn_reshape(ctx, cr_nn_linear(ctx, eye, net->pos[0].w, NULL), 3,
+                          (int64_t[]){1, 3, w});
+    }
+    cr_tensor *p1 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, xn, net->pos[0].w, net->pos[0].b),
+                                 grad ? &t : NULL);
+    cr_tensor *t1 = t;
+    if (grad) t = cr_nn_linear(ctx, t1, net->pos[1].w, NULL);
+    cr_tensor *p2 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, p1, net->pos[1].w, net->pos[1].b),
+                                 grad ? &t : NULL);
+    if (grad) t = cr_nn_linear(ctx, t, net->pos[2].w, NULL);
+    cr_tensor *p3 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, p2, net->pos[2].w, net->pos[2].b),
+                                 grad ? &t : NULL);
+    p3 = cr_nn_add(ctx, p3, p1); /* residual: layer 1's output to the fusion's input */
+    if (grad) t = cr_nn_add(ctx, t, t1);
+    cr_tensor *zf = cr_nn_linear(ctx, p3, net->fuse_wp, net->fuse_b);
+    if (d->cond_dim > 0) {
+        /* body branch on the P conditioning rows, its fusion half per row */
+        cr_tensor *q1 =
+            softplus_jvp(ctx, beta, cr_nn_linear(ctx, cond, net->body[0].w, net->body[0].b), NULL);
+        cr_tensor *q2 =
+            softplus_jvp(ctx, beta, cr_nn_linear(ctx, q1, net->body[1].w, net->body[1].b), NULL);
+        cr_tensor *q3 =
+            softplus_jvp(ctx, beta, cr_nn_linear(ctx, q2, net->body[2].w, net->body[2].b), NULL);
+        cr_tensor *g = cr_nn_linear(ctx, cr_nn_add(ctx, q3, q1), net->fuse_wq, NULL); /* (P,W) */
+        if (cond_row) g = cr_nn_gather_rows(ctx, g, cond_row, n);
+        zf = cr_nn_add(ctx, zf, g);
+    }
+    if (grad) t = cr_nn_linear(ctx, t, net->fuse_wp, NULL);
+    cr_tensor *f = softplus_jvp(ctx, beta, zf, grad ? &t : NULL);
+    cr_tensor *s = cr_nn_mul_scalar(ctx, cr_nn_linear(ctx, f, net->out.w, net->out.b), d->scale);
+    if (grad) {
+        t = cr_nn_linear(ctx, t, net->out.w, NULL); /* (N,3,1) */
+        /* an all-affine path cannot happen (every layer has softplus), but
+         * keep one gradient row per point all the same */
+        if (t && t->shape[0] != n) t = cr_nn_add(ctx, t, cr_nn_zeros(ctx, 3, (int64_t[]){n, 1, 1}));
+        *grad = t;
+    }
+    return s;
+}
+
+cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, const float *cond,
+                              float *s, float *grad, cr_error *err) {
+    const cr_swingar_sdf_def *d = &net->def;
+    if (d->cond_dim > 0 && !cond)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "swingar sdf: the model takes a conditioning vector of %d, got none",
+                       d->cond_dim);
+    cr_nn_ctx *ctx = net->ctx;
+    int was = cr_nn_ctx_grad_enabled(ctx);
+    cr_nn_ctx_set_grad_enabled(ctx, 0);
+    cr_status st = CR_OK;
+    for (int64_t start = 0; st == CR_OK && start < n; start += EVAL_CHUNK) {
+        int64_t m = n - start < EVAL_CHUNK ? n - start : EVAL_CHUNK;
+        cr_nn_ctx_reset(ctx);
+        cr_tensor *xt = cr_nn_wrap(ctx, 2, (int64_t[]){m, 3}, (float *)&x[3 * start]);
+        cr_tensor *ct =
+            d->cond_dim > 0 ? cr_nn_wrap(ctx, 2, (int64_t[]){1, d->cond_dim}, (float *)cond) : NULL;
+        cr_tensor *g = NULL;
+        cr_tensor *y = cr_swingar_sdf_forward(ctx, net, xt, ct, NULL, grad ? &g : NULL);
+        st = cr_nn_ctx_error(ctx, err);
+        if (st != CR_OK) break;
+        memcpy(&s[start], y->data, (size_t)m * sizeof(float));
+        if (grad) memcpy(&grad[3 * start], g->data, (size_t)m * 3 * sizeof(float));
+    }
+    cr_nn_ctx_reset(ctx);
+    cr_nn_ctx_set_grad_enabled(ctx, was);
+    return st;
+}
+
+/* ---------------------------------------------------------------- loss -- */
+
+cr_tensor *cr_swingar_sdf_loss(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_tensor *x,
+                               cr_tensor *cond, const int32_t *cond_row, cr_tensor *s_target,
+                               cr_tensor *n_target, float mu_e, cr_tensor *parts[3]) {
+    cr_tensor *g = NULL;
+    cr_tensor *s = cr_swingar_sdf_forward(ctx, net, x, cond, cond_row, &g);
+    if (!s || !g) return NULL;
+    int64_t n = s->shape[0];
+    cr_tensor *g2 = cr_nn_reshape(ctx, g, 2, (int64_t[]){n, 3});
+    /* eq. 8: |S - s| + |grad S - n|; eq. 9: (|grad S| - 1)^2 */
+    cr_tensor *value = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, s, s_target)));
+    cr_tensor *normal = cr_nn_mean(ctx, cr_nn_norm(ctx, cr_nn_sub(ctx, g2, n_target), NORM_EPS));
+    cr_tensor *eik = cr_nn_mean(
+        ctx, cr_nn_square(ctx, cr_nn_add_scalar(ctx, cr_nn_norm(ctx, g2, NORM_EPS), -1.0f)));
+    if (parts) parts[0] = value, parts[1] = normal, parts[2] = eik;
+    return cr_nn_add(ctx, cr_nn_add(ctx, value, normal), cr_nn_mul_scalar(ctx, eik, mu_e));
+}
+
+/* ---------------------------------------------------------- save, load -- */
+
+char *cr_swingar_sdf_def_json(const cr_swingar_sdf_def *def) {
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "kind", "swingar_sdf");
+    cJSON_AddNumberToObject(j, "width", def->width);
+    cJSON_AddNumberToObject(j, "cond_dim", def->cond_dim);
+    cJSON_AddNumberToObject(j, "softplus_beta", def->softplus_beta);
+    cJSON *c = cJSON_AddArrayToObject(j, "center");
+    for (int k = 0; k < 3; k++)
+        cJSON_AddItemToArray(c, cJSON_CreateNumber(def->center[k]));
+    cJSON_AddNumberToObject(j, "scale", def->scale);
+    cJSON_AddNumberToObject(j, "init_radius", def->init_radius);
+    cJSON_AddNumberToObject(j, "seed", (double)def->seed);
+    char *s = cJSON_PrintUnformatted(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+static int json_num(const cJSON *j, const char *key, double *v) {
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(j, key);
+    if (!cJSON_IsNumber(it)) return 0;
+    *v = it->valuedouble;
+    return 1;
+}
+
+cr_status cr_swingar_sdf_def_from_json(const char *json, const char *source,
+                                       cr_swingar_sdf_def *def, cr_error *err) {
+    *def = cr_swingar_sdf_default_def();
+    cJSON *j = json ? cJSON_Parse(json) : NULL;
+    const cJSON *kind = cJSON_GetObjectItemCaseSensitive(j, "kind");
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "center");
+    double v[7];
+    int ok = cJSON_IsString(kind) && strcmp(kind->valuestring, "swingar_sdf") == 0 &&
+             cJSON_IsArray(c) && cJSON_GetArraySize(c) == 3 && json_num(j, "width", &v[0]) &&
+             json_num(j, "cond_dim", &v[1]) && json_num(j, "softplus_beta", &v[2]) &&
+             json_num(j, "scale", &v[3]) && json_num(j, "init_radius", &v[4]) &&
+             json_num(j, "seed", &v[5]);
+    for (int k = 0; ok && k < 3; k++) {
+        const cJSON *e = cJSON_GetArrayItem(c, k);
+        ok = cJSON_IsNumber(e);
+        if (ok) def->center[k] = (float)e->valuedouble;
+    }
+    if (ok) {
+        def->width = (int)v[0];
+        def->cond_dim = (int)v[1];
+        def->softplus_beta = (float)v[2];
+        def->scale = (float)v[3];
+        def->init_radius = (float)v[4];
+        def->seed = (uint64_t)v[5];
+    }
+    cJSON_Delete(j);
+    if (!ok)
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: metadata 'config' is not a swingar_sdf model description (need kind, "
+                       "width, cond_dim, softplus_beta, center[3], scale, init_radius, seed)",
+                       source);
+    return check_def(def, err);
+}
+
+cr_status cr_swingar_sdf_save(cr_swingar_sdf *net, const char *path, cr_error *err) {
+    cr_checkpoint_meta meta = {.config_json = cr_swingar_sdf_def_json(&net->def)};
+    cr_status st = cr_checkpoint_save(path, net->params, NULL, &meta, err);
+    cJSON_free(meta.config_json);
+    return st;
+}
+
+cr_status cr_swingar_sdf_load(const char *path, cr_swingar_sdf **out, cr_error *err) {
+    *out = NULL;
+    cr_safetensors st = {0};
+    CR_TRY(cr_safetensors_read(path, &st, err));
+    cr_swingar_sdf_def def;
+    cr_status s = cr_swingar_sdf_def_from_json(cr_safetensors_meta(&st, "config"), path, &def, err);
+    cr_swingar_sdf *net = NULL;
+    if (s == CR_OK) s = cr_swingar_sdf_create(&def, &net, err);
+    /* a training checkpoint also holds Adam's optim.* tensors: allow them */
+    if (s == CR_OK) s = cr_safetensors_to_params(&st, path, net->params, 1, err);
+    cr_safetensors_free(&st);
+    if (s != CR_OK) {
+        cr_swingar_sdf_destroy(net);
+        return s;
+    }
+    *out = net;
+    return CR_OK;
+}

@@ -1,0 +1,442 @@
+/* train.c: training SwinGar's estimator (paper 002, sec. IV): Adam 1e-3
+ * with cosine decay, batches of windows over sequences, the vertex loss
+ * alone until the vertex error stalls, then every loss of eq. 11-14;
+ * checkpoints each epoch and bit-exact resume; the def as JSON. */
+#include "swingar_internal.h"
+
+#include "crease/losses.h"
+#include "crease/nn_checkpoint.h"
+#include "crease/nn_optim.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SWG_TRAIN_COOKIE 0x53575431u
+
+/* ------------------------------------------------------------ def JSON -- */
+
+typedef struct def_field {
+    const char *name;
+    size_t offset;
+    int is_float; /* else int (the norm enum is stored as its int value) */
+} def_field;
+
+#define DF_I(f, n)                                                                                 \
+    { n, offsetof(cr_swingar_def, f), 0 }
+#define DF_F(f)                                                                                    \
+    { #f, offsetof(cr_swingar_def, f), 1 }
+static const def_field def_fields[] = {
+    DF_I(descriptor_len, "descriptor_len"),
+    DF_I(garment_width[0], "garment_width0"),
+    DF_I(garment_width[1], "garment_width1"),
+    DF_I(garment_heads, "garment_heads"),
+    DF_I(shape_width[0], "shape_width0"),
+    DF_I(shape_width[1], "shape_width1"),
+    DF_I(shape_width[2], "shape_width2"),
+    DF_I(motion_window, "motion_window"),
+    DF_I(motion_hidden, "motion_hidden"),
+    DF_I(body_width[0], "body_width0"),
+    DF_I(body_width[1], "body_width1"),
+    DF_I(body_width[2], "body_width2"),
+    DF_I(state_width, "state_width"),
+    DF_I(state_heads, "state_heads"),
+    DF_I(blend_width[0], "blend_width0"),
+    DF_I(blend_width[1], "blend_width1"),
+    DF_I(blend_heads, "blend_heads"),
+    DF_I(corr_hidden, "corr_hidden"),
+    DF_I(corr_heads, "corr_heads"),
+    DF_I(corr_width, "corr_width"),
+    DF_F(alpha),
+    DF_I(norm, "norm"),
+    DF_I(skin_prior, "skin_prior"),
+    DF_I(use_descriptor, "use_descriptor"),
+    DF_I(zero_last, "zero_last"),
+    DF_F(corr_scale),
+};
+enum { NDEF_FIELDS = sizeof def_fields / sizeof def_fields[0] };
+
+static cJSON *def_json(const cr_swingar_def *d) {
+    cJSON *o = cJSON_CreateObject();
+    for (int i = 0; i < NDEF_FIELDS; i++) {
+        const char *p = (const char *)d + def_fields[i].offset;
+        int iv;
+        float fv;
+        if (def_fields[i].is_float) {
+            memcpy(&fv, p, sizeof fv);
+            cJSON_AddNumberToObject(o, def_fields[i].name, (double)fv);
+        } else {
+            memcpy(&iv, p, sizeof iv);
+            cJSON_AddNumberToObject(o, def_fields[i].name, iv);
+        }
+    }
+    return o;
+}
+
+char *cr_swingar_def_to_json(const cr_swingar_def *def) {
+    cJSON *o = def_json(def);
+    char *s = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    return s;
+}
+
+static cr_status def_parse(const cJSON *o, const char *source, cr_swingar_def *def, cr_error *err) {
+    if (!cJSON_IsObject(o))
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: model def is not an object", source);
+    cr_swingar_def d = *def;
+    for (const cJSON *it = o->child; it; it = it->next) {
+        int k = 0;
+        while (k < NDEF_FIELDS && strcmp(def_fields[k].name, it->string) != 0)
+            k++;
+        if (k == NDEF_FIELDS)
+            return CR_FAIL(err, CR_ERR_PARSE, "%s: unknown model field '%s'", source, it->string);
+        if (!cJSON_IsNumber(it))
+            return CR_FAIL(err, CR_ERR_PARSE, "%s: model field '%s' is not a number", source,
+                           it->string);
+        char *p = (char *)&d + def_fields[k].offset;
+        if (def_fields[k].is_float) {
+            float fv = (float)it->valuedouble;
+            memcpy(p, &fv, sizeof fv);
+        } else {
+            int iv = (int)it->valuedouble;
+            memcpy(p, &iv, sizeof iv);
+        }
+    }
+    CR_TRY(cr_swingar_def_validate(&d, err));
+    *def = d;
+    return CR_OK;
+}
+
+cr_status cr_swingar_def_from_json(const char *json, const char *source, cr_swingar_def *def,
+                                   cr_error *err) {
+    cJSON *o = cJSON_Parse(json);
+    if (!o) return CR_FAIL(err, CR_ERR_PARSE, "%s: model def is not JSON", source);
+    cr_status st = def_parse(o, source, def, err);
+    cJSON_Delete(o);
+    return st;
+}
+
+/* ------------------------------------------------------- save and load -- */
+
+static char *config_text(const cr_swingar_def *d, cJSON *train) {
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "format", "crease-swingar");
+    cJSON_AddItemToObject(o, "model", def_json(d));
+    if (train) cJSON_AddItemToObject(o, "train", train);
+    char *s = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    return s;
+}
+
+cr_status cr_swingar_save(const char *path, cr_swingar *m, cr_error *err) {
+    cr_checkpoint_meta meta;
+    memset(&meta, 0, sizeof meta);
+    meta.config_json = config_text(&m->def, NULL);
+    if (!meta.config_json) return CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
+    cr_status st = cr_checkpoint_save(path, m->P, NULL, &meta, err);
+    free(meta.config_json);
+    return st;
+}
+
+/* The model def stored in a checkpoint's config, and its "train" object
+ * (a copy the caller deletes, or NULL). */
+static cr_status read_config(const char *path, cr_swingar_def *def, cJSON **train, cr_error *err) {
+    cr_safetensors st;
+    CR_TRY(cr_safetensors_read(path, &st, err));
+    const char *cfg = cr_safetensors_meta(&st, "config");
+    cJSON *o = cfg ? cJSON_Parse(cfg) : NULL;
+    cr_status s = CR_OK;
+    const char *fmt =
+        o ? cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(o, "format")) : NULL;
+    if (!fmt || strcmp(fmt, "crease-swingar") != 0)
+        s = CR_FAIL(err, CR_ERR_PARSE, "%s: not a swingar model (no swingar config)", path);
+    if (s == CR_OK) {
+        *def = cr_swingar_default_def();
+        s = def_parse(cJSON_GetObjectItemCaseSensitive(o, "model"), path, def, err);
+    }
+    if (s == CR_OK && train) {
+        cJSON *t = cJSON_GetObjectItemCaseSensitive(o, "train");
+        *train = t ? cJSON_Duplicate(t, 1) : NULL;
+    }
+    cJSON_Delete(o);
+    cr_safetensors_free(&st);
+    return s;
+}
+
+cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err) {
+    return read_config(path, def, NULL, err);
+}
+
+cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err) {
+    *out = NULL;
+    cr_swingar_def d;
+    CR_TRY(read_config(path, &d, NULL, err));
+    cr_swingar *m = NULL;
+    CR_TRY(cr_swingar_create(&d, 0, &m, err));
+    cr_status st = cr_checkpoint_load(path, m->P, NULL, NULL, err);
+    if (st != CR_OK) {
+        cr_swingar_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+/* ------------------------------------------------------------ training -- */
+
+cr_swingar_train_def cr_swingar_train_default_def(void) {
+    cr_swingar_train_def d;
+    memset(&d, 0, sizeof d);
+    d.model = cr_swingar_default_def();
+    d.loss = cr_swingar_loss_default_def();
+    d.epochs = 10;
+    d.window = 8;
+    d.batch = 4;
+    d.lr = 1e-3f;
+    d.lr_final = 0.0f;
+    d.stall_epochs = 50;
+    d.stall_rel = 0.02f;
+    d.seed = 1;
+    d.arena_bytes = (size_t)1 << 30;
+    d.cookie = SWG_TRAIN_COOKIE;
+    return d;
+}
+
+typedef struct window {
+    int32_t seq, t0, K;
+} window;
+
+/* The stall rule (sec. IV): switch to every loss when the epoch's vertex
+ * error improved by less than stall_rel (relative) over the last
+ * stall_epochs epochs. */
+static int stalled(const float *hist, int e, int S, float rel) {
+    if (e < S) return 0;
+    float then = hist[e - S], now = hist[e];
+    return then <= 0 || (then - now) / then < rel;
+}
+
+static cJSON *train_state(int supervised, int switched, const float *hist, int n) {
+    cJSON *t = cJSON_CreateObject();
+    cJSON_AddNumberToObject(t, "supervised", supervised);
+    cJSON_AddNumberToObject(t, "switched_epoch", switched);
+    cJSON *h = cJSON_AddArrayToObject(t, "vert_err_history");
+    for (int i = 0; i < n; i++) {
+        char buf[32]; /* 9 significant digits round-trip a float */
+        snprintf(buf, sizeof buf, "%.9g", (double)hist[i]);
+        cJSON_AddItemToArray(h, cJSON_CreateString(buf));
+    }
+    return t;
+}
+
+static double seq_error(cr_swingar *m, const cr_swingar_data *d, int32_t si, size_t arena,
+                        cr_error *err, cr_status *st) {
+    const cr_swingar_sequence *s = &d->sequences[si];
+    const cr_swingar_garment *g = d->garments[s->garment_index];
+    cr_swingar_motion mo = {s->nframes, d->bodies[s->body_index].model->joints, s->poses, s->trans};
+    const int64_t V = g->rest->nv;
+    float *pred = malloc(sizeof(float) * (size_t)(s->nframes * V * 3));
+    if (!pred) {
+        *st = CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
+        return 0;
+    }
+    *st = cr_swingar_predict(m, g, &mo, arena, 0, pred, err);
+    double sum = 0;
+    for (int64_t i = 0; *st == CR_OK && i < s->nframes * V; i++) {
+        const float *a = pred + 3 * i, *b = s->garment_pos + 3 * i;
+        sum += sqrt((double)(a[0] - b[0]) * (a[0] - b[0]) + (double)(a[1] - b[1]) * (a[1] - b[1]) +
+                    (double)(a[2] - b[2]) * (a[2] - b[2]));
+    }
+    free(pred);
+    return sum / (double)(s->nframes * V);
+}
+
+cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_data *d,
+                           cr_swingar **model, cr_swingar_train_result *res, cr_error *err) {
+    *model = NULL;
+    memset(res, 0, sizeof *res);
+    res->switched_epoch = -1;
+    res->test_vert_m = -1;
+    if (!def || def->cookie != SWG_TRAIN_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar train: def not made by its default_def");
+    if (def->epochs < 1 || def->window < 1 || def->window > SWG_MAX_WINDOW || def->batch < 1 ||
+        !(def->lr > 0) || def->stall_epochs < 1 || !(def->stall_rel >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "swingar train: epochs, window (1..%d), batch, lr or stall rule out of "
+                       "range",
+                       SWG_MAX_WINDOW);
+    double t_start = cr_time_now();
+    cr_swingar_def mdef = def->model;
+    cJSON *tstate = NULL;
+    if (def->resume) CR_TRY(read_config(def->resume, &mdef, &tstate, err));
+
+    /* windows over the training sequences */
+    int32_t nw = 0;
+    for (int32_t i = 0; i < d->nsequences; i++)
+        if (!def->is_test || def->is_test[i] == 0)
+            nw += (d->sequences[i].nframes + def->window - 1) / def->window;
+    window *win = malloc(sizeof(window) * (size_t)(nw > 0 ? nw : 1));
+    int32_t *order = malloc(sizeof(int32_t) * (size_t)(nw > 0 ? nw : 1));
+    float *hist = calloc((size_t)def->epochs, sizeof(float));
+    cr_loss_collider **coll = calloc((size_t)(d->nbodies > 0 ? d->nbodies : 1), sizeof *coll);
+    cr_swingar *m = NULL;
+    cr_optim *opt = NULL;
+    cr_nn_ctx *ctx = NULL;
+    cr_status st = CR_OK;
+    if (!win || !order || !hist || !coll)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
+    if (st == CR_OK && nw == 0)
+        st = CR_FAIL(err, CR_ERR_INVALID, "swingar train: no training sequence");
+    nw = 0;
+    for (int32_t i = 0; st == CR_OK && i < d->nsequences; i++) {
+        if (def->is_test && def->is_test[i] != 0) continue;
+        int32_t T = d->sequences[i].nframes;
+        for (int32_t t0 = 0; t0 < T; t0 += def->window) {
+            win[nw] = (window){i, t0, T - t0 < def->window ? T - t0 : def->window};
+            order[nw] = nw;
+            nw++;
+        }
+    }
+    const int64_t steps_per_epoch = (nw + def->batch - 1) / def->batch;
+    if (st == CR_OK) st = cr_swingar_create(&mdef, def->seed, &m, err);
+    if (st == CR_OK) {
+        cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
+        od.lr.base = def->lr;
+        od.lr.kind = CR_LR_COSINE;
+        od.lr.final = def->lr_final;
+        od.lr.total_steps = steps_per_epoch * def->epochs;
+        st = cr_optim_create(&od, m->P, &opt, err);
+    }
+    cr_rng rng = cr_rng_make(def->seed, 21);
+    int epoch0 = 0, supervised = 1, switched = -1;
+    if (st == CR_OK && def->resume) {
+        cr_checkpoint_meta meta;
+        memset(&meta, 0, sizeof meta);
+        st = cr_checkpoint_load(def->resume, m->P, opt, &meta, err);
+        if (st == CR_OK) {
+            epoch0 = (int)meta.epoch;
+            rng = meta.rng;
+            free(meta.config_json);
+            const cJSON *h = cJSON_GetObjectItemCaseSensitive(tstate, "vert_err_history");
+            supervised =
+                (int)cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(tstate, "supervised"));
+            switched = (int)cJSON_GetNumberValue(
+                cJSON_GetObjectItemCaseSensitive(tstate, "switched_epoch"));
+            if (!tstate || !cJSON_IsArray(h) || epoch0 > def->epochs)
+                st = CR_FAIL(err, CR_ERR_PARSE, "%s: no training state, or past --epochs",
+                             def->resume);
+            for (int i = 0; st == CR_OK && i < epoch0 && i < cJSON_GetArraySize(h); i++)
+                hist[i] = strtof(cJSON_GetStringValue(cJSON_GetArrayItem(h, i)), NULL);
+        }
+    }
+    cJSON_Delete(tstate);
+    for (int32_t b = 0; st == CR_OK && b < d->nbodies; b++) {
+        const cr_mesh *r = d->bodies[b].model->rest;
+        st = cr_loss_collider_create(r->pos, r->nv, r->tri, r->nf, &coll[b], err);
+    }
+    if (st == CR_OK) {
+        cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+        cd.arena_bytes = def->arena_bytes;
+        st = cr_nn_ctx_create(&cd, &ctx, err);
+    }
+    res->params = m ? cr_nn_params_numel(m->P) : 0;
+    int epochs_this_call = 0;
+    for (int e = epoch0; st == CR_OK && e < def->epochs; e++) {
+        for (int32_t i = 0; i < nw; i++) /* from the identity: resumable from the rng alone */
+            order[i] = i;
+        cr_rng_shuffle_i32(&rng, order, nw);
+        cr_swingar_loss_def ld = def->loss;
+        ld.supervised_only = supervised;
+        double loss_sum = 0, vert_sum = 0;
+        cr_progress bar;
+        char label[64];
+        snprintf(label, sizeof label, "epoch %d/%d", e + 1, def->epochs);
+        cr_progress_begin(&bar, label, nw, def->quiet);
+        for (int32_t b0 = 0; st == CR_OK && b0 < nw; b0 += def->batch) {
+            int32_t nb = nw - b0 < def->batch ? nw - b0 : def->batch;
+            cr_nn_params_zero_grad(m->P);
+            for (int32_t k = 0; st == CR_OK && k < nb; k++) {
+                const window *w = &win[order[b0 + k]];
+                const cr_swingar_sequence *s = &d->sequences[w->seq];
+                const cr_swingar_garment *g = d->garments[s->garment_index];
+                const cr_body_model *bm = d->bodies[s->body_index].model;
+                cr_swingar_motion mo = {s->nframes, bm->joints, s->poses, s->trans};
+                const int64_t V = g->rest->nv, Vb = bm->rest->nv;
+                cr_nn_ctx_reset(ctx);
+                cr_tensor *y = cr_swingar_forward(ctx, m, g, &mo, w->t0, w->K, NULL);
+                cr_swingar_loss_terms terms;
+                cr_tensor *loss = cr_swingar_loss(
+                    ctx, &ld, g, y, s->garment_pos + (size_t)w->t0 * V * 3, coll[s->body_index],
+                    s->body_pos + (size_t)w->t0 * Vb * 3, (int32_t)Vb, &terms);
+                cr_tensor *scaled = cr_nn_mul_scalar(ctx, loss, 1.0f / (float)nb);
+                st = cr_nn_backward(ctx, scaled, err);
+                if (st == CR_OK) {
+                    loss_sum += loss->data[0];
+                    vert_sum += terms.vert_err_m;
+                }
+            }
+            if (st == CR_OK && def->clip_norm > 0)
+                st = cr_clip_grad_norm(m->P, def->clip_norm, NULL, err);
+            if (st == CR_OK) st = cr_optim_step(opt, err);
+            cr_progress_update(&bar, b0 + nb, "loss %.4g  vertex %.2f cm", loss_sum / (b0 + nb),
+                               100.0 * vert_sum / (b0 + nb));
+        }
+        cr_progress_end(&bar);
+        if (st != CR_OK) break;
+        hist[e] = (float)(vert_sum / nw);
+        if (e == epoch0 && epoch0 == 0) {
+            res->first_loss = (float)(loss_sum / nw);
+            res->first_vert_m = hist[e];
+        }
+        res->last_loss = (float)(loss_sum / nw);
+        res->last_vert_m = hist[e];
+        if (supervised && stalled(hist, e, def->stall_epochs, def->stall_rel)) {
+            supervised = 0;
+            switched = e + 1;
+        }
+        epochs_this_call++;
+        if (def->checkpoint) {
+            cr_checkpoint_meta meta;
+            memset(&meta, 0, sizeof meta);
+            meta.epoch = e + 1;
+            meta.step = cr_optim_step_count(opt);
+            meta.seed = def->seed;
+            meta.rng = rng;
+            meta.loss = res->last_loss;
+            meta.config_json = config_text(&m->def, train_state(supervised, switched, hist, e + 1));
+            st = cr_checkpoint_save(def->checkpoint, m->P, opt, &meta, err);
+            free(meta.config_json);
+        }
+        res->epochs_done = e + 1;
+        if (def->stop_after > 0 && epochs_this_call >= def->stop_after) break;
+    }
+    res->switched_epoch = switched;
+    /* held-out error */
+    if (st == CR_OK && def->is_test) {
+        double sum = 0;
+        int n = 0;
+        for (int32_t i = 0; st == CR_OK && i < d->nsequences; i++)
+            if (def->is_test[i] == 1) {
+                sum += seq_error(m, d, i, def->arena_bytes, err, &st);
+                n++;
+            }
+        if (n > 0) res->test_vert_m = (float)(sum / n);
+    }
+    res->seconds = cr_time_now() - t_start;
+    cr_nn_ctx_destroy(ctx);
+    for (int32_t b = 0; b < d->nbodies && coll; b++)
+        cr_loss_collider_destroy(coll[b]);
+    free(coll);
+    cr_optim_destroy(opt);
+    free(win);
+    free(order);
+    free(hist);
+    if (st != CR_OK) {
+        cr_swingar_destroy(m);
+        return st;
+    }
+    *model = m;
+    return CR_OK;
+}

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# cli_gdsr.sh: `crease gdsr` end to end on a small case: a 500 / 1,000-vertex
+# t-shirt pair simulated on two short clips, a small model trained on one
+# (walk), resumed, then rolled out on the held-out one (dance). Physical
+# outcomes checked against the high-resolution simulation: on the held-out
+# clip gdsr's normals are closer to it than the barycentric upsampling of the
+# low-resolution input (normal angle, normal-map SSIM) and after collision
+# handling under 0.1 % of its vertices are inside the body on any frame,
+# where the upsampling leaves some inside; the same on the training clip.
+# The mean vertex distance is NOT better than upsampling's yet, on either
+# clip (docs/gdsr.md), so it is not checked. Exit codes: 2 for usage, 1 for a missing dataset.
+# Usage: cli_gdsr.sh PATH_TO_CREASE
+source "$(dirname "$0")/lib_cli.sh" "$1"
+export OMP_WAIT_POLICY=passive
+
+check "gdsr --help" bash -c "'$crease' gdsr --help | grep -q usage"
+check "gdsr listed" bash -c "'$crease' --help | grep -q 'gdsr '"
+expect_exit 2 "subcommand" gdsr
+expect_exit 2 "missing --dataset" gdsr train --motions walk -o "$tmp/m"
+expect_exit 1 "tshirt_low.obj" gdsr train --dataset "$tmp/none" --motions walk -o "$tmp/m"
+
+check "dataset" "$crease" dataset --garments tshirt --motions walk,dance --res low,high \
+  --low-vertices 500 --high-vertices 1000 --frames 16 --quiet -o "$tmp/data"
+small=(--dataset "$tmp/data" --motions walk --latent 32 --steps 2 --wire-width 8 --lr 0.002 --halve-every 15
+       --quiet)
+check "gdsr train 3 epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs 3 -o '$tmp/m' --json > '$tmp/t1.json'"
+check "gdsr train resumes to 40" bash -c "'$crease' gdsr train ${small[*]} --epochs 40 --resume -o '$tmp/m' --json > '$tmp/t2.json'"
+check "train fields" json_has "$tmp/t2.json" command params epochs resumed_from first_loss loss \
+  coarse_l1_m fine_l1_m normal_l1 stretch shear bend laplacian_l1_m seconds
+check "resumed from 3" grep -q '"resumed_from":3,' "$tmp/t2.json"
+check "log: 40 lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq 40 ]]"
+check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
+check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
+  -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv"
+# metric K of the table: the first value is upsampling's, the second gdsr's
+vals() { grep -o "\"$2\":[-0-9.eE+]*" "$1" | cut -d: -f2 | tr '\n' ' '; }
+better() { # better FILE KEY FACTOR [higher]: gdsr's value beats FACTOR x upsampling's
+  local v; v=$(vals "$1" "$2")
+  awk -v s="$v" -v f="$3" -v h="${4:-}" 'BEGIN { split(s, a, " ");
+    exit !(h == "" ? a[2] < f * a[1] : a[2] > f * a[1]) }'
+}
+check "held-out: normal angle below upsampling's ($(vals "$tmp/r.json" normal_angle_deg))" \
+  better "$tmp/r.json" normal_angle_deg 1.0
+check "held-out: normal-map SSIM above upsampling's ($(vals "$tmp/r.json" ssim))" \
+  better "$tmp/r.json" ssim 1.0 higher
+check "held-out: under 0.1 % inside after handling" json_below "$tmp/r.json" inside_after 0.001
+check "held-out: upsampling is inside the body ($(vals "$tmp/r.json" collision_ratio))" \
+  better "$tmp/r.json" collision_ratio 0.1
+check "gdsr run training clip" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion walk --model '$tmp/m/model.safetensors' -o '$tmp/w' --json > '$tmp/w.json'"
+check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" normal_angle_deg))" \
+  better "$tmp/w.json" normal_angle_deg 1.0
+check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
+expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
+
+echo "cli_gdsr: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
