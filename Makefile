@@ -95,3 +95,8 @@ install: build
 
 clean:
 	rm -rf build
+
+# Dataset and fit throughput at 1 and 2 MPI ranks, and the expected scaling (docs/mpi.md).
+.PHONY: bench-mpi
+bench-mpi: build
+	@bash bench/bench_mpi.sh $(RELEASE)/crease

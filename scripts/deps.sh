@@ -17,6 +17,8 @@ packages=(
   libclang-rt-dev   # libFuzzer and sanitizer runtimes for clang
   libomp-dev        # OpenMP runtime for the clang build
   libjs-three       # three.js r111 and OrbitControls, copied beside the page `crease view` writes
+  libopenmpi-dev    # MPI ranks for `crease dataset` and `crease fit` (docs/mpi.md)
+  openmpi-bin       # mpirun, for the 2-rank tests
   chromium          # headless browser for the `crease view` test (tests/view.sh)
 )
 

@@ -1,6 +1,8 @@
 /* cmd_dataset.c: `crease dataset`: simulate garments on moving bodies with the
  * reference simulator and write a self-describing dataset (crease/dataset.h). */
 #include "cli.h"
+
+#include "crease/base_mpi.h"
 #include "crease/dataset.h"
 #include "crease/phys_sim.h"
 
@@ -129,6 +131,8 @@ int cmd_dataset(int argc, char **argv) {
     cr_error err = {0};
     cr_dataset_result r;
     if (cr_dataset_generate(&def, &r, &err) != CR_OK) return cli_fail(&err);
+    /* Under MPI rank 0 reports for all ranks; the others only exit. */
+    if (cr_mpi_rank() != 0) return r.failed > 0 ? CLI_BAD_INPUT : CLI_OK;
     fprintf(stderr,
             "dataset: %d sequences in %s: %d simulated, %d already done, %d failed (%.1f s)\n",
             r.sequences, def.out_dir, r.done, r.skipped, r.failed, r.seconds);

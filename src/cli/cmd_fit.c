@@ -1,5 +1,7 @@
 /* cmd_fit.c: `crease fit --model mlp|pe|grid -o DIR`: the drape paper's Table 1. */
 #include "cli.h"
+
+#include "crease/base_mpi.h"
 #include "crease/uv_fit.h"
 
 #include <string.h>
@@ -63,6 +65,7 @@ int cmd_fit(int argc, char **argv) {
     def.seed = (uint64_t)seed;
     cr_fit_result r;
     if (cr_fit_run(&def, &r, &err) != CR_OK) return cli_fail(&err);
+    if (cr_mpi_rank() != 0) return CLI_OK; /* rank 0 reports for all */
     fprintf(stderr,
             "fit %s: %lld parameters, %d epochs, %.1f s training, rel L2 %.5f; target %.3g %s\n",
             model, (long long)r.params, r.epochs, r.seconds, r.rel_l2, def.target_rel_l2,

@@ -1,6 +1,8 @@
 /* main.c: `crease <command> ...`: dispatch to one file per command. */
 #include "cli.h"
 
+#include "crease/base_mpi.h"
+
 #include <string.h>
 
 static const cli_command commands[] = {
@@ -80,7 +82,16 @@ int main(int argc, char **argv) {
                     commands[i].help();
                     return CLI_OK;
                 }
-            return commands[i].run(argc - 1, argv + 1);
+            /* Under mpirun/srun every rank runs the command; built without MPI,
+             * a launch with several ranks is refused here. */
+            cr_error err = {0};
+            if (cr_mpi_init(&argc, &argv, &err) != CR_OK) {
+                fprintf(stderr, "crease: %s\n", err.msg);
+                return CLI_BAD_INPUT;
+            }
+            int rc = commands[i].run(argc - 1, argv + 1);
+            cr_mpi_finalize();
+            return rc;
         }
     fprintf(stderr, "crease: unknown command '%s'\n\n", argv[1]);
     usage(stderr);

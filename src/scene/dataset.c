@@ -24,6 +24,8 @@
 #include "crease/phys_material.h"
 #include "dataset_internal.h"
 
+#include "crease/base_mpi.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -320,11 +322,17 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
         st = make_assets(ds, &bar, err);
         cr_progress_end(&bar);
     }
+    /* Under MPI every rank makes the assets (each needs them in memory; the
+     * files are the same bytes, renamed into place atomically), plans, and
+     * waits for all to have planned before any sequence runs; rank 0 alone
+     * writes the manifest. */
+    const int root = cr_mpi_rank() == 0;
     if (st == CR_OK) st = cr_dataset_plan(ds, err);
-    if (st == CR_OK) st = cr_dataset_write_manifest(ds, err);
+    if (st == CR_OK && root) st = cr_dataset_write_manifest(ds, err);
+    if (st == CR_OK) st = cr_mpi_barrier(err);
     if (st == CR_OK) {
         cr_dataset_run_sequences(ds);
-        st = cr_dataset_write_manifest(ds, err);
+        if (root) st = cr_dataset_write_manifest(ds, err);
     }
     if (st == CR_OK) {
         out->sequences = ds->nseq;

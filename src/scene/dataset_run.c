@@ -9,11 +9,13 @@
  */
 #include "dataset_internal.h"
 
+#include "crease/base_mpi.h"
 #include "crease/bvh.h"
 #include "crease/scene.h"
 #include "crease/topology.h"
 
 #include <cjson/cJSON.h>
+#include <glob.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -207,6 +209,14 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     char dir[CR_DATASET_PATH], path[CR_DATASET_PATH + 32];
     seq_dir(ds, q, dir, sizeof dir);
     CR_TRY(cr_mkdir_p(dir, err));
+    /* A run killed while writing one of this sequence's files left its
+     * temporary (cr_atomic_open's <name>.tmp.<pid>): the rerun removes it. */
+    snprintf(path, sizeof path, "%s/*.tmp.*", dir);
+    glob_t stale;
+    if (glob(path, 0, NULL, &stale) == 0)
+        for (size_t i = 0; i < stale.gl_pathc; i++)
+            remove(stale.gl_pathv[i]);
+    globfree(&stale);
     cr_sim_def sd = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &sd.material, err));
     sd.dt = 1.0 / d->fps;
@@ -296,6 +306,11 @@ static void run_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
+/* Under MPI the pending sequences are dealt in plan order, the k-th to rank
+ * k mod N (every rank has made the same plan: the caller holds a barrier
+ * between planning and running); afterwards rank 0 collects every
+ * sequence's state from the rank that ran it. A sequence's bytes do not
+ * depend on the rank or thread that simulates it. */
 void cr_dataset_run_sequences(dataset *ds) {
     int32_t *todo = malloc(sizeof(int32_t) * (size_t)(ds->nseq > 0 ? ds->nseq : 1));
     if (!todo) {
@@ -306,15 +321,37 @@ void cr_dataset_run_sequences(dataset *ds) {
             }
         return;
     }
-    int32_t n = 0;
+    const int rank = cr_mpi_rank(), size = cr_mpi_size();
+    int32_t n = 0, npending = 0;
     for (int i = 0; i < ds->nseq; i++)
-        if (ds->seq[i].state == SEQ_PENDING) todo[n++] = i;
+        if (ds->seq[i].state == SEQ_PENDING && npending++ % size == rank) todo[n++] = i;
     cr_progress bar;
-    cr_progress_begin(&bar, "sequences", n, ds->def.quiet);
+    cr_progress_begin(&bar, "sequences", n, ds->def.quiet || rank != 0);
     run_ctx c = {ds, todo, &bar, 0};
     cr_parallel_for(n, 1, run_range, &c);
     cr_progress_end(&bar);
     free(todo);
+    if (size <= 1) return;
+    /* Every rank's copy of the plan to rank 0, which keeps each sequence's
+     * entry from the rank that ran it. */
+    size_t bytes = sizeof(dataset_seq) * (size_t)ds->nseq;
+    dataset_seq *all = rank == 0 ? malloc(bytes * (size_t)size) : NULL;
+    cr_error err = {0};
+    if ((rank == 0 && !all) || cr_mpi_gather(ds->seq, bytes, all, 0, &err) != CR_OK) {
+        cr_log(CR_LOG_WARN, "dataset: collecting the ranks' results failed: %s",
+               err.msg[0] ? err.msg : "out of memory");
+        free(all);
+        return;
+    }
+    if (rank == 0) {
+        int k = 0;
+        for (int i = 0; i < ds->nseq; i++) {
+            if (ds->seq[i].state == SEQ_SKIPPED) continue;
+            int owner = k++ % size;
+            if (owner != 0) ds->seq[i] = all[(size_t)owner * (size_t)ds->nseq + (size_t)i];
+        }
+    }
+    free(all);
 }
 
 /* ---------------------------------------------------------- manifest -- */

@@ -8,6 +8,8 @@
  */
 #include "crease/uv_fit.h"
 
+#include "crease/base_mpi.h"
+
 #include "crease/mesh_io.h"
 #include "crease/nn.h"
 #include "crease/nn_checkpoint.h"
@@ -200,23 +202,48 @@ static cr_status train_epoch(fit_run *r, double *loss, cr_error *err) {
     cr_rng_shuffle_i32(&r->rng, r->order, n);
     double sum = 0;
     int batches = 0;
+    /* Under MPI each rank takes rows [lo, hi) of every global batch (the
+     * same shuffled order on every rank: one generator stream), weights its
+     * mean-loss gradient by its share of the rows, and the ranks' gradients
+     * are summed in rank order (cr_mpi_allreduce_sum) before the step: every
+     * rank takes the same step, that of the global batch up to float
+     * summation order. */
+    const int rank = cr_mpi_rank(), size = cr_mpi_size();
     for (int64_t start = 0; start < n; start += def->batch) {
-        int64_t b = n - start < def->batch ? n - start : def->batch;
+        int64_t gb = n - start < def->batch ? n - start : def->batch;
+        int64_t lo = gb * rank / size, hi = gb * (rank + 1) / size, b = hi - lo;
         for (int64_t i = 0; i < b; i++) {
-            int32_t k = r->order[start + i];
+            int32_t k = r->order[start + lo + i];
             memcpy(&r->batch_uv[2 * i], &r->train_uv[2 * (int64_t)k], 2 * sizeof(float));
             memcpy(&r->batch_target[3 * i], &r->train_target[3 * (int64_t)k], 3 * sizeof(float));
         }
         cr_nn_ctx_reset(r->ctx);
-        cr_tensor *x = cr_nn_wrap(r->ctx, 2, (int64_t[]){b, 2}, r->batch_uv);
-        cr_tensor *y = cr_nn_wrap(r->ctx, 2, (int64_t[]){b, 3}, r->batch_target);
-        cr_tensor *l = cr_nn_mean(
-            r->ctx,
-            cr_nn_square(r->ctx, cr_nn_sub(r->ctx, model_forward(r->ctx, &r->model, x), y)));
-        cr_nn_params_zero_grad(r->model.params);
-        CR_TRY(cr_nn_backward(r->ctx, l, err));
+        float batch_loss = 0.0f;
+        if (b == 0) cr_nn_params_zero_grad(r->model.params);
+        if (b > 0) {
+            cr_tensor *x = cr_nn_wrap(r->ctx, 2, (int64_t[]){b, 2}, r->batch_uv);
+            cr_tensor *y = cr_nn_wrap(r->ctx, 2, (int64_t[]){b, 3}, r->batch_target);
+            cr_tensor *l = cr_nn_mean(
+                r->ctx,
+                cr_nn_square(r->ctx, cr_nn_sub(r->ctx, model_forward(r->ctx, &r->model, x), y)));
+            cr_nn_params_zero_grad(r->model.params);
+            CR_TRY(cr_nn_backward(r->ctx, l, err));
+            batch_loss = l->data[0];
+        }
+        if (size > 1) {
+            int64_t ng = 0;
+            float *g = cr_nn_params_grad(r->model.params, &ng);
+            const float share = (float)b / (float)gb;
+            if (g) {
+                for (int64_t i = 0; i < ng; i++)
+                    g[i] *= share;
+                CR_TRY(cr_mpi_allreduce_sum(g, ng, err));
+            }
+            batch_loss *= share;
+            CR_TRY(cr_mpi_allreduce_sum(&batch_loss, 1, err));
+        }
         CR_TRY(cr_optim_step(r->opt, err));
-        sum += l->data[0];
+        sum += batch_loss;
         batches++;
     }
     *loss = sum / batches;
@@ -238,6 +265,7 @@ static char *progress_json(const fit_run *r, const cr_fit_result *res) {
 }
 
 static cr_status save_checkpoint(fit_run *r, const cr_fit_result *res, double loss, cr_error *err) {
+    if (cr_mpi_rank() != 0) return CR_OK; /* every rank holds the same model */
     cr_checkpoint_meta meta = {.epoch = res->epochs,
                                .step = cr_optim_step_count(r->opt),
                                .seed = r->def->seed,
@@ -276,6 +304,7 @@ static cr_status resume(fit_run *r, cr_fit_result *res, cr_error *err) {
 }
 
 static void log_line(const fit_run *r, int epoch, double loss, double rel, double seconds) {
+    if (cr_mpi_rank() != 0) return;
     if (!r->def->out_dir) return;
     FILE *fp = fopen(r->log_path, "a");
     if (!fp) return; /* the log is a convenience; the result and checkpoint carry the run */
@@ -428,7 +457,7 @@ cr_status cr_fit_run(const cr_fit_def *def, cr_fit_result *res, cr_error *err) {
         if (st == CR_OK) res->rel_l2 = relative_l2(r.eval_pred, r.eval_target, ne);
     }
     if (st == CR_OK && def->out_dir) st = save_checkpoint(&r, res, res->final_loss, err);
-    if (st == CR_OK && def->out_dir) st = write_surface(&r, res, err);
+    if (st == CR_OK && def->out_dir && cr_mpi_rank() == 0) st = write_surface(&r, res, err);
     run_free(&r);
     return st;
 }
