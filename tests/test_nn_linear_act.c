@@ -24,9 +24,14 @@ typedef struct act_case {
 } act_case;
 
 static const act_case cases[] = {
-    {"none", CR_OP_NONE, 0.0f, 0},        {"relu", CR_OP_RELU, 0.0f, 0},
-    {"leaky", CR_OP_LEAKY_RELU, 0.1f, 0}, {"tanh", CR_OP_TANH, 0.0f, 0},
-    {"sigmoid", CR_OP_SIGMOID, 0.0f, 0},  {"relu shared", CR_OP_RELU, 0.0f, 1},
+    {"none", CR_OP_NONE, 0.0f, 0},
+    {"relu", CR_OP_RELU, 0.0f, 0},
+    {"leaky", CR_OP_LEAKY_RELU, 0.1f, 0},
+    {"tanh", CR_OP_TANH, 0.0f, 0},
+    {"sigmoid", CR_OP_SIGMOID, 0.0f, 0},
+    {"softplus", CR_OP_SOFTPLUS, 10.0f, 0},
+    {"softplus soft", CR_OP_SOFTPLUS, 1.0f, 0},
+    {"relu shared", CR_OP_RELU, 0.0f, 1},
 };
 
 static cr_tensor *unfused(cr_nn_ctx *ctx, const act_case *c, cr_tensor *z) {
@@ -39,6 +44,8 @@ static cr_tensor *unfused(cr_nn_ctx *ctx, const act_case *c, cr_tensor *z) {
         return cr_nn_tanh(ctx, z);
     case CR_OP_SIGMOID:
         return cr_nn_sigmoid(ctx, z);
+    case CR_OP_SOFTPLUS:
+        return cr_nn_softplus(ctx, z, c->p);
     default:
         return z;
     }
@@ -163,21 +170,20 @@ static cr_tensor *mlp_build(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     return cr_mlp_forward(ctx, user, in[0]);
 }
 
-/* The same MLP from the unfused ops: linear, then the activation op. */
+/* The same ReLU MLP from the unfused ops: linear, then relu. */
 static cr_tensor *mlp_unfused(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *h) {
     for (int i = 0; i < mlp->def.nlayers; i++) {
         h = cr_nn_linear(ctx, h, mlp->layer[i].weight, mlp->layer[i].bias);
-        if (i < mlp->def.nlayers - 1)
-            h = mlp->def.act == CR_ACT_TANH ? cr_nn_tanh(ctx, h) : cr_nn_relu(ctx, h);
+        if (i < mlp->def.nlayers - 1) h = cr_nn_relu(ctx, h);
     }
     return h;
 }
 
 /* The 6-W-W-W-3 shape the methods use (W = 19: two AVX2 chunks and a tail)
  * through cr_mlp_forward, which fuses each layer, on every SIMD path: with
- * tanh against central differences; with ReLU (where some hidden unit sits
- * within the FD step of its kink for most seeds) against the tape gradients
- * of the unfused ops, for the parameters and the input. */
+ * tanh and softplus (beta 10, the drape's) against central differences; with ReLU (where some
+ * hidden unit sits within the FD step of its kink for most seeds) against the tape gradients of the
+ * unfused ops, for the parameters and the input. */
 CR_TEST(nn_linear_act, mlp_gradients_on_every_path) {
     enum { B = 5, P = 8192 };
     int widths[5] = {6, 19, 19, 19, 3};
@@ -186,12 +192,14 @@ CR_TEST(nn_linear_act, mlp_gradients_on_every_path) {
     int prev = cr_nn_cpu_simd();
     cr_nn_ctx *ctx = nn_gradcheck_ctx(1 << 20);
     CR_REQUIRE(ctx);
-    for (int relu = 0; relu < 2; relu++) {
+    for (int kind = 0; kind < 3; kind++) {
+        int relu = kind == 2;
         cr_mlp_def def = cr_mlp_default_def();
         def.nlayers = 4;
         for (int i = 0; i < 5; i++)
             def.widths[i] = widths[i];
-        def.act = relu ? CR_ACT_RELU : CR_ACT_TANH;
+        def.act = kind == 0 ? CR_ACT_TANH : kind == 1 ? CR_ACT_SOFTPLUS : CR_ACT_RELU;
+        def.softplus_beta = 10.0f;
         def.init = CR_INIT_TORCH;
         cr_rng rng = cr_rng_make(9, 0);
         cr_nn_params *params = NULL;
@@ -207,9 +215,10 @@ CR_TEST(nn_linear_act, mlp_gradients_on_every_path) {
             if (!relu) {
                 nn_gradcheck_input in[1] = {nn_gradcheck_in(2, (int64_t[]){B, 6}, x)};
                 nn_gradcheck_def gd = nn_gradcheck_default_def();
-                gd.name = "mlp fused tanh";
+                gd.name = kind ? "mlp fused softplus" : "mlp fused tanh";
                 if (nn_gradcheck(&gd, 1, in, params, mlp_build, mlp, NULL) != 0)
-                    cr_test_fail_here(__FILE__, __LINE__, "tanh mlp on SIMD level %d", level);
+                    cr_test_fail_here(__FILE__, __LINE__, "%s mlp on SIMD level %d", gd.name,
+                                      level);
                 continue;
             }
             static float g[2][P], gx[2][B * 6];

@@ -77,7 +77,8 @@ typedef struct cr_nn_backend {
                              float *dw);
 
     /* ---- the passes of a fused linear + activation (act: CR_OP_NONE, RELU,
-     * LEAKY_RELU with p >= 0, TANH or SIGMOID; y and dy (R,C) row-major) */
+     * LEAKY_RELU with p >= 0, TANH, SIGMOID or SOFTPLUS with beta p > 0; y and
+     * dy (R,C) row-major) */
     /* y = act(y + b) in place; b (C) may be NULL. */
     void (*bias_act_forward)(cr_op act, float p, const float *b, float *y, int64_t R, int64_t C);
     /* dz = dy act'(.) from the output y (assigned; may be NULL), db += its

@@ -363,7 +363,7 @@ void cr_mlp_destroy(cr_mlp *mlp) {
 }
 
 /* The op of an activation the fused linear runs, or CR_OP_COUNT for one it
- * does not (softplus and sin need the pre-activation). */
+ * does not (sin's derivative needs the pre-activation). */
 static cr_op fused_act(cr_act act, float param) {
     switch (act) {
     case CR_ACT_NONE:
@@ -376,6 +376,8 @@ static cr_op fused_act(cr_act act, float param) {
         return CR_OP_TANH;
     case CR_ACT_SIGMOID:
         return CR_OP_SIGMOID;
+    case CR_ACT_SOFTPLUS:
+        return param > 0.0f ? CR_OP_SOFTPLUS : CR_OP_COUNT;
     default:
         return CR_OP_COUNT;
     }

@@ -201,7 +201,7 @@ void cr_nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
 /* The activations whose derivative the fused backward reads off the output. */
 static int fusable_act(cr_op act, float p) {
     return act == CR_OP_NONE || act == CR_OP_RELU || (act == CR_OP_LEAKY_RELU && p >= 0.0f) ||
-           act == CR_OP_TANH || act == CR_OP_SIGMOID;
+           act == CR_OP_TANH || act == CR_OP_SIGMOID || (act == CR_OP_SOFTPLUS && p > 0.0f);
 }
 
 cr_tensor *cr_nn_linear_act(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b, cr_op act,
@@ -212,7 +212,7 @@ cr_tensor *cr_nn_linear_act(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tenso
     if (!fusable_act(act, p)) {
         NN_FAIL(ctx, CR_ERR_INVALID,
                 "linear: activation %s (p = %g) cannot be fused (none, relu, leaky_relu with "
-                "slope >= 0, tanh, sigmoid)",
+                "slope >= 0, tanh, sigmoid, softplus with beta > 0)",
                 cr_op_name(act), (double)p);
         return NULL;
     }

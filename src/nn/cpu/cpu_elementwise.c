@@ -50,12 +50,6 @@ void cr_nn_cpu_copy(float *dst, const float *src, int64_t n) {
 
 /* -------------------------------------------------------------- unary -- */
 
-/* log(1 + exp(beta x)) / beta without overflow. */
-static inline float softplusf(float x, float beta) {
-    float bx = beta * x;
-    return (fmaxf(bx, 0.0f) + log1pf(expf(-fabsf(bx)))) / beta;
-}
-
 typedef struct unary_args {
     cr_op op;
     float p;
@@ -103,7 +97,7 @@ static void unary_forward_range(void *vctx, int64_t begin, int64_t end) {
         break;
     case CR_OP_SOFTPLUS:
         for (i = begin; i < end; i++)
-            y[i] = softplusf(x[i], p);
+            y[i] = nn_cpu_softplusf(x[i], p);
         break;
     case CR_OP_SIN:
         for (i = begin; i < end; i++)

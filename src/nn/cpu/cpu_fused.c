@@ -13,7 +13,7 @@
  * Column sums accumulate in double, each column over the rows in order, so
  * the bias gradient does not depend on the thread count or the path (up to
  * the last bit of the float dz each path rounds alike).
- * Leaves out: AVX-512 paths, SIMD tanh/sigmoid (scalar on every path).
+ * Leaves out: AVX-512 paths, SIMD tanh/sigmoid/softplus (scalar on every path).
  */
 #include "nn/cpu/cpu.h"
 
@@ -70,6 +70,8 @@ static inline float f_of(cr_op act, float p, float z) {
         return tanhf(z);
     case CR_OP_SIGMOID:
         return nn_cpu_sigmoidf(z);
+    case CR_OP_SOFTPLUS:
+        return nn_cpu_softplusf(z, p);
     default: /* CR_OP_NONE */
         return z;
     }
@@ -86,6 +88,8 @@ static inline float df_of(cr_op act, float p, float y, float dy) {
         return dy * (1.0f - y * y);
     case CR_OP_SIGMOID:
         return dy * y * (1.0f - y);
+    case CR_OP_SOFTPLUS: /* sigmoid(beta z) = 1 - exp(-beta y) */
+        return dy * -expm1f(-p * y);
     default:
         return dy;
     }
