@@ -8,8 +8,9 @@
  * first layer's dX is not needed). "gemm share" = raw GEMM time / step time;
  * the rest is activations, bias sums, the loss, the tape and Adam.
  *
- *   bench_nn_mlp [iters]      (default 30; prints medians, and the fastest
- *                             step and GEMM set)
+ *   bench_nn_mlp [iters] [width]   (default 30 iterations of widths 64 and
+ *                                  256; prints medians, and the fastest step
+ *                                  and GEMM set)
  */
 #include "crease/nn.h"
 #include "crease/nn_layers.h"
@@ -111,14 +112,15 @@ static int run(int hidden, int iters) {
 }
 
 int main(int argc, char **argv) {
-    int iters = argc > 1 ? atoi(argv[1]) : 30;
-    if (iters < 1 || iters > MAX_ITERS) {
-        fprintf(stderr, "usage: bench_nn_mlp [iters 1..%d]\n", MAX_ITERS);
+    int iters = argc > 1 ? atoi(argv[1]) : 30, width = argc > 2 ? atoi(argv[2]) : 0;
+    if (iters < 1 || iters > MAX_ITERS || argc > 3 || (argc > 2 && (width < 1 || width > 4096))) {
+        fprintf(stderr, "usage: bench_nn_mlp [iters 1..%d] [width 1..4096]\n", MAX_ITERS);
         return 2;
     }
     const char *core = getenv("OPENBLAS_CORETYPE");
     printf("threads %d, OpenBLAS %s, core type %s\n", cr_thread_count(), openblas_get_config(),
            openblas_get_corename());
     if (core) printf("OPENBLAS_CORETYPE=%s (set by the environment)\n", core);
+    if (width) return run(width, iters);
     return run(64, iters) || run(256, iters);
 }

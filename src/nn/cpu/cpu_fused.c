@@ -28,7 +28,10 @@
 #define NN_CPU_X86 0
 #endif
 
-enum { SUM_COLS = 64 }; /* columns one backward unit owns (double accumulators on the stack) */
+enum {
+    SUM_COLS = 256
+}; /* columns one backward unit owns: whole rows up to 256 wide, so the pass streams through memory
+    */
 
 /* ----------------------------------------------------------- dispatch -- */
 
