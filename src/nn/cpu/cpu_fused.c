@@ -91,8 +91,8 @@ static inline float df_of(cr_op act, float p, float y, float dy) {
         return dy * (1.0f - y * y);
     case CR_OP_SIGMOID:
         return dy * y * (1.0f - y);
-    case CR_OP_SOFTPLUS: /* sigmoid(beta z) = 1 - exp(-beta y) */
-        return dy * -expm1f(-p * y);
+    case CR_OP_SOFTPLUS:
+        return dy * nn_cpu_softplus_deriv_from_y(y, p);
     default:
         return dy;
     }
