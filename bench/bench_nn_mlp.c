@@ -100,7 +100,7 @@ static int run(int hidden, int iters) {
     }
     double step = bench_median(t_step, iters), gemm = bench_median(t_gemm, iters);
     printf("mlp 6-%d-%d-%d-3 batch %d: step %.2f ms, %.3g points/s; raw GEMMs %.2f ms; "
-           "gemm share %.2f (step/gemm %.2f); fastest: step %.2f ms, raw GEMMs %.2f ms\n",
+           "gemm share %.2f (step/gemm %.2f); fastest: %.2f ms per step, raw GEMMs %.2f ms\n",
            hidden, hidden, hidden, BATCH, 1e3 * step, BATCH / step, 1e3 * gemm, gemm / step,
            step / gemm, 1e3 * best_step, 1e3 * best_gemm);
     free(x), free(y), free(a), free(b), free(c);
