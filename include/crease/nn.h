@@ -242,6 +242,14 @@ cr_tensor *cr_nn_matmul_grouped(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cons
  * torch.nn.Linear: y = x W^T + b with x (...,IN), W (OUT,IN), b (OUT) or
  * NULL -> (...,OUT). Leading axes of x are flattened into rows. */
 cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b);
+/* act(x W^T + b) as one op: the GEMM, then bias and activation in one pass;
+ * the backward reads act' off the output (no pre-activation is kept) and
+ * sums the bias gradient in the same pass. act: CR_OP_NONE, CR_OP_RELU,
+ * CR_OP_LEAKY_RELU (p = slope >= 0), CR_OP_TANH, CR_OP_SIGMOID or
+ * CR_OP_SOFTPLUS (p = beta > 0); any other is an error. Same values and gradients as the ops one
+ * after the other. */
+cr_tensor *cr_nn_linear_act(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b, cr_op act,
+                            float p);
 
 /* Binary elementwise with numpy broadcasting (shapes aligned at the right;
  * each axis equal or 1): (N,3)+(3), (N,1)*(N,3), (2,1,3)-(1,4,1). */

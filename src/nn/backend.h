@@ -76,6 +76,16 @@ typedef struct cr_nn_backend {
                              int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
                              float *dw);
 
+    /* ---- the passes of a fused linear + activation (act: CR_OP_NONE, RELU,
+     * LEAKY_RELU with p >= 0, TANH, SIGMOID or SOFTPLUS with beta p > 0; y and
+     * dy (R,C) row-major) */
+    /* y = act(y + b) in place; b (C) may be NULL. */
+    void (*bias_act_forward)(cr_op act, float p, const float *b, float *y, int64_t R, int64_t C);
+    /* dz = dy act'(.) from the output y (assigned; may be NULL), db += its
+     * column sums (may be NULL). */
+    void (*act_bias_backward)(cr_op act, float p, const float *y, const float *dy, int64_t R,
+                              int64_t C, float *dz, float *db);
+
     /* ---- indexing */
     /* rows x cols block copy between row strides (src_stride 0 repeats one row). */
     void (*copy2d)(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,

@@ -362,15 +362,43 @@ void cr_mlp_destroy(cr_mlp *mlp) {
     free(mlp);
 }
 
+/* The op of an activation the fused linear runs, or CR_OP_COUNT for one it
+ * does not (sin's derivative needs the pre-activation). */
+static cr_op fused_act(cr_act act, float param) {
+    switch (act) {
+    case CR_ACT_NONE:
+        return CR_OP_NONE;
+    case CR_ACT_RELU:
+        return CR_OP_RELU;
+    case CR_ACT_LEAKY_RELU:
+        return param >= 0.0f ? CR_OP_LEAKY_RELU : CR_OP_COUNT;
+    case CR_ACT_TANH:
+        return CR_OP_TANH;
+    case CR_ACT_SIGMOID:
+        return CR_OP_SIGMOID;
+    case CR_ACT_SOFTPLUS:
+        return param > 0.0f ? CR_OP_SOFTPLUS : CR_OP_COUNT;
+    default:
+        return CR_OP_COUNT;
+    }
+}
+
 cr_tensor *cr_mlp_forward(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x) {
     const cr_mlp_def *def = &mlp->def;
     cr_tensor *h = x;
     for (int i = 0; i < def->nlayers; i++) {
+        float param;
+        cr_act act = cr_mlp_layer_act(def, i, &param);
+        cr_op op = fused_act(act, param);
+        if (!mlp->ln_weight[i] && op != CR_OP_COUNT) { /* one op: GEMM, bias, activation */
+            const cr_linear *l = &mlp->layer[i];
+            cr_tensor *a = cr_nn_linear_act(ctx, h, l->weight, l->bias, op, param);
+            h = cr_mlp_layer_residual(def, i) ? cr_nn_add(ctx, h, a) : a;
+            continue;
+        }
         cr_tensor *z = cr_linear_forward(ctx, &mlp->layer[i], h);
         if (mlp->ln_weight[i])
             z = cr_nn_layer_norm(ctx, z, mlp->ln_weight[i], mlp->ln_bias[i], def->ln_eps);
-        float param;
-        cr_act act = cr_mlp_layer_act(def, i, &param);
         cr_tensor *a = cr_act_forward(ctx, act, param, z);
         h = cr_mlp_layer_residual(def, i) ? cr_nn_add(ctx, h, a) : a;
     }

@@ -198,10 +198,24 @@ void cr_nn_grouped_backward(cr_nn_ctx *ctx, nn_node *n) {
 
 /* ------------------------------------------------------------- linear -- */
 
-cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b) {
+/* The activations whose derivative the fused backward reads off the output. */
+static int fusable_act(cr_op act, float p) {
+    return act == CR_OP_NONE || act == CR_OP_RELU || (act == CR_OP_LEAKY_RELU && p >= 0.0f) ||
+           act == CR_OP_TANH || act == CR_OP_SIGMOID || (act == CR_OP_SOFTPLUS && p > 0.0f);
+}
+
+cr_tensor *cr_nn_linear_act(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b, cr_op act,
+                            float p) {
     cr_tensor *src[3] = {x, w, b};
     if (!cr_nn_begin(ctx, "linear", 2, src)) return NULL;
     char sx[64], sw[64], sb[64];
+    if (!fusable_act(act, p)) {
+        NN_FAIL(ctx, CR_ERR_INVALID,
+                "linear: activation %s (p = %g) cannot be fused (none, relu, leaky_relu with "
+                "slope >= 0, tanh, sigmoid, softplus with beta > 0)",
+                cr_op_name(act), (double)p);
+        return NULL;
+    }
     if (x->ndim < 1 || w->ndim != 2 || x->shape[x->ndim - 1] != w->shape[1]) {
         NN_FAIL(ctx, CR_ERR_SHAPE, "linear: x %s does not match weight %s (OUT,IN)",
                 cr_nn_shape_str(x, sx, sizeof sx), cr_nn_shape_str(w, sw, sizeof sw));
@@ -222,8 +236,17 @@ cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b
     cr_tensor *y = cr_nn_tensor(ctx, "linear", x->ndim, shape);
     if (!y) return NULL;
     cr_tensor *out[1] = {y};
-    nn_node n = {.op = CR_OP_LINEAR, .nsrc = 3, .src = src, .nout = 1, .out = out};
+    nn_node n = {.op = CR_OP_LINEAR,
+                 .nsrc = 3,
+                 .src = src,
+                 .nout = 1,
+                 .out = out,
+                 .p.linear = {.act = act, .p = p}};
     return cr_nn_run(ctx, &n);
+}
+
+cr_tensor *cr_nn_linear(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *w, cr_tensor *b) {
+    return cr_nn_linear_act(ctx, x, w, b, CR_OP_NONE, 0.0f);
 }
 
 void cr_nn_linear_forward(cr_nn_ctx *ctx, nn_node *n) {
@@ -231,9 +254,9 @@ void cr_nn_linear_forward(cr_nn_ctx *ctx, nn_node *n) {
     cr_tensor *y = n->out[0];
     int64_t R, in, out = w->shape[0];
     cr_nn_rows_cols(x, &R, &in);
-    if (b) ctx->be->copy2d(b->data, 0, y->data, out, R, out, 0);
-    /* y (R,OUT) = x (R,IN) W^T (IN,OUT) [+ y holding the bias rows] */
-    ctx->be->gemm(0, 1, R, out, in, 1.0f, x->data, in, w->data, in, b ? 1.0f : 0.0f, y->data, out);
+    /* y (R,OUT) = x (R,IN) W^T (IN,OUT), then bias and activation in one pass */
+    ctx->be->gemm(0, 1, R, out, in, 1.0f, x->data, in, w->data, in, 0.0f, y->data, out);
+    ctx->be->bias_act_forward(n->p.linear.act, n->p.linear.p, b ? b->data : NULL, y->data, R, out);
 }
 
 void cr_nn_linear_backward(cr_nn_ctx *ctx, nn_node *n) {
@@ -242,10 +265,23 @@ void cr_nn_linear_backward(cr_nn_ctx *ctx, nn_node *n) {
     int64_t R, in, out = w->shape[0];
     cr_nn_rows_cols(x, &R, &in);
     const cr_nn_backend *be = ctx->be;
-    if (gx) /* dx (R,IN) += dy (R,OUT) W (OUT,IN) */
-        be->gemm(0, 0, R, in, out, 1.0f, y->grad, out, w->data, in, 1.0f, gx, in);
-    if (gw) /* dW (OUT,IN) += dy^T (OUT,R) x (R,IN) */
-        be->gemm(1, 0, out, in, R, 1.0f, y->grad, out, x->data, in, 1.0f, gw, in);
-    if (gb) /* db (OUT) += column sums of dy */
-        be->sum_axis(y->grad, 1, R, out, 1.0f, gb, 1);
+    cr_op act = n->p.linear.act;
+    size_t mark = cr_arena_mark(&ctx->arena);
+    /* dz = dy act'(z), with db's column sums in the same pass; without an
+     * activation dz is dy itself. */
+    const float *dz = y->grad;
+    if (act != CR_OP_NONE && (gx || gw)) {
+        float *tmp = cr_nn_alloc(ctx, "linear", (size_t)y->numel * sizeof(float));
+        if (!tmp) return;
+        be->act_bias_backward(act, n->p.linear.p, y->data, y->grad, R, out, tmp, gb);
+        dz = tmp;
+    } else if (gb) {
+        be->act_bias_backward(act, n->p.linear.p, y->data, y->grad, R, out, NULL, gb);
+    }
+    if (gw) /* dW (OUT,IN) += dz^T (OUT,R) x (R,IN) */
+        be->gemm(1, 0, out, in, R, 1.0f, dz, out, x->data, in, 1.0f, gw, in);
+    if (gx) /* dx (R,IN) (+)= dz (R,OUT) W (OUT,IN); assigned into a fresh grad */
+        be->gemm(0, 0, R, in, out, 1.0f, dz, out, w->data, in, ctx->fresh_grad == x ? 0.0f : 1.0f,
+                 gx, in);
+    cr_arena_rewind(&ctx->arena, mark);
 }

@@ -251,9 +251,17 @@ cr_tensor *cr_nn_run(cr_nn_ctx *ctx, nn_node *n) {
 }
 
 /* Make sure a node's buffers exist before its backward: inputs that require
- * grad get a (zeroed) grad; a fused op's outputs all get one. */
+ * grad get a (zeroed) grad; a fused op's outputs all get one. A linear's
+ * input x that has no grad yet gets an uninitialised one that its backward
+ * assigns with beta = 0 (x the weight or bias too would be added into, so
+ * that case is zeroed as usual). */
 static void prepare_grads(cr_nn_ctx *ctx, nn_node *n) {
     const char *who = node_name(n);
+    ctx->fresh_grad = NULL;
+    cr_tensor *x = n->nsrc > 0 ? n->src[0] : NULL;
+    if (n->op == CR_OP_LINEAR && x && x->requires_grad && !x->grad && x != n->src[1] &&
+        x != n->src[2] && cr_nn_grad_uninit(ctx, x, who))
+        ctx->fresh_grad = x;
     for (int i = 0; i < n->nsrc; i++)
         if (n->src[i] && n->src[i]->requires_grad) cr_nn_grad(ctx, n->src[i], who);
     if (n->op == CR_OP_FUSED)
@@ -288,6 +296,7 @@ cr_status cr_nn_backward(cr_nn_ctx *ctx, cr_tensor *loss, cr_error *err) {
         if (!reached) continue;
         prepare_grads(ctx, n);
         if (ctx->err.status == CR_OK) backward(ctx, n);
+        ctx->fresh_grad = NULL;
         if (ctx->err.status != CR_OK) break;
     }
     return cr_nn_ctx_error(ctx, err);

@@ -22,6 +22,11 @@ typedef struct nn_matmul_params {
     int trans_a, trans_b;
 } nn_matmul_params;
 
+typedef struct nn_linear_params {
+    cr_op act; /* CR_OP_NONE for a plain linear */
+    float p;   /* leaky ReLU's slope */
+} nn_linear_params;
+
 typedef struct nn_grouped_params {
     int trans_w;
     int64_t groups;
@@ -72,6 +77,7 @@ typedef struct nn_node {
     union {
         nn_unary_params unary;
         nn_matmul_params matmul;
+        nn_linear_params linear;
         nn_grouped_params grouped;
         nn_reduce_params reduce;
         nn_slice_params slice;
@@ -91,6 +97,9 @@ struct cr_nn_ctx {
     int64_t tape_len;
     int grad_enabled;
     int backward_done;
+    /* The input whose grad prepare_grads allocated for this node without
+     * zeroing it: the node's backward assigns it instead of adding. */
+    const cr_tensor *fresh_grad;
     cr_error err; /* first error of the step */
 };
 
@@ -107,6 +116,9 @@ void *cr_nn_alloc(cr_nn_ctx *ctx, const char *who, size_t bytes);
 cr_tensor *cr_nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t *shape);
 /* t->grad, allocated zeroed from the arena on first use. */
 float *cr_nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who);
+/* t->grad, allocated uninitialised on first use (for a backward that
+ * assigns it whole; see cr_nn_ctx.fresh_grad). */
+float *cr_nn_grad_uninit(cr_nn_ctx *ctx, cr_tensor *t, const char *who);
 /* Copy of a host index array into the arena. */
 int32_t *cr_nn_index_copy(cr_nn_ctx *ctx, const char *who, const int32_t *idx, int64_t n);
 /* Normalise a possibly negative axis of t; 0 and an error when out of range. */

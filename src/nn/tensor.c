@@ -62,6 +62,7 @@ void cr_nn_ctx_reset(cr_nn_ctx *ctx) {
     ctx->tail = NULL;
     ctx->tape_len = 0;
     ctx->backward_done = 0;
+    ctx->fresh_grad = NULL;
     memset(&ctx->err, 0, sizeof ctx->err);
 }
 
@@ -187,12 +188,16 @@ cr_tensor *cr_nn_tensor(cr_nn_ctx *ctx, const char *who, int ndim, const int64_t
     return alloc_tensor(ctx, who, ndim, shape, 1);
 }
 
+float *cr_nn_grad_uninit(cr_nn_ctx *ctx, cr_tensor *t, const char *who) {
+    if (t->grad) return t->grad;
+    t->grad = cr_nn_alloc(ctx, who, (size_t)t->numel * sizeof(float));
+    return t->grad;
+}
+
 float *cr_nn_grad(cr_nn_ctx *ctx, cr_tensor *t, const char *who) {
     if (t->grad) return t->grad;
-    float *g = cr_nn_alloc(ctx, who, (size_t)t->numel * sizeof(float));
-    if (!g) return NULL;
-    ctx->be->fill(g, t->numel, 0.0f);
-    t->grad = g;
+    float *g = cr_nn_grad_uninit(ctx, t, who);
+    if (g) ctx->be->fill(g, t->numel, 0.0f);
     return g;
 }
 

@@ -12,11 +12,56 @@
 
 #include "nn/backend.h"
 
+#include <math.h>
+#include <string.h>
+
 enum { NN_CPU_GRAIN = 16384 }; /* elements per parallel chunk, at least */
 
 /* Rows per chunk so that a chunk holds about NN_CPU_GRAIN elements. */
 static inline int64_t nn_cpu_row_grain(int64_t cols) {
     return cols >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / (cols > 0 ? cols : 1);
+}
+
+/* key > 0 ? a : b without a branch on the data (a branch on the sign of
+ * activations mispredicts half the time); NaN keys select b. */
+static inline float nn_cpu_select_pos(float key, float a, float b) {
+    uint32_t ua, ub, m = -(uint32_t)(key > 0.0f);
+    memcpy(&ua, &a, sizeof ua);
+    memcpy(&ub, &b, sizeof ub);
+    ua = (ua & m) | (ub & ~m);
+    memcpy(&a, &ua, sizeof a);
+    return a;
+}
+
+/* The logistic function without overflow in exp. */
+static inline float nn_cpu_sigmoidf(float x) {
+    if (x >= 0.0f) return 1.0f / (1.0f + expf(-x));
+    float e = expf(x);
+    return e / (1.0f + e);
+}
+
+/* log(1 + e) for e in [0, 1] from logf (Goldberg's correction, within 2 ulp):
+ * glibc's log1pf costs twice as much and was a quarter of a drape epoch. */
+static inline float nn_cpu_log1pf(float e) {
+    float u = 1.0f + e;
+    return u == 1.0f ? e : logf(u) * (e / (u - 1.0f));
+}
+
+/* log(1 + exp(beta x)) / beta without overflow. */
+static inline float nn_cpu_softplusf(float x, float beta) {
+    float bx = beta * x;
+    return (nn_cpu_select_pos(bx, bx, 0.0f) + nn_cpu_log1pf(expf(-fabsf(bx)))) / beta;
+}
+
+/* sigmoid(beta x) from y = softplus_beta(x): 1 - exp(-beta y), by its Taylor
+ * series below 0.1 where the difference would cancel (glibc's expm1f costs
+ * twice expf); relative error below 1e-6. */
+static inline float nn_cpu_softplus_deriv_from_y(float y, float beta) {
+    float t = beta * y;
+    float series =
+        t * (1.0f - t * (0.5f - t * (1.0f / 6.0f - t * (1.0f / 24.0f - t * (1.0f / 120.0f)))));
+    float direct = 1.0f - expf(-t);
+    return t < 0.1f ? series : direct;
 }
 
 /* A kernel was handed an op it has no case for: a bug in the tape, so abort
@@ -33,6 +78,19 @@ void cr_nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y,
 void cr_nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64_t as[4],
                       const float *b, const int64_t bs[4], const float *dy, const int64_t ys[4],
                       float *out, int acc);
+
+/* cpu_fused.c: the passes around a fused linear + activation's GEMMs.
+ * SIMD paths: the highest the CPU has is chosen at first use
+ * (CREASE_NN_SIMD=scalar forces the portable one). */
+enum { NN_SIMD_SCALAR = 0, NN_SIMD_AVX2 = 1 };
+int cr_nn_cpu_simd(void);     /* the path in use */
+int cr_nn_cpu_simd_max(void); /* the highest this CPU runs */
+/* Use `level` (clamped to what the CPU runs); returns the previous level.
+ * For tests and benchmarks: not safe while kernels run on other threads. */
+int cr_nn_cpu_set_simd(int level);
+void cr_nn_cpu_bias_act_forward(cr_op act, float p, const float *b, float *y, int64_t R, int64_t C);
+void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float *dy, int64_t R,
+                                 int64_t C, float *dz, float *db);
 
 /* cpu_reduce.c */
 double cr_nn_cpu_sum_all(const float *x, int64_t n);

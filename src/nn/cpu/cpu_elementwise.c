@@ -50,18 +50,6 @@ void cr_nn_cpu_copy(float *dst, const float *src, int64_t n) {
 
 /* -------------------------------------------------------------- unary -- */
 
-static inline float sigmoidf(float x) {
-    if (x >= 0.0f) return 1.0f / (1.0f + expf(-x));
-    float e = expf(x);
-    return e / (1.0f + e);
-}
-
-/* log(1 + exp(beta x)) / beta without overflow. */
-static inline float softplusf(float x, float beta) {
-    float bx = beta * x;
-    return (fmaxf(bx, 0.0f) + log1pf(expf(-fabsf(bx)))) / beta;
-}
-
 typedef struct unary_args {
     cr_op op;
     float p;
@@ -89,11 +77,11 @@ static void unary_forward_range(void *vctx, int64_t begin, int64_t end) {
         break;
     case CR_OP_RELU:
         for (i = begin; i < end; i++)
-            y[i] = x[i] > 0.0f ? x[i] : 0.0f;
+            y[i] = nn_cpu_select_pos(x[i], x[i], 0.0f);
         break;
     case CR_OP_LEAKY_RELU:
         for (i = begin; i < end; i++)
-            y[i] = x[i] > 0.0f ? x[i] : p * x[i];
+            y[i] = nn_cpu_select_pos(x[i], x[i], p * x[i]);
         break;
     case CR_OP_LEAKY_RELU_DERIV:
         for (i = begin; i < end; i++)
@@ -105,11 +93,11 @@ static void unary_forward_range(void *vctx, int64_t begin, int64_t end) {
         break;
     case CR_OP_SIGMOID:
         for (i = begin; i < end; i++)
-            y[i] = sigmoidf(x[i]);
+            y[i] = nn_cpu_sigmoidf(x[i]);
         break;
     case CR_OP_SOFTPLUS:
         for (i = begin; i < end; i++)
-            y[i] = softplusf(x[i], p);
+            y[i] = nn_cpu_softplusf(x[i], p);
         break;
     case CR_OP_SIN:
         for (i = begin; i < end; i++)
@@ -165,11 +153,11 @@ static void unary_backward_range(void *vctx, int64_t begin, int64_t end) {
         break;
     case CR_OP_RELU:
         for (i = begin; i < end; i++)
-            dx[i] += x[i] > 0.0f ? dy[i] : 0.0f;
+            dx[i] += nn_cpu_select_pos(x[i], dy[i], 0.0f);
         break;
     case CR_OP_LEAKY_RELU:
         for (i = begin; i < end; i++)
-            dx[i] += x[i] > 0.0f ? dy[i] : p * dy[i];
+            dx[i] += nn_cpu_select_pos(x[i], dy[i], p * dy[i]);
         break;
     case CR_OP_LEAKY_RELU_DERIV:
         break; /* piecewise constant: zero gradient */
@@ -183,7 +171,7 @@ static void unary_backward_range(void *vctx, int64_t begin, int64_t end) {
         break;
     case CR_OP_SOFTPLUS:
         for (i = begin; i < end; i++)
-            dx[i] += dy[i] * sigmoidf(p * x[i]);
+            dx[i] += dy[i] * nn_cpu_sigmoidf(p * x[i]);
         break;
     case CR_OP_SIN:
         for (i = begin; i < end; i++)

@@ -1,0 +1,259 @@
+/* cpu_fused.c: the passes a fused linear + activation layer runs around its
+ * GEMMs: bias add and activation in one pass over the output (forward), and
+ * the activation's derivative times the incoming gradient together with the
+ * bias gradient's column sum in one pass (backward).
+ *
+ * Each kernel has a portable scalar path, written without branches on the
+ * data (a ReLU's `z > 0 ? z : 0` compiled to a branch mispredicts on half the
+ * elements), and an AVX2 + FMA path for the piecewise-linear activations,
+ * compiled with a target attribute so the build needs no -march. The path is
+ * chosen once at run time from the CPU's features; CREASE_NN_SIMD=scalar in
+ * the environment, or cr_nn_cpu_set_simd, forces the scalar one (the
+ * gradient tests run every path the machine has).
+ * Column sums accumulate in double, each column over the rows in order, so
+ * the bias gradient does not depend on the thread count or the path (up to
+ * the last bit of the float dz each path rounds alike).
+ * Leaves out: AVX-512 paths, SIMD tanh/sigmoid/softplus (scalar on every path).
+ */
+#include "nn/cpu/cpu.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define NN_CPU_X86 1
+#else
+#define NN_CPU_X86 0
+#endif
+
+enum {
+    SUM_COLS = 256
+}; /* columns one backward unit owns: whole rows up to 256 wide, so the pass streams through memory
+    */
+
+/* ----------------------------------------------------------- dispatch -- */
+
+static int simd_level = -1; /* -1: not chosen yet */
+
+int cr_nn_cpu_simd_max(void) {
+#if NN_CPU_X86
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? NN_SIMD_AVX2
+                                                                           : NN_SIMD_SCALAR;
+#else
+    return NN_SIMD_SCALAR;
+#endif
+}
+
+int cr_nn_cpu_simd(void) {
+    if (simd_level < 0) {
+        const char *env = getenv("CREASE_NN_SIMD");
+        int forced = env && (strcmp(env, "scalar") == 0 || strcmp(env, "0") == 0);
+        simd_level = forced ? NN_SIMD_SCALAR : cr_nn_cpu_simd_max();
+    }
+    return simd_level;
+}
+
+int cr_nn_cpu_set_simd(int level) {
+    int prev = cr_nn_cpu_simd(), max = cr_nn_cpu_simd_max();
+    simd_level = level < NN_SIMD_SCALAR ? NN_SIMD_SCALAR : level > max ? max : level;
+    return prev;
+}
+
+/* ------------------------------------------------------------ scalar -- */
+
+static inline float f_of(cr_op act, float p, float z) {
+    switch (act) {
+    case CR_OP_RELU:
+        return nn_cpu_select_pos(z, z, 0.0f);
+    case CR_OP_LEAKY_RELU:
+        return nn_cpu_select_pos(z, z, p * z);
+    case CR_OP_TANH:
+        return tanhf(z);
+    case CR_OP_SIGMOID:
+        return nn_cpu_sigmoidf(z);
+    case CR_OP_SOFTPLUS:
+        return nn_cpu_softplusf(z, p);
+    default: /* CR_OP_NONE */
+        return z;
+    }
+}
+
+/* dy f'(z) written with y = f(z) (for leaky ReLU with slope >= 0, y > 0 iff z > 0). */
+static inline float df_of(cr_op act, float p, float y, float dy) {
+    switch (act) {
+    case CR_OP_RELU:
+        return nn_cpu_select_pos(y, dy, 0.0f);
+    case CR_OP_LEAKY_RELU:
+        return nn_cpu_select_pos(y, dy, p * dy);
+    case CR_OP_TANH:
+        return dy * (1.0f - y * y);
+    case CR_OP_SIGMOID:
+        return dy * y * (1.0f - y);
+    case CR_OP_SOFTPLUS:
+        return dy * nn_cpu_softplus_deriv_from_y(y, p);
+    default:
+        return dy;
+    }
+}
+
+static void bias_act_rows_scalar(cr_op act, float p, const float *b, float *y, int64_t r0,
+                                 int64_t r1, int64_t C) {
+    for (int64_t r = r0; r < r1; r++) {
+        float *row = y + r * C;
+        for (int64_t c = 0; c < C; c++)
+            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+    }
+}
+
+/* Columns [c0, c0+w) of dz = dy f'(y) over all R rows; acc += their sums. */
+static void act_grad_cols_scalar(cr_op act, float p, const float *y, const float *dy, int64_t R,
+                                 int64_t C, int64_t c0, int64_t w, float *dz, double *acc) {
+    for (int64_t r = 0; r < R; r++) {
+        const float *yr = y + r * C + c0, *dyr = dy + r * C + c0;
+        float *dzr = dz ? dz + r * C + c0 : NULL;
+        for (int64_t c = 0; c < w; c++) {
+            float g = df_of(act, p, yr[c], dyr[c]);
+            if (dzr) dzr[c] = g;
+            if (acc) acc[c] += g;
+        }
+    }
+}
+
+/* -------------------------------------------------------------- AVX2 -- */
+
+#if NN_CPU_X86
+#define NN_AVX2 __attribute__((target("avx2,fma")))
+
+static inline NN_AVX2 __m256 f_avx2(cr_op act, __m256 p, __m256 z) {
+    __m256 zero = _mm256_setzero_ps();
+    if (act == CR_OP_RELU) return _mm256_max_ps(z, zero); /* max(NaN, 0) = 0 as the scalar path */
+    if (act == CR_OP_LEAKY_RELU)
+        return _mm256_blendv_ps(_mm256_mul_ps(p, z), z, _mm256_cmp_ps(z, zero, _CMP_GT_OQ));
+    return z;
+}
+
+static inline NN_AVX2 __m256 df_avx2(cr_op act, __m256 p, __m256 y, __m256 dy) {
+    __m256 pos = _mm256_cmp_ps(y, _mm256_setzero_ps(), _CMP_GT_OQ);
+    if (act == CR_OP_RELU) return _mm256_and_ps(dy, pos);
+    if (act == CR_OP_LEAKY_RELU) return _mm256_blendv_ps(_mm256_mul_ps(p, dy), dy, pos);
+    return dy;
+}
+
+static NN_AVX2 void bias_act_rows_avx2(cr_op act, float p, const float *b, float *y, int64_t r0,
+                                       int64_t r1, int64_t C) {
+    __m256 vp = _mm256_set1_ps(p);
+    for (int64_t r = r0; r < r1; r++) {
+        float *row = y + r * C;
+        int64_t c = 0;
+        for (; c + 8 <= C; c += 8) {
+            __m256 z = _mm256_loadu_ps(row + c);
+            if (b) z = _mm256_add_ps(z, _mm256_loadu_ps(b + c));
+            _mm256_storeu_ps(row + c, f_avx2(act, vp, z));
+        }
+        for (; c < C; c++)
+            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+    }
+}
+
+static NN_AVX2 void act_grad_cols_avx2(cr_op act, float p, const float *y, const float *dy,
+                                       int64_t R, int64_t C, int64_t c0, int64_t w, float *dz,
+                                       double *acc) {
+    __m256 vp = _mm256_set1_ps(p);
+    int64_t w8 = w / 8 * 8;
+    for (int64_t r = 0; r < R; r++) {
+        const float *yr = y + r * C + c0, *dyr = dy + r * C + c0;
+        float *dzr = dz ? dz + r * C + c0 : NULL;
+        for (int64_t c = 0; c < w8; c += 8) {
+            __m256 g = df_avx2(act, vp, _mm256_loadu_ps(yr + c), _mm256_loadu_ps(dyr + c));
+            if (dzr) _mm256_storeu_ps(dzr + c, g);
+            if (acc) {
+                __m256d lo = _mm256_cvtps_pd(_mm256_castps256_ps128(g));
+                __m256d hi = _mm256_cvtps_pd(_mm256_extractf128_ps(g, 1));
+                _mm256_storeu_pd(acc + c, _mm256_add_pd(_mm256_loadu_pd(acc + c), lo));
+                _mm256_storeu_pd(acc + c + 4, _mm256_add_pd(_mm256_loadu_pd(acc + c + 4), hi));
+            }
+        }
+        for (int64_t c = w8; c < w; c++) {
+            float g = df_of(act, p, yr[c], dyr[c]);
+            if (dzr) dzr[c] = g;
+            if (acc) acc[c] += g;
+        }
+    }
+}
+#endif
+
+/* 1 when the AVX2 path has this activation (the smooth ones stay scalar). */
+static int use_avx2(cr_op act) {
+    return NN_CPU_X86 && cr_nn_cpu_simd() >= NN_SIMD_AVX2 &&
+           (act == CR_OP_NONE || act == CR_OP_RELU || act == CR_OP_LEAKY_RELU);
+}
+
+/* ------------------------------------------------------------ kernels -- */
+
+typedef struct fused_args {
+    cr_op act;
+    float p;
+    const float *b, *y, *dy;
+    float *out, *dz, *db;
+    int64_t R, C, units;
+    int avx2;
+} fused_args;
+
+static void bias_act_range(void *vctx, int64_t begin, int64_t end) {
+    const fused_args *g = vctx;
+#if NN_CPU_X86
+    if (g->avx2) {
+        bias_act_rows_avx2(g->act, g->p, g->b, g->out, begin, end, g->C);
+        return;
+    }
+#endif
+    bias_act_rows_scalar(g->act, g->p, g->b, g->out, begin, end, g->C);
+}
+
+void cr_nn_cpu_bias_act_forward(cr_op act, float p, const float *b, float *y, int64_t R,
+                                int64_t C) {
+    if (act == CR_OP_NONE && !b) return;
+    fused_args g = {.act = act, .p = p, .b = b, .out = y, .R = R, .C = C, .avx2 = use_avx2(act)};
+    cr_parallel_for(R, nn_cpu_row_grain(C), bias_act_range, &g);
+}
+
+/* One unit: a block of up to SUM_COLS columns over all rows. */
+static void act_grad_range(void *vctx, int64_t begin, int64_t end) {
+    const fused_args *g = vctx;
+    for (int64_t u = begin; u < end; u++) {
+        int64_t c0 = u * SUM_COLS, w = g->C - c0 < SUM_COLS ? g->C - c0 : SUM_COLS;
+        double acc[SUM_COLS];
+        for (int64_t c = 0; c < w; c++)
+            acc[c] = 0.0;
+        double *a = g->db ? acc : NULL;
+#if NN_CPU_X86
+        if (g->avx2)
+            act_grad_cols_avx2(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+        else
+#endif
+            act_grad_cols_scalar(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+        if (g->db)
+            for (int64_t c = 0; c < w; c++)
+                g->db[c0 + c] += (float)acc[c];
+    }
+}
+
+void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float *dy, int64_t R,
+                                 int64_t C, float *dz, float *db) {
+    if ((!dz && !db) || C == 0) return;
+    fused_args g = {.act = act,
+                    .p = p,
+                    .y = y,
+                    .dy = dy,
+                    .dz = dz,
+                    .db = db,
+                    .R = R,
+                    .C = C,
+                    .units = (C + SUM_COLS - 1) / SUM_COLS,
+                    .avx2 = use_avx2(act)};
+    int64_t work = R * (C < SUM_COLS ? C : SUM_COLS);
+    int64_t grain = work >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / (work > 0 ? work : 1);
+    cr_parallel_for(g.units, grain, act_grad_range, &g);
+}
