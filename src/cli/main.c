@@ -28,6 +28,8 @@ static const cli_command commands[] = {
      cmd_dataset, help_dataset},
     {"drape", "drape a cloth over an object with an implicit neural surface (drape paper)",
      cmd_drape, help_drape},
+    {"epnet", "self-supervised garment dynamics with persistent wrinkles (epnet paper)",
+     cmd_epnet, help_epnet},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
      cmd_garment, help_garment},
     {"eval", "compare a predicted garment sequence with a reference by every paper's metrics",
