@@ -119,11 +119,16 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
         CR_REQUIRE(cr_epnet_enet_step(m, s, NULL, 1, &l, &err) == CR_OK);
     CR_REQUIRE(cr_epnet_enet_step(m, s, NULL, 0, &l, &err) == CR_OK);
     fprintf(stderr, "  enet loss %.5g -> %.5g J/frame\n", l0.total, l.total);
+    for (int k = 0; k < CR_EPNET_NTERMS; k++)
+        fprintf(stderr, "    %s %.5g -> %.5g\n", cr_epnet_term_names[k], l0.term[k], l.term[k]);
     CR_CHECK(isfinite(l.total));
-    /* gravity is unbounded below, so compare the drop against the start's
-     * elastic + collision energy: the net gains at least a tenth of it */
-    const double elastic0 = l0.term[0] + l0.term[1] + l0.term[2] + l0.term[4];
-    CR_CHECK(l0.total - l.total > 0.1 * fabs(elastic0) || l.total < l0.total - 1e-3);
+    /* the elastic energy of the skinned template (stretch + shear + bending)
+     * falls at least fivefold, and the total (gravity included) falls */
+    const double el0 = l0.term[0] + l0.term[1] + l0.term[2];
+    const double el = l.term[0] + l.term[1] + l.term[2];
+    CR_CHECK(el < 0.2 * el0);
+    CR_CHECK(l.total < l0.total);
+    CR_CHECK(l.term[4] < 0.01 * el0); /* and it stays (nearly) outside the body */
     cr_epnet_seq_destroy(s);
     cr_epnet_destroy(m);
 }
@@ -131,7 +136,7 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
 CR_TEST(epnet, pnet_fits_a_known_rb_field) {
     cr_error err;
     cr_epnet_def d = tiny_def();
-    d.pnet_lr = 3e-3f;
+    d.pnet_lr = 1e-2f;
     cr_epnet *m = NULL;
     CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
     cr_epnet_seq *s = NULL;
@@ -152,7 +157,9 @@ CR_TEST(epnet, pnet_fits_a_known_rb_field) {
     cr_epnet_plastic_rollout(theta, bar, NULL, T, H, 0.52, 1.0, 50.0, rb);
     double mse0 = 0, mse = 0;
     CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 1, &mse0, &err) == CR_OK);
-    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 300, &mse, &err) == CR_OK);
+    double t0 = cr_time_now();
+    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 80, &mse, &err) == CR_OK);
+    fprintf(stderr, "  pnet: %.3f s per step\n", (cr_time_now() - t0) / 80);
     fprintf(stderr, "  pnet mse %.3g -> %.3g rad^2\n", mse0, mse);
     CR_CHECK(mse < 0.1 * mse0);
     free(pos), free(theta), free(rb);
