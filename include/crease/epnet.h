@@ -210,6 +210,8 @@ cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr
  * exceeds thresh (rad). theta (T,H), theta_bar (H). */
 double cr_epnet_fold_share(const float *theta, const float *theta_bar, int32_t t, int32_t nh,
                            double thresh);
+/* Dihedral angles theta (T,H), rad, of positions pos (T,V,3), m. */
+void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 /* The rest mesh's angles theta_bar (H), borrowed. */
 const float *cr_epnet_rest_angles(const cr_epnet *m);
 

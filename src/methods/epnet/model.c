@@ -420,6 +420,10 @@ void ep_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
     free(x), free(th);
 }
 
+void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
+    ep_angles(m, pos, T, theta);
+}
+
 static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
                             cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
@@ -531,11 +535,15 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
     }
     cr_status st = CR_OK;
     double last = NAN;
+    /* one frame on the tape at a time (a frame's graph of E edges holds a
+     * few (E, 3L) tensors per step), the gradients summed over the frames */
+    const float wf = 1.0f / (float)m->def.pnet_frames;
     for (int it = 0; st == CR_OK && it < steps; it++) {
-        cr_nn_ctx_reset(m->ctx);
-        cr_nn_ctx_set_grad_enabled(m->ctx, 1);
-        cr_tensor *loss = NULL;
-        for (int k = 0; k < m->def.pnet_frames; k++) {
+        double sum = 0;
+        cr_nn_params_zero_grad(m->pp);
+        for (int k = 0; st == CR_OK && k < m->def.pnet_frames; k++) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_nn_ctx_set_grad_enabled(m->ctx, 1);
             const int32_t t = (int32_t)cr_rng_below(&m->rng, (uint32_t)T);
             const float *prev = t > 0 ? rb_target + (size_t)(t - 1) * H : zero;
             for (int32_t h = 0; h < H; h++)
@@ -543,17 +551,17 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
             cr_tensor *y = pnet_forward(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
             cr_tensor *dlt = cr_nn_sub(m->ctx, cr_nn_mul_scalar(m->ctx, y, 1.0f / PNET_OUT_SCALE),
                                        cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc));
-            cr_tensor *l = cr_nn_mean(m->ctx, cr_nn_square(m->ctx, dlt));
-            loss = loss ? cr_nn_add(m->ctx, loss, l) : l;
+            cr_tensor *l =
+                cr_nn_mul_scalar(m->ctx, cr_nn_mean(m->ctx, cr_nn_square(m->ctx, dlt)), wf);
+            st = cr_nn_ctx_error(m->ctx, err);
+            if (st != CR_OK) break;
+            sum += l->data[0];
+            st = cr_nn_backward(m->ctx, l, err);
         }
-        loss = cr_nn_mul_scalar(m->ctx, loss, 1.0f / m->def.pnet_frames);
-        st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         /* report in rad^2: the loss is on 10x the increment */
-        last = loss->data[0] * PNET_OUT_SCALE * PNET_OUT_SCALE;
-        cr_nn_params_zero_grad(m->pp);
-        st = cr_nn_backward(m->ctx, loss, err);
-        if (st == CR_OK) st = cr_clip_grad_norm(m->pp, 10.0f, NULL, err);
+        last = sum * PNET_OUT_SCALE * PNET_OUT_SCALE;
+        st = cr_clip_grad_norm(m->pp, 10.0f, NULL, err);
         if (st == CR_OK) st = cr_optim_step(m->opt_p, err);
     }
     free(zero), free(inc);
