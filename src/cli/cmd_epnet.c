@@ -25,6 +25,7 @@ void help_epnet(void) {
            "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
            "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
+           "  --lr R               E-Net Adam learning rate (default 0.001)\n"
            "  --seed S             (default 1)\n"
            "  --resume             continue from DIR's checkpoints\n"
            "  --json               a summary on stdout\n"
@@ -54,7 +55,7 @@ static int run_train(int argc, char **argv) {
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1;
-    float yield = (float)d.material.yield_angle;
+    float yield = (float)d.material.yield_angle, lr = d.enet_lr;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -69,6 +70,7 @@ static int run_train(int argc, char **argv) {
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
+        CLI_FLOAT("--lr", &lr, 1e-7, 1),
         CLI_FLAG("--json", &json),
         CLI_OUTPUT(&out),
         CLI_END,
@@ -85,7 +87,7 @@ static int run_train(int argc, char **argv) {
     d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
     d.material.yield_angle = yield, d.cycles = cycles, d.enet_epochs = epochs;
     d.pnet_epochs = pepochs, d.baseline = baseline, d.seed = (uint64_t)seed, d.resume = resume;
-    d.out_dir = out;
+    d.out_dir = out, d.enet_lr = lr;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;
