@@ -39,4 +39,5 @@ expect_exit 2 "-o DIR is required" epnet train
 expect_exit 2 "expected train or run" epnet fly
 expect_exit 1 "model.json" epnet run --model "$tmp/none" --motion squat -o "$tmp/x"
 
-ok
+echo "cli_epnet: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]

@@ -51,8 +51,8 @@ struct cr_epnet_seq {
 };
 
 /* E-Net forward on the whole sequence: positions (T,V,3) on the tape. rb (T,H) or NULL. */
-cr_tensor *ep_enet_forward(cr_epnet *m, const cr_epnet_seq *s, const float *rb);
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb);
 /* Angles (T,H) of positions (T,V,3). */
-void ep_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta);
+void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 
 #endif

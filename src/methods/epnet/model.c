@@ -378,7 +378,7 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
 
 /* ------------------------------------------------------------- E-Net -- */
 
-cr_tensor *ep_enet_forward(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T, V = m->nv, H = m->nh;
     cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
@@ -401,7 +401,7 @@ cr_tensor *ep_enet_forward(cr_epnet *m, const cr_epnet_seq *s, const float *rb) 
     return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b));
 }
 
-void ep_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
+void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
     const int32_t V = m->nv, H = m->nh;
     double *x = malloc(sizeof(double) * 3 * (size_t)V),
            *th = malloc(sizeof(double) * (size_t)(H + 1));
@@ -421,7 +421,7 @@ void ep_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
 }
 
 void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
-    ep_angles(m, pos, T, theta);
+    cr_epnet_angles_(m, pos, T, theta);
 }
 
 static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
@@ -466,7 +466,7 @@ cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb
                              cr_epnet_losses *out, cr_error *err) {
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, train);
-    cr_tensor *x = ep_enet_forward(m, s, rb);
+    cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
     cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
@@ -615,7 +615,7 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         if (st != CR_OK) break;
         memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
         memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
-        ep_angles(m, x, 1, th);
+        cr_epnet_angles_(m, x, 1, th);
         if (use_pnet) {
             cr_nn_ctx_reset(m->ctx);
             cr_tensor *inc = pnet_forward(m, x, th, r);

@@ -265,10 +265,10 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
         for (int i = 0; st == CR_OK && i < n; i++) {
             cr_nn_ctx_reset(m->ctx);
             cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-            cr_tensor *x = ep_enet_forward(m, seq[i], rb[i]);
+            cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
             st = cr_nn_ctx_error(m->ctx, err);
             if (st != CR_OK) break;
-            ep_angles(m, x->data, (int32_t)T, theta);
+            cr_epnet_angles_(m, x->data, (int32_t)T, theta);
             cr_epnet_plastic_rollout(theta, m->theta_bar, NULL, (int32_t)T, (int32_t)H,
                                      def->material.yield_angle, def->material.plastic_gain,
                                      def->sharpness, target + i * T * H);
@@ -279,11 +279,11 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
             for (int i = 0; st == CR_OK && i < n; i++) {
                 cr_nn_ctx_reset(m->ctx);
                 cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-                cr_tensor *x = ep_enet_forward(m, seq[i], rb[i]);
+                cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
                 st = cr_nn_ctx_error(m->ctx, err);
                 if (st != CR_OK) break;
                 memcpy(pos, x->data, sizeof(float) * (size_t)(T * V * 3));
-                ep_angles(m, pos, (int32_t)T, theta);
+                cr_epnet_angles_(m, pos, (int32_t)T, theta);
                 st = cr_epnet_pnet_fit(m, seq[i], pos, theta, target + i * T * H, 1, &l, err);
                 mse += l / n;
             }
