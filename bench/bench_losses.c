@@ -9,18 +9,10 @@
 #include "crease/phys_energies.h"
 #include "crease/primitives.h"
 
+#include "bench_stats.h"
+
 #include <stdio.h>
 #include <stdlib.h>
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *t, int n) {
-    qsort(t, (size_t)n, sizeof *t, cmp_double);
-    return t[n / 2];
-}
 
 int main(int argc, char **argv) {
     const int n = argc > 1 ? atoi(argv[1]) : 100, B = argc > 2 ? atoi(argv[2]) : 4;
@@ -81,7 +73,7 @@ int main(int argc, char **argv) {
             }
             tb[k] = cr_time_now() - t1, tf[k] = t1 - t0;
         }
-        const double f = median(tf, reps), b = median(tb, reps);
+        const double f = bench_median(tf, reps), b = bench_median(tb, reps);
         printf("  %-9s forward %8.2f ms  backward %8.2f ms  %6.0f ns per element and item\n",
                t[q].name, 1e3 * f, 1e3 * b, 1e9 * (f + b) / ((double)B * t[q].nelem));
     }

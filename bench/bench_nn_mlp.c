@@ -14,22 +14,14 @@
 #include "crease/nn_layers.h"
 #include "crease/nn_optim.h"
 
+#include "bench_stats.h"
+
 #include <cblas.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 enum { BATCH = 4096, IN = 6, OUT = 3, HIDDEN_LAYERS = 3, MAX_ITERS = 1000 };
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *t, int n) {
-    qsort(t, (size_t)n, sizeof *t, cmp_double);
-    return t[n / 2];
-}
 
 /* The GEMMs of one training step of a width[0]-...-width[nl] MLP, raw. */
 static double raw_gemms(const int *width, int nl, float *a, float *b, float *c) {
@@ -45,8 +37,8 @@ static double raw_gemms(const int *width, int nl, float *a, float *b, float *c) 
         cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, out, in, BATCH, 1.0f, a, out, b, in,
                     0.0f, c, in);
         if (l > 0) /* dX (B,in) = dY (B,out) x W (out,in) */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, BATCH, in, out, 1.0f, a, out,
-                        b, in, 0.0f, c, in);
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, BATCH, in, out, 1.0f, a, out, b,
+                        in, 0.0f, c, in);
     }
     return cr_time_now() - t0;
 }
@@ -65,7 +57,8 @@ static int run(int hidden, int iters) {
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = (size_t)256 << 20;
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
-    if (cr_nn_params_create(&params, &err) || cr_mlp_create(&def, params, "mlp", &rng, &mlp, &err) ||
+    if (cr_nn_params_create(&params, &err) ||
+        cr_mlp_create(&def, params, "mlp", &rng, &mlp, &err) ||
         cr_optim_create(&od, params, &opt, &err) || cr_nn_ctx_create(&cd, &ctx, &err)) {
         fprintf(stderr, "bench_nn_mlp: %s\n", err.msg);
         return 1;
@@ -76,8 +69,10 @@ static int run(int hidden, int iters) {
     float *c = calloc(big, sizeof(float));
     double t_step[MAX_ITERS], t_gemm[MAX_ITERS];
     if (!x || !y || !a || !b || !c) return 1;
-    for (int i = 0; i < BATCH * IN; i++) x[i] = cr_rng_uniformf(&rng);
-    for (int i = 0; i < BATCH * OUT; i++) y[i] = cr_rng_uniformf(&rng);
+    for (int i = 0; i < BATCH * IN; i++)
+        x[i] = cr_rng_uniformf(&rng);
+    for (int i = 0; i < BATCH * OUT; i++)
+        y[i] = cr_rng_uniformf(&rng);
     for (int it = -3; it < iters; it++) { /* three warm-up steps */
         double t0 = cr_time_now();
         cr_nn_ctx_reset(ctx);
@@ -94,7 +89,7 @@ static int run(int hidden, int iters) {
         double gemm = raw_gemms(width, HIDDEN_LAYERS + 1, a, b, c);
         if (it >= 0) t_step[it] = step, t_gemm[it] = gemm;
     }
-    double step = median(t_step, iters), gemm = median(t_gemm, iters);
+    double step = bench_median(t_step, iters), gemm = bench_median(t_gemm, iters);
     printf("mlp 6-%d-%d-%d-3 batch %d: step %.2f ms, %.3g points/s; raw GEMMs %.2f ms; "
            "gemm share %.2f (step/gemm %.2f)\n",
            hidden, hidden, hidden, BATCH, 1e3 * step, BATCH / step, 1e3 * gemm, gemm / step,

@@ -14,9 +14,14 @@
  * summed over the frames finished (cr_scene_run, the loop `crease simulate`
  * and the datasets use). Threads: all, or the second argument.
  *
- * Usage: bench_sim [scene] [threads] [frames]
+ * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
  *   scene: all (default), sphere, tube5k, tube10k, tube40k
  *   frames: 30 by default (10 for tube40k)
+ *   --solver: newton (default) or vbd times that solver; compare runs a
+ *   converged Newton reference (newton_tol 1e-5 m/s, no relative
+ *   tolerance, 40 iterations), Newton at its default cap of 8 and VBD at
+ *   its defaults, and prints each one's mean and largest vertex distance to
+ *   the reference after the last frame.
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
 #include "crease/primitives.h"
@@ -39,6 +44,11 @@ static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep
     return CR_OK;
 }
 
+static int solver_mode = 0; /* 0 newton, 1 vbd, 2 compare */
+
+/* After a run: its final positions (V,3), for compare; owned here. */
+static double *last_positions = NULL;
+
 static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, int frames) {
     cr_error err = {0};
     cr_sim *s = NULL;
@@ -53,8 +63,8 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
     int stopped = status != CR_OK;
     if (stopped) printf("sim %s: stopped at frame %d: %s\n", name, st.frames, err.msg);
     double n = st.frames > 0 ? (double)st.frames : 1.0, tot = st.seconds > 0 ? st.seconds : 1;
-    printf("sim %s V=%d: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
-           st.seconds / n, st.frames, setup);
+    printf("sim %s V=%d solver %s: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
+           cr_sim_solver_name(def->solver), st.seconds / n, st.frames, setup);
     printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
            "%.0f%%, other %.0f%%\n",
            name, 100 * st.seconds_assembly / tot, 100 * st.seconds_factor / tot,
@@ -68,8 +78,46 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
            name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.backoffs,
            1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
+    free(last_positions);
+    last_positions = malloc(sizeof(double) * 3 * (size_t)garment->nv);
+    if (last_positions)
+        memcpy(last_positions, cr_sim_positions(s), sizeof(double) * 3 * (size_t)garment->nv);
     cr_sim_destroy(s);
     return stopped;
+}
+
+/* One scene with the chosen solver, or the three runs of compare. */
+static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
+    cr_sim_def d = *base;
+    if (solver_mode < 2) {
+        d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
+        return run(name, garment, &d, frames);
+    }
+    int64_t n3 = 3 * (int64_t)garment->nv;
+    d.newton_tol = 1e-5, d.newton_rtol = 0.0, d.newton_max_iterations = 40;
+    int rc = run(name, garment, &d, frames);
+    double *ref = last_positions;
+    last_positions = NULL;
+    if (!ref) return 1;
+    for (int k = 0; k < 2; k++) {
+        d = *base;
+        d.solver = k == 0 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
+        rc |= run(name, garment, &d, frames);
+        if (!last_positions) continue;
+        double mean = 0.0, worst = 0.0;
+        for (int64_t i = 0; i < n3; i += 3) {
+            double dx = last_positions[i] - ref[i], dy = last_positions[i + 1] - ref[i + 1],
+                   dz = last_positions[i + 2] - ref[i + 2], r = sqrt(dx * dx + dy * dy + dz * dz);
+            mean += r / garment->nv;
+            worst = fmax(worst, r);
+        }
+        printf("sim %s accuracy %s%s after %d frames: mean %.2f mm, largest %.2f mm from "
+               "converged Newton\n",
+               name, cr_sim_solver_name(d.solver), k == 0 ? " (capped at 8)" : " (defaults)",
+               frames, 1e3 * mean, 1e3 * worst);
+    }
+    free(ref);
+    return rc;
 }
 
 static int bench_sphere(int frames) {
@@ -85,7 +133,7 @@ static int bench_sphere(int frames) {
     cr_sim_def d = cr_sim_default_def();
     cr_material_preset("cotton", &d.material, &err);
     d.collider = sphere;
-    int rc = run("sphere128", cloth, &d, frames);
+    int rc = run_mode("sphere128", cloth, &d, frames);
     cr_mesh_destroy(cloth);
     cr_mesh_destroy(sphere);
     return rc;
@@ -132,7 +180,7 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
     cr_material_preset("cotton", &d.material, &err);
     d.pinned = pins, d.npinned = npins;
     d.collider = cap, d.collider_frames = seq, d.collider_nframes = frames;
-    int rc = seq ? run(name, tube, &d, frames) : 1;
+    int rc = seq ? run_mode(name, tube, &d, frames) : 1;
     free(seq);
     free(pins);
     cr_mesh_destroy(tube);
@@ -141,6 +189,19 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
 }
 
 int main(int argc, char **argv) {
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--solver") && i + 1 < argc) {
+            const char *m = argv[i + 1];
+            solver_mode = !strcmp(m, "vbd") ? 1 : !strcmp(m, "compare") ? 2 : 0;
+            if (solver_mode == 0 && strcmp(m, "newton")) {
+                fprintf(stderr, "bench_sim: --solver newton|vbd|compare, got %s\n", m);
+                return 2;
+            }
+            for (int j = i; j + 2 < argc; j++)
+                argv[j] = argv[j + 2];
+            argc -= 2;
+            break;
+        }
     const char *which = argc > 1 ? argv[1] : "all";
     if (argc > 2) cr_set_thread_count(atoi(argv[2]));
     int frames = argc > 3 ? atoi(argv[3]) : 30, big = argc > 3 ? frames : 10;

@@ -2,9 +2,10 @@
 # `make bench-peers`: crease's simulator side by side with Blender's cloth
 # solver on the same scene: a 1 m square cloth of (res+1)^2 vertices at y = 0.5
 # dropped on a sphere of radius 0.3 m, 120 frames at 30 fps, 2 threads each,
-# at res = 64 and 128 quads per side. Prints seconds per frame for both, their
-# ratio (Blender / crease: above 1 means crease is faster) and each one's
-# deepest vertex inside the sphere at the end. The Blender harness is
+# at res = 64 and 128 quads per side. Prints seconds per frame for Blender and
+# for crease with each solver (Newton, VBD: `--solver`), the ratios (Blender /
+# crease: above 1 means crease is faster) and each one's deepest vertex inside
+# the sphere. The Blender harness is
 # ../shared/peers/blender_drape.py (its docstring gives the scene and timing
 # rules). Installs Debian's `blender` here if it is missing (root only); never
 # part of `make check`.
@@ -13,8 +14,8 @@ set -euo pipefail
 crease=$1
 out=${2:-build/bench_peers}
 root=$(cd "$(dirname "$0")/.." && pwd)
-peer=$root/../shared/peers/blender_drape.py
-frames=120
+peer=${CREASE_PEERS_DIR:-$root/../shared/peers}/blender_drape.py  # CREASE_PEERS_DIR: for a worktree
+frames=${PEERS_FRAMES:-120}  # PEERS_FRAMES, PEERS_RES: a shorter run
 threads=2
 
 if [[ ! -f $peer ]]; then
@@ -45,9 +46,9 @@ print(d[sys.argv[2]])' "$1" "$2"
 }
 
 mkdir -p "$out"
-printf '%-6s %-9s %-16s %-16s %-9s %-18s %-18s\n' res vertices "blender s/frame" "crease s/frame" ratio \
-  "blender depth mm" "crease depth mm"
-for res in 64 128; do
+printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s\n' res vertices "blender" \
+  "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm"
+for res in ${PEERS_RES:-64 128}; do
   b=$out/blender$res
   c=$out/crease$res
   mkdir -p "$b" "$c"
@@ -55,16 +56,22 @@ for res in 64 128; do
     --threads $threads --collider sphere --out "$b" >"$b/log.txt" 2>&1 ||
     { echo "bench-peers: blender failed at res $res, see $b/log.txt" >&2; exit 1; }
   "$crease" primitive plane --res $((res + 1)) --size 1 -o "$c/cloth.obj" >/dev/null
-  OMP_NUM_THREADS=$threads "$crease" simulate --garment "$c/cloth.obj" --garment-offset 0,0.5,0 \
-    --object sphere --frames $frames --fps 30 --material cotton -o "$c" --quiet --json \
-    >"$c/summary.json" 2>"$c/log.txt" ||
-    { echo "bench-peers: crease simulate failed at res $res, see $c/log.txt" >&2; exit 1; }
+  for solver in newton vbd; do
+    mkdir -p "$c/$solver"
+    OMP_NUM_THREADS=$threads "$crease" simulate --garment "$c/cloth.obj" --garment-offset 0,0.5,0 \
+      --object sphere --frames $frames --fps 30 --material cotton --solver $solver -o "$c/$solver" \
+      --quiet --json >"$c/$solver/summary.json" 2>"$c/$solver/log.txt" ||
+      { echo "bench-peers: crease simulate --solver $solver failed at res $res, see $c/$solver/log.txt" >&2; exit 1; }
+  done
   bs=$(field "$b/result.json" seconds_per_frame)
-  cs=$(field "$c/summary.json" seconds_per_frame)
+  ns=$(field "$c/newton/summary.json" seconds_per_frame)
+  vs=$(field "$c/vbd/summary.json" seconds_per_frame)
   bp=$(field "$b/result.json" max_penetration_m)
-  cp=$(field "$c/summary.json" max_penetration_m)
-  awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v cs="$cs" -v bp="$bp" -v cp="$cp" \
-    'BEGIN { printf "%-6d %-9d %-16.4f %-16.4f %-9.2f %-18.3f %-18.3f\n", r, v, bs, cs, bs / cs, 1e3 * bp, 1e3 * cp }'
+  np=$(field "$c/newton/summary.json" max_penetration_m)
+  vp=$(field "$c/vbd/summary.json" max_penetration_m)
+  awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v bp="$bp" \
+    -v np="$np" -v vp="$vp" 'BEGIN { printf "%-6d %-9d %-10.4f %-10.4f %-10.4f %-8.2f %-8.2f %-10.3f %-10.3f %-10.3f\n",
+      r, v, bs, ns, vs, bs / ns, bs / vs, 1e3 * bp, 1e3 * np, 1e3 * vp }'
 done
-echo "(ratio = blender / crease seconds per frame; crease depth is the deepest vertex inside the"
+echo "(seconds per frame; ratio-n, ratio-v = blender / crease Newton, VBD; crease depth is the deepest vertex inside the"
 echo " sphere before projection over the run, blender's at the last frame; outputs in $out)"

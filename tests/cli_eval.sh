@@ -100,6 +100,23 @@ v = struct.unpack('<%df' % (d['frames'] * d['vertices']), b[10 + n:])
 assert all(abs(x - 0.05) < 1e-6 for x in v), (min(v), max(v))
 "
 
+# --- simulate --plastic records its rest angles; eval selects BED hinges by them -------------
+check "simulate --plastic writes rest_angles.npy" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
+  --garment-offset 0,0.35,0 --object sphere --frames 6 --plastic --material silk -o '$tmp/plastic' \
+  --quiet --json > '$tmp/plastic.json' 2>/dev/null"
+check "rest_angles.npy is (frames + 1, hinges) float32" python3 -c "
+import json, struct
+d = json.load(open('$tmp/plastic.json'))
+b = open(d['outputs']['rest_angles'], 'rb').read()
+n = struct.unpack('<H', b[8:10])[0]
+head = b[10:10 + n].decode()
+assert \"'descr': '<f4'\" in head and '(7, ' in head, head
+"
+check "eval --rest-angles from simulate" bash -c "'$crease' eval --pred '$tmp/plastic/sim.pc2' \
+  --ref '$tmp/plastic/sim.pc2' --garment '$tmp/cloth.obj' --rest-angles '$tmp/plastic/rest_angles.npy' \
+  --pred-rest-angles '$tmp/plastic/rest_angles.npy' -o '$tmp/plastic_eval' --json 2>/dev/null \
+  | python3 -c \"import json, sys; d = json.load(sys.stdin); assert d['bed_from_rest'] and d['metrics']['pe_rad']['max'] == 0, d['metrics']['pe_rad']\""
+
 # --- bad input: exit 1 naming the files; usage: exit 2 --------------------------------------
 expect_exit 1 "sim10/sim.pc2.*sim/sim.pc2|sim/sim.pc2.*sim10/sim.pc2" eval --pred "$tmp/sim10/sim.pc2" \
   --ref "$tmp/sim/sim.pc2" --garment "$tmp/cloth.obj" -o "$tmp/x"

@@ -1,10 +1,12 @@
 /* test_drape.c: the drape method (paper 000): local-structure geometry,
- * central-difference checks of the four loss ops, the INR's rest mapping,
+ * central-difference checks of the four losses on the tape (phys/ energies
+ * through the generic loss op), the INR's rest mapping,
  * the mesh variants' rescaled weights against the structure losses, every
  * variant lowering its energy without penetrating on a coarse setting,
  * bit-identical resume, the fidelity measures against closed forms, and
  * refusal of bad input naming the option or file. */
 #include "crease/drape.h"
+#include "crease/losses.h"
 #include "crease/mesh_io.h"
 #include "crease/primitives.h"
 #include "methods/drape/drape_internal.h"
@@ -70,35 +72,17 @@ static void bent_points(float *x, int n) {
     }
 }
 
+/* One of the phys/ drape energies on the tape through the generic loss op,
+ * per element, scaled so values and gradients are of order one for the
+ * checker's tolerance. */
 typedef struct loss_user {
-    const int32_t *index;
-    const float *rest;
-    int64_t n;
-    const cr_bvh *bvh;
-    cr_drape_collision_mode mode;
+    cr_energy_term t;
     float scale;
 } loss_user;
 
-static cr_tensor *build_strain(cr_nn_ctx *ctx, cr_tensor *const *in, void *u) {
+static cr_tensor *build_term(cr_nn_ctx *ctx, cr_tensor *const *in, void *u) {
     const loss_user *lu = u;
-    return cr_drape_strain(ctx, in[0], lu->index, lu->rest, lu->n);
-}
-
-static cr_tensor *build_bend(cr_nn_ctx *ctx, cr_tensor *const *in, void *u) {
-    const loss_user *lu = u;
-    return cr_drape_bend(ctx, in[0], lu->index, lu->n);
-}
-
-static cr_tensor *build_gravity(cr_nn_ctx *ctx, cr_tensor *const *in, void *u) {
-    (void)u;
-    return cr_drape_gravity(ctx, in[0], 0.7f, 9.81f);
-}
-
-/* scaled so values and gradients are of order one for the checker's tolerance */
-static cr_tensor *build_collision(cr_nn_ctx *ctx, cr_tensor *const *in, void *u) {
-    const loss_user *lu = u;
-    return cr_nn_mul_scalar(ctx, cr_drape_collision(ctx, in[0], lu->bvh, lu->mode, 0.002f),
-                            lu->scale);
+    return cr_nn_mul_scalar(ctx, cr_loss_energy_per_element(ctx, &lu->t, in[0]), lu->scale);
 }
 
 CR_TEST(drape, strain_and_bend_gradients_match_differences) {
@@ -116,17 +100,33 @@ CR_TEST(drape, strain_and_bend_gradients_match_differences) {
             for (int q = 0; q < 4; q++)
                 hinges[4 * (3 * s + h) + q] = 6 * s + cr_drape_struct_hinges[h][q];
     }
+    cr_error err = {0};
+    cr_drape_strain *strain = NULL;
+    cr_drape_bend *bend = NULL;
+    cr_drape_gravity *gravity = NULL;
+    CR_CHECK_OK(cr_drape_strain_create(0, &strain, &err), &err);
+    CR_CHECK_OK(cr_drape_bend_create(0, &bend, &err), &err);
+    CR_CHECK_OK(cr_drape_gravity_create(0.7, 9.81, &gravity, &err), &err);
+    CR_REQUIRE(strain && bend && gravity);
+    CR_CHECK_OK(cr_drape_strain_set(strain, edges, rest, 18, 12, &err), &err);
+    CR_CHECK_OK(cr_drape_bend_set(bend, hinges, 6, 12, &err), &err);
+    cr_drape_gravity_set_count(gravity, 12);
     nn_gradcheck_input in = nn_gradcheck_in(2, (int64_t[]){12, 3}, x);
     nn_gradcheck_def gd = nn_gradcheck_default_def();
     gd.step = 1e-4, gd.tol = 2e-2;
-    loss_user su = {.index = edges, .rest = rest, .n = 18};
+    loss_user lu = {.scale = 1.0f};
+    cr_drape_strain_term(strain, &lu.t);
     gd.name = "drape_strain";
-    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_strain, &su, NULL) == 0);
-    loss_user bu = {.index = hinges, .n = 6};
+    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_term, &lu, NULL) == 0);
+    cr_drape_bend_term(bend, &lu.t);
     gd.name = "drape_bend";
-    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_bend, &bu, NULL) == 0);
+    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_term, &lu, NULL) == 0);
+    cr_drape_gravity_term(gravity, &lu.t);
     gd.name = "drape_gravity";
-    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_gravity, NULL, NULL) == 0);
+    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_term, &lu, NULL) == 0);
+    cr_drape_strain_destroy(strain);
+    cr_drape_bend_destroy(bend);
+    cr_drape_gravity_destroy(gravity);
 }
 
 CR_TEST(drape, bend_is_zero_when_flat_and_grows_with_the_fold) {
@@ -136,9 +136,16 @@ CR_TEST(drape, bend_is_zero_when_flat_and_grows_with_the_fold) {
         x[3 * i] = uv[2 * i], x[3 * i + 1] = 0.0f, x[3 * i + 2] = uv[2 * i + 1];
     int32_t hinges[12];
     memcpy(hinges, cr_drape_struct_hinges, sizeof hinges);
+    cr_error err = {0};
+    cr_drape_bend *bend = NULL;
+    CR_CHECK_OK(cr_drape_bend_create(3, &bend, &err), &err);
+    CR_REQUIRE(bend);
+    CR_CHECK_OK(cr_drape_bend_set(bend, hinges, 3, 6, &err), &err);
+    cr_energy_term bt;
+    cr_drape_bend_term(bend, &bt);
     cr_nn_ctx *ctx = nn_gradcheck_ctx(1 << 20);
     CR_REQUIRE(ctx);
-    cr_tensor *t = cr_drape_bend(ctx, cr_nn_from(ctx, 2, (int64_t[]){6, 3}, x), hinges, 3);
+    cr_tensor *t = cr_loss_energy_per_element(ctx, &bt, cr_nn_from(ctx, 2, (int64_t[]){6, 3}, x));
     CR_REQUIRE(t);
     for (int h = 0; h < 3; h++)
         CR_CHECK_NEAR(t->data[h], 0.0, 1e-12);
@@ -148,11 +155,12 @@ CR_TEST(drape, bend_is_zero_when_flat_and_grows_with_the_fold) {
     x[9] = (float)(mx + dx * cos(phi)), x[11] = (float)(mz + dz * cos(phi));
     x[10] = (float)(r * sin(phi));
     cr_nn_ctx_reset(ctx);
-    t = cr_drape_bend(ctx, cr_nn_from(ctx, 2, (int64_t[]){6, 3}, x), hinges, 3);
+    t = cr_loss_energy_per_element(ctx, &bt, cr_nn_from(ctx, 2, (int64_t[]){6, 3}, x));
     CR_REQUIRE(t);
     CR_CHECK_NEAR(t->data[0], 2 - 2 * cos(phi), 1e-4);
     CR_CHECK_NEAR(t->data[1], 0.0, 1e-12);
     cr_nn_ctx_destroy(ctx);
+    cr_drape_bend_destroy(bend);
 }
 
 CR_TEST(drape, collision_gradients_match_differences) {
@@ -176,20 +184,25 @@ CR_TEST(drape, collision_gradients_match_differences) {
     nn_gradcheck_input in = nn_gradcheck_in(2, (int64_t[]){5, 3}, x);
     nn_gradcheck_def gd = nn_gradcheck_default_def();
     gd.step = 1e-5, gd.tol = 1e-2;
-    loss_user cu = {.bvh = bvh, .mode = CR_DRAPE_COLLIDE_VERTEX, .scale = 1e4f};
+    cr_drape_collision *coll = NULL;
+    CR_CHECK_OK(cr_drape_collision_create(bvh, CR_DRAPE_COLLIDE_VERTEX, 0.002f, &coll, &err), &err);
+    CR_REQUIRE(coll);
+    cr_drape_collision_set_count(coll, 5);
+    loss_user cu = {.scale = 1e4f};
+    cr_drape_collision_term(coll, &cu.t);
     gd.name = "drape_collision vertex";
     nn_gradcheck_result res;
-    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_collision, &cu, &res) == 0);
+    CR_CHECK(nn_gradcheck(&gd, 1, &in, NULL, build_term, &cu, &res) == 0);
     /* the vertex form's value: (s - eps)^2 with s the depth along the vertex normal */
     cr_nn_ctx *ctx = nn_gradcheck_ctx(1 << 20);
     CR_REQUIRE(ctx);
-    cr_tensor *t = cr_drape_collision(ctx, cr_nn_from(ctx, 2, (int64_t[]){5, 3}, x), bvh,
-                                      CR_DRAPE_COLLIDE_VERTEX, 0.002f);
+    cr_tensor *t = cr_loss_energy_per_element(ctx, &cu.t, cr_nn_from(ctx, 2, (int64_t[]){5, 3}, x));
     CR_REQUIRE(t);
     double s0 = -0.005 + 0.004 * vn[3 * verts[0]]; /* the x offset projects onto the normal */
     CR_CHECK_NEAR(t->data[0], pow(s0 - 0.002, 2), 1e-8);
     CR_CHECK(t->data[2] == 0.0f && t->data[4] == 0.0f);
     cr_nn_ctx_destroy(ctx);
+    cr_drape_collision_destroy(coll);
     cr_bvh_destroy(bvh);
     cr_mesh_destroy(ball);
 
@@ -199,9 +212,13 @@ CR_TEST(drape, collision_gradients_match_differences) {
     CR_CHECK_OK(cr_bvh_build(box->pos, box->nv, box->tri, box->nf, &bvh, &err), &err);
     float y[9] = {0.03f, 0.197f, -0.05f, 0.196f, 0.02f, 0.07f, -0.04f, 0.06f, -0.199f};
     nn_gradcheck_input in2 = nn_gradcheck_in(2, (int64_t[]){3, 3}, y);
-    cu.bvh = bvh, cu.mode = CR_DRAPE_COLLIDE_SDF;
+    CR_CHECK_OK(cr_drape_collision_create(bvh, CR_DRAPE_COLLIDE_SDF, 0.002f, &coll, &err), &err);
+    CR_REQUIRE(coll);
+    cr_drape_collision_set_count(coll, 3);
+    cr_drape_collision_term(coll, &cu.t);
     gd.name = "drape_collision sdf";
-    CR_CHECK(nn_gradcheck(&gd, 1, &in2, NULL, build_collision, &cu, NULL) == 0);
+    CR_CHECK(nn_gradcheck(&gd, 1, &in2, NULL, build_term, &cu, NULL) == 0);
+    cr_drape_collision_destroy(coll);
     cr_bvh_destroy(bvh);
     cr_mesh_destroy(box);
 }
@@ -325,6 +342,65 @@ static void cap(const float *p, float *q) { /* onto a sphere of radius 2 m, isom
     q[0] = (float)(x * s), q[2] = (float)(z * s), q[1] = (float)(p[1] - R * (1 - cos(a)));
 }
 
+/* The training loss (cr_drape_batch_loss) and the evaluation
+ * (cr_drape_batch_eval) are one weighted sum of the same four terms: their
+ * weighted terms agree, and the per-structure scores add up to the total. */
+CR_TEST(drape, batch_loss_and_eval_are_one_weighted_sum) {
+    cr_drape_def d = coarse_def(CR_DRAPE_INR_UNIFORM);
+    drape_scene s;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_drape_scene_create(&d, &s, &err), &err);
+    cr_drape_model *m = NULL;
+    CR_CHECK_OK(cr_drape_model_create(&d, s.rest, &m, &err), &err);
+    drape_loss_ctx lc;
+    CR_CHECK_OK(cr_drape_loss_ctx_create(&d, s.bvh, &lc, &err), &err);
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
+    CR_REQUIRE(m && ctx);
+    enum { NS = 64 };
+    float c[2 * NS], th[NS];
+    for (int i = 0; i < NS; i++) {
+        c[2 * i] = 0.35f + 0.3f * (i % 8) / 7.0f;
+        c[2 * i + 1] = 0.35f + 0.3f * (i / 8) / 7.0f;
+        th[i] = 0.1f * i;
+    }
+    drape_batch b;
+    CR_CHECK_OK(cr_drape_batch_alloc(&b, NS, &err), &err);
+    CR_CHECK_OK(cr_drape_batch_build(&b, m, c, th, NS, 0.02f, 1, &err), &err);
+    CR_REQUIRE(b.n == NS);
+    /* the cloth lowered 3 mm into the ball's top and rippled: every term non-zero */
+    float *xs = malloc((size_t)b.n * 18 * sizeof(float));
+    CR_REQUIRE(xs);
+    for (int64_t i = 0; i < 6 * b.n; i++) {
+        const float *p = &b.p0[3 * i];
+        xs[3 * i] = 1.01f * p[0], xs[3 * i + 2] = p[2];
+        xs[3 * i + 1] = p[1] - d.gap - 0.003f + 0.002f * sinf(40.0f * p[0]);
+    }
+    cr_tensor *terms[4];
+    cr_tensor *loss =
+        cr_drape_batch_loss(ctx, &lc, &b, cr_nn_from(ctx, 2, (int64_t[]){6 * b.n, 3}, xs), terms);
+    CR_REQUIRE(loss);
+    double sums[4] = {0}, total = 0.0;
+    float per[NS];
+    CR_CHECK_OK(cr_drape_batch_eval(ctx, &lc, &b, xs, sums, per, &err), &err);
+    for (int k = 0; k < 4; k++) {
+        CR_CHECK(terms[k]->data[0] != 0.0f);
+        CR_CHECK_NEAR(sums[k], terms[k]->data[0], 1e-6 * fabs(sums[k]));
+        total += sums[k];
+    }
+    CR_CHECK(sums[3] > 0.0); /* in contact */
+    CR_CHECK_NEAR(loss->data[0], total, 1e-5 * fabs(total));
+    double per_total = 0.0;
+    for (int i = 0; i < NS; i++)
+        per_total += per[i];
+    CR_CHECK_NEAR(per_total, total, 1e-5 * fabs(total));
+    free(xs);
+    cr_drape_batch_free(&b);
+    cr_nn_ctx_destroy(ctx);
+    cr_drape_loss_ctx_free(&lc);
+    cr_drape_model_destroy(m);
+    cr_drape_scene_free(&s);
+}
+
 CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
     cr_drape_def d = coarse_def(CR_DRAPE_MESH);
     d.mesh_res = 101;
@@ -357,8 +433,10 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
         }
         cr_nn_ctx_reset(ctx);
         cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){s.rest->nv, 3}, v);
-        cr_tensor *st = cr_nn_sum(ctx, cr_drape_strain(ctx, x, ml.edges, ml.rest, ml.ne));
-        cr_tensor *bd = cr_nn_sum(ctx, cr_drape_bend(ctx, x, ml.hinges, ml.nh));
+        cr_energy_term et, bt;
+        cr_drape_strain_term(ml.strain, &et);
+        cr_drape_bend_term(ml.bend, &bt);
+        cr_tensor *st = cr_loss_energy(ctx, &et, x), *bd = cr_loss_energy(ctx, &bt, x);
         CR_REQUIRE(st && bd);
         double mesh_strain = ml.w.strain * st->data[0] / s.rest->nv;
         double mesh_bend = ml.w.bend * bd->data[0] / s.rest->nv;
@@ -372,7 +450,7 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
         }
         drape_batch b;
         CR_CHECK_OK(cr_drape_batch_alloc(&b, NS, &err), &err);
-        cr_drape_batch_build(&b, m, c, th, NS, d.side, 1);
+        CR_CHECK_OK(cr_drape_batch_build(&b, m, c, th, NS, d.side, 1, &err), &err);
         /* the structures on the smooth deformed surface, not on the mesh's facets */
         float *xs = malloc((size_t)b.n * 18 * sizeof(float));
         CR_REQUIRE(xs);
@@ -385,8 +463,10 @@ CR_TEST(drape, mesh_weights_estimate_the_structure_energy) {
                 xs[3 * i + c] = q[c] + ctr[c];
         }
         double sums[4] = {0};
-        drape_loss_ctx lc = {.def = &d, .bvh = s.bvh};
+        drape_loss_ctx lc;
+        CR_CHECK_OK(cr_drape_loss_ctx_create(&d, s.bvh, &lc, &err), &err);
         CR_CHECK_OK(cr_drape_batch_eval(ctx, &lc, &b, xs, sums, NULL, &err), &err);
+        cr_drape_loss_ctx_free(&lc);
         double st_strain = sums[0] / b.n, st_bend = sums[1] / b.n;
         if (k == 0) {
             CR_CHECK(st_strain > 0);

@@ -13,6 +13,7 @@
 #include "crease/phys_energies.h"
 #include "crease/primitives.h"
 #include "crease/topology.h"
+#include "energy_fd.h"
 #include "phys/dihedral64.h"
 #include "phys/lapack.h"
 #include "test.h"
@@ -26,40 +27,13 @@
 
 /* ------------------------------------------------------------ helpers -- */
 
-static double kval(const cr_energy_term *t, int32_t e, const double *x) {
-    return t->kernel(t->data, e, x, NULL, NULL);
-}
-
-static double max_abs(const double *a, int n) {
-    double m = 0.0;
-    for (int i = 0; i < n; i++) m = fmax(m, fabs(a[i]));
-    return m;
-}
-
-/* Max |analytic - FD| gradient error relative to max |gradient|. */
-static double grad_rel_error_h(const cr_energy_term *t, int32_t e, const double *x0, double h) {
-    const int n = 3 * t->nvert;
-    double x[12], g[12], err = 0.0;
-    t->kernel(t->data, e, x0, g, NULL);
-    memcpy(x, x0, sizeof(double) * (size_t)n);
-    for (int i = 0; i < n; i++) {
-        x[i] = x0[i] + h;
-        const double ep = kval(t, e, x);
-        x[i] = x0[i] - h;
-        const double em = kval(t, e, x);
-        x[i] = x0[i];
-        err = fmax(err, fabs(g[i] - (ep - em) / (2.0 * h)));
-    }
-    return err / fmax(max_abs(g, n), 1e-300);
-}
 static double grad_rel_error(const cr_energy_term *t, int32_t e, const double *x0) {
-    return grad_rel_error_h(t, e, x0, FD_STEP);
+    return fd_grad_rel_error(t, e, x0, FD_STEP);
 }
 
 /* Hessian by central differences of a gradient function. */
 typedef void (*grad_fn)(const void *ctx, const double *x, double *g);
-static void fd_hessian_h(grad_fn f, const void *ctx, const double *x0, int n, double h,
-                         double *H) {
+static void fd_hessian_h(grad_fn f, const void *ctx, const double *x0, int n, double h, double *H) {
     double x[12], gp[12], gm[12];
     memcpy(x, x0, sizeof(double) * (size_t)n);
     for (int j = 0; j < n; j++) {
@@ -68,10 +42,12 @@ static void fd_hessian_h(grad_fn f, const void *ctx, const double *x0, int n, do
         x[j] = x0[j] - h;
         f(ctx, x, gm);
         x[j] = x0[j];
-        for (int i = 0; i < n; i++) H[i * n + j] = (gp[i] - gm[i]) / (2.0 * h);
+        for (int i = 0; i < n; i++)
+            H[i * n + j] = (gp[i] - gm[i]) / (2.0 * h);
     }
     for (int i = 0; i < n; i++) /* symmetrise: the FD noise is not */
-        for (int j = 0; j < i; j++) H[i * n + j] = H[j * n + i] = 0.5 * (H[i * n + j] + H[j * n + i]);
+        for (int j = 0; j < i; j++)
+            H[i * n + j] = H[j * n + i] = 0.5 * (H[i * n + j] + H[j * n + i]);
 }
 
 static void fd_hessian(grad_fn f, const void *ctx, const double *x0, int n, double *H) {
@@ -89,8 +65,9 @@ static void term_grad(const void *ctx, const double *x, double *g) {
 
 static double rel_diff(const double *a, const double *b, int n) {
     double d = 0.0;
-    for (int i = 0; i < n; i++) d = fmax(d, fabs(a[i] - b[i]));
-    return d / fmax(fmax(max_abs(a, n), max_abs(b, n)), 1e-300);
+    for (int i = 0; i < n; i++)
+        d = fmax(d, fabs(a[i] - b[i]));
+    return d / fmax(fmax(fd_max_abs(a, n), fd_max_abs(b, n)), 1e-300);
 }
 
 /* Kernel Hessian against FD of the kernel gradient (relative error). */
@@ -118,7 +95,7 @@ static double min_eig_rel(const double *H, int n) {
 }
 
 static int is_symmetric(const double *H, int n) {
-    const double s = max_abs(H, n * n);
+    const double s = fd_max_abs(H, n * n);
     for (int i = 0; i < n; i++)
         for (int j = 0; j < i; j++)
             if (fabs(H[i * n + j] - H[j * n + i]) > 1e-12 * s) return 0;
@@ -148,13 +125,15 @@ static cr_mesh *one_triangle(void) {
 }
 
 static void rest_x(const cr_mesh *m, double *x) {
-    for (int64_t i = 0; i < 3 * (int64_t)m->nv; i++) x[i] = m->pos[i];
+    for (int64_t i = 0; i < 3 * (int64_t)m->nv; i++)
+        x[i] = m->pos[i];
 }
 
 /* x_out = R x_in + t for n points, R a random rotation. */
 static void rigid(cr_rng *r, const double *in, int n, double *out) {
     double q[4], s = 0;
-    for (int i = 0; i < 4; i++) q[i] = cr_rng_normal(r), s += q[i] * q[i];
+    for (int i = 0; i < 4; i++)
+        q[i] = cr_rng_normal(r), s += q[i] * q[i];
     s = sqrt(s);
     const double w = q[0] / s, a = q[1] / s, b = q[2] / s, c = q[3] / s;
     const double R[9] = {1 - 2 * (b * b + c * c), 2 * (a * b - w * c),     2 * (a * c + w * b),
@@ -182,26 +161,31 @@ CR_TEST(phys_energy, psd_project_clamps_known_matrix) {
                 want[3 * i + j] += Q[3 * i + k] * lam_p[k] * Q[3 * j + k];
             }
     cr_psd_project(H, 3);
-    for (int i = 0; i < 9; i++) CR_CHECK_NEAR(H[i], want[i], 1e-12);
+    for (int i = 0; i < 9; i++)
+        CR_CHECK_NEAR(H[i], want[i], 1e-12);
     /* A PSD (singular) matrix comes back bit for bit; so does a PD one. */
     double P[144], P0[144];
     cr_rng r = cr_rng_make(3, 0);
     double v[12];
-    for (int i = 0; i < 12; i++) v[i] = cr_rng_normal(&r);
     for (int i = 0; i < 12; i++)
-        for (int j = 0; j < 12; j++) P[12 * i + j] = v[i] * v[j] + (i == j && i < 6 ? 1.0 : 0.0);
+        v[i] = cr_rng_normal(&r);
+    for (int i = 0; i < 12; i++)
+        for (int j = 0; j < 12; j++)
+            P[12 * i + j] = v[i] * v[j] + (i == j && i < 6 ? 1.0 : 0.0);
     memcpy(P0, P, sizeof P);
     cr_psd_project(P, 12);
     CR_CHECK(memcmp(P, P0, sizeof P) == 0);
     /* A random symmetric 12x12: the result is PSD and H_proj - H is PSD. */
     for (int i = 0; i < 12; i++)
-        for (int j = 0; j <= i; j++) P[12 * i + j] = P[12 * j + i] = cr_rng_normal(&r);
+        for (int j = 0; j <= i; j++)
+            P[12 * i + j] = P[12 * j + i] = cr_rng_normal(&r);
     memcpy(P0, P, sizeof P);
     cr_psd_project(P, 12);
     CR_CHECK(is_symmetric(P, 12));
     CR_CHECK(min_eig_rel(P, 12) > -1e-12);
     double D[144];
-    for (int i = 0; i < 144; i++) D[i] = P[i] - P0[i];
+    for (int i = 0; i < 144; i++)
+        D[i] = P[i] - P0[i];
     CR_CHECK(min_eig_rel(D, 12) > -1e-12);
 }
 
@@ -209,7 +193,8 @@ CR_TEST(phys_energy, psd_project_clamps_known_matrix) {
 
 /* Deformations of the rest triangle: s scales it in its plane, plus noise. */
 static void deform(cr_rng *r, const double *x0, double s, double noise, double *x) {
-    for (int i = 0; i < 9; i++) x[i] = s * x0[i] + noise * cr_rng_normal(r);
+    for (int i = 0; i < 9; i++)
+        x[i] = s * x0[i] + noise * cr_rng_normal(r);
 }
 
 static void membrane_checks(cr_membrane_model model) {
@@ -228,18 +213,18 @@ static void membrane_checks(cr_membrane_model model) {
     /* Rest: zero energy and zero gradient, also after a rigid motion. */
     cr_rng r = cr_rng_make(7, (uint64_t)model);
     CR_CHECK_NEAR(t.kernel(t.data, 0, x0, g, H), 0.0, 1e-15);
-    CR_CHECK(max_abs(g, 9) < 1e-9);
+    CR_CHECK(fd_max_abs(g, 9) < 1e-9);
     rigid(&r, x0, 3, y);
     CR_CHECK_NEAR(t.kernel(t.data, 0, y, g, NULL), 0.0, 1e-12);
-    CR_CHECK(max_abs(g, 9) < 1e-7);
+    CR_CHECK(fd_max_abs(g, 9) < 1e-7);
     for (int trial = 0; trial < 20; trial++) {
         const double s = trial < 10 ? 1.1 : 0.9; /* tension, then compression */
         deform(&r, x0, s, 2e-3, x);
-        const double e = kval(&t, 0, x);
+        const double e = fd_kval(&t, 0, x);
         CR_CHECK(e > 0.0);
         CR_CHECK(grad_rel_error(&t, 0, x) < FD_RTOL);
         rigid(&r, x, 3, y);
-        CR_CHECK_NEAR(kval(&t, 0, y), e, 1e-9 * e);
+        CR_CHECK_NEAR(fd_kval(&t, 0, y), e, 1e-9 * e);
         t.kernel(t.data, 0, x, g, H);
         CR_CHECK(is_symmetric(H, 9));
         CR_CHECK(min_eig_rel(H, 9) > -1e-10);
@@ -247,14 +232,16 @@ static void membrane_checks(cr_membrane_model model) {
         term_elem te = {&t, 0};
         double Hfd[81], D[81];
         fd_hessian(term_grad, &te, x, 9, Hfd);
-        for (int i = 0; i < 81; i++) D[i] = H[i] - Hfd[i];
-        CR_CHECK(min_eig_rel(D, 9) * max_abs(D, 81) > -1e-5 * max_abs(H, 81));
+        for (int i = 0; i < 81; i++)
+            D[i] = H[i] - Hfd[i];
+        CR_CHECK(min_eig_rel(D, 9) * fd_max_abs(D, 81) > -1e-5 * fd_max_abs(H, 81));
         /* Under uniform stretch without shear the exact Hessian is PSD: equal. */
         if (trial < 10 && model == CR_MEMBRANE_STVK) CR_CHECK(hess_rel_error(&t, 0, x) < FD_RTOL);
     }
     if (model == CR_MEMBRANE_BARAFF_WITKIN) {
         /* Pure stretch along the rest axes (w_u . w_v = 0, |w| > 1): PSD, exact. */
-        for (int i = 0; i < 9; i++) x[i] = 1.2 * x0[i];
+        for (int i = 0; i < 9; i++)
+            x[i] = 1.2 * x0[i];
         CR_CHECK(hess_rel_error(&t, 0, x) < FD_RTOL);
     }
     /* Gauss-Newton: PSD by construction. */
@@ -288,12 +275,12 @@ CR_TEST(phys_energy, membrane_uv_rest) {
     cr_membrane_term(b, &tb);
     double x0[9], x[9];
     rest_x(m, x0);
-    CR_CHECK_NEAR(kval(&tb, 0, x0), 0.0, 1e-12);
+    CR_CHECK_NEAR(fd_kval(&tb, 0, x0), 0.0, 1e-12);
     cr_rng r = cr_rng_make(5, 0);
     for (int trial = 0; trial < 5; trial++) {
         deform(&r, x0, 1.05, 3e-3, x);
         /* StVK is isotropic: the UV rest (same shape, other frame) agrees. */
-        CR_CHECK_NEAR(kval(&tb, 0, x), kval(&ta, 0, x), 1e-6 * kval(&ta, 0, x));
+        CR_CHECK_NEAR(fd_kval(&tb, 0, x), fd_kval(&ta, 0, x), 1e-6 * fd_kval(&ta, 0, x));
         CR_CHECK(grad_rel_error(&tb, 0, x) < FD_RTOL);
     }
     /* A UV scale of 1 shrinks the rest shape by half: the rest mesh is stretched. */
@@ -301,7 +288,7 @@ CR_TEST(phys_energy, membrane_uv_rest) {
     CR_CHECK_OK(cr_membrane_create(m, 1, 1.0f, &mat, &c, &err), &err);
     cr_energy_term tc;
     cr_membrane_term(c, &tc);
-    CR_CHECK(kval(&tc, 0, x0) > 0.0);
+    CR_CHECK(fd_kval(&tc, 0, x0) > 0.0);
     /* Errors: no UVs; degenerate rest triangle named. */
     cr_mesh *flat = NULL;
     CR_CHECK_OK(cr_mesh_clone(m, &flat, &err), &err);
@@ -324,7 +311,9 @@ static void folded_hinge(double phi, double *x) {
     memcpy(x, h, sizeof h);
 }
 
-typedef struct { int unused; } no_ctx;
+typedef struct {
+    int unused;
+} no_ctx;
 static void theta_grad(const void *ctx, const double *x, double *g) {
     (void)ctx;
     double gy[9];
@@ -342,10 +331,12 @@ CR_TEST(phys_energy, dihedral64_derivatives) {
         CR_CHECK_NEAR(cr_dihedral64_angle(x), phis[k], 1e-12);
         /* Same sign convention as diffgeo.h's float version. */
         float xf[12];
-        for (int i = 0; i < 12; i++) xf[i] = (float)x[i];
+        for (int i = 0; i < 12; i++)
+            xf[i] = (float)x[i];
         CR_CHECK_NEAR(cr_dihedral_angle(xf, xf + 3, xf + 6, xf + 9), phis[k], 1e-5);
         /* Perturb off the symmetric setup, then check gradient and Hessian by FD. */
-        for (int i = 0; i < 12; i++) y[i] = x[i] + 0.05 * cr_rng_normal(&r);
+        for (int i = 0; i < 12; i++)
+            y[i] = x[i] + 0.05 * cr_rng_normal(&r);
         double gy[9], Hy[81], g[12], H[144], Hfd[144];
         int ok = 0;
         const double th = cr_dihedral64_derivs_y(y, gy, Hy, &ok);
@@ -362,7 +353,7 @@ CR_TEST(phys_energy, dihedral64_derivatives) {
             yy[i] = y[i];
             gerr = fmax(gerr, fabs(g[i] - (tp - tm) / (2 * FD_STEP)));
         }
-        CR_CHECK(gerr < FD_RTOL * max_abs(g, 12));
+        CR_CHECK(gerr < FD_RTOL * fd_max_abs(g, 12));
         cr_dihedral64_hess_x(Hy, H);
         CR_CHECK(is_symmetric(H, 12));
         no_ctx c;
@@ -378,12 +369,12 @@ static cr_mesh *hinge_mesh(double phi) {
     CR_CHECK_OK(cr_mesh_create(4, 2, 0, &m, &err), &err);
     double x[12];
     folded_hinge(phi, x);
-    for (int i = 0; i < 12; i++) m->pos[i] = (float)x[i];
+    for (int i = 0; i < 12; i++)
+        m->pos[i] = (float)x[i];
     const int32_t tri[6] = {0, 1, 2, 1, 0, 3};
     memcpy(m->tri, tri, sizeof tri);
     return m;
 }
-
 
 /* k_e (grad grad^T + d Hess theta): the unprojected bending Hessian (12x12). */
 static void bending_exact_hessian(double ke, double d, const double *x, double *H) {
@@ -391,7 +382,8 @@ static void bending_exact_hessian(double ke, double d, const double *x, double *
     int ok;
     cr_dihedral64_derivs_y(x, gy, Hy, &ok);
     for (int i = 0; i < 9; i++)
-        for (int j = 0; j < 9; j++) Hy[9 * i + j] = ke * (gy[i] * gy[j] + d * Hy[9 * i + j]);
+        for (int j = 0; j < 9; j++)
+            Hy[9 * i + j] = ke * (gy[i] * gy[j] + d * Hy[9 * i + j]);
     cr_dihedral64_hess_x(Hy, H);
 }
 
@@ -423,12 +415,12 @@ CR_TEST(phys_energy, bending) {
     /* Minimal, with zero gradient, at theta = theta_rest != 0. */
     folded_hinge(phi0, x);
     CR_CHECK_NEAR(t.kernel(t.data, 0, x, g, H), 0.0, 1e-20);
-    CR_CHECK(max_abs(g, 12) < 1e-15);
+    CR_CHECK(fd_max_abs(g, 12) < 1e-15);
     CR_CHECK(hess_rel_error(&t, 0, x) < FD_RTOL); /* k_e g g^T: PSD, so exact */
     double prev = INFINITY;
     for (int k = -10; k <= 10; k++) {
         folded_hinge(phi0 + 0.05 * k, y);
-        const double e = kval(&t, 0, y);
+        const double e = fd_kval(&t, 0, y);
         CR_CHECK_NEAR(e, 0.5 * ke * (0.05 * k) * (0.05 * k), 1e-9 * ke);
         if (k <= 0) CR_CHECK(e < prev || k == -10);
         prev = e;
@@ -439,25 +431,27 @@ CR_TEST(phys_energy, bending) {
     /* Wrapping: rest 3.0, angle -3.0 is 2 pi - 6 away, not 6. */
     cr_bending_rest_angles(br)[0] = 3.0;
     folded_hinge(-3.0, y);
-    CR_CHECK_NEAR(kval(&t, 0, y), 0.5 * ke * (2 * M_PI - 6) * (2 * M_PI - 6), 1e-9 * ke);
+    CR_CHECK_NEAR(fd_kval(&t, 0, y), 0.5 * ke * (2 * M_PI - 6) * (2 * M_PI - 6), 1e-9 * ke);
     cr_bending_rest_angles(br)[0] = phi0;
     /* Random configurations: gradient by FD; the projected Hessian is PSD,
      * symmetric and dominates the exact one; rigid motions change nothing. */
     cr_rng r = cr_rng_make(13, 0);
     for (int trial = 0; trial < 20; trial++) {
         folded_hinge(-2.0 + 0.2 * trial, x);
-        for (int i = 0; i < 12; i++) x[i] += 0.05 * cr_rng_normal(&r);
-        const double e = kval(&t, 0, x);
+        for (int i = 0; i < 12; i++)
+            x[i] += 0.05 * cr_rng_normal(&r);
+        const double e = fd_kval(&t, 0, x);
         CR_CHECK(grad_rel_error(&t, 0, x) < FD_RTOL);
         rigid(&r, x, 4, y);
-        CR_CHECK_NEAR(kval(&t, 0, y), e, 1e-9 * e + 1e-20);
+        CR_CHECK_NEAR(fd_kval(&t, 0, y), e, 1e-9 * e + 1e-20);
         t.kernel(t.data, 0, x, g, H);
         CR_CHECK(is_symmetric(H, 12));
         CR_CHECK(min_eig_rel(H, 12) > -1e-10);
         const double d = remainder(cr_dihedral64_angle(x) - phi0, 2 * M_PI);
         bending_exact_hessian(ke, d, x, Hx);
-        for (int i = 0; i < 144; i++) D[i] = H[i] - Hx[i];
-        CR_CHECK(min_eig_rel(D, 12) * max_abs(D, 144) > -1e-10 * max_abs(H, 144));
+        for (int i = 0; i < 144; i++)
+            D[i] = H[i] - Hx[i];
+        CR_CHECK(min_eig_rel(D, 12) * fd_max_abs(D, 144) > -1e-10 * fd_max_abs(H, 144));
         /* The exact Hessian against FD of the kernel gradient. */
         term_elem te = {&t, 0};
         double Hfd[144];
@@ -470,12 +464,12 @@ CR_TEST(phys_energy, bending) {
     const double d = remainder(cr_dihedral64_angle(x) - phi0, 2 * M_PI);
     for (int i = 0; i < 12; i++)
         for (int j = 0; j < 12; j++)
-            CR_CHECK_NEAR(H[12 * i + j], g[i] * g[j] / (ke * d * d), 1e-9 * max_abs(H, 144));
+            CR_CHECK_NEAR(H[12 * i + j], g[i] * g[j] / (ke * d * d), 1e-9 * fd_max_abs(H, 144));
     /* A flat rest: energy k_e/2 phi^2 at the fold phi (here the mesh's float
      * rest angle is 0 exactly). */
     cr_bending_term(bf, &t);
     folded_hinge(1.0, x);
-    CR_CHECK_NEAR(kval(&t, 0, x), 0.5 * cr_bending_stiffness(bf)[0], 1e-12 * ke);
+    CR_CHECK_NEAR(fd_kval(&t, 0, x), 0.5 * cr_bending_stiffness(bf)[0], 1e-12 * ke);
     cr_bending_destroy(bf);
     cr_bending_destroy(br);
     cr_topology_destroy(topo);
@@ -496,7 +490,8 @@ CR_TEST(phys_energy, gravity_and_inertia) {
     CR_REQUIRE(gr);
     const double *mass = cr_gravity_masses(gr);
     double total = 0.0;
-    for (int i = 0; i < m->nv; i++) total += mass[i];
+    for (int i = 0; i < m->nv; i++)
+        total += mass[i];
     CR_CHECK_NEAR(total, mat.density * 0.6, 1e-6 * total);
     /* Interior vertex of a regular grid: six triangles of area A/6... i.e. 2 quads. */
     CR_CHECK(mass[6] > mass[0]);
@@ -509,19 +504,20 @@ CR_TEST(phys_energy, gravity_and_inertia) {
         CR_CHECK_NEAR(v, mass[e] * 9.81 * x[1], 1e-12);
         CR_CHECK_NEAR(g[0], 0.0, 0.0);
         CR_CHECK_NEAR(g[1], 9.81 * mass[e], 1e-15);
-        CR_CHECK(max_abs(H, 9) == 0.0);
+        CR_CHECK(fd_max_abs(H, 9) == 0.0);
     }
     cr_inertia *in = NULL;
     CR_CHECK_OK(cr_inertia_create(mass, m->nv, &in, &err), &err);
     CR_REQUIRE(in);
     double *xp = calloc(3 * (size_t)m->nv, sizeof(double));
-    for (int i = 0; i < 3 * m->nv; i++) xp[i] = cr_rng_normal(&r);
+    for (int i = 0; i < 3 * m->nv; i++)
+        xp[i] = cr_rng_normal(&r);
     const double h = 1.0 / 30.0;
     cr_inertia_set(in, xp, h);
     cr_inertia_term(in, &t);
     for (int e = 0; e < m->nv; e++) {
         double x[3] = {xp[3 * e] + 0.1, xp[3 * e + 1] - 0.2, xp[3 * e + 2] + 0.05};
-        CR_CHECK_NEAR(kval(&t, e, x), mass[e] / (2 * h * h) * (0.01 + 0.04 + 0.0025), 1e-12);
+        CR_CHECK_NEAR(fd_kval(&t, e, x), mass[e] / (2 * h * h) * (0.01 + 0.04 + 0.0025), 1e-12);
         CR_CHECK(grad_rel_error(&t, e, x) < FD_RTOL);
         CR_CHECK(hess_rel_error(&t, e, x) < FD_RTOL);
     }
@@ -557,16 +553,17 @@ CR_TEST(phys_energy, collision) {
     cr_energy_term t;
     cr_collision_term(c, &t);
     double g[3], H[9];
-    CR_CHECK(t.kernel(t.data, 0, x, g, H) == 0.0 && max_abs(g, 3) == 0.0 && max_abs(H, 9) == 0.0);
-    CR_CHECK(t.kernel(t.data, 3, x + 9, g, H) == 0.0 && max_abs(g, 3) == 0.0);
-    CR_CHECK_NEAR(kval(&t, 1, x + 3), k * pow(eps - 0.001, 3), 1e-6 * k * pow(eps, 3));
-    CR_CHECK_NEAR(kval(&t, 2, x + 6), k * pow(eps + 0.003, 3), 1e-6 * k * pow(eps, 3));
+    CR_CHECK(t.kernel(t.data, 0, x, g, H) == 0.0 && fd_max_abs(g, 3) == 0.0 &&
+             fd_max_abs(H, 9) == 0.0);
+    CR_CHECK(t.kernel(t.data, 3, x + 9, g, H) == 0.0 && fd_max_abs(g, 3) == 0.0);
+    CR_CHECK_NEAR(fd_kval(&t, 1, x + 3), k * pow(eps - 0.001, 3), 1e-6 * k * pow(eps, 3));
+    CR_CHECK_NEAR(fd_kval(&t, 2, x + 6), k * pow(eps + 0.003, 3), 1e-6 * k * pow(eps, 3));
     /* The linearised distance: moving 0.5 mm along the normal. */
     const double x2[3] = {0.2 + 0.0005 * n3, -0.003 + 0.0005 * n4, 0.1};
-    CR_CHECK_NEAR(kval(&t, 2, x2), k * pow(eps + 0.0025, 3), 1e-6 * k * pow(eps, 3));
+    CR_CHECK_NEAR(fd_kval(&t, 2, x2), k * pow(eps + 0.0025, 3), 1e-6 * k * pow(eps, 3));
     /* Moving out past the thickness: zero. */
     const double x1[3] = {0, 0.001 + 1.5 * eps, 0};
-    CR_CHECK(kval(&t, 1, x1) == 0.0);
+    CR_CHECK(fd_kval(&t, 1, x1) == 0.0);
     for (int e = 1; e <= 2; e++) {
         CR_CHECK(grad_rel_error(&t, e, x + 3 * e) < FD_RTOL);
         CR_CHECK(hess_rel_error(&t, e, x + 3 * e) < FD_RTOL);
@@ -604,7 +601,7 @@ CR_TEST(phys_energy, friction) {
     /* At the anchor: zero force. Far past eps_v: Coulomb mu lambda, tangential. */
     const double at[3] = {0.01, 0, 0};
     t.kernel(t.data, 0, at, g, H);
-    CR_CHECK(max_abs(g, 3) < 1e-18);
+    CR_CHECK(fd_max_abs(g, 3) < 1e-18);
     const double slid[3] = {0.0, 0.3, 0.0}; /* 1 cm behind the collider, 30 cm off the plane */
     t.kernel(t.data, 0, slid, g, H);
     CR_CHECK_NEAR(sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]), mat.friction * lambda0,
@@ -618,9 +615,10 @@ CR_TEST(phys_energy, friction) {
         for (int e = 0; e < 2; e++) {
             const double *a = e == 0 ? at : x0 + 6;
             double x[3];
-            for (int d = 0; d < 3; d++) x[d] = a[d] + s * cr_rng_normal(&r) / sqrt(3.0);
+            for (int d = 0; d < 3; d++)
+                x[d] = a[d] + s * cr_rng_normal(&r) / sqrt(3.0);
             /* Friction's length scale is eps_v: step eps_v/1000. */
-            CR_CHECK(grad_rel_error_h(&t, e, x, 1e-3 * eps_v) < FD_RTOL);
+            CR_CHECK(fd_grad_rel_error(&t, e, x, 1e-3 * eps_v) < FD_RTOL);
             CR_CHECK(hess_rel_error_h(&t, e, x, 1e-3 * eps_v) < FD_RTOL);
             t.kernel(t.data, e, x, g, H);
             CR_CHECK(min_eig_rel(H, 3) > -1e-12);
@@ -691,11 +689,13 @@ static double scene_energy(const scene *s, const double *x, double *grad) {
             double xe[12], ge[12];
             cr_energy_term_vertices(t, el, idx);
             for (int v = 0; v < t->nvert; v++)
-                for (int d = 0; d < 3; d++) xe[3 * v + d] = x[3 * (int64_t)idx[v] + d];
+                for (int d = 0; d < 3; d++)
+                    xe[3 * v + d] = x[3 * (int64_t)idx[v] + d];
             e += t->weight * t->kernel(t->data, el, xe, grad ? ge : NULL, NULL);
             if (grad)
                 for (int v = 0; v < t->nvert; v++)
-                    for (int d = 0; d < 3; d++) grad[3 * (int64_t)idx[v] + d] += t->weight * ge[3 * v + d];
+                    for (int d = 0; d < 3; d++)
+                        grad[3 * (int64_t)idx[v] + d] += t->weight * ge[3 * v + d];
         }
     }
     return e;
@@ -708,7 +708,8 @@ CR_TEST(phys_energy, assembled_gradient) {
     double *x = malloc(sizeof(double) * 3 * (size_t)V), *g = malloc(sizeof(double) * 3 * (size_t)V);
     float *dist = malloc(sizeof(float) * (size_t)V), *nrm = malloc(sizeof(float) * 3 * (size_t)V);
     cr_rng r = cr_rng_make(23, 0);
-    for (int i = 0; i < 3 * V; i++) x[i] = s.m->pos[i] + 0.01 * cr_rng_normal(&r);
+    for (int i = 0; i < 3 * V; i++)
+        x[i] = s.m->pos[i] + 0.01 * cr_rng_normal(&r);
     for (int i = 0; i < V; i++) {
         x[3 * i + 1] = 0.001 + 0.002 * cr_rng_uniform(&r);
         dist[i] = (float)x[3 * i + 1];
@@ -716,7 +717,8 @@ CR_TEST(phys_energy, assembled_gradient) {
     }
     cr_collision_update(s.col, x, dist, nrm);
     cr_inertia_set(s.in, x, 1.0 / 30.0);
-    for (int i = 0; i < 3 * V; i++) x[i] += 0.003 * cr_rng_normal(&r);
+    for (int i = 0; i < 3 * V; i++)
+        x[i] += 0.003 * cr_rng_normal(&r);
     scene_energy(&s, x, g);
     double err = 0.0;
     for (int i = 0; i < 3 * V; i++) {
@@ -728,7 +730,7 @@ CR_TEST(phys_energy, assembled_gradient) {
         x[i] = x0;
         err = fmax(err, fabs(g[i] - (ep - em) / (2 * FD_STEP)));
     }
-    CR_CHECK(err < FD_RTOL * max_abs(g, 3 * V));
+    CR_CHECK(err < FD_RTOL * fd_max_abs(g, 3 * V));
     free(x), free(g), free(dist), free(nrm);
     scene_destroy(&s);
 }
@@ -745,7 +747,8 @@ static double time_term(const cr_energy_term *t, const double *x, int with_hessi
             double xe[12], ge[12], He[144];
             cr_energy_term_vertices(t, el, idx);
             for (int v = 0; v < t->nvert; v++)
-                for (int d = 0; d < 3; d++) xe[3 * v + d] = x[3 * (int64_t)idx[v] + d];
+                for (int d = 0; d < 3; d++)
+                    xe[3 * v + d] = x[3 * (int64_t)idx[v] + d];
             sink += t->kernel(t->data, el, xe, ge, with_hessian ? He : NULL);
         }
         calls += t->nelem;
@@ -780,8 +783,10 @@ CR_TEST(phys_energy, kernel_cost) {
     int64_t n = 0;
     const double t0 = cr_time_now();
     for (; cr_time_now() - t0 < 0.05; n++) {
-        for (int i = 0; i < 144; i++) P[i] = 0.0;
-        for (int i = 0; i < 12; i++) P[13 * i] = i == 5 ? -1.0 : 1.0 + i;
+        for (int i = 0; i < 144; i++)
+            P[i] = 0.0;
+        for (int i = 0; i < 12; i++)
+            P[13 * i] = i == 5 ? -1.0 : 1.0 + i;
         P[1] = P[12] = 0.3;
         cr_psd_project(P, 12);
     }

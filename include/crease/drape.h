@@ -64,6 +64,7 @@
 #include "crease/eval.h"
 #include "crease/mesh.h"
 #include "crease/nn.h"
+#include "crease/phys_energies.h"
 #include "crease/uvlookup.h"
 
 #ifdef __cplusplus
@@ -99,10 +100,8 @@ const char *cr_drape_scene_name(cr_drape_scene s);
 /* Accepts the four named scenes (not "object": that is --object FILE). */
 cr_status cr_drape_scene_parse(const char *name, cr_drape_scene *out, cr_error *err);
 
-typedef enum cr_drape_collision_mode {
-    CR_DRAPE_COLLIDE_VERTEX = 0, /* eq. 26: nearest object vertex and its normal */
-    CR_DRAPE_COLLIDE_SDF         /* signed distance to the surface (BVH, pseudo-normals) */
-} cr_drape_collision_mode;
+/* cr_drape_collision_mode (CR_DRAPE_COLLIDE_VERTEX, _SDF): phys_energies.h, with the
+ * collision energy. */
 
 /* Loss weights (Table 4). */
 typedef struct cr_drape_weights {
@@ -278,26 +277,9 @@ extern const int32_t cr_drape_struct_hinges[CR_DRAPE_STRUCT_HINGES][4];
  * E = C + A - B, F = A + B - C. Every vertex lies within 2s/sqrt(3) of the centre. */
 void cr_drape_structures(const float *centre, const float *theta, int64_t n, float side, float *uv);
 
-/* ------------------------------------------------------ the loss ops -- */
-
-/* Fused tape ops with analytic backward (double inside). x (P,3) are
- * positions in m. Each returns per-element values (not yet weighted); index
- * arrays are copied into the step, so the caller may reuse them.
- *
- * strain: edges (E,2) into x, rest lengths (E) > 0 -> (E) ((|xi - xj| - L) / L)^2 (eq. 19).
- * bend: hinges (H,4) -> (H) |nA - nB|^2, nA the unit normal of (x0,x1,x2), nB of
- *   (x1,x0,x3) (eq. 22); a degenerate face gives 0 and no gradient.
- * gravity: (P) mass g y (eq. 24 per point, height along +Y).
- * collision: (P) min(s - eps, 0)^2 (eq. 26) with s = (x - v) . n_v for the nearest object
- *   vertex v (CR_DRAPE_COLLIDE_VERTEX), or s the signed distance (CR_DRAPE_COLLIDE_SDF).
- *   Points outside the object's bounding box grown by eps skip the search (value 0).
- *   The BVH must outlive the step. */
-cr_tensor *cr_drape_strain(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *edges, const float *rest,
-                           int64_t ne);
-cr_tensor *cr_drape_bend(cr_nn_ctx *ctx, cr_tensor *x, const int32_t *hinges, int64_t nh);
-cr_tensor *cr_drape_gravity(cr_nn_ctx *ctx, cr_tensor *x, float mass, float g);
-cr_tensor *cr_drape_collision(cr_nn_ctx *ctx, cr_tensor *x, const cr_bvh *object,
-                              cr_drape_collision_mode mode, float eps);
+/* The four losses are energies of phys/ (phys_energies.h: cr_drape_strain,
+ * cr_drape_bend, cr_drape_gravity, cr_drape_collision), on the tape through
+ * cr_loss_energy (losses.h). */
 
 /* ------------------------------------------------------------- model -- */
 

@@ -200,6 +200,73 @@ void cr_friction_update(cr_friction *f, const cr_collision *c, const double *x_s
 int32_t cr_friction_contact_count(const cr_friction *f);
 void cr_friction_term(const cr_friction *f, cr_energy_term *out);
 
+/* ------------------------------------------- drape losses (paper 000) -- */
+
+/* The four losses of Shu et al.'s implicit neural drape (../shared/papers/000,
+ * sec. 3.3), as energies over element arrays that change every training step
+ * (the sampled local structures): each _set copies the new elements into
+ * storage that only grows, so a warm term allocates nothing per step.
+ * Kernels take the element's vertices in double (the positions are float
+ * tensors on the tape; the kernels compute in double, as drape did).
+ *
+ *   energy          element  E per element                                  file
+ *   drape strain    edge     ((l - L)/L)^2, L the edge's rest length (eq. 19) drape_strain.c
+ *   drape bend      hinge    |n_A - n_B|^2, unit face normals (eq. 22)        drape_bend.c
+ *   drape gravity   vertex   m g y, height along +Y (eq. 24)                  drape_gravity.c
+ *   drape collision vertex   min(s - eps, 0)^2, s the distance to an object   drape_collision.c
+ *                            along its normal (eq. 26)
+ *
+ * Hessians: strain exact with its negative eigenvalue (compressed edge)
+ * clamped, in closed form; bend and collision Gauss-Newton (2 J^T J of the
+ * residual), PSD by construction; gravity zero. */
+
+/* Edges (E,2) with per-edge rest lengths. */
+typedef struct cr_drape_strain cr_drape_strain;
+/* cap: edges to allocate for up front (0 is fine: _set grows). */
+cr_status cr_drape_strain_create(int32_t cap, cr_drape_strain **out, cr_error *err);
+void cr_drape_strain_destroy(cr_drape_strain *s);
+/* Copy ne edges (E,2), each index in [0, nv), and their rest lengths (E) m,
+ * positive and finite. CR_ERR_RANGE or CR_ERR_INVALID naming the first bad
+ * edge (the term is then empty). */
+cr_status cr_drape_strain_set(cr_drape_strain *s, const int32_t *edges, const float *rest,
+                              int32_t ne, int32_t nv, cr_error *err);
+void cr_drape_strain_term(const cr_drape_strain *s, cr_energy_term *out);
+
+/* Hinges (H,4) in topology.h's layout: face A = (x0,x1,x2), face B =
+ * (x1,x0,x3). A degenerate face gives 0 and no gradient. */
+typedef struct cr_drape_bend cr_drape_bend;
+cr_status cr_drape_bend_create(int32_t cap, cr_drape_bend **out, cr_error *err);
+void cr_drape_bend_destroy(cr_drape_bend *b);
+/* Copy nh hinges (H,4), each index in [0, nv); CR_ERR_RANGE naming the first bad one. */
+cr_status cr_drape_bend_set(cr_drape_bend *b, const int32_t *hinges, int32_t nh, int32_t nv,
+                            cr_error *err);
+void cr_drape_bend_term(const cr_drape_bend *b, cr_energy_term *out);
+
+/* m g y per point: one mass m (kg) for every point, g (m/s^2) the
+ * acceleration's magnitude, height along +Y. Gradient (0, m g, 0). */
+typedef struct cr_drape_gravity cr_drape_gravity;
+cr_status cr_drape_gravity_create(double mass, double g, cr_drape_gravity **out, cr_error *err);
+void cr_drape_gravity_destroy(cr_drape_gravity *g);
+void cr_drape_gravity_set_count(cr_drape_gravity *g, int32_t n); /* points: element i is vertex i */
+void cr_drape_gravity_term(const cr_drape_gravity *g, cr_energy_term *out);
+
+/* min(s - eps, 0)^2 per point against a static object, s by: */
+typedef enum cr_drape_collision_mode {
+    CR_DRAPE_COLLIDE_VERTEX = 0, /* eq. 26: s = (x - v) . n_v, v the nearest object vertex, n_v
+                                    its angle-weighted normal (v held fixed in the gradient) */
+    CR_DRAPE_COLLIDE_SDF         /* s the signed distance to the surface (BVH, pseudo-normals) */
+} cr_drape_collision_mode;
+typedef struct cr_bvh cr_bvh; /* crease/bvh.h */
+typedef struct cr_drape_collision cr_drape_collision;
+/* object: the object's BVH (borrowed, must outlive the term, not refitted);
+ * eps: the band, m. Points outside the object's bounding box grown by |eps|
+ * skip the search (value 0). */
+cr_status cr_drape_collision_create(const cr_bvh *object, cr_drape_collision_mode mode, double eps,
+                                    cr_drape_collision **out, cr_error *err);
+void cr_drape_collision_destroy(cr_drape_collision *c);
+void cr_drape_collision_set_count(cr_drape_collision *c, int32_t n); /* points */
+void cr_drape_collision_term(const cr_drape_collision *c, cr_energy_term *out);
+
 #ifdef __cplusplus
 }
 #endif

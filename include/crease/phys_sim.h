@@ -15,6 +15,13 @@
  * again at every Newton iterate. A quasi-static mode drops the inertia and
  * minimises P to equilibrium.
  *
+ * A second solver for the same potential, vertex block descent (def.solver =
+ * CR_SIM_SOLVER_VBD; Chen et al. 2024; src/phys/vbd.c): per-vertex 3x3
+ * Newton steps from the element kernels' gradients and Hessian blocks,
+ * Gauss-Seidel over a vertex colouring, no factorisation. It steps dynamic
+ * substeps; static solves use Newton with either solver. Deterministic at
+ * any thread count. Its accuracy and limits: docs/physics.md.
+ *
  *   cr_sim_def def = cr_sim_default_def();
  *   CR_TRY(cr_material_preset("cotton", &def.material, err));
  *   def.collider = sphere;                           borrowed during create
@@ -90,6 +97,17 @@ typedef void (*cr_sim_iteration_fn)(void *ctx, int iteration, double energy, dou
 
 #define CR_SIM_DEF_COOKIE 0x53494d31u
 
+/* The solver of each substep's incremental potential. */
+typedef enum cr_sim_solver {
+    CR_SIM_SOLVER_NEWTON = 0, /* Newton + CHOLMOD with a line search: the converged reference */
+    CR_SIM_SOLVER_VBD         /* vertex block descent (Chen et al. 2024): per-vertex 3x3 Newton
+                                 steps, Gauss-Seidel over a vertex colouring; no factorisation */
+} cr_sim_solver;
+
+/* Name "newton" or "vbd" to a solver; -1 for anything else. */
+int cr_sim_solver_parse(const char *name);
+const char *cr_sim_solver_name(cr_sim_solver s);
+
 typedef struct cr_sim_def {
     double dt;                  /* s, one frame (default 1/30) */
     int substeps;               /* implicit Euler steps per frame (default 1: stable in every
@@ -129,12 +147,12 @@ typedef struct cr_sim_def {
     const int32_t *pinned; /* (npinned) vertices held at their initial positions, or moved by
                               pin_frames; read only during create */
     int32_t npinned;
-    const float *pin_frames; /* optional (T, npinned, 3) positions of the pinned vertices per
-                                frame, in the order of `pinned`, m: frame f of the run moves
-                                them from frames[f] to frames[f+1] (held at the last), e.g. a
-                                waistband skinned to the body; borrowed for the simulator's
-                                life */
-    int32_t pin_nframes;     /* T */
+    const float *pin_frames;      /* optional (T, npinned, 3) positions of the pinned vertices per
+                                     frame, in the order of `pinned`, m: frame f of the run moves
+                                     them from frames[f] to frames[f+1] (held at the last), e.g. a
+                                     waistband skinned to the body; borrowed for the simulator's
+                                     life */
+    int32_t pin_nframes;          /* T */
     const cr_mesh *collider;      /* optional: a closed, outward-oriented mesh (body or object),
                                      copied into a BVH; read only during create */
     const float *collider_frames; /* optional (T, Vc, 3) collider positions per frame, m; frame
@@ -148,7 +166,18 @@ typedef struct cr_sim_def {
     double max_speed;       /* m/s: a faster vertex means the substep diverged (default 50) */
     double max_penetration; /* m: a vertex deeper inside the collider means the substep
                                diverged (default 0.05) */
-    cr_sim_iteration_fn on_iteration;
+    cr_sim_solver solver;   /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
+                               solves (cr_sim_solve_static, quasi_static) use Newton always */
+    int vbd_iterations;     /* VBD sweeps per substep at most (default 20); stops earlier when
+                               a sweep's largest vertex move is below newton_tol h */
+    double vbd_chebyshev;   /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
+                               an extrapolation that raises the objective is dropped */
+    int vbd_hessian_every;  /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
+                               every this many sweeps, gradients every sweep (default 4: the
+                               Hessians are most of a kernel's cost) */
+    double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
+                               in Newton's potential, so it moves the solution) */
+    cr_sim_iteration_fn on_iteration; /* Newton steps, or VBD sweeps (energy after the sweep) */
     void *on_iteration_ctx;
     uint32_t cookie;
 } cr_sim_def;

@@ -137,6 +137,15 @@ int32_t cr_scene_record_samples(const cr_scene_record *r);
 /* (V,3) positions of the last sample, m; owned by the record. */
 const float *cr_scene_record_last(const cr_scene_record *r);
 
+/* Also keep the simulator's rest angles (plasticity's) with every sample
+ * from now on, sample 0 included: call right after create. Hinges in
+ * cr_topology_build's order on the garment, as cr_eval_input's rest angles. */
+cr_status cr_scene_record_keep_rest_angles(cr_scene_record *r, const cr_sim *sim, cr_error *err);
+/* Write the kept rest angles as a float32 (T,H) .npy, rad (what `crease
+ * eval --rest-angles` reads); CR_ERR_INVALID when none were kept. */
+cr_status cr_scene_record_write_rest_angles(const cr_scene_record *r, const char *npy_path,
+                                            cr_error *err);
+
 /* Write the samples as a PC2 (start frame 0, one sample per frame) and a glb
  * morph-target sequence at `fps`; either path may be NULL to skip it. */
 cr_status cr_scene_record_write(const cr_scene_record *r, const char *pc2_path,
@@ -201,6 +210,7 @@ typedef struct cr_scene_sim_def {
     int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
+    int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
     const int32_t *pins;         /* (npins) vertices held at their initial positions */
     int32_t npins;
     const char *out_dir; /* created when missing; required */
@@ -215,8 +225,10 @@ typedef struct cr_scene_sim_result {
     int32_t vertices;       /* the garment's */
     char material[32];      /* the material's name */
     /* outputs under out_dir: sim.pc2 and sim.glb (sample 0 the initial state),
-       frames.jsonl (a line per frame), last.png (the last frame with the collider) */
+       frames.jsonl (a line per frame), last.png (the last frame with the collider) and,
+       with plasticity, rest_angles.npy ((T,H) float32 rad per sample; else rest_angles[0] 0) */
     char pc2[CR_SCENE_PATH], glb[CR_SCENE_PATH], log[CR_SCENE_PATH], png[CR_SCENE_PATH];
+    char rest_angles[CR_SCENE_PATH];
 } cr_scene_sim_result;
 
 /* Read, set up, simulate (cr_scene_run), write the outputs. A run that
@@ -239,6 +251,7 @@ typedef struct cr_scene_drape_static_def {
     int32_t coarse;            /* > 0: settle a coarse x coarse cloth and start the res x res
                                   static solve from its rest shape (cr_scene_settle_coarse);
                                   below res. 0 (default): off */
+    int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
     const char *out_dir;       /* required */
     int render_size;           /* final.png's side (default 800) */
     int quiet;                 /* 1: no progress bar */

@@ -115,6 +115,8 @@ typedef struct cli_opt {
         .name = "-o", .alias = "--output", .kind = CLI_OPT_STRING,                                 \
         .dst = CLI_PTR_(const char *, dst_)                                                        \
     }
+/* --solver's values (cli_common.c): "newton", "vbd", NULL; parse with cr_sim_solver_parse. */
+extern const char *const cli_solvers[];
 #define CLI_END                                                                                    \
     { .name = NULL }
 #define CLI_PTR_(type_, p_) ((void *)(1 ? (p_) : (type_ *)0))

@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+const char *const cli_solvers[] = {"newton", "vbd", NULL};
+
 int cli_fail(const cr_error *err) {
     fprintf(stderr, "crease: %s\n", err->msg[0] ? err->msg : cr_status_str(err->status));
     return CLI_BAD_INPUT;

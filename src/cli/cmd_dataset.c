@@ -2,6 +2,7 @@
  * reference simulator and write a self-describing dataset (crease/dataset.h). */
 #include "cli.h"
 #include "crease/dataset.h"
+#include "crease/phys_sim.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -36,6 +37,8 @@ void help_dataset(void) {
            "                       mannequin's feet\n"
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --plastic            plastic bending (epnet's ground truth)\n"
+           "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+           "                       or vbd (vertex block descent, no factorisation)\n"
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
            "                       more substeps (default 0.15; 0: always one)\n"
            "  --seed S             recorded in the manifest (default 1)\n"
@@ -77,6 +80,7 @@ int cmd_dataset(int argc, char **argv) {
     int json = 0, seed = (int)def.seed, npos = 0, step_given = 0;
     cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
+    const char *solver = NULL;
     const cli_opt opts[] = {
         CLI_CUSTOM("--garments", parse_list, &lists[0], 1),
         CLI_CUSTOM("--motions", parse_list, &lists[1], 1),
@@ -95,6 +99,7 @@ int cmd_dataset(int argc, char **argv) {
          .lo = 0,
          .hi = 10,
          .seen = &step_given},
+        CLI_CHOICE("--solver", &solver, cli_solvers),
         CLI_FLAG("--plastic", &def.plastic),
         CLI_FLAG("--quiet", &def.quiet),
         CLI_FLAG("--json", &json),
@@ -106,6 +111,7 @@ int cmd_dataset(int argc, char **argv) {
     def.seed = (uint64_t)seed;
     cli_motion_file_defs(&mf, &def.motion_import, &def.motion_prepare);
     if (step_given) def.max_collider_step = max_step;
+    def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
     if (lists[1].n == 0) return cli_usage("dataset", "missing --motions LIST");

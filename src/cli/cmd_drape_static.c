@@ -3,6 +3,7 @@
  * method is compared with: parse, one library call (cr_scene_drape_static,
  * crease/scene.h), report. */
 #include "cli.h"
+#include "crease/phys_sim.h"
 #include "crease/scene.h"
 
 #include <string.h>
@@ -34,11 +35,14 @@ void help_drape_static(void) {
            "  --quiet              no progress bar\n"
            "  -o DIR               outputs: final.obj, final.png, frames.jsonl (one line per\n"
            "                       frame and the static solve), sim.pc2 (every state)\n"
-           "  --json               end with a JSON summary on stdout\n");
+           "  --json               end with a JSON summary on stdout\n"
+           "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+           "                       or vbd (vertex block descent, no factorisation)\n");
 }
 
 int cmd_drape_static(int argc, char **argv) {
     const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL;
+    const char *solver = NULL;
     int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0, npos = 0;
     float gap = 0.05f;
     const cli_opt opts[] = {
@@ -50,6 +54,7 @@ int cmd_drape_static(int argc, char **argv) {
         CLI_FLOAT("--gap", &gap, 0.0, 10.0),
         CLI_INT("--max-frames", &max_frames, 0, 1000000),
         CLI_INT("--coarse", &coarse, 2, 1024),
+        CLI_CHOICE("--solver", &solver, cli_solvers),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
         CLI_END,
@@ -68,6 +73,7 @@ int cmd_drape_static(int argc, char **argv) {
     def.object = object, def.res = res, def.size = CLOTH_SIZE, def.gap = gap;
     def.material = material, def.material_json = material_json;
     def.max_frames = max_frames, def.coarse = coarse;
+    def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     def.out_dir = out, def.render_size = RENDER_SIZE, def.quiet = quiet;
     cr_scene_drape_static_result r;
     if (cr_scene_drape_static(&def, &r, &err) != CR_OK) return cli_fail(&err);

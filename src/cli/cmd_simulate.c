@@ -6,6 +6,7 @@
 #include "crease/body.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
+#include "crease/phys_sim.h"
 #include "crease/scene.h"
 
 #include <stdlib.h>
@@ -14,46 +15,50 @@
 enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 
 void help_simulate(void) {
-    printf("usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
-           "                       --motion FILE)\n"
-           "                       --frames N -o DIR [options]\n\n"
-           "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
-           "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
-           "PC2 of the same vertex count). The garment's positions are the initial state.\n\n"
-           "options:\n"
-           "  --garment G          garment mesh (.obj, .ply, .glb), required\n"
-           "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
-           "                       box (0.4) or a mesh file; static unless --body animates it\n"
-           "  --body-mesh B        body mesh: the collider's faces\n"
-           "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
-           "                       f+1, held at the last); vertex count must match the collider\n"
-           "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
-           "                       resampled to --fps, starting at the rest pose (where\n"
-           "                       garments are fitted) and easing in, written as DIR/body.obj\n"
-           "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
-           "                       --ease-in S (default 1) and --ground as in pose-body\n"
-           "  --frames N           frames to simulate (required, >= 1)\n"
-           "  --material M         cotton (default), silk, denim or knit\n"
-           "  --material-json F    override material fields from a JSON object\n"
-           "  --plastic            plastic bending: rest angles follow large folds\n"
-           "  --pin i,j,...        vertices held at their initial positions\n"
-           "  --substeps S         implicit Euler steps per frame (default 1)\n"
-           "  --max-collider-step M  more substeps in frames where the collider moves further\n"
-           "                       than M metres, ceil(motion / M) (default 0: off)\n"
-           "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
-           "                       twice as fast and damps bending, docs/physics.md)\n"
-           "  --fps F              frames per second (default 30)\n"
-           "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
-           "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
-           "                       frames.jsonl (one line per frame), last.png\n"
-           "  --quiet              no progress bar\n"
-           "  --json               end with a JSON summary on stdout\n\n"
-           "A frame the solver cannot finish even with 8x the substeps is reported (frame and\n"
-           "reason); what was simulated before it is written, and the exit code is 1.\n");
+    printf(
+        "usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
+        "                       --motion FILE)\n"
+        "                       --frames N -o DIR [options]\n\n"
+        "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
+        "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
+        "PC2 of the same vertex count). The garment's positions are the initial state.\n\n"
+        "options:\n"
+        "  --garment G          garment mesh (.obj, .ply, .glb), required\n"
+        "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
+        "                       box (0.4) or a mesh file; static unless --body animates it\n"
+        "  --body-mesh B        body mesh: the collider's faces\n"
+        "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
+        "                       f+1, held at the last); vertex count must match the collider\n"
+        "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
+        "                       resampled to --fps, starting at the rest pose (where\n"
+        "                       garments are fitted) and easing in, written as DIR/body.obj\n"
+        "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
+        "                       --ease-in S (default 1) and --ground as in pose-body\n"
+        "  --frames N           frames to simulate (required, >= 1)\n"
+        "  --material M         cotton (default), silk, denim or knit\n"
+        "  --material-json F    override material fields from a JSON object\n"
+        "  --plastic            plastic bending: rest angles follow large folds (rest_angles.npy)\n"
+        "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
+        "                       or vbd (vertex block descent, no factorisation)\n"
+        "  --pin i,j,...        vertices held at their initial positions\n"
+        "  --substeps S         implicit Euler steps per frame (default 1)\n"
+        "  --max-collider-step M  more substeps in frames where the collider moves further\n"
+        "                       than M metres, ceil(motion / M) (default 0: off)\n"
+        "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
+        "                       twice as fast and damps bending, docs/physics.md)\n"
+        "  --fps F              frames per second (default 30)\n"
+        "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
+        "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
+        "                       frames.jsonl (one line per frame), last.png\n"
+        "  --quiet              no progress bar\n"
+        "  --json               end with a JSON summary on stdout\n\n"
+        "A frame the solver cannot finish even with 8x the substeps is reported (frame and\n"
+        "reason); what was simulated before it is written, and the exit code is 1.\n");
 }
 
 typedef struct {
     const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
+    const char *solver;
     cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
@@ -121,6 +126,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
          .fn = parse_vec3,
          .dst = o->offset,
          .seen = &o->has_offset},
+        CLI_CHOICE("--solver", &o->solver, cli_solvers),
         CLI_FLAG("--plastic", &o->plastic),
         CLI_FLAG("--quiet", &o->quiet),
         CLI_FLAG("--json", &o->json),
@@ -185,6 +191,7 @@ int cmd_simulate(int argc, char **argv) {
     def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
     def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
+    def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
     char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;
@@ -237,6 +244,7 @@ int cmd_simulate(int argc, char **argv) {
         cJSON_AddStringToObject(out, "pc2", r.pc2);
         cJSON_AddStringToObject(out, "glb", r.glb);
         cJSON_AddStringToObject(out, "log", r.log);
+        if (r.rest_angles[0]) cJSON_AddStringToObject(out, "rest_angles", r.rest_angles);
         cJSON_AddStringToObject(out, "png", r.png);
         cli_json_print(j);
     }

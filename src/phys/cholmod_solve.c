@@ -19,14 +19,18 @@
  */
 #include "crease/phys_solve.h"
 
-#include <math.h>
 #include <cblas.h>
+#include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <suitesparse/cholmod.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
+
+/* Serialises cholmod_analyze across threads (see cr_cholesky_create). */
+static pthread_mutex_t analyze_lock = PTHREAD_MUTEX_INITIALIZER;
 
 /* First shift relative to the largest diagonal entry, and its growth per retry:
  * 1e-8 perturbs a well-posed system below the Newton tolerance; ten retries
@@ -150,7 +154,16 @@ cr_status cr_cholesky_create(const cr_hessian *h, const uint8_t *pinned, cr_chol
     }
     Ap[n] = (int)q;
     CR_ASSERT(q == nnz);
+    /* One analysis at a time in the process: the nested-dissection orderings
+     * are METIS's, whose random-number state is process-wide (GKlib's
+     * generator, reseeded at each call). Two analyses run side by side (a
+     * dataset simulates several garments at once) interleave their draws and
+     * get different permutations from one run to the next, hence different
+     * factors and trajectories at rounding level; one at a time, each call
+     * draws the same sequence from the same seed. */
+    pthread_mutex_lock(&analyze_lock);
     c->L = cholmod_analyze(c->A, &c->cm);
+    pthread_mutex_unlock(&analyze_lock);
     if (!c->L) goto oom_cholmod;
     c->info.ordering = ordering_name(c->cm.method[c->cm.selected].ordering);
     free(reduced);

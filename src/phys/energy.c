@@ -44,7 +44,8 @@ void cr_energy_term_vertices(const cr_energy_term *t, int32_t e, int32_t *idx) {
         return;
     }
     const int32_t *src = t->elem + (int64_t)e * t->nvert;
-    for (int k = 0; k < t->nvert; k++) idx[k] = src[k];
+    for (int k = 0; k < t->nvert; k++)
+        idx[k] = src[k];
 }
 
 /* 1 when the Cholesky factorisation of H (n x n, row-major, symmetric) has
@@ -52,18 +53,21 @@ void cr_energy_term_vertices(const cr_energy_term *t, int32_t e, int32_t *idx) {
 static int cholesky_ok(const double *H, int n) {
     double L[PSD_MAX_N * PSD_MAX_N];
     double scale = 0.0;
-    for (int i = 0; i < n; i++) scale = fmax(scale, fabs(H[i * n + i]));
+    for (int i = 0; i < n; i++)
+        scale = fmax(scale, fabs(H[i * n + i]));
     if (!(scale > 0.0)) return 0;
     const double floor_ = 1e-10 * scale;
     for (int j = 0; j < n; j++) {
         double d = H[j * n + j];
-        for (int k = 0; k < j; k++) d -= L[j * n + k] * L[j * n + k];
+        for (int k = 0; k < j; k++)
+            d -= L[j * n + k] * L[j * n + k];
         if (!(d > floor_)) return 0;
         const double ljj = sqrt(d);
         L[j * n + j] = ljj;
         for (int i = j + 1; i < n; i++) {
             double s = H[i * n + j];
-            for (int k = 0; k < j; k++) s -= L[i * n + k] * L[j * n + k];
+            for (int k = 0; k < j; k++)
+                s -= L[i * n + k] * L[j * n + k];
             L[i * n + j] = s / ljj;
         }
     }
@@ -75,13 +79,16 @@ static int cholesky_ok(const double *H, int n) {
  * (row-major n x n). Rotations as in Golub & Van Loan, "Matrix
  * Computations", sec. 8.5 (the 2x2 symmetric Schur decomposition). */
 static void jacobi_eig(double *A, int n, double *w, double *V) {
-    for (int i = 0; i < n * n; i++) V[i] = 0.0;
-    for (int i = 0; i < n; i++) V[i * n + i] = 1.0;
+    for (int i = 0; i < n * n; i++)
+        V[i] = 0.0;
+    for (int i = 0; i < n; i++)
+        V[i * n + i] = 1.0;
     for (int sweep = 0; sweep < JACOBI_MAX_SWEEPS; sweep++) {
         double off = 0.0, diag = 0.0;
         for (int i = 0; i < n; i++) {
             diag += A[i * n + i] * A[i * n + i];
-            for (int j = i + 1; j < n; j++) off += A[i * n + j] * A[i * n + j];
+            for (int j = i + 1; j < n; j++)
+                off += A[i * n + j] * A[i * n + j];
         }
         if (off <= 1e-32 * diag || off == 0.0) break;
         for (int p = 0; p < n; p++)
@@ -108,7 +115,8 @@ static void jacobi_eig(double *A, int n, double *w, double *V) {
                 }
             }
     }
-    for (int i = 0; i < n; i++) w[i] = A[i * n + i];
+    for (int i = 0; i < n; i++)
+        w[i] = A[i * n + i];
 }
 
 void cr_psd_project(double *H, int n) {
@@ -164,9 +172,11 @@ void cr_psd_project(double *H, int n) {
         if (!(w[k] > 0.0)) continue;
         for (int i = 0; i < n; i++) {
             const double wi = w[k] * vec[i * vs + k * ks];
-            for (int j = i; j < n; j++) H[i * n + j] += wi * vec[j * vs + k * ks];
+            for (int j = i; j < n; j++)
+                H[i * n + j] += wi * vec[j * vs + k * ks];
         }
     }
     for (int i = 0; i < n; i++)
-        for (int j = 0; j < i; j++) H[i * n + j] = H[j * n + i];
+        for (int j = 0; j < i; j++)
+            H[i * n + j] = H[j * n + i];
 }

@@ -82,7 +82,8 @@ static void tangent_basis(const double *n, double *t) {
     double t1[3] = {ax[1] * n[2] - ax[2] * n[1], ax[2] * n[0] - ax[0] * n[2],
                     ax[0] * n[1] - ax[1] * n[0]};
     const double l = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-    for (int d = 0; d < 3; d++) t[d] = t1[d] / l;
+    for (int d = 0; d < 3; d++)
+        t[d] = t1[d] / l;
     t[3] = n[1] * t[2] - n[2] * t[1];
     t[4] = n[2] * t[0] - n[0] * t[2];
     t[5] = n[0] * t[1] - n[1] * t[0];
@@ -97,13 +98,15 @@ void cr_friction_update(cr_friction *f, const cr_collision *c, const double *x_s
         if (!cr_collision_contact(c, i, n, &force)) continue;
         const double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         if (!(nn > 0.5) || !(force > 0.0) || f->mu == 0.0) continue;
-        for (int d = 0; d < 3; d++) n[d] /= nn;
+        for (int d = 0; d < 3; d++)
+            n[d] /= nn;
         f->vert[nc] = i;
         f->lambda[nc] = force;
         tangent_basis(n, f->basis + 6 * (int64_t)nc);
         for (int d = 0; d < 3; d++)
             f->anchor[3 * (int64_t)nc + d] =
-                x_start[3 * (int64_t)i + d] + (collider_disp ? collider_disp[3 * (int64_t)i + d] : 0.0);
+                x_start[3 * (int64_t)i + d] +
+                (collider_disp ? collider_disp[3 * (int64_t)i + d] : 0.0);
         nc++;
     }
     f->ncontact = nc;
@@ -113,8 +116,7 @@ int32_t cr_friction_contact_count(const cr_friction *f) {
     return f->ncontact;
 }
 
-static double friction_kernel(const void *data, int32_t e, const double *xe, double *g,
-                              double *H) {
+static double friction_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
     const cr_friction *f = data;
     const double *t = f->basis + 6 * (int64_t)e, *a = f->anchor + 3 * (int64_t)e;
     const double r[3] = {xe[0] - a[0], xe[1] - a[1], xe[2] - a[2]};
@@ -127,7 +129,8 @@ static double friction_kernel(const void *data, int32_t e, const double *xe, dou
     if (g) {
         /* f1(y)/y, finite at y = 0. */
         const double w = s * (smooth ? 2.0 / ev - y / (ev * ev) : 1.0 / y);
-        for (int d = 0; d < 3; d++) g[d] = w * (u[0] * t[d] + u[1] * t[3 + d]);
+        for (int d = 0; d < 3; d++)
+            g[d] = w * (u[0] * t[d] + u[1] * t[3 + d]);
     }
     if (H) {
         double Hu[4];

@@ -42,11 +42,13 @@ cr_status cr_gravity_create(const cr_mesh *rest, const cr_material *mat, const d
         const float *p1 = rest->pos + 3 * (int64_t)t[1];
         const float *p2 = rest->pos + 3 * (int64_t)t[2];
         double a[3], b[3];
-        for (int d = 0; d < 3; d++) a[d] = (double)p1[d] - p0[d], b[d] = (double)p2[d] - p0[d];
+        for (int d = 0; d < 3; d++)
+            a[d] = (double)p1[d] - p0[d], b[d] = (double)p2[d] - p0[d];
         const double n[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                              a[0] * b[1] - a[1] * b[0]};
         const double m3 = mat->density * 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) / 3.0;
-        for (int k = 0; k < 3; k++) gr->mass[t[k]] += m3;
+        for (int k = 0; k < 3; k++)
+            gr->mass[t[k]] += m3;
     }
     *out = gr;
     return CR_OK;
@@ -62,12 +64,12 @@ const double *cr_gravity_masses(const cr_gravity *g) {
     return g->mass;
 }
 
-static double gravity_kernel(const void *data, int32_t e, const double *xe, double *g,
-                             double *H) {
+static double gravity_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
     const cr_gravity *gr = data;
     const double m = gr->mass[e];
     if (g)
-        for (int d = 0; d < 3; d++) g[d] = -m * gr->g[d];
+        for (int d = 0; d < 3; d++)
+            g[d] = -m * gr->g[d];
     if (H) memset(H, 0, 9 * sizeof(double));
     return -m * (gr->g[0] * xe[0] + gr->g[1] * xe[1] + gr->g[2] * xe[2]);
 }

@@ -57,14 +57,14 @@ void cr_inertia_set(cr_inertia *in, const double *x_pred, double h) {
     in->inv_h2 = 1.0 / (h * h);
 }
 
-static double inertia_kernel(const void *data, int32_t e, const double *xe, double *g,
-                             double *H) {
+static double inertia_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
     const cr_inertia *in = data;
     const double k = in->mass[e] * in->inv_h2;
     const double *p = in->xpred + 3 * (int64_t)e;
     const double d[3] = {xe[0] - p[0], xe[1] - p[1], xe[2] - p[2]};
     if (g)
-        for (int c = 0; c < 3; c++) g[c] = k * d[c];
+        for (int c = 0; c < 3; c++)
+            g[c] = k * d[c];
     if (H) {
         memset(H, 0, 9 * sizeof(double));
         H[0] = H[4] = H[8] = k;

@@ -40,7 +40,7 @@ static const preset PRESETS[] = {
     /* ARCSim 11oz-black-denim: density, mean of its 15 bending samples. */
     {"denim", 0.324, HOOD_MU, HOOD_LAMBDA, 7.23e-5},
     /* ARCSim gray-interlock: density, mean of its 15 bending samples. */
-    {"knit", 0.187, HOOD_MU * KNIT_SCALE, HOOD_LAMBDA * KNIT_SCALE, 2.18e-5},
+    {"knit", 0.187, HOOD_MU *KNIT_SCALE, HOOD_LAMBDA *KNIT_SCALE, 2.18e-5},
 };
 enum { NPRESETS = (int)(sizeof PRESETS / sizeof PRESETS[0]) };
 
@@ -50,8 +50,8 @@ enum { NPRESETS = (int)(sizeof PRESETS / sizeof PRESETS[0]) };
 /* Collision: ten times HOOD's maximal penalty weight 1e5 on
  * max(eps - d, 0)^3 (docs/physics.md says why) and a thickness between
  * HOOD's 1 mm and NCS's 4 mm. */
-#define COLLISION_THICKNESS 2e-3   /* m */
-#define COLLISION_STIFFNESS 1e6    /* J/m^3 */
+#define COLLISION_THICKNESS 2e-3 /* m */
+#define COLLISION_STIFFNESS 1e6  /* J/m^3 */
 /* Fabric on dry skin: 0.2-0.6 (Derler & Gerhardt 2012); no per-fabric data. */
 #define FRICTION 0.3
 
@@ -88,8 +88,10 @@ cr_status cr_material_preset(const char *name, cr_material *out, cr_error *err) 
 
 const char *cr_membrane_model_name(cr_membrane_model model) {
     switch (model) {
-    case CR_MEMBRANE_STVK: return "stvk";
-    case CR_MEMBRANE_BARAFF_WITKIN: return "baraff_witkin";
+    case CR_MEMBRANE_STVK:
+        return "stvk";
+    case CR_MEMBRANE_BARAFF_WITKIN:
+        return "baraff_witkin";
     }
     return "?";
 }
@@ -101,11 +103,11 @@ typedef struct material_json {
 } material_json;
 
 #define KEY_D(field, lo, hi, help)                                                                 \
-    {#field, CR_CFG_DOUBLE, offsetof(material_json, m.field), 0, lo, hi, help}
+    { #field, CR_CFG_DOUBLE, offsetof(material_json, m.field), 0, lo, hi, help }
 
 static const cr_config_key KEYS[] = {
-    {"name", CR_CFG_STRING, offsetof(material_json, m.name), sizeof(((cr_material *)0)->name), 1,
-     0, "label"},
+    {"name", CR_CFG_STRING, offsetof(material_json, m.name), sizeof(((cr_material *)0)->name), 1, 0,
+     "label"},
     {"membrane", CR_CFG_STRING, offsetof(material_json, membrane),
      sizeof(((material_json *)0)->membrane), 1, 0, "stvk | baraff_witkin"},
     KEY_D(density, 0.0, 1e3, "kg/m^2"),

@@ -76,8 +76,24 @@ cr_sim_def cr_sim_default_def(void) {
     d.plastic_rule = CR_PLASTIC_LINEAR;
     d.max_speed = 50.0;
     d.max_penetration = 0.05;
+    d.solver = CR_SIM_SOLVER_NEWTON;
+    d.vbd_iterations = 20;
+    d.vbd_chebyshev = 0.9;
+    d.vbd_damping = 0.0;
+    d.vbd_hessian_every = 4;
     d.cookie = CR_SIM_DEF_COOKIE;
     return d;
+}
+
+int cr_sim_solver_parse(const char *name) {
+    if (!name) return -1;
+    if (strcmp(name, "newton") == 0) return CR_SIM_SOLVER_NEWTON;
+    if (strcmp(name, "vbd") == 0) return CR_SIM_SOLVER_VBD;
+    return -1;
+}
+
+const char *cr_sim_solver_name(cr_sim_solver s) {
+    return s == CR_SIM_SOLVER_VBD ? "vbd" : "newton";
 }
 
 /* ---------------------------------------------------------------- drag -- */
@@ -166,7 +182,7 @@ static cr_status move_collider(cr_sim *s, double t0, double t1, double *motion, 
 
 /* Signed distances of x within radius into s->dist / s->normal and the
  * collision term's linearisation. */
-static void query_collider(cr_sim *s, const double *x, double radius) {
+void cr_sim_query_collider(cr_sim *s, const double *x, double radius) {
     if (!s->bvh) return;
     double t = cr_time_now();
     for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
@@ -273,7 +289,7 @@ static cr_status track_collider(cr_sim *s, const double *x_start, double radius,
 
 /* -------------------------------------------------------------- newton -- */
 
-static double eval(cr_sim *s, const double *x, double *grad, int hessian) {
+double cr_sim_eval(cr_sim *s, const double *x, double *grad, int hessian) {
     double t = cr_time_now();
     double e = cr_assembly_eval(s->assembly, s->terms, x, grad, hessian, s->term_values);
     s->rep->seconds_assembly += cr_time_now() - t;
@@ -318,14 +334,6 @@ static void clamp_guess(cr_sim *s) {
     }
 }
 
-typedef struct newton_opts {
-    int max_iterations;
-    double tol;         /* m: converged when the step's largest move is below */
-    double rtol;        /* ... or below this fraction of the largest move since the start */
-    double base_radius; /* m: query radius before the iterate's own motion */
-    double max_step;    /* m: longest vertex move of one Newton step */
-} newton_opts;
-
 /* Minimise the current objective from s->x (in place); s->x_start holds the
  * start. Fails with CR_ERR_DIVERGED and a message in s->why. */
 static cr_status newton(cr_sim *s, const newton_opts *o, cr_error *err) {
@@ -334,8 +342,8 @@ static cr_status newton(cr_sim *s, const newton_opts *o, cr_error *err) {
     double moved = 0.0;
     int converged = 0, it;
     for (it = 0; it < o->max_iterations && !converged; it++) {
-        if (it > 0) query_collider(s, s->x, o->base_radius + 2.0 * moved);
-        double e = eval(s, s->x, s->grad, 1);
+        if (it > 0) cr_sim_query_collider(s, s->x, o->base_radius + 2.0 * moved);
+        double e = cr_sim_eval(s, s->x, s->grad, 1);
         for (int32_t i = 0; i < s->nv; i++)
             if (s->pinned[i]) memset(s->grad + 3 * (int64_t)i, 0, 3 * sizeof(double));
         double gnorm = max_vertex_norm(s, s->grad);
@@ -402,7 +410,7 @@ static cr_status newton(cr_sim *s, const newton_opts *o, cr_error *err) {
         for (int ls = 0; ls <= s->def.line_search_max; ls++, alpha *= 0.5) {
             for (int64_t k = 0; k < n3; k++)
                 s->xt[k] = s->x[k] + alpha * s->dx[k];
-            et = eval(s, s->xt, NULL, 0);
+            et = cr_sim_eval(s, s->xt, NULL, 0);
             if (isfinite(et) && et <= e + s->def.armijo * alpha * gd) {
                 accepted = 1;
                 break;
@@ -410,7 +418,7 @@ static cr_status newton(cr_sim *s, const newton_opts *o, cr_error *err) {
         }
         if (!accepted) {
             if (at_floor) {
-                eval(s, s->x, NULL, 0); /* the report's energies are those at x */
+                cr_sim_eval(s, s->x, NULL, 0); /* the report's energies are those at x */
                 converged = 1;
                 break;
             }
@@ -438,6 +446,7 @@ static void save_frame_state(cr_sim *s) {
     memcpy(s->x_frame, s->x, n3);
     memcpy(s->v_frame, s->v, n3);
     memcpy(s->rest_frame, s->rest, (size_t)s->nh * sizeof(double));
+    memcpy(s->a_frame, s->a_prev, n3);
 }
 
 static void restore_frame_state(cr_sim *s) {
@@ -445,6 +454,7 @@ static void restore_frame_state(cr_sim *s) {
     memcpy(s->x, s->x_frame, n3);
     memcpy(s->v, s->v_frame, n3);
     memcpy(s->rest, s->rest_frame, (size_t)s->nh * sizeof(double));
+    memcpy(s->a_prev, s->a_frame, n3);
 }
 
 /* Where a vertex found inside is put: this fraction of the thickness outside. */
@@ -474,8 +484,19 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     s->terms[s->t_drag].weight = dynamic && d->damping > 0.0 ? 1.0 : 0.0;
     double g = sqrt(d->gravity[0] * d->gravity[0] + d->gravity[1] * d->gravity[1] +
                     d->gravity[2] * d->gravity[2]);
+    /* VBD steps dynamic substeps; static solves (cr_sim_solve_static,
+     * quasi-static frames) use Newton with either solver: without inertia a
+     * Gauss-Seidel sweep has no mass term to bound its blocks, and 4000
+     * sweeps left a 16 x 16 drape unconverged. */
+    const int vbd = d->solver == CR_SIM_SOLVER_VBD && dynamic;
+    if (!vbd && !s->chol)
+        CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
     newton_opts o;
-    o.max_iterations = dynamic ? d->newton_max_iterations : d->static_max_iterations;
+    if (vbd)
+        o.max_iterations = d->vbd_iterations;
+    else
+        o.max_iterations = dynamic ? d->newton_max_iterations : d->static_max_iterations;
+    o.h = dynamic ? h : 0.0;
     o.tol = dynamic ? d->newton_tol * h : d->static_tol;
     o.rtol = dynamic ? d->newton_rtol : 0.0;
     o.max_step = dynamic ? INFINITY : d->static_max_step;
@@ -488,15 +509,21 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     if (s->bvh && s->def.collider_frames)
         CR_TRY(track_collider(s, s->x_start, o.base_radius, err));
     else {
-        query_collider(s, s->x_start, o.base_radius);
+        cr_sim_query_collider(s, s->x_start, o.base_radius);
         update_friction(s, s->x_start);
     }
     if (dynamic) {
-        memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
+        if (vbd)
+            cr_vbd_initial_guess(s, h);
+        else
+            memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
         if (s->bvh) clamp_guess(s);
     }
     move_pins(s, t1);
-    CR_TRY(newton(s, &o, err));
+    if (vbd)
+        CR_TRY(cr_vbd_solve(s, &o, err));
+    else
+        CR_TRY(newton(s, &o, err));
 
     /* Final query, projection, velocities. */
     double moved = 0.0;
@@ -506,7 +533,7 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
                     (a[2] - b[2]) * (a[2] - b[2]);
         if (m2 > moved) moved = m2;
     }
-    query_collider(s, s->x, o.base_radius + 2.0 * sqrt(moved));
+    cr_sim_query_collider(s, s->x, o.base_radius + 2.0 * sqrt(moved));
     for (int64_t k = 0; k < n3; k++)
         s->v[k] = dynamic ? (s->x[k] - s->x_start[k]) / h : 0.0;
     double pen = 0.0;
@@ -527,6 +554,9 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
             rep->projected++;
         }
     rep->contacts = contacts;
+    /* The substep's acceleration (after projection), for VBD's next guess. */
+    for (int64_t k = 0; k < n3; k++)
+        s->a_prev[k] = dynamic ? (s->v[k] - (s->x_pred[k] - s->x_start[k]) / h) / h : 0.0;
     if (pen > rep->max_penetration_m) rep->max_penetration_m = pen;
     s->pen_start = pen;
     if (!all_finite(s->x, n3) || !all_finite(s->v, n3)) {

@@ -17,6 +17,32 @@ typedef struct sim_drag {
 } sim_drag;
 void cr_sim_drag_term(const sim_drag *dr, int32_t nv, cr_energy_term *out);
 
+/* What one substep's solver is asked (sim.c fills it, newton() or
+ * cr_vbd_solve() reads it). */
+typedef struct newton_opts {
+    int max_iterations;
+    double tol;         /* m: converged when the step's largest move is below */
+    double rtol;        /* ... or below this fraction of the largest move since the start */
+    double base_radius; /* m: query radius before the iterate's own motion */
+    double max_step;    /* m: longest vertex move of one Newton step */
+    double h;           /* s, the substep (0: a static solve) */
+} newton_opts;
+
+/* Vertex block descent (vbd.c): colouring and vertex-element incidences,
+ * built once at create. */
+typedef struct cr_vbd cr_vbd;
+cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err);
+void cr_vbd_destroy(cr_vbd *v);
+int cr_vbd_colour_count(const cr_vbd *v);
+/* Minimise the substep's objective from s->x in place, like sim.c's newton. */
+cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err);
+/* The paper's adaptive initial guess (Chen et al. 2024, sec. 3.6) into s->x. */
+void cr_vbd_initial_guess(cr_sim *s, double h);
+
+/* sim.c's evaluation (timed into the report) and collider query, for vbd.c. */
+double cr_sim_eval(cr_sim *s, const double *x, double *grad, int hessian);
+void cr_sim_query_collider(cr_sim *s, const double *x, double radius);
+
 struct cr_sim {
     cr_sim_def def; /* a copy; def.pinned and def.collider are not used after create */
     int32_t nv, nh; /* V vertices, H hinges */
@@ -33,7 +59,8 @@ struct cr_sim {
     sim_drag drag;
     double term_values[CR_SIM_MAX_TERMS]; /* J, of the last evaluation */
     cr_assembly *assembly;
-    cr_cholesky *chol;
+    cr_cholesky *chol; /* NULL with the VBD solver */
+    cr_vbd *vbd;       /* NULL with the Newton solver */
 
     uint8_t *pinned;    /* (V) 1 = held */
     int32_t *pin_index; /* (npin) the pinned vertices in the order of def.pin_frames */
@@ -47,7 +74,8 @@ struct cr_sim {
     double pen_start; /* m, penetration left by the last substep (bounds the next query) */
 
     /* The frame's start, for backoff. */
-    double *x_frame, *v_frame, *rest_frame;
+    double *x_frame, *v_frame, *rest_frame, *a_frame;
+    double *a_prev; /* (V,3) m/s^2, the last substep's acceleration (VBD's initial guess) */
 
     /* Scratch, allocated once. */
     double *x_start, *x_pred, *grad, *dx, *xt; /* (V,3) */

@@ -10,6 +10,10 @@
  *          32  u64 FNV-1a 64 of the payload
  *          40  payload: positions (V,3) f64 m, velocities (V,3) f64 m/s,
  *              rest angles (H) f64 rad
+ * A simulator with the VBD solver writes magic "CRSIMST2" and appends the
+ * last substep's acceleration (V,3) f64 m/s^2 (its next initial guess) to
+ * the payload; either loads into either solver (an ST1 file gives
+ * acceleration 0).
  * Doubles are stored bit for bit, which safetensors through the project's
  * float32 writer could not do; resuming from the file is therefore exactly
  * the run that never stopped.
@@ -22,13 +26,16 @@
 #include <string.h>
 
 #include "phys/sim_internal.h"
+#include "phys/vbd_internal.h"
 
 static const char STATE_MAGIC[8] = {'C', 'R', 'S', 'I', 'M', 'S', 'T', '1'};
+static const char STATE_MAGIC2[8] = {'C', 'R', 'S', 'I', 'M', 'S', 'T', '2'};
 enum { STATE_HEADER = 40 };
 
 void cr_sim_destroy(cr_sim *s) {
     if (!s) return;
     cr_cholesky_destroy(s->chol);
+    cr_vbd_destroy(s->vbd);
     cr_assembly_destroy(s->assembly);
     cr_friction_destroy(s->friction);
     cr_collision_destroy(s->collision);
@@ -41,6 +48,7 @@ void cr_sim_destroy(cr_sim *s) {
     free(s->pinned);
     free(s->pin_index);
     free(s->x), free(s->v), free(s->x_frame), free(s->v_frame), free(s->rest_frame);
+    free(s->a_prev), free(s->a_frame);
     free(s->x_start), free(s->x_pred), free(s->grad), free(s->dx), free(s->xt), free(s->disp);
     free(s->theta), free(s->xf), free(s->dist), free(s->normal);
     free(s->collider_rest), free(s->cpos), free(s->cpos_prev);
@@ -101,6 +109,15 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(!d->collider_frames || (d->collider && d->collider_nframes >= 1),
               "collider_frames needs a collider mesh and collider_nframes >= 1 (got %d)",
               d->collider_nframes);
+    CHECK_DEF(d->solver == CR_SIM_SOLVER_NEWTON || d->solver == CR_SIM_SOLVER_VBD,
+              "unknown solver %d", (int)d->solver);
+    CHECK_DEF(d->vbd_hessian_every >= 1, "vbd_hessian_every must be >= 1, got %d",
+              d->vbd_hessian_every);
+    CHECK_DEF(d->vbd_iterations >= 1, "vbd_iterations must be >= 1, got %d", d->vbd_iterations);
+    CHECK_DEF(isfinite(d->vbd_chebyshev) && d->vbd_chebyshev >= 0.0 && d->vbd_chebyshev < 1.0,
+              "vbd_chebyshev must be in [0, 1), got %g", d->vbd_chebyshev);
+    CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
+              "vbd_damping must be >= 0, got %g s", d->vbd_damping);
     return CR_OK;
 }
 
@@ -130,8 +147,8 @@ static cr_status setup_collider(cr_sim *s, cr_error *err) {
 static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     size_t n3 = 3 * (size_t)s->nv, nh = (size_t)(s->nh > 0 ? s->nh : 1);
     double **vec3[] = {
-        &s->x,      &s->v,    &s->x_frame, &s->v_frame, &s->x_start,
-        &s->x_pred, &s->grad, &s->dx,      &s->xt,      &s->disp,
+        &s->x,    &s->v,  &s->x_frame, &s->v_frame, &s->x_start, &s->x_pred,
+        &s->grad, &s->dx, &s->xt,      &s->disp,    &s->a_prev,  &s->a_frame,
     };
     for (size_t k = 0; k < sizeof vec3 / sizeof vec3[0]; k++)
         if (!(*vec3[k] = cr_calloc(n3, sizeof(double), err)))
@@ -196,7 +213,12 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
     s->t_friction = s->friction ? s->nterms : -1;
     if (s->friction) cr_friction_term(s->friction, &t), add_term(s, t);
     CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
-    CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
+    /* VBD's simulator analyses the Cholesky pattern only when a static solve
+     * first needs it (sim.c). */
+    if (d->solver == CR_SIM_SOLVER_VBD)
+        CR_TRY(cr_vbd_create(s, &s->vbd, err));
+    else
+        CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
 
     if (s->bvh) {
         /* Unbounded once, so a garment that starts inside the collider is seen. */
@@ -283,6 +305,10 @@ static uint64_t payload_hash(const cr_sim *s) {
     return fnv1a(h, s->rest, (size_t)s->nh * sizeof(double));
 }
 
+static int state_v2(const cr_sim *s) {
+    return s->def.solver == CR_SIM_SOLVER_VBD;
+}
+
 uint64_t cr_sim_state_hash(const cr_sim *s) {
     uint64_t h = payload_hash(s);
     return fnv1a(h, &s->frame, sizeof s->frame);
@@ -292,7 +318,8 @@ cr_status cr_sim_state_save(const cr_sim *s, const char *path, cr_error *err) {
     unsigned char head[STATE_HEADER];
     uint32_t counts[2] = {(uint32_t)s->nv, (uint32_t)s->nh};
     uint64_t hash = payload_hash(s);
-    memcpy(head, STATE_MAGIC, 8);
+    if (state_v2(s)) hash = fnv1a(hash, s->a_prev, 3 * (size_t)s->nv * sizeof(double));
+    memcpy(head, state_v2(s) ? STATE_MAGIC2 : STATE_MAGIC, 8);
     memcpy(head + 8, counts, 8);
     memcpy(head + 16, &s->frame, 8);
     memcpy(head + 24, &s->pen_start, 8);
@@ -303,7 +330,8 @@ cr_status cr_sim_state_save(const cr_sim *s, const char *path, cr_error *err) {
     int ok = fwrite(head, 1, STATE_HEADER, f.fp) == STATE_HEADER &&
              fwrite(s->x, sizeof(double), n3, f.fp) == n3 &&
              fwrite(s->v, sizeof(double), n3, f.fp) == n3 &&
-             fwrite(s->rest, sizeof(double), (size_t)s->nh, f.fp) == (size_t)s->nh;
+             fwrite(s->rest, sizeof(double), (size_t)s->nh, f.fp) == (size_t)s->nh &&
+             (!state_v2(s) || fwrite(s->a_prev, sizeof(double), n3, f.fp) == n3);
     if (!ok) {
         cr_atomic_abort(&f);
         return CR_FAIL(err, CR_ERR_IO, "%s: write failed", path);
@@ -321,7 +349,8 @@ cr_status cr_sim_state_load(cr_sim *s, const char *path, cr_error *err) {
     double pen;
     uint64_t hash;
     size_t n3 = 3 * (size_t)s->nv;
-    if (len < STATE_HEADER || memcmp(buf, STATE_MAGIC, 8) != 0) {
+    int v2 = len >= STATE_HEADER && memcmp(buf, STATE_MAGIC2, 8) == 0;
+    if (len < STATE_HEADER || (!v2 && memcmp(buf, STATE_MAGIC, 8) != 0)) {
         st = CR_FAIL(err, CR_ERR_PARSE, "%s: not a crease simulator state (bad magic or size)",
                      path);
         goto done;
@@ -336,20 +365,21 @@ cr_status cr_sim_state_load(cr_sim *s, const char *path, cr_error *err) {
                      counts[0], counts[1], s->nv, s->nh);
         goto done;
     }
-    size_t want = STATE_HEADER + (2 * n3 + (size_t)s->nh) * sizeof(double);
+    size_t nd = 2 * n3 + (size_t)s->nh + (v2 ? n3 : 0); /* payload doubles */
+    size_t want = STATE_HEADER + nd * sizeof(double);
     if (len != want || frame < 0 || !(pen >= 0.0 && pen < INFINITY)) {
         st = CR_FAIL(err, CR_ERR_PARSE, "%s: %zu bytes, expected %zu (frame %lld, penetration %g)",
                      path, len, want, (long long)frame, pen);
         goto done;
     }
     const char *p = buf + STATE_HEADER;
-    uint64_t h = fnv1a(FNV_OFFSET, p, (2 * n3 + (size_t)s->nh) * sizeof(double));
+    uint64_t h = fnv1a(FNV_OFFSET, p, nd * sizeof(double));
     if (h != hash) {
         st = CR_FAIL(err, CR_ERR_PARSE, "%s: checksum mismatch (damaged file)", path);
         goto done;
     }
     /* Refuse non-finite numbers before touching the state. */
-    for (size_t k = 0; k < 2 * n3 + (size_t)s->nh; k++) {
+    for (size_t k = 0; k < nd; k++) {
         double v;
         memcpy(&v, p + k * sizeof(double), sizeof v);
         if (!isfinite(v)) {
@@ -360,6 +390,10 @@ cr_status cr_sim_state_load(cr_sim *s, const char *path, cr_error *err) {
     memcpy(s->x, p, n3 * sizeof(double));
     memcpy(s->v, p + n3 * sizeof(double), n3 * sizeof(double));
     memcpy(s->rest, p + 2 * n3 * sizeof(double), (size_t)s->nh * sizeof(double));
+    if (v2)
+        memcpy(s->a_prev, p + (2 * n3 + (size_t)s->nh) * sizeof(double), n3 * sizeof(double));
+    else
+        memset(s->a_prev, 0, n3 * sizeof(double));
     s->frame = frame;
     s->pen_start = pen;
 done:

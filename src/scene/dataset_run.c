@@ -211,6 +211,7 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     CR_TRY(cr_material_preset(d->material, &sd.material, err));
     sd.dt = 1.0 / d->fps;
     sd.plasticity = d->plastic;
+    sd.solver = (cr_sim_solver)d->solver;
     sd.collider = body->rest;
     sd.collider_frames = ds->posed[q->b][q->m];
     sd.collider_nframes = mo->nframes;

@@ -9,6 +9,7 @@
  * so that the two simulate the same thing.
  */
 #include "crease/scene.h"
+#include "crease/npz.h"
 #include "crease/primitives.h"
 #include "crease/render.h"
 
@@ -171,6 +172,8 @@ struct cr_scene_record {
     const cr_mesh *garment; /* borrowed */
     int32_t nsamples, cap;
     float *samples; /* (cap, V, 3) garment positions, m */
+    int32_t nh;     /* hinges whose rest angles are kept; 0: none kept */
+    float *rest;    /* (cap, H) rest angles per sample, rad, or NULL */
     FILE *log;
     char log_path[1024];
 };
@@ -201,9 +204,27 @@ cr_status cr_scene_record_create(const char *log_path, const cr_sim *sim, const 
     return CR_OK;
 }
 
+static void keep_rest(cr_scene_record *r, const cr_sim *sim, int32_t k) {
+    const double *theta = cr_sim_rest_angles(sim);
+    for (int32_t h = 0; h < r->nh; h++)
+        r->rest[(size_t)k * (size_t)r->nh + h] = (float)theta[h];
+}
+
+cr_status cr_scene_record_keep_rest_angles(cr_scene_record *r, const cr_sim *sim, cr_error *err) {
+    CR_ASSERT(r->nsamples == 1 && !r->rest);
+    const int32_t nh = cr_sim_hinge_count(sim);
+    if (nh <= 0) return CR_OK;
+    r->rest = cr_malloc((size_t)r->cap * (size_t)nh * sizeof(float), err);
+    if (!r->rest) return CR_ERR_MEMORY;
+    r->nh = nh;
+    keep_rest(r, sim, 0);
+    return CR_OK;
+}
+
 void cr_scene_record_destroy(cr_scene_record *r) {
     if (!r) return;
     if (r->log) fclose(r->log);
+    free(r->rest);
     free(r->samples);
     free(r);
 }
@@ -250,6 +271,7 @@ cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_
     if (r->nsamples >= r->cap)
         return CR_FAIL(err, CR_ERR_RANGE, "scene record: more than %d samples", r->cap);
     cr_sim_positions_f(sim, r->samples + (size_t)r->nsamples * (size_t)r->garment->nv * 3);
+    if (r->rest) keep_rest(r, sim, r->nsamples);
     r->nsamples++;
     return CR_OK;
 }
@@ -269,6 +291,13 @@ cr_status cr_scene_record_write(const cr_scene_record *r, const char *pc2_path,
     if (glb_path)
         CR_TRY(cr_glb_write_sequence(glb_path, r->garment, r->samples, r->nsamples, fps, err));
     return CR_OK;
+}
+
+cr_status cr_scene_record_write_rest_angles(const cr_scene_record *r, const char *npy_path,
+                                            cr_error *err) {
+    if (!r->rest)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: the record kept no rest angles", npy_path);
+    return cr_npy_write(npy_path, CR_NPY_F32, 2, (int64_t[]){r->nsamples, r->nh}, r->rest, err);
 }
 
 cr_status cr_scene_record_mesh(const cr_scene_record *r, cr_mesh **out, cr_error *err) {

@@ -78,6 +78,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     def->plasticity = o->plastic;
+    def->solver = (cr_sim_solver)o->solver;
     def->pinned = o->pins;
     def->npinned = o->npins;
     CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
@@ -88,7 +89,10 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     snprintf(out->glb, sizeof out->glb, "%s/sim.glb", o->out_dir);
     snprintf(out->png, sizeof out->png, "%s/last.png", o->out_dir);
     snprintf(out->log, sizeof out->log, "%s/frames.jsonl", o->out_dir);
-    return cr_scene_record_create(out->log, r->sim, r->garment, o->frames + 1, &r->rec, err);
+    CR_TRY(cr_scene_record_create(out->log, r->sim, r->garment, o->frames + 1, &r->rec, err));
+    if (!o->plastic) return CR_OK;
+    snprintf(out->rest_angles, sizeof out->rest_angles, "%s/rest_angles.npy", o->out_dir);
+    return cr_scene_record_keep_rest_angles(r->rec, r->sim, err);
 }
 
 static cr_status sim_progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
@@ -114,6 +118,8 @@ cr_status cr_scene_simulate(const cr_scene_sim_def *o, cr_scene_sim_result *out,
         if (st == CR_ERR_DIVERGED && out->run.diverged) st = CR_OK;
     }
     if (st == CR_OK) st = cr_scene_record_write(r.rec, out->pc2, out->glb, o->fps, err);
+    if (st == CR_OK && out->rest_angles[0])
+        st = cr_scene_record_write_rest_angles(r.rec, out->rest_angles, err);
     if (st == CR_OK) {
         const float *cpos = NULL;
         if (r.anim.frames) {
@@ -187,6 +193,7 @@ cr_status cr_scene_drape_static(const cr_scene_drape_static_def *d,
     CR_TRY(drape_validate(d, err));
     cr_sim_def def = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &def.material, err));
+    def.solver = (cr_sim_solver)d->solver;
     cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;

@@ -27,17 +27,45 @@ void cr_drape_scene_free(drape_scene *s);
 
 /* ------------------------------------------------------- structures -- */
 
-/* A batch of local structures ready for the loss ops. Index arrays address
+/* The losses' shared part: the weights and the two per-point energies, whose
+ * data do not depend on the elements (phys/drape_gravity.c,
+ * drape_collision.c). The batches and the mesh losses own their edges and
+ * hinges. Owned energies; def and the BVH are borrowed. */
+typedef struct drape_loss_ctx {
+    const cr_drape_def *def;       /* weights def->w, mass, g, eps, collision mode */
+    cr_drape_gravity *gravity;     /* m g y per point */
+    cr_drape_collision *collision; /* min(s - eps, 0)^2 per point against the object */
+} drape_loss_ctx;
+
+cr_status cr_drape_loss_ctx_create(const cr_drape_def *def, const cr_bvh *object,
+                                   drape_loss_ctx *out, cr_error *err);
+void cr_drape_loss_ctx_free(drape_loss_ctx *lc);
+
+/* The four terms, strain, bend, gravity, collision, at positions x (P,3)
+ * through the generic loss op: each an energy (1), or with per_element its
+ * elements' energies ((E), (H), (P), (P)). Gravity and collision take P from
+ * x (this sets their counts: one caller at a time per drape_loss_ctx; the
+ * terms already on the tape are not affected). NULL entries on error (the
+ * context records it). */
+void cr_drape_loss_terms(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const cr_drape_strain *strain,
+                         const cr_drape_bend *bend, cr_tensor *x, int per_element, cr_tensor *t[4]);
+/* The weights of the four terms: w, with gravity over the six vertices of a
+ * structure when per_structure (eq. 24 at the structure's mean height). */
+void cr_drape_loss_weights(const cr_drape_weights *w, int per_structure, float out[4]);
+
+/* A batch of local structures ready for the losses. Index arrays address
  * the batch's own vertex rows (structure k owns rows 6k..6k+5). */
 typedef struct drape_batch {
-    int64_t n;       /* structures kept (all six vertices on the chart) */
-    int64_t cap;     /* structures allocated */
-    float *uv;       /* (P,2) */
-    float *p0;       /* (P,3) rest positions, m */
-    float *rest;     /* (9N) rest edge lengths, m */
-    int32_t *edges;  /* (9N,2) */
-    int32_t *hinges; /* (3N,4) */
-    int32_t *source; /* (N) index of each kept structure among the centres given */
+    int64_t n;               /* structures kept (all six vertices on the chart) */
+    int64_t cap;             /* structures allocated */
+    float *uv;               /* (P,2) */
+    float *p0;               /* (P,3) rest positions, m */
+    float *rest;             /* (9N) rest edge lengths, m */
+    int32_t *edges;          /* (9N,2) */
+    int32_t *hinges;         /* (3N,4) */
+    int32_t *source;         /* (N) index of each kept structure among the centres given */
+    cr_drape_strain *strain; /* the 9N edges with their rest lengths (eq. 19) */
+    cr_drape_bend *bend;     /* the 3N face pairs (eq. 22) */
     /* scratch for building */
     float *all_uv;  /* (cap*6,2) */
     float *all_p0;  /* (cap*6,3) */
@@ -49,15 +77,10 @@ void cr_drape_batch_free(drape_batch *b);
 /* Structures at centres (N,2) with angles theta (N); with `inset`, centres in
  * [0,1]^2 are first mapped affinely onto [r, 1-r]^2, r = 2 side / sqrt(3), so
  * every vertex of every structure lies on a full square chart. Structures
- * with a vertex off the chart or a rest edge of zero length are dropped. */
-void cr_drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
-                          const float *theta, int64_t n, float side, int inset);
-
-/* What the loss ops read besides positions: weights, mass, eps, the object. */
-typedef struct drape_loss_ctx {
-    const cr_drape_def *def;
-    const cr_bvh *bvh;
-} drape_loss_ctx;
+ * with a vertex off the chart or a rest edge of zero length are dropped.
+ * Fills the batch's strain and bend elements (no allocation: cap was). */
+cr_status cr_drape_batch_build(drape_batch *b, const cr_drape_model *m, const float *centre,
+                               const float *theta, int64_t n, float side, int inset, cr_error *err);
 
 /* The batch's weighted loss at positions x (P,3) as a scalar tensor (the sum
  * over structures); terms_out (4, may be NULL) gets the weighted strain,
@@ -77,9 +100,11 @@ cr_status cr_drape_batch_eval(cr_nn_ctx *ctx, const drape_loss_ctx *lc, const dr
  * losses' energy per area (docs/drape.md). */
 typedef struct drape_mesh_losses {
     int32_t ne, nh;
-    int32_t *edges;  /* (E,2) */
-    float *rest;     /* (E) m */
-    int32_t *hinges; /* (H,4) */
+    int32_t *edges;          /* (E,2) */
+    float *rest;             /* (E) m */
+    int32_t *hinges;         /* (H,4) */
+    cr_drape_strain *strain; /* the edges with their rest lengths */
+    cr_drape_bend *bend;     /* the hinges */
     cr_drape_weights w;
 } drape_mesh_losses;
 

@@ -357,6 +357,11 @@ cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene
         out->w.strain = 3.0f * def->w.strain;
         out->w.bend = (float)(0.5 * def->w.bend * side * side / d2);
     }
+    if (st == CR_OK) st = cr_drape_strain_create(out->ne, &out->strain, err);
+    if (st == CR_OK)
+        st = cr_drape_strain_set(out->strain, out->edges, out->rest, out->ne, m->nv, err);
+    if (st == CR_OK) st = cr_drape_bend_create(out->nh, &out->bend, err);
+    if (st == CR_OK) st = cr_drape_bend_set(out->bend, out->hinges, out->nh, m->nv, err);
     cr_topology_destroy(t);
     if (st != CR_OK) cr_drape_mesh_losses_free(out);
     return st;
@@ -364,5 +369,7 @@ cr_status cr_drape_mesh_losses_create(const cr_drape_def *def, const drape_scene
 
 void cr_drape_mesh_losses_free(drape_mesh_losses *ml) {
     free(ml->edges), free(ml->rest), free(ml->hinges);
+    cr_drape_strain_destroy(ml->strain);
+    cr_drape_bend_destroy(ml->bend);
     memset(ml, 0, sizeof *ml);
 }

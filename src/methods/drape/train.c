@@ -29,6 +29,7 @@
 #include "drape_internal.h"
 
 #include "crease/drape_sampling.h"
+#include "crease/losses.h"
 #include "crease/mesh_io.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/nn_optim.h"
@@ -110,7 +111,7 @@ static cr_status setup(drape_run *r, cr_error *err) {
     r->rng = cr_rng_make(def->seed, 1);
     CR_TRY(cr_drape_scene_create(def, &r->scene, err));
     CR_TRY(cr_drape_model_create(def, r->scene.rest, &r->model, err));
-    r->lc = (drape_loss_ctx){.def = def, .bvh = r->scene.bvh};
+    CR_TRY(cr_drape_loss_ctx_create(def, r->scene.bvh, &r->lc, err));
     r->structures = def->variant == CR_DRAPE_INR_UNIFORM || def->variant == CR_DRAPE_INR_ADAPTIVE;
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
     od.lr.base = def->lr;
@@ -193,6 +194,7 @@ static void run_free(drape_run *r) {
     free(r->centre), free(r->theta), free(r->cell_loss), free(r->cell_theta);
     free(r->eval_centre), free(r->eval_theta), free(r->x), free(r->per_structure);
     cr_drape_mesh_losses_free(&r->ml);
+    cr_drape_loss_ctx_free(&r->lc);
     free(r->rows);
     cr_nn_ctx_destroy(r->ctx);
     cr_optim_destroy(r->opt);
@@ -208,8 +210,9 @@ static void run_free(drape_run *r) {
 static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
                        const float *theta, int64_t n, double sums[4], int64_t *kept,
                        cr_error *err) {
-    cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square);
-    cr_status st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
+    cr_status st =
+        cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square, err);
+    if (st == CR_OK) st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
     if (st == CR_OK) st = cr_drape_batch_eval(r->ctx, lc, b, r->x, sums, r->per_structure, err);
     cr_nn_ctx_reset(r->ctx);
     if (kept) *kept += b->n;
@@ -243,7 +246,8 @@ static cr_status update_pdf(drape_run *r, cr_error *err) {
         r->cell_theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&r->rng));
     cr_drape_def nograv = *r->def;
     nograv.w.gravity = 0.0f;
-    drape_loss_ctx lc = {.def = &nograv, .bvh = r->scene.bvh};
+    drape_loss_ctx lc = r->lc; /* the same energies, other weights */
+    lc.def = &nograv;
     double sums[4] = {0};
     drape_batch *b = &r->cells;
     CR_TRY(score(r, b, &lc, cr_drape_sampler_cell_centres(r->sampler), r->cell_theta, g2, sums,
@@ -305,8 +309,8 @@ static cr_status structure_epoch(drape_run *r, int epoch, cr_error *err) {
     for (int k = 0; k < def->samples; k++)
         r->theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&r->rng));
     drape_batch *b = &r->train;
-    cr_drape_batch_build(b, r->model, r->centre, r->theta, def->samples, def->side,
-                         r->scene.square);
+    CR_TRY(cr_drape_batch_build(b, r->model, r->centre, r->theta, def->samples, def->side,
+                                r->scene.square, err));
     if (b->n == 0)
         return CR_FAIL(err, CR_ERR_INVALID, "drape: no sampled structure fits on the UV chart");
     cr_nn_ctx_reset(r->ctx);
@@ -322,23 +326,15 @@ static cr_status structure_epoch(drape_run *r, int epoch, cr_error *err) {
 }
 
 static cr_status mesh_epoch(drape_run *r, cr_error *err) {
-    const cr_drape_def *def = r->def;
     const drape_mesh_losses *ml = &r->ml;
     cr_nn_ctx *ctx = r->ctx;
     cr_nn_ctx_reset(ctx);
     cr_tensor *x = cr_drape_model_vertices(ctx, r->model);
-    cr_tensor *t[4] = {
-        cr_drape_strain(ctx, x, ml->edges, ml->rest, ml->ne),
-        cr_drape_bend(ctx, x, ml->hinges, ml->nh),
-        cr_drape_gravity(ctx, x, def->point_mass, def->gravity),
-        cr_drape_collision(ctx, x, r->scene.bvh, def->collision, def->collision_eps),
-    };
-    const float w[4] = {ml->w.strain, ml->w.bend, ml->w.gravity, ml->w.collision};
-    cr_tensor *loss = NULL;
-    for (int k = 0; k < 4; k++) {
-        t[k] = cr_nn_mul_scalar(ctx, cr_nn_sum(ctx, t[k]), w[k]);
-        loss = k == 0 ? t[k] : cr_nn_add(ctx, loss, t[k]);
-    }
+    cr_tensor *e[4], *t[4];
+    float w[4];
+    cr_drape_loss_terms(ctx, &r->lc, ml->strain, ml->bend, x, 0, e);
+    cr_drape_loss_weights(&ml->w, 0, w);
+    cr_tensor *loss = cr_loss_weighted_sum(ctx, e, w, 4, t);
     double nv = (double)r->scene.rest->nv;
     loss = add_pin(r, loss, nv);
     cr_nn_params_zero_grad(cr_drape_model_params(r->model));

@@ -1,0 +1,437 @@
+/* vbd.c: vertex block descent (Chen, Liu, Yang & Yuksel 2024, "Vertex Block
+ * Descent", SIGGRAPH; arXiv 2403.06321), the simulator's second solver for
+ * the same incremental potential as Newton (crease/phys_sim.h).
+ *
+ * One iteration sweeps the vertices colour by colour (colour.c: no two
+ * vertices of one colour share an element). For free vertex i, with the
+ * others held,
+ *     g_i = sum over the elements e around i of dE_e/dx_i,
+ *     H_i = sum of the (i,i) 3x3 blocks of the elements' PSD Hessians,
+ * both from the energies' own kernels (phys_energy.h; nothing is
+ * re-derived here), plus the one-vertex terms (inertia, drag, gravity,
+ * collision, friction); then dx = -H_i^-1 g_i (a Cholesky of the 3x3 block,
+ * shifted when it is singular, as a static solve's can be). The vertices of
+ * one colour step in parallel (cr_parallel_for); each reads only vertices of
+ * other colours, which do not move meanwhile, so a sweep is the same bit for
+ * bit at any thread count. Colours run one after the other (Gauss-Seidel).
+ *
+ * Safeguards the paper leaves out, which make every iteration a descent on
+ * the objective (for the collider's linearisation of that iteration):
+ *   - a per-vertex backtracking line search on the vertex's local energy
+ *     (the elements around it plus its one-vertex terms, which is the whole
+ *     objective as a function of x_i), Armijo with def.armijo, at most
+ *     VBD_LINE_SEARCH halvings, else the vertex stays;
+ *   - Chebyshev acceleration (paper sec. 3.7; Wang 2015):
+ *       x^{n+1} = w_{n+1} (xbar^{n+1} - x^{n-1}) + x^{n-1},
+ *       w_1 = 1, w_2 = 2/(2 - rho^2), w_{n+1} = 4/(4 - rho^2 w_n),
+ *     is kept only when the objective at the extrapolated iterate is no
+ *     higher than at the sweep's own xbar; otherwise the sweep's iterate
+ *     stays and w restarts at 1.
+ *
+ * Damping (paper sec. 3.5): with def.vbd_damping k_d > 0, each vertex adds
+ * the Rayleigh stiffness damping of its elements, k_d/h H_i (x_i - x_i^t) to
+ * its gradient and k_d/h H_i to its block (H_i of the elastic terms at the
+ * iterate). It changes the minimiser (it is not part of Newton's potential),
+ * so it is 0 by default and the drag term both solvers share damps instead.
+ *
+ * The collider is queried again before every iteration after the first
+ * (radius grown by twice the distance moved so far), as Newton does per
+ * iterate. Converged when an iteration's largest vertex move is below
+ * o->tol; o->rtol is not used: a Gauss-Seidel sweep's move shrinks long
+ * before the iterate converges. Pinned vertices are not coloured.
+ *
+ * Cost per iteration: every element kernel runs once per vertex of the
+ * element with its Hessian (a triangle 3 times, a hinge 4) and about as
+ * often without it (the line search), plus two value-only evaluations of
+ * the whole objective for the Chebyshev test.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "phys/vbd_internal.h"
+
+/* Step halvings of the per-vertex line search. */
+#define VBD_LINE_SEARCH 6
+/* Vertices of one colour worth a thread: a parallel region per colour costs
+ * tens of microseconds, more on a loaded machine. */
+#define VBD_GRAIN 256
+
+struct cr_vbd {
+    int32_t nv;
+    int ncol;
+    int32_t *col_off;  /* (ncol+1) into col_vert */
+    int32_t *col_vert; /* the free vertices, by colour, ascending within one */
+    int64_t *inc_off;  /* (V+1) */
+    cr_vbd_incidence *inc;
+    int32_t *map[CR_SIM_MAX_TERMS]; /* one-vertex terms with an element list: vertex -> element */
+    double *xa, *xb;                /* (V,3) the last two iterates, for Chebyshev */
+    double *move, *gnorm;           /* (V) per vertex of the last sweep, m and N */
+    double *hel;                    /* (V,9) each vertex's elastic Hessian block, N/m, as of
+                                       the last sweep that evaluated it */
+};
+
+void cr_vbd_destroy(cr_vbd *v) {
+    if (!v) return;
+    free(v->col_off), free(v->col_vert), free(v->inc_off), free(v->inc);
+    for (int t = 0; t < CR_SIM_MAX_TERMS; t++)
+        free(v->map[t]);
+    free(v->xa), free(v->xb), free(v->move), free(v->gnorm), free(v->hel);
+    free(v);
+}
+
+int cr_vbd_colour_count(const cr_vbd *v) {
+    return v->ncol;
+}
+
+cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
+    *out = NULL;
+    const int32_t nv = s->nv;
+    cr_vbd *v = cr_calloc(1, sizeof *v, err);
+    if (!v) return err ? err->status : CR_ERR_MEMORY;
+    v->nv = nv;
+    cr_status st = CR_OK;
+    int32_t *colour = NULL;
+    v->inc_off = cr_calloc((size_t)nv + 1, sizeof(int64_t), err);
+    size_t n3 = 3 * (size_t)(nv > 0 ? nv : 1);
+    v->xa = cr_malloc(n3 * sizeof(double), err);
+    v->xb = cr_malloc(n3 * sizeof(double), err);
+    v->move = cr_calloc((size_t)nv + 1, sizeof(double), err);
+    v->gnorm = cr_calloc((size_t)nv + 1, sizeof(double), err);
+    v->hel = cr_calloc(9 * ((size_t)nv + 1), sizeof(double), err);
+    colour = cr_malloc(((size_t)nv + 1) * sizeof(int32_t), err);
+    if (!v->inc_off || !v->xa || !v->xb || !v->move || !v->gnorm || !v->hel || !colour) goto fail;
+    /* Incidences of the multi-vertex terms, by counting sort on the vertex. */
+    int64_t ninc = 0;
+    for (int t = 0; t < s->nterms; t++) {
+        const cr_energy_term *term = &s->terms[t];
+        if (term->nvert == 1) {
+            if (!(v->map[t] = cr_malloc(((size_t)nv + 1) * sizeof(int32_t), err))) goto fail;
+            continue;
+        }
+        for (int64_t k = 0; k < (int64_t)term->nelem * term->nvert; k++)
+            v->inc_off[term->elem[k] + 1]++;
+        ninc += (int64_t)term->nelem * term->nvert;
+    }
+    for (int32_t i = 0; i < nv; i++)
+        v->inc_off[i + 1] += v->inc_off[i];
+    v->inc = cr_malloc((size_t)(ninc > 0 ? ninc : 1) * sizeof(cr_vbd_incidence), err);
+    int64_t *fill = cr_malloc(((size_t)nv + 1) * sizeof(int64_t), err);
+    if (!v->inc || !fill) {
+        free(fill);
+        goto fail;
+    }
+    memcpy(fill, v->inc_off, (size_t)nv * sizeof(int64_t));
+    for (int t = 0; t < s->nterms; t++) {
+        const cr_energy_term *term = &s->terms[t];
+        if (term->nvert == 1) continue;
+        for (int32_t e = 0; e < term->nelem; e++)
+            for (int a = 0; a < term->nvert; a++) {
+                int32_t i = term->elem[(int64_t)term->nvert * e + a];
+                v->inc[fill[i]++] = (cr_vbd_incidence){e, (int16_t)t, (int16_t)a};
+            }
+    }
+    free(fill);
+    st = cr_vbd_colour(nv, v->inc_off, v->inc, s->terms, s->pinned, colour, &v->ncol, err);
+    if (st != CR_OK) goto done;
+    v->col_off = cr_calloc((size_t)v->ncol + 1, sizeof(int32_t), err);
+    v->col_vert = cr_malloc(((size_t)nv + 1) * sizeof(int32_t), err);
+    if (!v->col_off || !v->col_vert) goto fail;
+    for (int32_t i = 0; i < nv; i++)
+        if (colour[i] >= 0) v->col_off[colour[i] + 1]++;
+    for (int c = 0; c < v->ncol; c++)
+        v->col_off[c + 1] += v->col_off[c];
+    {
+        int32_t *at = cr_malloc(((size_t)v->ncol + 1) * sizeof(int32_t), err);
+        if (!at) goto fail;
+        memcpy(at, v->col_off, (size_t)v->ncol * sizeof(int32_t));
+        for (int32_t i = 0; i < nv; i++)
+            if (colour[i] >= 0) v->col_vert[at[colour[i]]++] = i;
+        free(at);
+    }
+    goto done;
+fail:
+    st = err && err->status != CR_OK ? err->status : CR_ERR_MEMORY;
+done:
+    free(colour);
+    if (st != CR_OK) {
+        cr_vbd_destroy(v);
+        return st;
+    }
+    *out = v;
+    return CR_OK;
+}
+
+/* ------------------------------------------------------ initial guess -- */
+
+/* x = x_t + h v_t + h^2 a~, a~ the part of the last substep's acceleration
+ * along gravity, clamped to [0, |g|] (paper eq. 11): a vertex at rest on the
+ * ground is not predicted into it, a falling one falls. */
+void cr_vbd_initial_guess(cr_sim *s, double h) {
+    const double *gv = s->def.gravity;
+    double gl = sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]);
+    double gh[3] = {0.0, 0.0, 0.0};
+    if (gl > 0.0)
+        for (int k = 0; k < 3; k++)
+            gh[k] = gv[k] / gl;
+    for (int32_t i = 0; i < s->nv; i++) {
+        const double *a = s->a_prev + 3 * (int64_t)i;
+        double along = a[0] * gh[0] + a[1] * gh[1] + a[2] * gh[2];
+        along = along < 0.0 ? 0.0 : (along > gl ? gl : along);
+        for (int k = 0; k < 3; k++) {
+            int64_t q = 3 * (int64_t)i + k;
+            s->x[q] = s->x_start[q] + h * s->v[q] + h * h * along * gh[k];
+        }
+    }
+}
+
+/* ------------------------------------------------------------- sweep -- */
+
+typedef struct sweep_ctx {
+    cr_sim *s;
+    cr_vbd *v;
+    const int32_t *verts; /* this colour's vertices */
+    double kd_h;          /* damping k_d / h (k_d in s): a multiple of the Hessian */
+    double max_step;      /* m */
+    int fresh;            /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
+} sweep_ctx;
+
+/* The local objective of vertex i with x_i = xi and the other vertices at
+ * s->x. With g (3) not NULL, also its gradient and the Hessian block H (9)
+ * of the one-vertex terms; with Hel (9) not NULL too, the block of the
+ * multi-vertex (elastic) terms goes there (else their kernels run without
+ * their Hessians). */
+static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double xi[3], double *g,
+                     double *H, double *Hel) {
+    double e = 0.0;
+    if (g) {
+        memset(g, 0, 3 * sizeof(double));
+        memset(H, 0, 9 * sizeof(double));
+    }
+    if (Hel) memset(Hel, 0, 9 * sizeof(double));
+    for (int t = 0; t < s->nterms; t++) {
+        const cr_energy_term *term = &s->terms[t];
+        if (term->nvert != 1 || term->weight == 0.0) continue;
+        int32_t el = term->elem ? v->map[t][i] : i;
+        if (el < 0) continue;
+        double gl[3], Hl[9];
+        double w = term->weight;
+        e += w * term->kernel(term->data, el, xi, g ? gl : NULL, g ? Hl : NULL);
+        if (g) {
+            for (int k = 0; k < 3; k++)
+                g[k] += w * gl[k];
+            for (int k = 0; k < 9; k++)
+                H[k] += w * Hl[k];
+        }
+    }
+    for (int64_t k = v->inc_off[i]; k < v->inc_off[i + 1]; k++) {
+        const cr_vbd_incidence *in = &v->inc[k];
+        const cr_energy_term *term = &s->terms[in->term];
+        if (term->weight == 0.0) continue;
+        const int nvert = term->nvert, n = 3 * nvert, a = in->local;
+        const int32_t *ev = term->elem + (int64_t)nvert * in->elem;
+        double xe[3 * CR_ENERGY_MAX_VERTS], ge[3 * CR_ENERGY_MAX_VERTS];
+        double He[9 * CR_ENERGY_MAX_VERTS * CR_ENERGY_MAX_VERTS];
+        for (int b = 0; b < nvert; b++) {
+            const double *src = b == a ? xi : s->x + 3 * (int64_t)ev[b];
+            xe[3 * b] = src[0], xe[3 * b + 1] = src[1], xe[3 * b + 2] = src[2];
+        }
+        double w = term->weight;
+        e += w * term->kernel(term->data, in->elem, xe, g ? ge : NULL, Hel ? He : NULL);
+        if (g)
+            for (int r = 0; r < 3; r++)
+                g[r] += w * ge[3 * a + r];
+        if (Hel)
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++)
+                    Hel[3 * r + c] += w * He[(3 * a + r) * n + 3 * a + c];
+    }
+    return e;
+}
+
+/* Solve the SPD 3x3 A x = b by Cholesky; 0 when A is not positive definite. */
+static int solve3(const double *A, const double *b, double *x) {
+    double l00 = A[0];
+    if (!(l00 > 0.0)) return 0;
+    l00 = sqrt(l00);
+    double l10 = A[3] / l00, l20 = A[6] / l00;
+    double d1 = A[4] - l10 * l10;
+    if (!(d1 > 0.0)) return 0;
+    double l11 = sqrt(d1);
+    double l21 = (A[7] - l20 * l10) / l11;
+    double d2 = A[8] - l20 * l20 - l21 * l21;
+    if (!(d2 > 0.0)) return 0;
+    double l22 = sqrt(d2);
+    double y0 = b[0] / l00, y1 = (b[1] - l10 * y0) / l11, y2 = (b[2] - l20 * y0 - l21 * y1) / l22;
+    x[2] = y2 / l22;
+    x[1] = (y1 - l21 * x[2]) / l11;
+    x[0] = (y0 - l10 * x[1] - l20 * x[2]) / l00;
+    return 1;
+}
+
+static double quad_form(const double *A, const double *d) {
+    double s = 0.0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            s += d[r] * A[3 * r + c] * d[c];
+    return s;
+}
+
+/* One vertex's block Newton step with its line search, in place in s->x. */
+static void vertex_step(const sweep_ctx *c, int32_t i) {
+    cr_sim *s = c->s;
+    cr_vbd *v = c->v;
+    double *xi = s->x + 3 * (int64_t)i;
+    const double xo[3] = {xi[0], xi[1], xi[2]};
+    double g[3], H[9], d0[3] = {0.0, 0.0, 0.0}, *Hel = v->hel + 9 * (int64_t)i;
+    double e0 = gather(s, v, i, xo, g, H, c->fresh ? Hel : NULL);
+    for (int k = 0; k < 9; k++)
+        H[k] += Hel[k];
+    if (c->kd_h > 0.0) {
+        for (int k = 0; k < 3; k++)
+            d0[k] = xo[k] - s->x_start[3 * (int64_t)i + k];
+        for (int r = 0; r < 3; r++)
+            for (int q = 0; q < 3; q++) {
+                g[r] += c->kd_h * Hel[3 * r + q] * d0[q];
+                H[3 * r + q] += c->kd_h * Hel[3 * r + q];
+            }
+        e0 += 0.5 * c->kd_h * quad_form(Hel, d0);
+    }
+    double gn = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    v->gnorm[i] = isfinite(e0) ? gn : NAN;
+    v->move[i] = 0.0;
+    if (!(gn > 0.0) || !isfinite(gn)) return;
+    /* dx = -(H + shift I)^-1 g, the shift only where H is singular. */
+    double tr = H[0] + H[4] + H[8], dx[3], mg[3] = {-g[0], -g[1], -g[2]};
+    double shift = 0.0, A[9];
+    int ok = 0;
+    for (int tries = 0; tries < 8 && !ok; tries++) {
+        memcpy(A, H, sizeof A);
+        A[0] += shift, A[4] += shift, A[8] += shift;
+        ok = solve3(A, mg, dx);
+        shift = shift == 0.0 ? 1e-8 * fabs(tr) + 1e-12 : 100.0 * shift;
+    }
+    if (!ok) return;
+    double len = sqrt(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+    if (len > c->max_step)
+        for (int k = 0; k < 3; k++)
+            dx[k] *= c->max_step / len;
+    double gd = g[0] * dx[0] + g[1] * dx[1] + g[2] * dx[2];
+    if (!(gd < 0.0)) return;
+    double alpha = 1.0;
+    for (int ls = 0; ls <= VBD_LINE_SEARCH; ls++, alpha *= 0.5) {
+        double xn[3];
+        for (int k = 0; k < 3; k++)
+            xn[k] = xo[k] + alpha * dx[k];
+        double en = gather(s, v, i, xn, NULL, NULL, NULL);
+        if (c->kd_h > 0.0) {
+            double dn[3];
+            for (int k = 0; k < 3; k++)
+                dn[k] = xn[k] - s->x_start[3 * (int64_t)i + k];
+            en += 0.5 * c->kd_h * quad_form(Hel, dn);
+        }
+        if (isfinite(en) && en <= e0 + s->def.armijo * alpha * gd) {
+            memcpy(xi, xn, sizeof xn);
+            v->move[i] = alpha * len;
+            return;
+        }
+    }
+}
+
+static void sweep_range(void *vctx, int64_t begin, int64_t end) {
+    const sweep_ctx *c = vctx;
+    for (int64_t k = begin; k < end; k++)
+        vertex_step(c, c->verts[k]);
+}
+
+/* --------------------------------------------------------------- solve -- */
+
+static int all_finite_vbd(const double *a, int64_t n) {
+    for (int64_t k = 0; k < n; k++)
+        if (!isfinite(a[k])) return 0;
+    return 1;
+}
+
+cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
+    cr_vbd *v = s->vbd;
+    cr_sim_report *rep = s->rep;
+    const cr_sim_def *d = &s->def;
+    const int64_t n3 = 3 * (int64_t)s->nv;
+    const int dynamic = o->h > 0.0;
+    /* One-vertex terms with an element list (friction's contacts): which
+     * element is whose. */
+    for (int t = 0; t < s->nterms; t++) {
+        const cr_energy_term *term = &s->terms[t];
+        if (term->nvert != 1 || !term->elem) continue;
+        for (int32_t i = 0; i < s->nv; i++)
+            v->map[t][i] = -1;
+        for (int32_t e = 0; e < term->nelem; e++)
+            v->map[t][term->elem[e]] = e;
+    }
+    sweep_ctx c = {s, v, NULL, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1};
+    const double rho = dynamic ? d->vbd_chebyshev : 0.0;
+    double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
+    int converged = 0, it;
+    memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));
+    for (it = 0; it < o->max_iterations && !converged; it++) {
+        if (it > 0) cr_sim_query_collider(s, s->x, o->base_radius + 2.0 * moved);
+        memcpy(v->xa, v->xb, (size_t)n3 * sizeof(double)); /* x^{n-1} */
+        memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));  /* x^n */
+        double t = cr_time_now();
+        c.fresh = it % d->vbd_hessian_every == 0;
+        for (int col = 0; col < v->ncol; col++) {
+            c.verts = v->col_vert + v->col_off[col];
+            cr_parallel_for(v->col_off[col + 1] - v->col_off[col], VBD_GRAIN, sweep_range, &c);
+        }
+        rep->seconds_assembly += cr_time_now() - t;
+        double gnorm = 0.0;
+        int finite = 1;
+        for (int32_t k = 0; k < v->col_off[v->ncol]; k++) {
+            double gk = v->gnorm[v->col_vert[k]];
+            if (!isfinite(gk))
+                finite = 0;
+            else if (gk > gnorm)
+                gnorm = gk;
+        }
+        /* The objective is needed only to test an extrapolation or to report
+         * the sweep; the substep's last one is evaluated below. */
+        const int accel = rho > 0.0 && it > 0;
+        double e = accel || d->on_iteration ? cr_sim_eval(s, s->x, NULL, 0) : 0.0;
+        if (!finite || !isfinite(e) || !all_finite_vbd(s->x, n3)) {
+            snprintf(s->why, sizeof s->why,
+                     "non-finite energy (%g) or gradient at VBD iteration %d", e, it);
+            return CR_FAIL(err, CR_ERR_DIVERGED, "%s", s->why);
+        }
+        if (accel) {
+            omega = omega == 1.0 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
+            memcpy(tv, s->term_values, sizeof tv);
+            double *xt = s->xt;
+            for (int64_t k = 0; k < n3; k++)
+                xt[k] = omega * (s->x[k] - v->xa[k]) + v->xa[k];
+            double ea = cr_sim_eval(s, xt, NULL, 0);
+            if (isfinite(ea) && ea <= e) {
+                memcpy(s->x, xt, (size_t)n3 * sizeof(double));
+                e = ea;
+            } else {
+                memcpy(s->term_values, tv, sizeof tv);
+                omega = 1.0;
+            }
+        }
+        double step = 0.0;
+        for (int32_t i = 0; i < s->nv; i++) {
+            const double *a = s->x + 3 * (int64_t)i, *b = v->xb + 3 * (int64_t)i;
+            double m2 = (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                        (a[2] - b[2]) * (a[2] - b[2]);
+            if (m2 > step) step = m2;
+        }
+        step = sqrt(step);
+        moved += step;
+        if (d->on_iteration) d->on_iteration(d->on_iteration_ctx, it, e, gnorm, step);
+        if (step < o->tol) converged = 1;
+    }
+    rep->newton_iterations += it;
+    if (!converged) rep->newton_capped++;
+    if (!(rho > 0.0 && it > 1) && !d->on_iteration)
+        cr_sim_eval(s, s->x, NULL, 0); /* the report's */
+    return CR_OK;
+}
