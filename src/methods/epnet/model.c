@@ -29,7 +29,8 @@
 #include <string.h>
 
 #define EPNET_COOKIE 0x45504e31u
-#define PNET_OUT_SCALE 0.1f /* P-Net output = 10 x the increment (rad) */
+#define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
+#define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
 
 const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
                                                           "gravity", "collision", "inertia"};
@@ -214,6 +215,8 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
             cr_tensor *w = cr_nn_params_find(m->pp, name);
             if (w) {
                 cr_init_zero(w);
+                snprintf(name, sizeof name, "pnet.decoder.%d.bias", i);
+                if ((w = cr_nn_params_find(m->pp, name))) cr_init_zero(w);
                 break;
             }
         }
@@ -509,19 +512,44 @@ static void pnet_features(const cr_epnet *m, const float *pos, const float *thet
     }
 }
 
-/* P-Net's increment (H) of one frame, on the tape. */
+/* P-Net's increment (H) of one frame, on the tape, in Eq. 4-5's own form:
+ * the network predicts a bounded correction c (|c| < PNET_CORR rad) to the
+ * elastic strain d = theta - theta_bar - rb_prev, and the increment is the
+ * rule applied to d + c. So RB only moves when the corrected strain passes
+ * the yield, and never past theta - theta_bar -/+ (yield + PNET_CORR): long
+ * rollouts cannot drift (an unconstrained increment accumulated 1.55 rad
+ * over 1,000 walking frames). With c = 0 (the zeroed decoder at start) it
+ * is the plastic rule on E-Net's angles. */
 static cr_tensor *pnet_forward(cr_epnet *m, const float *pos, const float *theta,
                                const float *rb_prev) {
     cr_nn_ctx *c = m->ctx;
-    float *node = cr_nn_scratch(c, "epnet node features", sizeof(float) * 5 * (size_t)m->nh);
+    const int64_t H = m->nh;
+    float *node = cr_nn_scratch(c, "epnet node features", sizeof(float) * 5 * (size_t)H);
     float *edge = cr_nn_scratch(c, "epnet edge features", sizeof(float) * 9 * (size_t)(m->ne + 1));
-    if (!node || !edge) return NULL;
+    float *dd = cr_nn_scratch(c, "epnet strain", sizeof(float) * (size_t)H);
+    if (!node || !edge || !dd) return NULL;
     pnet_features(m, pos, theta, rb_prev, node, edge);
-    cr_nn_graph g = {.nodes = m->nh, .edges = m->ne, .senders = m->send, .receivers = m->recv};
-    cr_tensor *xn = cr_nn_wrap(c, 2, (int64_t[]){m->nh, 5}, node);
+    for (int64_t h = 0; h < H; h++)
+        dd[h] = node[5 * h + 1];
+    cr_nn_graph g = {.nodes = H, .edges = m->ne, .senders = m->send, .receivers = m->recv};
+    cr_tensor *xn = cr_nn_wrap(c, 2, (int64_t[]){H, 5}, node);
     cr_tensor *xe = cr_nn_wrap(c, 2, (int64_t[]){m->ne, 9}, edge);
     cr_tensor *y = cr_mpnn_forward(c, m->pnet, xn, &g, (cr_tensor *[]){xe}, NULL);
-    return cr_nn_mul_scalar(c, cr_nn_reshape(c, y, 1, (int64_t[]){m->nh}), PNET_OUT_SCALE);
+    cr_tensor *corr =
+        cr_nn_mul_scalar(c, cr_nn_tanh(c, cr_nn_reshape(c, y, 1, (int64_t[]){H})), PNET_CORR);
+    cr_tensor *d = cr_nn_add(c, cr_nn_wrap(c, 1, (int64_t[]){H}, dd), corr);
+    const float yl = (float)m->def.material.yield_angle;
+    /* sign(d) max(|d| - y, 0) = relu(d - y) - relu(-d - y) */
+    cr_tensor *over =
+        cr_nn_sub(c, cr_nn_relu(c, cr_nn_add_scalar(c, d, -yl)),
+                  cr_nn_relu(c, cr_nn_add_scalar(c, cr_nn_mul_scalar(c, d, -1.0f), -yl)));
+    if (m->def.sharpness > 0) {
+        cr_tensor *gate =
+            cr_nn_sigmoid(c, cr_nn_mul_scalar(c, cr_nn_add_scalar(c, cr_nn_abs(c, d), -yl),
+                                              (float)m->def.sharpness));
+        over = cr_nn_mul(c, over, gate);
+    }
+    return cr_nn_mul_scalar(c, over, (float)m->def.material.plastic_gain);
 }
 
 cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
