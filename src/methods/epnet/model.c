@@ -679,6 +679,15 @@ cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plast
     cr_sim_def sd = cr_sim_default_def();
     sd.material = m->def.material;
     sd.material.plastic_gain = 1.0;
+    /* the simulator's own contact (cotton's stiffness): the training loss's
+     * soft penalty (matched to the authors' force at contact) let the
+     * shoulders sink 1-2 cm through the shirt when the arms came down */
+    {
+        cr_material cot;
+        cr_error e2;
+        if (cr_material_preset("cotton", &cot, &e2) == CR_OK)
+            sd.material.collision_stiffness = cot.collision_stiffness;
+    }
     sd.dt = 1.0 / m->def.fps;
     sd.plasticity = plastic;
     sd.plastic_rule = CR_PLASTIC_SMOOTH;
