@@ -221,6 +221,8 @@ int cmd_drape(int argc, char **argv);
 void help_drape(void);
 int cmd_gdsr(int argc, char **argv);
 void help_gdsr(void);
+int cmd_epnet(int argc, char **argv);
+void help_epnet(void);
 int cmd_garment(int argc, char **argv);
 void help_garment(void);
 int cmd_eval(int argc, char **argv);

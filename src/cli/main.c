@@ -33,6 +33,8 @@ static const cli_command commands[] = {
     {"gdsr",
      "garment dynamic super-resolution: train on low/high pairs, run on a clip (gdsr paper)",
      cmd_gdsr, help_gdsr},
+    {"epnet", "self-supervised garment dynamics with persistent wrinkles (epnet paper)",
+     cmd_epnet, help_epnet},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",
      cmd_garment, help_garment},
     {"eval", "compare a predicted garment sequence with a reference by every paper's metrics",

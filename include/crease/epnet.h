@@ -1,0 +1,221 @@
+/* crease/epnet.h: EPNet (paper 004), a self-supervised neural garment
+ * simulator with persistent wrinkles: E-Net predicts the garment per frame
+ * from the body's pose and motion and the per-hinge rest bending RB, P-Net
+ * (message passing on the hinge graph) rolls RB out over the sequence, and
+ * the curriculum (Algorithm 1) alternates between them with targets from the
+ * perfect-plastic rule (Eq. 4-5). Trained with physics energies only
+ * (losses.h); the reference is the project's simulator with plasticity.
+ *
+ *   cr_epnet_def def = cr_epnet_default_def();
+ *   def.garment = "tshirt"; def.cycles = 4; def.out_dir = "model";
+ *   cr_epnet_train_report rep;
+ *   CR_TRY(cr_epnet_train(&def, &rep, err));            // resumable
+ *   cr_epnet_run_def rd = cr_epnet_run_default_def();
+ *   rd.model_dir = "model"; rd.motion = "bend"; rd.out_dir = "out";
+ *   CR_TRY(cr_epnet_run(&rd, NULL, err));               // PC2, glb, PNGs
+ *
+ * Shapes: V garment vertices, H interior hinges (cr_topology_build's order),
+ * T frames, J = 22 joints. Design and every choice: docs/epnet.md.
+ * Implemented in src/methods/epnet/.
+ */
+#ifndef CREASE_EPNET_H
+#define CREASE_EPNET_H
+
+#include "crease/base.h"
+#include "crease/mesh.h"
+#include "crease/phys_material.h"
+#include "crease/topology.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* --------------------------------------------------------- plastic rule -- */
+
+/* Eq. 4-5 (the perfect-plastic model, smoothed as the authors' code does):
+ * for each frame t and hinge h, the elastic strain over the yield is moved
+ * into the rest bending,
+ *     d      = theta[t,h] - theta_bar[h] - rb[t-1,h]          (Eq. 4)
+ *     rb[t,h] = rb[t-1,h] + gain sign(d) s(sharp (|d| - yield)) max(|d| - yield, 0)   (Eq. 5)
+ * with s the logistic sigmoid (sharpness 50 in the authors' code; 0: the
+ * plain linear rule). theta (T,H) total angles, rad; theta_bar (H) the rest
+ * mesh's angles (NULL: 0); rb0 (H) RB before frame 0 (NULL: 0); rb (T,H) out.
+ * Returns the number of (frame, hinge) updates. */
+int64_t cr_epnet_plastic_rollout(const float *theta, const float *theta_bar, const float *rb0,
+                                 int32_t nframes, int32_t nh, double yield, double gain,
+                                 double sharpness, float *rb);
+
+/* The hinge graph (P-Net's): a node per interior hinge of t, a directed edge
+ * each way between two hinges whose four vertices share at least one vertex.
+ * senders/receivers (E) are malloc'd (free()); edges sorted by receiver then
+ * sender. */
+cr_status cr_epnet_hinge_graph(const cr_topology *t, int32_t **senders, int32_t **receivers,
+                               int64_t *nedges, cr_error *err);
+
+/* ------------------------------------------------------------- options -- */
+
+enum { CR_EPNET_MAX_LAYERS = 8, CR_EPNET_MAX_MOTIONS = 16 };
+
+typedef struct cr_epnet_def {
+    /* scene */
+    const char *garment;        /* garment type (garment.h), default "tshirt" */
+    int32_t garment_vertices;   /* template target vertex count (default 600; authors ~4-5k) */
+    const char *body;           /* mannequin preset (default "normal") */
+    const char *const *motions; /* training clips (motion.h names) or files; default the
+                                   five procedural clips walk, squat, twist, dance, jump */
+    int nmotions;
+    int32_t frames; /* frames per training clip (default 60 = 2 s; authors 93 = 3 s) */
+    float fps;      /* default 30 (dt 1/30 s, the authors') */
+    /* material and losses (the authors' constants, docs/epnet.md) */
+    cr_material material; /* epnet preset: density 0.2, Baraff-Witkin stretch 20, shear 2,
+                             bending 0.002, collision 4 mm, yield 0.52 rad, gain 1 */
+    double w_stretch, w_shear, w_bending, w_gravity, w_collision, w_inertia; /* all 1 */
+    double sharpness; /* Eq. 5 sigmoid sharpness (default 50) */
+    /* E-Net sizes (authors: static 64-128-256-512, dynamic 2x32 + 2x512 + GRU 512,
+     * RB 256-128-64, decoder 3x512) */
+    int static_widths[CR_EPNET_MAX_LAYERS]; /* default 32, 64 */
+    int nstatic;
+    int dynamic_width;                  /* default 32 (two layers) */
+    int gru_hidden;                     /* default 64 */
+    int rb_widths[CR_EPNET_MAX_LAYERS]; /* default 32 */
+    int nrb;
+    int decoder_width;  /* default 128 */
+    int decoder_layers; /* hidden layers (default 2; authors 3) */
+    /* P-Net sizes (authors: latent 128, 2x128 MLPs, 3 steps) */
+    int pnet_latent;        /* default 16 */
+    int pnet_hidden_layers; /* default 1 */
+    int pnet_steps;         /* default 3 */
+    /* curriculum (authors: 4 cycles, E-Net 100 epochs lr 1e-4, P-Net 50-80 epochs lr 2e-5) */
+    int cycles;          /* default 4 */
+    int enet_epochs;     /* per cycle, default 40 */
+    int pnet_epochs;     /* per cycle, default 20 */
+    int pnet_frames;     /* frames drawn per P-Net step (default 4) */
+    float enet_lr;       /* default 1e-3 */
+    float pnet_lr;       /* default 1e-3 */
+    int baseline;        /* 1: RB fixed at zero, no P-Net (PBNS/SNUG/NCS) */
+    uint64_t seed;       /* default 1 */
+    const char *out_dir; /* model folder (checkpoint, config); required for cr_epnet_train */
+    int resume;          /* 1: continue from out_dir's checkpoint */
+    int quiet;           /* 1: no progress lines */
+    uint32_t cookie;
+} cr_epnet_def;
+
+cr_epnet_def cr_epnet_default_def(void);
+/* The material above ("epnet"), derived from the cotton preset. */
+void cr_epnet_material(cr_material *out);
+
+/* -------------------------------------------------------- a trained model -- */
+
+typedef struct cr_epnet cr_epnet;
+
+/* Build the scene (body, garment, hinges) and the networks of def, randomly
+ * initialised from def->seed. */
+cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err);
+void cr_epnet_destroy(cr_epnet *m); /* NULL is a no-op */
+/* The garment's rest mesh (borrowed) and sizes. */
+const cr_mesh *cr_epnet_garment(const cr_epnet *m);
+const cr_mesh *cr_epnet_body(const cr_epnet *m);
+int32_t cr_epnet_hinge_count(const cr_epnet *m);
+int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
+
+/* Loss terms of one forward pass, J per frame. */
+enum { CR_EPNET_NTERMS = 6 };
+extern const char *const cr_epnet_term_names[CR_EPNET_NTERMS];
+typedef struct cr_epnet_losses {
+    double total;
+    double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia */
+} cr_epnet_losses;
+
+/* A sequence the model runs on: a motion (clip name or file) on a body
+ * preset (NULL: the model's), T frames at the model's fps (0: the motion's
+ * own length), then hold frames of its last pose. */
+typedef struct cr_epnet_seq cr_epnet_seq;
+cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char *body,
+                              int32_t frames, int32_t hold, cr_epnet_seq **out, cr_error *err);
+void cr_epnet_seq_destroy(cr_epnet_seq *s);
+int32_t cr_epnet_seq_frames(const cr_epnet_seq *s);
+const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m */
+
+/* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
+ * or only the loss when 0. */
+cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
+                             cr_epnet_losses *out, cr_error *err);
+/* P-Net fit: steps of MSE between P-Net's one-step increment from the
+ * target's previous frame and the target's own (teacher forcing), over
+ * frames drawn from s. pos (T,V,3) and theta (T,H) the E-Net output the targets came from,
+ * rb_target (T,H). Returns the mean MSE of the last step in *mse. */
+cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
+                            const float *theta, const float *rb_target, int steps, double *mse,
+                            cr_error *err);
+
+/* Inference over s: pos (T,V,3) m, theta (T,H) and rb (T,H) rad (each may
+ * be NULL), each caller-allocated. Frame t uses RB of frame t-1 in E-Net
+ * and P-Net then rolls RB to frame t from E-Net's angles (P-Net's lag of one
+ * frame). use_pnet 0: RB stays 0 (the baseline). */
+cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
+                           float *theta, float *rb, cr_error *err);
+
+/* The plastic reference: the simulator with perfect plasticity (gain 1,
+ * the model's yield and material) on the same garment and body motion,
+ * started at the garment's skinned rest. pos (T,V,3), rest (T,H) rad. */
+cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plastic, float *pos,
+                             float *rest, cr_error *err);
+
+/* Checkpoints: weights, optimisers and the curriculum's position. */
+cr_status cr_epnet_save(cr_epnet *m, const char *path, int cycle, int phase, int epoch,
+                        cr_error *err);
+cr_status cr_epnet_load(cr_epnet *m, const char *path, int *cycle, int *phase, int *epoch,
+                        cr_error *err);
+
+/* -------------------------------------------------------------- training -- */
+
+typedef struct cr_epnet_train_report {
+    int cycles_done;
+    double first_loss, last_loss; /* E-Net loss per frame, J: first and last epoch */
+    cr_epnet_losses first, last;
+    double pnet_mse; /* last P-Net fit, rad^2 */
+    double seconds;
+} cr_epnet_train_report;
+
+/* The curriculum (Algorithm 1) into def->out_dir: checkpoint.safetensors
+ * after every epoch (resumable, bit-exact), model.json (the def), and
+ * progress.jsonl (a line per epoch with its loss terms). */
+cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr_error *err);
+
+/* Load a trained model from its folder. */
+cr_status cr_epnet_open(const char *model_dir, cr_epnet **out, cr_error *err);
+
+typedef struct cr_epnet_run_def {
+    const char *model_dir; /* required */
+    const char *motion;    /* clip name or file; required */
+    const char *body;      /* preset; NULL: the model's */
+    int32_t frames;        /* 0: the motion's own length */
+    int32_t hold;          /* frames of its last pose after it (default 0) */
+    int baseline;          /* 1: RB held at 0 */
+    const char *out_dir;   /* garment.pc2, garment.glb, garment.png, rb.png, rb.npy */
+    uint32_t cookie;
+} cr_epnet_run_def;
+cr_epnet_run_def cr_epnet_run_default_def(void);
+
+typedef struct cr_epnet_run_report {
+    int32_t frames, vertices, hinges;
+    double seconds_per_frame;
+    double max_abs_rb;        /* rad */
+    double min_body_distance; /* smallest signed vertex distance to the body, m */
+    int finite;               /* 1: no NaN anywhere */
+} cr_epnet_run_report;
+cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr_error *err);
+
+/* Persistence: the share of hinges whose |theta - theta_bar| at frame t
+ * exceeds thresh (rad). theta (T,H), theta_bar (H). */
+double cr_epnet_fold_share(const float *theta, const float *theta_bar, int32_t t, int32_t nh,
+                           double thresh);
+/* Dihedral angles theta (T,H), rad, of positions pos (T,V,3), m. */
+void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta);
+/* The rest mesh's angles theta_bar (H), borrowed. */
+const float *cr_epnet_rest_angles(const cr_epnet *m);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,171 @@
+/* cmd_epnet.c: `crease epnet train|run`: the epnet method (paper 004),
+ * self-supervised garment dynamics with a learnt plastic rest bending. */
+#include "cli.h"
+#include "crease/epnet.h"
+
+#include <string.h>
+
+void help_epnet(void) {
+    printf("usage: crease epnet train -o DIR [options]\n"
+           "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
+           "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
+           "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
+           "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
+           "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
+           "train:\n"
+           "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
+           "  --vertices N         garment vertex count (default 600)\n"
+           "  --body B             slim, normal (default) or heavy\n"
+           "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump)\n"
+           "  --frames N           frames per clip (default 60)\n"
+           "  --yield Y            yield angle, rad (default 0.52)\n"
+           "  --cycles N           curriculum cycles (default 4)\n"
+           "  --epochs N           E-Net epochs per cycle (default 40)\n"
+           "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
+           "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
+           "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
+           "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
+           "  --lr R               E-Net Adam learning rate (default 0.001)\n"
+           "  --seed S             (default 1)\n"
+           "  --resume             continue from DIR's checkpoints\n"
+           "  --json               a summary on stdout\n"
+           "run:\n"
+           "  --model DIR          a trained model\n"
+           "  --motion M           clip name or motion file\n"
+           "  --body B             another body preset (default the model's)\n"
+           "  --frames N           frames of the motion (default its own)\n"
+           "  --hold N             frames of its last pose after it (default 0)\n"
+           "  --baseline           RB held at zero\n"
+           "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
+           "rb.npy\n"
+           "  --json               a summary on stdout\n");
+}
+
+static int split_motions(const char *s, char *buf, size_t cap, const char **out, int max) {
+    snprintf(buf, cap, "%s", s);
+    int n = 0;
+    for (char *tok = strtok(buf, ","); tok && n < max; tok = strtok(NULL, ","))
+        out[n++] = tok;
+    return n;
+}
+
+static int run_train(int argc, char **argv) {
+    cr_epnet_def d = cr_epnet_default_def();
+    const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
+    int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
+    int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
+    int json = 0, seed = 1;
+    float yield = (float)d.material.yield_angle, lr = d.enet_lr;
+    const cli_opt opts[] = {
+        CLI_STR("--garment", &garment),
+        CLI_INT("--vertices", &vertices, 100, 100000),
+        CLI_STR("--body", &body),
+        CLI_STR("--motions", &motions),
+        CLI_INT("--frames", &frames, 3, 10000),
+        CLI_FLOAT("--yield", &yield, 0, 3.2),
+        CLI_INT("--cycles", &cycles, 1, 100),
+        CLI_INT("--epochs", &epochs, 0, 100000),
+        CLI_INT("--pnet-epochs", &pepochs, 0, 100000),
+        CLI_FLAG("--baseline", &baseline),
+        CLI_FLAG("--paper-sizes", &paper),
+        CLI_INT("--seed", &seed, 0, 1000000000),
+        CLI_FLAG("--resume", &resume),
+        CLI_FLOAT("--lr", &lr, 1e-7, 1),
+        CLI_FLAG("--json", &json),
+        CLI_OUTPUT(&out),
+        CLI_END,
+    };
+    int rc = cli_parse("epnet train", argc, argv, opts, NULL, 0, NULL);
+    if (rc != CLI_OK) return rc;
+    if (!out) return cli_usage("epnet train", "-o DIR is required");
+    char buf[1024];
+    const char *list[CR_EPNET_MAX_MOTIONS];
+    if (motions) {
+        d.nmotions = split_motions(motions, buf, sizeof buf, list, CR_EPNET_MAX_MOTIONS);
+        d.motions = list;
+    }
+    d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
+    d.material.yield_angle = yield, d.cycles = cycles, d.enet_epochs = epochs;
+    d.pnet_epochs = pepochs, d.baseline = baseline, d.seed = (uint64_t)seed, d.resume = resume;
+    d.out_dir = out, d.enet_lr = lr;
+    if (paper) {
+        const int w[4] = {64, 128, 256, 512};
+        memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;
+        d.dynamic_width = 512, d.gru_hidden = 512;
+        d.rb_widths[0] = 256, d.rb_widths[1] = 128, d.rb_widths[2] = 64, d.nrb = 3;
+        d.decoder_width = 512, d.decoder_layers = 3;
+        d.pnet_latent = 128, d.pnet_hidden_layers = 2;
+    }
+    cr_epnet_train_report r;
+    cr_error err;
+    if (cr_epnet_train(&d, &r, &err) != CR_OK) return cli_fail(&err);
+    fprintf(stderr, "epnet: %d cycles in %.1f s, E-Net loss %.5g -> %.5g J/frame, P-Net mse %.3g\n",
+            r.cycles_done, r.seconds, r.first_loss, r.last_loss, r.pnet_mse);
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddNumberToObject(j, "cycles", r.cycles_done);
+        cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
+        cJSON_AddNumberToObject(j, "last_loss", r.last_loss);
+        for (int k = 0; k < CR_EPNET_NTERMS; k++) {
+            char key[48];
+            snprintf(key, sizeof key, "first_%s", cr_epnet_term_names[k]);
+            cJSON_AddNumberToObject(j, key, r.first.term[k]);
+            snprintf(key, sizeof key, "last_%s", cr_epnet_term_names[k]);
+            cJSON_AddNumberToObject(j, key, r.last.term[k]);
+        }
+        cJSON_AddNumberToObject(j, "pnet_mse", r.pnet_mse);
+        cli_json_print(j);
+    }
+    return CLI_OK;
+}
+
+static int run_run(int argc, char **argv) {
+    cr_epnet_run_def d = cr_epnet_run_default_def();
+    const char *model = NULL, *motion = NULL, *body = NULL, *out = NULL;
+    int frames = 0, hold = 0, baseline = 0, json = 0;
+    const cli_opt opts[] = {
+        CLI_STR("--model", &model),
+        CLI_STR("--motion", &motion),
+        CLI_STR("--body", &body),
+        CLI_INT("--frames", &frames, 0, 1000000),
+        CLI_INT("--hold", &hold, 0, 1000000),
+        CLI_FLAG("--baseline", &baseline),
+        CLI_FLAG("--json", &json),
+        CLI_OUTPUT(&out),
+        CLI_END,
+    };
+    int rc = cli_parse("epnet run", argc, argv, opts, NULL, 0, NULL);
+    if (rc != CLI_OK) return rc;
+    if (!model || !motion || !out)
+        return cli_usage("epnet run", "--model, --motion and -o are required");
+    d.model_dir = model, d.motion = motion, d.body = body, d.frames = frames, d.hold = hold;
+    d.baseline = baseline, d.out_dir = out;
+    cr_epnet_run_report r;
+    cr_error err;
+    if (cr_epnet_run(&d, &r, &err) != CR_OK) return cli_fail(&err);
+    fprintf(stderr,
+            "epnet run: %d frames, %d vertices, %.4f s/frame, max |RB| %.3f rad, min body distance "
+            "%.4f m%s\n",
+            r.frames, r.vertices, r.seconds_per_frame, r.max_abs_rb, r.min_body_distance,
+            r.finite ? "" : ", NOT FINITE");
+    if (json) {
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddNumberToObject(j, "frames", r.frames);
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddNumberToObject(j, "hinges", r.hinges);
+        cJSON_AddNumberToObject(j, "seconds_per_frame", r.seconds_per_frame);
+        cJSON_AddNumberToObject(j, "max_abs_rb", r.max_abs_rb);
+        cJSON_AddNumberToObject(j, "min_body_distance", r.min_body_distance);
+        cJSON_AddBoolToObject(j, "finite", r.finite);
+        cli_json_print(j);
+    }
+    return r.finite ? CLI_OK : CLI_BAD_INPUT;
+}
+
+int cmd_epnet(int argc, char **argv) {
+    if (argc < 2) return cli_usage("epnet", "expected train or run");
+    if (!strcmp(argv[1], "train")) return run_train(argc - 1, argv + 1);
+    if (!strcmp(argv[1], "run")) return run_run(argc - 1, argv + 1);
+    return cli_usage("epnet", "expected train or run, got '%s'", argv[1]);
+}

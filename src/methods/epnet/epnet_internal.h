@@ -1,0 +1,58 @@
+/* epnet_internal.h: the model's state, shared by model.c and train.c. */
+#ifndef CREASE_EPNET_INTERNAL_H
+#define CREASE_EPNET_INTERNAL_H
+
+#include "crease/body.h"
+#include "crease/epnet.h"
+#include "crease/garment.h"
+#include "crease/losses.h"
+#include "crease/nn.h"
+#include "crease/nn_graph.h"
+#include "crease/nn_layers.h"
+#include "crease/nn_optim.h"
+#include "crease/phys_energies.h"
+#include "crease/skeleton.h"
+
+enum { EP_STATIC_IN = 66, EP_DYN_IN = 69 };
+
+struct cr_epnet {
+    cr_epnet_def def;
+    char garment_name[32], body_name[32];
+    cr_body_model *body;
+    cr_garment *garment;
+    cr_topology *topo;
+    int32_t nv, nh;
+    int64_t ne;
+    int32_t *send, *recv; /* (E) hinge graph */
+    float *theta_bar;     /* (H) rest mesh angles, rad */
+    cr_membrane *membrane;
+    cr_bending *bending;
+    cr_gravity *gravity;
+    cr_loss_collider *collider;
+    /* networks */
+    cr_nn_ctx *ctx;
+    cr_nn_params *pe, *pp; /* E-Net, P-Net parameters */
+    cr_mlp *enc_static, *enc_dyn, *enc_rb, *dec;
+    cr_rnn_cell gru;
+    cr_mpnn *pnet;
+    cr_optim *opt_e, *opt_p;
+    cr_rng rng;
+};
+
+struct cr_epnet_seq {
+    int32_t T, vb;
+    float *A;                 /* (T,V,3,3) garment skinning rotation-scale per vertex */
+    float *b;                 /* (T,V,3) and offset, m */
+    float *body;              /* (T,Vb,3) posed body, m */
+    float *stat;              /* (T,EP_STATIC_IN) */
+    float *dyn;               /* (T,EP_DYN_IN) */
+    const cr_mesh *body_rest; /* the body the sequence was posed with (borrowed from m or own) */
+    cr_body_model *own_body;  /* set when the sequence uses another body preset */
+};
+
+/* E-Net forward on the whole sequence: positions (T,V,3) on the tape. rb (T,H) or NULL. */
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb);
+/* Angles (T,H) of positions (T,V,3). */
+void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
+
+#endif

@@ -1,0 +1,716 @@
+/* model.c: epnet's scene, networks, losses and rollout (paper 004, sec. 3).
+ *
+ * E-Net (after NCS): a static encoder of the pose (joints 1..21 axis-angle
+ * and the up direction in the root's frame), a dynamic encoder of the joint
+ * and root velocities followed by a GRU over the sequence, an RB encoder,
+ * and a decoder to per-vertex offsets in the garment's canonical (rest)
+ * space, applied through the garment's own linear blend skinning:
+ *     x_t[v] = A_t[v] (p[v] + d_t[v]) + b_t[v]
+ * with A_t, b_t the skin-weighted joint transforms of frame t (linear in the
+ * offsets, so the tape sees one mul and one sum).
+ * P-Net: encode-process-decode on the hinge graph, one frame at a time;
+ * node features [rb_prev, d, |d|, |d| - yield, yield] with d the elastic
+ * strain theta - theta_bar - rb_prev, edge features the offsets of the two
+ * hinges' midpoints, deformed and rest, and [dt, k_b, yield]. The decoder's
+ * last layer starts at zero (the authors'), and its output is 0.1 x the RB
+ * increment.
+ * Losses (Eq. 1-2, 6): Baraff-Witkin stretch and shear, bending with rest
+ * theta_bar + RB, gravity, collision, and the implicit-Euler inertia over
+ * three consecutive predicted frames, all through losses.h, per frame. */
+#include "epnet_internal.h"
+
+#include "crease/motion.h"
+#include "crease/nn_checkpoint.h"
+#include "crease/phys_sim.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define EPNET_COOKIE 0x45504e31u
+#define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
+#define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
+
+const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
+                                                          "gravity", "collision", "inertia"};
+
+static const char *const default_motions[] = {"walk", "squat", "twist", "dance", "jump"};
+
+void cr_epnet_material(cr_material *out) {
+    cr_error e;
+    cr_material_preset("cotton", out, &e);
+    snprintf(out->name, sizeof out->name, "epnet");
+    out->density = 0.2; /* kg/m^2, the authors' */
+    out->membrane = CR_MEMBRANE_BARAFF_WITKIN;
+    out->bw_stretch = 2.0 * 10.0;     /* the authors' 10 A (|w| - 1)^2 is k_s/2 with k_s 20 */
+    out->bw_shear = 2.0 * 1.0;        /* 1 A (w_u . w_v)^2 */
+    out->bending = 0.002;             /* k_e/2 = 0.002 l^2 / (8 (A1 + A2)): the authors' */
+    out->collision_thickness = 0.004; /* 4 mm */
+    /* the authors' 10 (eps - d)^2 has the force 0.08 N at contact; the cubic
+     * k (eps - d)^3 matches it there with k = 0.08 / (3 eps^2) */
+    out->collision_stiffness = 0.08 / (3.0 * 0.004 * 0.004);
+    out->yield_angle = 0.52;
+    out->plastic_gain = 1.0;
+}
+
+cr_epnet_def cr_epnet_default_def(void) {
+    cr_epnet_def d;
+    memset(&d, 0, sizeof d);
+    d.garment = "tshirt";
+    d.garment_vertices = 600;
+    d.body = "normal";
+    d.motions = default_motions;
+    d.nmotions = 5;
+    d.frames = 60;
+    d.fps = 30;
+    cr_epnet_material(&d.material);
+    d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
+    d.sharpness = 50;
+    d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
+    d.dynamic_width = 32;
+    d.gru_hidden = 64;
+    d.rb_widths[0] = 32, d.nrb = 1;
+    d.decoder_width = 128;
+    d.decoder_layers = 2;
+    d.pnet_latent = 16;
+    d.pnet_hidden_layers = 1;
+    d.pnet_steps = 3;
+    d.cycles = 4;
+    d.enet_epochs = 40;
+    d.pnet_epochs = 20;
+    d.pnet_frames = 4;
+    d.enet_lr = 1e-3f;
+    d.pnet_lr = 1e-3f;
+    d.seed = 1;
+    d.cookie = EPNET_COOKIE;
+    return d;
+}
+
+/* ------------------------------------------------------------ create -- */
+
+static cr_status make_mlp(cr_nn_params *P, const char *name, int in, const int *w, int nw, int out,
+                          cr_act out_act, cr_rng *rng, cr_mlp **mlp, cr_error *err) {
+    cr_mlp_def d = cr_mlp_default_def();
+    d.nlayers = nw + (out > 0 ? 1 : 0);
+    d.widths[0] = in;
+    for (int i = 0; i < nw; i++)
+        d.widths[i + 1] = w[i];
+    if (out > 0) d.widths[nw + 1] = out;
+    d.act = CR_ACT_RELU;
+    d.out_act = out_act;
+    return cr_mlp_create(&d, P, name, rng, mlp, err);
+}
+
+static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
+    if (d->cookie != EPNET_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: def not made by cr_epnet_default_def");
+    if (d->nstatic < 1 || d->nstatic > CR_EPNET_MAX_LAYERS || d->nrb < 1 ||
+        d->nrb > CR_EPNET_MAX_LAYERS)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: static/rb encoder layers must be 1..%d",
+                       CR_EPNET_MAX_LAYERS);
+    if (d->decoder_layers < 1 || d->decoder_layers > CR_EPNET_MAX_LAYERS)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: decoder_layers %d not in 1..%d",
+                       d->decoder_layers, CR_EPNET_MAX_LAYERS);
+    if (d->frames < 3) return CR_FAIL(err, CR_ERR_INVALID, "epnet: frames %d < 3", d->frames);
+    if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
+                       CR_EPNET_MAX_MOTIONS);
+    if (!(d->material.yield_angle >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: yield angle %g < 0", d->material.yield_angle);
+    return CR_OK;
+}
+
+static cr_status make_body(const char *preset, cr_body_model **out, cr_error *err) {
+    cr_mannequin_def md = cr_mannequin_default_def();
+    CR_TRY(cr_mannequin_preset(preset, &md, err));
+    return cr_mannequin_create(&md, out, err);
+}
+
+cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
+    *out = NULL;
+    CR_TRY(check_def(def, err));
+    cr_epnet *m = cr_calloc(1, sizeof *m, err);
+    if (!m) return CR_ERR_MEMORY;
+    m->def = *def;
+    snprintf(m->garment_name, sizeof m->garment_name, "%s", def->garment);
+    snprintf(m->body_name, sizeof m->body_name, "%s", def->body);
+    m->def.garment = m->garment_name, m->def.body = m->body_name;
+    m->def.out_dir = NULL;
+    m->def.motions = NULL, m->def.nmotions = 0; /* the training set is train.c's */
+    cr_status st = make_body(def->body, &m->body, err);
+    cr_garment_def gd;
+    cr_garment_type gt;
+    if (st == CR_OK) st = cr_garment_type_parse(def->garment, &gt, err);
+    if (st == CR_OK) {
+        gd = cr_garment_default_def(gt);
+        gd.target_vertices = def->garment_vertices;
+        st = cr_garment_create(&gd, m->body, &m->garment, err);
+    }
+    if (st == CR_OK) st = cr_topology_build(m->garment->mesh, &m->topo, err);
+    if (st == CR_OK) {
+        m->nv = m->garment->mesh->nv, m->nh = m->topo->nh;
+        st = cr_epnet_hinge_graph(m->topo, &m->send, &m->recv, &m->ne, err);
+    }
+    const cr_material *mat = &def->material;
+    if (st == CR_OK) st = cr_membrane_create(m->garment->mesh, 0, 1.0f, mat, &m->membrane, err);
+    if (st == CR_OK) st = cr_bending_create(m->garment->mesh, m->topo, mat, 1, &m->bending, err);
+    if (st == CR_OK)
+        st = cr_gravity_create(m->garment->mesh, mat, (double[]){0, -9.81, 0}, &m->gravity, err);
+    const cr_mesh *bm = m->body->rest;
+    if (st == CR_OK)
+        st = cr_loss_collider_create(bm->pos, bm->nv, bm->tri, bm->nf, &m->collider, err);
+    if (st == CR_OK) {
+        m->theta_bar = cr_malloc(sizeof(float) * (size_t)(m->nh > 0 ? m->nh : 1), err);
+        if (!m->theta_bar)
+            st = CR_ERR_MEMORY;
+        else {
+            const double *r = cr_bending_rest_angles(m->bending);
+            for (int32_t h = 0; h < m->nh; h++)
+                m->theta_bar[h] = (float)r[h];
+        }
+    }
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = (size_t)512 << 20;
+    if (st == CR_OK) st = cr_nn_ctx_create(&cd, &m->ctx, err);
+    if (st == CR_OK) st = cr_nn_params_create(&m->pe, err);
+    if (st == CR_OK) st = cr_nn_params_create(&m->pp, err);
+    m->rng = cr_rng_make(def->seed, 0);
+    if (st == CR_OK) {
+        const int lat =
+            def->static_widths[def->nstatic - 1] + def->gru_hidden + def->rb_widths[def->nrb - 1];
+        int dw[CR_EPNET_MAX_LAYERS], dyw[2] = {def->dynamic_width, def->dynamic_width};
+        for (int i = 0; i < def->decoder_layers; i++)
+            dw[i] = def->decoder_width;
+        st = make_mlp(m->pe, "enet.static", EP_STATIC_IN, def->static_widths, def->nstatic, 0,
+                      CR_ACT_RELU, &m->rng, &m->enc_static, err);
+        if (st == CR_OK)
+            st = make_mlp(m->pe, "enet.dynamic", EP_DYN_IN, dyw, 2, 0, CR_ACT_RELU, &m->rng,
+                          &m->enc_dyn, err);
+        if (st == CR_OK)
+            st = make_mlp(m->pe, "enet.rb", m->nh, def->rb_widths, def->nrb, 0, CR_ACT_RELU,
+                          &m->rng, &m->enc_rb, err);
+        if (st == CR_OK)
+            st = make_mlp(m->pe, "enet.decoder", lat, dw, def->decoder_layers, 3 * m->nv,
+                          CR_ACT_NONE, &m->rng, &m->dec, err);
+        cr_rnn_def rd = cr_rnn_default_def();
+        rd.input = def->dynamic_width, rd.hidden = def->gru_hidden;
+        if (st == CR_OK) st = cr_gru_cell_create(&rd, m->pe, "enet.gru", &m->rng, &m->gru, err);
+    }
+    if (st == CR_OK) {
+        /* start near the skinned template: the offsets' layer is scaled down */
+        cr_tensor *w = m->dec->layer[m->dec->def.nlayers - 1].weight;
+        for (int64_t i = 0; i < w->numel; i++)
+            w->data[i] *= 0.02f;
+        cr_mpnn_def pd = cr_mpnn_default_def();
+        pd.node_in = 5, pd.edge_in[0] = 9, pd.node_out = 1;
+        pd.latent = def->pnet_latent, pd.steps = def->pnet_steps;
+        pd.hidden_layers = def->pnet_hidden_layers;
+        st = cr_mpnn_create(&pd, m->pp, "pnet", &m->rng, &m->pnet, err);
+    }
+    if (st == CR_OK) {
+        char name[64];
+        for (int i = 15; i >= 0; i--) {
+            snprintf(name, sizeof name, "pnet.decoder.%d.weight", i);
+            cr_tensor *w = cr_nn_params_find(m->pp, name);
+            if (w) {
+                cr_init_zero(w);
+                snprintf(name, sizeof name, "pnet.decoder.%d.bias", i);
+                if ((w = cr_nn_params_find(m->pp, name))) cr_init_zero(w);
+                break;
+            }
+        }
+        cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
+        od.lr.base = def->enet_lr;
+        st = cr_optim_create(&od, m->pe, &m->opt_e, err);
+        od.lr.base = def->pnet_lr;
+        if (st == CR_OK) st = cr_optim_create(&od, m->pp, &m->opt_p, err);
+    }
+    if (st != CR_OK) {
+        cr_epnet_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+void cr_epnet_destroy(cr_epnet *m) {
+    if (!m) return;
+    cr_optim_destroy(m->opt_e), cr_optim_destroy(m->opt_p);
+    cr_mlp_destroy(m->enc_static), cr_mlp_destroy(m->enc_dyn), cr_mlp_destroy(m->enc_rb);
+    cr_mlp_destroy(m->dec);
+    cr_mpnn_destroy(m->pnet);
+    cr_nn_params_destroy(m->pe), cr_nn_params_destroy(m->pp);
+    cr_nn_ctx_destroy(m->ctx);
+    cr_loss_collider_destroy(m->collider);
+    cr_gravity_destroy(m->gravity), cr_bending_destroy(m->bending);
+    cr_membrane_destroy(m->membrane);
+    free(m->theta_bar), free(m->send), free(m->recv);
+    cr_topology_destroy(m->topo);
+    cr_garment_destroy(m->garment);
+    cr_body_model_destroy(m->body);
+    free(m);
+}
+
+const cr_mesh *cr_epnet_garment(const cr_epnet *m) {
+    return m->garment->mesh;
+}
+const cr_mesh *cr_epnet_body(const cr_epnet *m) {
+    return m->body->rest;
+}
+int32_t cr_epnet_hinge_count(const cr_epnet *m) {
+    return m->nh;
+}
+const float *cr_epnet_rest_angles(const cr_epnet *m) {
+    return m->theta_bar;
+}
+int64_t cr_epnet_param_count(const cr_epnet *m, int pnet) {
+    return cr_nn_params_numel(pnet ? m->pp : m->pe);
+}
+
+/* ---------------------------------------------------------- sequences -- */
+
+static cr_status load_motion(const char *name, int32_t frames, float fps, cr_motion **out,
+                             cr_error *err) {
+    int n = 0;
+    const char *const *names = cr_motion_clip_names(&n);
+    for (int i = 0; i < n; i++)
+        if (!strcmp(names[i], name))
+            return cr_motion_clip(name, frames > 0 ? frames : 120, fps, out, err);
+    cr_motion *raw = NULL;
+    CR_TRY(cr_motion_load(name, &raw, err));
+    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
+    pd.fps = fps;
+    if (frames > 0) pd.end_frame = -1;
+    cr_status st = cr_motion_prepare(raw, &pd, NULL, out, NULL, err);
+    cr_motion_destroy(raw);
+    if (st == CR_OK && frames > 0 && (*out)->nframes > frames) (*out)->nframes = frames;
+    return st;
+}
+
+void cr_epnet_seq_destroy(cr_epnet_seq *s) {
+    if (!s) return;
+    free(s->A), free(s->b), free(s->body), free(s->stat), free(s->dyn);
+    cr_body_model_destroy(s->own_body);
+    free(s);
+}
+int32_t cr_epnet_seq_frames(const cr_epnet_seq *s) {
+    return s->T;
+}
+const float *cr_epnet_seq_body(const cr_epnet_seq *s) {
+    return s->body;
+}
+
+cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char *body,
+                              int32_t frames, int32_t hold, cr_epnet_seq **out, cr_error *err) {
+    *out = NULL;
+    cr_motion *mo = NULL;
+    CR_TRY(load_motion(motion, frames, m->def.fps, &mo, err));
+    cr_epnet_seq *s = cr_calloc(1, sizeof *s, err);
+    if (!s) {
+        cr_motion_destroy(mo);
+        return CR_ERR_MEMORY;
+    }
+    cr_status st = CR_OK;
+    const cr_body_model *bm = m->body;
+    if (body && strcmp(body, m->body_name)) {
+        st = make_body(body, &s->own_body, err);
+        bm = s->own_body;
+    }
+    const int32_t T0 = mo->nframes, T = T0 + (hold > 0 ? hold : 0), V = m->nv;
+    s->T = T;
+    if (st == CR_OK) {
+        s->body_rest = bm->rest, s->vb = bm->rest->nv;
+        s->A = malloc(sizeof(float) * 9 * (size_t)T * V);
+        s->b = malloc(sizeof(float) * 3 * (size_t)T * V);
+        s->body = malloc(sizeof(float) * 3 * (size_t)T * s->vb);
+        s->stat = calloc((size_t)T * EP_STATIC_IN, sizeof(float));
+        s->dyn = calloc((size_t)T * EP_DYN_IN, sizeof(float));
+        if (!s->A || !s->b || !s->body || !s->stat || !s->dyn)
+            st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for %d frames", T);
+    }
+    float xf[CR_NJOINTS * 12], R[9];
+    const cr_garment *g = m->garment;
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        const int32_t f = t < T0 ? t : T0 - 1;
+        const float *pose = mo->poses + (size_t)f * CR_NJOINTS * 3, *tr = mo->trans + 3 * f;
+        st = cr_body_pose(bm, pose, tr, s->body + (size_t)t * s->vb * 3, err);
+        cr_body_skin_transforms(bm->joints, pose, tr, xf);
+        for (int32_t v = 0; v < V; v++) {
+            float *A = s->A + ((size_t)t * V + v) * 9, *b = s->b + ((size_t)t * V + v) * 3;
+            memset(A, 0, 9 * sizeof *A), memset(b, 0, 3 * sizeof *b);
+            for (int k = 0; k < 4; k++) {
+                const float w = g->skin_weight[4 * v + k];
+                const float *X = xf + 12 * g->skin_joint[4 * v + k];
+                for (int r = 0; r < 3; r++) {
+                    for (int c = 0; c < 3; c++)
+                        A[3 * r + c] += w * X[4 * r + c];
+                    b[r] += w * X[4 * r + 3];
+                }
+            }
+        }
+        /* static: joints 1..21 and the world up in the root's frame */
+        float *si = s->stat + (size_t)t * EP_STATIC_IN;
+        memcpy(si, pose + 3, 63 * sizeof *si);
+        cr_body_rodrigues(pose, R);
+        for (int r = 0; r < 3; r++)
+            si[63 + r] = R[3 * 1 + r]; /* R^T e_y */
+        /* dynamic: joint angular velocity and root velocity in the root frame, per s */
+        float *di = s->dyn + (size_t)t * EP_DYN_IN;
+        if (t > 0) {
+            const int32_t fp = (t - 1) < T0 ? t - 1 : T0 - 1;
+            const float *pp = mo->poses + (size_t)fp * CR_NJOINTS * 3, *tp = mo->trans + 3 * fp;
+            for (int i = 0; i < 66; i++)
+                di[i] = (pose[i] - pp[i]) * 0.1f * m->def.fps;
+            for (int r = 0; r < 3; r++) {
+                double v = 0;
+                for (int c = 0; c < 3; c++)
+                    v += R[3 * c + r] * (tr[c] - tp[c]);
+                di[66 + r] = (float)(v * m->def.fps);
+            }
+        }
+    }
+    cr_motion_destroy(mo);
+    if (st != CR_OK) {
+        cr_epnet_seq_destroy(s);
+        return st;
+    }
+    *out = s;
+    return CR_OK;
+}
+
+/* ------------------------------------------------------------- E-Net -- */
+
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t T = s->T, V = m->nv, H = m->nh;
+    cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
+    cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){T, EP_DYN_IN}, s->dyn);
+    cr_tensor *r =
+        rb ? cr_nn_from(c, 2, (int64_t[]){T, H}, rb) : cr_nn_zeros(c, 2, (int64_t[]){T, H});
+    cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
+    cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
+    hd = cr_nn_reshape(c, hd, 3, (int64_t[]){T, 1, m->def.dynamic_width});
+    cr_tensor *hg = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
+    hg = cr_nn_reshape(c, hg, 2, (int64_t[]){T, m->def.gru_hidden});
+    cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
+    cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
+    cr_tensor *d = cr_mlp_forward(c, m->dec, z); /* (T, 3V) */
+    d = cr_nn_reshape(c, d, 4, (int64_t[]){T, V, 1, 3});
+    cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
+    cr_tensor *y = cr_nn_add(c, d, p);
+    cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){T, V, 3, 3}, s->A);
+    cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, y), 3, 0); /* (T,V,3) */
+    return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b));
+}
+
+void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
+    const int32_t V = m->nv, H = m->nh;
+    double *x = malloc(sizeof(double) * 3 * (size_t)V),
+           *th = malloc(sizeof(double) * (size_t)(H + 1));
+    if (!x || !th) {
+        free(x), free(th);
+        memset(theta, 0, sizeof(float) * (size_t)T * H);
+        return;
+    }
+    for (int32_t t = 0; t < T; t++) {
+        for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+            x[i] = pos[(size_t)t * V * 3 + i];
+        cr_bending_angles(m->bending, x, th);
+        for (int32_t h = 0; h < H; h++)
+            theta[(size_t)t * H + h] = (float)th[h];
+    }
+    free(x), free(th);
+}
+
+void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
+    cr_epnet_angles_(m, pos, T, theta);
+}
+
+static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
+                            cr_tensor **parts) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t T = s->T, H = m->nh, V = m->nv;
+    const cr_epnet_def *d = &m->def;
+    cr_tensor *rest = cr_nn_new(c, 2, (int64_t[]){T, H});
+    if (rest)
+        for (int64_t t = 0; t < T; t++)
+            for (int64_t h = 0; h < H; h++)
+                rest->data[t * H + h] = m->theta_bar[h] + (rb ? rb[t * H + h] : 0.0f);
+    cr_energy_term ts, tsh, tg;
+    cr_membrane_term_part(m->membrane, CR_MEMBRANE_STRETCH, &ts);
+    cr_membrane_term_part(m->membrane, CR_MEMBRANE_SHEAR, &tsh);
+    cr_gravity_term(m->gravity, &tg);
+    cr_tensor *body = cr_nn_wrap(c, 3, (int64_t[]){T, s->vb, 3}, s->body);
+    cr_tensor *terms[CR_EPNET_NTERMS] = {
+        cr_loss_energy(c, &ts, x),
+        cr_loss_energy(c, &tsh, x),
+        cr_loss_bending(c, m->bending, 1.0, x, rest),
+        cr_loss_energy(c, &tg, x),
+        cr_loss_collision(c, m->collider, &d->material, 1.0, x, body),
+        cr_loss_inertia(c, cr_gravity_masses(m->gravity), (int32_t)V, 1.0 / d->fps, 1.0,
+                        cr_nn_slice(c, x, 0, 2, T - 2), cr_nn_slice(c, x, 0, 1, T - 2),
+                        cr_nn_slice(c, x, 0, 0, T - 2)),
+    };
+    const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
+                                      (float)(d->w_bending / T),   (float)(d->w_gravity / T),
+                                      (float)(d->w_collision / T), (float)(d->w_inertia / T)};
+    return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
+}
+
+static void read_parts(cr_tensor *loss, cr_tensor **parts, cr_epnet_losses *out) {
+    if (!out) return;
+    out->total = loss ? loss->data[0] : NAN;
+    for (int k = 0; k < CR_EPNET_NTERMS; k++)
+        out->term[k] = parts[k] ? parts[k]->data[0] : NAN;
+}
+
+cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
+                             cr_epnet_losses *out, cr_error *err) {
+    cr_nn_ctx_reset(m->ctx);
+    cr_nn_ctx_set_grad_enabled(m->ctx, train);
+    cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
+    cr_tensor *parts[CR_EPNET_NTERMS] = {0};
+    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    CR_TRY(cr_nn_ctx_error(m->ctx, err));
+    read_parts(loss, parts, out);
+    if (!train) return CR_OK;
+    cr_nn_params_zero_grad(m->pe);
+    CR_TRY(cr_nn_backward(m->ctx, loss, err));
+    CR_TRY(cr_clip_grad_norm(m->pe, 10.0f, NULL, err));
+    return cr_optim_step(m->opt_e, err);
+}
+
+/* ------------------------------------------------------------- P-Net -- */
+
+/* Node (H,5) and edge (E,9) features of frame t from positions pos (V,3),
+ * angles theta (H) and the previous RB rb_prev (H). */
+static void pnet_features(const cr_epnet *m, const float *pos, const float *theta,
+                          const float *rb_prev, float *node, float *edge) {
+    const int32_t H = m->nh;
+    const double y = m->def.material.yield_angle;
+    for (int32_t h = 0; h < H; h++) {
+        const double d = theta[h] - m->theta_bar[h] - rb_prev[h];
+        float *n = node + 5 * (size_t)h;
+        n[0] = rb_prev[h], n[1] = (float)d, n[2] = (float)fabs(d), n[3] = (float)(fabs(d) - y);
+        n[4] = (float)y;
+    }
+    const float *rest = m->garment->mesh->pos;
+    const int32_t *hg = m->topo->hinge;
+    for (int64_t e = 0; e < m->ne; e++) {
+        const int32_t a = m->send[e], b = m->recv[e];
+        float *f = edge + 9 * (size_t)e;
+        for (int k = 0; k < 3; k++) {
+            const float ma = 0.5f * (pos[3 * hg[4 * a] + k] + pos[3 * hg[4 * a + 1] + k]);
+            const float mb = 0.5f * (pos[3 * hg[4 * b] + k] + pos[3 * hg[4 * b + 1] + k]);
+            const float ra = 0.5f * (rest[3 * hg[4 * a] + k] + rest[3 * hg[4 * a + 1] + k]);
+            const float rb = 0.5f * (rest[3 * hg[4 * b] + k] + rest[3 * hg[4 * b + 1] + k]);
+            f[k] = 10.0f * (ma - mb), f[3 + k] = 10.0f * (ra - rb); /* dm */
+        }
+        f[6] = 1.0f / m->def.fps, f[7] = (float)(m->def.material.bending * 100.0);
+        f[8] = (float)y;
+    }
+}
+
+/* P-Net's increment (H) of one frame, on the tape, in Eq. 4-5's own form:
+ * the network predicts a bounded correction c (|c| < PNET_CORR rad) to the
+ * elastic strain d = theta - theta_bar - rb_prev, and the increment is the
+ * rule applied to d + c. So RB only moves when the corrected strain passes
+ * the yield, and never past theta - theta_bar -/+ (yield + PNET_CORR): long
+ * rollouts cannot drift (an unconstrained increment accumulated 1.55 rad
+ * over 1,000 walking frames). With c = 0 (the zeroed decoder at start) it
+ * is the plastic rule on E-Net's angles. */
+static cr_tensor *pnet_forward(cr_epnet *m, const float *pos, const float *theta,
+                               const float *rb_prev) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t H = m->nh;
+    float *node = cr_nn_scratch(c, "epnet node features", sizeof(float) * 5 * (size_t)H);
+    float *edge = cr_nn_scratch(c, "epnet edge features", sizeof(float) * 9 * (size_t)(m->ne + 1));
+    float *dd = cr_nn_scratch(c, "epnet strain", sizeof(float) * (size_t)H);
+    if (!node || !edge || !dd) return NULL;
+    pnet_features(m, pos, theta, rb_prev, node, edge);
+    for (int64_t h = 0; h < H; h++)
+        dd[h] = node[5 * h + 1];
+    cr_nn_graph g = {.nodes = H, .edges = m->ne, .senders = m->send, .receivers = m->recv};
+    cr_tensor *xn = cr_nn_wrap(c, 2, (int64_t[]){H, 5}, node);
+    cr_tensor *xe = cr_nn_wrap(c, 2, (int64_t[]){m->ne, 9}, edge);
+    cr_tensor *y = cr_mpnn_forward(c, m->pnet, xn, &g, (cr_tensor *[]){xe}, NULL);
+    cr_tensor *corr =
+        cr_nn_mul_scalar(c, cr_nn_tanh(c, cr_nn_reshape(c, y, 1, (int64_t[]){H})), PNET_CORR);
+    cr_tensor *d = cr_nn_add(c, cr_nn_wrap(c, 1, (int64_t[]){H}, dd), corr);
+    const float yl = (float)m->def.material.yield_angle;
+    /* sign(d) max(|d| - y, 0) = relu(d - y) - relu(-d - y) */
+    cr_tensor *over =
+        cr_nn_sub(c, cr_nn_relu(c, cr_nn_add_scalar(c, d, -yl)),
+                  cr_nn_relu(c, cr_nn_add_scalar(c, cr_nn_mul_scalar(c, d, -1.0f), -yl)));
+    if (m->def.sharpness > 0) {
+        cr_tensor *gate =
+            cr_nn_sigmoid(c, cr_nn_mul_scalar(c, cr_nn_add_scalar(c, cr_nn_abs(c, d), -yl),
+                                              (float)m->def.sharpness));
+        over = cr_nn_mul(c, over, gate);
+    }
+    return cr_nn_mul_scalar(c, over, (float)m->def.material.plastic_gain);
+}
+
+cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
+                            const float *theta, const float *rb_target, int steps, double *mse,
+                            cr_error *err) {
+    const int32_t H = m->nh, V = m->nv, T = s->T;
+    float *zero = calloc((size_t)H, sizeof *zero), *inc = malloc(sizeof(float) * (size_t)H);
+    if (!zero || !inc) {
+        free(zero), free(inc);
+        return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net targets");
+    }
+    cr_status st = CR_OK;
+    double last = NAN;
+    /* one frame on the tape at a time (a frame's graph of E edges holds a
+     * few (E, 3L) tensors per step), the gradients summed over the frames */
+    const float wf = 1.0f / (float)m->def.pnet_frames;
+    for (int it = 0; st == CR_OK && it < steps; it++) {
+        double sum = 0;
+        cr_nn_params_zero_grad(m->pp);
+        for (int k = 0; st == CR_OK && k < m->def.pnet_frames; k++) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_nn_ctx_set_grad_enabled(m->ctx, 1);
+            const int32_t t = (int32_t)cr_rng_below(&m->rng, (uint32_t)T);
+            const float *prev = t > 0 ? rb_target + (size_t)(t - 1) * H : zero;
+            for (int32_t h = 0; h < H; h++)
+                inc[h] = (rb_target[(size_t)t * H + h] - prev[h]) / PNET_OUT_SCALE;
+            cr_tensor *y = pnet_forward(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
+            cr_tensor *dlt = cr_nn_sub(m->ctx, cr_nn_mul_scalar(m->ctx, y, 1.0f / PNET_OUT_SCALE),
+                                       cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc));
+            cr_tensor *l =
+                cr_nn_mul_scalar(m->ctx, cr_nn_mean(m->ctx, cr_nn_square(m->ctx, dlt)), wf);
+            st = cr_nn_ctx_error(m->ctx, err);
+            if (st != CR_OK) break;
+            sum += l->data[0];
+            st = cr_nn_backward(m->ctx, l, err);
+        }
+        if (st != CR_OK) break;
+        /* report in rad^2: the loss is on 10x the increment */
+        last = sum * PNET_OUT_SCALE * PNET_OUT_SCALE;
+        st = cr_clip_grad_norm(m->pp, 10.0f, NULL, err);
+        if (st == CR_OK) st = cr_optim_step(m->opt_p, err);
+    }
+    free(zero), free(inc);
+    if (mse) *mse = last;
+    return st;
+}
+
+/* ------------------------------------------------------------ rollout -- */
+
+/* E-Net's frame t alone needs the GRU's history, so the rollout runs E-Net
+ * over frames 0..t with RB up to t - 1: O(T^2) on the GRU's cheap part;
+ * the decoder runs once per frame on the last row only. To keep it O(T),
+ * the GRU state is carried frame to frame here. */
+static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
+                             cr_tensor *h_prev, cr_tensor **h_out) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t V = m->nv, H = m->nh;
+    cr_tensor *st =
+        cr_nn_from(c, 2, (int64_t[]){1, EP_STATIC_IN}, s->stat + (size_t)t * EP_STATIC_IN);
+    cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){1, EP_DYN_IN}, s->dyn + (size_t)t * EP_DYN_IN);
+    cr_tensor *r = cr_nn_from(c, 2, (int64_t[]){1, H}, rb);
+    cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
+    cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
+    cr_tensor *hg = cr_gru_cell_forward(c, &m->gru, hd, h_prev);
+    *h_out = hg;
+    cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
+    cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
+    cr_tensor *d = cr_nn_reshape(c, cr_mlp_forward(c, m->dec, z), 4, (int64_t[]){1, V, 1, 3});
+    cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
+    cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){1, V, 3, 3}, s->A + (size_t)t * V * 9);
+    cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, cr_nn_add(c, d, p)), 3, 0);
+    return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){1, V, 3}, s->b + (size_t)t * V * 3));
+}
+
+cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
+                           float *theta, float *rb, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh, T = s->T, G = m->def.gru_hidden;
+    float *x = malloc(sizeof(float) * 3 * (size_t)V), *th = malloc(sizeof(float) * (size_t)H);
+    float *r = calloc((size_t)H, sizeof(float)), *hstate = calloc((size_t)G, sizeof(float));
+    if (!x || !th || !r || !hstate) {
+        free(x), free(th), free(r), free(hstate);
+        return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the rollout");
+    }
+    cr_status st = CR_OK;
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *h0 = t > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL, *h1 = NULL;
+        cr_tensor *xt = enet_frame(m, s, t, r, h0, &h1);
+        st = cr_nn_ctx_error(m->ctx, err);
+        if (st != CR_OK) break;
+        memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
+        memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
+        cr_epnet_angles_(m, x, 1, th);
+        if (use_pnet) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_tensor *inc = pnet_forward(m, x, th, r);
+            st = cr_nn_ctx_error(m->ctx, err);
+            if (st != CR_OK) break;
+            for (int32_t h = 0; h < H; h++)
+                r[h] += inc->data[h];
+        }
+        if (pos) memcpy(pos + (size_t)t * V * 3, x, sizeof(float) * 3 * (size_t)V);
+        if (theta) memcpy(theta + (size_t)t * H, th, sizeof(float) * (size_t)H);
+        if (rb) memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
+    }
+    free(x), free(th), free(r), free(hstate);
+    return st;
+}
+
+/* ---------------------------------------------------------- reference -- */
+
+cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plastic, float *pos,
+                             float *rest, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh, T = s->T;
+    cr_mesh *start = NULL;
+    CR_TRY(cr_mesh_create(V, m->garment->mesh->nf, 0, &start, err));
+    /* the skinned rest of frame 0, with the rest mesh's own shape as rest */
+    for (int32_t v = 0; v < V; v++) {
+        const float *A = s->A + (size_t)v * 9, *b = s->b + (size_t)v * 3,
+                    *p = m->garment->mesh->pos + 3 * v;
+        for (int r = 0; r < 3; r++)
+            start->pos[3 * v + r] =
+                A[3 * r] * p[0] + A[3 * r + 1] * p[1] + A[3 * r + 2] * p[2] + b[r];
+    }
+    memcpy(start->tri, m->garment->mesh->tri, sizeof(int32_t) * 3 * (size_t)start->nf);
+    cr_sim_def sd = cr_sim_default_def();
+    sd.material = m->def.material;
+    sd.material.plastic_gain = 1.0;
+    /* the simulator's own contact (cotton's stiffness): the training loss's
+     * soft penalty (matched to the authors' force at contact) let the
+     * shoulders sink 1-2 cm through the shirt when the arms came down */
+    {
+        cr_material cot;
+        cr_error e2;
+        if (cr_material_preset("cotton", &cot, &e2) == CR_OK)
+            sd.material.collision_stiffness = cot.collision_stiffness;
+    }
+    sd.dt = 1.0 / m->def.fps;
+    sd.plasticity = plastic;
+    sd.plastic_rule = CR_PLASTIC_SMOOTH;
+    sd.collider = s->body_rest;
+    sd.collider_frames = s->body;
+    sd.collider_nframes = T;
+    sd.max_collider_step = 0.15;
+    cr_sim *sim = NULL;
+    cr_status st = cr_sim_create(&sd, start, &sim, err);
+    cr_sim_report rep;
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        if (t > 0) st = cr_sim_step(sim, &rep, err);
+        if (st != CR_OK) break;
+        const double *x = cr_sim_positions(sim);
+        for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+            pos[(size_t)t * V * 3 + i] = (float)x[i];
+        if (rest) {
+            const double *ra = cr_sim_rest_angles(sim);
+            for (int32_t h = 0; h < H; h++)
+                rest[(size_t)t * H + h] = (float)(ra[h] - m->theta_bar[h]);
+        }
+    }
+    cr_sim_destroy(sim);
+    cr_mesh_destroy(start);
+    return st;
+}

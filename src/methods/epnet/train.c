@@ -1,0 +1,414 @@
+/* train.c: epnet's curriculum (paper 004, Algorithm 1), checkpoints, the
+ * model folder, and `crease epnet run`'s outputs.
+ *
+ * Cycle k: (phase 0) E-Net epochs with the current RB per training clip
+ * (zero in the first cycle); (phase 1) E-Net's angles on every clip give the
+ * target RB by Eq. 4-5 (cr_epnet_plastic_rollout), on which P-Net is fitted
+ * (MSE, teacher forcing), and the targets become the next cycle's RB. The
+ * baseline (def.baseline) runs phase 0 only, with RB 0.
+ * Checkpoints after every epoch: enet.safetensors, pnet.safetensors (weights
+ * and Adam state) and state.safetensors (the RB per clip, the position in
+ * the curriculum and the RNG), written in that order, each atomically. */
+#include "epnet_internal.h"
+
+#include "crease/bvh.h"
+#include "crease/mesh_io.h"
+#include "crease/nn_checkpoint.h"
+#include "crease/npz.h"
+#include "crease/render.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------- checkpoints -- */
+
+static int64_t pos_code(int cycle, int phase, int epoch) {
+    return ((int64_t)cycle * 2 + phase) * 1000000 + epoch;
+}
+
+cr_status cr_epnet_save(cr_epnet *m, const char *dir, int cycle, int phase, int epoch,
+                        cr_error *err) {
+    char path[1024];
+    cr_checkpoint_meta meta = {
+        .epoch = pos_code(cycle, phase, epoch), .seed = m->def.seed, .rng = m->rng};
+    snprintf(path, sizeof path, "%s/enet.safetensors", dir);
+    CR_TRY(cr_checkpoint_save(path, m->pe, m->opt_e, &meta, err));
+    snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
+    return cr_checkpoint_save(path, m->pp, m->opt_p, &meta, err);
+}
+
+cr_status cr_epnet_load(cr_epnet *m, const char *dir, int *cycle, int *phase, int *epoch,
+                        cr_error *err) {
+    char path[1024];
+    cr_checkpoint_meta me = {0}, mp = {0};
+    snprintf(path, sizeof path, "%s/enet.safetensors", dir);
+    CR_TRY(cr_checkpoint_load(path, m->pe, m->opt_e, &me, err));
+    free(me.config_json);
+    snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
+    CR_TRY(cr_checkpoint_load(path, m->pp, m->opt_p, &mp, err));
+    free(mp.config_json);
+    if (mp.epoch != me.epoch)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: the E-Net and P-Net checkpoints disagree", dir);
+    m->rng = mp.rng;
+    const int64_t code = me.epoch;
+    if (epoch) *epoch = (int)(code % 1000000);
+    if (phase) *phase = (int)((code / 1000000) % 2);
+    if (cycle) *cycle = (int)(code / 2000000);
+    return CR_OK;
+}
+
+/* RB per training clip, (n, T, H) as one .npy. */
+static cr_status save_rb(const char *dir, float *const *rb, int n, int64_t T, int64_t H,
+                         cr_error *err) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/rb_train.npy", dir);
+    float *all = malloc(sizeof(float) * (size_t)(n * T * H + 1));
+    if (!all) return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory saving RB");
+    for (int i = 0; i < n; i++)
+        memcpy(all + i * T * H, rb[i], sizeof(float) * (size_t)(T * H));
+    cr_status st = cr_npy_write(path, CR_NPY_F32, 3, (int64_t[]){n, T, H}, all, err);
+    free(all);
+    return st;
+}
+
+static cr_status load_rb(const char *dir, float **rb, int n, int64_t T, int64_t H, cr_error *err) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/rb_train.npy", dir);
+    char *buf = NULL;
+    size_t len = 0;
+    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    /* header: magic, version, header length (v1: 2 bytes), then the data */
+    const size_t want = sizeof(float) * (size_t)(n * T * H);
+    size_t hl = len >= 10 ? (size_t)(uint8_t)buf[8] | ((size_t)(uint8_t)buf[9] << 8) : 0;
+    if (len < 10 + hl + want) {
+        free(buf);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: expected (%d,%lld,%lld) float32", path, n,
+                       (long long)T, (long long)H);
+    }
+    for (int i = 0; i < n; i++)
+        memcpy(rb[i], buf + 10 + hl + sizeof(float) * (size_t)(i * T * H),
+               sizeof(float) * (size_t)(T * H));
+    free(buf);
+    return CR_OK;
+}
+
+/* ------------------------------------------------------ model folder -- */
+
+static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *err) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    cr_atomic_file f;
+    CR_TRY(cr_atomic_open(&f, path, err));
+    fprintf(
+        f.fp,
+        "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
+        "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
+        " \"static\": [",
+        d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
+        d->sharpness, d->baseline, (unsigned long long)d->seed);
+    for (int i = 0; i < d->nstatic; i++)
+        fprintf(f.fp, "%s%d", i ? ", " : "", d->static_widths[i]);
+    fprintf(f.fp, "], \"rb\": [");
+    for (int i = 0; i < d->nrb; i++)
+        fprintf(f.fp, "%s%d", i ? ", " : "", d->rb_widths[i]);
+    fprintf(f.fp,
+            "], \"dynamic\": %d, \"gru\": %d, \"decoder_width\": %d, \"decoder_layers\": %d,\n"
+            " \"pnet_latent\": %d, \"pnet_hidden_layers\": %d, \"pnet_steps\": %d, \"motions\": [",
+            d->dynamic_width, d->gru_hidden, d->decoder_width, d->decoder_layers, d->pnet_latent,
+            d->pnet_hidden_layers, d->pnet_steps);
+    for (int i = 0; i < d->nmotions; i++)
+        fprintf(f.fp, "%s\"%s\"", i ? ", " : "", d->motions[i]);
+    fprintf(f.fp, "]}\n");
+    return cr_atomic_commit(&f, err);
+}
+
+static int jint(const cJSON *o, const char *k, int dflt) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    return cJSON_IsNumber(v) ? (int)v->valuedouble : dflt;
+}
+static double jnum(const cJSON *o, const char *k, double dflt) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    return cJSON_IsNumber(v) ? v->valuedouble : dflt;
+}
+
+cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
+    *out = NULL;
+    char path[1024], *txt = NULL;
+    size_t len = 0;
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    CR_TRY(cr_file_read_all(path, &txt, &len, err));
+    cJSON *o = cJSON_Parse(txt);
+    free(txt);
+    if (!o) return CR_FAIL(err, CR_ERR_PARSE, "%s: not JSON", path);
+    cr_epnet_def d = cr_epnet_default_def();
+    char garment[32] = "tshirt", body[32] = "normal";
+    const cJSON *g = cJSON_GetObjectItemCaseSensitive(o, "garment");
+    const cJSON *b = cJSON_GetObjectItemCaseSensitive(o, "body");
+    if (cJSON_IsString(g)) snprintf(garment, sizeof garment, "%s", g->valuestring);
+    if (cJSON_IsString(b)) snprintf(body, sizeof body, "%s", b->valuestring);
+    d.garment = garment, d.body = body;
+    d.garment_vertices = jint(o, "garment_vertices", d.garment_vertices);
+    d.frames = jint(o, "frames", d.frames);
+    d.fps = (float)jnum(o, "fps", d.fps);
+    d.material.yield_angle = jnum(o, "yield", d.material.yield_angle);
+    d.sharpness = jnum(o, "sharpness", d.sharpness);
+    d.baseline = jint(o, "baseline", 0);
+    d.seed = (uint64_t)jnum(o, "seed", 1);
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
+    d.nstatic = 0;
+    for (const cJSON *e = a ? a->child : NULL; e && d.nstatic < CR_EPNET_MAX_LAYERS; e = e->next)
+        d.static_widths[d.nstatic++] = (int)e->valuedouble;
+    a = cJSON_GetObjectItemCaseSensitive(o, "rb");
+    d.nrb = 0;
+    for (const cJSON *e = a ? a->child : NULL; e && d.nrb < CR_EPNET_MAX_LAYERS; e = e->next)
+        d.rb_widths[d.nrb++] = (int)e->valuedouble;
+    d.dynamic_width = jint(o, "dynamic", d.dynamic_width);
+    d.gru_hidden = jint(o, "gru", d.gru_hidden);
+    d.decoder_width = jint(o, "decoder_width", d.decoder_width);
+    d.decoder_layers = jint(o, "decoder_layers", d.decoder_layers);
+    d.pnet_latent = jint(o, "pnet_latent", d.pnet_latent);
+    d.pnet_hidden_layers = jint(o, "pnet_hidden_layers", d.pnet_hidden_layers);
+    d.pnet_steps = jint(o, "pnet_steps", d.pnet_steps);
+    cJSON_Delete(o);
+    cr_epnet *m = NULL;
+    CR_TRY(cr_epnet_create(&d, &m, err));
+    cr_status st = cr_epnet_load(m, dir, NULL, NULL, NULL, err);
+    if (st != CR_OK) {
+        cr_epnet_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+/* ------------------------------------------------------------ training -- */
+
+static void log_epoch(FILE *fp, int quiet, int cycle, const char *phase, int epoch,
+                      const cr_epnet_losses *l, double mse) {
+    char line[512];
+    int n = snprintf(line, sizeof line, "{\"cycle\": %d, \"phase\": \"%s\", \"epoch\": %d", cycle,
+                     phase, epoch);
+    if (l) {
+        n += snprintf(line + n, sizeof line - (size_t)n, ", \"loss\": %.6g", l->total);
+        for (int k = 0; k < CR_EPNET_NTERMS; k++)
+            n += snprintf(line + n, sizeof line - (size_t)n, ", \"%s\": %.6g",
+                          cr_epnet_term_names[k], l->term[k]);
+    } else {
+        n += snprintf(line + n, sizeof line - (size_t)n, ", \"mse_rad2\": %.6g", mse);
+    }
+    snprintf(line + n, sizeof line - (size_t)n, "}");
+    if (fp) fprintf(fp, "%s\n", line), fflush(fp);
+    if (!quiet) cr_log(CR_LOG_INFO, "epnet: %s", line);
+}
+
+cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr_error *err) {
+    cr_epnet_train_report rep;
+    memset(&rep, 0, sizeof rep);
+    if (!def->out_dir) return CR_FAIL(err, CR_ERR_INVALID, "epnet train: no output folder");
+    CR_TRY(cr_mkdir_p(def->out_dir, err));
+    cr_epnet *m = NULL;
+    CR_TRY(cr_epnet_create(def, &m, err));
+    const int n = def->nmotions;
+    const int64_t T = def->frames, H = m->nh, V = m->nv;
+    cr_epnet_seq *seq[CR_EPNET_MAX_MOTIONS] = {0};
+    float *rb[CR_EPNET_MAX_MOTIONS] = {0}, *theta = NULL, *pos = NULL, *target = NULL;
+    double t0 = cr_time_now();
+    cr_status st = write_config(def, def->out_dir, err);
+    for (int i = 0; st == CR_OK && i < n; i++) {
+        st = cr_epnet_seq_create(m, def->motions[i], NULL, def->frames, 0, &seq[i], err);
+        if (st == CR_OK && seq[i]->T != T)
+            st = CR_FAIL(err, CR_ERR_INVALID, "epnet train: motion %s has %d frames, not %lld",
+                         def->motions[i], seq[i]->T, (long long)T);
+        if (st == CR_OK && !(rb[i] = calloc((size_t)(T * H), sizeof(float))))
+            st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: out of memory");
+    }
+    theta = malloc(sizeof(float) * (size_t)(T * H));
+    pos = malloc(sizeof(float) * (size_t)(T * V * 3));
+    target = malloc(sizeof(float) * (size_t)(n * T * H));
+    if (st == CR_OK && (!theta || !pos || !target))
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: out of memory");
+    int c0 = 0, p0 = 0, e0 = 0;
+    if (st == CR_OK && def->resume) {
+        st = cr_epnet_load(m, def->out_dir, &c0, &p0, &e0, err);
+        if (st == CR_OK) st = load_rb(def->out_dir, rb, n, T, H, err);
+    }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/progress.jsonl", def->out_dir);
+    FILE *log = st == CR_OK ? fopen(path, def->resume ? "a" : "w") : NULL;
+    int first = 1;
+    for (int c = c0; st == CR_OK && c < def->cycles; c++) {
+        const int pstart = c == c0 ? p0 : 0;
+        for (int e = (pstart == 0 && c == c0) ? e0 : (pstart == 0 ? 0 : def->enet_epochs);
+             st == CR_OK && e < def->enet_epochs; e++) {
+            cr_epnet_losses sum = {0}, l;
+            for (int i = 0; st == CR_OK && i < n; i++) {
+                st = cr_epnet_enet_step(m, seq[i], def->baseline ? NULL : rb[i], 1, &l, err);
+                sum.total += l.total / n;
+                for (int k = 0; k < CR_EPNET_NTERMS; k++)
+                    sum.term[k] += l.term[k] / n;
+            }
+            if (st != CR_OK) break;
+            if (first) rep.first = sum, rep.first_loss = sum.total, first = 0;
+            rep.last = sum, rep.last_loss = sum.total;
+            log_epoch(log, def->quiet, c, "enet", e, &sum, 0);
+            st = cr_epnet_save(m, def->out_dir, c, 0, e + 1, err);
+            if (st == CR_OK) st = save_rb(def->out_dir, rb, n, T, H, err);
+        }
+        if (st != CR_OK || def->baseline) {
+            if (st == CR_OK) rep.cycles_done = c + 1;
+            continue;
+        }
+        /* phase 1: targets from E-Net's angles (Eq. 4-5), then P-Net */
+        for (int i = 0; st == CR_OK && i < n; i++) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+            cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
+            st = cr_nn_ctx_error(m->ctx, err);
+            if (st != CR_OK) break;
+            cr_epnet_angles_(m, x->data, (int32_t)T, theta);
+            cr_epnet_plastic_rollout(theta, m->theta_bar, NULL, (int32_t)T, (int32_t)H,
+                                     def->material.yield_angle, def->material.plastic_gain,
+                                     def->sharpness, target + i * T * H);
+        }
+        const int estart = (c == c0 && pstart == 1) ? e0 : 0;
+        for (int e = estart; st == CR_OK && e < def->pnet_epochs; e++) {
+            double mse = 0, l = 0;
+            for (int i = 0; st == CR_OK && i < n; i++) {
+                cr_nn_ctx_reset(m->ctx);
+                cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+                cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
+                st = cr_nn_ctx_error(m->ctx, err);
+                if (st != CR_OK) break;
+                memcpy(pos, x->data, sizeof(float) * (size_t)(T * V * 3));
+                cr_epnet_angles_(m, pos, (int32_t)T, theta);
+                st = cr_epnet_pnet_fit(m, seq[i], pos, theta, target + i * T * H, 1, &l, err);
+                mse += l / n;
+            }
+            if (st != CR_OK) break;
+            rep.pnet_mse = mse;
+            log_epoch(log, def->quiet, c, "pnet", e, NULL, mse);
+            st = cr_epnet_save(m, def->out_dir, c, 1, e + 1, err);
+        }
+        if (st != CR_OK) break;
+        for (int i = 0; i < n; i++)
+            memcpy(rb[i], target + i * T * H, sizeof(float) * (size_t)(T * H));
+        st = cr_epnet_save(m, def->out_dir, c + 1, 0, 0, err);
+        if (st == CR_OK) st = save_rb(def->out_dir, rb, n, T, H, err);
+        if (st == CR_OK) rep.cycles_done = c + 1;
+    }
+    if (log) fclose(log);
+    rep.seconds = cr_time_now() - t0;
+    for (int i = 0; i < n; i++)
+        cr_epnet_seq_destroy(seq[i]), free(rb[i]);
+    free(theta), free(pos), free(target);
+    cr_epnet_destroy(m);
+    if (out) *out = rep;
+    return st;
+}
+
+/* ----------------------------------------------------------------- run -- */
+
+cr_epnet_run_def cr_epnet_run_default_def(void) {
+    cr_epnet_run_def d;
+    memset(&d, 0, sizeof d);
+    d.cookie = 0x45505232u;
+    return d;
+}
+
+static cr_status render_pair(const cr_epnet *m, const float *pos, const float *body,
+                             const cr_mesh *body_rest, const float *scalar, const char *path,
+                             cr_error *err) {
+    cr_mesh gm = *m->garment->mesh, bm = *body_rest;
+    gm.pos = (float *)pos, bm.pos = (float *)body;
+    gm.normal = NULL, bm.normal = NULL;
+    cr_render_def rd = cr_render_default_def();
+    rd.width = rd.height = 512;
+    cr_render_object o[2] = {{.mesh = &bm, .color = {0.8f, 0.75f, 0.7f}},
+                             {.mesh = &gm, .color = {0.3f, 0.5f, 0.85f}, .scalar = scalar}};
+    if (scalar) rd.colormap_auto = 0, rd.colormap_min = -0.5f, rd.colormap_max = 0.5f;
+    return cr_render_to_png(&rd, o, 2, path, err);
+}
+
+cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr_error *err) {
+    if (!def->model_dir || !def->motion || !def->out_dir)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet run: model, motion and output are required");
+    cr_epnet *m = NULL;
+    CR_TRY(cr_epnet_open(def->model_dir, &m, err));
+    cr_epnet_seq *s = NULL;
+    cr_status st = cr_mkdir_p(def->out_dir, err);
+    if (st == CR_OK)
+        st = cr_epnet_seq_create(m, def->motion, def->body, def->frames, def->hold, &s, err);
+    const int32_t T = s ? s->T : 0, V = m->nv, H = m->nh;
+    float *pos = NULL, *rb = NULL, *hs = NULL;
+    if (st == CR_OK) {
+        pos = malloc(sizeof(float) * 3 * (size_t)T * V);
+        rb = malloc(sizeof(float) * (size_t)T * (H + 1));
+        hs = calloc((size_t)V, sizeof(float));
+        if (!pos || !rb || !hs) st = CR_FAIL(err, CR_ERR_MEMORY, "epnet run: out of memory");
+    }
+    double t0 = cr_time_now();
+    if (st == CR_OK)
+        st = cr_epnet_rollout(m, s, !(def->baseline || m->def.baseline), pos, NULL, rb, err);
+    cr_epnet_run_report rep = {.frames = T, .vertices = V, .hinges = H};
+    rep.seconds_per_frame = T > 0 ? (cr_time_now() - t0) / T : 0;
+    char path[1100];
+    if (st == CR_OK) {
+        rep.finite = 1;
+        for (int64_t i = 0; i < 3 * (int64_t)T * V; i++)
+            if (!isfinite(pos[i])) rep.finite = 0;
+        for (int64_t i = 0; i < (int64_t)T * H; i++)
+            rep.max_abs_rb = fmax(rep.max_abs_rb, fabs(rb[i]));
+        snprintf(path, sizeof path, "%s/garment.pc2", def->out_dir);
+        st = cr_pc2_write(path, pos, V, T, 0, 1, err);
+    }
+    if (st == CR_OK) {
+        snprintf(path, sizeof path, "%s/garment.glb", def->out_dir);
+        st = cr_glb_write_sequence(path, m->garment->mesh, pos, T, m->def.fps, err);
+    }
+    if (st == CR_OK) {
+        snprintf(path, sizeof path, "%s/rb.npy", def->out_dir);
+        st = cr_npy_write(path, CR_NPY_F32, 2, (int64_t[]){T, H}, rb, err);
+    }
+    const float *last = pos + (size_t)(T - 1) * V * 3;
+    const float *body = s ? s->body + (size_t)(T - 1) * s->vb * 3 : NULL;
+    if (st == CR_OK) {
+        snprintf(path, sizeof path, "%s/garment.png", def->out_dir);
+        st = render_pair(m, last, body, s->body_rest, NULL, path, err);
+    }
+    if (st == CR_OK) {
+        /* RB per vertex: the mean over its hinges of the last frame */
+        int32_t *cnt = calloc((size_t)V, sizeof *cnt);
+        if (!cnt) st = CR_FAIL(err, CR_ERR_MEMORY, "epnet run: out of memory");
+        for (int32_t h = 0; st == CR_OK && h < H; h++)
+            for (int k = 0; k < 2; k++) {
+                const int32_t v = m->topo->hinge[4 * h + k];
+                hs[v] += rb[(size_t)(T - 1) * H + h], cnt[v]++;
+            }
+        for (int32_t v = 0; st == CR_OK && v < V; v++)
+            hs[v] = cnt[v] ? hs[v] / cnt[v] : 0;
+        free(cnt);
+        snprintf(path, sizeof path, "%s/rb.png", def->out_dir);
+        if (st == CR_OK) st = render_pair(m, last, body, s->body_rest, hs, path, err);
+    }
+    if (st == CR_OK) {
+        cr_bvh *bvh = NULL;
+        st = cr_bvh_build(body, s->vb, s->body_rest->tri, s->body_rest->nf, &bvh, err);
+        float *d = malloc(sizeof(float) * (size_t)V);
+        if (st == CR_OK && d) {
+            cr_bvh_signed_distance_batch(bvh, last, V, INFINITY, d, NULL, NULL);
+            rep.min_body_distance = INFINITY;
+            for (int32_t v = 0; v < V; v++)
+                rep.min_body_distance = fmin(rep.min_body_distance, d[v]);
+        }
+        free(d);
+        cr_bvh_destroy(bvh);
+    }
+    free(pos), free(rb), free(hs);
+    cr_epnet_seq_destroy(s);
+    cr_epnet_destroy(m);
+    if (out) *out = rep;
+    return st;
+}
