@@ -12,6 +12,7 @@
 #include "crease/primitives.h"
 #include "crease/scene.h"
 #include "crease/topology.h"
+#include "sim_fixture.h"
 #include "test.h"
 
 #include <math.h>
@@ -415,23 +416,6 @@ CR_TEST(phys_sim, plasticity_rules) {
 
 /* ------------------------------------------------------------ scenes -- */
 
-/* A square cloth of n x n vertices and side `size`, horizontal at height y. */
-static cr_mesh *flat_cloth(int32_t n, float size, float y) {
-    cr_mesh *m = NULL;
-    cr_error err = {0};
-    if (cr_prim_plane(n, n, size, size, &m, &err) != CR_OK) return NULL;
-    for (int32_t v = 0; v < m->nv; v++)
-        m->pos[3 * v + 1] = y;
-    return m;
-}
-
-static cr_sim_def cotton_def(void) {
-    cr_sim_def d = cr_sim_default_def();
-    cr_error err = {0};
-    cr_material_preset("cotton", &d.material, &err);
-    return d;
-}
-
 static double max_speed_of(const cr_sim *s) {
     const double *v = cr_sim_velocities(s);
     double m = 0;
@@ -448,9 +432,9 @@ static int all_finite_d(const double *a, int64_t n) {
 }
 
 CR_TEST(phys_sim, hanging_cloth_settles) {
-    cr_mesh *m = flat_cloth(12, 0.5f, 0.0f);
+    cr_mesh *m = fixture_flat_cloth(12, 0.5f, 0.0f);
     CR_REQUIRE(m);
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     int32_t pins[2] = {0, 11}; /* two corners of one edge: it swings down like a door */
     d.pinned = pins, d.npinned = 2;
     d.damping = 2.0; /* 1/s: settles within the test's 4 s */
@@ -494,7 +478,7 @@ static void record(void *ctx, int it, double energy, double gnorm, double step) 
  * top edge (y = 0 down to -size), pushed out of plane by a smooth bump of
  * `bump` m so that a solve has work to do. */
 static cr_mesh *hanging_cloth(int32_t n, float size, float bump) {
-    cr_mesh *m = flat_cloth(n, size, 0.0f);
+    cr_mesh *m = fixture_flat_cloth(n, size, 0.0f);
     if (!m) return NULL;
     for (int32_t v = 0; v < m->nv; v++) {
         float *p = m->pos + 3 * v;
@@ -508,7 +492,7 @@ static cr_mesh *hanging_cloth(int32_t n, float size, float bump) {
 CR_TEST(phys_sim, quasi_static_energy_monotone) {
     cr_mesh *m = hanging_cloth(12, 0.5f, 0.03f);
     CR_REQUIRE(m);
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     int32_t pins[2] = {0, 11}; /* the top corners */
     d.pinned = pins, d.npinned = 2;
     d.static_tol = 1e-5;
@@ -551,32 +535,13 @@ CR_TEST(phys_sim, quasi_static_energy_monotone) {
     cr_mesh_destroy(m);
 }
 
-/* Deepest vertex inside the collider mesh, m (0 when none), by an
- * independent unbounded query. */
-static double deepest_inside(const cr_mesh *collider, const double *x, int32_t nv) {
-    cr_bvh *b = NULL;
-    cr_error err = {0};
-    if (cr_bvh_build(collider->pos, collider->nv, collider->tri, collider->nf, &b, &err) != CR_OK)
-        return INFINITY;
-    float *p = malloc((size_t)nv * 3 * sizeof(float)), *d = malloc((size_t)nv * sizeof(float));
-    for (int64_t k = 0; k < 3 * (int64_t)nv; k++)
-        p[k] = (float)x[k];
-    cr_bvh_signed_distance_batch(b, p, nv, INFINITY, d, NULL, NULL);
-    double deepest = 0;
-    for (int32_t i = 0; i < nv; i++)
-        deepest = fmax(deepest, -(double)d[i]);
-    cr_bvh_destroy(b);
-    free(p), free(d);
-    return deepest;
-}
-
 CR_TEST(phys_sim, cloth_dropped_on_sphere) {
     enum { FRAMES = 30 };
-    cr_mesh *cloth = flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
+    cr_mesh *cloth = fixture_flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
     cr_error err = {0};
     CR_CHECK_OK(cr_prim_sphere_uv(0.3f, 48, 24, &sphere, &err), &err);
     CR_REQUIRE(cloth && sphere);
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     d.collider = sphere;
     cr_sim *s = NULL;
     CR_CHECK_OK(cr_sim_create(&d, cloth, &s, &err), &err);
@@ -593,7 +558,7 @@ CR_TEST(phys_sim, cloth_dropped_on_sphere) {
         sc += rep.seconds_collision, ss += rep.seconds_solve;
     }
     const double *x = cr_sim_positions(s);
-    double deepest = deepest_inside(sphere, x, cloth->nv);
+    double deepest = fixture_deepest_inside(sphere, x, cloth->nv);
     printf(
         "    sphere 32x32: deepest %.2e m (before projection %.2e m), %d contacts, %.2f Newton "
         "iterations per substep, %d backoffs, %.1f ms per frame (assembly %.0f%%, factor %.0f%%, "
@@ -621,7 +586,7 @@ CR_TEST(phys_sim, cloth_dropped_on_sphere) {
 CR_TEST(phys_sim, fast_collider_carries_the_cloth) {
     enum { FRAMES = 24, REST = 8 };
     const float thick = 0.01f, rise = 0.03f;
-    cr_mesh *cloth = flat_cloth(20, 0.4f, 0.5f * thick + 0.003f), *plate = NULL;
+    cr_mesh *cloth = fixture_flat_cloth(20, 0.4f, 0.5f * thick + 0.003f), *plate = NULL;
     cr_error err = {0};
     CR_CHECK_OK(cr_prim_box(0.6f, thick, 0.6f, 4, &plate, &err), &err);
     CR_REQUIRE(cloth && plate);
@@ -632,7 +597,7 @@ CR_TEST(phys_sim, fast_collider_carries_the_cloth) {
             for (int k = 0; k < 3; k++)
                 seq[3 * ((size_t)plate->nv * f + v) + k] =
                     plate->pos[3 * v + k] + (k == 1 && f > REST ? rise * (f - REST) : 0.0f);
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     d.collider = plate, d.collider_frames = seq, d.collider_nframes = FRAMES;
     d.max_collider_step = 0.02; /* two substeps while the plate rises, one at rest */
     cr_sim *s = NULL;
@@ -690,7 +655,7 @@ static double fold_strip(int plastic, int frames, uint64_t *hash) {
             p[2] = cap->pos[3 * v + 2] + 0.05f;
         }
     }
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     d.material.bending = 1e-3;     /* paper-like: springs back within the test */
     d.material.yield_angle = 0.02; /* rad per hinge: low */
     d.material.friction = 0.0;
@@ -741,9 +706,9 @@ CR_TEST(phys_sim, fold_persists_with_plasticity) {
 
 static cr_sim *small_drop(cr_mesh **cloth, cr_mesh **sphere) {
     cr_error err = {0};
-    *cloth = flat_cloth(12, 0.6f, 0.33f);
+    *cloth = fixture_flat_cloth(12, 0.6f, 0.33f);
     if (cr_prim_sphere_uv(0.3f, 24, 12, sphere, &err) != CR_OK) return NULL;
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     d.collider = *sphere;
     d.plasticity = 1;
     d.material.yield_angle = 0.1;
@@ -816,8 +781,8 @@ CR_TEST(phys_sim, state_save_load_resumes_bit_identically) {
     CR_CHECK(cr_sim_state_hash(r) == before);
     free(buf);
     /* A simulator of another mesh refuses the file by shape. */
-    cr_mesh *other = flat_cloth(8, 0.5f, 0.5f);
-    cr_sim_def d = cotton_def();
+    cr_mesh *other = fixture_flat_cloth(8, 0.5f, 0.5f);
+    cr_sim_def d = fixture_cotton_def();
     cr_sim *o = NULL;
     CR_CHECK_OK(cr_sim_create(&d, other, &o, &err), &err);
     CR_CHECK(o && cr_sim_state_load(o, path, &err) == CR_ERR_SHAPE);
@@ -837,8 +802,8 @@ CR_TEST(phys_sim, divergence_backs_off_or_reports) {
     cr_error err = {0};
     /* Absurd stiffness: energies overflow. Never NaN positions; a clean
      * CR_ERR_DIVERGED with the frame in the message, state unchanged. */
-    cr_mesh *cloth = flat_cloth(8, 0.5f, 0.0f);
-    cr_sim_def d = cotton_def();
+    cr_mesh *cloth = fixture_flat_cloth(8, 0.5f, 0.0f);
+    cr_sim_def d = fixture_cotton_def();
     d.material.lame_mu = d.material.lame_lambda = 1e12;
     d.material.bending = 1e3;
     int32_t pins[1] = {0};
@@ -859,7 +824,7 @@ CR_TEST(phys_sim, divergence_backs_off_or_reports) {
     cr_sim_destroy(s);
     /* Absurd time step, a vertex speed limit the fall must break: the frame
      * backs off to more substeps, then reports. */
-    d = cotton_def();
+    d = fixture_cotton_def();
     d.dt = 100.0;
     d.max_speed = 5.0;
     d.max_backoff = 2;
@@ -874,7 +839,7 @@ CR_TEST(phys_sim, divergence_backs_off_or_reports) {
     CR_CHECK(cr_sim_state_hash(s) == h0 && cr_sim_frame(s) == 0);
     cr_sim_destroy(s);
     /* A bad def is refused by name. */
-    d = cotton_def();
+    d = fixture_cotton_def();
     d.substeps = 0;
     CR_CHECK(cr_sim_create(&d, cloth, &s, &err) == CR_ERR_INVALID && !s);
     CR_CHECK(strstr(err.msg, "substeps") != NULL);
@@ -899,7 +864,7 @@ CR_TEST(phys_sim, pinned_vertices_follow_their_frames) {
         for (int32_t i = 0; i < N; i++)
             for (int k = 0; k < 3; k++)
                 frames[3 * (N * f + i) + k] = m->pos[3 * pins[i] + k] + (k == 0 ? 0.01f * f : 0.0f);
-    cr_sim_def d = cotton_def();
+    cr_sim_def d = fixture_cotton_def();
     d.pinned = pins, d.npinned = N;
     d.pin_frames = frames, d.pin_nframes = T;
     cr_error err = {0};

@@ -5,24 +5,16 @@
 #include "crease/phys_sim.h"
 #include "crease/primitives.h"
 #include "phys/sim_internal.h"
+#include "sim_fixture.h"
 #include "test.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static cr_mesh *flat_cloth(int32_t n, float size, float y) {
-    cr_mesh *m = NULL;
-    cr_error err = {0};
-    if (cr_prim_plane(n, n, size, size, &m, &err) != CR_OK) return NULL;
-    for (int32_t v = 0; v < m->nv; v++)
-        m->pos[3 * v + 1] = y;
-    return m;
-}
-
 /* Hanging in the XY plane from its top edge, pushed out of plane by a bump. */
 static cr_mesh *hanging_cloth(int32_t n, float size, float bump) {
-    cr_mesh *m = flat_cloth(n, size, 0.0f);
+    cr_mesh *m = fixture_flat_cloth(n, size, 0.0f);
     if (!m) return NULL;
     for (int32_t v = 0; v < m->nv; v++) {
         float *p = m->pos + 3 * v;
@@ -34,9 +26,7 @@ static cr_mesh *hanging_cloth(int32_t n, float size, float bump) {
 }
 
 static cr_sim_def vbd_def(void) {
-    cr_sim_def d = cr_sim_default_def();
-    cr_error err = {0};
-    cr_material_preset("cotton", &d.material, &err);
+    cr_sim_def d = fixture_cotton_def();
     d.solver = CR_SIM_SOLVER_VBD;
     return d;
 }
@@ -66,7 +56,7 @@ CR_TEST(phys_vbd, solver_names) {
     CR_CHECK(strcmp(cr_sim_solver_name(CR_SIM_SOLVER_VBD), "vbd") == 0);
     cr_sim_def d = vbd_def();
     d.vbd_chebyshev = 1.0;
-    cr_mesh *m = flat_cloth(4, 0.2f, 0.0f);
+    cr_mesh *m = fixture_flat_cloth(4, 0.2f, 0.0f);
     cr_sim *s = NULL;
     cr_error err = {0};
     CR_CHECK(cr_sim_create(&d, m, &s, &err) == CR_ERR_INVALID && !s);
@@ -203,23 +193,6 @@ CR_TEST(phys_vbd, energy_decreases_per_iteration) {
     cr_mesh_destroy(m);
 }
 
-static double deepest_inside(const cr_mesh *collider, const double *x, int32_t nv) {
-    cr_bvh *b = NULL;
-    cr_error err = {0};
-    if (cr_bvh_build(collider->pos, collider->nv, collider->tri, collider->nf, &b, &err) != CR_OK)
-        return INFINITY;
-    float *p = malloc((size_t)nv * 3 * sizeof(float)), *d = malloc((size_t)nv * sizeof(float));
-    for (int64_t k = 0; k < 3 * (int64_t)nv; k++)
-        p[k] = (float)x[k];
-    cr_bvh_signed_distance_batch(b, p, nv, INFINITY, d, NULL, NULL);
-    double deepest = 0;
-    for (int32_t i = 0; i < nv; i++)
-        deepest = fmax(deepest, -(double)d[i]);
-    cr_bvh_destroy(b);
-    free(p), free(d);
-    return deepest;
-}
-
 /* The 32 x 32 drop of test_phys_sim.c with VBD: rests outside the sphere,
  * draped over its top. Before the projection VBD leaves vertices deeper than
  * Newton (3.6 mm measured at 30 sweeps, 5.5 mm at 20, against Newton's
@@ -227,7 +200,7 @@ static double deepest_inside(const cr_mesh *collider, const double *x, int32_t n
  * membrane), so that bound is 1 cm here. */
 CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
     enum { FRAMES = 30 };
-    cr_mesh *cloth = flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
+    cr_mesh *cloth = fixture_flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
     cr_error err = {0};
     CR_CHECK_OK(cr_prim_sphere_uv(0.3f, 48, 24, &sphere, &err), &err);
     CR_REQUIRE(cloth && sphere);
@@ -245,7 +218,7 @@ CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
         iters += rep.newton_iterations, backoffs += rep.backoffs, secs += rep.seconds;
     }
     const double *x = cr_sim_positions(s);
-    double deepest = deepest_inside(sphere, x, cloth->nv);
+    double deepest = fixture_deepest_inside(sphere, x, cloth->nv);
     printf("    VBD sphere 32x32: deepest %.2e m (before projection %.2e m), %d contacts, %.1f "
            "sweeps per substep, %d backoffs, %.1f ms per frame\n",
            deepest, pen, rep.contacts, iters / (double)FRAMES, backoffs, 1e3 * secs / FRAMES);
@@ -281,7 +254,7 @@ CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
  * at 30 sweeps; 2 % at 20 before the vertex blocks, 5.1 % at 20 after: the
  * outcome is chaotic in roundoff), so the test runs 10 s and asks for 5 %. */
 CR_TEST(phys_vbd, hanging_cloth_settles) {
-    cr_mesh *m = flat_cloth(12, 0.5f, 0.0f);
+    cr_mesh *m = fixture_flat_cloth(12, 0.5f, 0.0f);
     CR_REQUIRE(m);
     cr_sim_def d = vbd_def();
     int32_t pins[2] = {0, 11};
@@ -315,7 +288,7 @@ CR_TEST(phys_vbd, hanging_cloth_settles) {
 /* A small drop with plasticity and friction, for determinism and resume. */
 static cr_sim *small_drop(cr_mesh **cloth, cr_mesh **sphere) {
     cr_error err = {0};
-    *cloth = flat_cloth(12, 0.6f, 0.33f);
+    *cloth = fixture_flat_cloth(12, 0.6f, 0.33f);
     if (cr_prim_sphere_uv(0.3f, 24, 12, sphere, &err) != CR_OK) return NULL;
     cr_sim_def d = vbd_def();
     d.collider = *sphere;
@@ -385,7 +358,7 @@ CR_TEST(phys_vbd, state_save_load_resumes_bit_identically) {
 
 CR_TEST(phys_vbd, divergence_backs_off_or_reports) {
     cr_error err = {0};
-    cr_mesh *cloth = flat_cloth(8, 0.5f, 0.0f);
+    cr_mesh *cloth = fixture_flat_cloth(8, 0.5f, 0.0f);
     cr_sim_def d = vbd_def();
     d.max_speed = 0.02; /* a free fall breaks it in any substep of a frame */
     d.max_backoff = 2;
