@@ -8,6 +8,7 @@
  * shapes, and 30 frames of the reference simulator with a t-shirt on the
  * static body. The body and one template per type are built once and
  * shared (reachable from statics, so leak checkers stay quiet). */
+#include "body_fixture.h"
 #include "crease/body.h"
 #include "crease/bvh.h"
 #include "crease/diffgeo.h"
@@ -24,17 +25,7 @@
 enum { BODY_RES = 90 };
 
 static cr_body_model *shared_body(void) {
-    static cr_body_model *body;
-    if (!body) {
-        cr_error err = {0};
-        cr_mannequin_def def = cr_mannequin_default_def();
-        def.resolution = BODY_RES;
-        if (cr_mannequin_create(&def, &body, &err) != CR_OK) {
-            cr_test_fail_here(__FILE__, __LINE__, "mannequin: %s", err.msg);
-            return NULL;
-        }
-    }
-    return body;
+    return fixture_mannequin(BODY_RES);
 }
 
 static cr_garment_template *shared_template(cr_garment_type type) {

@@ -5,6 +5,7 @@
  * refused naming the key, seeded generation is deterministic, the
  * jumpsuit has its openings, UVs and weights, and a long t-shirt passes the
  * crotch. */
+#include "body_fixture.h"
 #include "crease/body.h"
 #include "crease/garment.h"
 #include "crease/topology.h"
@@ -18,17 +19,7 @@
 enum { BODY_RES = 64 };
 
 static cr_body_model *body64(void) {
-    static cr_body_model *body;
-    if (!body) {
-        cr_error err = {0};
-        cr_mannequin_def def = cr_mannequin_default_def();
-        def.resolution = BODY_RES;
-        if (cr_mannequin_create(&def, &body, &err) != CR_OK) {
-            cr_test_fail_here(__FILE__, __LINE__, "mannequin: %s", err.msg);
-            return NULL;
-        }
-    }
-    return body;
+    return fixture_mannequin(BODY_RES);
 }
 
 static uint64_t fnv(uint64_t h, const void *p, size_t n) {
