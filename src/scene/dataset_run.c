@@ -325,8 +325,14 @@ void cr_dataset_run_sequences(dataset *ds) {
     int32_t n = 0, npending = 0;
     for (int i = 0; i < ds->nseq; i++)
         if (ds->seq[i].state == SEQ_PENDING && npending++ % size == rank) todo[n++] = i;
+    /* Only rank 0 draws; under MPI its bar counts its own share, and says so. */
+    char label[64];
+    if (size > 1)
+        snprintf(label, sizeof label, "sequences (rank 0's share, %d ranks)", size);
+    else
+        snprintf(label, sizeof label, "sequences");
     cr_progress bar;
-    cr_progress_begin(&bar, "sequences", n, ds->def.quiet || rank != 0);
+    cr_progress_begin(&bar, label, n, ds->def.quiet || rank != 0);
     run_ctx c = {ds, todo, &bar, 0};
     cr_parallel_for(n, 1, run_range, &c);
     cr_progress_end(&bar);
