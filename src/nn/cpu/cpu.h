@@ -81,7 +81,8 @@ void cr_nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64
 
 /* cpu_fused.c: the passes around a fused linear + activation's GEMMs.
  * SIMD paths: the highest the CPU has is chosen at first use
- * (CREASE_NN_SIMD=scalar forces the portable one). */
+ * (CREASE_NN_SIMD=scalar forces the portable one, =avx2 caps it at AVX2);
+ * the elementwise kernels and cpu_vmath.c follow the same level. */
 enum { NN_SIMD_SCALAR = 0, NN_SIMD_AVX2 = 1, NN_SIMD_AVX512 = 2 };
 int cr_nn_cpu_simd(void);     /* the path in use */
 int cr_nn_cpu_simd_max(void); /* the highest this CPU runs */
