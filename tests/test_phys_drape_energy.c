@@ -334,6 +334,56 @@ CR_TEST(phys_drape_energy, collision_vertex) {
     cr_mesh_destroy(ball);
 }
 
+/* The vertex mode searches a tree of the object's vertices alone: at random
+ * points in and around the ball its value is the brute-force nearest vertex's. */
+CR_TEST(phys_drape_energy, collision_vertex_matches_brute_force) {
+    cr_error err = {0};
+    cr_mesh *ball = NULL;
+    cr_bvh *bvh = NULL;
+    CR_CHECK_OK(cr_prim_icosphere(0.3f, 3, &ball, &err), &err);
+    CR_REQUIRE(ball);
+    CR_CHECK_OK(cr_bvh_build(ball->pos, ball->nv, ball->tri, ball->nf, &bvh, &err), &err);
+    CR_REQUIRE(bvh);
+    const double eps = 0.05; /* a wide band, so most points have a value */
+    cr_drape_collision *c = NULL;
+    CR_CHECK_OK(cr_drape_collision_create(bvh, CR_DRAPE_COLLIDE_VERTEX, eps, &c, &err), &err);
+    CR_REQUIRE(c);
+    cr_drape_collision_set_count(c, 1);
+    cr_energy_term t;
+    cr_drape_collision_term(c, &t);
+    const float *vn = cr_bvh_vertex_normals(bvh), *vp = cr_bvh_positions(bvh);
+    cr_rng rng = cr_rng_make(5, 0);
+    int nonzero = 0;
+    for (int i = 0; i < 2000; i++) {
+        double x[3];
+        float xf[3];
+        for (int d = 0; d < 3; d++) {
+            xf[d] = 0.34f * (2.0f * cr_rng_uniformf(&rng) - 1.0f);
+            x[d] = xf[d];
+        }
+        int32_t best = -1;
+        double bd = INFINITY;
+        for (int32_t v = 0; v < ball->nv; v++) {
+            double d2 = 0;
+            for (int d = 0; d < 3; d++) {
+                double e = (double)xf[d] - vp[3 * v + d];
+                d2 += e * e;
+            }
+            if (d2 < bd) bd = d2, best = v;
+        }
+        double s = 0;
+        for (int d = 0; d < 3; d++)
+            s += (x[d] - vp[3 * best + d]) * vn[3 * best + d];
+        const double m = fmin(s - eps, 0.0);
+        nonzero += m != 0.0;
+        CR_CHECK_NEAR(fd_kval(&t, 0, x), m * m, 1e-15);
+    }
+    CR_CHECK(nonzero > 500);
+    cr_drape_collision_destroy(c);
+    cr_bvh_destroy(bvh);
+    cr_mesh_destroy(ball);
+}
+
 CR_TEST(phys_drape_energy, collision_sdf) {
     cr_error err = {0};
     cr_mesh *box = NULL, *ball = NULL;

@@ -81,8 +81,9 @@ void cr_nn_cpu_binary(cr_op op, nn_binary_mode mode, const float *a, const int64
 
 /* cpu_fused.c: the passes around a fused linear + activation's GEMMs.
  * SIMD paths: the highest the CPU has is chosen at first use
- * (CREASE_NN_SIMD=scalar forces the portable one). */
-enum { NN_SIMD_SCALAR = 0, NN_SIMD_AVX2 = 1 };
+ * (CREASE_NN_SIMD=scalar forces the portable one, =avx2 caps it at AVX2);
+ * the elementwise kernels and cpu_vmath.c follow the same level. */
+enum { NN_SIMD_SCALAR = 0, NN_SIMD_AVX2 = 1, NN_SIMD_AVX512 = 2 };
 int cr_nn_cpu_simd(void);     /* the path in use */
 int cr_nn_cpu_simd_max(void); /* the highest this CPU runs */
 /* Use `level` (clamped to what the CPU runs); returns the previous level.
@@ -91,6 +92,26 @@ int cr_nn_cpu_set_simd(int level);
 void cr_nn_cpu_bias_act_forward(cr_op act, float p, const float *b, float *y, int64_t R, int64_t C);
 void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float *dy, int64_t R,
                                  int64_t C, float *dz, float *db);
+
+/* cpu_vmath.c: the functions the vector transcendental kernels compute;
+ * "from y" ones take the activation's output (as the fused backward does). */
+typedef enum nn_vec_fn {
+    NN_VEC_EXP,
+    NN_VEC_LOG,
+    NN_VEC_TANH,
+    NN_VEC_SIGMOID,
+    NN_VEC_SOFTPLUS,              /* softplus with beta p */
+    NN_VEC_SIGMOID_SCALED,        /* sigmoid(p x): softplus's derivative */
+    NN_VEC_TANH_DERIV_FROM_Y,     /* 1 - y^2 */
+    NN_VEC_SIGMOID_DERIV_FROM_Y,  /* y (1 - y) */
+    NN_VEC_SOFTPLUS_DERIV_FROM_Y, /* nn_cpu_softplus_deriv_from_y(y, p) */
+} nn_vec_fn;
+/* out[i] = (acc ? out[i] : 0) + (mul ? mul[i] : 1) fn(p, x[i] + (b ? b[i] : 0))
+ * on SIMD `level` for the leading whole vectors of the n elements; returns
+ * how many it wrote (0 on the scalar level), the caller does the rest.
+ * out may be x. */
+int64_t cr_nn_cpu_vec_span(int level, nn_vec_fn fn, float p, const float *x, const float *b,
+                           const float *mul, float *out, int acc, int64_t n);
 
 /* cpu_reduce.c */
 double cr_nn_cpu_sum_all(const float *x, int64_t n);

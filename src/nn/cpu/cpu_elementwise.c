@@ -6,7 +6,9 @@
  * by calling it with constant arguments, which the compiler folds.
  * Numerics: sigmoid and softplus branch on the sign so exp never overflows
  * (softplus(x) = max(x,0) + log1p(exp(-|x|))).
- * Leaves out: explicit SIMD (the loops are left to the auto-vectoriser).
+ * exp, log, tanh, sigmoid and softplus (and softplus's gradient) run their
+ * leading whole vectors through cpu_vmath.c on the AVX2 and AVX-512 levels.
+ * Leaves out: explicit SIMD for the other ops (left to the auto-vectoriser).
  */
 #include "nn/cpu/cpu.h"
 
@@ -55,13 +57,38 @@ typedef struct unary_args {
     float p;
     const float *x, *y, *dy;
     float *out;
+    int level, vfn; /* vfn >= 0: the leading whole vectors go through cpu_vmath.c */
 } unary_args;
+
+/* The vector kernel of op's forward (or backward) on the current SIMD level,
+ * or -1. The other ops' loops are left to the compiler. */
+static int unary_vec_fn(cr_op op, int backward) {
+    if (cr_nn_cpu_simd() < NN_SIMD_AVX2) return -1;
+    if (backward) return op == CR_OP_SOFTPLUS ? NN_VEC_SIGMOID_SCALED : -1;
+    switch (op) {
+    case CR_OP_EXP:
+        return NN_VEC_EXP;
+    case CR_OP_LOG:
+        return NN_VEC_LOG;
+    case CR_OP_TANH:
+        return NN_VEC_TANH;
+    case CR_OP_SIGMOID:
+        return NN_VEC_SIGMOID;
+    case CR_OP_SOFTPLUS:
+        return NN_VEC_SOFTPLUS;
+    default:
+        return -1;
+    }
+}
 
 static void unary_forward_range(void *vctx, int64_t begin, int64_t end) {
     const unary_args *u = vctx;
     const float *x = u->x;
     float *y = u->out, p = u->p;
     int64_t i;
+    if (u->vfn >= 0)
+        begin += cr_nn_cpu_vec_span(u->level, (nn_vec_fn)u->vfn, p, x + begin, NULL, NULL,
+                                    y + begin, 0, end - begin);
     switch (u->op) {
     case CR_OP_ADD_SCALAR:
         for (i = begin; i < end; i++)
@@ -138,6 +165,9 @@ static void unary_backward_range(void *vctx, int64_t begin, int64_t end) {
     const float *x = u->x, *y = u->y, *dy = u->dy;
     float *dx = u->out, p = u->p;
     int64_t i;
+    if (u->vfn >= 0)
+        begin += cr_nn_cpu_vec_span(u->level, (nn_vec_fn)u->vfn, p, x + begin, NULL, dy + begin,
+                                    dx + begin, 1, end - begin);
     switch (u->op) {
     case CR_OP_ADD_SCALAR:
         for (i = begin; i < end; i++)
@@ -207,13 +237,13 @@ static void unary_backward_range(void *vctx, int64_t begin, int64_t end) {
 }
 
 void cr_nn_cpu_unary_forward(cr_op op, float p, const float *x, float *y, int64_t n) {
-    unary_args u = {op, p, x, NULL, NULL, y};
+    unary_args u = {op, p, x, NULL, NULL, y, cr_nn_cpu_simd(), unary_vec_fn(op, 0)};
     cr_parallel_for(n, NN_CPU_GRAIN, unary_forward_range, &u);
 }
 
 void cr_nn_cpu_unary_backward(cr_op op, float p, const float *x, const float *y, const float *dy,
                               float *dx, int64_t n) {
-    unary_args u = {op, p, x, y, dy, dx};
+    unary_args u = {op, p, x, y, dy, dx, cr_nn_cpu_simd(), unary_vec_fn(op, 1)};
     cr_parallel_for(n, NN_CPU_GRAIN, unary_backward_range, &u);
 }
 

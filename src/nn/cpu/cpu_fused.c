@@ -13,7 +13,9 @@
  * Column sums accumulate in double, each column over the rows in order, so
  * the bias gradient does not depend on the thread count or the path (up to
  * the last bit of the float dz each path rounds alike).
- * Leaves out: AVX-512 paths, SIMD tanh/sigmoid/softplus (scalar on every path).
+ * The piecewise-linear activations also have an AVX-512F path (16 lanes,
+ * mask registers); tanh, sigmoid and softplus run through the vector
+ * transcendental kernels of cpu_vmath.c on the AVX2 and AVX-512 levels.
  */
 #include "nn/cpu/cpu.h"
 
@@ -39,8 +41,8 @@ static int simd_level = -1; /* -1: not chosen yet */
 
 int cr_nn_cpu_simd_max(void) {
 #if NN_CPU_X86
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? NN_SIMD_AVX2
-                                                                           : NN_SIMD_SCALAR;
+    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return NN_SIMD_SCALAR;
+    return __builtin_cpu_supports("avx512f") ? NN_SIMD_AVX512 : NN_SIMD_AVX2;
 #else
     return NN_SIMD_SCALAR;
 #endif
@@ -49,8 +51,12 @@ int cr_nn_cpu_simd_max(void) {
 int cr_nn_cpu_simd(void) {
     if (simd_level < 0) {
         const char *env = getenv("CREASE_NN_SIMD");
-        int forced = env && (strcmp(env, "scalar") == 0 || strcmp(env, "0") == 0);
-        simd_level = forced ? NN_SIMD_SCALAR : cr_nn_cpu_simd_max();
+        int max = cr_nn_cpu_simd_max();
+        simd_level = max;
+        if (env && (strcmp(env, "scalar") == 0 || strcmp(env, "0") == 0))
+            simd_level = NN_SIMD_SCALAR;
+        else if (env && strcmp(env, "avx2") == 0 && max > NN_SIMD_AVX2)
+            simd_level = NN_SIMD_AVX2;
     }
     return simd_level;
 }
@@ -182,12 +188,118 @@ static NN_AVX2 void act_grad_cols_avx2(cr_op act, float p, const float *y, const
         }
     }
 }
+
+/* ----------------------------------------------------------- AVX-512 -- */
+
+#define NN_AVX512 __attribute__((target("avx512f")))
+
+static inline NN_AVX512 __m512 f_avx512(cr_op act, __m512 p, __m512 z) {
+    __m512 zero = _mm512_setzero_ps();
+    if (act == CR_OP_RELU) return _mm512_max_ps(z, zero); /* NaN -> 0, as AVX2 and scalar */
+    if (act == CR_OP_LEAKY_RELU)
+        return _mm512_mask_blend_ps(_mm512_cmp_ps_mask(z, zero, _CMP_GT_OQ), _mm512_mul_ps(p, z),
+                                    z);
+    return z;
+}
+
+static inline NN_AVX512 __m512 df_avx512(cr_op act, __m512 p, __m512 y, __m512 dy) {
+    __mmask16 pos = _mm512_cmp_ps_mask(y, _mm512_setzero_ps(), _CMP_GT_OQ);
+    if (act == CR_OP_RELU) return _mm512_maskz_mov_ps(pos, dy);
+    if (act == CR_OP_LEAKY_RELU) return _mm512_mask_blend_ps(pos, _mm512_mul_ps(p, dy), dy);
+    return dy;
+}
+
+static NN_AVX512 void bias_act_rows_avx512(cr_op act, float p, const float *b, float *y, int64_t r0,
+                                           int64_t r1, int64_t C) {
+    __m512 vp = _mm512_set1_ps(p);
+    for (int64_t r = r0; r < r1; r++) {
+        float *row = y + r * C;
+        int64_t c = 0;
+        for (; c + 16 <= C; c += 16) {
+            __m512 z = _mm512_loadu_ps(row + c);
+            if (b) z = _mm512_add_ps(z, _mm512_loadu_ps(b + c));
+            _mm512_storeu_ps(row + c, f_avx512(act, vp, z));
+        }
+        for (; c < C; c++)
+            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+    }
+}
+
+static NN_AVX512 void act_grad_cols_avx512(cr_op act, float p, const float *y, const float *dy,
+                                           int64_t R, int64_t C, int64_t c0, int64_t w, float *dz,
+                                           double *acc) {
+    __m512 vp = _mm512_set1_ps(p);
+    int64_t w16 = w / 16 * 16;
+    for (int64_t r = 0; r < R; r++) {
+        const float *yr = y + r * C + c0, *dyr = dy + r * C + c0;
+        float *dzr = dz ? dz + r * C + c0 : NULL;
+        for (int64_t c = 0; c < w16; c += 16) {
+            __m512 g = df_avx512(act, vp, _mm512_loadu_ps(yr + c), _mm512_loadu_ps(dyr + c));
+            if (dzr) _mm512_storeu_ps(dzr + c, g);
+            if (acc) {
+                __m512d lo = _mm512_cvtps_pd(_mm512_castps512_ps256(g));
+                __m512d hi = _mm512_cvtps_pd(
+                    _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(g), 1)));
+                _mm512_storeu_pd(acc + c, _mm512_add_pd(_mm512_loadu_pd(acc + c), lo));
+                _mm512_storeu_pd(acc + c + 8, _mm512_add_pd(_mm512_loadu_pd(acc + c + 8), hi));
+            }
+        }
+        for (int64_t c = w16; c < w; c++) {
+            float g = df_of(act, p, yr[c], dyr[c]);
+            if (dzr) dzr[c] = g;
+            if (acc) acc[c] += g;
+        }
+    }
+}
 #endif
 
-/* 1 when the AVX2 path has this activation (the smooth ones stay scalar). */
-static int use_avx2(cr_op act) {
-    return NN_CPU_X86 && cr_nn_cpu_simd() >= NN_SIMD_AVX2 &&
-           (act == CR_OP_NONE || act == CR_OP_RELU || act == CR_OP_LEAKY_RELU);
+/* Smooth activations on a SIMD level: rows through the vector transcendental
+ * kernels (cpu_vmath.c), the row's tail in scalar. */
+static void bias_act_rows_vec(int level, nn_vec_fn fn, cr_op act, float p, const float *b, float *y,
+                              int64_t r0, int64_t r1, int64_t C) {
+    for (int64_t r = r0; r < r1; r++) {
+        float *row = y + r * C;
+        for (int64_t c = cr_nn_cpu_vec_span(level, fn, p, row, b, NULL, row, 0, C); c < C; c++)
+            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+    }
+}
+
+static void act_grad_cols_vec(int level, nn_vec_fn fn, cr_op act, float p, const float *y,
+                              const float *dy, int64_t R, int64_t C, int64_t c0, int64_t w,
+                              float *dz, double *acc) {
+    float tmp[SUM_COLS];
+    for (int64_t r = 0; r < R; r++) {
+        const float *yr = y + r * C + c0, *dyr = dy + r * C + c0;
+        float *g = dz ? dz + r * C + c0 : tmp;
+        for (int64_t c = cr_nn_cpu_vec_span(level, fn, p, yr, NULL, dyr, g, 0, w); c < w; c++)
+            g[c] = df_of(act, p, yr[c], dyr[c]);
+        if (acc)
+            for (int64_t c = 0; c < w; c++)
+                acc[c] += g[c];
+    }
+}
+
+/* The vector kernel of a smooth activation (or of its derivative from y);
+ * -1 for the others. */
+static int smooth_fn(cr_op act, int deriv) {
+    switch (act) {
+    case CR_OP_TANH:
+        return deriv ? NN_VEC_TANH_DERIV_FROM_Y : NN_VEC_TANH;
+    case CR_OP_SIGMOID:
+        return deriv ? NN_VEC_SIGMOID_DERIV_FROM_Y : NN_VEC_SIGMOID;
+    case CR_OP_SOFTPLUS:
+        return deriv ? NN_VEC_SOFTPLUS_DERIV_FROM_Y : NN_VEC_SOFTPLUS;
+    default:
+        return -1;
+    }
+}
+
+/* The SIMD level of the piecewise-linear passes for this activation: the
+ * current one for none, ReLU and leaky ReLU, scalar for the others (the
+ * smooth ones go through cpu_vmath.c). */
+static int linear_level(cr_op act) {
+    int pl = act == CR_OP_NONE || act == CR_OP_RELU || act == CR_OP_LEAKY_RELU;
+    return NN_CPU_X86 && pl ? cr_nn_cpu_simd() : NN_SIMD_SCALAR;
 }
 
 /* ------------------------------------------------------------ kernels -- */
@@ -198,13 +310,28 @@ typedef struct fused_args {
     const float *b, *y, *dy;
     float *out, *dz, *db;
     int64_t R, C, units;
-    int avx2;
+    int pl;         /* linear_level(act) */
+    int level, vfn; /* vfn >= 0: the smooth activation's vector kernel on `level` */
 } fused_args;
+
+/* The vector kernel for act on the current level, or -1 (scalar, or not smooth). */
+static int vec_fn_for(cr_op act, int deriv) {
+    return cr_nn_cpu_simd() >= NN_SIMD_AVX2 ? smooth_fn(act, deriv) : -1;
+}
 
 static void bias_act_range(void *vctx, int64_t begin, int64_t end) {
     const fused_args *g = vctx;
+    if (g->vfn >= 0) {
+        bias_act_rows_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, g->b, g->out, begin, end,
+                          g->C);
+        return;
+    }
 #if NN_CPU_X86
-    if (g->avx2) {
+    if (g->pl >= NN_SIMD_AVX512) {
+        bias_act_rows_avx512(g->act, g->p, g->b, g->out, begin, end, g->C);
+        return;
+    }
+    if (g->pl >= NN_SIMD_AVX2) {
         bias_act_rows_avx2(g->act, g->p, g->b, g->out, begin, end, g->C);
         return;
     }
@@ -215,7 +342,15 @@ static void bias_act_range(void *vctx, int64_t begin, int64_t end) {
 void cr_nn_cpu_bias_act_forward(cr_op act, float p, const float *b, float *y, int64_t R,
                                 int64_t C) {
     if (act == CR_OP_NONE && !b) return;
-    fused_args g = {.act = act, .p = p, .b = b, .out = y, .R = R, .C = C, .avx2 = use_avx2(act)};
+    fused_args g = {.act = act,
+                    .p = p,
+                    .b = b,
+                    .out = y,
+                    .R = R,
+                    .C = C,
+                    .pl = linear_level(act),
+                    .level = cr_nn_cpu_simd(),
+                    .vfn = vec_fn_for(act, 0)};
     cr_parallel_for(R, nn_cpu_row_grain(C), bias_act_range, &g);
 }
 
@@ -228,12 +363,17 @@ static void act_grad_range(void *vctx, int64_t begin, int64_t end) {
         for (int64_t c = 0; c < w; c++)
             acc[c] = 0.0;
         double *a = g->db ? acc : NULL;
-#if NN_CPU_X86
-        if (g->avx2)
-            act_grad_cols_avx2(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
-        else
-#endif
+        if (g->vfn >= 0)
+            act_grad_cols_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, g->y, g->dy, g->R, g->C,
+                              c0, w, g->dz, a);
+        else if (g->pl == NN_SIMD_SCALAR)
             act_grad_cols_scalar(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+#if NN_CPU_X86
+        else if (g->pl >= NN_SIMD_AVX512)
+            act_grad_cols_avx512(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+        else
+            act_grad_cols_avx2(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+#endif
         if (g->db)
             for (int64_t c = 0; c < w; c++)
                 g->db[c0 + c] += (float)acc[c];
@@ -252,7 +392,9 @@ void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float
                     .R = R,
                     .C = C,
                     .units = (C + SUM_COLS - 1) / SUM_COLS,
-                    .avx2 = use_avx2(act)};
+                    .pl = linear_level(act),
+                    .level = cr_nn_cpu_simd(),
+                    .vfn = vec_fn_for(act, 1)};
     int64_t work = R * (C < SUM_COLS ? C : SUM_COLS);
     int64_t grain = work >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / (work > 0 ? work : 1);
     cr_parallel_for(g.units, grain, act_grad_range, &g);

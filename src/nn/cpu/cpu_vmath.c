@@ -1,0 +1,50 @@
+/* cpu_vmath.c: vectorised exp, log, tanh, sigmoid and softplus (values and
+ * the derivatives the backward passes need) over spans of floats, for the
+ * fused linear + activation kernels (cpu_fused.c) and the elementwise ops
+ * (cpu_elementwise.c). One source (cpu_vmath_impl.h) instantiated for AVX2 +
+ * FMA (8 lanes) and AVX-512F (16 lanes), each compiled with a target
+ * attribute so the build needs no -march; the caller picks the level from
+ * cr_nn_cpu_simd() and finishes the span's tail with the scalar code.
+ * Accuracy against libm (tests/test_nn_vmath.c): a few ulp, NaN, infinities
+ * and subnormals as on the scalar path.
+ */
+#include "nn/cpu/cpu.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+
+#define VW 8
+#define VT __attribute__((target("avx2,fma")))
+#define V(name) name##_avx2
+#define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
+#include "nn/cpu/cpu_vmath_impl.h"
+#undef VW
+#undef VT
+#undef V
+#undef VFMA
+
+#define VW 16
+#define VT __attribute__((target("avx512f")))
+#define V(name) name##_avx512
+#define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
+#include "nn/cpu/cpu_vmath_impl.h"
+#undef VW
+#undef VT
+#undef V
+#undef VFMA
+#endif
+
+int64_t cr_nn_cpu_vec_span(int level, nn_vec_fn fn, float p, const float *x, const float *b,
+                           const float *mul, float *out, int acc, int64_t n) {
+#if defined(__x86_64__) || defined(__i386__)
+    if (level >= NN_SIMD_AVX512) return span_avx512(fn, p, x, b, mul, out, acc, n);
+    if (level >= NN_SIMD_AVX2) return span_avx2(fn, p, x, b, mul, out, acc, n);
+#else
+    (void)level, (void)fn, (void)p, (void)x, (void)b, (void)mul, (void)out, (void)acc, (void)n;
+#endif
+    return 0;
+}

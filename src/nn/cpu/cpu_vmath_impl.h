@@ -1,0 +1,212 @@
+/* cpu_vmath_impl.h (private, no include guard): the vector exp, log, tanh,
+ * sigmoid and softplus of cpu_vmath.c, written once over GCC/clang vector
+ * types and instantiated per SIMD width. The includer defines
+ *   VW         lanes (8: AVX2, 16: AVX-512)
+ *   VT         the function attribute, e.g. __attribute__((target("avx2,fma")))
+ *   V(name)    the instance's name for `name`, e.g. name##_avx2
+ *   VFMA(a, b, c)  a * b + c rounded once (the target's FMA intrinsic)
+ *
+ * Algorithms (Cephes' single-precision ones, about 1 ulp each):
+ *   exp(x)  = 2^n exp(r), n = round(x / ln 2), r = x - n ln 2 (ln 2 in two
+ *             parts), exp(r) by a degree-7 polynomial; 2^n applied as two
+ *             factors 2^(n/2) 2^(n - n/2), so the result overflows to inf
+ *             above 88.72 and goes through the subnormals to 0 below -87.3
+ *             exactly as expf does (one rounding).
+ *   log(x)  = e ln 2 + log(m), m in [sqrt(1/2), sqrt(2)), log(m) = f - f^2/2
+ *             + f^3 P(f), f = m - 1; subnormal x scaled by 2^23 first;
+ *             log(0) = -inf, log(inf) = inf, log(x < 0) = NaN.
+ *   tanh(x) = x + x^3 P(x^2) for |x| < 0.625, else sign(x) (1 - 2 / (exp(2|x|) + 1)).
+ * NaN inputs give NaN everywhere, as on the scalar path. Rounding to the
+ * nearest integer uses the 1.5 * 2^23 shift, so it assumes the default
+ * rounding mode, as the rest of the engine does.
+ */
+
+typedef float V(vf) __attribute__((vector_size(VW * 4)));
+typedef int32_t V(vi) __attribute__((vector_size(VW * 4)));
+
+static inline VT V(vf) V(load)(const float *p) {
+    V(vf) v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static inline VT void V(store)(float *p, V(vf) v) {
+    memcpy(p, &v, sizeof v);
+}
+
+static inline VT V(vf) V(splat)(float c) {
+    return (V(vf)){0} + c;
+}
+
+/* m ? a : b, m a comparison's lanes (all ones or zero). */
+static inline VT V(vf) V(sel)(V(vi) m, V(vf) a, V(vf) b) {
+    return (V(vf))(((V(vi))a & m) | ((V(vi))b & ~m));
+}
+
+static inline VT V(vf) V(abs)(V(vf) x) {
+    return (V(vf))((V(vi))x & 0x7fffffff);
+}
+
+static inline VT V(vf) V(exp)(V(vf) x) {
+    V(vf) xc = V(sel)(x > 89.0f, V(splat)(89.0f), V(sel)(x < -104.0f, V(splat)(-104.0f), x));
+    V(vf) shift = V(splat)(12582912.0f); /* 1.5 * 2^23 */
+    V(vf) n = VFMA(xc, V(splat)(1.44269504088896341f), shift) - shift;
+    V(vf) r = VFMA(n, V(splat)(-0.693359375f), xc);
+    r = VFMA(n, V(splat)(2.12194440e-4f), r);
+    V(vf) p = V(splat)(1.9875691500e-4f);
+    p = VFMA(p, r, V(splat)(1.3981999507e-3f));
+    p = VFMA(p, r, V(splat)(8.3334519073e-3f));
+    p = VFMA(p, r, V(splat)(4.1665795894e-2f));
+    p = VFMA(p, r, V(splat)(1.6666665459e-1f));
+    p = VFMA(p, r, V(splat)(5.0000001201e-1f));
+    V(vf) y = VFMA(p, r * r, r) + 1.0f;
+    V(vi) ni = __builtin_convertvector(n, V(vi));
+    V(vi) n1 = ni >> 1, n2 = ni - n1;
+    y = y * (V(vf))((n1 + 127) << 23) * (V(vf))((n2 + 127) << 23);
+    return V(sel)(x != x, x, y);
+}
+
+/* log(x) for positive, normal, finite x. */
+static inline VT V(vf) V(log_normal)(V(vf) x) {
+    V(vi) bits = (V(vi))x;
+    V(vf) e = __builtin_convertvector(((bits >> 23) & 0xff) - 126, V(vf));
+    V(vf) m = (V(vf))((bits & 0x007fffff) | 0x3f000000); /* [0.5, 1) */
+    V(vi) low = m < 0.707106781186547524f;
+    e = V(sel)(low, e - 1.0f, e);
+    V(vf) f = V(sel)(low, m + m, m) - 1.0f;
+    V(vf) z = f * f;
+    V(vf) p = V(splat)(7.0376836292e-2f);
+    p = VFMA(p, f, V(splat)(-1.1514610310e-1f));
+    p = VFMA(p, f, V(splat)(1.1676998740e-1f));
+    p = VFMA(p, f, V(splat)(-1.2420140846e-1f));
+    p = VFMA(p, f, V(splat)(1.4249322787e-1f));
+    p = VFMA(p, f, V(splat)(-1.6668057665e-1f));
+    p = VFMA(p, f, V(splat)(2.0000714765e-1f));
+    p = VFMA(p, f, V(splat)(-2.4999993993e-1f));
+    p = VFMA(p, f, V(splat)(3.3333331174e-1f));
+    V(vf) y = p * f * z;
+    y = VFMA(e, V(splat)(-2.12194440e-4f), y);
+    y = VFMA(z, V(splat)(-0.5f), y);
+    return VFMA(e, V(splat)(0.693359375f), f + y);
+}
+
+static inline VT V(vf) V(log)(V(vf) x) {
+    V(vi) sub = x < 1.17549435e-38f; /* FLT_MIN */
+    V(vf) xs = V(sel)(sub, x * 8388608.0f, x);
+    V(vf) y = V(log_normal)(xs);
+    y = V(sel)(sub, y - 15.942385152878742f, y); /* 23 ln 2 */
+    V(vf) inf = V(splat)(INFINITY);
+    y = V(sel)(x == inf, inf, y);
+    y = V(sel)(x == 0.0f, -inf, y);
+    return V(sel)(x < 0.0f, V(splat)(NAN), V(sel)(x != x, x, y));
+}
+
+/* log(1 + e) for e in [0, 1], with the scalar path's correction. */
+static inline VT V(vf) V(log1p01)(V(vf) e) {
+    V(vf) u = e + 1.0f;
+    V(vi) one = u == 1.0f;
+    V(vf) d = V(sel)(one, V(splat)(1.0f), u - 1.0f);
+    return V(sel)(one, e, V(log_normal)(u) * (e / d));
+}
+
+static inline VT V(vf) V(tanh)(V(vf) x) {
+    V(vf) a = V(abs)(x), s = x * x;
+    V(vf) p = V(splat)(-5.70498872745e-3f);
+    p = VFMA(p, s, V(splat)(2.06390887954e-2f));
+    p = VFMA(p, s, V(splat)(-5.37397155531e-2f));
+    p = VFMA(p, s, V(splat)(1.33314422036e-1f));
+    p = VFMA(p, s, V(splat)(-3.33332819422e-1f));
+    V(vf) small = VFMA(p * s, a, a);
+    V(vf) big = 1.0f - 2.0f / (V(exp)(a + a) + 1.0f);
+    V(vf) y = V(sel)(a < 0.625f, small, big);          /* tanh(|x|) */
+    return (V(vf))((V(vi))y | ((V(vi))x & INT32_MIN)); /* x's sign, -0 included */
+}
+
+/* 1 / (1 + exp(-x)), as e / (1 + e) with e = exp(-|x|) below 0. */
+static inline VT V(vf) V(sigmoid)(V(vf) x) {
+    V(vf) e = V(exp)(-V(abs)(x));
+    return V(sel)(x >= 0.0f, V(splat)(1.0f), e) / (1.0f + e);
+}
+
+static inline VT V(vf) V(softplus)(V(vf) x, float beta) {
+    V(vf) bx = x * beta;
+    V(vf) pos = V(sel)(bx > 0.0f, bx, V(splat)(0.0f));
+    return (pos + V(log1p01)(V(exp)(-V(abs)(bx)))) / beta;
+}
+
+/* sigmoid(beta z) from y = softplus_beta(z), as nn_cpu_softplus_deriv_from_y. */
+static inline VT V(vf) V(softplus_deriv_from_y)(V(vf) y, float beta) {
+    V(vf) t = y * beta;
+    V(vf) series = V(splat)(1.0f / 120.0f);
+    series = 1.0f / 24.0f - t * series;
+    series = 1.0f / 6.0f - t * series;
+    series = 0.5f - t * series;
+    series = t * (1.0f - t * series);
+    return V(sel)(t < 0.1f, series, 1.0f - V(exp)(-t));
+}
+
+static inline VT __attribute__((always_inline)) V(vf) V(apply)(nn_vec_fn fn, float p, V(vf) v) {
+    switch (fn) {
+    case NN_VEC_EXP:
+        return V(exp)(v);
+    case NN_VEC_LOG:
+        return V(log)(v);
+    case NN_VEC_TANH:
+        return V(tanh)(v);
+    case NN_VEC_SIGMOID:
+        return V(sigmoid)(v);
+    case NN_VEC_SOFTPLUS:
+        return V(softplus)(v, p);
+    case NN_VEC_SIGMOID_SCALED:
+        return V(sigmoid)(v * p);
+    case NN_VEC_TANH_DERIV_FROM_Y:
+        return 1.0f - v * v;
+    case NN_VEC_SIGMOID_DERIV_FROM_Y:
+        return v * (1.0f - v);
+    case NN_VEC_SOFTPLUS_DERIV_FROM_Y:
+        return V(softplus_deriv_from_y)(v, p);
+    }
+    return v;
+}
+
+/* The loop of cr_nn_cpu_vec_span for one constant fn (inlined per case). */
+static inline VT __attribute__((always_inline)) int64_t V(span_fn)(nn_vec_fn fn, float p,
+                                                                   const float *x, const float *b,
+                                                                   const float *mul, float *out,
+                                                                   int acc, int64_t n) {
+    int64_t i = 0;
+    for (; i + VW <= n; i += VW) {
+        V(vf) v = V(load)(x + i);
+        if (b) v = v + V(load)(b + i);
+        v = V(apply)(fn, p, v);
+        if (mul) v = v * V(load)(mul + i);
+        if (acc) v = v + V(load)(out + i);
+        V(store)(out + i, v);
+    }
+    return i;
+}
+
+static VT int64_t V(span)(nn_vec_fn fn, float p, const float *x, const float *b, const float *mul,
+                          float *out, int acc, int64_t n) {
+    switch (fn) {
+    case NN_VEC_EXP:
+        return V(span_fn)(NN_VEC_EXP, p, x, b, mul, out, acc, n);
+    case NN_VEC_LOG:
+        return V(span_fn)(NN_VEC_LOG, p, x, b, mul, out, acc, n);
+    case NN_VEC_TANH:
+        return V(span_fn)(NN_VEC_TANH, p, x, b, mul, out, acc, n);
+    case NN_VEC_SIGMOID:
+        return V(span_fn)(NN_VEC_SIGMOID, p, x, b, mul, out, acc, n);
+    case NN_VEC_SOFTPLUS:
+        return V(span_fn)(NN_VEC_SOFTPLUS, p, x, b, mul, out, acc, n);
+    case NN_VEC_SIGMOID_SCALED:
+        return V(span_fn)(NN_VEC_SIGMOID_SCALED, p, x, b, mul, out, acc, n);
+    case NN_VEC_TANH_DERIV_FROM_Y:
+        return V(span_fn)(NN_VEC_TANH_DERIV_FROM_Y, p, x, b, mul, out, acc, n);
+    case NN_VEC_SIGMOID_DERIV_FROM_Y:
+        return V(span_fn)(NN_VEC_SIGMOID_DERIV_FROM_Y, p, x, b, mul, out, acc, n);
+    case NN_VEC_SOFTPLUS_DERIV_FROM_Y:
+        return V(span_fn)(NN_VEC_SOFTPLUS_DERIV_FROM_Y, p, x, b, mul, out, acc, n);
+    }
+    return 0;
+}
