@@ -21,6 +21,7 @@ void help_swingar_sdf(void) {
            "  --motions LIST       clips or motion files, comma-separated (default walk)\n"
            "  --shapes LIST        mannequin presets, comma-separated (default normal)\n"
            "  --width W            layer width (default 512)\n"
+           "  --articulated        joint-frame inputs to the position branch (not the paper's)\n"
            "  --steps N            Adam steps, cosine schedule length (default 2000)\n"
            "  --stop-at N          stop after N steps (resume later; default: run all)\n"
            "  --batch B            points per step (default 2048)\n"
@@ -66,6 +67,7 @@ static int train(int argc, char **argv) {
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_INT("--checkpoint-every", &every, 0, 100000000),
         CLI_INT("--seed", &seed, 0, 2147483647),
+        CLI_FLAG("--articulated", &d.model.articulated),
         CLI_FLAG("--resume", &d.resume),
         CLI_FLAG("--quiet", &d.quiet),
         CLI_FLAG("--json", &json),
@@ -94,6 +96,7 @@ static int train(int argc, char **argv) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar-sdf train");
         cJSON_AddNumberToObject(j, "width", width);
+        cJSON_AddNumberToObject(j, "articulated", d.model.articulated);
         cJSON_AddNumberToObject(j, "poses", (double)r.poses);
         cJSON_AddNumberToObject(j, "samples", (double)r.samples);
         cJSON_AddNumberToObject(j, "steps", (double)r.steps);

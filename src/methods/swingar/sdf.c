@@ -11,6 +11,7 @@
  */
 #include "methods/swingar/sdf.h"
 
+#include "crease/body.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/nn_layers.h"
 
@@ -59,6 +60,9 @@ static cr_status check_def(const cr_swingar_sdf_def *d, cr_error *err) {
     if (d->cond_dim < 0 || d->cond_dim > 4096)
         return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: cond_dim %d outside [0, 4096]",
                        d->cond_dim);
+    if (d->articulated != 0 && d->articulated != 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: articulated %d is not 0 or 1",
+                       d->articulated);
     if (!(d->softplus_beta > 0) || !(d->scale > 0) || !(d->init_radius >= 0) ||
         !isfinite(d->center[0] + d->center[1] + d->center[2]))
         return CR_FAIL(err, CR_ERR_INVALID,
@@ -98,7 +102,10 @@ static cr_status init_weights(cr_swingar_sdf *net, cr_error *err) {
     if (d->cond_dim > 0)
         hidden[nh++] = &net->body[0], hidden[nh++] = &net->body[1], hidden[nh++] = &net->body[2];
     for (int i = 0; i < nh; i++) {
-        cr_nn_fill_normal(hidden[i]->w, &rng, 0.0f, sqrtf(2.0f / (float)w));
+        /* articulated: in the rest pose all 22 inputs equal x~, so 1/sqrt(22)
+         * keeps the first layer's output as for x~ alone */
+        float sd = sqrtf(2.0f / (float)w) / (i == 0 && d->articulated ? sqrtf(CR_NJOINTS) : 1.0f);
+        cr_nn_fill_normal(hidden[i]->w, &rng, 0.0f, sd);
         cr_nn_fill(hidden[i]->b, 0.0f);
     }
     cr_nn_fill_normal(net->fuse_wp, &rng, 0.0f, sqrtf(2.0f / (float)w));
@@ -108,7 +115,11 @@ static cr_status init_weights(cr_swingar_sdf *net, cr_error *err) {
     cr_nn_fill(net->out.b, 0.0f);
     /* calibrate: mean net output (bias 0) over points on the unit sphere */
     float *x = malloc(INIT_PROBES * 3 * sizeof(float)), *s = malloc(INIT_PROBES * sizeof(float));
-    float *cond = calloc((size_t)d->cond_dim + 1, sizeof(float));
+    float *cond = calloc((size_t)cr_swingar_sdf_cond_len(d) + 1, sizeof(float));
+    if (cond && d->articulated) /* identity frames: the rest pose */
+        for (int j = 0; j < CR_NJOINTS; j++)
+            for (int k = 0; k < 3; k++)
+                cond[d->cond_dim + 12 * j + 5 * k] = 1.0f;
     cr_status st = x && s && cond ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: init");
     for (int i = 0; st == CR_OK && i < INIT_PROBES; i++) {
         float v[3] = {(float)cr_rng_normal(&rng), (float)cr_rng_normal(&rng),
@@ -143,7 +154,8 @@ cr_status cr_swingar_sdf_create(const cr_swingar_sdf_def *def, cr_swingar_sdf **
     int64_t w = def->width;
     cr_status st = cr_nn_params_create(&net->params, err);
     for (int i = 0; st == CR_OK && i < 3; i++)
-        st = add_layer(net->params, "pos", i, w, i == 0 ? 3 : w, &net->pos[i], err);
+        st = add_layer(net->params, "pos", i, w,
+                       i == 0 ? (def->articulated ? 3 * CR_NJOINTS : 3) : w, &net->pos[i], err);
     for (int i = 0; st == CR_OK && def->cond_dim > 0 && i < 3; i++)
         st = add_layer(net->params, "body", i, w, i == 0 ? def->cond_dim : w, &net->body[i], err);
     if (st == CR_OK) st = add(net->params, "fuse.0.weight_p", w, w, &net->fuse_wp, err);
@@ -179,7 +191,12 @@ cr_nn_params *cr_swingar_sdf_params(cr_swingar_sdf *net) {
     return net->params;
 }
 
-void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *pose, float *cond) {
+int cr_swingar_sdf_cond_len(const cr_swingar_sdf_def *def) {
+    return def->cond_dim + (def->articulated ? CR_SWINGAR_SDF_FRAME_DIM : 0);
+}
+
+void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *joints, const float *pose,
+                              float *cond) {
     cr_mannequin_def n = cr_mannequin_default_def();
     const cr_mannequin_def *s = shape ? shape : &n;
     cond[0] = s->height_m - n.height_m;
@@ -188,6 +205,68 @@ void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *pose, 
     cond[3] = s->hips - n.hips;
     for (int i = 0; i < 3 * CR_NJOINTS; i++)
         cond[CR_SWINGAR_SDF_SHAPE_DIM + i] = pose ? pose[i] : 0.0f;
+    float *fr = &cond[CR_SWINGAR_SDF_COND_DIM];
+    float xf[CR_NJOINTS * 12];
+    if (joints) {
+        float zero[3 * CR_NJOINTS] = {0};
+        cr_body_skin_transforms(joints, pose ? pose : zero, NULL, xf);
+    }
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        /* the inverse of x = A u + b: u = A^T x - A^T b */
+        const float *a = &xf[12 * j];
+        float *m = &fr[12 * j];
+        for (int r = 0; r < 3; r++) {
+            double t = 0;
+            for (int k = 0; k < 3; k++) {
+                float v = joints ? a[4 * k + r] : (float)(r == k);
+                m[4 * r + k] = v;
+                t -= joints ? (double)v * a[4 * k + 3] : 0.0;
+            }
+            m[4 * r + 3] = (float)t;
+        }
+    }
+}
+
+/* The articulated first layer's pre-activation z (N,W) = W_0 u~ + b_0 with
+ * u~ = (M x + m - center) / scale stacked over the joints, and its tangents
+ * scale dz/dx (P or N, 3, W) (scale: the same convention as the plain path,
+ * whose tangents are d/dx~). Per pose P: T_p = (M_p^T stacked) W_0^T and
+ * e_p = W_0 (m_p - center) / scale + b_0, gathered per point. The frames are
+ * read from the host data of cond's rows (constants on the tape). */
+static cr_tensor *articulated_input(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_tensor *x2,
+                                    cr_tensor *cond, const int32_t *cond_row, cr_tensor **tan) {
+    const cr_swingar_sdf_def *d = &net->def;
+    if (!cond || !x2) return NULL;
+    int64_t p = cond->shape[0], len = cond->numel / p, n = x2->shape[0];
+    int64_t nin = 3 * CR_NJOINTS, w = d->width;
+    cr_tensor *jt = cr_nn_new(ctx, 2, (int64_t[]){3 * p, nin});
+    cr_tensor *e = cr_nn_new(ctx, 2, (int64_t[]){p, nin});
+    if (!jt || !e) return NULL;
+    for (int64_t q = 0; q < p; q++) {
+        const float *fr = &cond->data[q * len + d->cond_dim];
+        for (int j = 0; j < CR_NJOINTS; j++)
+            for (int r = 0; r < 3; r++) {
+                for (int k = 0; k < 3; k++)
+                    jt->data[(3 * q + k) * nin + 3 * j + r] = fr[12 * j + 4 * r + k];
+                e->data[q * nin + 3 * j + r] = (fr[12 * j + 4 * r + 3] - d->center[r]) / d->scale;
+            }
+    }
+    cr_tensor *t = cr_nn_linear(ctx, jt, net->pos[0].w, NULL);         /* (3P,W) */
+    cr_tensor *b = cr_nn_linear(ctx, e, net->pos[0].w, net->pos[0].b); /* (P,W) */
+    if (cond_row) {
+        t = cr_nn_reshape(
+            ctx,
+            cr_nn_gather_rows(ctx, cr_nn_reshape(ctx, t, 2, (int64_t[]){p, 3 * w}), cond_row, n), 3,
+            (int64_t[]){n, 3, w});
+        b = cr_nn_gather_rows(ctx, b, cond_row, n);
+    } else {
+        t = cr_nn_reshape(ctx, t, 3, (int64_t[]){p, 3, w});
+    }
+    cr_tensor *xs =
+        cr_nn_reshape(ctx, cr_nn_mul_scalar(ctx, x2, 1.0f / d->scale), 3, (int64_t[]){n, 3, 1});
+    cr_tensor *z = cr_nn_add(ctx, cr_nn_sum_axis(ctx, cr_nn_mul(ctx, xs, t), 1, 0), b);
+    if (tan) *tan = t;
+    return z;
 }
 
 /* ------------------------------------------------------------- forward -- */
@@ -216,17 +295,23 @@ cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_
      * kept on the tape through linear(I, W_0) as layer_jacobian.c does. The
      * chain rule through x~ = (x - c)/scale and S = scale F cancels the
      * scale, so these are also the tangents of S with respect to x. */
-    cr_tensor *t = NULL;
+    cr_tensor *t = NULL, *p1 = NULL;
     int64_t w = d->width;
-    if (grad) {
+    if (grad && !d->articulated) {
         cr_tensor *eye = cr_nn_zeros(ctx, 2, (int64_t[]){3, 3});
         if (!eye) return NULL;
         eye->data[0] = eye->data[4] = eye->data[8] = 1.0f;
         t = cr_nn_reshape(ctx, cr_nn_linear(ctx, eye, net->pos[0].w, NULL), 3,
                           (int64_t[]){1, 3, w});
     }
-    cr_tensor *p1 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, xn, net->pos[0].w, net->pos[0].b),
-                                 grad ? &t : NULL);
+    if (d->articulated) {
+        cr_tensor *z1 = articulated_input(ctx, net, x2, cond, cond_row, grad ? &t : NULL);
+        if (!z1) return NULL;
+        p1 = softplus_jvp(ctx, beta, z1, grad ? &t : NULL);
+    } else {
+        p1 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, xn, net->pos[0].w, net->pos[0].b),
+                          grad ? &t : NULL);
+    }
     cr_tensor *t1 = t;
     if (grad) t = cr_nn_linear(ctx, t1, net->pos[1].w, NULL);
     cr_tensor *p2 = softplus_jvp(ctx, beta, cr_nn_linear(ctx, p1, net->pos[1].w, net->pos[1].b),
@@ -239,8 +324,11 @@ cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_
     cr_tensor *zf = cr_nn_linear(ctx, p3, net->fuse_wp, net->fuse_b);
     if (d->cond_dim > 0) {
         /* body branch on the P conditioning rows, its fusion half per row */
+        cr_tensor *cb = cond && cond->numel / cond->shape[0] != d->cond_dim
+                            ? cr_nn_slice(ctx, cond, 1, 0, d->cond_dim)
+                            : cond;
         cr_tensor *q1 =
-            softplus_jvp(ctx, beta, cr_nn_linear(ctx, cond, net->body[0].w, net->body[0].b), NULL);
+            softplus_jvp(ctx, beta, cr_nn_linear(ctx, cb, net->body[0].w, net->body[0].b), NULL);
         cr_tensor *q2 =
             softplus_jvp(ctx, beta, cr_nn_linear(ctx, q1, net->body[1].w, net->body[1].b), NULL);
         cr_tensor *q3 =
@@ -265,10 +353,10 @@ cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_
 cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, const float *cond,
                               float *s, float *grad, cr_error *err) {
     const cr_swingar_sdf_def *d = &net->def;
-    if (d->cond_dim > 0 && !cond)
+    int len = cr_swingar_sdf_cond_len(d);
+    if (len > 0 && !cond)
         return CR_FAIL(err, CR_ERR_INVALID,
-                       "swingar sdf: the model takes a conditioning vector of %d, got none",
-                       d->cond_dim);
+                       "swingar sdf: the model takes a conditioning vector of %d, got none", len);
     cr_nn_ctx *ctx = net->ctx;
     int was = cr_nn_ctx_grad_enabled(ctx);
     cr_nn_ctx_set_grad_enabled(ctx, 0);
@@ -277,8 +365,7 @@ cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, co
         int64_t m = n - start < EVAL_CHUNK ? n - start : EVAL_CHUNK;
         cr_nn_ctx_reset(ctx);
         cr_tensor *xt = cr_nn_wrap(ctx, 2, (int64_t[]){m, 3}, (float *)&x[3 * start]);
-        cr_tensor *ct =
-            d->cond_dim > 0 ? cr_nn_wrap(ctx, 2, (int64_t[]){1, d->cond_dim}, (float *)cond) : NULL;
+        cr_tensor *ct = len > 0 ? cr_nn_wrap(ctx, 2, (int64_t[]){1, len}, (float *)cond) : NULL;
         cr_tensor *g = NULL;
         cr_tensor *y = cr_swingar_sdf_forward(ctx, net, xt, ct, NULL, grad ? &g : NULL);
         st = cr_nn_ctx_error(ctx, err);
@@ -323,6 +410,7 @@ char *cr_swingar_sdf_def_json(const cr_swingar_sdf_def *def) {
         cJSON_AddItemToArray(c, cJSON_CreateNumber(def->center[k]));
     cJSON_AddNumberToObject(j, "scale", def->scale);
     cJSON_AddNumberToObject(j, "init_radius", def->init_radius);
+    cJSON_AddNumberToObject(j, "articulated", def->articulated);
     cJSON_AddNumberToObject(j, "seed", (double)def->seed);
     char *s = cJSON_PrintUnformatted(j);
     cJSON_Delete(j);
@@ -360,6 +448,8 @@ cr_status cr_swingar_sdf_def_from_json(const char *json, const char *source,
         def->scale = (float)v[3];
         def->init_radius = (float)v[4];
         def->seed = (uint64_t)v[5];
+        /* absent in models saved before the articulated input existed */
+        if (json_num(j, "articulated", &v[6])) def->articulated = (int)v[6];
     }
     cJSON_Delete(j);
     if (!ok)

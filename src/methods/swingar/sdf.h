@@ -43,6 +43,16 @@
  * is subtracted from the positions first, as the paper removes body
  * translations before collision handling.
  *
+ * Articulated input (def.articulated = 1, not the paper's): the first
+ * position layer takes, instead of x~, the 22 rest-pose points u_j = M_j x +
+ * m_j (normalised as x~), one per joint, from the pose's forward kinematics
+ * (the inverse of each joint's skinning transform), as NASA/LEAP-style
+ * articulated shapes do: most of the pose dependence becomes a known rigid
+ * map and the net learns the rest shape plus a pose-conditioned residual (the
+ * body branch stays). The frames ride in each conditioning row after the
+ * cond_dim numbers: rows are cond_dim + CR_SWINGAR_SDF_FRAME_DIM long. They
+ * are constants on the tape (no gradient reaches them).
+ *
  * Ownership: a cr_swingar_sdf owns its parameter store and an evaluation
  * context; evaluation is not reentrant on one model (one thread at a time).
  */
@@ -57,7 +67,15 @@
 extern "C" {
 #endif
 
-enum { CR_SWINGAR_SDF_SHAPE_DIM = 4, CR_SWINGAR_SDF_COND_DIM = 4 + 3 * CR_NJOINTS };
+enum {
+    CR_SWINGAR_SDF_SHAPE_DIM = 4,
+    CR_SWINGAR_SDF_COND_DIM = 4 + 3 * CR_NJOINTS,
+    /* per joint [M | m] (3,4) row-major: u_j = M x + m takes a body-frame
+     * point to where it sits in the rest pose if it moves rigidly with joint j */
+    CR_SWINGAR_SDF_FRAME_DIM = 12 * CR_NJOINTS,
+    /* a full conditioning record: c, then the joint frames */
+    CR_SWINGAR_SDF_COND_MAX = CR_SWINGAR_SDF_COND_DIM + CR_SWINGAR_SDF_FRAME_DIM
+};
 
 /* ------------------------------------------------------------- network -- */
 
@@ -72,6 +90,7 @@ typedef struct cr_swingar_sdf_def {
      * net approximates the SDF of a sphere of this radius (in normalised
      * units) around `center` (default 0.5). */
     float init_radius;
+    int articulated; /* 1: joint-frame inputs to the position branch (above); default 0 */
     uint64_t seed;   /* weight initialisation (default 1) */
     uint32_t cookie; /* set by cr_swingar_sdf_default_def */
 } cr_swingar_sdf_def;
@@ -86,23 +105,29 @@ void cr_swingar_sdf_destroy(cr_swingar_sdf *net); /* NULL is a no-op */
 const cr_swingar_sdf_def *cr_swingar_sdf_get_def(const cr_swingar_sdf *net);
 cr_nn_params *cr_swingar_sdf_params(cr_swingar_sdf *net);
 
-/* The conditioning vector c (CR_SWINGAR_SDF_COND_DIM) of a mannequin shape
- * (NULL: the normal body) and a pose (22,3) axis-angles, rad (NULL: rest). */
-void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *pose, float *cond);
+/* Numbers per conditioning row the model reads: cond_dim, plus
+ * CR_SWINGAR_SDF_FRAME_DIM when articulated. */
+int cr_swingar_sdf_cond_len(const cr_swingar_sdf_def *def);
+
+/* The conditioning record (CR_SWINGAR_SDF_COND_MAX) of a mannequin shape
+ * (NULL: the normal body) and a pose (22,3) axis-angles, rad (NULL: rest):
+ * c, then the joint frames from the rest joints `joints` (22,3), m, of that
+ * body (NULL: identity frames, right for the rest pose only). */
+void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *joints, const float *pose,
+                              float *cond);
 
 /* On the tape: S (N,1) at body-frame positions x (N,3), m, for the per-row
- * conditioning cond (P,C) (NULL when cond_dim is 0) with cond_row (N) int32 in
- * [0,P) naming each point's row (NULL: every point uses row 0). When grad is
- * not NULL it receives grad_x S (N,3,1), built by forward-mode tangents from
- * differentiable ops (the engine's layer_jacobian.c scheme, applied to the
- * two-branch net), so losses on it reach the weights. NULL on error (the
- * context's error). */
+ * conditioning cond (P,L), L = cr_swingar_sdf_cond_len (NULL when that is 0) with cond_row (N)
+ * int32 in [0,P) naming each point's row (NULL: every point uses row 0). When grad is not NULL it
+ * receives grad_x S (N,3,1), built by forward-mode tangents from differentiable ops (the engine's
+ * layer_jacobian.c scheme, applied to the two-branch net), so losses on it reach the weights. NULL
+ * on error (the context's error). */
 cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_tensor *x,
                                   cr_tensor *cond, const int32_t *cond_row, cr_tensor **grad);
 
 /* Host evaluation, in chunks, without a tape: s (N) and, when grad is not
- * NULL, grad S (N,3) at x (N,3), m, for one conditioning vector cond (C; NULL
- * when cond_dim is 0). */
+ * NULL, grad S (N,3) at x (N,3), m, for one conditioning row cond
+ * (cr_swingar_sdf_cond_len numbers; NULL when that is 0). */
 cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, const float *cond,
                               float *s, float *grad, cr_error *err);
 
@@ -199,7 +224,7 @@ typedef struct cr_swingar_sdf_source {
  * `trans` (3, m; NULL: zero) subtracted before the network. */
 typedef struct cr_swingar_sdf_neural_source {
     cr_swingar_sdf *net;
-    float cond[CR_SWINGAR_SDF_COND_DIM];
+    float cond[CR_SWINGAR_SDF_COND_MAX];
     float trans[3];
 } cr_swingar_sdf_neural_source;
 void cr_swingar_sdf_source_neural(cr_swingar_sdf *net, const float *cond, const float *trans,

@@ -53,7 +53,8 @@ void cr_swingar_sdf_source_neural(cr_swingar_sdf *net, const float *cond, const 
                                   cr_swingar_sdf_neural_source *user, cr_swingar_sdf_source *out) {
     memset(user, 0, sizeof *user);
     user->net = net;
-    int c = cr_swingar_sdf_get_def(net)->cond_dim;
+    int c = cr_swingar_sdf_cond_len(cr_swingar_sdf_get_def(net));
+    c = c < CR_SWINGAR_SDF_COND_MAX ? c : CR_SWINGAR_SDF_COND_MAX;
     if (cond && c > 0) memcpy(user->cond, cond, (size_t)c * sizeof(float));
     if (trans) memcpy(user->trans, trans, sizeof user->trans);
     *out = (cr_swingar_sdf_source){.eval = neural_eval, .user = user};

@@ -94,8 +94,8 @@ static cr_status measure_frame(const cr_swingar_sdf_measure_def *d, cr_swingar_s
     /* the lag is in the joint rotations only: the garment keeps up with the
      * root translation (removed from both) */
     CR_TRY(cr_garment_pose(g, body, gpose, NULL, b->gpos, err));
-    float cond[CR_SWINGAR_SDF_COND_DIM];
-    cr_swingar_sdf_condition(md, pose, cond);
+    float cond[CR_SWINGAR_SDF_COND_MAX];
+    cr_swingar_sdf_condition(md, body->joints, pose, cond);
 
     /* band points around the posed body's vertices (area-uniform enough at
      * the mannequin's near-isotropic resolution) */
