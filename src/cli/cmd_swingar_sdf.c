@@ -42,6 +42,11 @@ void help_swingar_sdf(void) {
            "  --garment TYPE       skinned garment type (default tshirt)\n"
            "  --garment-vertices N garment size (default 10000)\n"
            "  --lag N              garment skinned N frames behind the body (default 4)\n"
+           "  --garment-pc2 FILE --garment-mesh OBJ --body-pc2 FILE --body-mesh OBJ\n"
+           "                       a recorded sequence (a prediction) instead, posed by the\n"
+           "                       one motion in --motions on --shape; --first 0 --stride 1\n"
+           "                       for every frame\n"
+           "  --margin M           m, added to every eq. 10 move (default 0)\n"
            "  --frames N, --resolution N   as in training (90, 110)\n\n"
            "both: --quiet, --json (a summary on stdout)\n");
 }
@@ -128,6 +133,11 @@ static int measure(int argc, char **argv) {
         CLI_STR("--garment", &garment),
         CLI_INT("--garment-vertices", &d.garment_vertices, 500, 100000),
         CLI_INT("--lag", &d.garment_lag, 0, 100000),
+        CLI_STR("--garment-pc2", &d.garment_pc2),
+        CLI_STR("--garment-mesh", &d.garment_mesh),
+        CLI_STR("--body-pc2", &d.body_pc2),
+        CLI_STR("--body-mesh", &d.body_mesh),
+        CLI_FLOAT("--margin", &d.collide.margin, 0, 1),
         CLI_INT("--frames", &d.clip_frames, 1, 100000),
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_FLAG("--quiet", &quiet),
@@ -162,13 +172,13 @@ static int measure(int argc, char **argv) {
                 "  per frame (median): neural removal %.2f ms (S at every vertex %.2f ms), exact "
                 "removal %.2f ms (distances %.2f ms) + BVH refit %.2f ms\n"
                 "  mean move: neural %.2f mm, exact %.2f mm\n",
-                (long long)r.frames, (long long)r.body_vertices, garment,
-                (long long)r.garment_vertices, cr_thread_count(), 1e3 * d.band_m, r.err_mean_mm,
-                r.err_p99_mm, r.err_max_mm, 100 * r.sign_agree, (long long)r.band_points,
-                r.garment_err_mean_mm, r.garment_err_max_mm, r.ratio_before, r.ratio_neural,
-                r.ratio_exact, 100 * r.missed, r.false_alarms, r.ms_neural, r.ms_neural_detect,
-                r.ms_exact, r.ms_exact_detect, r.ms_bvh_refit, r.mean_move_neural_mm,
-                r.mean_move_exact_mm);
+                (long long)r.frames, (long long)r.body_vertices,
+                d.garment_pc2 ? d.garment_pc2 : garment, (long long)r.garment_vertices,
+                cr_thread_count(), 1e3 * d.band_m, r.err_mean_mm, r.err_p99_mm, r.err_max_mm,
+                100 * r.sign_agree, (long long)r.band_points, r.garment_err_mean_mm,
+                r.garment_err_max_mm, r.ratio_before, r.ratio_neural, r.ratio_exact, 100 * r.missed,
+                r.false_alarms, r.ms_neural, r.ms_neural_detect, r.ms_exact, r.ms_exact_detect,
+                r.ms_bvh_refit, r.mean_move_neural_mm, r.mean_move_exact_mm);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar-sdf measure");
@@ -190,6 +200,8 @@ static int measure(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "ms_exact", r.ms_exact);
         cJSON_AddNumberToObject(j, "ms_exact_detect", r.ms_exact_detect);
         cJSON_AddNumberToObject(j, "ms_bvh_refit", r.ms_bvh_refit);
+        cJSON_AddNumberToObject(j, "mean_move_neural_mm", r.mean_move_neural_mm);
+        cJSON_AddNumberToObject(j, "mean_move_exact_mm", r.mean_move_exact_mm);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cli_json_print(j);
     }

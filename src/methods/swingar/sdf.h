@@ -295,6 +295,12 @@ typedef struct cr_swingar_sdf_measure_def {
     int32_t garment_lag;
     float band_m;         /* error band: points with |s| < band_m (default 0.02) */
     int32_t band_samples; /* points drawn near the surface per frame (default 4000) */
+    /* A recorded sequence instead of the skinned garment (all four or none;
+     * default NULL): the garment's and the body's OBJ meshes and PC2 frames,
+     * world space, frame f posed by frame f of the single motion in
+     * `motions` on the mannequin `shape` (which gives the conditioning). The
+     * garment options and garment_lag are then unused. */
+    const char *garment_pc2, *garment_mesh, *body_pc2, *body_mesh;
     cr_swingar_collide_def collide;
     uint64_t seed;   /* default 1 */
     uint32_t cookie; /* set by cr_swingar_sdf_measure_default_def */
