@@ -289,6 +289,7 @@ CR_TEST(swingar_sdf, articulated_field_follows_the_joints) {
 
 typedef struct sphere_sdf {
     float r;
+    float gain; /* S = gain (|x| - r); 0 reads as 1 */
     int calls;
 } sphere_sdf;
 
@@ -299,7 +300,7 @@ static cr_status sphere_eval(void *user, const float *x, int64_t n, float *s, fl
     u->calls++;
     for (int64_t i = 0; i < n; i++) {
         float l = vlen(&x[3 * i]);
-        s[i] = l - u->r;
+        s[i] = (u->gain > 0 ? u->gain : 1.0f) * (l - u->r);
         if (grad)
             for (int k = 0; k < 3; k++)
                 grad[3 * i + k] = 2.0f * x[3 * i + k]; /* any length: it is normalised */
@@ -367,6 +368,22 @@ CR_TEST(swingar_sdf, removal_clears_an_analytic_sphere) {
     cd.delta_weight = 0;
     CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
     CR_CHECK_NEAR(vlen(pos), r, 1e-5);
+    /* a field that reads half the distance: each pass halves the depth, and
+     * passes stop once nothing collides */
+    u.gain = 0.5f;
+    for (int passes = 1; passes <= 4; passes *= 2) {
+        for (int k = 0; k < 3; k++)
+            pos[k] = 0.45f * m->pos[k];
+        cd.passes = passes;
+        CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+        CR_CHECK_NEAR(vlen(pos), r - 0.05f / (float)(1 << passes), 1e-5);
+    }
+    u.gain = 1.0f, cd.passes = 5, cd.delta_weight = 1, u.calls = 0;
+    for (int k = 0; k < 3; k++)
+        pos[k] = 0.45f * m->pos[k];
+    CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+    CR_CHECK(u.calls == 3); /* pass 1: S, gradient; pass 2: S, nothing inside, stop */
+    CR_CHECK_NEAR(vlen(pos), out_r, 1e-5);
     free(pos), free(before);
     cr_topology_destroy(topo);
     cr_mesh_destroy(m);

@@ -47,6 +47,7 @@ void help_swingar_sdf(void) {
            "                       one motion in --motions on --shape; --first 0 --stride 1\n"
            "                       for every frame\n"
            "  --margin M           m, added to every eq. 10 move (default 0)\n"
+           "  --passes N           eq. 10 applied N times, S afresh each time (default 1)\n"
            "  --frames N, --resolution N   as in training (90, 110)\n\n"
            "both: --quiet, --json (a summary on stdout)\n");
 }
@@ -138,6 +139,7 @@ static int measure(int argc, char **argv) {
         CLI_STR("--body-pc2", &d.body_pc2),
         CLI_STR("--body-mesh", &d.body_mesh),
         CLI_FLOAT("--margin", &d.collide.margin, 0, 1),
+        CLI_INT("--passes", &d.collide.passes, 1, 16),
         CLI_INT("--frames", &d.clip_frames, 1, 100000),
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_FLAG("--quiet", &quiet),

@@ -249,7 +249,10 @@ typedef struct cr_swingar_collide_def {
     float sigma_scale;  /* default 1 */
     float delta_weight; /* multiplies delta_i (default 1; 0: move to the surface only) */
     float margin;       /* m, added to every move (default 0, the paper has none) */
-    uint32_t cookie;    /* set by cr_swingar_collide_default_def */
+    /* eq. 10 applied this many times, S evaluated afresh each time (default
+     * 1, the paper's; stops early once nothing collides) */
+    int passes;
+    uint32_t cookie; /* set by cr_swingar_collide_default_def */
 } cr_swingar_collide_def;
 
 cr_swingar_collide_def cr_swingar_collide_default_def(void);
