@@ -15,7 +15,7 @@ check "train" bash -c "'$crease' swingar-sdf train -o '$tmp/sdf.safetensors' ${t
   --steps 4 --stop-at 2 --json > '$tmp/a.json'"
 check "train fields" json_has "$tmp/a.json" poses samples steps loss value_m normal eikonal
 check "train articulated" bash -c "'$crease' swingar-sdf train -o '$tmp/art.safetensors' \
-  ${toy[*]} --steps 2 --articulated --json | grep -q '\"articulated\":1,'"
+  ${toy[*]} --steps 2 --articulated 2 --json | grep -q '\"articulated\":2,'"
 check "train resumes" bash -c "'$crease' swingar-sdf train -o '$tmp/sdf.safetensors' ${toy[*]} \
   --steps 4 --resume --json | grep -q '\"resumed_from\":2,'"
 check "measure" bash -c "'$crease' swingar-sdf measure --model '$tmp/sdf.safetensors' \

@@ -224,15 +224,16 @@ CR_TEST(swingar_sdf, loss_gradients_match_finite_differences) {
 
 CR_TEST(swingar_sdf, articulated_loss_gradients_match_finite_differences) {
     check_loss_gradients(1);
+    check_loss_gradients(2);
 }
 
 /* An articulated net sees a point through the joints' rest frames: turning
  * the whole body (joint 0 only) about the root turns the field with it, and
  * the evaluated gradient is the derivative of S. */
-CR_TEST(swingar_sdf, articulated_field_follows_the_joints) {
+static void check_follows_joints(int articulated) {
     cr_swingar_sdf_def d = cr_swingar_sdf_default_def();
     d.width = 16;
-    d.articulated = 1;
+    d.articulated = articulated;
     d.center[1] = 1.0f;
     cr_error err = {0};
     cr_swingar_sdf *net = NULL;
@@ -283,6 +284,11 @@ CR_TEST(swingar_sdf, articulated_field_follows_the_joints) {
     cr_swingar_sdf_eval(net, p0, 1, c_turn, &s1, NULL, &err);
     CR_CHECK(fabs((double)s0 - s1) > 1e-3);
     cr_swingar_sdf_destroy(net);
+}
+
+CR_TEST(swingar_sdf, articulated_field_follows_the_joints) {
+    check_follows_joints(1);
+    check_follows_joints(2);
 }
 
 /* --------------------------------------------------- collision removal -- */

@@ -21,7 +21,9 @@ void help_swingar_sdf(void) {
            "  --motions LIST       clips or motion files, comma-separated (default walk)\n"
            "  --shapes LIST        mannequin presets, comma-separated (default normal)\n"
            "  --width W            layer width (default 512)\n"
-           "  --articulated        joint-frame inputs to the position branch (not the paper's)\n"
+           "  --articulated N      0: the paper's position input (default); joint-frame inputs\n"
+           "                       (not the paper's): 1 all 22 frames, 2 weighted by bone\n"
+           "                       nearness (docs/swingar_sdf.md)\n"
            "  --steps N            Adam steps, cosine schedule length (default 2000)\n"
            "  --stop-at N          stop after N steps (resume later; default: run all)\n"
            "  --batch B            points per step (default 2048)\n"
@@ -73,7 +75,7 @@ static int train(int argc, char **argv) {
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_INT("--checkpoint-every", &every, 0, 100000000),
         CLI_INT("--seed", &seed, 0, 2147483647),
-        CLI_FLAG("--articulated", &d.model.articulated),
+        CLI_INT("--articulated", &d.model.articulated, 0, 2),
         CLI_FLAG("--resume", &d.resume),
         CLI_FLAG("--quiet", &d.quiet),
         CLI_FLAG("--json", &json),

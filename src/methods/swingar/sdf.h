@@ -49,7 +49,13 @@
  * (the inverse of each joint's skinning transform), as NASA/LEAP-style
  * articulated shapes do: most of the pose dependence becomes a known rigid
  * map and the net learns the rest shape plus a pose-conditioned residual (the
- * body branch stays). The frames ride in each conditioning row after the
+ * body branch stays). articulated = 2 weights each joint's u_j by w_j =
+ * softmax_j(-|u~_j - c~_j|^2 / tau), c_j the bone's rest centre (the joint
+ * and the mean of its children, halfway), tau = CR_SWINGAR_SDF_TAU in
+ * normalised units, and feeds [w_j u~_j, w_j] (88 numbers): a soft
+ * assignment of the point to the nearest bones, as LEAP's learned inverse
+ * skinning weights do, so each region reads its own bone's frame; the
+ * gradient goes through the weights too. The frames ride in each conditioning row after the
  * cond_dim numbers: rows are cond_dim + CR_SWINGAR_SDF_FRAME_DIM long. They
  * are constants on the tape (no gradient reaches them).
  *
@@ -70,14 +76,21 @@ extern "C" {
 enum {
     CR_SWINGAR_SDF_SHAPE_DIM = 4,
     CR_SWINGAR_SDF_COND_DIM = 4 + 3 * CR_NJOINTS,
-    /* per joint [M | m] (3,4) row-major: u_j = M x + m takes a body-frame
-     * point to where it sits in the rest pose if it moves rigidly with joint j */
-    CR_SWINGAR_SDF_FRAME_DIM = 12 * CR_NJOINTS,
+    /* per joint [M | m] (3,4) row-major, u_j = M x + m taking a body-frame
+     * point to where it sits in the rest pose if it moves rigidly with joint
+     * j, then the bone's rest centre (3, m) */
+    CR_SWINGAR_SDF_JOINT_REC = 15,
+    CR_SWINGAR_SDF_FRAME_DIM = CR_SWINGAR_SDF_JOINT_REC * CR_NJOINTS,
     /* a full conditioning record: c, then the joint frames */
     CR_SWINGAR_SDF_COND_MAX = CR_SWINGAR_SDF_COND_DIM + CR_SWINGAR_SDF_FRAME_DIM
 };
 
 /* ------------------------------------------------------------- network -- */
+
+/* The bone-weight temperature of articulated = 2, normalised units squared
+ * (0.01: a point 10 cm nearer one bone centre than another, at a scale of
+ * about 1 m, weighs e^2 ~ 7 times more; measured choice, docs/swingar_sdf.md). */
+#define CR_SWINGAR_SDF_TAU 0.01f
 
 typedef struct cr_swingar_sdf_def {
     int width;           /* W, hidden width of all eight layers, >= 2 (default 512, the paper's) */
@@ -90,7 +103,7 @@ typedef struct cr_swingar_sdf_def {
      * net approximates the SDF of a sphere of this radius (in normalised
      * units) around `center` (default 0.5). */
     float init_radius;
-    int articulated; /* 1: joint-frame inputs to the position branch (above); default 0 */
+    int articulated; /* 0 (default, the paper's), 1 or 2: joint-frame inputs (above) */
     uint64_t seed;   /* weight initialisation (default 1) */
     uint32_t cookie; /* set by cr_swingar_sdf_default_def */
 } cr_swingar_sdf_def;
