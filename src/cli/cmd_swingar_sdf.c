@@ -24,6 +24,7 @@ void help_swingar_sdf(void) {
            "  --articulated N      0: the paper's position input (default); joint-frame inputs\n"
            "                       (not the paper's): 1 all 22 frames, 2 weighted by bone\n"
            "                       nearness (docs/swingar_sdf.md)\n"
+           "  --tau T              bone-weight temperature of --articulated 2 (default 0.1)\n"
            "  --steps N            Adam steps, cosine schedule length (default 2000)\n"
            "  --stop-at N          stop after N steps (resume later; default: run all)\n"
            "  --batch B            points per step (default 2048)\n"
@@ -76,6 +77,7 @@ static int train(int argc, char **argv) {
         CLI_INT("--checkpoint-every", &every, 0, 100000000),
         CLI_INT("--seed", &seed, 0, 2147483647),
         CLI_INT("--articulated", &d.model.articulated, 0, 2),
+        CLI_FLOAT("--tau", &d.model.tau, 1e-4, 10),
         CLI_FLAG("--resume", &d.resume),
         CLI_FLAG("--quiet", &d.quiet),
         CLI_FLAG("--json", &json),

@@ -49,6 +49,7 @@ cr_swingar_sdf_def cr_swingar_sdf_default_def(void) {
                                 .center = {0, 0, 0},
                                 .scale = 1.0f,
                                 .init_radius = 0.5f,
+                                .tau = 0.1f,
                                 .seed = 1,
                                 .cookie = SDF_DEF_COOKIE};
 }
@@ -63,6 +64,8 @@ static cr_status check_def(const cr_swingar_sdf_def *d, cr_error *err) {
     if (d->articulated < 0 || d->articulated > 2)
         return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: articulated %d is not 0, 1 or 2",
                        d->articulated);
+    if (!(d->tau > 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar sdf: tau %g is not > 0", (double)d->tau);
     if (!(d->softplus_beta > 0) || !(d->scale > 0) || !(d->init_radius >= 0) ||
         !isfinite(d->center[0] + d->center[1] + d->center[2]))
         return CR_FAIL(err, CR_ERR_INVALID,
@@ -301,7 +304,7 @@ static cr_tensor *weighted_input(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_t
     if (!cond || !xn) return NULL;
     enum { J = CR_NJOINTS, R = CR_SWINGAR_SDF_JOINT_REC };
     int64_t p = cond->shape[0], len = cond->numel / p, n = xn->shape[0];
-    const float itau = 1.0f / CR_SWINGAR_SDF_TAU;
+    const float itau = 1.0f / d->tau;
     cr_tensor *mt = cr_nn_new(ctx, 2, (int64_t[]){p, 9 * J}); /* (P, 3, 3J): dU/dx~ */
     cr_tensor *e = cr_nn_new(ctx, 2, (int64_t[]){p, 3 * J});
     cr_tensor *c = cr_nn_new(ctx, 2, (int64_t[]){p, 3 * J});
@@ -518,6 +521,7 @@ char *cr_swingar_sdf_def_json(const cr_swingar_sdf_def *def) {
     cJSON_AddNumberToObject(j, "scale", def->scale);
     cJSON_AddNumberToObject(j, "init_radius", def->init_radius);
     cJSON_AddNumberToObject(j, "articulated", def->articulated);
+    cJSON_AddNumberToObject(j, "tau", def->tau);
     cJSON_AddNumberToObject(j, "seed", (double)def->seed);
     char *s = cJSON_PrintUnformatted(j);
     cJSON_Delete(j);
@@ -557,6 +561,7 @@ cr_status cr_swingar_sdf_def_from_json(const char *json, const char *source,
         def->seed = (uint64_t)v[5];
         /* absent in models saved before the articulated input existed */
         if (json_num(j, "articulated", &v[6])) def->articulated = (int)v[6];
+        if (json_num(j, "tau", &v[6])) def->tau = (float)v[6];
     }
     cJSON_Delete(j);
     if (!ok)

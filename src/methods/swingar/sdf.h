@@ -51,9 +51,8 @@
  * map and the net learns the rest shape plus a pose-conditioned residual (the
  * body branch stays). articulated = 2 weights each joint's u_j by w_j =
  * softmax_j(-|u~_j - c~_j|^2 / tau), c_j the bone's rest centre (the joint
- * and the mean of its children, halfway), tau = CR_SWINGAR_SDF_TAU in
- * normalised units, and feeds [w_j u~_j, w_j] (88 numbers): a soft
- * assignment of the point to the nearest bones, as LEAP's learned inverse
+ * and the mean of its children, halfway), tau in normalised units squared, and feeds [w_j u~_j,
+ * w_j] (88 numbers): a soft assignment of the point to the nearest bones, as LEAP's learned inverse
  * skinning weights do, so each region reads its own bone's frame; the
  * gradient goes through the weights too. The frames ride in each conditioning row after the
  * cond_dim numbers: rows are cond_dim + CR_SWINGAR_SDF_FRAME_DIM long. They
@@ -87,11 +86,6 @@ enum {
 
 /* ------------------------------------------------------------- network -- */
 
-/* The bone-weight temperature of articulated = 2, normalised units squared
- * (0.01: a point 10 cm nearer one bone centre than another, at a scale of
- * about 1 m, weighs e^2 ~ 7 times more; measured choice, docs/swingar_sdf.md). */
-#define CR_SWINGAR_SDF_TAU 0.01f
-
 typedef struct cr_swingar_sdf_def {
     int width;           /* W, hidden width of all eight layers, >= 2 (default 512, the paper's) */
     int cond_dim;        /* C, conditioning size (default CR_SWINGAR_SDF_COND_DIM; 0: no body
@@ -104,6 +98,7 @@ typedef struct cr_swingar_sdf_def {
      * units) around `center` (default 0.5). */
     float init_radius;
     int articulated; /* 0 (default, the paper's), 1 or 2: joint-frame inputs (above) */
+    float tau;       /* bone-weight temperature of articulated = 2 (default 0.1) */
     uint64_t seed;   /* weight initialisation (default 1) */
     uint32_t cookie; /* set by cr_swingar_sdf_default_def */
 } cr_swingar_sdf_def;
