@@ -390,6 +390,16 @@ CR_TEST(swingar_sdf, removal_clears_an_analytic_sphere) {
     CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
     CR_CHECK(u.calls == 3); /* pass 1: S, gradient; pass 2: S, nothing inside, stop */
     CR_CHECK_NEAR(vlen(pos), out_r, 1e-5);
+    /* with an offset of 2 cm the free garment at 1 cm counts as colliding:
+     * every vertex ends 2 cm out */
+    for (int64_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++)
+            pos[3 * i + k] = out_r * m->pos[3 * i + k];
+    cd.passes = 1, cd.offset = 0.02f;
+    CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+    CR_CHECK(stats.colliding == nv);
+    for (int64_t i = 0; i < nv; i += 7)
+        CR_CHECK_NEAR(vlen(&pos[3 * i]), r + 0.02f, 1e-5);
     free(pos), free(before);
     cr_topology_destroy(topo);
     cr_mesh_destroy(m);

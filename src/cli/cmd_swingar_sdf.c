@@ -51,6 +51,7 @@ void help_swingar_sdf(void) {
            "                       for every frame\n"
            "  --margin M           m, added to every eq. 10 move (default 0)\n"
            "  --passes N           eq. 10 applied N times, S afresh each time (default 1)\n"
+           "  --offset M           m, eq. 10 on S - M: within M of the body counts as inside\n"
            "  --frames N, --resolution N   as in training (90, 110)\n\n"
            "both: --quiet, --json (a summary on stdout)\n");
 }
@@ -144,6 +145,7 @@ static int measure(int argc, char **argv) {
         CLI_STR("--body-mesh", &d.body_mesh),
         CLI_FLOAT("--margin", &d.collide.margin, 0, 1),
         CLI_INT("--passes", &d.collide.passes, 1, 16),
+        CLI_FLOAT("--offset", &d.collide.offset, 0, 1),
         CLI_INT("--frames", &d.clip_frames, 1, 100000),
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_FLAG("--quiet", &quiet),

@@ -260,6 +260,11 @@ typedef struct cr_swingar_collide_def {
     /* eq. 10 applied this many times, S evaluated afresh each time (default
      * 1, the paper's; stops early once nothing collides) */
     int passes;
+    /* m: eq. 10 on the field S - offset (default 0, the paper's): a vertex
+     * within offset of the body counts as colliding and moves out to it. Set
+     * to about the field's error near the body, it catches the shallow
+     * collisions an inexact field reads as just outside. */
+    float offset;
     uint32_t cookie; /* set by cr_swingar_collide_default_def */
 } cr_swingar_collide_def;
 

@@ -116,6 +116,8 @@ static cr_status remove_once(const cr_swingar_collide_def *def, float *pos, cons
     }
     double t0 = cr_time_now();
     cr_status st = src->eval(src->user, pos, nv, s, NULL, err);
+    for (int64_t i = 0; st == CR_OK && def->offset > 0 && i < nv; i++)
+        s[i] -= def->offset;
     double t1 = cr_time_now();
     out->seconds_detect = t1 - t0;
     int64_t c = 0;
@@ -135,6 +137,8 @@ static cr_status remove_once(const cr_swingar_collide_def *def, float *pos, cons
         for (int64_t j = 0; j < c; j++)
             memcpy(&xc[3 * j], &pos[3 * (int64_t)idx[j]], 3 * sizeof(float));
         st = src->eval(src->user, xc, c, sc, g, err);
+        for (int64_t j = 0; st == CR_OK && def->offset > 0 && j < c; j++)
+            sc[j] -= def->offset;
         for (int64_t j = 0; st == CR_OK && j < c; j++) {
             int64_t i = idx[j];
             const float *xi = &pos[3 * i];
@@ -180,11 +184,12 @@ cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *
     cr_swingar_collide_stats *out = stats ? stats : &local;
     memset(out, 0, sizeof *out);
     if (!(def->sigma_scale > 0) || !(def->delta_weight >= 0) || !(def->margin >= 0) ||
-        def->passes < 1 || def->passes > 16)
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "swingar collide: need sigma_scale > 0, delta_weight >= 0, margin >= 0 "
-                       "and passes in [1, 16] (got %d)",
-                       def->passes);
+        !(def->offset >= 0) || def->passes < 1 || def->passes > 16)
+        return CR_FAIL(
+            err, CR_ERR_INVALID,
+            "swingar collide: need sigma_scale > 0, delta_weight >= 0, margin, offset >= 0 "
+            "and passes in [1, 16] (got %d)",
+            def->passes);
     /* later passes catch what a move along an inexact gradient left inside */
     double moved = 0;
     for (int p = 0; p < def->passes; p++) {
