@@ -179,14 +179,16 @@ static int measure(int argc, char **argv) {
                 "per frame\n"
                 "  per frame (median): neural removal %.2f ms (S at every vertex %.2f ms), exact "
                 "removal %.2f ms (distances %.2f ms) + BVH refit %.2f ms\n"
-                "  mean move: neural %.2f mm, exact %.2f mm\n",
+                "  moved: neural %.2f %% of the vertices by %.2f mm on average, exact %.2f %% by "
+                "%.2f mm\n",
                 (long long)r.frames, (long long)r.body_vertices,
                 d.garment_pc2 ? d.garment_pc2 : garment, (long long)r.garment_vertices,
                 cr_thread_count(), 1e3 * d.band_m, r.err_mean_mm, r.err_p99_mm, r.err_max_mm,
                 100 * r.sign_agree, (long long)r.band_points, r.garment_err_mean_mm,
                 r.garment_err_max_mm, r.ratio_before, r.ratio_neural, r.ratio_exact, 100 * r.missed,
                 r.false_alarms, r.ms_neural, r.ms_neural_detect, r.ms_exact, r.ms_exact_detect,
-                r.ms_bvh_refit, r.mean_move_neural_mm, r.mean_move_exact_mm);
+                r.ms_bvh_refit, r.moved_neural, r.mean_move_neural_mm, r.moved_exact,
+                r.mean_move_exact_mm);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar-sdf measure");
@@ -210,6 +212,8 @@ static int measure(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "ms_bvh_refit", r.ms_bvh_refit);
         cJSON_AddNumberToObject(j, "mean_move_neural_mm", r.mean_move_neural_mm);
         cJSON_AddNumberToObject(j, "mean_move_exact_mm", r.mean_move_exact_mm);
+        cJSON_AddNumberToObject(j, "moved_neural_pct", r.moved_neural);
+        cJSON_AddNumberToObject(j, "moved_exact_pct", r.moved_exact);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cli_json_print(j);
     }

@@ -337,7 +337,8 @@ typedef struct cr_swingar_sdf_measure_result {
     double false_alarms; /* vertices the net flagged that were outside, per frame */
     /* medians over frames, ms */
     double ms_neural, ms_neural_detect, ms_exact, ms_exact_detect, ms_bvh_refit;
-    double mean_move_neural_mm, mean_move_exact_mm;
+    double mean_move_neural_mm, mean_move_exact_mm; /* over the moved vertices */
+    double moved_neural, moved_exact; /* % garment vertices each removal moved (first pass) */
 } cr_swingar_sdf_measure_result;
 
 cr_status cr_swingar_sdf_measure(const cr_swingar_sdf_measure_def *def, cr_swingar_sdf *net,

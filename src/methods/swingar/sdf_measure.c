@@ -145,6 +145,7 @@ static cr_status measure_posed(const cr_swingar_sdf_measure_def *d, cr_swingar_s
     b->t[2][fi] = cr_time_now() - t0;
     b->t[3][fi] = st.seconds_detect;
     res->mean_move_exact_mm += st.mean_move_m * (double)st.colliding;
+    res->moved_exact += (double)st.colliding;
     res->ratio_exact += (double)count_inside(bvh, b->gwork, ng, b->gs_net);
     return CR_OK;
 }
@@ -260,7 +261,10 @@ static cr_status measure_all(const cr_swingar_sdf_measure_def *d, cr_swingar_sdf
         res->missed = sums[0] > 0 ? res->missed / sums[0] : 0;
         res->false_alarms /= (double)frames;
         res->mean_move_neural_mm = sums[1] > 0 ? 1e3 * res->mean_move_neural_mm / sums[1] : 0;
-        res->mean_move_exact_mm = sums[0] > 0 ? 1e3 * res->mean_move_exact_mm / sums[0] : 0;
+        res->mean_move_exact_mm =
+            res->moved_exact > 0 ? 1e3 * res->mean_move_exact_mm / res->moved_exact : 0;
+        res->moved_neural = 100 * sums[1] / total;
+        res->moved_exact = 100 * res->moved_exact / total;
         res->ratio_before = 100 * sums[0] / total;
         res->ratio_neural = 100 * res->ratio_neural / total;
         res->ratio_exact = 100 * res->ratio_exact / total;
