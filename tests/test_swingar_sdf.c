@@ -438,9 +438,10 @@ CR_TEST(swingar_sdf, bvh_source_removes_collisions_on_a_mesh) {
 
 /* ------------------------------------------------------------ training -- */
 
-static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at) {
+static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at, int articulated) {
     cr_swingar_sdf_train_def d = cr_swingar_sdf_train_default_def();
     d.model.width = 16;
+    d.model.articulated = articulated;
     d.motions = "walk";
     d.shapes = "normal";
     d.body_resolution = 60;
@@ -459,24 +460,28 @@ static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at) {
     return d;
 }
 
-CR_TEST(swingar_sdf, resume_is_bit_exact) {
+static void check_resume(int articulated) {
     char ckpt[1024], ckpt_b[1024], saved[1024];
-    snprintf(ckpt, sizeof ckpt, "%s/swingar_sdf_resume.safetensors", cr_test_tmpdir());
-    snprintf(ckpt_b, sizeof ckpt_b, "%s/swingar_sdf_straight.safetensors", cr_test_tmpdir());
-    snprintf(saved, sizeof saved, "%s/swingar_sdf_model.safetensors", cr_test_tmpdir());
+    snprintf(ckpt, sizeof ckpt, "%s/swingar_sdf_resume%d.safetensors", cr_test_tmpdir(),
+             articulated);
+    snprintf(ckpt_b, sizeof ckpt_b, "%s/swingar_sdf_straight%d.safetensors", cr_test_tmpdir(),
+             articulated);
+    snprintf(saved, sizeof saved, "%s/swingar_sdf_model%d.safetensors", cr_test_tmpdir(),
+             articulated);
     remove(ckpt), remove(ckpt_b);
     cr_error err = {0};
     cr_swingar_sdf_train_result ra, rb;
     cr_swingar_sdf *a = NULL, *b = NULL, *c = NULL;
-    cr_swingar_sdf_train_def da = tiny_train(ckpt_b, 0);
+    cr_swingar_sdf_train_def da = tiny_train(ckpt_b, 0, articulated);
     CR_CHECK_OK(cr_swingar_sdf_train(&da, &a, &ra, &err), &err);
-    cr_swingar_sdf_train_def d1 = tiny_train(ckpt, 5); /* stops after a checkpoint at 3 */
+    cr_swingar_sdf_train_def d1 =
+        tiny_train(ckpt, 5, articulated); /* stops after a checkpoint at 3 */
     CR_CHECK_OK(cr_swingar_sdf_train(&d1, &b, &rb, &err), &err);
     CR_REQUIRE(a && b);
     CR_CHECK(rb.steps == 5);
     cr_swingar_sdf_destroy(b);
     b = NULL;
-    cr_swingar_sdf_train_def d2 = tiny_train(ckpt, 0);
+    cr_swingar_sdf_train_def d2 = tiny_train(ckpt, 0, articulated);
     CR_CHECK_OK(cr_swingar_sdf_train(&d2, &b, &rb, &err), &err);
     CR_REQUIRE(b);
     CR_CHECK(rb.resumed_from == 5 && rb.steps == 8 && ra.steps == 8);
@@ -501,4 +506,9 @@ CR_TEST(swingar_sdf, resume_is_bit_exact) {
     c = NULL;
     CR_CHECK_OK(cr_swingar_sdf_load(ckpt, &c, &err), &err);
     cr_swingar_sdf_destroy(a), cr_swingar_sdf_destroy(b), cr_swingar_sdf_destroy(c);
+}
+
+CR_TEST(swingar_sdf, resume_is_bit_exact) {
+    check_resume(0);
+    check_resume(2); /* the articulated input, its frames in the conditioning rows */
 }
