@@ -9,8 +9,8 @@
  *   td.checkpoint = "sdf.safetensors";
  *   cr_swingar_sdf *net = NULL;  cr_swingar_sdf_train_result tr;
  *   CR_TRY(cr_swingar_sdf_train(&td, &net, &tr, err));
- *   float cond[CR_SWINGAR_SDF_COND_DIM];
- *   cr_swingar_sdf_condition(&mannequin_def, pose, cond);
+ *   float cond[CR_SWINGAR_SDF_COND_MAX];
+ *   cr_swingar_sdf_condition(&mannequin_def, body->joints, pose, cond);
  *   cr_swingar_sdf_source src;  cr_swingar_sdf_neural_source nsrc;
  *   cr_swingar_sdf_source_neural(net, cond, trans, &nsrc, &src);
  *   cr_swingar_collide_def cd = cr_swingar_collide_default_def();
