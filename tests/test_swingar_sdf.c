@@ -154,18 +154,35 @@ typedef struct loss_case {
     int32_t row[6];
 } loss_case;
 
-/* in: x (6,3), cond (2,3), s (6,1), n (6,3) */
+/* in: x (6,3), cond (2,3), s (6,1), n (6,3), and for an articulated net the
+ * joint frames (2,264), constants appended to the conditioning rows */
 static cr_tensor *build_loss(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     loss_case *lc = user;
-    return cr_swingar_sdf_loss(ctx, lc->net, in[0], in[1], lc->row, in[2], in[3], 0.15f, NULL);
+    cr_tensor *c = in[1];
+    if (cr_swingar_sdf_get_def(lc->net)->articulated)
+        c = cr_nn_concat(ctx, 2, (cr_tensor *const[]){in[1], in[4]}, 1);
+    return cr_swingar_sdf_loss(ctx, lc->net, in[0], c, lc->row, in[2], in[3], 0.15f, NULL);
 }
 
-CR_TEST(swingar_sdf, loss_gradients_match_finite_differences) {
+/* Two joint-frame records of random poses about random joints. */
+static void random_frames(float *fr, uint64_t seed) {
+    float joints[3 * CR_NJOINTS], pose[3 * CR_NJOINTS], rec[CR_SWINGAR_SDF_COND_MAX];
+    for (int q = 0; q < 2; q++) {
+        nn_gradcheck_fill(joints, 3 * CR_NJOINTS, -0.5f, 0.5f, 0.0f, seed + 2 * (uint64_t)q);
+        nn_gradcheck_fill(pose, 3 * CR_NJOINTS, -0.6f, 0.6f, 0.0f, seed + 2 * (uint64_t)q + 1);
+        cr_swingar_sdf_condition(NULL, joints, pose, rec);
+        memcpy(&fr[q * CR_SWINGAR_SDF_FRAME_DIM], &rec[CR_SWINGAR_SDF_COND_DIM],
+               CR_SWINGAR_SDF_FRAME_DIM * sizeof(float));
+    }
+}
+
+static void check_loss_gradients(int articulated) {
     /* small, smooth (beta 10) net so central differences resolve the
      * second derivatives the normal and eikonal terms bring in */
     cr_swingar_sdf_def d = cr_swingar_sdf_default_def();
     d.width = 6;
     d.cond_dim = 3;
+    d.articulated = articulated;
     d.softplus_beta = 10.0f;
     d.scale = 0.8f;
     d.center[1] = 0.1f;
@@ -184,21 +201,101 @@ CR_TEST(swingar_sdf, loss_gradients_match_finite_differences) {
     nn_gradcheck_fill(c, 6, -0.5f, 0.5f, 0.0f, 12);
     nn_gradcheck_fill(s, 6, -3.0f, 3.0f, 0.0f, 13); /* far from S: |S - s| stays off its kink */
     nn_gradcheck_fill(n, 18, -1.0f, 1.0f, 0.0f, 14);
-    nn_gradcheck_input in[4] = {
-        {2, {6, 3}, x, 1}, {2, {2, 3}, c, 1}, {2, {6, 1}, s, 1}, {2, {6, 3}, n, 1}};
+    float fr[2 * CR_SWINGAR_SDF_FRAME_DIM];
+    random_frames(fr, 21);
+    nn_gradcheck_input in[5] = {{2, {6, 3}, x, 1},
+                                {2, {2, 3}, c, 1},
+                                {2, {6, 1}, s, 1},
+                                {2, {6, 3}, n, 1},
+                                {2, {2, CR_SWINGAR_SDF_FRAME_DIM}, fr, 0}};
     nn_gradcheck_def gd = nn_gradcheck_default_def();
-    gd.name = "swingar sdf loss";
+    gd.name = articulated ? "swingar sdf loss, articulated" : "swingar sdf loss";
     gd.seed = 5;
     nn_gradcheck_result r;
-    CR_CHECK(nn_gradcheck(&gd, 4, in, cr_swingar_sdf_params(lc.net), build_loss, &lc, &r) == 0);
-    CR_CHECK(r.checked > 100);
+    CR_CHECK(nn_gradcheck(&gd, articulated ? 5 : 4, in, cr_swingar_sdf_params(lc.net), build_loss,
+                          &lc, &r) == 0);
+    CR_CHECK(r.checked > (articulated ? 300 : 100));
     cr_swingar_sdf_destroy(lc.net);
+}
+
+CR_TEST(swingar_sdf, loss_gradients_match_finite_differences) {
+    check_loss_gradients(0);
+}
+
+CR_TEST(swingar_sdf, articulated_loss_gradients_match_finite_differences) {
+    check_loss_gradients(1);
+    check_loss_gradients(2);
+}
+
+/* An articulated net sees a point through the joints' rest frames: turning
+ * the whole body (joint 0 only) about the root turns the field with it, and
+ * the evaluated gradient is the derivative of S. */
+static void check_follows_joints(int articulated) {
+    cr_swingar_sdf_def d = cr_swingar_sdf_default_def();
+    d.width = 16;
+    d.articulated = articulated;
+    d.center[1] = 1.0f;
+    cr_error err = {0};
+    cr_swingar_sdf *net = NULL;
+    CR_CHECK_OK(cr_swingar_sdf_create(&d, &net, &err), &err);
+    CR_REQUIRE(net);
+    /* every weight random, the body branch's fusion block included */
+    cr_rng rng = cr_rng_make(9, 0);
+    int64_t np;
+    float *w = cr_nn_params_data(cr_swingar_sdf_params(net), &np);
+    for (int64_t i = 0; i < np; i++)
+        w[i] += 0.2f * (float)cr_rng_normal(&rng);
+    float joints[3 * CR_NJOINTS], pose[3 * CR_NJOINTS] = {0.3f, -0.8f, 0.2f};
+    nn_gradcheck_fill(joints, 3 * CR_NJOINTS, -0.4f, 0.4f, 0.0f, 4);
+    const float *root = joints;
+    float c_rest[CR_SWINGAR_SDF_COND_MAX], c_turn[CR_SWINGAR_SDF_COND_MAX];
+    cr_swingar_sdf_condition(NULL, joints, NULL, c_rest);
+    cr_swingar_sdf_condition(NULL, joints, pose, c_turn);
+    /* the body branch sees the pose too; give both the same c so only the
+     * frames differ */
+    memcpy(c_turn, c_rest, CR_SWINGAR_SDF_COND_DIM * sizeof(float));
+    float rot[9];
+    cr_body_rodrigues(pose, rot);
+    double worst = 0, worst_g = 0;
+    for (int i = 0; i < 20; i++) {
+        float u[3], x[3], su, sx, g[3];
+        for (int k = 0; k < 3; k++)
+            u[k] = root[k] + 0.5f * (float)cr_rng_normal(&rng);
+        for (int r = 0; r < 3; r++) /* x = root + R (u - root) */
+            x[r] = root[r] + rot[3 * r] * (u[0] - root[0]) + rot[3 * r + 1] * (u[1] - root[1]) +
+                   rot[3 * r + 2] * (u[2] - root[2]);
+        CR_CHECK_OK(cr_swingar_sdf_eval(net, u, 1, c_rest, &su, NULL, &err), &err);
+        CR_CHECK_OK(cr_swingar_sdf_eval(net, x, 1, c_turn, &sx, g, &err), &err);
+        worst = fmax(worst, fabs((double)su - sx));
+        for (int k = 0; k < 3; k++) {
+            float a[3] = {x[0], x[1], x[2]}, b[3] = {x[0], x[1], x[2]}, sa, sb;
+            a[k] += 1e-3f, b[k] -= 1e-3f;
+            cr_swingar_sdf_eval(net, a, 1, c_turn, &sa, NULL, &err);
+            cr_swingar_sdf_eval(net, b, 1, c_turn, &sb, NULL, &err);
+            double fd = (sa - sb) / (a[k] - b[k]);
+            worst_g = fmax(worst_g, fabs(fd - g[k]) / fmax(1.0, fabs(fd)));
+        }
+    }
+    CR_CHECK(worst < 1e-4);
+    CR_CHECK(worst_g < 2e-2);
+    /* not a field that ignores the pose: the same point reads differently */
+    float p0[3] = {0.3f, 1.2f, 0.1f}, s0, s1;
+    cr_swingar_sdf_eval(net, p0, 1, c_rest, &s0, NULL, &err);
+    cr_swingar_sdf_eval(net, p0, 1, c_turn, &s1, NULL, &err);
+    CR_CHECK(fabs((double)s0 - s1) > 1e-3);
+    cr_swingar_sdf_destroy(net);
+}
+
+CR_TEST(swingar_sdf, articulated_field_follows_the_joints) {
+    check_follows_joints(1);
+    check_follows_joints(2);
 }
 
 /* --------------------------------------------------- collision removal -- */
 
 typedef struct sphere_sdf {
     float r;
+    float gain; /* S = gain (|x| - r); 0 reads as 1 */
     int calls;
 } sphere_sdf;
 
@@ -209,7 +306,7 @@ static cr_status sphere_eval(void *user, const float *x, int64_t n, float *s, fl
     u->calls++;
     for (int64_t i = 0; i < n; i++) {
         float l = vlen(&x[3 * i]);
-        s[i] = l - u->r;
+        s[i] = (u->gain > 0 ? u->gain : 1.0f) * (l - u->r);
         if (grad)
             for (int k = 0; k < 3; k++)
                 grad[3 * i + k] = 2.0f * x[3 * i + k]; /* any length: it is normalised */
@@ -277,6 +374,32 @@ CR_TEST(swingar_sdf, removal_clears_an_analytic_sphere) {
     cd.delta_weight = 0;
     CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
     CR_CHECK_NEAR(vlen(pos), r, 1e-5);
+    /* a field that reads half the distance: each pass halves the depth, and
+     * passes stop once nothing collides */
+    u.gain = 0.5f;
+    for (int passes = 1; passes <= 4; passes *= 2) {
+        for (int k = 0; k < 3; k++)
+            pos[k] = 0.45f * m->pos[k];
+        cd.passes = passes;
+        CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+        CR_CHECK_NEAR(vlen(pos), r - 0.05f / (float)(1 << passes), 1e-5);
+    }
+    u.gain = 1.0f, cd.passes = 5, cd.delta_weight = 1, u.calls = 0;
+    for (int k = 0; k < 3; k++)
+        pos[k] = 0.45f * m->pos[k];
+    CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+    CR_CHECK(u.calls == 3); /* pass 1: S, gradient; pass 2: S, nothing inside, stop */
+    CR_CHECK_NEAR(vlen(pos), out_r, 1e-5);
+    /* with an offset of 2 cm the free garment at 1 cm counts as colliding:
+     * every vertex ends 2 cm out */
+    for (int64_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++)
+            pos[3 * i + k] = out_r * m->pos[3 * i + k];
+    cd.passes = 1, cd.offset = 0.02f;
+    CR_CHECK_OK(cr_swingar_collision_remove(&cd, pos, topo, &src, &stats, &err), &err);
+    CR_CHECK(stats.colliding == nv);
+    for (int64_t i = 0; i < nv; i += 7)
+        CR_CHECK_NEAR(vlen(&pos[3 * i]), r + 0.02f, 1e-5);
     free(pos), free(before);
     cr_topology_destroy(topo);
     cr_mesh_destroy(m);
@@ -315,9 +438,10 @@ CR_TEST(swingar_sdf, bvh_source_removes_collisions_on_a_mesh) {
 
 /* ------------------------------------------------------------ training -- */
 
-static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at) {
+static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at, int articulated) {
     cr_swingar_sdf_train_def d = cr_swingar_sdf_train_default_def();
     d.model.width = 16;
+    d.model.articulated = articulated;
     d.motions = "walk";
     d.shapes = "normal";
     d.body_resolution = 60;
@@ -336,24 +460,28 @@ static cr_swingar_sdf_train_def tiny_train(const char *ckpt, int64_t stop_at) {
     return d;
 }
 
-CR_TEST(swingar_sdf, resume_is_bit_exact) {
+static void check_resume(int articulated) {
     char ckpt[1024], ckpt_b[1024], saved[1024];
-    snprintf(ckpt, sizeof ckpt, "%s/swingar_sdf_resume.safetensors", cr_test_tmpdir());
-    snprintf(ckpt_b, sizeof ckpt_b, "%s/swingar_sdf_straight.safetensors", cr_test_tmpdir());
-    snprintf(saved, sizeof saved, "%s/swingar_sdf_model.safetensors", cr_test_tmpdir());
+    snprintf(ckpt, sizeof ckpt, "%s/swingar_sdf_resume%d.safetensors", cr_test_tmpdir(),
+             articulated);
+    snprintf(ckpt_b, sizeof ckpt_b, "%s/swingar_sdf_straight%d.safetensors", cr_test_tmpdir(),
+             articulated);
+    snprintf(saved, sizeof saved, "%s/swingar_sdf_model%d.safetensors", cr_test_tmpdir(),
+             articulated);
     remove(ckpt), remove(ckpt_b);
     cr_error err = {0};
     cr_swingar_sdf_train_result ra, rb;
     cr_swingar_sdf *a = NULL, *b = NULL, *c = NULL;
-    cr_swingar_sdf_train_def da = tiny_train(ckpt_b, 0);
+    cr_swingar_sdf_train_def da = tiny_train(ckpt_b, 0, articulated);
     CR_CHECK_OK(cr_swingar_sdf_train(&da, &a, &ra, &err), &err);
-    cr_swingar_sdf_train_def d1 = tiny_train(ckpt, 5); /* stops after a checkpoint at 3 */
+    cr_swingar_sdf_train_def d1 =
+        tiny_train(ckpt, 5, articulated); /* stops after a checkpoint at 3 */
     CR_CHECK_OK(cr_swingar_sdf_train(&d1, &b, &rb, &err), &err);
     CR_REQUIRE(a && b);
     CR_CHECK(rb.steps == 5);
     cr_swingar_sdf_destroy(b);
     b = NULL;
-    cr_swingar_sdf_train_def d2 = tiny_train(ckpt, 0);
+    cr_swingar_sdf_train_def d2 = tiny_train(ckpt, 0, articulated);
     CR_CHECK_OK(cr_swingar_sdf_train(&d2, &b, &rb, &err), &err);
     CR_REQUIRE(b);
     CR_CHECK(rb.resumed_from == 5 && rb.steps == 8 && ra.steps == 8);
@@ -368,8 +496,8 @@ CR_TEST(swingar_sdf, resume_is_bit_exact) {
     CR_CHECK_OK(cr_swingar_sdf_save(a, saved, &err), &err);
     CR_CHECK_OK(cr_swingar_sdf_load(saved, &c, &err), &err);
     CR_REQUIRE(c);
-    float x[6] = {0.1f, 1.0f, 0.05f, 0.3f, 1.4f, -0.2f}, cond[CR_SWINGAR_SDF_COND_DIM];
-    cr_swingar_sdf_condition(NULL, NULL, cond);
+    float x[6] = {0.1f, 1.0f, 0.05f, 0.3f, 1.4f, -0.2f}, cond[CR_SWINGAR_SDF_COND_MAX];
+    cr_swingar_sdf_condition(NULL, NULL, NULL, cond);
     float sa[2], sc[2];
     CR_CHECK_OK(cr_swingar_sdf_eval(a, x, 2, cond, sa, NULL, &err), &err);
     CR_CHECK_OK(cr_swingar_sdf_eval(c, x, 2, cond, sc, NULL, &err), &err);
@@ -378,4 +506,9 @@ CR_TEST(swingar_sdf, resume_is_bit_exact) {
     c = NULL;
     CR_CHECK_OK(cr_swingar_sdf_load(ckpt, &c, &err), &err);
     cr_swingar_sdf_destroy(a), cr_swingar_sdf_destroy(b), cr_swingar_sdf_destroy(c);
+}
+
+CR_TEST(swingar_sdf, resume_is_bit_exact) {
+    check_resume(0);
+    check_resume(2); /* the articulated input, its frames in the conditioning rows */
 }

@@ -21,6 +21,10 @@ void help_swingar_sdf(void) {
            "  --motions LIST       clips or motion files, comma-separated (default walk)\n"
            "  --shapes LIST        mannequin presets, comma-separated (default normal)\n"
            "  --width W            layer width (default 512)\n"
+           "  --articulated N      0: the paper's position input (default); joint-frame inputs\n"
+           "                       (not the paper's): 1 all 22 frames, 2 weighted by bone\n"
+           "                       nearness (docs/swingar_sdf.md)\n"
+           "  --tau T              bone-weight temperature of --articulated 2 (default 0.1)\n"
            "  --steps N            Adam steps, cosine schedule length (default 2000)\n"
            "  --stop-at N          stop after N steps (resume later; default: run all)\n"
            "  --batch B            points per step (default 2048)\n"
@@ -41,6 +45,13 @@ void help_swingar_sdf(void) {
            "  --garment TYPE       skinned garment type (default tshirt)\n"
            "  --garment-vertices N garment size (default 10000)\n"
            "  --lag N              garment skinned N frames behind the body (default 4)\n"
+           "  --garment-pc2 FILE --garment-mesh OBJ --body-pc2 FILE --body-mesh OBJ\n"
+           "                       a recorded sequence (a prediction) instead, posed by the\n"
+           "                       one motion in --motions on --shape; --first 0 --stride 1\n"
+           "                       for every frame\n"
+           "  --margin M           m, added to every eq. 10 move (default 0)\n"
+           "  --passes N           eq. 10 applied N times, S afresh each time (default 1)\n"
+           "  --offset M           m, eq. 10 on S - M: within M of the body counts as inside\n"
            "  --frames N, --resolution N   as in training (90, 110)\n\n"
            "both: --quiet, --json (a summary on stdout)\n");
 }
@@ -66,6 +77,8 @@ static int train(int argc, char **argv) {
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_INT("--checkpoint-every", &every, 0, 100000000),
         CLI_INT("--seed", &seed, 0, 2147483647),
+        CLI_INT("--articulated", &d.model.articulated, 0, 2),
+        CLI_FLOAT("--tau", &d.model.tau, 1e-4, 10),
         CLI_FLAG("--resume", &d.resume),
         CLI_FLAG("--quiet", &d.quiet),
         CLI_FLAG("--json", &json),
@@ -94,6 +107,7 @@ static int train(int argc, char **argv) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar-sdf train");
         cJSON_AddNumberToObject(j, "width", width);
+        cJSON_AddNumberToObject(j, "articulated", d.model.articulated);
         cJSON_AddNumberToObject(j, "poses", (double)r.poses);
         cJSON_AddNumberToObject(j, "samples", (double)r.samples);
         cJSON_AddNumberToObject(j, "steps", (double)r.steps);
@@ -125,6 +139,13 @@ static int measure(int argc, char **argv) {
         CLI_STR("--garment", &garment),
         CLI_INT("--garment-vertices", &d.garment_vertices, 500, 100000),
         CLI_INT("--lag", &d.garment_lag, 0, 100000),
+        CLI_STR("--garment-pc2", &d.garment_pc2),
+        CLI_STR("--garment-mesh", &d.garment_mesh),
+        CLI_STR("--body-pc2", &d.body_pc2),
+        CLI_STR("--body-mesh", &d.body_mesh),
+        CLI_FLOAT("--margin", &d.collide.margin, 0, 1),
+        CLI_INT("--passes", &d.collide.passes, 1, 16),
+        CLI_FLOAT("--offset", &d.collide.offset, 0, 1),
         CLI_INT("--frames", &d.clip_frames, 1, 100000),
         CLI_INT("--resolution", &d.body_resolution, 32, 512),
         CLI_FLAG("--quiet", &quiet),
@@ -158,13 +179,15 @@ static int measure(int argc, char **argv) {
                 "per frame\n"
                 "  per frame (median): neural removal %.2f ms (S at every vertex %.2f ms), exact "
                 "removal %.2f ms (distances %.2f ms) + BVH refit %.2f ms\n"
-                "  mean move: neural %.2f mm, exact %.2f mm\n",
-                (long long)r.frames, (long long)r.body_vertices, garment,
-                (long long)r.garment_vertices, cr_thread_count(), 1e3 * d.band_m, r.err_mean_mm,
-                r.err_p99_mm, r.err_max_mm, 100 * r.sign_agree, (long long)r.band_points,
-                r.garment_err_mean_mm, r.garment_err_max_mm, r.ratio_before, r.ratio_neural,
-                r.ratio_exact, 100 * r.missed, r.false_alarms, r.ms_neural, r.ms_neural_detect,
-                r.ms_exact, r.ms_exact_detect, r.ms_bvh_refit, r.mean_move_neural_mm,
+                "  moved: neural %.2f %% of the vertices by %.2f mm on average, exact %.2f %% by "
+                "%.2f mm\n",
+                (long long)r.frames, (long long)r.body_vertices,
+                d.garment_pc2 ? d.garment_pc2 : garment, (long long)r.garment_vertices,
+                cr_thread_count(), 1e3 * d.band_m, r.err_mean_mm, r.err_p99_mm, r.err_max_mm,
+                100 * r.sign_agree, (long long)r.band_points, r.garment_err_mean_mm,
+                r.garment_err_max_mm, r.ratio_before, r.ratio_neural, r.ratio_exact, 100 * r.missed,
+                r.false_alarms, r.ms_neural, r.ms_neural_detect, r.ms_exact, r.ms_exact_detect,
+                r.ms_bvh_refit, r.moved_neural, r.mean_move_neural_mm, r.moved_exact,
                 r.mean_move_exact_mm);
     if (json) {
         cJSON *j = cJSON_CreateObject();
@@ -187,6 +210,10 @@ static int measure(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "ms_exact", r.ms_exact);
         cJSON_AddNumberToObject(j, "ms_exact_detect", r.ms_exact_detect);
         cJSON_AddNumberToObject(j, "ms_bvh_refit", r.ms_bvh_refit);
+        cJSON_AddNumberToObject(j, "mean_move_neural_mm", r.mean_move_neural_mm);
+        cJSON_AddNumberToObject(j, "mean_move_exact_mm", r.mean_move_exact_mm);
+        cJSON_AddNumberToObject(j, "moved_neural_pct", r.moved_neural);
+        cJSON_AddNumberToObject(j, "moved_exact_pct", r.moved_exact);
         cJSON_AddNumberToObject(j, "threads", cr_thread_count());
         cli_json_print(j);
     }

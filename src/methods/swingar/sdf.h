@@ -9,8 +9,8 @@
  *   td.checkpoint = "sdf.safetensors";
  *   cr_swingar_sdf *net = NULL;  cr_swingar_sdf_train_result tr;
  *   CR_TRY(cr_swingar_sdf_train(&td, &net, &tr, err));
- *   float cond[CR_SWINGAR_SDF_COND_DIM];
- *   cr_swingar_sdf_condition(&mannequin_def, pose, cond);
+ *   float cond[CR_SWINGAR_SDF_COND_MAX];
+ *   cr_swingar_sdf_condition(&mannequin_def, body->joints, pose, cond);
  *   cr_swingar_sdf_source src;  cr_swingar_sdf_neural_source nsrc;
  *   cr_swingar_sdf_source_neural(net, cond, trans, &nsrc, &src);
  *   cr_swingar_collide_def cd = cr_swingar_collide_default_def();
@@ -43,6 +43,21 @@
  * is subtracted from the positions first, as the paper removes body
  * translations before collision handling.
  *
+ * Articulated input (def.articulated = 1, not the paper's): the first
+ * position layer takes, instead of x~, the 22 rest-pose points u_j = M_j x +
+ * m_j (normalised as x~), one per joint, from the pose's forward kinematics
+ * (the inverse of each joint's skinning transform), as NASA/LEAP-style
+ * articulated shapes do: most of the pose dependence becomes a known rigid
+ * map and the net learns the rest shape plus a pose-conditioned residual (the
+ * body branch stays). articulated = 2 weights each joint's u_j by w_j =
+ * softmax_j(-|u~_j - c~_j|^2 / tau), c_j the bone's rest centre (the joint
+ * and the mean of its children, halfway), tau in normalised units squared, and feeds [w_j u~_j,
+ * w_j] (88 numbers): a soft assignment of the point to the nearest bones, as LEAP's learned inverse
+ * skinning weights do, so each region reads its own bone's frame; the
+ * gradient goes through the weights too. The frames ride in each conditioning row after the
+ * cond_dim numbers: rows are cond_dim + CR_SWINGAR_SDF_FRAME_DIM long. They
+ * are constants on the tape (no gradient reaches them).
+ *
  * Ownership: a cr_swingar_sdf owns its parameter store and an evaluation
  * context; evaluation is not reentrant on one model (one thread at a time).
  */
@@ -57,7 +72,17 @@
 extern "C" {
 #endif
 
-enum { CR_SWINGAR_SDF_SHAPE_DIM = 4, CR_SWINGAR_SDF_COND_DIM = 4 + 3 * CR_NJOINTS };
+enum {
+    CR_SWINGAR_SDF_SHAPE_DIM = 4,
+    CR_SWINGAR_SDF_COND_DIM = 4 + 3 * CR_NJOINTS,
+    /* per joint [M | m] (3,4) row-major, u_j = M x + m taking a body-frame
+     * point to where it sits in the rest pose if it moves rigidly with joint
+     * j, then the bone's rest centre (3, m) */
+    CR_SWINGAR_SDF_JOINT_REC = 15,
+    CR_SWINGAR_SDF_FRAME_DIM = CR_SWINGAR_SDF_JOINT_REC * CR_NJOINTS,
+    /* a full conditioning record: c, then the joint frames */
+    CR_SWINGAR_SDF_COND_MAX = CR_SWINGAR_SDF_COND_DIM + CR_SWINGAR_SDF_FRAME_DIM
+};
 
 /* ------------------------------------------------------------- network -- */
 
@@ -72,6 +97,8 @@ typedef struct cr_swingar_sdf_def {
      * net approximates the SDF of a sphere of this radius (in normalised
      * units) around `center` (default 0.5). */
     float init_radius;
+    int articulated; /* 0 (default, the paper's), 1 or 2: joint-frame inputs (above) */
+    float tau;       /* bone-weight temperature of articulated = 2 (default 0.1) */
     uint64_t seed;   /* weight initialisation (default 1) */
     uint32_t cookie; /* set by cr_swingar_sdf_default_def */
 } cr_swingar_sdf_def;
@@ -86,23 +113,29 @@ void cr_swingar_sdf_destroy(cr_swingar_sdf *net); /* NULL is a no-op */
 const cr_swingar_sdf_def *cr_swingar_sdf_get_def(const cr_swingar_sdf *net);
 cr_nn_params *cr_swingar_sdf_params(cr_swingar_sdf *net);
 
-/* The conditioning vector c (CR_SWINGAR_SDF_COND_DIM) of a mannequin shape
- * (NULL: the normal body) and a pose (22,3) axis-angles, rad (NULL: rest). */
-void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *pose, float *cond);
+/* Numbers per conditioning row the model reads: cond_dim, plus
+ * CR_SWINGAR_SDF_FRAME_DIM when articulated. */
+int cr_swingar_sdf_cond_len(const cr_swingar_sdf_def *def);
+
+/* The conditioning record (CR_SWINGAR_SDF_COND_MAX) of a mannequin shape
+ * (NULL: the normal body) and a pose (22,3) axis-angles, rad (NULL: rest):
+ * c, then the joint frames from the rest joints `joints` (22,3), m, of that
+ * body (NULL: identity frames, right for the rest pose only). */
+void cr_swingar_sdf_condition(const cr_mannequin_def *shape, const float *joints, const float *pose,
+                              float *cond);
 
 /* On the tape: S (N,1) at body-frame positions x (N,3), m, for the per-row
- * conditioning cond (P,C) (NULL when cond_dim is 0) with cond_row (N) int32 in
- * [0,P) naming each point's row (NULL: every point uses row 0). When grad is
- * not NULL it receives grad_x S (N,3,1), built by forward-mode tangents from
- * differentiable ops (the engine's layer_jacobian.c scheme, applied to the
- * two-branch net), so losses on it reach the weights. NULL on error (the
- * context's error). */
+ * conditioning cond (P,L), L = cr_swingar_sdf_cond_len (NULL when that is 0) with cond_row (N)
+ * int32 in [0,P) naming each point's row (NULL: every point uses row 0). When grad is not NULL it
+ * receives grad_x S (N,3,1), built by forward-mode tangents from differentiable ops (the engine's
+ * layer_jacobian.c scheme, applied to the two-branch net), so losses on it reach the weights. NULL
+ * on error (the context's error). */
 cr_tensor *cr_swingar_sdf_forward(cr_nn_ctx *ctx, const cr_swingar_sdf *net, cr_tensor *x,
                                   cr_tensor *cond, const int32_t *cond_row, cr_tensor **grad);
 
 /* Host evaluation, in chunks, without a tape: s (N) and, when grad is not
- * NULL, grad S (N,3) at x (N,3), m, for one conditioning vector cond (C; NULL
- * when cond_dim is 0). */
+ * NULL, grad S (N,3) at x (N,3), m, for one conditioning row cond
+ * (cr_swingar_sdf_cond_len numbers; NULL when that is 0). */
 cr_status cr_swingar_sdf_eval(cr_swingar_sdf *net, const float *x, int64_t n, const float *cond,
                               float *s, float *grad, cr_error *err);
 
@@ -199,7 +232,7 @@ typedef struct cr_swingar_sdf_source {
  * `trans` (3, m; NULL: zero) subtracted before the network. */
 typedef struct cr_swingar_sdf_neural_source {
     cr_swingar_sdf *net;
-    float cond[CR_SWINGAR_SDF_COND_DIM];
+    float cond[CR_SWINGAR_SDF_COND_MAX];
     float trans[3];
 } cr_swingar_sdf_neural_source;
 void cr_swingar_sdf_source_neural(cr_swingar_sdf *net, const float *cond, const float *trans,
@@ -224,7 +257,15 @@ typedef struct cr_swingar_collide_def {
     float sigma_scale;  /* default 1 */
     float delta_weight; /* multiplies delta_i (default 1; 0: move to the surface only) */
     float margin;       /* m, added to every move (default 0, the paper has none) */
-    uint32_t cookie;    /* set by cr_swingar_collide_default_def */
+    /* eq. 10 applied this many times, S evaluated afresh each time (default
+     * 1, the paper's; stops early once nothing collides) */
+    int passes;
+    /* m: eq. 10 on the field S - offset (default 0, the paper's): a vertex
+     * within offset of the body counts as colliding and moves out to it. Set
+     * to about the field's error near the body, it catches the shallow
+     * collisions an inexact field reads as just outside. */
+    float offset;
+    uint32_t cookie; /* set by cr_swingar_collide_default_def */
 } cr_swingar_collide_def;
 
 cr_swingar_collide_def cr_swingar_collide_default_def(void);
@@ -270,6 +311,12 @@ typedef struct cr_swingar_sdf_measure_def {
     int32_t garment_lag;
     float band_m;         /* error band: points with |s| < band_m (default 0.02) */
     int32_t band_samples; /* points drawn near the surface per frame (default 4000) */
+    /* A recorded sequence instead of the skinned garment (all four or none;
+     * default NULL): the garment's and the body's OBJ meshes and PC2 frames,
+     * world space, frame f posed by frame f of the single motion in
+     * `motions` on the mannequin `shape` (which gives the conditioning). The
+     * garment options and garment_lag are then unused. */
+    const char *garment_pc2, *garment_mesh, *body_pc2, *body_mesh;
     cr_swingar_collide_def collide;
     uint64_t seed;   /* default 1 */
     uint32_t cookie; /* set by cr_swingar_sdf_measure_default_def */
@@ -290,7 +337,8 @@ typedef struct cr_swingar_sdf_measure_result {
     double false_alarms; /* vertices the net flagged that were outside, per frame */
     /* medians over frames, ms */
     double ms_neural, ms_neural_detect, ms_exact, ms_exact_detect, ms_bvh_refit;
-    double mean_move_neural_mm, mean_move_exact_mm;
+    double mean_move_neural_mm, mean_move_exact_mm; /* over the moved vertices */
+    double moved_neural, moved_exact; /* % garment vertices each removal moved (first pass) */
 } cr_swingar_sdf_measure_result;
 
 cr_status cr_swingar_sdf_measure(const cr_swingar_sdf_measure_def *def, cr_swingar_sdf *net,

@@ -30,8 +30,11 @@ static const uint32_t COLLIDE_DEF_COOKIE = 0x434f4c31u;
 static const float ON_SURFACE_M = 1e-6f; /* closer than this: use the pseudo-normal */
 
 cr_swingar_collide_def cr_swingar_collide_default_def(void) {
-    return (cr_swingar_collide_def){
-        .sigma_scale = 1.0f, .delta_weight = 1.0f, .margin = 0.0f, .cookie = COLLIDE_DEF_COOKIE};
+    return (cr_swingar_collide_def){.sigma_scale = 1.0f,
+                                    .delta_weight = 1.0f,
+                                    .margin = 0.0f,
+                                    .passes = 1,
+                                    .cookie = COLLIDE_DEF_COOKIE};
 }
 
 /* ------------------------------------------------------------- sources -- */
@@ -53,7 +56,8 @@ void cr_swingar_sdf_source_neural(cr_swingar_sdf *net, const float *cond, const 
                                   cr_swingar_sdf_neural_source *user, cr_swingar_sdf_source *out) {
     memset(user, 0, sizeof *user);
     user->net = net;
-    int c = cr_swingar_sdf_get_def(net)->cond_dim;
+    int c = cr_swingar_sdf_cond_len(cr_swingar_sdf_get_def(net));
+    c = c < CR_SWINGAR_SDF_COND_MAX ? c : CR_SWINGAR_SDF_COND_MAX;
     if (cond && c > 0) memcpy(user->cond, cond, (size_t)c * sizeof(float));
     if (trans) memcpy(user->trans, trans, sizeof user->trans);
     *out = (cr_swingar_sdf_source){.eval = neural_eval, .user = user};
@@ -98,16 +102,11 @@ static float dist2(const float *a, const float *b) {
     return d0 * d0 + d1 * d1 + d2 * d2;
 }
 
-cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *pos,
-                                      const cr_topology *topo, const cr_swingar_sdf_source *src,
-                                      cr_swingar_collide_stats *stats, cr_error *err) {
-    CR_ASSERT(def->cookie == COLLIDE_DEF_COOKIE);
-    cr_swingar_collide_stats local;
-    cr_swingar_collide_stats *out = stats ? stats : &local;
+/* One pass of eq. 10. */
+static cr_status remove_once(const cr_swingar_collide_def *def, float *pos, const cr_topology *topo,
+                             const cr_swingar_sdf_source *src, cr_swingar_collide_stats *out,
+                             cr_error *err) {
     memset(out, 0, sizeof *out);
-    if (!(def->sigma_scale > 0) || !(def->delta_weight >= 0) || !(def->margin >= 0))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "swingar collide: need sigma_scale > 0, delta_weight >= 0, margin >= 0");
     int64_t nv = topo->nv;
     float *s = malloc((size_t)nv * sizeof(float) + 1);
     int32_t *idx = malloc((size_t)nv * sizeof(int32_t) + 1);
@@ -117,6 +116,8 @@ cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *
     }
     double t0 = cr_time_now();
     cr_status st = src->eval(src->user, pos, nv, s, NULL, err);
+    for (int64_t i = 0; st == CR_OK && def->offset > 0 && i < nv; i++)
+        s[i] -= def->offset;
     double t1 = cr_time_now();
     out->seconds_detect = t1 - t0;
     int64_t c = 0;
@@ -136,6 +137,8 @@ cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *
         for (int64_t j = 0; j < c; j++)
             memcpy(&xc[3 * j], &pos[3 * (int64_t)idx[j]], 3 * sizeof(float));
         st = src->eval(src->user, xc, c, sc, g, err);
+        for (int64_t j = 0; st == CR_OK && def->offset > 0 && j < c; j++)
+            sc[j] -= def->offset;
         for (int64_t j = 0; st == CR_OK && j < c; j++) {
             int64_t i = idx[j];
             const float *xi = &pos[3 * i];
@@ -171,4 +174,35 @@ cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *
     out->seconds_move = cr_time_now() - t1;
     free(buf), free(s), free(idx);
     return st;
+}
+
+cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *pos,
+                                      const cr_topology *topo, const cr_swingar_sdf_source *src,
+                                      cr_swingar_collide_stats *stats, cr_error *err) {
+    CR_ASSERT(def->cookie == COLLIDE_DEF_COOKIE);
+    cr_swingar_collide_stats local;
+    cr_swingar_collide_stats *out = stats ? stats : &local;
+    memset(out, 0, sizeof *out);
+    if (!(def->sigma_scale > 0) || !(def->delta_weight >= 0) || !(def->margin >= 0) ||
+        !(def->offset >= 0) || def->passes < 1 || def->passes > 16)
+        return CR_FAIL(
+            err, CR_ERR_INVALID,
+            "swingar collide: need sigma_scale > 0, delta_weight >= 0, margin, offset >= 0 "
+            "and passes in [1, 16] (got %d)",
+            def->passes);
+    /* later passes catch what a move along an inexact gradient left inside */
+    double moved = 0;
+    for (int p = 0; p < def->passes; p++) {
+        cr_swingar_collide_stats one;
+        CR_TRY(remove_once(def, pos, topo, src, &one, err));
+        if (p == 0) out->colliding = one.colliding, out->mean_delta_m = one.mean_delta_m;
+        out->mean_move_m += one.mean_move_m * (double)one.colliding;
+        moved += (double)one.colliding;
+        out->max_move_m = one.max_move_m > out->max_move_m ? one.max_move_m : out->max_move_m;
+        out->seconds_detect += one.seconds_detect;
+        out->seconds_move += one.seconds_move;
+        if (one.colliding == 0) break;
+    }
+    out->mean_move_m = moved > 0 ? out->mean_move_m / moved : 0;
+    return CR_OK;
 }

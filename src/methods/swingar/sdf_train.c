@@ -131,7 +131,7 @@ static cr_status pool_reserve(sdf_pool *pl, int64_t need, int64_t poses, cr_erro
         if (!pos || !s || !n || !row) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: samples");
         pl->cap = cap;
     }
-    float *c = realloc(pl->cond, (size_t)poses * CR_SWINGAR_SDF_COND_DIM * sizeof(float));
+    float *c = realloc(pl->cond, (size_t)poses * CR_SWINGAR_SDF_COND_MAX * sizeof(float));
     if (!c) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: conditioning");
     pl->cond = c;
     return CR_OK;
@@ -144,8 +144,8 @@ static cr_status sample_pose(const cr_swingar_sdf_train_def *d, const cr_mesh *r
     int64_t ns = d->samples_surface, nn = d->samples_near, nu = d->samples_space;
     int64_t total = ns + nn + nu;
     CR_TRY(pool_reserve(pl, total, pl->p + 1, err));
-    memcpy(&pl->cond[pl->p * CR_SWINGAR_SDF_COND_DIM], cond,
-           CR_SWINGAR_SDF_COND_DIM * sizeof(float));
+    memcpy(&pl->cond[pl->p * CR_SWINGAR_SDF_COND_MAX], cond,
+           CR_SWINGAR_SDF_COND_MAX * sizeof(float));
     cr_mesh posed = *rest;
     posed.pos = (float *)v;
     posed.normal = NULL;
@@ -262,7 +262,7 @@ static cr_status build_poses(const cr_swingar_sdf_train_def *d, pose_set *ps, cr
                 if (ps->count == cap) {
                     cap = cap ? 2 * cap : 64;
                     float **v = realloc(ps->verts, (size_t)cap * sizeof *v);
-                    float *c = realloc(ps->cond, (size_t)cap * CR_SWINGAR_SDF_COND_DIM * 4);
+                    float *c = realloc(ps->cond, (size_t)cap * CR_SWINGAR_SDF_COND_MAX * 4);
                     int32_t *bo = realloc(ps->body_of, (size_t)cap * sizeof *bo);
                     if (v) ps->verts = v;
                     if (c) ps->cond = c;
@@ -281,8 +281,8 @@ static cr_status build_poses(const cr_swingar_sdf_train_def *d, pose_set *ps, cr
                         pv[3 * i + k] = seq[(int64_t)f * nv * 3 + 3 * i + k] - tr[k];
                 ps->verts[ps->count] = pv;
                 ps->body_of[ps->count] = b;
-                cr_swingar_sdf_condition(&md, &mo->poses[(int64_t)f * 3 * CR_NJOINTS],
-                                         &ps->cond[ps->count * CR_SWINGAR_SDF_COND_DIM]);
+                cr_swingar_sdf_condition(&md, body->joints, &mo->poses[(int64_t)f * 3 * CR_NJOINTS],
+                                         &ps->cond[ps->count * CR_SWINGAR_SDF_COND_MAX]);
                 ps->count++;
             }
             free(seq);
@@ -310,7 +310,7 @@ static cr_status build_pool(const cr_swingar_sdf_train_def *d, sdf_pool *pl, cr_
     cr_rng rng = cr_rng_make(d->seed, 0x5a3f);
     for (int64_t p = 0; st == CR_OK && p < ps.count; p++)
         st = sample_pose(d, ps.bodies[ps.body_of[p]]->rest, ps.verts[p],
-                         &ps.cond[p * CR_SWINGAR_SDF_COND_DIM], lo, hi, &rng, pl, err);
+                         &ps.cond[p * CR_SWINGAR_SDF_COND_MAX], lo, hi, &rng, pl, err);
     memcpy(pl->lo, lo, sizeof lo);
     memcpy(pl->hi, hi, sizeof hi);
     poses_free(&ps);
@@ -379,7 +379,7 @@ static cr_status step_once(train_run *r, cr_swingar_sdf_train_result *res, cr_er
     cr_tensor *x = cr_nn_wrap(ctx, 2, (int64_t[]){b, 3}, r->bx);
     cr_tensor *s = cr_nn_wrap(ctx, 2, (int64_t[]){b, 1}, r->bs);
     cr_tensor *n = cr_nn_wrap(ctx, 2, (int64_t[]){b, 3}, r->bn);
-    cr_tensor *c = cr_nn_wrap(ctx, 2, (int64_t[]){pl->p, CR_SWINGAR_SDF_COND_DIM}, pl->cond);
+    cr_tensor *c = cr_nn_wrap(ctx, 2, (int64_t[]){pl->p, CR_SWINGAR_SDF_COND_MAX}, pl->cond);
     cr_tensor *parts[3] = {0};
     cr_tensor *loss = cr_swingar_sdf_loss(ctx, r->net, x, c, r->brow, s, n, d->mu_e, parts);
     cr_nn_params_zero_grad(cr_swingar_sdf_params(r->net));
@@ -440,8 +440,8 @@ static cr_status resume(train_run *r, cr_swingar_sdf_train_result *res, cr_error
     free(meta.config_json);
     CR_TRY(st);
     const cr_swingar_sdf_def *now = cr_swingar_sdf_get_def(r->net);
-    if (saved.width != now->width || saved.scale != now->scale ||
-        memcmp(saved.center, now->center, sizeof saved.center) != 0)
+    if (saved.width != now->width || saved.articulated != now->articulated ||
+        saved.scale != now->scale || memcmp(saved.center, now->center, sizeof saved.center) != 0)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "%s: checkpoint of another model or data (width %d, scale %g; now %d, %g)",
                        r->def->checkpoint, saved.width, (double)saved.scale, now->width,
