@@ -6,6 +6,9 @@
  * a side-by-side picture.
  *
  *   bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motion,motion,...] [body,body,...] [hold]
+ *               [friction]
+ * friction: the reference's Coulomb friction against the body (default 0,
+ * the training loss's physics; cotton's is 0.3).
  */
 #include "crease/epnet.h"
 #include "crease/eval.h"
@@ -45,13 +48,15 @@ static int render(const cr_mesh *g, const float *pos, const cr_mesh *b, const fl
 int main(int argc, char **argv) {
     if (argc < 4) {
         fprintf(stderr,
-                "usage: bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motions] [bodies] [hold]\n");
+                "usage: bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motions] [bodies] [hold] "
+                "[friction]\n");
         return 2;
     }
     char mbuf[512], bbuf[256];
     snprintf(mbuf, sizeof mbuf, "%s", argc > 4 ? argv[4] : "bend,raise_arms,dodge");
     snprintf(bbuf, sizeof bbuf, "%s", argc > 5 ? argv[5] : "normal,slim,heavy");
     const int hold = argc > 6 ? atoi(argv[6]) : 30;
+    const double friction = argc > 7 ? atof(argv[7]) : 0.0;
     const char *motions[16], *bodies[8];
     int nm = 0, nb = 0;
     for (char *t = strtok(mbuf, ","); t && nm < 16; t = strtok(NULL, ","))
@@ -82,7 +87,8 @@ int main(int argc, char **argv) {
                   *rth = malloc(sizeof(float) * (size_t)T * H);
             float *bpos = malloc(sizeof(float) * 3 * (size_t)T * V);
             if (!ref || !rrest || !pos || !rb || !th || !rth || !bpos) return 1;
-            if (cr_epnet_reference(ep, s, 1, ref, rrest, &err) != CR_OK) return fail(&err);
+            if (cr_epnet_reference_friction(ep, s, 1, friction, ref, rrest, &err) != CR_OK)
+                return fail(&err);
             absolute(rrest, bar, T, H);
             cr_epnet_angles(ep, ref, T, rth);
             for (int k = 0; k < 2; k++) {
