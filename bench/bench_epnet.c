@@ -104,7 +104,7 @@ int main(int argc, char **argv) {
                                     .nframes = T,
                                     .pred = k == 0 ? pos : bpos,
                                     .ref = ref,
-                                    .body_mesh = cr_epnet_body(ep),
+                                    .body_mesh = cr_epnet_seq_body_mesh(s),
                                     .body = cr_epnet_seq_body(s),
                                     .body_nframes = T,
                                     .ref_rest = rrest,
@@ -132,12 +132,12 @@ int main(int argc, char **argv) {
             if (b == 0 && mi == 0) {
                 cr_image im[3];
                 const float *body =
-                    cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_body(ep)->nv * 3;
+                    cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_seq_body_mesh(s)->nv * 3;
                 const float *frames[3] = {ref + (size_t)(T - 1) * V * 3,
                                           pos + (size_t)(T - 1) * V * 3,
                                           bpos + (size_t)(T - 1) * V * 3};
                 for (int k = 0; k < 3; k++)
-                    if (render(g, frames[k], cr_epnet_body(ep), body, &im[k], &err))
+                    if (render(g, frames[k], cr_epnet_seq_body_mesh(s), body, &im[k], &err))
                         return fail(&err);
                 cr_image grid;
                 if (cr_image_grid(im, 3, 3, 8, (float[]){1, 1, 1}, &grid, &err) != CR_OK)

@@ -143,6 +143,8 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
 void cr_epnet_seq_destroy(cr_epnet_seq *s);
 int32_t cr_epnet_seq_frames(const cr_epnet_seq *s);
 const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m */
+/* The rest mesh of the sequence's body (its triangles go with cr_epnet_seq_body). */
+const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
 
 /* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
  * or only the loss when 0. */

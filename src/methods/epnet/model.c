@@ -321,6 +321,9 @@ int32_t cr_epnet_seq_frames(const cr_epnet_seq *s) {
 const float *cr_epnet_seq_body(const cr_epnet_seq *s) {
     return s->body;
 }
+const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s) {
+    return s->body_rest;
+}
 
 cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char *body,
                               int32_t frames, int32_t hold, cr_epnet_seq **out, cr_error *err) {
