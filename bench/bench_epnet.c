@@ -6,6 +6,9 @@
  * a side-by-side picture.
  *
  *   bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motion,motion,...] [body,body,...] [hold]
+ *               [friction]
+ * friction: the reference's Coulomb friction against the body (default 0,
+ * the training loss's physics; cotton's is 0.3).
  */
 #include "crease/epnet.h"
 #include "crease/eval.h"
@@ -45,13 +48,15 @@ static int render(const cr_mesh *g, const float *pos, const cr_mesh *b, const fl
 int main(int argc, char **argv) {
     if (argc < 4) {
         fprintf(stderr,
-                "usage: bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motions] [bodies] [hold]\n");
+                "usage: bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motions] [bodies] [hold] "
+                "[friction]\n");
         return 2;
     }
     char mbuf[512], bbuf[256];
     snprintf(mbuf, sizeof mbuf, "%s", argc > 4 ? argv[4] : "bend,raise_arms,dodge");
     snprintf(bbuf, sizeof bbuf, "%s", argc > 5 ? argv[5] : "normal,slim,heavy");
     const int hold = argc > 6 ? atoi(argv[6]) : 30;
+    const double friction = argc > 7 ? atof(argv[7]) : 0.0;
     const char *motions[16], *bodies[8];
     int nm = 0, nb = 0;
     for (char *t = strtok(mbuf, ","); t && nm < 16; t = strtok(NULL, ","))
@@ -66,7 +71,7 @@ int main(int argc, char **argv) {
     const int32_t V = g->nv, H = cr_epnet_hinge_count(ep);
     const float *bar = cr_epnet_rest_angles(ep);
     printf("| motion | body | method | BED rad | PE rad | BE rad | MED m | CD | BEN J | COL m | "
-           "folded share at the end | s/frame |\n");
+           "folded share at the end, > 0.3 / > 0.1 rad | s/frame |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int b = 0; b < nb; b++)
         for (int mi = 0; mi < nm; mi++) {
@@ -82,7 +87,8 @@ int main(int argc, char **argv) {
                   *rth = malloc(sizeof(float) * (size_t)T * H);
             float *bpos = malloc(sizeof(float) * 3 * (size_t)T * V);
             if (!ref || !rrest || !pos || !rb || !th || !rth || !bpos) return 1;
-            if (cr_epnet_reference(ep, s, 1, ref, rrest, &err) != CR_OK) return fail(&err);
+            if (cr_epnet_reference_friction(ep, s, 1, friction, ref, rrest, &err) != CR_OK)
+                return fail(&err);
             absolute(rrest, bar, T, H);
             cr_epnet_angles(ep, ref, T, rth);
             for (int k = 0; k < 2; k++) {
@@ -98,7 +104,7 @@ int main(int argc, char **argv) {
                                     .nframes = T,
                                     .pred = k == 0 ? pos : bpos,
                                     .ref = ref,
-                                    .body_mesh = cr_epnet_body(ep),
+                                    .body_mesh = cr_epnet_seq_body_mesh(s),
                                     .body = cr_epnet_seq_body(s),
                                     .body_nframes = T,
                                     .ref_rest = rrest,
@@ -111,25 +117,27 @@ int main(int argc, char **argv) {
                 printf("| %s | %s | %s |", motions[mi], bodies[b], k == 0 ? "epnet" : "baseline");
                 for (int q = 0; q < NSHOWN; q++)
                     printf(" %.4g |", r.summary[shown[q]].mean);
-                printf(" %.3f | %.3f |\n", cr_epnet_fold_share(th, bar, T - 1, H, 0.3), spf);
+                printf(" %.3f / %.3f | %.3f |\n", cr_epnet_fold_share(th, bar, T - 1, H, 0.3),
+                       cr_epnet_fold_share(th, bar, T - 1, H, 0.1), spf);
                 cr_eval_result_free(&r);
             }
             {
                 float *rp = rrest + (size_t)(T - 1) * H;
-                printf("| %s | %s | reference | | | | | | | | %.3f (plastic rest past 0.3: %.3f) | "
-                       "|\n",
+                printf("| %s | %s | reference | | | | | | | | %.3f / %.3f (plastic rest past "
+                       "0.3: %.3f) | |\n",
                        motions[mi], bodies[b], cr_epnet_fold_share(rth, bar, T - 1, H, 0.3),
+                       cr_epnet_fold_share(rth, bar, T - 1, H, 0.1),
                        cr_epnet_fold_share(rp, bar, 0, H, 0.3));
             }
             if (b == 0 && mi == 0) {
                 cr_image im[3];
                 const float *body =
-                    cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_body(ep)->nv * 3;
+                    cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_seq_body_mesh(s)->nv * 3;
                 const float *frames[3] = {ref + (size_t)(T - 1) * V * 3,
                                           pos + (size_t)(T - 1) * V * 3,
                                           bpos + (size_t)(T - 1) * V * 3};
                 for (int k = 0; k < 3; k++)
-                    if (render(g, frames[k], cr_epnet_body(ep), body, &im[k], &err))
+                    if (render(g, frames[k], cr_epnet_seq_body_mesh(s), body, &im[k], &err))
                         return fail(&err);
                 cr_image grid;
                 if (cr_image_grid(im, 3, 3, 8, (float[]){1, 1, 1}, &grid, &err) != CR_OK)

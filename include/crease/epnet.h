@@ -70,7 +70,14 @@ typedef struct cr_epnet_def {
     cr_material material; /* epnet preset: density 0.2, Baraff-Witkin stretch 20, shear 2,
                              bending 0.002, collision 4 mm, yield 0.52 rad, gain 1 */
     double w_stretch, w_shear, w_bending, w_gravity, w_collision, w_inertia; /* all 1 */
-    double sharpness; /* Eq. 5 sigmoid sharpness (default 50) */
+    double pin_top;     /* m: rest vertices within this of the garment's top are pinned to their
+                           skinned positions (the loss's pinning term and the reference's pins):
+                           a waistband, which the loss (no friction) cannot hold up otherwise.
+                           Default 0 (none); train's default for a skirt or trousers 0.01 */
+    double w_pin;       /* pinning weight, J/m^2 per vertex (default 100, the authors') */
+    double sharpness;   /* Eq. 5 sigmoid sharpness (default 50) */
+    int inertia_detach; /* 1: the inertia term's frames t-1, t-2 held fixed (implicit Euler
+                           per frame); 0: gradients through all three (default 0) */
     /* E-Net sizes (authors: static 64-128-256-512, dynamic 2x32 + 2x512 + GRU 512,
      * RB 256-128-64, decoder 3x512) */
     int static_widths[CR_EPNET_MAX_LAYERS]; /* default 32, 64 */
@@ -119,11 +126,12 @@ int32_t cr_epnet_hinge_count(const cr_epnet *m);
 int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
 
 /* Loss terms of one forward pass, J per frame. */
-enum { CR_EPNET_NTERMS = 6 };
+enum { CR_EPNET_NTERMS = 7 };
 extern const char *const cr_epnet_term_names[CR_EPNET_NTERMS];
 typedef struct cr_epnet_losses {
     double total;
-    double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia */
+    double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia,
+                                     pinning */
 } cr_epnet_losses;
 
 /* A sequence the model runs on: a motion (clip name or file) on a body
@@ -135,6 +143,8 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
 void cr_epnet_seq_destroy(cr_epnet_seq *s);
 int32_t cr_epnet_seq_frames(const cr_epnet_seq *s);
 const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m */
+/* The rest mesh of the sequence's body (its triangles go with cr_epnet_seq_body). */
+const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
 
 /* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
  * or only the loss when 0. */
@@ -160,6 +170,13 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
  * started at the garment's skinned rest. pos (T,V,3), rest (T,H) rad. */
 cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plastic, float *pos,
                              float *rest, cr_error *err);
+
+/* The same with the simulator's Coulomb friction against the body set to
+ * friction (cr_epnet_reference uses the material's, cotton's 0.3). The
+ * training loss has no friction term; friction 0 gives the reference the
+ * loss's own physics (docs/epnet.md). */
+cr_status cr_epnet_reference_friction(const cr_epnet *m, const cr_epnet_seq *s, int plastic,
+                                      double friction, float *pos, float *rest, cr_error *err);
 
 /* Checkpoints: weights, optimisers and the curriculum's position. */
 cr_status cr_epnet_save(cr_epnet *m, const char *path, int cycle, int phase, int epoch,

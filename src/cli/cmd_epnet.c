@@ -23,6 +23,10 @@ void help_epnet(void) {
            "  --epochs N           E-Net epochs per cycle (default 40)\n"
            "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
            "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
+           "  --detach-inertia     inertia with frames t-1, t-2 held fixed (implicit Euler)\n"
+           "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+           "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
+           "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
            "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
            "  --lr R               E-Net Adam learning rate (default 0.001)\n"
@@ -54,8 +58,9 @@ static int run_train(int argc, char **argv) {
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
-    int json = 0, seed = 1;
-    float yield = (float)d.material.yield_angle, lr = d.enet_lr;
+    int json = 0, seed = 1, detach = d.inertia_detach;
+    float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
+          wb = (float)d.w_bending;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -67,6 +72,9 @@ static int run_train(int argc, char **argv) {
         CLI_INT("--epochs", &epochs, 0, 100000),
         CLI_INT("--pnet-epochs", &pepochs, 0, 100000),
         CLI_FLAG("--baseline", &baseline),
+        CLI_FLAG("--detach-inertia", &detach),
+        CLI_FLOAT("--pin-top", &pin_top, 0, 10),
+        CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -87,7 +95,11 @@ static int run_train(int argc, char **argv) {
     d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
     d.material.yield_angle = yield, d.cycles = cycles, d.enet_epochs = epochs;
     d.pnet_epochs = pepochs, d.baseline = baseline, d.seed = (uint64_t)seed, d.resume = resume;
-    d.out_dir = out, d.enet_lr = lr;
+    d.out_dir = out, d.enet_lr = lr, d.inertia_detach = detach;
+    /* a waistband is held up by friction, which the loss has not */
+    if (pin_top < 0)
+        pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
+    d.pin_top = pin_top, d.w_bending = wb;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;

@@ -25,6 +25,8 @@ struct cr_epnet {
     int64_t ne;
     int32_t *send, *recv; /* (E) hinge graph */
     float *theta_bar;     /* (H) rest mesh angles, rad */
+    int32_t *pin, npin;   /* pinned vertices (def.pin_top) */
+    float *pin_mask;      /* (V) 1 on pinned vertices */
     cr_membrane *membrane;
     cr_bending *bending;
     cr_gravity *gravity;
@@ -52,6 +54,9 @@ struct cr_epnet_seq {
 
 /* E-Net forward on the whole sequence: positions (T,V,3) on the tape. rb (T,H) or NULL. */
 cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb);
+/* The training loss's terms of given positions pos (T,V,3) with RB rb (T,H) or NULL. */
+cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *pos, const float *rb,
+                              cr_epnet_losses *out, cr_error *err);
 /* Angles (T,H) of positions (T,V,3). */
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 

@@ -32,8 +32,8 @@
 #define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
 #define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
 
-const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
-                                                          "gravity", "collision", "inertia"};
+const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
+    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
 
 static const char *const default_motions[] = {"walk", "squat", "twist", "dance", "jump"};
 
@@ -66,6 +66,7 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.fps = 30;
     cr_epnet_material(&d.material);
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
+    d.w_pin = 100.0;
     d.sharpness = 50;
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
@@ -116,6 +117,9 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
+    if (!(d->pin_top >= 0) || !(d->w_pin >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: pin_top %g and w_pin %g must be >= 0",
+                       d->pin_top, d->w_pin);
     if (!(d->material.yield_angle >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: yield angle %g < 0", d->material.yield_angle);
     return CR_OK;
@@ -125,6 +129,22 @@ static cr_status make_body(const char *preset, cr_body_model **out, cr_error *er
     cr_mannequin_def md = cr_mannequin_default_def();
     CR_TRY(cr_mannequin_preset(preset, &md, err));
     return cr_mannequin_create(&md, out, err);
+}
+
+/* The vertices within pin_top of the rest garment's highest point. */
+static cr_status make_pins(cr_epnet *m, cr_error *err) {
+    const cr_mesh *g = m->garment->mesh;
+    m->pin_mask = cr_calloc((size_t)m->nv, sizeof(float), err);
+    m->pin = cr_calloc((size_t)m->nv, sizeof(int32_t), err);
+    if (!m->pin_mask || !m->pin) return CR_ERR_MEMORY;
+    if (m->def.pin_top <= 0) return CR_OK;
+    float top = -INFINITY;
+    for (int32_t v = 0; v < m->nv; v++)
+        top = fmaxf(top, g->pos[3 * v + 1]);
+    for (int32_t v = 0; v < m->nv; v++)
+        if (g->pos[3 * v + 1] >= top - (float)m->def.pin_top)
+            m->pin_mask[v] = 1.0f, m->pin[m->npin++] = v;
+    return CR_OK;
 }
 
 cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
@@ -170,6 +190,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
                 m->theta_bar[h] = (float)r[h];
         }
     }
+    if (st == CR_OK) st = make_pins(m, err);
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = (size_t)512 << 20;
     if (st == CR_OK) st = cr_nn_ctx_create(&cd, &m->ctx, err);
@@ -245,7 +266,7 @@ void cr_epnet_destroy(cr_epnet *m) {
     cr_loss_collider_destroy(m->collider);
     cr_gravity_destroy(m->gravity), cr_bending_destroy(m->bending);
     cr_membrane_destroy(m->membrane);
-    free(m->theta_bar), free(m->send), free(m->recv);
+    free(m->theta_bar), free(m->send), free(m->recv), free(m->pin), free(m->pin_mask);
     cr_topology_destroy(m->topo);
     cr_garment_destroy(m->garment);
     cr_body_model_destroy(m->body);
@@ -299,6 +320,9 @@ int32_t cr_epnet_seq_frames(const cr_epnet_seq *s) {
 }
 const float *cr_epnet_seq_body(const cr_epnet_seq *s) {
     return s->body;
+}
+const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s) {
+    return s->body_rest;
 }
 
 cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char *body,
@@ -427,6 +451,39 @@ void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *thet
     cr_epnet_angles_(m, pos, T, theta);
 }
 
+/* Frames start..start+n-1 of x; detached: the implicit-Euler form, where
+ * frame t minimises its incremental potential with the two frames before it
+ * held fixed, instead of the whole path's acceleration being penalised. */
+static cr_tensor *past(cr_nn_ctx *c, cr_tensor *x, int64_t start, int64_t n, int detach) {
+    cr_tensor *p = cr_nn_slice(c, x, 0, start, n);
+    return detach ? cr_nn_detach(c, p) : p;
+}
+
+/* Skinned positions (V,3) of frame t: A_t[v] p[v] + b_t[v]. */
+static void skinned_frame(const cr_epnet *m, const cr_epnet_seq *s, int32_t t, float *out) {
+    const int32_t V = m->nv;
+    for (int32_t v = 0; v < V; v++) {
+        const float *A = s->A + ((size_t)t * V + v) * 9, *b = s->b + ((size_t)t * V + v) * 3,
+                    *p = m->garment->mesh->pos + 3 * v;
+        for (int r = 0; r < 3; r++)
+            out[3 * v + r] = A[3 * r] * p[0] + A[3 * r + 1] * p[1] + A[3 * r + 2] * p[2] + b[r];
+    }
+}
+
+/* Pinning: sum over the pinned vertices of |x - skinned|^2 per frame (m^2),
+ * summed over the frames (the caller's weight divides by T). */
+static cr_tensor *pin_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t T = s->T, V = m->nv;
+    if (m->npin == 0) return cr_nn_zeros(c, 1, (int64_t[]){1});
+    cr_tensor *target = cr_nn_new(c, 3, (int64_t[]){T, V, 3});
+    if (!target) return NULL;
+    for (int32_t t = 0; t < T; t++)
+        skinned_frame(m, s, t, target->data + (size_t)t * V * 3);
+    cr_tensor *mask = cr_nn_wrap(c, 3, (int64_t[]){1, V, 1}, m->pin_mask);
+    return cr_nn_sum(c, cr_nn_mul(c, cr_nn_square(c, cr_nn_sub(c, x, target)), mask));
+}
+
 static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
                             cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
@@ -449,12 +506,14 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
         cr_loss_energy(c, &tg, x),
         cr_loss_collision(c, m->collider, &d->material, 1.0, x, body),
         cr_loss_inertia(c, cr_gravity_masses(m->gravity), (int32_t)V, 1.0 / d->fps, 1.0,
-                        cr_nn_slice(c, x, 0, 2, T - 2), cr_nn_slice(c, x, 0, 1, T - 2),
-                        cr_nn_slice(c, x, 0, 0, T - 2)),
+                        cr_nn_slice(c, x, 0, 2, T - 2), past(c, x, 1, T - 2, d->inertia_detach),
+                        past(c, x, 0, T - 2, d->inertia_detach)),
+        pin_term(m, s, x),
     };
     const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
                                       (float)(d->w_bending / T),   (float)(d->w_gravity / T),
-                                      (float)(d->w_collision / T), (float)(d->w_inertia / T)};
+                                      (float)(d->w_collision / T), (float)(d->w_inertia / T),
+                                      (float)(d->w_pin / T)};
     return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
 }
 
@@ -463,6 +522,18 @@ static void read_parts(cr_tensor *loss, cr_tensor **parts, cr_epnet_losses *out)
     out->total = loss ? loss->data[0] : NAN;
     for (int k = 0; k < CR_EPNET_NTERMS; k++)
         out->term[k] = parts[k] ? parts[k]->data[0] : NAN;
+}
+
+cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *pos, const float *rb,
+                              cr_epnet_losses *out, cr_error *err) {
+    cr_nn_ctx_reset(m->ctx);
+    cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+    cr_tensor *x = cr_nn_from(m->ctx, 3, (int64_t[]){s->T, m->nv, 3}, pos);
+    cr_tensor *parts[CR_EPNET_NTERMS] = {0};
+    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    CR_TRY(cr_nn_ctx_error(m->ctx, err));
+    read_parts(loss, parts, out);
+    return CR_OK;
 }
 
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
@@ -664,16 +735,33 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
 
 cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plastic, float *pos,
                              float *rest, cr_error *err) {
+    return cr_epnet_reference_friction(m, s, plastic, m->def.material.friction, pos, rest, err);
+}
+
+cr_status cr_epnet_reference_friction(const cr_epnet *m, const cr_epnet_seq *s, int plastic,
+                                      double friction, float *pos, float *rest, cr_error *err) {
+    if (!(friction >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet reference: friction %g < 0", friction);
     const int32_t V = m->nv, H = m->nh, T = s->T;
     cr_mesh *start = NULL;
     CR_TRY(cr_mesh_create(V, m->garment->mesh->nf, 0, &start, err));
     /* the skinned rest of frame 0, with the rest mesh's own shape as rest */
-    for (int32_t v = 0; v < V; v++) {
-        const float *A = s->A + (size_t)v * 9, *b = s->b + (size_t)v * 3,
-                    *p = m->garment->mesh->pos + 3 * v;
-        for (int r = 0; r < 3; r++)
-            start->pos[3 * v + r] =
-                A[3 * r] * p[0] + A[3 * r + 1] * p[1] + A[3 * r + 2] * p[2] + b[r];
+    skinned_frame(m, s, 0, start->pos);
+    /* the pinned vertices follow their skinned positions */
+    float *pins = NULL, *frame = NULL;
+    if (m->npin > 0) {
+        pins = malloc(sizeof(float) * 3 * (size_t)T * m->npin);
+        frame = malloc(sizeof(float) * 3 * (size_t)V);
+        if (!pins || !frame) {
+            free(pins), free(frame), cr_mesh_destroy(start);
+            return CR_FAIL(err, CR_ERR_MEMORY, "epnet reference: out of memory for pins");
+        }
+        for (int32_t t = 0; t < T; t++) {
+            skinned_frame(m, s, t, frame);
+            for (int32_t k = 0; k < m->npin; k++)
+                memcpy(pins + ((size_t)t * m->npin + k) * 3, frame + 3 * m->pin[k],
+                       3 * sizeof(float));
+        }
     }
     memcpy(start->tri, m->garment->mesh->tri, sizeof(int32_t) * 3 * (size_t)start->nf);
     cr_sim_def sd = cr_sim_default_def();
@@ -688,6 +776,7 @@ cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plast
         if (cr_material_preset("cotton", &cot, &e2) == CR_OK)
             sd.material.collision_stiffness = cot.collision_stiffness;
     }
+    sd.material.friction = friction;
     sd.dt = 1.0 / m->def.fps;
     sd.plasticity = plastic;
     sd.plastic_rule = CR_PLASTIC_SMOOTH;
@@ -695,6 +784,8 @@ cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plast
     sd.collider_frames = s->body;
     sd.collider_nframes = T;
     sd.max_collider_step = 0.15;
+    sd.pinned = m->npin > 0 ? m->pin : NULL, sd.npinned = m->npin;
+    sd.pin_frames = pins, sd.pin_nframes = m->npin > 0 ? T : 0;
     cr_sim *sim = NULL;
     cr_status st = cr_sim_create(&sd, start, &sim, err);
     cr_sim_report rep;
@@ -712,5 +803,6 @@ cr_status cr_epnet_reference(const cr_epnet *m, const cr_epnet_seq *s, int plast
     }
     cr_sim_destroy(sim);
     cr_mesh_destroy(start);
+    free(pins), free(frame);
     return st;
 }
