@@ -183,6 +183,20 @@ typedef struct cr_gdsr_train_def {
      * membrane and bending through the loss op (losses.h); rest shape the
      * rest high mesh laid flat (crease eval's default). */
     float w_stretch, w_shear, w_bend, w_laplacian;
+    /* w_strain_l1  Eq. 16-18 / 21-23: mean over triangles of ||w_u(X)| - |w_u(X_ref)|| +
+     *              ||w_v(X)| - |w_v(X_ref)|| + |w_u.w_v(X) - w_u.w_v(X_ref)| (default 0)
+     * w_wrinkle    Eq. 20's feature term, a fixed filter bank for VGG: L1 of oriented
+     *              first and second differences (steps 1, 2, 4 texels) of X's and
+     *              X_ref's normal maps over the UV chart, summed over steps (default 0)
+     * wrinkle_side the normal map's side in texels (default 128) */
+    float w_strain_l1, w_wrinkle;
+    int wrinkle_side;
+    /* Eq. 25's schedule: lambda_c (coarse term) starts at lambda_c0 and lambda_w
+     * (every fine-garment term) at lambda_w0; every lambda_every epochs each moves
+     * lambda_step toward 1 and stops there. The paper: 1.9, 0.1, 0.2, 10. Default
+     * 1, 1 (constant). */
+    float lambda_c0, lambda_w0, lambda_step;
+    int lambda_every;
     int val_clips;        /* the last val_clips clips of the data are not trained on: each epoch
                              rolls them out and logs their MED against upsampling's (default 0) */
     int checkpoint_every; /* epochs between checkpoints (default 5; 0: at the end) */
@@ -193,6 +207,8 @@ typedef struct cr_gdsr_train_def {
 } cr_gdsr_train_def;
 
 cr_gdsr_train_def cr_gdsr_train_default_def(void);
+/* lambda_c and lambda_w of Eq. 25 at epoch ep (0-based) under def's schedule. */
+void cr_gdsr_lambdas(const cr_gdsr_train_def *def, int ep, float *lambda_c, float *lambda_w);
 
 typedef struct cr_gdsr_train_result {
     int epochs;        /* completed (including resumed ones) */
@@ -201,6 +217,7 @@ typedef struct cr_gdsr_train_result {
     double last_loss;  /* of the last */
     double last_coarse, last_fine, last_normal;
     double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
+    double last_strain_l1, last_wrinkle;                        /* (0 when their weight is) */
     double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
     double seconds;
     int64_t params;
