@@ -625,3 +625,28 @@ CR_TEST(gdsr, lambda_schedule_is_the_papers) {
     cr_gdsr_lambdas(&def, 500, &c, &w);
     CR_CHECK(c == 1.0f && w == 1.0f);
 }
+
+/* C* of the high rest mesh is the low rest mesh, also where no high vertex
+ * sits on a low one (a 5x5 sheet over an 8x8 one; the nearest high vertex,
+ * the operator before, was up to half a high cell off). */
+CR_TEST(gdsr, coarse_target_of_the_rest_is_the_low_rest) {
+    cr_error err = {0};
+    cr_mesh *lo = NULL, *hi = NULL, *body = NULL;
+    CR_REQUIRE(cr_prim_plane(5, 5, 0.4f, 0.4f, &lo, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_plane(8, 8, 0.4f, 0.4f, &hi, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_icosphere(0.05f, 1, &body, &err) == CR_OK);
+    cr_gdsr_data d;
+    CR_REQUIRE(cr_gdsr_data_from_arrays(lo, hi, body, 1, lo->pos, hi->pos, body->pos, &d, &err) ==
+               CR_OK);
+    float *c = malloc((size_t)lo->nv * 3 * sizeof(float));
+    cr_gdsr_coarse_target(&d, hi->pos, c);
+    float worst = 0.0f;
+    for (int64_t i = 0; i < (int64_t)lo->nv * 3; i++)
+        worst = fmaxf(worst, fabsf(c[i] - lo->pos[i]));
+    CR_CHECK(worst < 1e-5f);
+    free(c);
+    cr_gdsr_data_free(&d);
+    cr_mesh_destroy(lo);
+    cr_mesh_destroy(hi);
+    cr_mesh_destroy(body);
+}

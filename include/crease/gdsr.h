@@ -50,8 +50,9 @@ typedef struct cr_gdsr_data {
     cr_mesh *low, *high, *body; /* rest meshes (low and high with UVs) */
     int32_t *face;              /* (Vh) low face under each high vertex (Eq. 1) */
     float *bary;                /* (Vh,3) its barycentric weights */
-    int32_t *coarse_from_high;  /* (Vl) high vertex nearest each low vertex at rest: the
-                                   ground-truth coarse shape C*_i = high[coarse_from_high[i]] */
+    int32_t *coarse_face;       /* (Vl) high face under each low vertex through the UVs */
+    float *coarse_bary;         /* (Vl,3) its barycentric weights: the ground-truth coarse
+                                   shape C* = cr_gdsr_coarse_target(high simulation) */
     int32_t nclips;
     cr_gdsr_clip clip[CR_GDSR_MAX_CLIPS];
 } cr_gdsr_data;
@@ -70,6 +71,10 @@ cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, cons
                                    const float *high_frames, const float *body_frames,
                                    cr_gdsr_data *out, cr_error *err);
 void cr_gdsr_data_free(cr_gdsr_data *d); /* zeroes it; a zeroed struct is a no-op */
+
+/* C*: the high positions high_pos (Vh,3) sampled at each low vertex's
+ * point on the high mesh (coarse_face, coarse_bary): out (Vl,3). */
+void cr_gdsr_coarse_target(const cr_gdsr_data *d, const float *high_pos, float *out);
 
 /* Barycentric upsampling (Eq. 1 applied to low positions (Vl,3)): out (Vh,3). */
 void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out);

@@ -301,9 +301,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
                 for (int64_t i = 0; i < nl3; i++)
                     cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
-                for (int32_t i = 0; i < low->nv; i++)
-                    for (int k = 0; k < 3; k++)
-                        cstar[3 * i + k] = ht[3 * d->coarse_from_high[i] + k];
+                cr_gdsr_coarse_target(d, ht, cstar);
                 frame_features(d, &g, cl->low, t, cin, bp[c] + t * nl3, &fs, def->model.sigma_b,
                                node, e0, e1);
                 cr_nn_ctx_reset(ctx);
