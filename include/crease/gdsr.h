@@ -6,7 +6,7 @@
  *   load a low/high pair and clips from a `crease dataset` folder   cr_gdsr_data_load
  *   graph features of Eq. 2-5 for one frame                        cr_gdsr_features
  *   the model: Mesh-Graph-Net H, decoder E, Mesh-Hyper-Net A       cr_gdsr_model_*
- *   training (Eq. 13-19 subset), resumable checkpoints             cr_gdsr_train
+ *   training (Eq. 13-25 subset), resumable checkpoints             cr_gdsr_train
  *   roll-out on a clip, collision handling (Eq. 26-27), baselines  cr_gdsr_rollout
  *
  * Pipeline per frame t (docs/gdsr.md):
