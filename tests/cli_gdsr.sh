@@ -51,6 +51,15 @@ check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" norm
   better "$tmp/w.json" normal_angle_deg 1.0
 check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
 expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
+# the strain L1 and the wrinkle loss on, one epoch, under the paper's first lambdas: their
+# terms are logged and above zero
+positive() { awk -v v="$(vals "$1" "$2")" 'BEGIN { exit !(v + 0 > 0) }'; }
+check "gdsr train with strain L1 and wrinkle" bash -c "'$crease' gdsr train ${small[*]} --epochs 1 \
+  --w-strain-l1 0.01 --w-wrinkle 0.01 --wrinkle-side 64 --lambda-c0 1.9 --lambda-w0 0.1 \
+  -o '$tmp/m3' --json > '$tmp/t3.json'"
+check "lambdas logged" grep -q '"lambda_c":1.9,"lambda_w":0.1,' "$tmp/m3/log.jsonl"
+check "strain_l1 above 0 ($(vals "$tmp/t3.json" strain_l1))" positive "$tmp/t3.json" strain_l1
+check "wrinkle above 0 ($(vals "$tmp/t3.json" wrinkle))" positive "$tmp/t3.json" wrinkle
 
 echo "cli_gdsr: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

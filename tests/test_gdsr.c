@@ -455,3 +455,198 @@ CR_TEST(gdsr, regulariser_gradients_match_finite_differences) {
     cr_gdsr_reg_free(&reg);
     cr_gdsr_data_free(&d);
 }
+
+/* The largest |d(f)/d(x)| of a scalar built by fn: the gradient checks below
+ * are only worth something when it is of order one (the checker's tolerance
+ * is absolute below 1). */
+static float max_grad(nn_gradcheck_fn fn, void *user, float *x, int64_t nv) {
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)32 << 20);
+    if (!ctx) return -1.0f;
+    cr_tensor *X = cr_nn_from(ctx, 2, (int64_t[]){nv, 3}, x);
+    X->requires_grad = 1;
+    cr_tensor *in[1] = {X};
+    cr_error err = {0};
+    float g = -1.0f;
+    if (cr_nn_backward(ctx, fn(ctx, in, user), &err) == CR_OK && X->grad) {
+        g = 0.0f;
+        for (int64_t i = 0; i < nv * 3; i++)
+            g = fmaxf(g, fabsf(X->grad[i]));
+    }
+    cr_nn_ctx_destroy(ctx);
+    return g;
+}
+
+/* Eq. 16-18's strain L1: zero at the reference, 0.2 for the rest sheet
+ * scaled by 1.1 in its plane against itself at rest (|w_u| = |w_v| = 1.1,
+ * w_u . w_v = 0), and its gradient against central differences. */
+typedef struct strain_check {
+    gdsr_reg *reg;
+    const float *ref;
+    float scale;
+} strain_check;
+
+static cr_tensor *build_strain(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    strain_check *c = user;
+    return cr_nn_mul_scalar(ctx, cr_gdsr_reg_strain_l1(ctx, c->reg, in[0], c->ref), c->scale);
+}
+
+CR_TEST(gdsr, strain_l1_is_zero_at_the_reference_and_its_gradient_matches_fd) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_reg reg;
+    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
+    int64_t n = (int64_t)hi->nv * 3;
+    float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    CR_REQUIRE(ctx != NULL);
+    deform(hi, ref, 0.01f);
+    cr_tensor *l =
+        cr_gdsr_reg_strain_l1(ctx, &reg, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, ref), ref);
+    CR_CHECK(fabsf(l->data[0]) < 1e-6f);
+    for (int64_t i = 0; i < n; i++)
+        x[i] = 1.1f * hi->pos[i];
+    cr_nn_ctx_reset(ctx);
+    l = cr_gdsr_reg_strain_l1(ctx, &reg, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), hi->pos);
+    CR_CHECK_NEAR(l->data[0], 0.2, 1e-5);
+    /* x = ref stretched by 1.3 and 1.2 and sheared by 0.3 in its plane, plus
+     * 1 mm of noise: every term stays clear of |.|'s kink */
+    nn_gradcheck_fill(x, n, -0.001f, 0.001f, 0.0f, 11);
+    for (int32_t i = 0; i < hi->nv; i++) {
+        const float *r = ref + 3 * i;
+        x[3 * i] += 1.3f * r[0] + 0.3f * r[2];
+        x[3 * i + 1] += r[1];
+        x[3 * i + 2] += 1.2f * r[2];
+    }
+    strain_check c = {.reg = &reg, .ref = ref, .scale = 3.0f};
+    float g = max_grad(build_strain, &c, x, hi->nv);
+    CR_CHECK(g > 0.5f && g < 50.0f);
+    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = "strain_l1";
+    gd.step = 2e-4;
+    gd.max_elems = 60;
+    gd.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_strain, &c, &res) == 0);
+    CR_CHECK(res.checked == 60);
+    cr_nn_ctx_destroy(ctx);
+    free(x);
+    free(ref);
+    cr_gdsr_reg_free(&reg);
+    cr_gdsr_data_free(&d);
+}
+
+typedef struct wrinkle_check {
+    gdsr_wrinkle *w;
+    const float *ref;
+    float scale;
+} wrinkle_check;
+
+static cr_tensor *build_wrinkle(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    wrinkle_check *c = user;
+    return cr_nn_mul_scalar(ctx, cr_gdsr_wrinkle_loss(ctx, c->w, in[0], c->ref), c->scale);
+}
+
+/* The wrinkle loss (Eq. 20, filter bank): the flat sheet's map is its
+ * normal everywhere; zero at the reference; a ripple the reference has and
+ * x lacks costs more than half of it; the gradient against central
+ * differences. */
+CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_wrinkle w;
+    CR_CHECK(cr_gdsr_wrinkle_create(hi, 4, &w, &err) == CR_ERR_INVALID); /* side < 8 */
+    CR_REQUIRE(cr_gdsr_wrinkle_create(hi, 16, &w, &err) == CR_OK);
+    CR_CHECK(w.ntex == 16 * 16); /* the plane's UVs fill their bounds */
+    CR_CHECK(w.nvalid[0] == 14 * 14 && w.nvalid[1] == 12 * 12 && w.nvalid[2] == 8 * 8);
+    int64_t n = (int64_t)hi->nv * 3;
+    float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    CR_REQUIRE(ctx != NULL);
+    cr_tensor *tn =
+        cr_gdsr_wrinkle_normals(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, hi->pos));
+    float m0 = 1.0f;
+    for (int64_t t = 0; t < w.ntex; t++)
+        m0 = fminf(m0, fabsf(tn->data[3 * t + 1])); /* plane in x-z: normal along y */
+    CR_CHECK(m0 > 0.9999f);
+    deform(hi, ref, 0.01f);
+    cr_nn_ctx_reset(ctx);
+    cr_tensor *l =
+        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, ref), ref);
+    CR_CHECK(l->data[0] == 0.0f);
+    deform(hi, x, 0.0f); /* the same stretch and shear, no ripple */
+    cr_nn_ctx_reset(ctx);
+    float flat =
+        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref)->data[0];
+    deform(hi, x, 0.005f); /* half the ripple */
+    cr_nn_ctx_reset(ctx);
+    float half =
+        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref)->data[0];
+    CR_CHECK(flat > 0.01f && half > 0.3f * flat && half < 0.7f * flat);
+    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 12);
+    for (int64_t i = 0; i < n; i++)
+        x[i] += ref[i];
+    wrinkle_check c = {.w = &w, .ref = ref, .scale = 5.0f};
+    float g = max_grad(build_wrinkle, &c, x, hi->nv);
+    CR_CHECK(g > 0.5f && g < 50.0f);
+    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = "wrinkle";
+    gd.step = 1e-4;
+    gd.max_elems = 60;
+    gd.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
+    CR_CHECK(res.checked == 60);
+    cr_nn_ctx_destroy(ctx);
+    free(x);
+    free(ref);
+    cr_gdsr_wrinkle_free(&w);
+    cr_gdsr_data_free(&d);
+}
+
+CR_TEST(gdsr, lambda_schedule_is_the_papers) {
+    cr_gdsr_train_def def = cr_gdsr_train_default_def();
+    float c, w;
+    cr_gdsr_lambdas(&def, 37, &c, &w);
+    CR_CHECK(c == 1.0f && w == 1.0f); /* default: constant */
+    def.lambda_c0 = 1.9f, def.lambda_w0 = 0.1f;
+    const int ep[5] = {0, 9, 10, 45, 50};
+    const float wc[5] = {1.9f, 1.9f, 1.7f, 1.1f, 1.0f}, ww[5] = {0.1f, 0.1f, 0.3f, 0.9f, 1.0f};
+    for (int k = 0; k < 5; k++) {
+        cr_gdsr_lambdas(&def, ep[k], &c, &w);
+        CR_CHECK_NEAR(c, wc[k], 1e-5);
+        CR_CHECK_NEAR(w, ww[k], 1e-5);
+    }
+    cr_gdsr_lambdas(&def, 500, &c, &w);
+    CR_CHECK(c == 1.0f && w == 1.0f);
+}
+
+/* C* of the high rest mesh is the low rest mesh, also where no high vertex
+ * sits on a low one (a 5x5 sheet over an 8x8 one; the nearest high vertex,
+ * the operator before, was up to half a high cell off). */
+CR_TEST(gdsr, coarse_target_of_the_rest_is_the_low_rest) {
+    cr_error err = {0};
+    cr_mesh *lo = NULL, *hi = NULL, *body = NULL;
+    CR_REQUIRE(cr_prim_plane(5, 5, 0.4f, 0.4f, &lo, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_plane(8, 8, 0.4f, 0.4f, &hi, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_icosphere(0.05f, 1, &body, &err) == CR_OK);
+    cr_gdsr_data d;
+    CR_REQUIRE(cr_gdsr_data_from_arrays(lo, hi, body, 1, lo->pos, hi->pos, body->pos, &d, &err) ==
+               CR_OK);
+    float *c = malloc((size_t)lo->nv * 3 * sizeof(float));
+    cr_gdsr_coarse_target(&d, hi->pos, c);
+    float worst = 0.0f;
+    for (int64_t i = 0; i < (int64_t)lo->nv * 3; i++)
+        worst = fmaxf(worst, fabsf(c[i] - lo->pos[i]));
+    CR_CHECK(worst < 1e-5f);
+    free(c);
+    cr_gdsr_data_free(&d);
+    cr_mesh_destroy(lo);
+    cr_mesh_destroy(hi);
+    cr_mesh_destroy(body);
+}

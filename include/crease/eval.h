@@ -227,6 +227,14 @@ float cr_eval_chart_scale(const cr_mesh *m);
 cr_status cr_eval_curvature_spectrum(const cr_mesh *m, double *h_rms, double band[CR_EVAL_H_BANDS],
                                      cr_error *err);
 
+/* The pixels of the normal maps SSIM compares: side x side over m's UV
+ * bounds, row 0 at the top (highest v); per pixel the triangle under its
+ * centre (face (side^2), -1 outside the chart) and its barycentrics (bary
+ * (side^2,3)). *inside (may be NULL) gets the count of pixels on the chart.
+ * CR_ERR_INVALID without UVs. */
+cr_status cr_eval_uv_raster(const cr_mesh *m, int side, int32_t *face, double *bary,
+                            int64_t *inside, cr_error *err);
+
 /* ---------------------------------------------------------------- SSIM -- */
 
 /* Mean SSIM (Wang, Bovik, Sheikh, Simoncelli 2004) of two images a, b (H,W,C)

@@ -6,7 +6,7 @@
  *   load a low/high pair and clips from a `crease dataset` folder   cr_gdsr_data_load
  *   graph features of Eq. 2-5 for one frame                        cr_gdsr_features
  *   the model: Mesh-Graph-Net H, decoder E, Mesh-Hyper-Net A       cr_gdsr_model_*
- *   training (Eq. 13-19 subset), resumable checkpoints             cr_gdsr_train
+ *   training (Eq. 13-25 subset), resumable checkpoints             cr_gdsr_train
  *   roll-out on a clip, collision handling (Eq. 26-27), baselines  cr_gdsr_rollout
  *
  * Pipeline per frame t (docs/gdsr.md):
@@ -50,8 +50,9 @@ typedef struct cr_gdsr_data {
     cr_mesh *low, *high, *body; /* rest meshes (low and high with UVs) */
     int32_t *face;              /* (Vh) low face under each high vertex (Eq. 1) */
     float *bary;                /* (Vh,3) its barycentric weights */
-    int32_t *coarse_from_high;  /* (Vl) high vertex nearest each low vertex at rest: the
-                                   ground-truth coarse shape C*_i = high[coarse_from_high[i]] */
+    int32_t *coarse_face;       /* (Vl) high face under each low vertex through the UVs */
+    float *coarse_bary;         /* (Vl,3) its barycentric weights: the ground-truth coarse
+                                   shape C* = cr_gdsr_coarse_target(high simulation) */
     int32_t nclips;
     cr_gdsr_clip clip[CR_GDSR_MAX_CLIPS];
 } cr_gdsr_data;
@@ -70,6 +71,10 @@ cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, cons
                                    const float *high_frames, const float *body_frames,
                                    cr_gdsr_data *out, cr_error *err);
 void cr_gdsr_data_free(cr_gdsr_data *d); /* zeroes it; a zeroed struct is a no-op */
+
+/* C*: the high positions high_pos (Vh,3) sampled at each low vertex's
+ * point on the high mesh (coarse_face, coarse_bary): out (Vl,3). */
+void cr_gdsr_coarse_target(const cr_gdsr_data *d, const float *high_pos, float *out);
 
 /* Barycentric upsampling (Eq. 1 applied to low positions (Vl,3)): out (Vh,3). */
 void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out);
@@ -183,6 +188,20 @@ typedef struct cr_gdsr_train_def {
      * membrane and bending through the loss op (losses.h); rest shape the
      * rest high mesh laid flat (crease eval's default). */
     float w_stretch, w_shear, w_bend, w_laplacian;
+    /* w_strain_l1  Eq. 16-18 / 21-23: mean over triangles of ||w_u(X)| - |w_u(X_ref)|| +
+     *              ||w_v(X)| - |w_v(X_ref)|| + |w_u.w_v(X) - w_u.w_v(X_ref)| (default 0)
+     * w_wrinkle    Eq. 20's feature term, a fixed filter bank for VGG: L1 of oriented
+     *              first and second differences (steps 1, 2, 4 texels) of X's and
+     *              X_ref's normal maps over the UV chart, summed over steps (default 0)
+     * wrinkle_side the normal map's side in texels (default 128) */
+    float w_strain_l1, w_wrinkle;
+    int wrinkle_side;
+    /* Eq. 25's schedule: lambda_c (coarse term) starts at lambda_c0 and lambda_w
+     * (every fine-garment term) at lambda_w0; every lambda_every epochs each moves
+     * lambda_step toward 1 and stops there. The paper: 1.9, 0.1, 0.2, 10. Default
+     * 1, 1 (constant). */
+    float lambda_c0, lambda_w0, lambda_step;
+    int lambda_every;
     int val_clips;        /* the last val_clips clips of the data are not trained on: each epoch
                              rolls them out and logs their MED against upsampling's (default 0) */
     int checkpoint_every; /* epochs between checkpoints (default 5; 0: at the end) */
@@ -193,6 +212,8 @@ typedef struct cr_gdsr_train_def {
 } cr_gdsr_train_def;
 
 cr_gdsr_train_def cr_gdsr_train_default_def(void);
+/* lambda_c and lambda_w of Eq. 25 at epoch ep (0-based) under def's schedule. */
+void cr_gdsr_lambdas(const cr_gdsr_train_def *def, int ep, float *lambda_c, float *lambda_w);
 
 typedef struct cr_gdsr_train_result {
     int epochs;        /* completed (including resumed ones) */
@@ -201,6 +222,7 @@ typedef struct cr_gdsr_train_result {
     double last_loss;  /* of the last */
     double last_coarse, last_fine, last_normal;
     double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
+    double last_strain_l1, last_wrinkle;                        /* (0 when their weight is) */
     double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
     double seconds;
     int64_t params;

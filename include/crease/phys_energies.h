@@ -55,6 +55,8 @@ void cr_membrane_destroy(cr_membrane *e);
  * where it is PSD already. CR_HESSIAN_GAUSS_NEWTON drops the stress term. */
 void cr_membrane_set_hessian(cr_membrane *e, cr_hessian_mode mode);
 const double *cr_membrane_rest_areas(const cr_membrane *e); /* (F) m^2 */
+/* (F,4) Dm^-1 per triangle, row-major 2x2, 1/m: w_u, w_v = Ds Dm^-1's columns. */
+const double *cr_membrane_rest_dminv(const cr_membrane *e);
 void cr_membrane_term(const cr_membrane *e, cr_energy_term *out);
 
 /* The membrane's stretch or shear part alone (epnet's STE and SHE). For

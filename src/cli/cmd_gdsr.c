@@ -36,6 +36,14 @@ void help_gdsr(void) {
         "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
         "                       (default 0.1)\n"
         "  --w-laplacian W      L1 of the uniform Laplacian of the error, m (default 1)\n"
+        "  --w-strain-l1 W      L1 of |w_u|, |w_v|, w_u.w_v against the reference's, mean\n"
+        "                       over triangles (Eq. 16-18, 21-23; default 0)\n"
+        "  --w-wrinkle W        L1 of a filter bank's responses to the output's and the\n"
+        "                       reference's UV normal maps (Eq. 20 without VGG; default 0)\n"
+        "  --wrinkle-side N     that normal map's side in texels (default 128)\n"
+        "  --lambda-c0 L --lambda-w0 L   Eq. 25's weights of the coarse and the fine terms\n"
+        "                       at the start (default 1, 1; the paper's 1.9, 0.1), moved\n"
+        "  --lambda-step S --lambda-every N   S toward 1 every N epochs (default 0.2, 10)\n"
         "  --out-scale S        E's and A's outputs times S m (default 0.01; small = a gentle\n"
         "                       start from upsampling)\n"
         "  --val-motions LIST   held-out clips rolled out each epoch: log.jsonl's val_med_m\n"
@@ -90,6 +98,13 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
         CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
         CLI_FLOAT("--w-laplacian", &def.w_laplacian, 0, 1e6),
+        CLI_FLOAT("--w-strain-l1", &def.w_strain_l1, 0, 1e6),
+        CLI_FLOAT("--w-wrinkle", &def.w_wrinkle, 0, 1e6),
+        CLI_INT("--wrinkle-side", &def.wrinkle_side, 8, 2048),
+        CLI_FLOAT("--lambda-c0", &def.lambda_c0, 1e-3, 100),
+        CLI_FLOAT("--lambda-w0", &def.lambda_w0, 1e-3, 100),
+        CLI_FLOAT("--lambda-step", &def.lambda_step, 0, 100),
+        CLI_INT("--lambda-every", &def.lambda_every, 1, 100000),
         CLI_FLOAT("--out-scale", &out_scale, 1e-6, 10),
         CLI_STR("--val-motions", &val),
         CLI_FLAG("--no-decoder", &nodec),
@@ -163,6 +178,8 @@ static int cmd_train(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "shear", r.last_shear);
         cJSON_AddNumberToObject(j, "bend", r.last_bend);
         cJSON_AddNumberToObject(j, "laplacian_l1_m", r.last_laplacian);
+        cJSON_AddNumberToObject(j, "strain_l1", r.last_strain_l1);
+        cJSON_AddNumberToObject(j, "wrinkle", r.last_wrinkle);
         if (def.val_clips > 0) {
             cJSON_AddNumberToObject(j, "val_med_m", r.last_val_med);
             cJSON_AddNumberToObject(j, "val_upsampled_med_m", r.val_upsampled_med);

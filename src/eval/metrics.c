@@ -258,19 +258,33 @@ static cr_status normal_map_setup(eval_ctx *c, cr_error *err) {
     c->img_p = cr_calloc(n * 3, sizeof(float), err);
     c->img_r = cr_calloc(n * 3, sizeof(float), err);
     if (!c->pix_face || !c->pix_bary || !c->mask || !c->img_p || !c->img_r) return CR_ERR_MEMORY;
+    CR_TRY(cr_eval_uv_raster(g, S, c->pix_face, c->pix_bary, NULL, err));
+    for (size_t k = 0; k < n; k++)
+        c->mask[k] = c->pix_face[k] >= 0;
+    return CR_OK;
+}
+
+cr_status cr_eval_uv_raster(const cr_mesh *m, int side, int32_t *face, double *bary,
+                            int64_t *inside, cr_error *err) {
+    if (!cr_mesh_has_uv(m)) return CR_FAIL(err, CR_ERR_INVALID, "uv raster: the mesh has no UVs");
+    if (side < 1) return CR_FAIL(err, CR_ERR_INVALID, "uv raster: side %d < 1", side);
     cr_uv_lookup *lk = NULL;
-    CR_TRY(cr_uv_lookup_build(g, 0, &lk, err));
+    CR_TRY(cr_uv_lookup_build(m, 0, &lk, err));
     float lo[2], hi[2];
     cr_uv_lookup_bounds(lk, lo, hi);
-    for (int i = 0; i < S; i++)
-        for (int j = 0; j < S; j++) {
-            size_t k = (size_t)i * S + j;
-            float u = lo[0] + (hi[0] - lo[0]) * (j + 0.5f) / S;
-            float v = hi[1] - (hi[1] - lo[1]) * (i + 0.5f) / S; /* row 0 at the top */
-            c->mask[k] = (uint8_t)cr_uv_lookup_find(lk, u, v, &c->pix_face[k], &c->pix_bary[3 * k]);
-            if (!c->mask[k]) c->pix_face[k] = -1;
+    int64_t in = 0;
+    for (int i = 0; i < side; i++)
+        for (int j = 0; j < side; j++) {
+            size_t k = (size_t)i * side + j;
+            float u = lo[0] + (hi[0] - lo[0]) * (j + 0.5f) / side;
+            float v = hi[1] - (hi[1] - lo[1]) * (i + 0.5f) / side; /* row 0 at the top */
+            if (cr_uv_lookup_find(lk, u, v, &face[k], &bary[3 * k]))
+                in++;
+            else
+                face[k] = -1;
         }
     cr_uv_lookup_destroy(lk);
+    if (inside) *inside = in;
     return CR_OK;
 }
 

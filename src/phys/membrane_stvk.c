@@ -108,6 +108,10 @@ const double *cr_membrane_rest_areas(const cr_membrane *m) {
     return m->area;
 }
 
+const double *cr_membrane_rest_dminv(const cr_membrane *m) {
+    return m->dminv;
+}
+
 void cr_membrane_term(const cr_membrane *m, cr_energy_term *out) {
     cr_membrane_term_part(m, CR_MEMBRANE_ALL, out);
 }

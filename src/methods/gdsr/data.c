@@ -20,7 +20,8 @@ void cr_gdsr_data_free(cr_gdsr_data *d) {
     cr_mesh_destroy(d->body);
     free(d->face);
     free(d->bary);
-    free(d->coarse_from_high);
+    free(d->coarse_face);
+    free(d->coarse_bary);
     for (int i = 0; i < d->nclips; i++) {
         free(d->clip[i].low);
         free(d->clip[i].high);
@@ -29,25 +30,23 @@ void cr_gdsr_data_free(cr_gdsr_data *d) {
     memset(d, 0, sizeof *d);
 }
 
-/* C*: for each low vertex the high vertex nearest it at rest (brute force
- * over a coarse grid would be faster; V_l V_h is a few million here). */
-static cr_status nearest_high(cr_gdsr_data *d, cr_error *err) {
-    int32_t nl = d->low->nv, nh = d->high->nv;
-    d->coarse_from_high = malloc((size_t)nl * sizeof(int32_t));
-    if (!d->coarse_from_high) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-    for (int32_t i = 0; i < nl; i++) {
-        const float *p = d->low->pos + 3 * i;
-        double best = INFINITY;
-        int32_t bk = 0;
-        for (int32_t k = 0; k < nh; k++) {
-            const float *q = d->high->pos + 3 * k;
-            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-            double s = dx * dx + dy * dy + dz * dz;
-            if (s < best) best = s, bk = k;
-        }
-        d->coarse_from_high[i] = bk;
-    }
-    return CR_OK;
+/* C*'s operator: each low vertex's point on the high mesh through the UVs
+ * (Eq. 1's correspondence the other way round), so at rest C* is the low
+ * rest mesh. (The high vertex nearest each low vertex, used before, was up
+ * to half a high edge off: S[C*] then had 28x the strain of S[C] on the
+ * held-out walk, and the coarse L1 pulled C^ toward it; docs/gdsr.md.) */
+static cr_status coarse_operator(cr_gdsr_data *d, cr_error *err) {
+    int32_t nl = d->low->nv;
+    d->coarse_face = malloc((size_t)nl * sizeof(int32_t));
+    d->coarse_bary = malloc((size_t)nl * 3 * sizeof(float));
+    if (!d->coarse_face || !d->coarse_bary)
+        return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    return cr_garment_correspondence(d->high, d->low, d->coarse_face, d->coarse_bary, err);
+}
+
+void cr_gdsr_coarse_target(const cr_gdsr_data *d, const float *high_pos, float *out) {
+    cr_garment_apply_correspondence(d->high, high_pos, d->coarse_face, d->coarse_bary, d->low->nv,
+                                    out);
 }
 
 void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out) {
@@ -114,7 +113,7 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
                 goto fail;
             }
     }
-    if ((st = nearest_high(out, err)) != CR_OK) goto fail;
+    if ((st = coarse_operator(out, err)) != CR_OK) goto fail;
     for (int i = 0; i < nmotions; i++) {
         cr_gdsr_clip *c = &out->clip[i];
         out->nclips = i + 1;
@@ -155,7 +154,7 @@ cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, cons
         goto fail;
     }
     if ((st = cr_garment_correspondence(low, high, out->face, out->bary, err)) != CR_OK) goto fail;
-    if ((st = nearest_high(out, err)) != CR_OK) goto fail;
+    if ((st = coarse_operator(out, err)) != CR_OK) goto fail;
     out->nclips = 1;
     cr_gdsr_clip *c = &out->clip[0];
     snprintf(c->motion, sizeof c->motion, "arrays");

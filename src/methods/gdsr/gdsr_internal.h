@@ -32,6 +32,10 @@ typedef struct gdsr_reg {
     float *lap_inv_deg; /* (V) */
     float *theta_ref;   /* (H) scratch: the reference's dihedral angles */
     double *xd;         /* (V,3) scratch */
+    int32_t nf;
+    int32_t *corner[3];   /* (F) each triangle's vertices */
+    float *cu[3], *cv[3]; /* (F) w_u = sum_i cu[i] x_i, w_v likewise (from Dm^-1) */
+    float *strain_ref;    /* (F,3) scratch: |w_u|, |w_v|, w_u . w_v of the reference */
 } gdsr_reg;
 
 cr_status cr_gdsr_reg_create(const cr_mesh *high, gdsr_reg *r, cr_error *err);
@@ -41,6 +45,40 @@ void cr_gdsr_reg_free(gdsr_reg *r); /* zeroes it; a zeroed struct is a no-op */
  * angles, L1 of the Laplacian of x - ref. */
 void cr_gdsr_reg_terms(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref,
                        cr_tensor **stretch, cr_tensor **shear, cr_tensor **bend, cr_tensor **lap);
+/* Eq. 16-18 / 21-23: the output's strain against the reference's, mean over
+ * triangles of ||w_u(x)| - |w_u(ref)|| + ||w_v(x)| - |w_v(ref)|| +
+ * |w_u.w_v(x) - w_u.w_v(ref)| (w from the rest mesh laid flat, as crease eval's
+ * e_u, e_v, e_uv). A scalar. */
+cr_tensor *cr_gdsr_reg_strain_l1(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref);
+
+/* The wrinkle loss of wrinkle.c (Eq. 20 with a fixed filter bank in place
+ * of VGG): the output's and the reference's normal maps over the UV chart,
+ * through oriented first and second differences at CR_GDSR_WRINKLE_SCALES
+ * scales, compared by L1. Built once from the rest high mesh. */
+enum { CR_GDSR_WRINKLE_SCALES = 3, CR_GDSR_WRINKLE_TAPS = 9 };
+typedef struct gdsr_wrinkle {
+    int32_t nv, nf, side;
+    int32_t *corner[3]; /* (F) each triangle's vertices */
+    int64_t ntex;       /* texels on the chart */
+    int32_t *tex_v[3];  /* (ntex) the corners of each texel's triangle */
+    float *tex_b[3];    /* (ntex) its barycentrics */
+    /* per scale, the texels whose eight neighbours at that step are on the
+     * chart: tap 0 the texel, taps 2d+1 / 2d+2 its + / - neighbour along
+     * direction d (rows, columns, both diagonals), as indices into the texels */
+    int64_t nvalid[CR_GDSR_WRINKLE_SCALES];
+    int32_t *tap[CR_GDSR_WRINKLE_SCALES][CR_GDSR_WRINKLE_TAPS];
+} gdsr_wrinkle;
+
+/* side: the normal map is side^2 texels over the UV bounds (needs UVs). */
+cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w, cr_error *err);
+void cr_gdsr_wrinkle_free(gdsr_wrinkle *w); /* zeroes it; a zeroed struct is a no-op */
+/* Unit normals (ntex,3) of x (V,3) at the texels: area-weighted vertex
+ * normals interpolated by the texel's barycentrics, normalised (crease
+ * eval's normal map before its (n + 1) / 2). */
+cr_tensor *cr_gdsr_wrinkle_normals(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x);
+/* sum over scales of the mean |R(x) - R(ref)| over the filter responses R: a scalar. */
+cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x,
+                                const float *ref);
 
 /* The model def as JSON (heap string) and back. */
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *def);

@@ -8,6 +8,7 @@
 
 #include "crease/losses.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -21,6 +22,12 @@ void cr_gdsr_reg_free(gdsr_reg *r) {
     free(r->lap_inv_deg);
     free(r->theta_ref);
     free(r->xd);
+    for (int k = 0; k < 3; k++) {
+        free(r->corner[k]);
+        free(r->cu[k]);
+        free(r->cv[k]);
+    }
+    free(r->strain_ref);
     memset(r, 0, sizeof *r);
 }
 
@@ -65,6 +72,27 @@ cr_status cr_gdsr_reg_create(const cr_mesh *high, gdsr_reg *r, cr_error *err) {
     for (int32_t i = 0; i < high->nv; i++)
         r->lap_inv_deg[i] = r->lap_inv_deg[i] > 0 ? 1.0f / r->lap_inv_deg[i] : 0.0f;
     r->nv = high->nv;
+    /* w_u, w_v as fixed combinations of the corners (phys/membrane.h's c_ij) */
+    r->nf = high->nf;
+    int ok = (r->strain_ref = malloc((size_t)high->nf * 3 * sizeof(float))) != NULL;
+    for (int k = 0; k < 3; k++) {
+        ok &= (r->corner[k] = malloc(((size_t)high->nf + 1) * sizeof(int32_t))) != NULL;
+        ok &= (r->cu[k] = malloc(((size_t)high->nf + 1) * sizeof(float))) != NULL;
+        ok &= (r->cv[k] = malloc(((size_t)high->nf + 1) * sizeof(float))) != NULL;
+    }
+    if (!ok) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto fail;
+    }
+    const double *D = cr_membrane_rest_dminv(r->membrane);
+    for (int32_t f = 0; f < high->nf; f++) {
+        const double *d = D + 4 * (int64_t)f;
+        for (int k = 0; k < 3; k++)
+            r->corner[k][f] = high->tri[3 * f + k];
+        r->cu[1][f] = (float)d[0], r->cv[1][f] = (float)d[1];
+        r->cu[2][f] = (float)d[2], r->cv[2][f] = (float)d[3];
+        r->cu[0][f] = (float)-(d[0] + d[2]), r->cv[0][f] = (float)-(d[1] + d[3]);
+    }
     return CR_OK;
 fail:
     cr_gdsr_reg_free(r);
@@ -103,4 +131,41 @@ void cr_gdsr_reg_terms(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *r
     *bend = th ? cr_loss_bending(ctx, r->bending, r->bending_norm, x, rest) : NULL;
     cr_tensor *e = cr_nn_sub(ctx, x, cr_nn_from(ctx, 2, (int64_t[]){r->nv, 3}, ref));
     *lap = cr_nn_mean(ctx, cr_nn_abs(ctx, laplacian(ctx, r, e)));
+}
+
+/* w_u and w_v (F,3) of positions x (V,3). */
+static void strain_w(cr_nn_ctx *ctx, const gdsr_reg *r, cr_tensor *x, cr_tensor **wu,
+                     cr_tensor **wv) {
+    *wu = *wv = NULL;
+    for (int k = 0; k < 3; k++) {
+        cr_tensor *p = cr_nn_gather_rows(ctx, x, r->corner[k], r->nf);
+        cr_tensor *a = cr_nn_mul(ctx, p, cr_nn_from(ctx, 2, (int64_t[]){r->nf, 1}, r->cu[k]));
+        cr_tensor *b = cr_nn_mul(ctx, p, cr_nn_from(ctx, 2, (int64_t[]){r->nf, 1}, r->cv[k]));
+        *wu = *wu ? cr_nn_add(ctx, *wu, a) : a;
+        *wv = *wv ? cr_nn_add(ctx, *wv, b) : b;
+    }
+}
+
+cr_tensor *cr_gdsr_reg_strain_l1(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref) {
+    /* the reference's |w_u|, |w_v|, w_u . w_v, in double on the host */
+    for (int32_t f = 0; f < r->nf; f++) {
+        double u[3] = {0, 0, 0}, v[3] = {0, 0, 0};
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++) {
+                double p = ref[3 * (int64_t)r->corner[k][f] + d];
+                u[d] += r->cu[k][f] * p, v[d] += r->cv[k][f] * p;
+            }
+        float *o = r->strain_ref + 3 * (int64_t)f;
+        o[0] = (float)sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        o[1] = (float)sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        o[2] = (float)(u[0] * v[0] + u[1] * v[1] + u[2] * v[2]);
+    }
+    cr_tensor *wu, *wv;
+    strain_w(ctx, r, x, &wu, &wv);
+    cr_tensor *s[3] = {cr_nn_norm(ctx, wu, 1e-12f), cr_nn_norm(ctx, wv, 1e-12f),
+                       cr_nn_dot(ctx, wu, wv)};
+    cr_tensor *m = cr_nn_concat(ctx, 3, s, 1); /* (F,3) */
+    cr_tensor *e = cr_nn_sub(ctx, m, cr_nn_from(ctx, 2, (int64_t[]){r->nf, 3}, r->strain_ref));
+    /* the mean over (F,3) is a third of the sum of the three per-triangle means */
+    return cr_nn_mul_scalar(ctx, cr_nn_mean(ctx, cr_nn_abs(ctx, e)), 3.0f);
 }

@@ -30,9 +30,25 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_shear = 1.0f,
                            .w_bend = 0.1f,
                            .w_laplacian = 1.0f,
+                           .wrinkle_side = 128,
+                           .lambda_c0 = 1.0f,
+                           .lambda_w0 = 1.0f,
+                           .lambda_step = 0.2f,
+                           .lambda_every = 10,
                            .checkpoint_every = 5,
                            .cookie = CR_GDSR_COOKIE};
     return d;
+}
+
+static float toward_one(float v0, float step, int k) {
+    float v = v0 > 1.0f ? v0 - step * k : v0 + step * k;
+    return (v0 > 1.0f) == (v > 1.0f) ? v : 1.0f;
+}
+
+void cr_gdsr_lambdas(const cr_gdsr_train_def *def, int ep, float *lambda_c, float *lambda_w) {
+    int k = def->lambda_every > 0 ? ep / def->lambda_every : 0;
+    *lambda_c = toward_one(def->lambda_c0, def->lambda_step, k);
+    *lambda_w = toward_one(def->lambda_w0, def->lambda_step, k);
 }
 
 /* Closest body point of every low vertex of every frame of a clip. */
@@ -161,9 +177,16 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     if (def->epochs < 1 || !(def->lr > 0) || def->lr_halve_every < 1 || !(def->noise_m >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: epochs >= 1, lr > 0, lr_halve_every >= 1, noise_m >= 0");
-    if (!(def->w_stretch >= 0 && def->w_shear >= 0 && def->w_bend >= 0 && def->w_laplacian >= 0))
+    if (!(def->w_stretch >= 0 && def->w_shear >= 0 && def->w_bend >= 0 && def->w_laplacian >= 0 &&
+          def->w_strain_l1 >= 0 && def->w_wrinkle >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian must be >= 0");
+                       "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian, w_strain_l1, "
+                       "w_wrinkle must be >= 0");
+    if (!(def->lambda_c0 > 0 && def->lambda_w0 > 0 && def->lambda_step >= 0 &&
+          def->lambda_every >= 1))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: lambda_c0, lambda_w0 > 0, lambda_step >= 0, "
+                       "lambda_every >= 1");
     if (def->val_clips < 0 || def->val_clips >= d->nclips)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: val_clips %d with %d clips (one or more must train)",
@@ -192,6 +215,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     int32_t *hcols[3] = {0};
     frame_state fs = {0};
     gdsr_reg reg = {0};
+    gdsr_wrinkle wr = {0};
     FILE *log = NULL;
     char ckpt[1100], model_path[1100], log_path[1100];
     snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
@@ -213,6 +237,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
     if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
     if ((st = cr_gdsr_reg_create(high, &reg, err)) != CR_OK) goto done;
+    if (def->w_wrinkle > 0 &&
+        (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &wr, err)) != CR_OK)
+        goto done;
     node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
     e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
     e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
@@ -263,8 +290,10 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         goto done;
     }
     for (int ep = epoch0; ep < def->epochs; ep++) {
-        double sum = 0, sc = 0, sf = 0, sn = 0, sr[4] = {0};
+        double sum = 0, sc = 0, sf = 0, sn = 0, sr[6] = {0};
         int64_t n = 0;
+        float lam_c, lam_w;
+        cr_gdsr_lambdas(def, ep, &lam_c, &lam_w);
         for (int c = 0; c < ntrain; c++) {
             const cr_gdsr_clip *cl = &d->clip[c];
             fs.have = 0;
@@ -272,9 +301,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
                 for (int64_t i = 0; i < nl3; i++)
                     cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
-                for (int32_t i = 0; i < low->nv; i++)
-                    for (int k = 0; k < 3; k++)
-                        cstar[3 * i + k] = ht[3 * d->coarse_from_high[i] + k];
+                cr_gdsr_coarse_target(d, ht, cstar);
                 frame_features(d, &g, cl->low, t, cin, bp[c] + t * nl3, &fs, def->model.sigma_b,
                                node, e0, e1);
                 cr_nn_ctx_reset(ctx);
@@ -290,12 +317,22 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 cr_tensor *ln = cr_nn_mean(
                     ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, X, high, hcols),
                                                   face_normals_t(ctx, Hs, high, hcols))));
-                cr_tensor *rt[4] = {0};
+                cr_tensor *rt[6] = {0};
                 cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
-                cr_tensor *terms[7] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3]};
-                const float w[7] = {def->w_coarse, def->w_fine, def->w_normal,   def->w_stretch,
-                                    def->w_shear,  def->w_bend, def->w_laplacian};
-                cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, 7, NULL);
+                if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &reg, X, ht);
+                if (def->w_wrinkle > 0) rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht);
+                /* Eq. 25: lambda_c on the coarse term, lambda_w on the fine garment's */
+                cr_tensor *all[9] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3], rt[4], rt[5]};
+                const float wall[9] = {
+                    lam_c * def->w_coarse,    lam_w * def->w_fine,      lam_w * def->w_normal,
+                    lam_w * def->w_stretch,   lam_w * def->w_shear,     lam_w * def->w_bend,
+                    lam_w * def->w_laplacian, lam_w * def->w_strain_l1, lam_w * def->w_wrinkle};
+                cr_tensor *terms[9];
+                float w[9];
+                int nt = 0;
+                for (int k = 0; k < 9; k++) /* the terms off (weight 0) were not built */
+                    if (all[k]) terms[nt] = all[k], w[nt++] = wall[k];
+                cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
                 if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
                 cr_nn_params_zero_grad(m->params);
                 if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
@@ -304,8 +341,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 sc += lc->data[0];
                 sf += lf->data[0];
                 sn += ln->data[0];
-                for (int k = 0; k < 4; k++)
-                    sr[k] += rt[k]->data[0];
+                for (int k = 0; k < 6; k++)
+                    sr[k] += rt[k] ? rt[k]->data[0] : 0.0;
                 n++;
                 state_push(&fs, chat->data, base, nl3);
             }
@@ -319,6 +356,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         out->last_shear = sr[1] / n;
         out->last_bend = sr[2] / n;
         out->last_laplacian = sr[3] / n;
+        out->last_strain_l1 = sr[4] / n;
+        out->last_wrinkle = sr[5] / n;
         if (ep == epoch0) out->first_loss = out->last_loss;
         out->last_val_med = out->val_upsampled_med = NAN;
         if (def->val_clips > 0 && (st = validate(m, d, ntrain, &out->last_val_med,
@@ -327,10 +366,12 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         fprintf(log,
                 "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
                 "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
-                "\"laplacian_l1_m\":%.9g,\"val_med_m\":%.9g,\"val_upsampled_med_m\":%.9g,"
-                "\"lr\":%.6g,\"seconds\":%.3f}\n",
+                "\"laplacian_l1_m\":%.9g,\"strain_l1\":%.9g,\"wrinkle\":%.9g,"
+                "\"lambda_c\":%.3g,\"lambda_w\":%.3g,\"val_med_m\":%.9g,"
+                "\"val_upsampled_med_m\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
                 ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
                 out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
+                out->last_strain_l1, out->last_wrinkle, (double)lam_c, (double)lam_w,
                 isnan(out->last_val_med) ? -1.0 : out->last_val_med,
                 isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
                 (double)cr_optim_lr(opt), cr_time_now() - t0);
@@ -376,6 +417,7 @@ done:
     free(fs.dprev);
     cr_gdsr_graph_free(&g);
     cr_gdsr_reg_free(&reg);
+    cr_gdsr_wrinkle_free(&wr);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);
     cr_gdsr_model_destroy(m);
