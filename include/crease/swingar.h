@@ -70,6 +70,9 @@ typedef struct cr_swingar_def {
 
 /* The paper's sizes (sec. IV). */
 cr_swingar_def cr_swingar_default_def(void);
+/* A named size applied to d (a default def): "paper" (unchanged), "cpu"
+ * (4 heads in E_g and E_s, for a 2-core machine) or "tiny" (tests). */
+cr_status cr_swingar_size_def(const char *size, cr_swingar_def *d, cr_error *err);
 /* CR_ERR_INVALID naming the field that is out of range or inconsistent. */
 cr_status cr_swingar_def_validate(const cr_swingar_def *def, cr_error *err);
 /* The def as a JSON object text (heap, caller frees) and back; unknown keys

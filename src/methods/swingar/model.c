@@ -41,6 +41,27 @@ cr_swingar_def cr_swingar_default_def(void) {
     return d;
 }
 
+cr_status cr_swingar_size_def(const char *size, cr_swingar_def *d, cr_error *err) {
+    if (!size || !d) return CR_FAIL(err, CR_ERR_INVALID, "swingar: NULL size or def");
+    if (strcmp(size, "paper") == 0) return CR_OK;
+    if (strcmp(size, "cpu") == 0) {
+        d->garment_heads = 4, d->state_heads = 4;
+    } else if (strcmp(size, "tiny") == 0) {
+        d->descriptor_len = 16;
+        d->garment_width[0] = 8, d->garment_width[1] = 12, d->garment_heads = 2;
+        d->shape_width[0] = 16, d->shape_width[1] = 8, d->shape_width[2] = 4;
+        d->motion_window = 8, d->motion_hidden = 12;
+        d->body_width[0] = 16, d->body_width[1] = 8, d->body_width[2] = 8;
+        d->state_width = 12, d->state_heads = 2;
+        d->blend_width[0] = 8, d->blend_width[1] = 12, d->blend_heads = 2;
+        d->corr_hidden = 8, d->corr_heads = 2, d->corr_width = 8;
+    } else {
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar: unknown size '%s' (paper, cpu or tiny)",
+                       size);
+    }
+    return CR_OK;
+}
+
 static int pos_int(int v) {
     return v >= 1 && v <= 65536;
 }
