@@ -271,15 +271,17 @@ cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {
     double encode_seconds;   /* the garment's encoding (E_g, E_a, skinning map), once */
-    size_t arena_peak_bytes; /* the arena's high-water mark: activations of one step */
+    size_t arena_peak_bytes; /* the arena's high-water mark: the garment's encoding and the
+                                activations of one step */
 } cr_swingar_predict_stats;
 
-/* nseq motions of one garment at once: the garment is encoded once, and
- * every step of the arena holds the next `chunk` frames of all nseq
- * sequences (a batch: memory grows with nseq). Each sequence keeps its last
- * two coarse graphs (M_c of eq. 6) between steps, so a frame's coarse shape
- * is computed once whatever the chunk. out[b] (T_b,V,3) caller-allocated;
- * stats may be NULL. cr_swingar_predict is this with nseq 1. */
+/* nseq motions of one garment in one call: the garment is encoded once
+ * (E_g, E_a, the skinning map), then each step of the arena predicts the
+ * next `chunk` frames of one sequence, so memory does not grow with nseq.
+ * Each sequence keeps its last two coarse graphs (M_c of eq. 6) between
+ * steps, so a frame's coarse shape is computed once whatever the chunk.
+ * out[b] (T_b,V,3) caller-allocated; stats may be NULL. cr_swingar_predict
+ * is this with nseq 1. */
 cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
                                    const cr_swingar_motion *mos, int32_t nseq, size_t arena_bytes,
                                    int32_t chunk, float *const *out,

@@ -335,6 +335,10 @@ static cr_tensor *forward_frames(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar
             coarse[k] = skin[k] = NULL;
             continue;
         }
+        if (k > 0 && t0 - 2 + k <= 0) { /* frames before 0 are frame 0 (pose, window): one copy */
+            coarse_feat[k] = coarse_feat[k - 1], coarse[k] = coarse[k - 1], skin[k] = skin[k - 1];
+            continue;
+        }
         int32_t f = clampi(t0 - 2 + k, 0, mo->nframes - 1);
         const float *pose = mo->poses + (size_t)f * J * 3;
         cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k, 1); /* (1,H) */
@@ -458,14 +462,16 @@ cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
     }
     double encode_s = cr_time_now() - t0s;
     for (int32_t t0 = 0; t0 < T && st == CR_OK; t0 += chunk) {
-        cr_nn_ctx_reset(ctx);
-        swg_genc w = {cr_nn_wrap(ctx, 2, (int64_t[]){V, H}, hG),
-                      cr_nn_wrap(ctx, 2, (int64_t[]){S, J}, hS),
-                      cr_nn_wrap(ctx, 2, (int64_t[]){V, J}, hL)};
-        /* every sequence's chunk in one step of the arena: a batch */
+        /* one step of the arena per sequence: holding all of them at once
+         * (a GPU's batch) multiplies the memory and buys nothing on a CPU,
+         * whose GEMMs are already (V x width) */
         for (int32_t b = 0; b < nseq && st == CR_OK; b++) {
             const cr_swingar_motion *mo = &mos[b];
             if (t0 >= mo->nframes) continue;
+            cr_nn_ctx_reset(ctx);
+            swg_genc w = {cr_nn_wrap(ctx, 2, (int64_t[]){V, H}, hG),
+                          cr_nn_wrap(ctx, 2, (int64_t[]){S, J}, hS),
+                          cr_nn_wrap(ctx, 2, (int64_t[]){V, J}, hL)};
             int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
             float *pb = prev + 2 * fsz * b;
             cr_tensor *y = forward_frames(ctx, m, g, &w, mo, t0, K, t0 > 0 ? pb : NULL, pb, NULL);
