@@ -6,10 +6,10 @@
  * vertices; the sequences are procedural clips (cr_motion_clip_names, the
  * first `batch`, cycled with a faster tempo when there are fewer). Each
  * model size (untrained weights: the cost does not depend on them) predicts
- * `frames` frames of one sequence (batch 1) and then the same frames of
- * `batch` sequences at once (cr_swingar_predict_batch), one frame per step
- * (chunk 1, the least memory). Then the reference simulator, Newton and VBD
- * at their defaults (30 fps), simulates `sim_frames` frames of the first
+ * batch x frames frames of one sequence (batch 1) and then `frames` frames
+ * of each of `batch` sequences in one call (cr_swingar_predict_batch: the
+ * garment encoded once), one frame per step (chunk 1, the least memory). Then the reference
+ * simulator, Newton and VBD at their defaults (30 fps), simulates `sim_frames` frames of the first
  * sequence on the same garment, from rest. Printed: fps of each, the
  * garment's encoding (once per garment), the arena's high-water mark (the
  * activations one step keeps) and the process's peak resident memory so far
@@ -56,14 +56,21 @@ static int bench_size(const char *size, const cr_swingar_garment *g, const cr_sw
     cr_swingar *m = NULL;
     if (cr_swingar_create(&d, 1, &m, &err) != CR_OK) return fail(size, &err);
     const int64_t V = g->rest->nv, np = cr_nn_params_numel(cr_swingar_params(m));
+    /* the same number of frames both ways: batch 1 runs B x frames frames of
+     * the first sequence, batch B the first `frames` of each */
     float *out[MAX_BATCH];
     for (int b = 0; b < B; b++)
-        if (!(out[b] = malloc(sizeof(float) * 3 * (size_t)V * (size_t)frames))) return 1;
+        if (!(out[b] = malloc(sizeof(float) * 3 * (size_t)V * (size_t)(b ? frames : B * frames))))
+            return 1;
+    cr_swingar_motion seq[MAX_BATCH];
+    for (int b = 0; b < B; b++)
+        seq[b] = mos[b], seq[b].nframes = frames;
     int ns[2] = {1, B};
     for (int k = 0; k < 2; k++) {
         cr_swingar_predict_stats ps = {0};
         double t0 = cr_time_now();
-        cr_status st = cr_swingar_predict_batch(m, g, mos, ns[k], arena, 1, out, &ps, &err);
+        cr_status st = k == 0 ? cr_swingar_predict_batch(m, g, mos, 1, arena, 1, out, &ps, &err)
+                              : cr_swingar_predict_batch(m, g, seq, B, arena, 1, out, &ps, &err);
         double s = cr_time_now() - t0;
         if (st != CR_OK) {
             printf("swingar %s batch %d: failed: %s (peak RSS %.2f GiB)\n", size, ns[k], err.msg,
@@ -72,12 +79,12 @@ static int bench_size(const char *size, const cr_swingar_garment *g, const cr_sw
             continue;
         }
         double per = s - ps.encode_seconds; /* the frames, without the garment's encoding */
+        const int each = k == 0 ? B * frames : frames, total = B * frames;
         printf("swingar %s (%lld parameters) V=%lld batch %d: %.3f fps (%d frames each, %.2f s; "
                "garment encoding %.2f s once, %.3f fps with it); arena peak %.2f GiB, peak RSS "
                "%.2f GiB\n",
-               size, (long long)np, (long long)V, ns[k], ns[k] * frames / per, frames, per,
-               ps.encode_seconds, ns[k] * frames / s, ps.arena_peak_bytes / 1073741824.0,
-               maxrss_gib());
+               size, (long long)np, (long long)V, ns[k], total / per, each, per, ps.encode_seconds,
+               total / s, ps.arena_peak_bytes / 1073741824.0, maxrss_gib());
         fflush(stdout);
     }
     for (int b = 0; b < B; b++)
@@ -145,7 +152,7 @@ int main(int argc, char **argv) {
     const char *const *names = cr_motion_clip_names(&nclips);
     cr_motion *mo[MAX_BATCH];
     cr_swingar_motion sm[MAX_BATCH];
-    int T = frames > sim_frames ? frames : sim_frames;
+    int T = B * frames > sim_frames ? B * frames : sim_frames;
     for (int b = 0; b < B; b++) {
         cr_motion_clip_def cd = cr_motion_clip_default_def();
         cd.name = names[b % nclips];
