@@ -250,6 +250,24 @@ CR_TEST(swingar, loss_gradients_match_differences) {
     free(x);
 }
 
+CR_TEST(swingar, size_defs_are_valid) {
+    /* the CLI's --size and bench_swingar's sizes: each a valid def, the
+     * paper's unchanged, cpu with fewer heads, an unknown name refused */
+    cr_error err = {0};
+    const char *names[] = {"paper", "cpu", "tiny"};
+    int heads[3];
+    for (int i = 0; i < 3; i++) {
+        cr_swingar_def d = cr_swingar_default_def();
+        CR_CHECK_OK(cr_swingar_size_def(names[i], &d, &err), &err);
+        CR_CHECK_OK(cr_swingar_def_validate(&d, &err), &err);
+        heads[i] = d.garment_heads;
+    }
+    CR_CHECK(heads[0] == 24 && heads[1] == 4 && heads[2] == 2);
+    cr_swingar_def d = cr_swingar_default_def();
+    CR_CHECK(cr_swingar_size_def("huge", &d, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "huge") != NULL);
+}
+
 CR_TEST(swingar, def_round_trips_through_json) {
     cr_swingar_def a = tiny_def();
     a.alpha = 1.5f, a.norm = CR_GAT_NORM_RECEIVER, a.use_descriptor = 0;
