@@ -145,6 +145,73 @@ CR_TEST(swingar, untrained_model_is_the_skinned_garment) {
     cr_swingar_destroy(m);
 }
 
+/* Frames [0, T) of motion i in one forward, the reference for predict. */
+static float *one_forward(cr_swingar *m, const cr_swingar_garment *g, const cr_swingar_motion *mo) {
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = (size_t)256 << 20;
+    cr_nn_ctx *ctx = NULL;
+    cr_error err = {0};
+    if (cr_nn_ctx_create(&cd, &ctx, &err) != CR_OK) return NULL;
+    cr_nn_ctx_set_grad_enabled(ctx, 0);
+    cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, 0, mo->nframes, NULL);
+    float *out = y ? malloc(sizeof(float) * (size_t)y->numel) : NULL;
+    if (out) memcpy(out, y->data, sizeof(float) * (size_t)y->numel);
+    cr_nn_ctx_destroy(ctx);
+    return out;
+}
+
+static double max_diff(const float *a, const float *b, int64_t n) {
+    double d = 0;
+    for (int64_t i = 0; i < n; i++)
+        d = fmax(d, fabs((double)a[i] - b[i]));
+    return d;
+}
+
+CR_TEST(swingar, predict_chunks_and_batch_agree) {
+    /* predict keeps each sequence's last two coarse graphs between chunks
+     * and encodes the garment once: any chunk, alone or batched, gives what
+     * one forward over the whole motion gives (random heads, so the
+     * corrective shape depends on the frame triple) */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d && d->nsequences >= 2);
+    cr_swingar_def def = tiny_def();
+    def.zero_last = 0;
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    CR_CHECK_OK(cr_swingar_create(&def, 5, &m, &err), &err);
+    CR_REQUIRE(m);
+    const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
+    CR_REQUIRE(d->sequences[1].garment_index == d->sequences[0].garment_index);
+    cr_swingar_motion mo[2] = {seq_motion(d, 0), seq_motion(d, 1)};
+    const int64_t V = g->rest->nv;
+    float *ref[2] = {one_forward(m, g, &mo[0]), one_forward(m, g, &mo[1])};
+    CR_REQUIRE(ref[0] && ref[1]);
+    int64_t n[2] = {mo[0].nframes * V * 3, mo[1].nframes * V * 3};
+    float *out[2] = {malloc(sizeof(float) * (size_t)n[0]), malloc(sizeof(float) * (size_t)n[1])};
+    CR_REQUIRE(out[0] && out[1]);
+    /* the two motions differ: a mix-up of sequences would show */
+    double apart = max_diff(ref[0], ref[1], n[0] < n[1] ? n[0] : n[1]);
+    int chunks[3] = {1, 4, 8};
+    for (int c = 0; c < 3; c++) {
+        CR_CHECK_OK(cr_swingar_predict(m, g, &mo[0], (size_t)256 << 20, chunks[c], out[0], &err),
+                    &err);
+        double dc = max_diff(out[0], ref[0], n[0]);
+        printf("    chunk %d alone: max |predict - one forward| %.2e m\n", chunks[c], dc);
+        CR_CHECK(dc < 1e-5);
+    }
+    cr_swingar_predict_stats ps;
+    CR_CHECK_OK(cr_swingar_predict_batch(m, g, mo, 2, (size_t)256 << 20, 2, out, &ps, &err), &err);
+    double db = fmax(max_diff(out[0], ref[0], n[0]), max_diff(out[1], ref[1], n[1]));
+    printf("    batch of 2, chunk 2: %.2e m (the motions %.2e m apart); arena peak %zu bytes\n", db,
+           apart, ps.arena_peak_bytes);
+    CR_CHECK(db < 1e-5);
+    CR_CHECK(apart > 1e-3);
+    CR_CHECK(ps.arena_peak_bytes > 0);
+    CR_CHECK(cr_swingar_predict_batch(m, g, mo, 0, 0, 2, out, NULL, &err) == CR_ERR_INVALID);
+    free(out[0]), free(out[1]), free(ref[0]), free(ref[1]);
+    cr_swingar_destroy(m);
+}
+
 typedef struct loss_case {
     const cr_swingar_garment *g;
     const float *gt;
@@ -176,11 +243,29 @@ CR_TEST(swingar, loss_gradients_match_differences) {
     gd.step = 1e-4;
     gd.tol = 2e-2;
     gd.max_elems = 60;
-    gd.arena_bytes = (size_t)64 << 20;
+    gd.arena_bytes = (size_t)256 << 20;
     nn_gradcheck_result r;
     CR_CHECK(nn_gradcheck(&gd, 1, in, NULL, build_loss, &c, &r) == 0);
     printf("    %lld elements, max error %.2e\n", (long long)r.checked, r.max_err);
     free(x);
+}
+
+CR_TEST(swingar, size_defs_are_valid) {
+    /* the CLI's --size and bench_swingar's sizes: each a valid def, the
+     * paper's unchanged, cpu with fewer heads, an unknown name refused */
+    cr_error err = {0};
+    const char *names[] = {"paper", "cpu", "tiny"};
+    int heads[3];
+    for (int i = 0; i < 3; i++) {
+        cr_swingar_def d = cr_swingar_default_def();
+        CR_CHECK_OK(cr_swingar_size_def(names[i], &d, &err), &err);
+        CR_CHECK_OK(cr_swingar_def_validate(&d, &err), &err);
+        heads[i] = d.garment_heads;
+    }
+    CR_CHECK(heads[0] == 24 && heads[1] == 4 && heads[2] == 2);
+    cr_swingar_def d = cr_swingar_default_def();
+    CR_CHECK(cr_swingar_size_def("huge", &d, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "huge") != NULL);
 }
 
 CR_TEST(swingar, def_round_trips_through_json) {

@@ -70,6 +70,9 @@ typedef struct cr_swingar_def {
 
 /* The paper's sizes (sec. IV). */
 cr_swingar_def cr_swingar_default_def(void);
+/* A named size applied to d (a default def): "paper" (unchanged), "cpu"
+ * (4 heads in E_g and E_s, for a 2-core machine) or "tiny" (tests). */
+cr_status cr_swingar_size_def(const char *size, cr_swingar_def *d, cr_error *err);
 /* CR_ERR_INVALID naming the field that is out of range or inconsistent. */
 cr_status cr_swingar_def_validate(const cr_swingar_def *def, cr_error *err);
 /* The def as a JSON object text (heap, caller frees) and back; unknown keys
@@ -258,11 +261,31 @@ cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err);
 cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err);
 
 /* Predict a whole motion (frames 0..T-1) without gradients, `chunk` frames
- * per forward (0: 8; each forward also recomputes the two coarse frames
- * before its first): out (T,V,3) caller-allocated. arena_bytes 0: 512 MiB. */
+ * per forward (0: 8; the two coarse frames before a chunk's first are kept
+ * from the chunk before): out (T,V,3) caller-allocated. arena_bytes 0:
+ * 512 MiB. */
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
                              const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
                              float *out, cr_error *err);
+
+/* What a batched prediction measured. */
+typedef struct cr_swingar_predict_stats {
+    double encode_seconds;   /* the garment's encoding (E_g, E_a, skinning map), once */
+    size_t arena_peak_bytes; /* the arena's high-water mark: the garment's encoding and the
+                                activations of one step */
+} cr_swingar_predict_stats;
+
+/* nseq motions of one garment in one call: the garment is encoded once
+ * (E_g, E_a, the skinning map), then each step of the arena predicts the
+ * next `chunk` frames of one sequence, so memory does not grow with nseq.
+ * Each sequence keeps its last two coarse graphs (M_c of eq. 6) between
+ * steps, so a frame's coarse shape is computed once whatever the chunk.
+ * out[b] (T_b,V,3) caller-allocated; stats may be NULL. cr_swingar_predict
+ * is this with nseq 1. */
+cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
+                                   const cr_swingar_motion *mos, int32_t nseq, size_t arena_bytes,
+                                   int32_t chunk, float *const *out,
+                                   cr_swingar_predict_stats *stats, cr_error *err);
 
 #ifdef __cplusplus
 }

@@ -58,21 +58,6 @@ void help_swingar(void) {
 static const char *const sizes[] = {"paper", "cpu", "tiny", NULL};
 static const char *const affinities[] = {"geodesic", "euclidean", NULL};
 
-static void apply_size(const char *size, cr_swingar_def *d) {
-    if (strcmp(size, "cpu") == 0) {
-        d->garment_heads = 4, d->state_heads = 4;
-    } else if (strcmp(size, "tiny") == 0) {
-        d->descriptor_len = 16;
-        d->garment_width[0] = 8, d->garment_width[1] = 12, d->garment_heads = 2;
-        d->shape_width[0] = 16, d->shape_width[1] = 8, d->shape_width[2] = 4;
-        d->motion_window = 8, d->motion_hidden = 12;
-        d->body_width[0] = 16, d->body_width[1] = 8, d->body_width[2] = 8;
-        d->state_width = 12, d->state_heads = 2;
-        d->blend_width[0] = 8, d->blend_width[1] = 12, d->blend_heads = 2;
-        d->corr_hidden = 8, d->corr_heads = 2, d->corr_width = 8;
-    }
-}
-
 static int cmd_train(int argc, char **argv) {
     static cli_list held[3];
     for (int i = 0; i < 3; i++)
@@ -107,7 +92,8 @@ static int cmd_train(int argc, char **argv) {
     if (rc != CLI_OK) return rc;
     if (!dataset) return cli_usage("swingar train", "missing --dataset DIR");
     if (!out) return cli_usage("swingar train", "missing -o MODEL");
-    apply_size(size, &t.model);
+    cr_error serr = {0};
+    if (cr_swingar_size_def(size, &t.model, &serr) != CR_OK) return cli_fail(&serr);
     t.model.use_descriptor = !no_desc;
     t.seed = (uint64_t)seed;
     t.arena_bytes = (size_t)arena_mb << 20;

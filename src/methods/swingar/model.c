@@ -41,6 +41,27 @@ cr_swingar_def cr_swingar_default_def(void) {
     return d;
 }
 
+cr_status cr_swingar_size_def(const char *size, cr_swingar_def *d, cr_error *err) {
+    if (!size || !d) return CR_FAIL(err, CR_ERR_INVALID, "swingar: NULL size or def");
+    if (strcmp(size, "paper") == 0) return CR_OK;
+    if (strcmp(size, "cpu") == 0) {
+        d->garment_heads = 4, d->state_heads = 4;
+    } else if (strcmp(size, "tiny") == 0) {
+        d->descriptor_len = 16;
+        d->garment_width[0] = 8, d->garment_width[1] = 12, d->garment_heads = 2;
+        d->shape_width[0] = 16, d->shape_width[1] = 8, d->shape_width[2] = 4;
+        d->motion_window = 8, d->motion_hidden = 12;
+        d->body_width[0] = 16, d->body_width[1] = 8, d->body_width[2] = 8;
+        d->state_width = 12, d->state_heads = 2;
+        d->blend_width[0] = 8, d->blend_width[1] = 12, d->blend_heads = 2;
+        d->corr_hidden = 8, d->corr_heads = 2, d->corr_width = 8;
+    } else {
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar: unknown size '%s' (paper, cpu or tiny)",
+                       size);
+    }
+    return CR_OK;
+}
+
 static int pos_int(int v) {
     return v >= 1 && v <= 65536;
 }
@@ -240,18 +261,18 @@ static cr_tensor *stack(cr_nn_ctx *ctx, cr_tensor **ts, int n) {
     return cr_nn_concat(ctx, n, v, 0);
 }
 
-cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
-                              const cr_swingar_motion *mo, int32_t t0, int32_t K,
-                              cr_swingar_parts *parts) {
-    const cr_swingar_def *d = &m->def;
-    if (!g || !mo || K < 1 || K > SWG_MAX_WINDOW || mo->nframes < 1) return NULL;
-    const int64_t V = g->rest->nv, J = CR_NJOINTS;
-    const int32_t Kc = K + 2; /* coarse frames t0-2 .. t0+K-1 */
-    cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
+/* The garment's part of a forward, the same for every frame and motion:
+ * E_g, the skinning map A s of the shape features and the prior logits. */
+typedef struct swg_genc {
+    cr_tensor *G, *skinmat, *logw0; /* (V,H), (state width, J), (V,J) */
+} swg_genc;
 
-    /* garment information, once per call (the rest pose) */
+static int encode_garment(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g, swg_genc *e) {
+    const cr_swingar_def *d = &m->def;
+    const int64_t V = g->rest->nv, J = CR_NJOINTS;
+    cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
     cr_tensor *feat = cr_nn_wrap(ctx, 2, (int64_t[]){V, SWG_VERTEX_FEATURES}, g->features);
-    cr_tensor *G =
+    e->G =
         cr_gat_forward(ctx, &m->g1, cr_gat_forward(ctx, &m->g0, feat, &graph, NULL), &graph, NULL);
     cr_tensor *desc = d->use_descriptor
                           ? cr_nn_wrap(ctx, 2, (int64_t[]){1, d->descriptor_len}, g->descriptor)
@@ -259,12 +280,28 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
     /* the eigenvalues sum to about 1 (descriptor.h): times z they are of order 1 */
     cr_tensor *s =
         cr_mlp_forward(ctx, m->shape, cr_nn_mul_scalar(ctx, desc, (float)d->descriptor_len));
-    cr_tensor *skinmat =
+    e->skinmat =
         cr_nn_reshape(ctx, cr_linear_forward(ctx, &m->skin, s), 2, (int64_t[]){d->state_width, J});
-    cr_tensor *logw0 = cr_nn_new(ctx, 2, (int64_t[]){V, J});
-    if (!logw0) return NULL;
+    e->logw0 = cr_nn_new(ctx, 2, (int64_t[]){V, J});
+    if (!e->G || !e->skinmat || !e->logw0) return 0;
     for (int64_t i = 0; i < V * J; i++)
-        logw0->data[i] = d->skin_prior ? logf(g->skin_weight[i] + SWG_SKIN_FLOOR) : 0.0f;
+        e->logw0->data[i] = d->skin_prior ? logf(g->skin_weight[i] + SWG_SKIN_FLOOR) : 0.0f;
+    return 1;
+}
+
+/* Frames [t0, t0 + K) given the garment's encoding. prev: NULL, or the
+ * (2,V,SWG_CORR_FEATURES) graphs M_c of frames t0-2 and t0-1 from the call
+ * before (so only the K new coarse frames are computed); next: NULL, or
+ * where the graphs of frames t0+K-2 and t0+K-1 go (host floats; it may be
+ * prev). */
+static cr_tensor *forward_frames(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                                 const swg_genc *e, const cr_swingar_motion *mo, int32_t t0,
+                                 int32_t K, float *prev, float *next, cr_swingar_parts *parts) {
+    const cr_swingar_def *d = &m->def;
+    const int64_t V = g->rest->nv, J = CR_NJOINTS;
+    const int32_t Kc = K + 2; /* coarse frames t0-2 .. t0+K-1 */
+    cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
+    cr_tensor *G = e->G, *skinmat = e->skinmat, *logw0 = e->logw0;
 
     /* body information for every coarse frame: the motion LSTM over m poses,
      * the body encoder on [beta, theta^t] */
@@ -291,7 +328,17 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
 
     cr_tensor *coarse_feat[SWG_MAX_WINDOW + 2], *coarse[SWG_MAX_WINDOW + 2];
     cr_tensor *skin[SWG_MAX_WINDOW + 2];
+    const int64_t fsz = V * SWG_CORR_FEATURES;
     for (int32_t k = 0; k < Kc; k++) {
+        if (prev && k < 2) { /* computed by the call before */
+            coarse_feat[k] = cr_nn_wrap(ctx, 2, (int64_t[]){V, SWG_CORR_FEATURES}, prev + k * fsz);
+            coarse[k] = skin[k] = NULL;
+            continue;
+        }
+        if (k > 0 && t0 - 2 + k <= 0) { /* frames before 0 are frame 0 (pose, window): one copy */
+            coarse_feat[k] = coarse_feat[k - 1], coarse[k] = coarse[k - 1], skin[k] = skin[k - 1];
+            continue;
+        }
         int32_t f = clampi(t0 - 2 + k, 0, mo->nframes - 1);
         const float *pose = mo->poses + (size_t)f * J * 3;
         cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k, 1); /* (1,H) */
@@ -347,6 +394,11 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
         coarse_out[k] = cr_nn_add(ctx, coarse[k + 2], tr);
         outs[k] = cr_nn_add(ctx, coarse_out[k], D);
     }
+    if (next)
+        for (int k = 0; k < 2; k++) {
+            if (!coarse_feat[Kc - 2 + k]) return NULL;
+            memmove(next + k * fsz, coarse_feat[Kc - 2 + k]->data, sizeof(float) * (size_t)fsz);
+        }
     if (parts) {
         parts->skin = stack(ctx, skin + 2, K);
         parts->coarse = stack(ctx, coarse_out, K);
@@ -354,26 +406,87 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
     return stack(ctx, outs, K);
 }
 
+cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                              const cr_swingar_motion *mo, int32_t t0, int32_t K,
+                              cr_swingar_parts *parts) {
+    if (!g || !mo || K < 1 || K > SWG_MAX_WINDOW || mo->nframes < 1) return NULL;
+    swg_genc e;
+    if (!encode_garment(ctx, m, g, &e)) return NULL;
+    return forward_frames(ctx, m, g, &e, mo, t0, K, NULL, NULL, parts);
+}
+
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
                              const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
                              float *out, cr_error *err) {
+    return cr_swingar_predict_batch(m, g, mo, 1, arena_bytes, chunk, &out, NULL, err);
+}
+
+cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
+                                   const cr_swingar_motion *mos, int32_t nseq, size_t arena_bytes,
+                                   int32_t chunk, float *const *out,
+                                   cr_swingar_predict_stats *stats, cr_error *err) {
+    if (!m || !g || !mos || !out || nseq < 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar predict: NULL input or %d sequences", nseq);
     if (chunk <= 0) chunk = SWG_PREDICT_CHUNK;
     if (chunk > SWG_MAX_WINDOW) chunk = SWG_MAX_WINDOW;
+    int32_t T = 0;
+    for (int32_t b = 0; b < nseq; b++) {
+        if (mos[b].nframes < 1)
+            return CR_FAIL(err, CR_ERR_INVALID, "swingar predict: sequence %d has no frames", b);
+        if (mos[b].nframes > T) T = mos[b].nframes;
+    }
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = arena_bytes ? arena_bytes : (size_t)512 << 20;
     cr_nn_ctx *ctx = NULL;
     CR_TRY(cr_nn_ctx_create(&cd, &ctx, err));
     cr_nn_ctx_set_grad_enabled(ctx, 0);
-    const int64_t V = g->rest->nv;
-    cr_status st = CR_OK;
-    for (int32_t t0 = 0; t0 < mo->nframes && st == CR_OK; t0 += chunk) {
-        int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
-        cr_nn_ctx_reset(ctx);
-        cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, t0, K, NULL);
-        st = cr_nn_ctx_error(ctx, err);
-        if (st == CR_OK && !y) st = CR_FAIL(err, CR_ERR_INVALID, "swingar: bad forward input");
-        if (st == CR_OK) memcpy(out + (size_t)t0 * V * 3, y->data, sizeof(float) * K * V * 3);
+    const int64_t V = g->rest->nv, J = CR_NJOINTS, H = m->def.garment_width[1];
+    const int64_t S = m->def.state_width, fsz = V * SWG_CORR_FEATURES;
+    /* the garment's encoding once, kept on the host across arena resets */
+    double t0s = cr_time_now();
+    swg_genc e;
+    float *host = NULL, *prev = NULL;
+    cr_status st = encode_garment(ctx, m, g, &e) ? CR_OK : cr_nn_ctx_error(ctx, err);
+    if (st == CR_OK && !(e.G && e.skinmat && e.logw0))
+        st = CR_FAIL(err, CR_ERR_INVALID, "swingar predict: bad garment encoding");
+    if (st == CR_OK) {
+        host = cr_malloc(sizeof(float) * (size_t)(V * H + S * J + V * J), err);
+        prev = cr_malloc(sizeof(float) * (size_t)(2 * fsz * nseq), err);
+        if (!host || !prev) st = err ? err->status : CR_ERR_MEMORY;
     }
+    float *hG = host, *hS = host ? host + V * H : NULL, *hL = host ? hS + S * J : NULL;
+    if (st == CR_OK) {
+        memcpy(hG, e.G->data, sizeof(float) * (size_t)(V * H));
+        memcpy(hS, e.skinmat->data, sizeof(float) * (size_t)(S * J));
+        memcpy(hL, e.logw0->data, sizeof(float) * (size_t)(V * J));
+    }
+    double encode_s = cr_time_now() - t0s;
+    for (int32_t t0 = 0; t0 < T && st == CR_OK; t0 += chunk) {
+        /* one step of the arena per sequence: holding all of them at once
+         * (a GPU's batch) multiplies the memory and buys nothing on a CPU,
+         * whose GEMMs are already (V x width) */
+        for (int32_t b = 0; b < nseq && st == CR_OK; b++) {
+            const cr_swingar_motion *mo = &mos[b];
+            if (t0 >= mo->nframes) continue;
+            cr_nn_ctx_reset(ctx);
+            swg_genc w = {cr_nn_wrap(ctx, 2, (int64_t[]){V, H}, hG),
+                          cr_nn_wrap(ctx, 2, (int64_t[]){S, J}, hS),
+                          cr_nn_wrap(ctx, 2, (int64_t[]){V, J}, hL)};
+            int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
+            float *pb = prev + 2 * fsz * b;
+            cr_tensor *y = forward_frames(ctx, m, g, &w, mo, t0, K, t0 > 0 ? pb : NULL, pb, NULL);
+            st = cr_nn_ctx_error(ctx, err);
+            if (st == CR_OK && !y) st = CR_FAIL(err, CR_ERR_INVALID, "swingar: bad forward input");
+            if (st == CR_OK)
+                memcpy(out[b] + (size_t)t0 * V * 3, y->data, sizeof(float) * K * V * 3);
+        }
+    }
+    if (stats) {
+        stats->encode_seconds = encode_s;
+        stats->arena_peak_bytes = cr_nn_ctx_arena_peak(ctx);
+    }
+    free(host);
+    free(prev);
     cr_nn_ctx_destroy(ctx);
     return st;
 }
