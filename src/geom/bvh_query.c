@@ -88,13 +88,13 @@ static void closest_degenerate(const double *a, const double *ab, const double *
 
 /* Ericson 5.1.5: classify p against the Voronoi regions of the vertices,
  * edges and face of triangle (a, b, c). Edges: 0 = ab, 1 = bc, 2 = ca. */
-static void closest_on_triangle(const float *fa, const float *fb, const float *fc,
-                                const double p[3], tri_closest *r) {
+static void closest_on_triangle_d(const double *fa, const double *fb, const double *fc,
+                                  const double p[3], tri_closest *r) {
     double a[3], ab[3], ac[3], ap[3], bp[3], cp[3];
     for (int d = 0; d < 3; d++) {
         a[d] = fa[d];
-        ab[d] = (double)fb[d] - fa[d];
-        ac[d] = (double)fc[d] - fa[d];
+        ab[d] = fb[d] - fa[d];
+        ac[d] = fc[d] - fa[d];
         ap[d] = p[d] - fa[d];
         bp[d] = p[d] - fb[d];
         cp[d] = p[d] - fc[d];
@@ -121,6 +121,22 @@ static void closest_on_triangle(const float *fa, const float *fb, const float *f
     } else {
         closest_degenerate(a, ab, ac, p, r);
     }
+}
+
+/* The same for float corners (the BVH's leaves), converted exactly. */
+static void closest_on_triangle(const float *fa, const float *fb, const float *fc,
+                                const double p[3], tri_closest *r) {
+    const double a[3] = {fa[0], fa[1], fa[2]}, b[3] = {fb[0], fb[1], fb[2]},
+                 c[3] = {fc[0], fc[1], fc[2]};
+    closest_on_triangle_d(a, b, c, p, r);
+}
+
+double cr_closest_point_triangle(const double p[3], const double a[3], const double b[3],
+                                 const double c[3], double bary[3]) {
+    tri_closest r;
+    closest_on_triangle_d(a, b, c, p, &r);
+    if (bary) bary[0] = r.bary[0], bary[1] = r.bary[1], bary[2] = r.bary[2];
+    return r.d2;
 }
 
 /* ----------------------------------------------------- closest point -- */
@@ -471,4 +487,39 @@ void cr_bvh_raycast_batch(const cr_bvh *b, const float *origins, const float *di
                    .dist = t,
                    .bary = bary};
     cr_parallel_for(n, BATCH_GRAIN, ray_range, &c);
+}
+
+/* ------------------------------------------------------- box overlap -- */
+
+int64_t cr_bvh_faces_in_box(const cr_bvh *b, const float lo[3], const float hi[3], int32_t *faces,
+                            int64_t cap) {
+    int64_t n = 0;
+    int32_t stack[BVH_STACK];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const bvh_node *nd = &b->nodes[stack[--top]];
+        if (nd->lo[0] > hi[0] || nd->hi[0] < lo[0] || nd->lo[1] > hi[1] || nd->hi[1] < lo[1] ||
+            nd->lo[2] > hi[2] || nd->hi[2] < lo[2])
+            continue;
+        if (nd->count == 0) {
+            stack[top++] = nd->start + 1;
+            stack[top++] = nd->start;
+            continue;
+        }
+        for (int32_t k = 0; k < nd->count; k++) {
+            const float *v = &b->leaf_pos[9 * (size_t)(nd->start + k)];
+            float flo[3], fhi[3];
+            for (int d = 0; d < 3; d++) {
+                flo[d] = bvh_minf(bvh_minf(v[d], v[3 + d]), v[6 + d]);
+                fhi[d] = bvh_maxf(bvh_maxf(v[d], v[3 + d]), v[6 + d]);
+            }
+            if (flo[0] > hi[0] || fhi[0] < lo[0] || flo[1] > hi[1] || fhi[1] < lo[1] ||
+                flo[2] > hi[2] || fhi[2] < lo[2])
+                continue;
+            if (n < cap) faces[n] = b->order[nd->start + k];
+            n++;
+        }
+    }
+    return n;
 }
