@@ -22,6 +22,8 @@
  *   tolerance, 40 iterations), Newton at its default cap of 8 and VBD at
  *   its defaults, and prints each one's mean and largest vertex distance to
  *   the reference after the last frame.
+ *   --self-contact on|off: cloth self-contact (default off); the split then
+ *   shows its detection (pairs, BVH refits, the assembly rebuilt for them).
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
 #include "crease/primitives.h"
@@ -44,7 +46,8 @@ static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep
     return CR_OK;
 }
 
-static int solver_mode = 0; /* 0 newton, 1 vbd, 2 compare */
+static int solver_mode = 0;  /* 0 newton, 1 vbd, 2 compare */
+static int self_contact = 0; /* --self-contact on */
 
 /* After a run: its final positions (V,3), for compare; owned here. */
 static double *last_positions = NULL;
@@ -66,13 +69,19 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
     printf("sim %s V=%d solver %s: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
            cr_sim_solver_name(def->solver), st.seconds / n, st.frames, setup);
     printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
-           "%.0f%%, other %.0f%%\n",
+           "%.0f%%, self-contact %.0f%%, other %.0f%%\n",
            name, 100 * st.seconds_assembly / tot, 100 * st.seconds_factor / tot,
            100 * st.seconds_solve / tot, 100 * st.seconds_collision / tot,
+           100 * st.seconds_self_contact / tot,
            100 *
                (tot - st.seconds_assembly - st.seconds_factor - st.seconds_solve -
-                st.seconds_collision) /
+                st.seconds_collision - st.seconds_self_contact) /
                tot);
+    if (def->self_contact)
+        printf("sim %s self-contact: %.3f s/frame detecting, %.1f detections and %.0f pairs per "
+               "frame\n",
+               name, st.seconds_self_contact / n, st.self_contact_detections / n,
+               st.self_contact_pairs / n);
     printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
            "%lld VBD retries, %lld backoffs, max penetration before projection %.2f mm, %s\n",
            name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.vbd_retries,
@@ -89,6 +98,7 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
 /* One scene with the chosen solver, or the three runs of compare. */
 static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
     cr_sim_def d = *base;
+    d.self_contact = self_contact;
     if (solver_mode < 2) {
         d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
         return run(name, garment, &d, frames);
@@ -101,6 +111,7 @@ static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *
     if (!ref) return 1;
     for (int k = 0; k < 2; k++) {
         d = *base;
+        d.self_contact = self_contact;
         d.solver = k == 0 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
         rc |= run(name, garment, &d, frames);
         if (!last_positions) continue;
@@ -189,6 +200,18 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
 }
 
 int main(int argc, char **argv) {
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--self-contact") && i + 1 < argc) {
+            self_contact = !strcmp(argv[i + 1], "on");
+            if (!self_contact && strcmp(argv[i + 1], "off")) {
+                fprintf(stderr, "bench_sim: --self-contact on|off, got %s\n", argv[i + 1]);
+                return 2;
+            }
+            for (int j = i; j + 2 < argc; j++)
+                argv[j] = argv[j + 2];
+            argc -= 2;
+            break;
+        }
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--solver") && i + 1 < argc) {
             const char *m = argv[i + 1];

@@ -205,8 +205,8 @@ CR_TEST(phys_self_contact, pairs_match_brute_force) {
             if (tr[0] == i || tr[1] == i || tr[2] == i) continue;
             double d = sqrt(cr_closest_point_triangle(x + 3 * i, x + 3 * tr[0], x + 3 * tr[1],
                                                       x + 3 * tr[2], NULL));
-            double dr = sqrt(cr_closest_point_triangle(
-                rest + 3 * i, rest + 3 * tr[0], rest + 3 * tr[1], rest + 3 * tr[2], NULL));
+            double dr = sqrt(cr_closest_point_triangle(rest + 3 * i, rest + 3 * tr[0],
+                                                       rest + 3 * tr[1], rest + 3 * tr[2], NULL));
             if (fabs(d - r) < 1e-6 || fabs(dr - r) < 1e-6) {
                 borderline++;
                 continue;
@@ -297,6 +297,13 @@ static double drop_sheets(cr_sim_solver solver, int self_contact, int substeps, 
         cr_sim_report rep;
         if (cr_sim_step(s, &rep, &err) != CR_OK) goto done;
         *ms += 1e3 * rep.seconds / FRAMES;
+        if (getenv("SC_DEBUG"))
+            printf(
+                "      f%d: %.1f ms, self %.1f ms, asm %.1f ms, fac %.1f, %d det, %d pairs, %d it, "
+                "%d bounded\n",
+                f, 1e3 * rep.seconds, 1e3 * rep.seconds_self_contact, 1e3 * rep.seconds_assembly,
+                1e3 * rep.seconds_factor, rep.self_contact_detections, rep.self_contact_pairs,
+                rep.newton_iterations, rep.self_contact_bounded);
         const double *x = cr_sim_positions(s);
         for (int64_t k = 0; k < 3 * (int64_t)na; k++)
             lo[k] = (float)x[k];

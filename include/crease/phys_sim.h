@@ -177,13 +177,13 @@ typedef struct cr_sim_def {
                                vertex blocks are cheap, and a stale block overshoots) */
     double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
                                in Newton's potential, so it moves the solution) */
-    int self_contact;              /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
-                                      (self_contact.c; docs/physics.md, "Self-contact";
-                                      default 0) */
-    double self_contact_thickness; /* m: pairs closer than this are pushed apart (default 4e-3:
-                                      two layers of a 1-2 mm fabric with room; under the edge
-                                      length of a 10k garment, so mesh neighbours are no
-                                      pairs) */
+    int self_contact;       /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
+                               (self_contact.c; docs/physics.md, "Self-contact";
+                               default 0) */
+    double self_contact_thickness;    /* m: pairs closer than this are pushed apart (default 4e-3:
+                                         two layers of a 1-2 mm fabric with room; under the edge
+                                         length of a 10k garment, so mesh neighbours are no
+                                         pairs) */
     cr_sim_iteration_fn on_iteration; /* Newton steps, or VBD sweeps (energy after the sweep) */
     void *on_iteration_ctx;
     uint32_t cookie;
@@ -215,10 +215,10 @@ typedef struct cr_sim_report {
     double seconds_solve;     /* triangular solves */
     double seconds_collision; /* BVH refits and signed-distance queries */
     int vbd_retries;          /* VBD sweeps whose objective rose, run again with line searches */
-    double seconds_self_contact; /* self-contact pair finding and the assembly rebuilt for it */
-    int32_t self_contact_pairs;  /* pairs of the last detection */
-    int self_contact_detections; /* detections, summed over substeps (VBD: once, and again
-                                    after a sweep where a vertex reached its step bound) */
+    double seconds_self_contact;  /* self-contact pair finding and the assembly rebuilt for it */
+    int32_t self_contact_pairs;   /* pairs of the last detection */
+    int self_contact_detections;  /* detections, summed over substeps (VBD: once, and again
+                                     after a sweep where a vertex reached its step bound) */
     int32_t self_contact_bounded; /* VBD vertex moves cut by the step bound, summed */
 } cr_sim_report;
 

@@ -38,6 +38,9 @@
 
 /* Faces a query box collects before it reallocates. */
 #define BOX_FACES 128
+/* Vertices or edges of one detection task: each costs a few microseconds,
+ * and a parallel region costs a scheduler quantum on a loaded machine. */
+#define DETECT_GRAIN 2048
 
 struct cr_self_contact {
     int32_t nv, nf, ne;
@@ -62,10 +65,16 @@ struct cr_self_contact {
     int32_t *vp;
     int64_t vp_cap;
     int32_t *cnt_v, *cnt_e; /* (V+1), (E+1) counts, then offsets */
-    const double *x;        /* positions being detected at */
+    /* Rest neighbours, found once at create: per vertex the faces, per edge
+     * the edges e2 > e, within r at rest (no pairs ever). */
+    int64_t *vt_rest_off, *ee_rest_off;     /* (V+1), (E+1) */
+    int32_t *vt_rest, *ee_rest;             /* faces, edges */
+    int32_t *vt_rest_off32, *ee_rest_off32; /* counts while they are built */
+    const double *x;                        /* positions being detected at */
 };
 
 static cr_status grow_pairs(cr_self_contact *sc, int64_t np, cr_error *err);
+static cr_status rest_neighbours(cr_self_contact *sc, cr_error *err);
 
 void cr_self_contact_destroy(cr_self_contact *sc) {
     if (!sc) return;
@@ -74,6 +83,8 @@ void cr_self_contact_destroy(cr_self_contact *sc) {
     free(sc->xf), free(sc->elem), free(sc->w), free(sc->n), free(sc->d0);
     free(sc->dmin), free(sc->xdet), free(sc->vp_off), free(sc->vp);
     free(sc->cnt_v), free(sc->cnt_e);
+    free(sc->vt_rest_off), free(sc->ee_rest_off), free(sc->vt_rest), free(sc->ee_rest);
+    free(sc->vt_rest_off32), free(sc->ee_rest_off32);
     free(sc);
 }
 
@@ -123,6 +134,7 @@ cr_status cr_self_contact_create(const cr_mesh *garment, const cr_topology *topo
         sc->dmin[i] = sc->r;
     cr_status st = cr_bvh_build(sc->xf, nv, sc->tri, nf, &sc->bvh, err);
     if (st == CR_OK) st = grow_pairs(sc, 1, err); /* a term's elem is never NULL */
+    if (st == CR_OK) st = rest_neighbours(sc, err);
     if (st != CR_OK) {
         cr_self_contact_destroy(sc);
         return st;
@@ -233,6 +245,8 @@ static double pair_dist2(int kind, const double *pos, const int32_t *idx, double
 typedef struct detect_ctx {
     cr_self_contact *sc;
     int fill; /* 0: count into cnt_v / cnt_e; 1: write at their offsets */
+    int rest; /* 1: list the pairs within r at rest (at create) instead of the pairs */
+    int *oom; /* set to 1 by a task that could not allocate */
 } detect_ctx;
 
 /* Keep pair idx (kind) at the current positions? Writes it at slot `at`
@@ -241,8 +255,6 @@ static int consider(cr_self_contact *sc, int kind, const int32_t *idx, int fill,
     double bst[3], r2 = sc->r * sc->r;
     double d2 = pair_dist2(kind, sc->x, idx, bst);
     if (!(d2 < r2)) return 0;
-    double brest[3];
-    if (pair_dist2(kind, sc->rest, idx, brest) < r2) return 0;
     double X[12], n[3], w[4];
     gather4(sc->x, idx, X);
     double d = pair_frame(kind, X, bst, n, w);
@@ -268,26 +280,59 @@ static int64_t box_faces(const cr_bvh *b, const float *lo, const float *hi, int3
     return cr_bvh_faces_in_box(b, lo, hi, *buf, *cap);
 }
 
+/* One candidate of item `item` (a vertex or an edge) with partner `other`
+ * (a face or an edge): at create, listed when within r at rest; later,
+ * skipped when listed (stamp[other] == item + 1), else measured. */
+static int candidate(const detect_ctx *c, int kind, int64_t item, int32_t other, const int32_t *idx,
+                     const int32_t *stamp, int64_t at) {
+    cr_self_contact *sc = c->sc;
+    if (c->rest) {
+        double bst[3];
+        if (!(pair_dist2(kind, sc->rest, idx, bst) < sc->r * sc->r)) return 0;
+        if (c->fill) (kind == 0 ? sc->vt_rest : sc->ee_rest)[at] = other;
+        return 1;
+    }
+    if (stamp[other] == item + 1) return 0;
+    return consider(sc, kind, idx, c->fill, at);
+}
+
+/* Mark item's rest neighbours (list[off[item] .. off[item+1])) in stamp. */
+static void stamp_rest(const detect_ctx *c, const int64_t *off, const int32_t *list, int64_t item,
+                       int32_t *stamp) {
+    if (c->rest) return;
+    for (int64_t q = off[item]; q < off[item + 1]; q++)
+        stamp[list[q]] = (int32_t)(item + 1);
+}
+
 static void vt_range(void *vctx, int64_t begin, int64_t end) {
     const detect_ctx *c = vctx;
     cr_self_contact *sc = c->sc;
     int32_t local[BOX_FACES], *faces = local;
     int64_t cap = BOX_FACES;
+    int32_t *stamp = c->rest ? NULL : calloc((size_t)sc->nf + 1, sizeof(int32_t));
+    if (!c->rest && !stamp) {
+        *c->oom = 1;
+        return;
+    }
     const float r = (float)sc->r;
+    int32_t *cnt = c->rest ? sc->vt_rest_off32 : sc->cnt_v;
     for (int64_t i = begin; i < end; i++) {
         const float *p = sc->xf + 3 * i;
         float lo[3] = {p[0] - r, p[1] - r, p[2] - r}, hi[3] = {p[0] + r, p[1] + r, p[2] + r};
         int64_t nf = box_faces(sc->bvh, lo, hi, &faces, &cap, local);
-        int64_t at = c->fill ? sc->cnt_v[i] : 0, found = 0;
+        if (nf < 0) *c->oom = 1;
+        stamp_rest(c, sc->vt_rest_off, sc->vt_rest, i, stamp);
+        int64_t at = c->fill ? cnt[i] : 0, found = 0;
         for (int64_t q = 0; q < nf; q++) {
             const int32_t *t = sc->tri + 3 * (int64_t)faces[q];
             if (t[0] == i || t[1] == i || t[2] == i) continue;
             int32_t idx[4] = {(int32_t)i, t[0], t[1], t[2]};
-            found += consider(sc, 0, idx, c->fill, at + found);
+            found += candidate(c, 0, i, faces[q], idx, stamp, at + found);
         }
-        if (!c->fill) sc->cnt_v[i] = (int32_t)found;
+        if (!c->fill) cnt[i] = (int32_t)found;
     }
     if (faces != local) free(faces);
+    free(stamp);
 }
 
 static void ee_range(void *vctx, int64_t begin, int64_t end) {
@@ -295,7 +340,13 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
     cr_self_contact *sc = c->sc;
     int32_t local[BOX_FACES], *faces = local;
     int64_t cap = BOX_FACES;
+    int32_t *stamp = c->rest ? NULL : calloc((size_t)sc->ne + 1, sizeof(int32_t));
+    if (!c->rest && !stamp) {
+        *c->oom = 1;
+        return;
+    }
     const float r = (float)sc->r;
+    int32_t *cnt = c->rest ? sc->ee_rest_off32 : sc->cnt_e;
     for (int64_t e = begin; e < end; e++) {
         const int32_t *ev = sc->edge + 2 * e;
         const float *a = sc->xf + 3 * (int64_t)ev[0], *b = sc->xf + 3 * (int64_t)ev[1];
@@ -305,7 +356,9 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
             hi[k] = (a[k] > b[k] ? a[k] : b[k]) + r;
         }
         int64_t nf = box_faces(sc->bvh, lo, hi, &faces, &cap, local);
-        int64_t at = c->fill ? sc->cnt_e[e] : 0, found = 0;
+        if (nf < 0) *c->oom = 1;
+        stamp_rest(c, sc->ee_rest_off, sc->ee_rest, e, stamp);
+        int64_t at = c->fill ? cnt[e] : 0, found = 0;
         for (int64_t q = 0; q < nf; q++) {
             int32_t f = faces[q];
             for (int j = 0; j < 3; j++) {
@@ -314,12 +367,13 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
                 const int32_t *ov = sc->edge + 2 * (int64_t)e2;
                 if (ov[0] == ev[0] || ov[0] == ev[1] || ov[1] == ev[0] || ov[1] == ev[1]) continue;
                 int32_t idx[4] = {ev[0], ev[1], ov[0], ov[1]};
-                found += consider(sc, 1, idx, c->fill, at + found);
+                found += candidate(c, 1, e, e2, idx, stamp, at + found);
             }
         }
-        if (!c->fill) sc->cnt_e[e] = (int32_t)found;
+        if (!c->fill) cnt[e] = (int32_t)found;
     }
     if (faces != local) free(faces);
+    free(stamp);
 }
 
 /* Turn counts (n) into exclusive offsets starting at base; returns the total. */
@@ -335,8 +389,7 @@ static int64_t offsets(int32_t *cnt, int32_t n, int64_t base) {
 
 static cr_status grow_pairs(cr_self_contact *sc, int64_t np, cr_error *err) {
     if (np > INT32_MAX / 4)
-        return CR_FAIL(err, CR_ERR_RANGE, "self-contact: %lld pairs, too many",
-                       (long long)np);
+        return CR_FAIL(err, CR_ERR_RANGE, "self-contact: %lld pairs, too many", (long long)np);
     if (np <= sc->cap) return CR_OK;
     int64_t cap = np + np / 2 + 64;
     int32_t *elem = realloc(sc->elem, 4 * (size_t)cap * sizeof(int32_t));
@@ -354,23 +407,58 @@ static cr_status grow_pairs(cr_self_contact *sc, int64_t np, cr_error *err) {
     return CR_OK;
 }
 
+/* The rest neighbour lists: the same passes at the rest positions. */
+static cr_status rest_neighbours(cr_self_contact *sc, cr_error *err) {
+    const int32_t nv = sc->nv, ne = sc->ne;
+    sc->vt_rest_off32 = cr_calloc((size_t)nv + 1, sizeof(int32_t), err);
+    sc->ee_rest_off32 = cr_calloc((size_t)ne + 1, sizeof(int32_t), err);
+    sc->vt_rest_off = cr_calloc((size_t)nv + 1, sizeof(int64_t), err);
+    sc->ee_rest_off = cr_calloc((size_t)ne + 1, sizeof(int64_t), err);
+    if (!sc->vt_rest_off32 || !sc->ee_rest_off32 || !sc->vt_rest_off || !sc->ee_rest_off)
+        return err ? err->status : CR_ERR_MEMORY;
+    int oom = 0;
+    detect_ctx c = {sc, 0, 1, &oom};
+    cr_parallel_for(nv, DETECT_GRAIN, vt_range, &c);
+    cr_parallel_for(ne, DETECT_GRAIN, ee_range, &c);
+    for (int32_t i = 0; i < nv; i++)
+        sc->vt_rest_off[i + 1] = sc->vt_rest_off[i] + sc->vt_rest_off32[i];
+    for (int32_t e = 0; e < ne; e++)
+        sc->ee_rest_off[e + 1] = sc->ee_rest_off[e] + sc->ee_rest_off32[e];
+    if (sc->vt_rest_off[nv] > INT32_MAX || sc->ee_rest_off[ne] > INT32_MAX)
+        return CR_FAIL(err, CR_ERR_RANGE, "self-contact: too many rest neighbours");
+    sc->vt_rest = cr_malloc(((size_t)sc->vt_rest_off[nv] + 1) * sizeof(int32_t), err);
+    sc->ee_rest = cr_malloc(((size_t)sc->ee_rest_off[ne] + 1) * sizeof(int32_t), err);
+    if (!sc->vt_rest || !sc->ee_rest) return err ? err->status : CR_ERR_MEMORY;
+    for (int32_t i = 0; i < nv; i++)
+        sc->vt_rest_off32[i] = (int32_t)sc->vt_rest_off[i];
+    for (int32_t e = 0; e < ne; e++)
+        sc->ee_rest_off32[e] = (int32_t)sc->ee_rest_off[e];
+    c.fill = 1;
+    cr_parallel_for(nv, DETECT_GRAIN, vt_range, &c);
+    cr_parallel_for(ne, DETECT_GRAIN, ee_range, &c);
+    return CR_OK;
+}
+
 cr_status cr_self_contact_detect(cr_self_contact *sc, const double *x, cr_error *err) {
     const int32_t nv = sc->nv;
     for (int64_t k = 0; k < 3 * (int64_t)nv; k++)
         sc->xf[k] = (float)x[k];
     CR_TRY(cr_bvh_refit(sc->bvh, sc->xf, err));
     sc->x = x;
-    detect_ctx c = {sc, 0};
-    cr_parallel_for(nv, 256, vt_range, &c);
-    cr_parallel_for(sc->ne, 256, ee_range, &c);
+    int oom = 0;
+    detect_ctx c = {sc, 0, 0, &oom};
+    cr_parallel_for(nv, DETECT_GRAIN, vt_range, &c);
+    cr_parallel_for(sc->ne, DETECT_GRAIN, ee_range, &c);
+    if (oom) return CR_FAIL(err, CR_ERR_MEMORY, "self-contact: out of memory");
     int64_t nvt = offsets(sc->cnt_v, nv, 0);
     int64_t np = offsets(sc->cnt_e, sc->ne, nvt);
     CR_TRY(grow_pairs(sc, np, err));
     c.fill = 1;
-    cr_parallel_for(nv, 256, vt_range, &c);
-    cr_parallel_for(sc->ne, 256, ee_range, &c);
+    cr_parallel_for(nv, DETECT_GRAIN, vt_range, &c);
+    cr_parallel_for(sc->ne, DETECT_GRAIN, ee_range, &c);
     sc->npair = (int32_t)np, sc->nvt = (int32_t)nvt;
     sc->x = NULL;
+    if (oom) return CR_FAIL(err, CR_ERR_MEMORY, "self-contact: out of memory");
     /* Per vertex: the nearest pair, the detection positions, the pairs. */
     memcpy(sc->xdet, x, 3 * (size_t)nv * sizeof(double));
     memset(sc->vp_off, 0, ((size_t)nv + 1) * sizeof(int64_t));

@@ -62,7 +62,7 @@ struct cr_sim {
     int t_self;              /* its term, -1 without */
     int32_t *self_prev;      /* (4 npair_prev) the pairs the assembly was built with */
     int32_t self_prev_n, self_prev_cap;
-    cr_friction *friction;   /* NULL without a collider or with friction 0 */
+    cr_friction *friction; /* NULL without a collider or with friction 0 */
     cr_energy_term terms[CR_SIM_MAX_TERMS];
     int nterms, t_inertia, t_drag, t_friction; /* t_friction -1 without friction */
     sim_drag drag;
