@@ -62,20 +62,20 @@ typedef struct cr_dataset_def {
     int nbodies;
     const char *const *res; /* "low", "high" */
     int nres;
-    int32_t low_vertices;         /* default 2000 */
-    int32_t high_vertices;        /* default 8000 */
-    int32_t frames;               /* simulated frames per sequence (default 150) */
-    float fps;                    /* default 30 */
-    const char *material;         /* preset name (default "cotton") */
-    int plastic;                  /* 1: plastic bending (epnet's ground truth) */
-    double max_collider_step;     /* m: frames where the body moves further run more substeps
-                                     (cr_sim_def.max_collider_step; default 0.15: the run and
-                                     jump clips get 2-3, the others 1) */
-    int solver;                   /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
-    int self_contact;             /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
-    float self_contact_thickness; /* m; 0 (default): cr_sim_def's */
-    uint64_t seed;                /* recorded in the manifest (the simulator has no randomness) */
-    int quiet;                    /* 1: no progress bar */
+    int32_t low_vertices;     /* default 2000 */
+    int32_t high_vertices;    /* default 8000 */
+    int32_t frames;           /* simulated frames per sequence (default 150) */
+    float fps;                /* default 30 */
+    const char *material;     /* preset name (default "cotton") */
+    int plastic;              /* 1: plastic bending (epnet's ground truth) */
+    double max_collider_step; /* m: frames where the body moves further run more substeps
+                                 (cr_sim_def.max_collider_step; default 0.15: the run and
+                                 jump clips get 2-3, the others 1) */
+    int solver;               /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;         /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;     /* its thickness, m; 0 (default): cr_sim_def's */
+    uint64_t seed;            /* recorded in the manifest (the simulator has no randomness) */
+    int quiet;                /* 1: no progress bar */
     /* Motion files (clips are made at fps and start at the rest pose): read
      * with motion_import, then made ready by cr_motion_prepare with
      * motion_prepare (frames used, a calibration frame dropped, resampled to

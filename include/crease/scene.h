@@ -200,24 +200,24 @@ cr_status cr_scene_run(cr_sim *sim, int frames, cr_scene_record *rec, cr_scene_f
 
 /* `crease simulate`: a garment against a collider, static or animated. */
 typedef struct cr_scene_sim_def {
-    const char *garment;          /* garment mesh (.obj, .ply, .glb): the initial state; required */
-    const float *garment_offset;  /* NULL, or (3) m: the garment is moved by it first */
-    const char *object;           /* collider: a named object or a mesh (cr_scene_object_create) */
-    const char *body_mesh;        /* or a body mesh as the collider (not with object) */
-    const char *body;             /* PC2 animating the collider (frame f moves from sample f to
-                                     f + 1, held at the last); needs object or body_mesh */
-    const char *material;         /* preset (default "cotton") */
-    const char *material_json;    /* field overrides (cr_material_load_json), or NULL */
-    int frames;                   /* frames to simulate, >= 1 (required) */
-    float fps;                    /* default 30 */
-    int substeps;                 /* 0: cr_sim_def's default */
-    int newton_iterations;        /* per substep at most; 0: cr_sim_def's default */
-    float max_collider_step;      /* cr_sim_def.max_collider_step, m (default 0: off) */
-    int plastic;                  /* 1: plastic bending */
-    int solver;                   /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
-    int self_contact;             /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
-    float self_contact_thickness; /* m; 0 (default): cr_sim_def's */
-    const int32_t *pins;          /* (npins) vertices held at their initial positions */
+    const char *garment;         /* garment mesh (.obj, .ply, .glb): the initial state; required */
+    const float *garment_offset; /* NULL, or (3) m: the garment is moved by it first */
+    const char *object;          /* collider: a named object or a mesh (cr_scene_object_create) */
+    const char *body_mesh;       /* or a body mesh as the collider (not with object) */
+    const char *body;            /* PC2 animating the collider (frame f moves from sample f to
+                                    f + 1, held at the last); needs object or body_mesh */
+    const char *material;        /* preset (default "cotton") */
+    const char *material_json;   /* field overrides (cr_material_load_json), or NULL */
+    int frames;                  /* frames to simulate, >= 1 (required) */
+    float fps;                   /* default 30 */
+    int substeps;                /* 0: cr_sim_def's default */
+    int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
+    float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
+    int plastic;                 /* 1: plastic bending */
+    int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;            /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;        /* its thickness, m; 0 (default): cr_sim_def's */
+    const int32_t *pins;         /* (npins) vertices held at their initial positions */
     int32_t npins;
     const char *out_dir; /* created when missing; required */
     int render_size;     /* last.png's side, pixels (default 800) */
@@ -246,23 +246,23 @@ cr_status cr_scene_simulate(const cr_scene_sim_def *def, cr_scene_sim_result *ou
 
 /* `crease drape-static`: the quasi-static drape of a square cloth over an object. */
 typedef struct cr_scene_drape_static_def {
-    const char *object;           /* a named object or a mesh (cr_scene_object_create); required */
-    int32_t res;                  /* cloth vertices per side, >= 2 (default 64) */
-    float size;                   /* cloth side, m (default 1) */
-    float gap;                    /* cloth height above the object's top, m (default 0.05) */
-    const char *material;         /* preset (default "cotton") */
-    const char *material_json;    /* field overrides, or NULL */
-    int max_frames;               /* dynamic settling frames at most (default 150; 0: static
-                                     solve from the flat start) */
-    int32_t coarse;               /* > 0: settle a coarse x coarse cloth and start the res x res
-                                     static solve from its rest shape (cr_scene_settle_coarse);
-                                     below res. 0 (default): off */
-    int solver;                   /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
-    int self_contact;             /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
-    float self_contact_thickness; /* m; 0 (default): cr_sim_def's */
-    const char *out_dir;          /* required */
-    int render_size;              /* final.png's side (default 800) */
-    int quiet;                    /* 1: no progress bar */
+    const char *object;        /* a named object or a mesh (cr_scene_object_create); required */
+    int32_t res;               /* cloth vertices per side, >= 2 (default 64) */
+    float size;                /* cloth side, m (default 1) */
+    float gap;                 /* cloth height above the object's top, m (default 0.05) */
+    const char *material;      /* preset (default "cotton") */
+    const char *material_json; /* field overrides, or NULL */
+    int max_frames;            /* dynamic settling frames at most (default 150; 0: static
+                                  solve from the flat start) */
+    int32_t coarse;            /* > 0: settle a coarse x coarse cloth and start the res x res
+                                  static solve from its rest shape (cr_scene_settle_coarse);
+                                  below res. 0 (default): off */
+    int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;          /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;      /* its thickness, m; 0 (default): cr_sim_def's */
+    const char *out_dir;       /* required */
+    int render_size;           /* final.png's side (default 800) */
+    int quiet;                 /* 1: no progress bar */
 } cr_scene_drape_static_def;
 
 cr_scene_drape_static_def cr_scene_drape_static_default_def(void);

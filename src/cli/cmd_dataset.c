@@ -104,7 +104,7 @@ int cmd_dataset(int argc, char **argv) {
     if (step_given) def.max_collider_step = max_step;
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     def.self_contact = cli_self_contact(self_contact);
-    def.self_contact_thickness = self_contact_thickness;
+    def.self_thickness = self_contact_thickness;
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
     if (variants > 0) {

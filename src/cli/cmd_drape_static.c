@@ -78,7 +78,7 @@ int cmd_drape_static(int argc, char **argv) {
     def.max_frames = max_frames, def.coarse = coarse;
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
     def.self_contact = cli_self_contact(self_contact);
-    def.self_contact_thickness = self_contact_thickness;
+    def.self_thickness = self_contact_thickness;
     def.out_dir = out, def.render_size = RENDER_SIZE, def.quiet = quiet;
     cr_scene_drape_static_result r;
     if (cr_scene_drape_static(&def, &r, &err) != CR_OK) return cli_fail(&err);

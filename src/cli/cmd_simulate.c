@@ -196,7 +196,7 @@ int cmd_simulate(int argc, char **argv) {
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");
     def.self_contact = cli_self_contact(o.self_contact);
-    def.self_contact_thickness = o.self_contact_thickness;
+    def.self_thickness = o.self_contact_thickness;
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
     char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;

@@ -80,7 +80,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     def->plasticity = o->plastic;
     def->solver = (cr_sim_solver)o->solver;
     if (o->self_contact >= 0) def->self_contact = o->self_contact;
-    if (o->self_contact_thickness > 0.0f) def->self_contact_thickness = o->self_contact_thickness;
+    if (o->self_thickness > 0.0f) def->self_contact_thickness = o->self_thickness;
     def->pinned = o->pins;
     def->npinned = o->npins;
     CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
@@ -198,7 +198,7 @@ cr_status cr_scene_drape_static(const cr_scene_drape_static_def *d,
     CR_TRY(cr_material_preset(d->material, &def.material, err));
     def.solver = (cr_sim_solver)d->solver;
     if (d->self_contact >= 0) def.self_contact = d->self_contact;
-    if (d->self_contact_thickness > 0.0f) def.self_contact_thickness = d->self_contact_thickness;
+    if (d->self_thickness > 0.0f) def.self_contact_thickness = d->self_thickness;
     cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;
