@@ -41,6 +41,8 @@
 /* Vertices or edges of one detection task: each costs a few microseconds,
  * and a parallel region costs a scheduler quantum on a loaded machine. */
 #define DETECT_GRAIN 2048
+/* Partners per vertex or edge the count pass keeps for the fill pass. */
+#define CACHE 12
 
 struct cr_self_contact {
     int32_t nv, nf, ne;
@@ -70,7 +72,8 @@ struct cr_self_contact {
     int64_t *vt_rest_off, *ee_rest_off;     /* (V+1), (E+1) */
     int32_t *vt_rest, *ee_rest;             /* faces, edges */
     int32_t *vt_rest_off32, *ee_rest_off32; /* counts while they are built */
-    const double *x;                        /* positions being detected at */
+    int32_t *found, *cache; /* (V+E) pairs per vertex, then edge; (V+E, CACHE) their partners */
+    const double *x;        /* positions being detected at */
 };
 
 static cr_status grow_pairs(cr_self_contact *sc, int64_t np, cr_error *err);
@@ -84,7 +87,7 @@ void cr_self_contact_destroy(cr_self_contact *sc) {
     free(sc->dmin), free(sc->xdet), free(sc->vp_off), free(sc->vp);
     free(sc->cnt_v), free(sc->cnt_e);
     free(sc->vt_rest_off), free(sc->ee_rest_off), free(sc->vt_rest), free(sc->ee_rest);
-    free(sc->vt_rest_off32), free(sc->ee_rest_off32);
+    free(sc->vt_rest_off32), free(sc->ee_rest_off32), free(sc->found), free(sc->cache);
     free(sc);
 }
 
@@ -115,8 +118,11 @@ cr_status cr_self_contact_create(const cr_mesh *garment, const cr_topology *topo
     sc->vp_off = cr_calloc(v1, sizeof(int64_t), err);
     sc->cnt_v = cr_calloc(v1, sizeof(int32_t), err);
     sc->cnt_e = cr_calloc(e1, sizeof(int32_t), err);
+    sc->found = cr_calloc(v1 + e1, sizeof(int32_t), err);
+    sc->cache = cr_malloc(CACHE * (v1 + e1) * sizeof(int32_t), err);
     if (!sc->tri || !sc->edge || !sc->face_edge || !sc->edge_face || !sc->rest || !sc->xf ||
-        !sc->dmin || !sc->xdet || !sc->vp_off || !sc->cnt_v || !sc->cnt_e) {
+        !sc->dmin || !sc->xdet || !sc->vp_off || !sc->cnt_v || !sc->cnt_e || !sc->found ||
+        !sc->cache) {
         cr_self_contact_destroy(sc);
         return err ? err->status : CR_ERR_MEMORY;
     }
@@ -284,7 +290,7 @@ static int64_t box_faces(const cr_bvh *b, const float *lo, const float *hi, int3
  * (a face or an edge): at create, listed when within r at rest; later,
  * skipped when listed (stamp[other] == item + 1), else measured. */
 static int candidate(const detect_ctx *c, int kind, int64_t item, int32_t other, const int32_t *idx,
-                     const int32_t *stamp, int64_t at) {
+                     const int32_t *stamp, int64_t at, int64_t found) {
     cr_self_contact *sc = c->sc;
     if (c->rest) {
         double bst[3];
@@ -293,7 +299,32 @@ static int candidate(const detect_ctx *c, int kind, int64_t item, int32_t other,
         return 1;
     }
     if (stamp[other] == item + 1) return 0;
-    return consider(sc, kind, idx, c->fill, at);
+    int keep = consider(sc, kind, idx, c->fill, at);
+    /* The count pass remembers the partners, so the fill pass need not search again. */
+    int64_t slot = kind == 0 ? item : sc->nv + item;
+    if (keep && !c->fill && found < CACHE) sc->cache[CACHE * slot + found] = other;
+    return keep;
+}
+
+/* The fill pass from the count pass's partners of item (a vertex, kind 0,
+ * or an edge): 0 when they did not fit the cache (search again). */
+static int replay(const detect_ctx *c, int kind, int64_t item, int64_t at) {
+    cr_self_contact *sc = c->sc;
+    int64_t slot = kind == 0 ? item : sc->nv + item;
+    int32_t n = sc->found[slot];
+    if (n > CACHE) return 0;
+    for (int32_t q = 0; q < n; q++) {
+        int32_t other = sc->cache[CACHE * slot + q], idx[4];
+        if (kind == 0) {
+            const int32_t *t = sc->tri + 3 * (int64_t)other;
+            idx[0] = (int32_t)item, idx[1] = t[0], idx[2] = t[1], idx[3] = t[2];
+        } else {
+            const int32_t *a = sc->edge + 2 * item, *b = sc->edge + 2 * (int64_t)other;
+            idx[0] = a[0], idx[1] = a[1], idx[2] = b[0], idx[3] = b[1];
+        }
+        consider(sc, kind, idx, 1, at + q);
+    }
+    return 1;
 }
 
 /* Mark item's rest neighbours (list[off[item] .. off[item+1])) in stamp. */
@@ -317,6 +348,7 @@ static void vt_range(void *vctx, int64_t begin, int64_t end) {
     const float r = (float)sc->r;
     int32_t *cnt = c->rest ? sc->vt_rest_off32 : sc->cnt_v;
     for (int64_t i = begin; i < end; i++) {
+        if (c->fill && !c->rest && replay(c, 0, i, cnt[i])) continue;
         const float *p = sc->xf + 3 * i;
         float lo[3] = {p[0] - r, p[1] - r, p[2] - r}, hi[3] = {p[0] + r, p[1] + r, p[2] + r};
         int64_t nf = box_faces(sc->bvh, lo, hi, &faces, &cap, local);
@@ -327,9 +359,10 @@ static void vt_range(void *vctx, int64_t begin, int64_t end) {
             const int32_t *t = sc->tri + 3 * (int64_t)faces[q];
             if (t[0] == i || t[1] == i || t[2] == i) continue;
             int32_t idx[4] = {(int32_t)i, t[0], t[1], t[2]};
-            found += candidate(c, 0, i, faces[q], idx, stamp, at + found);
+            found += candidate(c, 0, i, faces[q], idx, stamp, at + found, found);
         }
         if (!c->fill) cnt[i] = (int32_t)found;
+        if (!c->fill && !c->rest) sc->found[i] = (int32_t)found;
     }
     if (faces != local) free(faces);
     free(stamp);
@@ -348,6 +381,7 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
     const float r = (float)sc->r;
     int32_t *cnt = c->rest ? sc->ee_rest_off32 : sc->cnt_e;
     for (int64_t e = begin; e < end; e++) {
+        if (c->fill && !c->rest && replay(c, 1, e, cnt[e])) continue;
         const int32_t *ev = sc->edge + 2 * e;
         const float *a = sc->xf + 3 * (int64_t)ev[0], *b = sc->xf + 3 * (int64_t)ev[1];
         float lo[3], hi[3];
@@ -367,10 +401,11 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
                 const int32_t *ov = sc->edge + 2 * (int64_t)e2;
                 if (ov[0] == ev[0] || ov[0] == ev[1] || ov[1] == ev[0] || ov[1] == ev[1]) continue;
                 int32_t idx[4] = {ev[0], ev[1], ov[0], ov[1]};
-                found += candidate(c, 1, e, e2, idx, stamp, at + found);
+                found += candidate(c, 1, e, e2, idx, stamp, at + found, found);
             }
         }
         if (!c->fill) cnt[e] = (int32_t)found;
+        if (!c->fill && !c->rest) sc->found[sc->nv + e] = (int32_t)found;
     }
     if (faces != local) free(faces);
     free(stamp);
