@@ -273,9 +273,11 @@ CR_TEST(phys_self_contact, pairs_match_brute_force) {
  * Returns the smallest signed distance of an upper-sheet vertex to the lower
  * sheet (its up side positive) at the end, m, and the largest over the
  * frames of the upper sheet's deepest point below it. */
-static double drop_sheets_n(int32_t NA, int32_t NB, cr_sim_solver solver, int self_contact,
-                            int substeps, int FRAMES, double *worst, double *ms, uint64_t *hash) {
-    cr_mesh *m = two_sheets(NA, 0.3f, NB, 0.2f, 0.015f);
+static double drop_sheets_n(int32_t NA, int32_t NB, float gap, cr_sim_solver solver,
+                            int self_contact, int substeps, int FRAMES, double *worst, double *ms,
+                            uint64_t *hash, int32_t *pairs) {
+    int32_t last_pairs = 0;
+    cr_mesh *m = two_sheets(NA, 0.3f, NB, 0.2f, gap);
     if (!m) return NAN;
     const int32_t na = NA * NA;
     int32_t *pins = malloc(2 * (size_t)NA * sizeof(int32_t)), np = 0;
@@ -300,6 +302,7 @@ static double drop_sheets_n(int32_t NA, int32_t NB, cr_sim_solver solver, int se
         cr_sim_report rep;
         if (cr_sim_step(s, &rep, &err) != CR_OK) goto done;
         *ms += 1e3 * rep.seconds / FRAMES;
+        last_pairs = rep.self_contact_pairs;
         if (getenv("SC_DEBUG"))
             printf(
                 "      f%d: %.1f ms, self %.1f ms, asm %.1f ms, fac %.1f, %d det, %d pairs, %d it, "
@@ -323,6 +326,7 @@ static double drop_sheets_n(int32_t NA, int32_t NB, cr_sim_solver solver, int se
         result = low;
     }
     if (hash) *hash = cr_sim_state_hash(s);
+    if (hash && pairs) *pairs = last_pairs;
 done:
     if (err.status != CR_OK) printf("    drop_sheets: %s\n", err.msg);
     free(lo), free(pins);
@@ -333,7 +337,7 @@ done:
 
 static double drop_sheets(cr_sim_solver solver, int self_contact, int substeps, double *worst,
                           double *ms) {
-    return drop_sheets_n(12, 10, solver, self_contact, substeps, 20, worst, ms, NULL);
+    return drop_sheets_n(12, 10, 0.015f, solver, self_contact, substeps, 20, worst, ms, NULL, NULL);
 }
 
 /* The sheet lands on the hammock and stays on its up side with self-contact
@@ -368,13 +372,15 @@ CR_TEST(phys_self_contact, dropped_sheet_stays_on_top) {
 CR_TEST(phys_self_contact, vbd_deterministic_across_threads) {
     int threads = cr_thread_count();
     uint64_t h1 = 0, h2 = 1;
+    int32_t pairs = 0;
     double worst, ms;
     cr_set_thread_count(1);
-    drop_sheets_n(36, 30, CR_SIM_SOLVER_VBD, 1, 1, 3, &worst, &ms, &h1);
+    drop_sheets_n(36, 30, 0.01f, CR_SIM_SOLVER_VBD, 1, 1, 3, &worst, &ms, &h1, &pairs);
     cr_set_thread_count(2);
-    drop_sheets_n(36, 30, CR_SIM_SOLVER_VBD, 1, 1, 3, &worst, &ms, &h2);
+    drop_sheets_n(36, 30, 0.01f, CR_SIM_SOLVER_VBD, 1, 1, 3, &worst, &ms, &h2, &pairs);
     cr_set_thread_count(threads);
-    printf("    state hash %016llx on 1 thread, %016llx on 2\n", (unsigned long long)h1,
-           (unsigned long long)h2);
+    printf("    state hash %016llx on 1 thread, %016llx on 2, %d pairs at the end\n",
+           (unsigned long long)h1, (unsigned long long)h2, pairs);
     CR_CHECK(h1 == h2);
+    CR_CHECK(pairs > 1000);
 }
