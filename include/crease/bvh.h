@@ -124,6 +124,12 @@ int cr_bvh_raycast(const cr_bvh *b, const float origin[3], const float dir[3], f
 int64_t cr_bvh_faces_in_box(const cr_bvh *b, const float lo[3], const float hi[3], int32_t *faces,
                             int64_t cap);
 
+/* Pairs of the BVH's triangles that share no vertex and cross each other
+ * (an edge of one passes through the other, touching included; coplanar
+ * overlaps are not counted), exactly in double from the BVH's positions: a
+ * cloth's self-intersections. -1 when out of memory. */
+int64_t cr_bvh_self_intersections(const cr_bvh *b);
+
 /* Squared distance from p to the triangle (a, b, c) and the barycentric
  * weights of its closest point (bary may be NULL), in double (Ericson 5.1.5,
  * the BVH's own; degenerate triangles by their edges). */
