@@ -65,6 +65,8 @@
 /* The step bound's fraction of the nearest pair's distance (the paper's
  * gamma_p; Warp's 0.4). */
 #define VBD_BOUND 0.4
+/* Detections that walk the initial guess out in steps of the bound. */
+#define VBD_GUESS_DETECTIONS 4
 
 struct cr_vbd {
     int32_t nv;
@@ -537,10 +539,21 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
     int converged = 0, it;
-    /* The initial guess within the step bound too. */
+    /* The initial guess within the step bound too. Cut to the bound, the
+     * guess loses the inertial motion that the sweeps, held back by the
+     * membrane, win back slowly (a falling cloth fell in slow motion), so
+     * the pairs are found again where the cut guess lies and the full guess
+     * tried from there, up to VBD_GUESS_DETECTIONS times. */
     if (s->self) {
-        memset(v->bounded, 0, (size_t)s->nv);
-        bound_all(s, v, s->x);
+        memcpy(v->xa, s->x, (size_t)n3 * sizeof(double)); /* the full guess */
+        for (int k = 0;; k++) {
+            memset(v->bounded, 0, (size_t)s->nv);
+            int32_t cut = bound_all(s, v, s->x);
+            if (cut == 0 || k == VBD_GUESS_DETECTIONS) break;
+            rep->self_contact_bounded += cut;
+            CR_TRY(cr_sim_detect_self(s, s->x, 0, err));
+            memcpy(s->x, v->xa, (size_t)n3 * sizeof(double));
+        }
     }
     memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));
     /* The objective at the sweep's start, for the current linearisation of
