@@ -9,13 +9,16 @@
  *           sleeve or skirt) of about 5k, 10k and 40k vertices, its top ring
  *           pinned, with a capsule (radius 0.08 m, length 0.4 m) inside it
  *           swinging about the top like a leg (0.15 rad at 0.8 Hz) and
- *           pushing the cloth around.
+ *           pushing the cloth around;
+ *   tall    a 25 x 100 cm cotton strip of 50 x 200 vertices stood on its lower
+ *           edge 1 cm above the ground (a 4 x 4 m box) and tipped 0.2 rad: it
+ *           falls and piles onto itself (the self-contact scene).
  * The first frames of a scene include its setup transient; the split is
  * summed over the frames finished (cr_scene_run, the loop `crease simulate`
  * and the datasets use). Threads: all, or the second argument.
  *
  * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
- *   scene: all (default), sphere, tube5k, tube10k, tube40k
+ *   scene: all (default), sphere, tube5k, tube10k, tube40k, tall (not in all)
  *   frames: 30 by default (10 for tube40k)
  *   --solver: newton (default) or vbd times that solver; compare runs a
  *   converged Newton reference (newton_tol 1e-5 m/s, no relative
@@ -199,6 +202,30 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
     return rc;
 }
 
+static int bench_tall(int frames) {
+    cr_error err = {0};
+    cr_mesh *cloth = NULL, *ground = NULL;
+    if (cr_prim_plane(50, 200, 0.25f, 1.0f, &cloth, &err) != CR_OK ||
+        cr_prim_box(4.0f, 0.2f, 4.0f, 2, &ground, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s\n", err.msg);
+        return 1;
+    }
+    for (int32_t v = 0; v < ground->nv; v++)
+        ground->pos[3 * v + 1] -= 0.1f; /* its top at y = 0 */
+    for (int32_t v = 0; v < cloth->nv; v++) {
+        float *p = cloth->pos + 3 * v, h = p[2] + 0.5f;
+        p[1] = 0.01f + h * cosf(0.2f);
+        p[2] = h * sinf(0.2f);
+    }
+    cr_sim_def d = cr_sim_default_def();
+    cr_material_preset("cotton", &d.material, &err);
+    d.collider = ground;
+    int rc = run_mode("tall10k", cloth, &d, frames);
+    cr_mesh_destroy(cloth);
+    cr_mesh_destroy(ground);
+    return rc;
+}
+
 int main(int argc, char **argv) {
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--self-contact") && i + 1 < argc) {
@@ -236,5 +263,6 @@ int main(int argc, char **argv) {
     if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
     if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
     if (all || !strcmp(which, "tube40k")) rc |= bench_tube("tube40k", 200, 199, big);   /* 40,000 */
+    if (!strcmp(which, "tall")) rc |= bench_tall(frames);                               /* 10,000 */
     return rc;
 }
