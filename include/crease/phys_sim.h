@@ -42,6 +42,12 @@
  * CR_ERR_DIVERGED naming the frame and what failed, and the state stays the
  * last good one. Positions never hold a NaN.
  *
+ * Cloth self-contact (def.self_contact; src/phys/self_contact.c): the
+ * cloth's vertex-triangle and edge-edge pairs closer than a thickness,
+ * found by a BVH over the cloth once per substep (VBD: again where its
+ * conservative step bound was reached), as one more energy term in both
+ * solvers. docs/physics.md, "Self-contact".
+ *
  * After each substep, a vertex left inside the collider (signed distance
  * < 0) is projected onto its surface along the normal and its inward normal
  * velocity is removed; the report says how deep the deepest vertex was
