@@ -29,6 +29,7 @@
  *   shows its detection (pairs, BVH refits, the assembly rebuilt for them).
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
+#include "crease/bvh.h"
 #include "crease/primitives.h"
 #include "crease/scene.h"
 
@@ -221,6 +222,18 @@ static int bench_tall(int frames) {
     cr_material_preset("cotton", &d.material, &err);
     d.collider = ground;
     int rc = run_mode("tall10k", cloth, &d, frames);
+    /* Crossing triangle pairs at the end, exactly (what self-contact prevents). */
+    float *p = last_positions ? malloc(sizeof(float) * 3 * (size_t)cloth->nv) : NULL;
+    cr_bvh *b = NULL;
+    if (p) {
+        for (int64_t k = 0; k < 3 * (int64_t)cloth->nv; k++)
+            p[k] = (float)last_positions[k];
+        if (cr_bvh_build(p, cloth->nv, cloth->tri, cloth->nf, &b, &err) == CR_OK)
+            printf("sim tall10k: %lld crossing triangle pairs at the end\n",
+                   (long long)cr_bvh_self_intersections(b));
+    }
+    cr_bvh_destroy(b);
+    free(p);
     cr_mesh_destroy(cloth);
     cr_mesh_destroy(ground);
     return rc;
