@@ -555,9 +555,10 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     }
     CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
     if (dynamic) {
-        if (vbd)
+        if (vbd) {
             cr_vbd_initial_guess(s, h);
-        else
+            CR_TRY(cr_vbd_bound_guess(s, err));
+        } else
             memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
         if (s->bvh) clamp_guess(s);
     }

@@ -38,6 +38,8 @@ int cr_vbd_colour_count(const cr_vbd *v);
 cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err);
 /* The paper's adaptive initial guess (Chen et al. 2024, sec. 3.6) into s->x. */
 void cr_vbd_initial_guess(cr_sim *s, double h);
+/* With self-contact, the guess in s->x within the step bound (vbd.c). */
+cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err);
 
 /* Self-contact pairs at x (sim.c): detection, the term's elements, and the
  * assembly (and Newton's Cholesky analysis when `newton`) rebuilt when the
