@@ -9,21 +9,27 @@
  *           sleeve or skirt) of about 5k, 10k and 40k vertices, its top ring
  *           pinned, with a capsule (radius 0.08 m, length 0.4 m) inside it
  *           swinging about the top like a leg (0.15 rad at 0.8 Hz) and
- *           pushing the cloth around.
+ *           pushing the cloth around;
+ *   tall    a 25 x 100 cm cotton strip of 50 x 200 vertices stood on its lower
+ *           edge 1 cm above the ground (a 4 x 4 m box) and tipped 0.2 rad: it
+ *           falls and piles onto itself (the self-contact scene).
  * The first frames of a scene include its setup transient; the split is
  * summed over the frames finished (cr_scene_run, the loop `crease simulate`
  * and the datasets use). Threads: all, or the second argument.
  *
  * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
- *   scene: all (default), sphere, tube5k, tube10k, tube40k
+ *   scene: all (default), sphere, tube5k, tube10k, tube40k, tall (not in all)
  *   frames: 30 by default (10 for tube40k)
  *   --solver: newton (default) or vbd times that solver; compare runs a
  *   converged Newton reference (newton_tol 1e-5 m/s, no relative
  *   tolerance, 40 iterations), Newton at its default cap of 8 and VBD at
  *   its defaults, and prints each one's mean and largest vertex distance to
  *   the reference after the last frame.
+ *   --self-contact on|off: cloth self-contact (default off); the split then
+ *   shows its detection (pairs, BVH refits, the assembly rebuilt for them).
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
  */
+#include "crease/bvh.h"
 #include "crease/primitives.h"
 #include "crease/scene.h"
 
@@ -44,7 +50,8 @@ static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep
     return CR_OK;
 }
 
-static int solver_mode = 0; /* 0 newton, 1 vbd, 2 compare */
+static int solver_mode = 0;  /* 0 newton, 1 vbd, 2 compare */
+static int self_contact = 0; /* --self-contact on */
 
 /* After a run: its final positions (V,3), for compare; owned here. */
 static double *last_positions = NULL;
@@ -66,13 +73,19 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
     printf("sim %s V=%d solver %s: %.3f s/frame over %d frames (setup %.2f s)\n", name, garment->nv,
            cr_sim_solver_name(def->solver), st.seconds / n, st.frames, setup);
     printf("sim %s split: assembly %.0f%%, factorisation %.0f%%, solves %.0f%%, collision "
-           "%.0f%%, other %.0f%%\n",
+           "%.0f%%, self-contact %.0f%%, other %.0f%%\n",
            name, 100 * st.seconds_assembly / tot, 100 * st.seconds_factor / tot,
            100 * st.seconds_solve / tot, 100 * st.seconds_collision / tot,
+           100 * st.seconds_self_contact / tot,
            100 *
                (tot - st.seconds_assembly - st.seconds_factor - st.seconds_solve -
-                st.seconds_collision) /
+                st.seconds_collision - st.seconds_self_contact) /
                tot);
+    if (def->self_contact)
+        printf("sim %s self-contact: %.3f s/frame detecting, %.1f detections and %.0f pairs per "
+               "frame\n",
+               name, st.seconds_self_contact / n, st.self_contact_detections / n,
+               st.self_contact_pairs / n);
     printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
            "%lld VBD retries, %lld backoffs, max penetration before projection %.2f mm, %s\n",
            name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.vbd_retries,
@@ -89,6 +102,7 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
 /* One scene with the chosen solver, or the three runs of compare. */
 static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
     cr_sim_def d = *base;
+    d.self_contact = self_contact;
     if (solver_mode < 2) {
         d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
         return run(name, garment, &d, frames);
@@ -101,6 +115,7 @@ static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *
     if (!ref) return 1;
     for (int k = 0; k < 2; k++) {
         d = *base;
+        d.self_contact = self_contact;
         d.solver = k == 0 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
         rc |= run(name, garment, &d, frames);
         if (!last_positions) continue;
@@ -188,7 +203,55 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
     return rc;
 }
 
+static int bench_tall(int frames) {
+    cr_error err = {0};
+    cr_mesh *cloth = NULL, *ground = NULL;
+    if (cr_prim_plane(50, 200, 0.25f, 1.0f, &cloth, &err) != CR_OK ||
+        cr_prim_box(4.0f, 0.2f, 4.0f, 2, &ground, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s\n", err.msg);
+        return 1;
+    }
+    for (int32_t v = 0; v < ground->nv; v++)
+        ground->pos[3 * v + 1] -= 0.1f; /* its top at y = 0 */
+    for (int32_t v = 0; v < cloth->nv; v++) {
+        float *p = cloth->pos + 3 * v, h = p[2] + 0.5f;
+        p[1] = 0.01f + h * cosf(0.2f);
+        p[2] = h * sinf(0.2f);
+    }
+    cr_sim_def d = cr_sim_default_def();
+    cr_material_preset("cotton", &d.material, &err);
+    d.collider = ground;
+    int rc = run_mode("tall10k", cloth, &d, frames);
+    /* Crossing triangle pairs at the end, exactly (what self-contact prevents). */
+    float *p = last_positions ? malloc(sizeof(float) * 3 * (size_t)cloth->nv) : NULL;
+    cr_bvh *b = NULL;
+    if (p) {
+        for (int64_t k = 0; k < 3 * (int64_t)cloth->nv; k++)
+            p[k] = (float)last_positions[k];
+        if (cr_bvh_build(p, cloth->nv, cloth->tri, cloth->nf, &b, &err) == CR_OK)
+            printf("sim tall10k: %lld crossing triangle pairs at the end\n",
+                   (long long)cr_bvh_self_intersections(b));
+    }
+    cr_bvh_destroy(b);
+    free(p);
+    cr_mesh_destroy(cloth);
+    cr_mesh_destroy(ground);
+    return rc;
+}
+
 int main(int argc, char **argv) {
+    for (int i = 1; i < argc; i++)
+        if (!strcmp(argv[i], "--self-contact") && i + 1 < argc) {
+            self_contact = !strcmp(argv[i + 1], "on");
+            if (!self_contact && strcmp(argv[i + 1], "off")) {
+                fprintf(stderr, "bench_sim: --self-contact on|off, got %s\n", argv[i + 1]);
+                return 2;
+            }
+            for (int j = i; j + 2 < argc; j++)
+                argv[j] = argv[j + 2];
+            argc -= 2;
+            break;
+        }
     for (int i = 1; i < argc; i++)
         if (!strcmp(argv[i], "--solver") && i + 1 < argc) {
             const char *m = argv[i + 1];
@@ -213,5 +276,6 @@ int main(int argc, char **argv) {
     if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
     if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
     if (all || !strcmp(which, "tube40k")) rc |= bench_tube("tube40k", 200, 199, big);   /* 40,000 */
+    if (!strcmp(which, "tall")) rc |= bench_tall(frames);                               /* 10,000 */
     return rc;
 }

@@ -34,6 +34,14 @@ check "simulate --solver vbd" bash -c "'$crease' simulate --garment '$tmp/cloth.
 check "vbd no divergence" grep -q '"diverged":false' "$tmp/simv.json"
 check "vbd penetration < 1 mm" json_below "$tmp/simv.json" max_penetration_m 1e-3
 check "vbd differs from newton" bash -c "! cmp -s '$tmp/sim/sim.pc2' '$tmp/simv/sim.pc2'"
+# --self-contact on: the same scene with cloth self-contact; its log has the pairs
+check "simulate --self-contact on" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
+  --garment-offset 0,0.35,0 --object sphere --frames 3 --solver vbd --self-contact on \
+  --self-contact-thickness 0.005 -o '$tmp/simsc' --quiet --json > '$tmp/simsc.json'"
+check "self-contact no divergence" grep -q '"diverged":false' "$tmp/simsc.json"
+check "self-contact logged" grep -q '"self_contact_pairs"' "$tmp/simsc/frames.jsonl"
+check "self-contact bad value refused" bash -c "! '$crease' simulate --garment '$tmp/cloth.obj' \
+  --object sphere --frames 1 --self-contact yes -o '$tmp/simsc2' --quiet 2>/dev/null"
 check "drape-static --solver vbd" bash -c "'$crease' drape-static --object sphere --res 12 \
   --max-frames 10 --solver vbd -o '$tmp/dsv' --json > '$tmp/dsv.json' 2>/dev/null"
 # (the settling frames' depth before projection: VBD leaves 4 mm, docs/physics.md)

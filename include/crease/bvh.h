@@ -116,6 +116,26 @@ int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist,
 int cr_bvh_raycast(const cr_bvh *b, const float origin[3], const float dir[3], float t_max,
                    cr_bvh_ray_hit *hit);
 
+/* Faces whose bounding box overlaps the box [lo, hi] (m), in the tree's
+ * leaf order (the same for the same tree and box): the first `cap` go to
+ * faces; returns how many there are (more than cap: call again with more
+ * room). For broad phases, e.g. cloth self-contact (a vertex's or an edge's
+ * box inflated by a thickness). */
+int64_t cr_bvh_faces_in_box(const cr_bvh *b, const float lo[3], const float hi[3], int32_t *faces,
+                            int64_t cap);
+
+/* Pairs of the BVH's triangles that share no vertex and cross each other
+ * (an edge of one passes through the other, touching included; coplanar
+ * overlaps are not counted), exactly in double from the BVH's positions: a
+ * cloth's self-intersections. -1 when out of memory. */
+int64_t cr_bvh_self_intersections(const cr_bvh *b);
+
+/* Squared distance from p to the triangle (a, b, c) and the barycentric
+ * weights of its closest point (bary may be NULL), in double (Ericson 5.1.5,
+ * the BVH's own; degenerate triangles by their edges). */
+double cr_closest_point_triangle(const double p[3], const double a[3], const double b[3],
+                                 const double c[3], double bary[3]);
+
 /* Batched versions over N points (N,3), in parallel; output arrays may be
  * NULL when not wanted. Entries with no result get face/vertex -1, distance
  * max_dist (or t_max), zero normal/point/bary. */

@@ -72,6 +72,8 @@ typedef struct cr_dataset_def {
                                  (cr_sim_def.max_collider_step; default 0.15: the run and
                                  jump clips get 2-3, the others 1) */
     int solver;               /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;         /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;     /* its thickness, m; 0 (default): cr_sim_def's */
     uint64_t seed;            /* recorded in the manifest (the simulator has no randomness) */
     int quiet;                /* 1: no progress bar */
     /* Motion files (clips are made at fps and start at the rest pose): read

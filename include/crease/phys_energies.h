@@ -15,6 +15,7 @@
  *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
  *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
  *   pin        vertex    k/2 |x_i - target_i|^2 over the pinned vertices          pin.c
+ *   self_contact pair    k max(eps - d(x), 0)^3, d = n . sum w_k x_k, VT or EE  self_contact.c
  *
  * Threading: _create/_update/_set mutate and must not overlap a kernel call;
  * kernels are pure and may run on many threads at once.
@@ -159,6 +160,47 @@ double cr_collision_penalty(double k, double eps, double d, const double n[3], d
  * then normal (3) gets n_i and *force the penalty's normal force magnitude
  * 3 k (eps - dist_i)^2, N. Else 0 and nothing is written. */
 int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], double *force);
+
+/* -------------------------------------------------------- self-contact -- */
+
+/* Cloth self-contact: vertex-triangle (VT) and edge-edge (EE) pairs of the
+ * cloth found within a query radius of CR_SELF_CONTACT_QUERY times the
+ * thickness eps, each with its unit normal n and weights w fixed at
+ * detection (d(x) = n . sum_k w_k x_k is the pair's distance there, and
+ * keeps its sign when the pair is pushed through), penalised by the body
+ * collision's cubic k max(eps - d, 0)^3 (cr_collision_penalty). Elements of
+ * four vertices: VT (p, a, b, c), EE (a, b, c, d). Pairs sharing a vertex,
+ * and pairs closer than the query radius at rest (the garment given to
+ * create), are left out. Gradient and Hessian are exact (d is linear) and
+ * PSD. Found by a BVH over the cloth, refitted at every detection; see
+ * self_contact.c. */
+#define CR_SELF_CONTACT_QUERY 2.0
+typedef struct cr_self_contact cr_self_contact;
+/* Copies the garment's triangles and positions (the rest state) and the
+ * topology's edges. thickness eps > 0, m; stiffness k >= 0, J/m^3
+ * (CR_ERR_INVALID otherwise). */
+cr_status cr_self_contact_create(const cr_mesh *garment, const cr_topology *topo, double thickness,
+                                 double stiffness, cr_self_contact **out, cr_error *err);
+void cr_self_contact_destroy(cr_self_contact *sc);
+/* Find the pairs at x (V,3), m: refits the BVH, replaces the pair list
+ * (refresh a term with cr_self_contact_term: elements move). The same list
+ * at any thread count: VT pairs by vertex, then EE pairs by first edge. */
+cr_status cr_self_contact_detect(cr_self_contact *sc, const double *x, cr_error *err);
+void cr_self_contact_term(const cr_self_contact *sc, cr_energy_term *out);
+/* Pairs of the last detection; *vertex_triangle (may be NULL) gets how many
+ * of them are VT (they come first). */
+int32_t cr_self_contact_pair_count(const cr_self_contact *sc, int32_t *vertex_triangle);
+double cr_self_contact_radius(const cr_self_contact *sc); /* the query radius, m */
+/* (V) per vertex, the distance of the nearest pair it is in at the last
+ * detection, or the query radius when none, m: a vertex that moves less than
+ * half of it from where it was detected cannot pass through another part of
+ * the cloth (VBD's step bound). */
+const double *cr_self_contact_nearest(const cr_self_contact *sc);
+const double *cr_self_contact_detected_at(const cr_self_contact *sc); /* (V,3) m */
+/* The pairs around each vertex: pairs[off[i] .. off[i+1]) hold 4 p + k for
+ * vertex i being vertex k of pair p. */
+void cr_self_contact_vertex_pairs(const cr_self_contact *sc, const int64_t **off,
+                                  const int32_t **pairs);
 
 /* ----------------------------------------------------------------- pin -- */
 

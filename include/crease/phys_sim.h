@@ -42,6 +42,12 @@
  * CR_ERR_DIVERGED naming the frame and what failed, and the state stays the
  * last good one. Positions never hold a NaN.
  *
+ * Cloth self-contact (def.self_contact; src/phys/self_contact.c): the
+ * cloth's vertex-triangle and edge-edge pairs closer than a thickness,
+ * found by a BVH over the cloth once per substep (VBD: again where its
+ * conservative step bound was reached), as one more energy term in both
+ * solvers. docs/physics.md, "Self-contact".
+ *
  * After each substep, a vertex left inside the collider (signed distance
  * < 0) is projected onto its surface along the normal and its inward normal
  * velocity is removed; the report says how deep the deepest vertex was
@@ -177,6 +183,13 @@ typedef struct cr_sim_def {
                                vertex blocks are cheap, and a stale block overshoots) */
     double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
                                in Newton's potential, so it moves the solution) */
+    int self_contact;       /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
+                               (self_contact.c; docs/physics.md, "Self-contact";
+                               default 0) */
+    double self_contact_thickness;    /* m: pairs closer than this are pushed apart (default 4e-3:
+                                         two layers of a 1-2 mm fabric with room; under the edge
+                                         length of a 10k garment, so mesh neighbours are no
+                                         pairs) */
     cr_sim_iteration_fn on_iteration; /* Newton steps, or VBD sweeps (energy after the sweep) */
     void *on_iteration_ctx;
     uint32_t cookie;
@@ -208,6 +221,11 @@ typedef struct cr_sim_report {
     double seconds_solve;     /* triangular solves */
     double seconds_collision; /* BVH refits and signed-distance queries */
     int vbd_retries;          /* VBD sweeps whose objective rose, run again with line searches */
+    double seconds_self_contact;  /* self-contact pair finding and the assembly rebuilt for it */
+    int32_t self_contact_pairs;   /* pairs of the last detection */
+    int self_contact_detections;  /* detections, summed over substeps (VBD: once, and again
+                                     after a sweep where a vertex reached its step bound) */
+    int32_t self_contact_bounded; /* VBD vertex moves cut by the step bound, summed */
 } cr_sim_report;
 
 typedef struct cr_sim cr_sim;

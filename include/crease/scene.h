@@ -165,6 +165,9 @@ typedef struct cr_scene_run_stats {
     double seconds_factor;
     double seconds_solve;
     double seconds_collision;
+    double seconds_self_contact;       /* self-contact detection (cr_sim_report) */
+    long long self_contact_detections; /* summed */
+    long long self_contact_pairs;      /* summed over frames (pairs at each frame's end) */
     long long newton_iterations;
     long long factorisations;
     long long newton_capped;    /* substeps that stopped at the iteration limit */
@@ -212,6 +215,8 @@ typedef struct cr_scene_sim_def {
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
     int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;            /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;        /* its thickness, m; 0 (default): cr_sim_def's */
     const int32_t *pins;         /* (npins) vertices held at their initial positions */
     int32_t npins;
     const char *out_dir; /* created when missing; required */
@@ -253,6 +258,8 @@ typedef struct cr_scene_drape_static_def {
                                   static solve from its rest shape (cr_scene_settle_coarse);
                                   below res. 0 (default): off */
     int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;          /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;      /* its thickness, m; 0 (default): cr_sim_def's */
     const char *out_dir;       /* required */
     int render_size;           /* final.png's side (default 800) */
     int quiet;                 /* 1: no progress bar */

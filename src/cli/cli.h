@@ -117,6 +117,17 @@ typedef struct cli_opt {
     }
 /* --solver's values (cli_common.c): "newton", "vbd", NULL; parse with cr_sim_solver_parse. */
 extern const char *const cli_solvers[];
+/* --self-contact on|off and --self-contact-thickness M (simulate, drape-static, dataset):
+ * cli_self_contact gives the defs' 1, 0, or -1 when the option was not given. */
+extern const char *const cli_on_off[];
+int cli_self_contact(const char *choice);
+#define CLI_SELF_CONTACT_OPTS(choice_, thickness_)                                                 \
+    CLI_CHOICE("--self-contact", choice_, cli_on_off),                                             \
+        CLI_FLOAT("--self-contact-thickness", thickness_, 1e-5, 0.5)
+#define CLI_SELF_CONTACT_HELP                                                                      \
+    "  --self-contact on|off  cloth self-contact (default off; docs/physics.md)\n"                 \
+    "  --self-contact-thickness M  pairs closer than M metres are pushed apart (default\n"         \
+    "                       0.004)\n"
 #define CLI_END                                                                                    \
     { .name = NULL }
 #define CLI_PTR_(type_, p_) ((void *)(1 ? (p_) : (type_ *)0))

@@ -8,6 +8,11 @@
 #include <string.h>
 
 const char *const cli_solvers[] = {"newton", "vbd", NULL};
+const char *const cli_on_off[] = {"on", "off", NULL};
+
+int cli_self_contact(const char *choice) {
+    return !choice ? -1 : strcmp(choice, "on") == 0;
+}
 
 int cli_fail(const cr_error *err) {
     fprintf(stderr, "crease: %s\n", err->msg[0] ? err->msg : cr_status_str(err->status));

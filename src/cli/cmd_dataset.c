@@ -46,7 +46,8 @@ void help_dataset(void) {
            "  --material M         cotton (default), silk, denim or knit\n"
            "  --plastic            plastic bending (epnet's ground truth)\n"
            "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
-           "                       or vbd (vertex block descent, no factorisation)\n"
+           "                       or vbd (vertex block descent, no "
+           "factorisation)\n" CLI_SELF_CONTACT_HELP
            "  --max-collider-step M  frames where the body moves further than M metres run\n"
            "                       more substeps (default 0.15; 0: always one)\n"
            "  --seed S             recorded in the manifest; the first variant seed of\n"
@@ -67,7 +68,8 @@ int cmd_dataset(int argc, char **argv) {
     int json = 0, seed = (int)def.seed, npos = 0, step_given = 0, variants = 0;
     cli_motion_file mf = cli_motion_file_default(1.0f); /* motion files' options */
     float max_step = 0.0f; /* parsed as a float, as the option always was */
-    const char *solver = NULL;
+    const char *solver = NULL, *self_contact = NULL;
+    float self_contact_thickness = 0.0f;
     const cli_opt opts[] = {
         CLI_CUSTOM("--garments", cli_parse_list, &lists[0], 1),
         CLI_CUSTOM("--motions", cli_parse_list, &lists[1], 1),
@@ -88,6 +90,7 @@ int cmd_dataset(int argc, char **argv) {
          .hi = 10,
          .seen = &step_given},
         CLI_CHOICE("--solver", &solver, cli_solvers),
+        CLI_SELF_CONTACT_OPTS(&self_contact, &self_contact_thickness),
         CLI_FLAG("--plastic", &def.plastic),
         CLI_FLAG("--quiet", &def.quiet),
         CLI_FLAG("--json", &json),
@@ -100,6 +103,8 @@ int cmd_dataset(int argc, char **argv) {
     cli_motion_file_defs(&mf, &def.motion_import, &def.motion_prepare);
     if (step_given) def.max_collider_step = max_step;
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
+    def.self_contact = cli_self_contact(self_contact);
+    def.self_thickness = self_contact_thickness;
     if (!def.out_dir) return cli_usage("dataset", "missing -o DIR");
     if (lists[0].n == 0) return cli_usage("dataset", "missing --garments LIST");
     if (variants > 0) {

@@ -37,12 +37,14 @@ void help_drape_static(void) {
            "                       frame and the static solve), sim.pc2 (every state)\n"
            "  --json               end with a JSON summary on stdout\n"
            "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
-           "                       or vbd (vertex block descent, no factorisation)\n");
+           "                       or vbd (vertex block descent, no "
+           "factorisation)\n" CLI_SELF_CONTACT_HELP);
 }
 
 int cmd_drape_static(int argc, char **argv) {
     const char *object = NULL, *material = "cotton", *material_json = NULL, *out = NULL;
-    const char *solver = NULL;
+    const char *solver = NULL, *self_contact = NULL;
+    float self_contact_thickness = 0.0f;
     int res = 64, json = 0, quiet = 0, max_frames = 150, coarse = 0, npos = 0;
     float gap = 0.05f;
     const cli_opt opts[] = {
@@ -55,6 +57,7 @@ int cmd_drape_static(int argc, char **argv) {
         CLI_INT("--max-frames", &max_frames, 0, 1000000),
         CLI_INT("--coarse", &coarse, 2, 1024),
         CLI_CHOICE("--solver", &solver, cli_solvers),
+        CLI_SELF_CONTACT_OPTS(&self_contact, &self_contact_thickness),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
         CLI_END,
@@ -74,6 +77,8 @@ int cmd_drape_static(int argc, char **argv) {
     def.material = material, def.material_json = material_json;
     def.max_frames = max_frames, def.coarse = coarse;
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
+    def.self_contact = cli_self_contact(self_contact);
+    def.self_thickness = self_contact_thickness;
     def.out_dir = out, def.render_size = RENDER_SIZE, def.quiet = quiet;
     cr_scene_drape_static_result r;
     if (cr_scene_drape_static(&def, &r, &err) != CR_OK) return cli_fail(&err);

@@ -39,7 +39,8 @@ void help_simulate(void) {
         "  --material-json F    override material fields from a JSON object\n"
         "  --plastic            plastic bending: rest angles follow large folds (rest_angles.npy)\n"
         "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
-        "                       or vbd (vertex block descent, no factorisation)\n"
+        "                       or vbd (vertex block descent, no "
+        "factorisation)\n" CLI_SELF_CONTACT_HELP
         "  --pin i,j,...        vertices held at their initial positions\n"
         "  --substeps S         implicit Euler steps per frame (default 1)\n"
         "  --max-collider-step M  more substeps in frames where the collider moves further\n"
@@ -58,7 +59,8 @@ void help_simulate(void) {
 
 typedef struct {
     const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
-    const char *solver;
+    const char *solver, *self_contact;
+    float self_contact_thickness;
     cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
@@ -127,6 +129,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
          .dst = o->offset,
          .seen = &o->has_offset},
         CLI_CHOICE("--solver", &o->solver, cli_solvers),
+        CLI_SELF_CONTACT_OPTS(&o->self_contact, &o->self_contact_thickness),
         CLI_FLAG("--plastic", &o->plastic),
         CLI_FLAG("--quiet", &o->quiet),
         CLI_FLAG("--json", &o->json),
@@ -192,6 +195,8 @@ int cmd_simulate(int argc, char **argv) {
     def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");
+    def.self_contact = cli_self_contact(o.self_contact);
+    def.self_thickness = o.self_contact_thickness;
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
     char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;

@@ -15,6 +15,7 @@
 #include "bvh_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 typedef struct stack_item {
@@ -88,13 +89,13 @@ static void closest_degenerate(const double *a, const double *ab, const double *
 
 /* Ericson 5.1.5: classify p against the Voronoi regions of the vertices,
  * edges and face of triangle (a, b, c). Edges: 0 = ab, 1 = bc, 2 = ca. */
-static void closest_on_triangle(const float *fa, const float *fb, const float *fc,
-                                const double p[3], tri_closest *r) {
+static void closest_on_triangle_d(const double *fa, const double *fb, const double *fc,
+                                  const double p[3], tri_closest *r) {
     double a[3], ab[3], ac[3], ap[3], bp[3], cp[3];
     for (int d = 0; d < 3; d++) {
         a[d] = fa[d];
-        ab[d] = (double)fb[d] - fa[d];
-        ac[d] = (double)fc[d] - fa[d];
+        ab[d] = fb[d] - fa[d];
+        ac[d] = fc[d] - fa[d];
         ap[d] = p[d] - fa[d];
         bp[d] = p[d] - fb[d];
         cp[d] = p[d] - fc[d];
@@ -121,6 +122,22 @@ static void closest_on_triangle(const float *fa, const float *fb, const float *f
     } else {
         closest_degenerate(a, ab, ac, p, r);
     }
+}
+
+/* The same for float corners (the BVH's leaves), converted exactly. */
+static void closest_on_triangle(const float *fa, const float *fb, const float *fc,
+                                const double p[3], tri_closest *r) {
+    const double a[3] = {fa[0], fa[1], fa[2]}, b[3] = {fb[0], fb[1], fb[2]},
+                 c[3] = {fc[0], fc[1], fc[2]};
+    closest_on_triangle_d(a, b, c, p, r);
+}
+
+double cr_closest_point_triangle(const double p[3], const double a[3], const double b[3],
+                                 const double c[3], double bary[3]) {
+    tri_closest r;
+    closest_on_triangle_d(a, b, c, p, &r);
+    if (bary) bary[0] = r.bary[0], bary[1] = r.bary[1], bary[2] = r.bary[2];
+    return r.d2;
 }
 
 /* ----------------------------------------------------- closest point -- */
@@ -471,4 +488,139 @@ void cr_bvh_raycast_batch(const cr_bvh *b, const float *origins, const float *di
                    .dist = t,
                    .bary = bary};
     cr_parallel_for(n, BATCH_GRAIN, ray_range, &c);
+}
+
+/* ------------------------------------------------------- box overlap -- */
+
+int64_t cr_bvh_faces_in_box(const cr_bvh *b, const float lo[3], const float hi[3], int32_t *faces,
+                            int64_t cap) {
+    int64_t n = 0;
+    int32_t stack[BVH_STACK];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const bvh_node *nd = &b->nodes[stack[--top]];
+        if (nd->lo[0] > hi[0] || nd->hi[0] < lo[0] || nd->lo[1] > hi[1] || nd->hi[1] < lo[1] ||
+            nd->lo[2] > hi[2] || nd->hi[2] < lo[2])
+            continue;
+        if (nd->count == 0) {
+            stack[top++] = nd->start + 1;
+            stack[top++] = nd->start;
+            continue;
+        }
+        for (int32_t k = 0; k < nd->count; k++) {
+            const float *v = &b->leaf_pos[9 * (size_t)(nd->start + k)];
+            float flo[3], fhi[3];
+            for (int d = 0; d < 3; d++) {
+                flo[d] = bvh_minf(bvh_minf(v[d], v[3 + d]), v[6 + d]);
+                fhi[d] = bvh_maxf(bvh_maxf(v[d], v[3 + d]), v[6 + d]);
+            }
+            if (flo[0] > hi[0] || fhi[0] < lo[0] || flo[1] > hi[1] || fhi[1] < lo[1] ||
+                flo[2] > hi[2] || fhi[2] < lo[2])
+                continue;
+            if (n < cap) faces[n] = b->order[nd->start + k];
+            n++;
+        }
+    }
+    return n;
+}
+
+/* ---------------------------------------------- self-intersections -- */
+
+/* Six times the signed volume of (a, b, c, d). */
+static double orient3(const double *a, const double *b, const double *c, const double *d) {
+    double u[3], v[3], w[3];
+    for (int k = 0; k < 3; k++)
+        u[k] = b[k] - a[k], v[k] = c[k] - a[k], w[k] = d[k] - a[k];
+    return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+           u[2] * (v[0] * w[1] - v[1] * w[0]);
+}
+
+/* Segment pq crosses triangle abc (touching counts; coplanar does not). */
+static int segment_crosses(const double *p, const double *q, const double *a, const double *b,
+                           const double *c) {
+    double dp = orient3(a, b, c, p), dq = orient3(a, b, c, q);
+    if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0) || (dp == 0 && dq == 0)) return 0;
+    double s1 = orient3(p, q, a, b), s2 = orient3(p, q, b, c), s3 = orient3(p, q, c, a);
+    return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
+}
+
+/* Two non-coplanar triangles meet iff an edge of one crosses the other. */
+static int triangles_cross(const double *t, const double *u) {
+    for (int k = 0; k < 3; k++) {
+        const double *p = t + 3 * k, *q = t + 3 * ((k + 1) % 3);
+        if (segment_crosses(p, q, u, u + 3, u + 6)) return 1;
+        p = u + 3 * k, q = u + 3 * ((k + 1) % 3);
+        if (segment_crosses(p, q, t, t + 3, t + 6)) return 1;
+    }
+    return 0;
+}
+
+typedef struct isect_ctx {
+    const cr_bvh *b;
+    int64_t *count; /* (F) pairs (f, g > f) per face */
+} isect_ctx;
+
+static void isect_range(void *vctx, int64_t begin, int64_t end) {
+    const isect_ctx *c = vctx;
+    const cr_bvh *b = c->b;
+    int32_t local[256], *faces = local;
+    int64_t cap = 256;
+    for (int64_t f = begin; f < end; f++) {
+        const int32_t *tf = b->tri + 3 * f;
+        double t[9];
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++) {
+                float x = b->pos[3 * (int64_t)tf[k] + d];
+                t[3 * k + d] = x;
+                lo[d] = bvh_minf(lo[d], x), hi[d] = bvh_maxf(hi[d], x);
+            }
+        int64_t n = cr_bvh_faces_in_box(b, lo, hi, faces, cap);
+        if (n > cap) {
+            int32_t *nb = malloc((size_t)n * sizeof(int32_t));
+            if (!nb) {
+                c->count[f] = -1;
+                continue;
+            }
+            if (faces != local) free(faces);
+            faces = nb, cap = n;
+            n = cr_bvh_faces_in_box(b, lo, hi, faces, cap);
+        }
+        int64_t hits = 0;
+        for (int64_t q = 0; q < n; q++) {
+            int32_t g = faces[q];
+            if (g <= f) continue;
+            const int32_t *tg = b->tri + 3 * (int64_t)g;
+            int shared = 0;
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++)
+                    shared |= tf[i] == tg[j];
+            if (shared) continue;
+            double u[9];
+            for (int k = 0; k < 3; k++)
+                for (int d = 0; d < 3; d++)
+                    u[3 * k + d] = b->pos[3 * (int64_t)tg[k] + d];
+            hits += triangles_cross(t, u);
+        }
+        c->count[f] = hits;
+    }
+    if (faces != local) free(faces);
+}
+
+int64_t cr_bvh_self_intersections(const cr_bvh *b) {
+    int64_t *count = calloc((size_t)b->nf + 1, sizeof(int64_t));
+    if (!count) return -1;
+    isect_ctx c = {b, count};
+    cr_parallel_for(b->nf, 1024, isect_range, &c);
+    int64_t total = 0;
+    for (int32_t f = 0; f < b->nf; f++) {
+        if (count[f] < 0) {
+            total = -1;
+            break;
+        }
+        total += count[f];
+    }
+    free(count);
+    return total;
 }

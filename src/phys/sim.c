@@ -32,7 +32,11 @@
  * Pinned vertices are left out of the solve; with def.pin_frames they are
  * moved to their positions at t1 before Newton starts (step 4).
  *
- * Left out: self-collision, continuous collision detection, adaptive time
+ * With def.self_contact, the cloth's own pairs are found at x_t after step 3
+ * (cr_sim_detect_self) and held through the solve: Newton sees them once per
+ * substep; VBD finds them again where its step bound was reached (vbd.c).
+ *
+ * Left out: continuous collision detection, adaptive time
  * steps inside a frame beyond the backoff. Two ways to factorise less were tried and dropped:
  * reusing a factorisation as the preconditioner of conjugate gradients on later iterations
  * (contacts and rotations change a cloth Hessian so much between iterations that CG rarely
@@ -81,6 +85,8 @@ cr_sim_def cr_sim_default_def(void) {
     d.vbd_chebyshev = 0.9;
     d.vbd_damping = 0.0;
     d.vbd_hessian_every = 1;
+    d.self_contact = 0;
+    d.self_contact_thickness = 4e-3;
     d.cookie = CR_SIM_DEF_COOKIE;
     return d;
 }
@@ -285,6 +291,41 @@ static cr_status track_collider(cr_sim *s, const double *x_start, double radius,
     cr_status st = cr_bvh_refit(s->bvh, s->cpos, err);
     s->rep->seconds_collision += cr_time_now() - t;
     return st;
+}
+
+/* -------------------------------------------------------- self-contact -- */
+
+cr_status cr_sim_detect_self(cr_sim *s, const double *x, int newton, cr_error *err) {
+    if (!s->self) return CR_OK;
+    double t = cr_time_now();
+    CR_TRY(cr_self_contact_detect(s->self, x, err));
+    cr_energy_term *term = &s->terms[s->t_self];
+    cr_self_contact_term(s->self, term);
+    s->rep->self_contact_detections++;
+    s->rep->self_contact_pairs = term->nelem;
+    /* The assembly's pattern holds the pairs: rebuild it when they changed
+     * (the same pairs in the same order need nothing). */
+    int64_t n4 = 4 * (int64_t)term->nelem;
+    int same = term->nelem == s->self_prev_n &&
+               (n4 == 0 || memcmp(term->elem, s->self_prev, (size_t)n4 * sizeof(int32_t)) == 0);
+    if (!same) {
+        if (n4 > s->self_prev_cap) {
+            int32_t *p = realloc(s->self_prev, (size_t)n4 * sizeof(int32_t));
+            if (!p) return CR_FAIL(err, CR_ERR_MEMORY, "simulator: out of memory for pairs");
+            s->self_prev = p, s->self_prev_cap = (int32_t)n4;
+        }
+        if (n4 > 0) memcpy(s->self_prev, term->elem, (size_t)n4 * sizeof(int32_t));
+        s->self_prev_n = term->nelem;
+        cr_assembly_destroy(s->assembly);
+        s->assembly = NULL;
+        CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
+        cr_cholesky_destroy(s->chol);
+        s->chol = NULL;
+    }
+    if (newton && !s->chol)
+        CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
+    s->rep->seconds_self_contact += cr_time_now() - t;
+    return CR_OK;
 }
 
 /* -------------------------------------------------------------- newton -- */
@@ -512,10 +553,12 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
         cr_sim_query_collider(s, s->x_start, o.base_radius);
         update_friction(s, s->x_start);
     }
+    CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
     if (dynamic) {
-        if (vbd)
+        if (vbd) {
             cr_vbd_initial_guess(s, h);
-        else
+            CR_TRY(cr_vbd_bound_guess(s, err));
+        } else
             memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
         if (s->bvh) clamp_guess(s);
     }

@@ -38,6 +38,13 @@ int cr_vbd_colour_count(const cr_vbd *v);
 cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err);
 /* The paper's adaptive initial guess (Chen et al. 2024, sec. 3.6) into s->x. */
 void cr_vbd_initial_guess(cr_sim *s, double h);
+/* With self-contact, the guess in s->x within the step bound (vbd.c). */
+cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err);
+
+/* Self-contact pairs at x (sim.c): detection, the term's elements, and the
+ * assembly (and Newton's Cholesky analysis when `newton`) rebuilt when the
+ * pairs changed. No-op without self-contact. */
+cr_status cr_sim_detect_self(cr_sim *s, const double *x, int newton, cr_error *err);
 
 /* sim.c's evaluation (timed into the report) and collider query, for vbd.c. */
 double cr_sim_eval(cr_sim *s, const double *x, double *grad, int hessian);
@@ -53,7 +60,11 @@ struct cr_sim {
     cr_gravity *gravity;
     cr_inertia *inertia;
     cr_collision *collision; /* NULL without a collider */
-    cr_friction *friction;   /* NULL without a collider or with friction 0 */
+    cr_self_contact *self;   /* NULL without self-contact */
+    int t_self;              /* its term, -1 without */
+    int32_t *self_prev;      /* (4 npair_prev) the pairs the assembly was built with */
+    int32_t self_prev_n, self_prev_cap;
+    cr_friction *friction; /* NULL without a collider or with friction 0 */
     cr_energy_term terms[CR_SIM_MAX_TERMS];
     int nterms, t_inertia, t_drag, t_friction; /* t_friction -1 without friction */
     sim_drag drag;

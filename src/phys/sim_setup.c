@@ -39,6 +39,8 @@ void cr_sim_destroy(cr_sim *s) {
     cr_assembly_destroy(s->assembly);
     cr_friction_destroy(s->friction);
     cr_collision_destroy(s->collision);
+    cr_self_contact_destroy(s->self);
+    free(s->self_prev);
     cr_inertia_destroy(s->inertia);
     cr_gravity_destroy(s->gravity);
     cr_bending_destroy(s->bending);
@@ -116,6 +118,10 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(d->vbd_iterations >= 1, "vbd_iterations must be >= 1, got %d", d->vbd_iterations);
     CHECK_DEF(isfinite(d->vbd_chebyshev) && d->vbd_chebyshev >= 0.0 && d->vbd_chebyshev < 1.0,
               "vbd_chebyshev must be in [0, 1), got %g", d->vbd_chebyshev);
+    CHECK_DEF(!d->self_contact ||
+                  (isfinite(d->self_contact_thickness) && d->self_contact_thickness > 0.0 &&
+                   d->self_contact_thickness < 1.0),
+              "self_contact_thickness must be in (0, 1) m, got %g", d->self_contact_thickness);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
               "vbd_damping must be >= 0, got %g s", d->vbd_damping);
     return CR_OK;
@@ -212,6 +218,14 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
     if (s->collision) cr_collision_term(s->collision, &t), add_term(s, t);
     s->t_friction = s->friction ? s->nterms : -1;
     if (s->friction) cr_friction_term(s->friction, &t), add_term(s, t);
+    s->t_self = -1;
+    if (d->self_contact) {
+        /* No pairs until the first substep finds them (sim.c). */
+        CR_TRY(cr_self_contact_create(garment, s->topo, d->self_contact_thickness,
+                                      mat->collision_stiffness, &s->self, err));
+        s->t_self = s->nterms;
+        cr_self_contact_term(s->self, &t), add_term(s, t);
+    }
     CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
     /* VBD's simulator analyses the Cholesky pattern only when a static solve
      * first needs it (sim.c). */

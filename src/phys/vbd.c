@@ -62,6 +62,11 @@
 /* Vertices of one colour worth a thread: a parallel region per colour costs
  * tens of microseconds, more on a loaded machine. */
 #define VBD_GRAIN 256
+/* The step bound's fraction of the nearest pair's distance (the paper's
+ * gamma_p; Warp's 0.4). */
+#define VBD_BOUND 0.4
+/* Detections that walk the initial guess out in steps of the bound. */
+#define VBD_GUESS_DETECTIONS 4
 
 struct cr_vbd {
     int32_t nv;
@@ -76,6 +81,8 @@ struct cr_vbd {
     double *hel;                    /* (V,9) each vertex's elastic Hessian block, N/m, as of
                                        the last sweep that evaluated it */
     int t_collision;                /* the term a collider query changes, or -1 */
+    int32_t *colour;                /* (V) each vertex's colour, -1 when pinned */
+    uint8_t *bounded;               /* (V) 1: the last sweep cut the vertex's move (step bound) */
 };
 
 void cr_vbd_destroy(cr_vbd *v) {
@@ -84,6 +91,7 @@ void cr_vbd_destroy(cr_vbd *v) {
     for (int t = 0; t < CR_SIM_MAX_TERMS; t++)
         free(v->map[t]);
     free(v->xa), free(v->xb), free(v->move), free(v->gnorm), free(v->hel);
+    free(v->colour), free(v->bounded);
     free(v);
 }
 
@@ -110,7 +118,10 @@ cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
     v->gnorm = cr_calloc((size_t)nv + 1, sizeof(double), err);
     v->hel = cr_calloc(9 * ((size_t)nv + 1), sizeof(double), err);
     colour = cr_malloc(((size_t)nv + 1) * sizeof(int32_t), err);
-    if (!v->inc_off || !v->xa || !v->xb || !v->move || !v->gnorm || !v->hel || !colour) goto fail;
+    v->bounded = cr_calloc((size_t)nv + 1, 1, err);
+    if (!v->inc_off || !v->xa || !v->xb || !v->move || !v->gnorm || !v->hel || !colour ||
+        !v->bounded)
+        goto fail;
     /* Incidences of the multi-vertex terms, by counting sort on the vertex. */
     int64_t ninc = 0;
     for (int t = 0; t < s->nterms; t++) {
@@ -163,7 +174,7 @@ cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
 fail:
     st = err && err->status != CR_OK ? err->status : CR_ERR_MEMORY;
 done:
-    free(colour);
+    v->colour = colour;
     if (st != CR_OK) {
         cr_vbd_destroy(v);
         return st;
@@ -206,6 +217,46 @@ typedef struct sweep_ctx {
     int fresh;            /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
     int line_search;      /* 1: each vertex backtracks on its local energy; 0: full steps */
 } sweep_ctx;
+
+/* Vertex i's share of the self-contact pairs around it (the pairs change
+ * with every detection, so they are not in the incidences): its energy,
+ * gradient into g and Hessian block into H (fresh every sweep, like the
+ * one-vertex terms; both when g is not NULL). A partner of i's own colour
+ * moves in the same parallel step, so it is read where it was at the sweep's
+ * start (v->xb), which keeps the sweep deterministic; the others are read
+ * where they are. */
+static double gather_self(const cr_sim *s, const cr_vbd *v, int32_t i, const double xi[3],
+                          double *g, double *H) {
+    const cr_energy_term *term = &s->terms[s->t_self];
+    if (term->weight == 0.0) return 0.0;
+    const int64_t *off;
+    const int32_t *pp;
+    cr_self_contact_vertex_pairs(s->self, &off, &pp);
+    const int32_t ci = v->colour[i];
+    const double w = term->weight;
+    double e = 0.0;
+    for (int64_t q = off[i]; q < off[i + 1]; q++) {
+        const int32_t p = pp[q] / 4;
+        const int a = pp[q] % 4;
+        const int32_t *ev = term->elem + 4 * (int64_t)p;
+        double xe[12];
+        for (int b = 0; b < 4; b++) {
+            const double *src = xi;
+            if (b != a)
+                src = (ci >= 0 && v->colour[ev[b]] == ci ? v->xb : s->x) + 3 * (int64_t)ev[b];
+            xe[3 * b] = src[0], xe[3 * b + 1] = src[1], xe[3 * b + 2] = src[2];
+        }
+        double gb[3], Hb[9];
+        e += w * term->vertex_block(term->data, p, a, xe, g ? gb : NULL, g ? Hb : NULL);
+        if (g) {
+            for (int r = 0; r < 3; r++)
+                g[r] += w * gb[r];
+            for (int r = 0; r < 9; r++)
+                H[r] += w * Hb[r];
+        }
+    }
+    return e;
+}
 
 /* The local objective of vertex i with x_i = xi and the other vertices at
  * s->x. With g (3) not NULL, also its gradient and the Hessian block H (9)
@@ -270,6 +321,7 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double x
                 for (int c = 0; c < 3; c++)
                     Hel[3 * r + c] += w * He[(3 * a + r) * n + 3 * a + c];
     }
+    if (s->self) e += gather_self(s, v, i, xi, g, H);
     return e;
 }
 
@@ -299,6 +351,46 @@ static double quad_form(const double *A, const double *d) {
         for (int c = 0; c < 3; c++)
             s += d[r] * A[3 * r + c] * d[c];
     return s;
+}
+
+/* VBD's conservative step bound (Chen et al. 2024, sec. 4): vertex i stays
+ * within VBD_BOUND of the distance to its nearest self-contact pair (or the
+ * query radius) from where the pairs were found, so two primitives that were
+ * d apart close by at most 2 VBD_BOUND d < d before the next detection and
+ * no move passes one layer through another. Returns 1 when xi was cut. */
+static int bound_move(const cr_sim *s, int32_t i, double *xi) {
+    const double *x0 = cr_self_contact_detected_at(s->self) + 3 * (int64_t)i;
+    const double b = VBD_BOUND * cr_self_contact_nearest(s->self)[i];
+    double d[3] = {xi[0] - x0[0], xi[1] - x0[1], xi[2] - x0[2]};
+    double l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (!(l2 > b * b)) return 0;
+    double f = b / sqrt(l2);
+    for (int k = 0; k < 3; k++)
+        xi[k] = x0[k] + f * d[k];
+    return 1;
+}
+
+/* The bound over every free vertex of x; returns how many were cut. */
+static int32_t bound_all(const cr_sim *s, cr_vbd *v, double *x) {
+    int32_t n = 0;
+    for (int32_t i = 0; i < s->nv; i++) {
+        if (s->pinned[i]) continue;
+        int cut = bound_move(s, i, x + 3 * (int64_t)i);
+        v->bounded[i] |= (uint8_t)cut;
+        n += cut;
+    }
+    return n;
+}
+
+/* After a vertex's step from xo: the bound, and the move recorded. */
+static void finish_move(const cr_sim *s, cr_vbd *v, int32_t i, const double *xo, double *xi,
+                        double len) {
+    if (s->self && bound_move(s, i, xi)) {
+        v->bounded[i] = 1;
+        double d[3] = {xi[0] - xo[0], xi[1] - xo[1], xi[2] - xo[2]};
+        len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    }
+    v->move[i] = len;
 }
 
 /* One vertex's block Newton step with its line search, in place in s->x. */
@@ -346,7 +438,7 @@ static void vertex_step(const sweep_ctx *c, int32_t i) {
         /* The sweep's objective is checked instead (cr_vbd_solve). */
         for (int k = 0; k < 3; k++)
             xi[k] = xo[k] + dx[k];
-        v->move[i] = len;
+        finish_move(s, v, i, xo, xi, len);
         return;
     }
     double alpha = 1.0;
@@ -363,7 +455,7 @@ static void vertex_step(const sweep_ctx *c, int32_t i) {
         }
         if (isfinite(en) && en <= e0 + s->def.armijo * alpha * gd) {
             memcpy(xi, xn, sizeof xn);
-            v->move[i] = alpha * len;
+            finish_move(s, v, i, xo, xi, alpha * len);
             return;
         }
     }
@@ -376,6 +468,27 @@ static void sweep_range(void *vctx, int64_t begin, int64_t end) {
 }
 
 /* --------------------------------------------------------------- solve -- */
+
+cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err) {
+    cr_vbd *v = s->vbd;
+    if (!s->self) return CR_OK;
+    /* Cut to the bound, the guess loses the inertial motion that the
+     * sweeps, held back by the membrane, win back slowly (a falling cloth
+     * fell in slow motion), so the pairs are found again where the cut
+     * guess lies and the full guess tried from there, up to
+     * VBD_GUESS_DETECTIONS times. */
+    const size_t n3 = 3 * (size_t)s->nv;
+    memcpy(v->xa, s->x, n3 * sizeof(double)); /* the full guess */
+    for (int k = 0;; k++) {
+        memset(v->bounded, 0, (size_t)s->nv);
+        int32_t cut = bound_all(s, v, s->x);
+        if (cut == 0 || k == VBD_GUESS_DETECTIONS) break;
+        s->rep->self_contact_bounded += cut;
+        CR_TRY(cr_sim_detect_self(s, s->x, 0, err));
+        memcpy(s->x, v->xa, n3 * sizeof(double));
+    }
+    return CR_OK;
+}
 
 /* One sweep: the colours one after the other, each one's vertices in parallel. */
 static void sweep(cr_sim *s, cr_vbd *v, sweep_ctx *c) {
@@ -447,6 +560,21 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
     int converged = 0, it;
+    /* The guess was walked out within the bound (cr_vbd_bound_guess), and
+     * then the collider's clamp and the pins may have moved vertices past
+     * it: the collider wins, and the pairs are found again where they are
+     * (a bound that pulled them back put a walking body's sleeves inside
+     * the arms). */
+    if (s->self) {
+        int past = 0;
+        for (int32_t i = 0; i < s->nv && !past; i++) {
+            double xi[3] = {s->x[3 * (int64_t)i], s->x[3 * (int64_t)i + 1],
+                            s->x[3 * (int64_t)i + 2]};
+            past = !s->pinned[i] && bound_move(s, i, xi);
+        }
+        if (past) CR_TRY(cr_sim_detect_self(s, s->x, 0, err));
+        memset(v->bounded, 0, (size_t)s->nv);
+    }
     memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));
     /* The objective at the sweep's start, for the current linearisation of
      * the collider (only the collision term changes with it). */
@@ -455,6 +583,19 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
         if (it > 0 && s->bvh) {
             cr_sim_query_collider(s, s->x, o->base_radius + 2.0 * moved);
             e_start = reeval_term(s, v->t_collision, s->x);
+        }
+        /* A vertex reached its bound: find the pairs again where the cloth
+         * is now, which resets the bounds there. */
+        if (s->self) {
+            int32_t cut = 0;
+            for (int32_t i = 0; i < s->nv; i++)
+                cut += v->bounded[i];
+            if (cut > 0) {
+                rep->self_contact_bounded += cut;
+                CR_TRY(cr_sim_detect_self(s, s->x, 0, err));
+                memset(v->bounded, 0, (size_t)s->nv);
+                e_start = cr_sim_eval(s, s->x, NULL, 0);
+            }
         }
         memcpy(v->xa, v->xb, (size_t)n3 * sizeof(double)); /* x^{n-1} */
         memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));  /* x^n */
@@ -473,6 +614,7 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
             double *xt = s->xt;
             for (int64_t k = 0; k < n3; k++)
                 xt[k] = w * (s->x[k] - v->xa[k]) + v->xa[k];
+            if (s->self) bound_all(s, v, xt);
             memcpy(tv, s->term_values, sizeof tv);
             double ea = cr_sim_eval(s, xt, NULL, 0);
             if (isfinite(ea) && ea <= e_start) {

@@ -42,6 +42,7 @@ cr_dataset_def cr_dataset_default_def(void) {
     d.material = "cotton";
     d.seed = 1;
     d.max_collider_step = 0.15;
+    d.self_contact = -1;
     d.motion_import = cr_motion_import_default_def();
     d.motion_prepare = cr_motion_prepare_default_def();
     d.cookie = DATASET_COOKIE;

@@ -222,6 +222,8 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     sd.dt = 1.0 / d->fps;
     sd.plasticity = d->plastic;
     sd.solver = (cr_sim_solver)d->solver;
+    if (d->self_contact >= 0) sd.self_contact = d->self_contact;
+    if (d->self_thickness > 0.0f) sd.self_contact_thickness = d->self_thickness;
     sd.collider = body->rest;
     sd.collider_frames = ds->posed[q->b][q->m];
     sd.collider_nframes = mo->nframes;

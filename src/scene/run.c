@@ -16,6 +16,9 @@ static void add_frame(cr_scene_run_stats *s, const cr_sim_report *rep, int32_t n
     s->seconds_factor += rep->seconds_factor;
     s->seconds_solve += rep->seconds_solve;
     s->seconds_collision += rep->seconds_collision;
+    s->seconds_self_contact += rep->seconds_self_contact;
+    s->self_contact_detections += rep->self_contact_detections;
+    s->self_contact_pairs += rep->self_contact_pairs;
     s->newton_iterations += rep->newton_iterations;
     s->factorisations += rep->factorisations;
     s->newton_capped += rep->newton_capped;

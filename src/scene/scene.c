@@ -257,6 +257,10 @@ cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_
     add_number(o, "seconds_factor", rep->seconds_factor);
     add_number(o, "seconds_solve", rep->seconds_solve);
     add_number(o, "seconds_collision", rep->seconds_collision);
+    if (rep->self_contact_detections > 0) {
+        add_number(o, "seconds_self_contact", rep->seconds_self_contact);
+        add_number(o, "self_contact_pairs", rep->self_contact_pairs);
+    }
     if (rep->diverged) {
         cJSON_AddTrueToObject(o, "diverged");
         cJSON_AddStringToObject(o, "failure", rep->failure);

@@ -14,7 +14,7 @@ enum { DEFAULT_RENDER_SIZE = 800 };
 
 cr_scene_sim_def cr_scene_sim_default_def(void) {
     return (cr_scene_sim_def){
-        .material = "cotton", .fps = 30.0f, .render_size = DEFAULT_RENDER_SIZE};
+        .material = "cotton", .fps = 30.0f, .render_size = DEFAULT_RENDER_SIZE, .self_contact = -1};
 }
 
 static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
@@ -79,6 +79,8 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     def->plasticity = o->plastic;
     def->solver = (cr_sim_solver)o->solver;
+    if (o->self_contact >= 0) def->self_contact = o->self_contact;
+    if (o->self_thickness > 0.0f) def->self_contact_thickness = o->self_thickness;
     def->pinned = o->pins;
     def->npinned = o->npins;
     CR_TRY(cr_sim_create(def, r->garment, &r->sim, err));
@@ -142,6 +144,7 @@ cr_scene_drape_static_def cr_scene_drape_static_default_def(void) {
                                        .gap = 0.05f,
                                        .material = "cotton",
                                        .max_frames = 150,
+                                       .self_contact = -1,
                                        .render_size = DEFAULT_RENDER_SIZE};
 }
 
@@ -194,6 +197,8 @@ cr_status cr_scene_drape_static(const cr_scene_drape_static_def *d,
     cr_sim_def def = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &def.material, err));
     def.solver = (cr_sim_solver)d->solver;
+    if (d->self_contact >= 0) def.self_contact = d->self_contact;
+    if (d->self_thickness > 0.0f) def.self_contact_thickness = d->self_thickness;
     cr_mesh *obj = NULL, *cloth = NULL, *final = NULL;
     cr_sim *sim = NULL;
     cr_scene_record *rec = NULL;
