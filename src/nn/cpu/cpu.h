@@ -139,6 +139,18 @@ void cr_nn_cpu_grouped_backward(const float *xs, const float *dys, int64_t K, co
                                 int trans_w, int64_t N, const int64_t *off, int64_t G, float *dxs,
                                 float *dw);
 
+/* cpu_gemm.c: the engine's GEMM (what cr_nn_cpu_gemm computes, for M, N,
+ * K > 0 and alpha != 0) on SIMD `level`; -1 without running when those do
+ * not hold or memory for the packed B runs out (the caller uses OpenBLAS). */
+int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                       const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                       float *C, int64_t ldc);
+/* Whether cr_nn_cpu_gemm uses it: CREASE_NN_GEMM=own|blas, by default own on
+ * the AVX2 and AVX-512 levels. The setter (for tests and benchmarks) returns
+ * the previous choice; not safe while kernels run on other threads. */
+int cr_nn_cpu_gemm_uses_own(void);
+int cr_nn_cpu_set_gemm_own(int own);
+
 /* cpu_index.c */
 void cr_nn_cpu_copy2d(const float *src, int64_t src_stride, float *dst, int64_t dst_stride,
                       int64_t rows, int64_t cols, int acc);

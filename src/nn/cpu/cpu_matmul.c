@@ -1,5 +1,6 @@
-/* cpu_matmul.c: GEMM through cblas_sgemm (OpenBLAS), a naive reference
- * beside it, and the batched and grouped products built from it.
+/* cpu_matmul.c: GEMM through the engine's own kernel (cpu_gemm.c) or
+ * cblas_sgemm (OpenBLAS), a naive reference beside it, and the batched and
+ * grouped products built from it.
  *
  * OpenBLAS threads each product itself, so batched and grouped products call
  * it in a plain loop rather than from OpenMP threads (which would nest two
@@ -28,6 +29,10 @@ void cr_nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha
         scale_block(C, M, N, ldc, beta);
         return;
     }
+    if (alpha != 0.0f && cr_nn_cpu_gemm_uses_own() &&
+        cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C,
+                           ldc) == 0)
+        return;
     cblas_sgemm(CblasRowMajor, ta ? CblasTrans : CblasNoTrans, tb ? CblasTrans : CblasNoTrans,
                 (int)M, (int)N, (int)K, alpha, A, ld(lda), B, ld(ldb), beta, C, ld(ldc));
 }

@@ -1,0 +1,241 @@
+/* cpu_gemm.c: the engine's own single-precision GEMM, so that the linear
+ * layers do not depend on which kernel OpenBLAS picks at load time (its
+ * Prescott fallback runs the MLP step 2-4x slower; docs/nn.md).
+ *
+ * Goto/BLIS blocking: B is packed once per (KC x NC) block into panels of NR
+ * columns, each thread packs its MC x KC block of A into panels of MR rows,
+ * and a register-tile micro-kernel runs over the panels. The micro-kernels
+ * (cpu_gemm_impl.h) are one source instantiated for AVX2 + FMA (6 x 16) and
+ * AVX-512F (6 x 32) with target attributes; the portable level has a plain C
+ * 4 x 8 tile. Work splits over the MC blocks of C with cr_parallel_for; every
+ * element of C sums its k in the same order whatever the thread count.
+ * Sized for the layers' shapes: M a batch of hundreds to thousands of rows,
+ * N and K layer widths 3..512, any of the transposition cases.
+ */
+#include "nn/cpu/cpu.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define NN_GEMM_X86 1
+#else
+#define NN_GEMM_X86 0
+#endif
+
+enum {
+    GEMM_MR = 6,    /* rows of the vector tiles */
+    GEMM_KC = 256,  /* k per packed block: an A panel and a B panel stay in L1 */
+    GEMM_MC = 120,  /* rows per thread block (20 tiles): packed A in L2 */
+    GEMM_NC = 2048, /* columns per packed B block */
+    SCALAR_MR = 4,
+    SCALAR_NR = 8,
+};
+
+typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
+                             float *C, int64_t ldc, int mr, int nr);
+
+#if NN_GEMM_X86
+#define VW 8
+#define VT __attribute__((target("avx2,fma")))
+#define V(name) name##_avx2
+#define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
+#include "nn/cpu/cpu_gemm_impl.h"
+#undef VW
+#undef VT
+#undef V
+#undef VFMA
+
+#define VW 16
+#define VT __attribute__((target("avx512f")))
+#define V(name) name##_avx512
+#define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
+#include "nn/cpu/cpu_gemm_impl.h"
+#undef VW
+#undef VT
+#undef V
+#undef VFMA
+#endif
+
+static void gemm_tile_scalar(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
+                             float *C, int64_t ldc, int mr, int nr) {
+    float acc[SCALAR_MR][SCALAR_NR] = {{0}};
+    for (int64_t k = 0; k < kc; k++, Ap += SCALAR_MR, Bp += SCALAR_NR)
+        for (int i = 0; i < SCALAR_MR; i++)
+            for (int j = 0; j < SCALAR_NR; j++)
+                acc[i][j] += Ap[i] * Bp[j];
+    for (int i = 0; i < mr; i++)
+        for (int j = 0; j < nr; j++) {
+            float *c = C + i * ldc + j;
+            *c = beta == 0.0f ? alpha * acc[i][j] : alpha * acc[i][j] + beta * *c;
+        }
+}
+
+typedef struct gemm_kernel {
+    int mr, nr;
+    gemm_tile_fn tile;
+} gemm_kernel;
+
+static gemm_kernel kernel_for(int level) {
+#if NN_GEMM_X86
+    if (level >= NN_SIMD_AVX512) return (gemm_kernel){GEMM_MR, 32, gemm_tile_avx512};
+    if (level >= NN_SIMD_AVX2) return (gemm_kernel){GEMM_MR, 16, gemm_tile_avx2};
+#else
+    (void)level;
+#endif
+    return (gemm_kernel){SCALAR_MR, SCALAR_NR, gemm_tile_scalar};
+}
+
+/* op(A) rows [i0, i0 + mc), k [p0, p0 + kc) into panels of mr rows:
+ * panel p, step k at Ap[p kc mr + k mr + r]; rows past mc are zero. */
+static void pack_a(int ta, const float *A, int64_t lda, int64_t i0, int64_t mc, int64_t p0,
+                   int64_t kc, int mr, float *Ap) {
+    for (int64_t ip = 0; ip < mc; ip += mr, Ap += kc * mr) {
+        int64_t rows = mc - ip < mr ? mc - ip : mr;
+        for (int64_t k = 0; k < kc; k++) {
+            float *dst = Ap + k * mr;
+            for (int64_t r = 0; r < rows; r++) {
+                int64_t i = i0 + ip + r, kk = p0 + k;
+                dst[r] = ta ? A[kk * lda + i] : A[i * lda + kk];
+            }
+            for (int64_t r = rows; r < mr; r++)
+                dst[r] = 0.0f;
+        }
+    }
+}
+
+/* op(B) k [p0, p0 + kc), columns [j0, j0 + nc) into panels of nr columns:
+ * panel q, step k at Bp[q kc nr + k nr + c]; columns past nc are zero. */
+static void pack_b(int tb, const float *B, int64_t ldb, int64_t p0, int64_t kc, int64_t j0,
+                   int64_t nc, int nr, float *Bp) {
+    for (int64_t jp = 0; jp < nc; jp += nr, Bp += kc * nr) {
+        int64_t cols = nc - jp < nr ? nc - jp : nr;
+        for (int64_t k = 0; k < kc; k++) {
+            float *dst = Bp + k * nr;
+            int64_t kk = p0 + k, j = j0 + jp;
+            if (tb)
+                for (int64_t c = 0; c < cols; c++)
+                    dst[c] = B[(j + c) * ldb + kk];
+            else
+                memcpy(dst, B + kk * ldb + j, (size_t)cols * sizeof(float));
+            for (int64_t c = cols; c < nr; c++)
+                dst[c] = 0.0f;
+        }
+    }
+}
+
+typedef struct gemm_block {
+    gemm_kernel kern;
+    int ta, tb;
+    const float *A, *B; /* B unpacked: for rows_unpacked */
+    int64_t lda, ldb, M, p0, kc, j0, nc;
+    const float *Bp;
+    float alpha, beta;
+    float *C;
+    int64_t ldc;
+} gemm_block;
+
+static void rows_unpacked(const gemm_block *g, int64_t i_begin, int64_t i_end) {
+    for (int64_t i = i_begin; i < i_end; i++)
+        for (int64_t j = g->j0; j < g->j0 + g->nc; j++) {
+            float s = 0.0f;
+            for (int64_t k = g->p0; k < g->p0 + g->kc; k++)
+                s += (g->ta ? g->A[k * g->lda + i] : g->A[i * g->lda + k]) *
+                     (g->tb ? g->B[j * g->ldb + k] : g->B[k * g->ldb + j]);
+            float *c = g->C + i * g->ldc + j;
+            *c = g->beta == 0.0f ? g->alpha * s : g->alpha * s + g->beta * *c;
+        }
+}
+
+static void *alloc_floats(int64_t n) {
+    size_t bytes = ((size_t)n * sizeof(float) + 63) & ~(size_t)63;
+    return aligned_alloc(64, bytes);
+}
+
+/* MC blocks [begin, end) of C's rows against the packed B block. */
+static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
+    gemm_block *g = vctx;
+    int mr = g->kern.mr, nr = g->kern.nr;
+    float *Ap = alloc_floats((int64_t)GEMM_MC * g->kc);
+    if (!Ap) { /* out of memory: these rows unpacked, slowly */
+        rows_unpacked(g, begin * GEMM_MC, end * GEMM_MC < g->M ? end * GEMM_MC : g->M);
+        return;
+    }
+    for (int64_t blk = begin; blk < end; blk++) {
+        int64_t i0 = blk * GEMM_MC, mc = g->M - i0 < GEMM_MC ? g->M - i0 : GEMM_MC;
+        pack_a(g->ta, g->A, g->lda, i0, mc, g->p0, g->kc, mr, Ap);
+        for (int64_t jp = 0; jp < g->nc; jp += nr) {
+            const float *bp = g->Bp + (jp / nr) * g->kc * nr;
+            int nrr = g->nc - jp < nr ? (int)(g->nc - jp) : nr;
+            for (int64_t ip = 0; ip < mc; ip += mr) {
+                int mrr = mc - ip < mr ? (int)(mc - ip) : mr;
+                g->kern.tile(g->kc, Ap + (ip / mr) * g->kc * mr, bp, g->alpha, g->beta,
+                             g->C + (i0 + ip) * g->ldc + g->j0 + jp, g->ldc, mrr, nrr);
+            }
+        }
+    }
+    free(Ap);
+}
+
+int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                       const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                       float *C, int64_t ldc) {
+    if (M <= 0 || N <= 0 || K <= 0 || alpha == 0.0f) return -1; /* the caller's cases */
+    gemm_kernel kern = kernel_for(level);
+    int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
+    float *Bp = alloc_floats((int64_t)GEMM_KC * ((nc_max + kern.nr - 1) / kern.nr * kern.nr));
+    if (!Bp) return -1;
+    int64_t blocks = (M + GEMM_MC - 1) / GEMM_MC;
+    /* a chunk is worth a thread from about 2^18 multiply-adds */
+    int64_t per_block = (M < GEMM_MC ? M : GEMM_MC) * nc_max * (K < GEMM_KC ? K : GEMM_KC);
+    int64_t grain = per_block >= (1 << 18) ? 1 : (1 << 18) / per_block;
+    for (int64_t j0 = 0; j0 < N; j0 += GEMM_NC) {
+        int64_t nc = N - j0 < GEMM_NC ? N - j0 : GEMM_NC;
+        for (int64_t p0 = 0; p0 < K; p0 += GEMM_KC) {
+            int64_t kc = K - p0 < GEMM_KC ? K - p0 : GEMM_KC;
+            pack_b(tb, B, ldb, p0, kc, j0, nc, kern.nr, Bp);
+            gemm_block g = {.kern = kern,
+                            .ta = ta,
+                            .tb = tb,
+                            .A = A,
+                            .B = B,
+                            .lda = lda,
+                            .ldb = ldb,
+                            .M = M,
+                            .p0 = p0,
+                            .kc = kc,
+                            .j0 = j0,
+                            .nc = nc,
+                            .Bp = Bp,
+                            .alpha = alpha,
+                            .beta = p0 == 0 ? beta : 1.0f,
+                            .C = C,
+                            .ldc = ldc};
+            cr_parallel_for(blocks, grain, gemm_rows, &g);
+        }
+    }
+    free(Bp);
+    return 0;
+}
+
+static int gemm_choice = -1; /* -1: not read yet; 0: OpenBLAS; 1: own */
+
+int cr_nn_cpu_gemm_uses_own(void) {
+    if (gemm_choice < 0) {
+        const char *env = getenv("CREASE_NN_GEMM");
+        if (env && strcmp(env, "blas") == 0)
+            gemm_choice = 0;
+        else if (env && strcmp(env, "own") == 0)
+            gemm_choice = 1;
+        else /* measured in docs/nn.md: own GEMM on the vector levels */
+            gemm_choice = cr_nn_cpu_simd() >= NN_SIMD_AVX2;
+    }
+    return gemm_choice;
+}
+
+int cr_nn_cpu_set_gemm_own(int own) {
+    int prev = cr_nn_cpu_gemm_uses_own();
+    gemm_choice = own != 0;
+    return prev;
+}
