@@ -6,7 +6,7 @@
  * columns, each thread packs its MC x KC block of A into panels of MR rows,
  * and a register-tile micro-kernel runs over the panels. The micro-kernels
  * (cpu_gemm_impl.h) are one source instantiated for AVX2 + FMA (6 x 16) and
- * AVX-512F (6 x 32) with target attributes; the portable level has a plain C
+ * AVX-512F (12 x 32) with target attributes; the portable level has a plain C
  * 4 x 8 tile. Work splits over the MC blocks of C with cr_parallel_for; every
  * element of C sums its k in the same order whatever the thread count.
  * Sized for the layers' shapes: M a batch of hundreds to thousands of rows,
@@ -25,9 +25,8 @@
 #endif
 
 enum {
-    GEMM_MR = 6,    /* rows of the vector tiles */
     GEMM_KC = 256,  /* k per packed block: an A panel and a B panel stay in L1 */
-    GEMM_MC = 120,  /* rows per thread block (20 tiles): packed A in L2 */
+    GEMM_MC = 120,  /* rows per thread block (10 or 20 tiles): packed A in L2 */
     GEMM_NC = 2048, /* columns per packed B block */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
@@ -41,21 +40,29 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float
 #define VT __attribute__((target("avx2,fma")))
 #define V(name) name##_avx2
 #define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
+#define VBCAST(p) _mm256_broadcast_ss(p)
+#define VMR 6
 #include "nn/cpu/cpu_gemm_impl.h"
 #undef VW
 #undef VT
 #undef V
 #undef VFMA
+#undef VBCAST
+#undef VMR
 
 #define VW 16
 #define VT __attribute__((target("avx512f")))
 #define V(name) name##_avx512
 #define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
+#define VBCAST(p) _mm512_set1_ps(*(p))
+#define VMR 12
 #include "nn/cpu/cpu_gemm_impl.h"
 #undef VW
 #undef VT
 #undef V
 #undef VFMA
+#undef VBCAST
+#undef VMR
 #endif
 
 static void gemm_tile_scalar(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
@@ -79,8 +86,8 @@ typedef struct gemm_kernel {
 
 static gemm_kernel kernel_for(int level) {
 #if NN_GEMM_X86
-    if (level >= NN_SIMD_AVX512) return (gemm_kernel){GEMM_MR, 32, gemm_tile_avx512};
-    if (level >= NN_SIMD_AVX2) return (gemm_kernel){GEMM_MR, 16, gemm_tile_avx2};
+    if (level >= NN_SIMD_AVX512) return (gemm_kernel){12, 32, gemm_tile_avx512};
+    if (level >= NN_SIMD_AVX2) return (gemm_kernel){6, 16, gemm_tile_avx2};
 #else
     (void)level;
 #endif

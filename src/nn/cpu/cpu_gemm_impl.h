@@ -5,12 +5,15 @@
  *   VT         the function attribute, e.g. __attribute__((target("avx2,fma")))
  *   V(name)    the instance's name for `name`, e.g. name##_avx2
  *   VFMA(a, b, c)  a * b + c rounded once (the target's FMA intrinsic)
+ *   VBCAST(p)  *p in every lane (a broadcast load: `{0} + x` costs an add)
+ *   VMR        rows of the tile, 6 or 12
  *
- * The tile is GEMM_MR rows by 2 VW columns: 12 accumulator registers, two
- * loads of packed B and six broadcasts of packed A per k (16 of the 16 ymm
- * registers on AVX2; AVX-512 has 32 and uses the same shape at twice the
- * width). Packed A holds GEMM_MR values per k, packed B 2 VW per k, both
- * zero-padded at the edges, so the k loop has no tails.
+ * The tile is VMR rows by 2 VW columns: 2 VMR accumulator registers, two
+ * loads of packed B and VMR broadcasts of packed A per k. AVX2: 6 x 16, 12
+ * accumulators of the 16 ymm registers; AVX-512: 12 x 32, 24 of the 32 zmm
+ * (twice the multiply-adds per load of B). Packed A holds VMR values per k,
+ * packed B 2 VW per k, both zero-padded at the edges, so the k loop has no
+ * tails.
  */
 
 typedef float V(gf) __attribute__((vector_size(VW * 4)));
@@ -26,29 +29,52 @@ static inline VT void V(gstore)(float *p, V(gf) v) {
 }
 
 /* C[0..mr)[0..nr) = alpha sum_k Ap[k][i] Bp[k][j] + beta C (C not read when
- * beta is 0); mr <= GEMM_MR, nr <= 2 VW. */
+ * beta is 0); mr <= VMR, nr <= 2 VW. */
 static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
                             float *C, int64_t ldc, int mr, int nr) {
-    V(gf) c00 = {0}, c01 = {0}, c10 = {0}, c11 = {0}, c20 = {0}, c21 = {0};
-    V(gf) c30 = {0}, c31 = {0}, c40 = {0}, c41 = {0}, c50 = {0}, c51 = {0};
+#define GEMM_ACC(i) V(gf) c##i##_0 = {0}, c##i##_1 = {0}
+#define GEMM_ROW(i)                                                                                \
+    a = VBCAST(Ap + i);                                                                            \
+    c##i##_0 = VFMA(a, b0, c##i##_0);                                                              \
+    c##i##_1 = VFMA(a, b1, c##i##_1)
+#define GEMM_SAVE(i) acc[i][0] = c##i##_0, acc[i][1] = c##i##_1
+#define GEMM_ROWS(X)                                                                               \
+    X(0);                                                                                          \
+    X(1);                                                                                          \
+    X(2);                                                                                          \
+    X(3);                                                                                          \
+    X(4);                                                                                          \
+    X(5)
+#define GEMM_ROWS12(X)                                                                             \
+    X(6);                                                                                          \
+    X(7);                                                                                          \
+    X(8);                                                                                          \
+    X(9);                                                                                          \
+    X(10);                                                                                         \
+    X(11)
+    GEMM_ROWS(GEMM_ACC);
+#if VMR > 6
+    GEMM_ROWS12(GEMM_ACC);
+#endif
     for (int64_t k = 0; k < kc; k++) {
         V(gf) b0 = V(gload)(Bp), b1 = V(gload)(Bp + VW), a;
-#define GEMM_ROW(i)                                                                                \
-    a = (V(gf)){0} + Ap[i];                                                                        \
-    c##i##0 = VFMA(a, b0, c##i##0);                                                                \
-    c##i##1 = VFMA(a, b1, c##i##1)
-        GEMM_ROW(0);
-        GEMM_ROW(1);
-        GEMM_ROW(2);
-        GEMM_ROW(3);
-        GEMM_ROW(4);
-        GEMM_ROW(5);
-#undef GEMM_ROW
-        Ap += GEMM_MR;
+        GEMM_ROWS(GEMM_ROW);
+#if VMR > 6
+        GEMM_ROWS12(GEMM_ROW);
+#endif
+        Ap += VMR;
         Bp += 2 * VW;
     }
-    V(gf)
-    acc[GEMM_MR][2] = {{c00, c01}, {c10, c11}, {c20, c21}, {c30, c31}, {c40, c41}, {c50, c51}};
+    V(gf) acc[VMR][2];
+    GEMM_ROWS(GEMM_SAVE);
+#if VMR > 6
+    GEMM_ROWS12(GEMM_SAVE);
+#endif
+#undef GEMM_ACC
+#undef GEMM_ROW
+#undef GEMM_SAVE
+#undef GEMM_ROWS
+#undef GEMM_ROWS12
     if (nr == 2 * VW) {
         for (int i = 0; i < mr; i++) {
             float *c = C + i * ldc;
