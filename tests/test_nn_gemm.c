@@ -1,7 +1,7 @@
 /* test_nn_gemm.c: the engine's own GEMM (cr_nn_cpu_gemm_own, cpu_gemm.c) on
  * every SIMD level this CPU runs against the double-precision triple loop
  * (cr_nn_cpu_gemm_naive): odd shapes around the tile and block sizes
- * (1, 3, 7, 17, 65, 511 and past KC = 256 and MC = 120), the three
+ * (1, 3, 7, 17, 65, 511 and past KC = 256 and MC = 240), the three
  * transposition cases the layers use (y = x W^T, dx = dy W, dW = dy^T x) and
  * plain NN, leading dimensions wider than the rows, alpha and beta
  * (overwrite with NaN in C, accumulate), and the dispatch through

@@ -28,10 +28,11 @@ static inline VT void V(gstore)(float *p, V(gf) v) {
     memcpy(p, &v, sizeof v);
 }
 
-/* C[0..mr)[0..nr) = alpha sum_k Ap[k][i] Bp[k][j] + beta C (C not read when
- * beta is 0); mr <= VMR, nr <= 2 VW. */
-static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                            float *C, int64_t ldc, int mr, int nr) {
+/* acc[i][h] = sum_k Ap[k][i] Bp[k][h VW ..]: the k loop alone, so that
+ * alpha and beta do not hold two of the registers the accumulators need
+ * (AVX2 has 16: 12 accumulators, two B vectors, one broadcast). */
+static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap, const float *Bp,
+                                                     V(gf) acc[VMR][2]) {
 #define GEMM_ACC(i) V(gf) c##i##_0 = {0}, c##i##_1 = {0}
 #define GEMM_ROW(i)                                                                                \
     a = VBCAST(Ap + i);                                                                            \
@@ -65,7 +66,6 @@ static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float 
         Ap += VMR;
         Bp += 2 * VW;
     }
-    V(gf) acc[VMR][2];
     GEMM_ROWS(GEMM_SAVE);
 #if VMR > 6
     GEMM_ROWS12(GEMM_SAVE);
@@ -75,6 +75,14 @@ static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float 
 #undef GEMM_SAVE
 #undef GEMM_ROWS
 #undef GEMM_ROWS12
+}
+
+/* C[0..mr)[0..nr) = alpha sum_k Ap[k][i] Bp[k][j] + beta C (C not read when
+ * beta is 0); mr <= VMR, nr <= 2 VW. */
+static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
+                            float *C, int64_t ldc, int mr, int nr) {
+    V(gf) acc[VMR][2];
+    V(gemm_acc)(kc, Ap, Bp, acc);
     if (nr == 2 * VW) {
         for (int i = 0; i < mr; i++) {
             float *c = C + i * ldc;
