@@ -34,7 +34,7 @@ enum {
 };
 
 typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                             float *C, int64_t ldc, int mr, int nr);
+                             float *C, int64_t rs, int64_t cs, int mr, int nr);
 
 #if NN_GEMM_X86
 #define VW 8
@@ -67,7 +67,7 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float
 #endif
 
 static void gemm_tile_scalar(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                             float *C, int64_t ldc, int mr, int nr) {
+                             float *C, int64_t rs, int64_t cs, int mr, int nr) {
     float acc[SCALAR_MR][SCALAR_NR] = {{0}};
     for (int64_t k = 0; k < kc; k++, Ap += SCALAR_MR, Bp += SCALAR_NR)
         for (int i = 0; i < SCALAR_MR; i++)
@@ -75,7 +75,7 @@ static void gemm_tile_scalar(int64_t kc, const float *Ap, const float *Bp, float
                 acc[i][j] += Ap[i] * Bp[j];
     for (int i = 0; i < mr; i++)
         for (int j = 0; j < nr; j++) {
-            float *c = C + i * ldc + j;
+            float *c = C + i * rs + j * cs;
             *c = beta == 0.0f ? alpha * acc[i][j] : alpha * acc[i][j] + beta * *c;
         }
 }
@@ -141,7 +141,7 @@ typedef struct gemm_block {
     const float *Bp;
     float alpha, beta;
     float *C;
-    int64_t ldc;
+    int64_t rs, cs; /* C's element (i, j) at C[i rs + j cs] */
 } gemm_block;
 
 static void rows_unpacked(const gemm_block *g, int64_t i_begin, int64_t i_end) {
@@ -151,7 +151,7 @@ static void rows_unpacked(const gemm_block *g, int64_t i_begin, int64_t i_end) {
             for (int64_t k = g->p0; k < g->p0 + g->kc; k++)
                 s += (g->ta ? g->A[k * g->lda + i] : g->A[i * g->lda + k]) *
                      (g->tb ? g->B[j * g->ldb + k] : g->B[k * g->ldb + j]);
-            float *c = g->C + i * g->ldc + j;
+            float *c = g->C + i * g->rs + j * g->cs;
             *c = g->beta == 0.0f ? g->alpha * s : g->alpha * s + g->beta * *c;
         }
 }
@@ -179,7 +179,8 @@ static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
             for (int64_t ip = 0; ip < mc; ip += mr) {
                 int mrr = mc - ip < mr ? (int)(mc - ip) : mr;
                 g->kern.tile(g->kc, Ap + (ip / mr) * g->kc * mr, bp, g->alpha, g->beta,
-                             g->C + (i0 + ip) * g->ldc + g->j0 + jp, g->ldc, mrr, nrr);
+                             g->C + (i0 + ip) * g->rs + (g->j0 + jp) * g->cs, g->rs, g->cs, mrr,
+                             nrr);
             }
         }
     }
@@ -191,6 +192,17 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
                        float *C, int64_t ldc) {
     if (M <= 0 || N <= 0 || K <= 0 || alpha == 0.0f) return -1; /* the caller's cases */
     gemm_kernel kern = kernel_for(level);
+    int64_t rs = ldc, cs = 1;
+    if (N * 4 <= kern.nr && M > N) {
+        /* N far below the tile's width (a 3-wide output layer, a 6-wide
+         * input's dW): C^T = op(B)^T op(A)^T pads MR rows instead of NR
+         * columns, C written through strides */
+        const float *T = A;
+        int64_t t = M, tl = lda, tt = ta;
+        A = B, M = N, lda = ldb, ta = !tb;
+        B = T, N = t, ldb = tl, tb = !(int)tt;
+        rs = 1, cs = ldc;
+    }
     int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
     float *Bp = alloc_floats((int64_t)GEMM_KC * ((nc_max + kern.nr - 1) / kern.nr * kern.nr));
     if (!Bp) return -1;
@@ -219,7 +231,8 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
                             .alpha = alpha,
                             .beta = p0 == 0 ? beta : 1.0f,
                             .C = C,
-                            .ldc = ldc};
+                            .rs = rs,
+                            .cs = cs};
             cr_parallel_for(blocks, grain, gemm_rows, &g);
         }
     }

@@ -77,15 +77,15 @@ static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap
 #undef GEMM_ROWS12
 }
 
-/* C[0..mr)[0..nr) = alpha sum_k Ap[k][i] Bp[k][j] + beta C (C not read when
- * beta is 0); mr <= VMR, nr <= 2 VW. */
+/* C[i rs + j cs] = alpha sum_k Ap[k][i] Bp[k][j] + beta C[..] for i < mr,
+ * j < nr (C not read when beta is 0); mr <= VMR, nr <= 2 VW. */
 static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                            float *C, int64_t ldc, int mr, int nr) {
+                            float *C, int64_t rs, int64_t cs, int mr, int nr) {
     V(gf) acc[VMR][2];
     V(gemm_acc)(kc, Ap, Bp, acc);
-    if (nr == 2 * VW) {
+    if (nr == 2 * VW && cs == 1) {
         for (int i = 0; i < mr; i++) {
-            float *c = C + i * ldc;
+            float *c = C + i * rs;
             for (int h = 0; h < 2; h++) {
                 V(gf) v = alpha * acc[i][h];
                 if (beta != 0.0f) v += beta * V(gload)(c + h * VW);
@@ -98,8 +98,8 @@ static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float 
     for (int i = 0; i < mr; i++) {
         V(gstore)(t, acc[i][0]);
         V(gstore)(t + VW, acc[i][1]);
-        float *c = C + i * ldc;
+        float *c = C + i * rs;
         for (int j = 0; j < nr; j++)
-            c[j] = beta == 0.0f ? alpha * t[j] : alpha * t[j] + beta * c[j];
+            c[j * cs] = beta == 0.0f ? alpha * t[j] : alpha * t[j] + beta * c[j * cs];
     }
 }
