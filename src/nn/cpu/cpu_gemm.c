@@ -25,9 +25,8 @@
 #endif
 
 enum {
-    GEMM_KC = 256, /* k per packed block: an A panel and a B panel stay in L1 */
-    GEMM_MC =
-        240, /* rows per thread block (20 or 40 tiles): packed A in L2; 120 ran dW 2.6x slower */
+    GEMM_KC = 256,  /* k per packed block: an A panel and a B panel stay in L1 */
+    GEMM_MC = 240,  /* rows per thread block at most: packed A in L2 */
     GEMM_NC = 2048, /* columns per packed B block */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
@@ -136,8 +135,8 @@ static void pack_b(int tb, const float *B, int64_t ldb, int64_t p0, int64_t kc, 
 typedef struct gemm_block {
     gemm_kernel kern;
     int ta, tb;
-    const float *A, *B; /* B unpacked: for rows_unpacked */
-    int64_t lda, ldb, M, p0, kc, j0, nc;
+    const float *A, *B;                      /* B unpacked: for rows_unpacked */
+    int64_t lda, ldb, M, mc, p0, kc, j0, nc; /* mc: rows per block */
     const float *Bp;
     float alpha, beta;
     float *C;
@@ -165,13 +164,13 @@ static void *alloc_floats(int64_t n) {
 static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
     gemm_block *g = vctx;
     int mr = g->kern.mr, nr = g->kern.nr;
-    float *Ap = alloc_floats((int64_t)GEMM_MC * g->kc);
+    float *Ap = alloc_floats(g->mc * g->kc);
     if (!Ap) { /* out of memory: these rows unpacked, slowly */
-        rows_unpacked(g, begin * GEMM_MC, end * GEMM_MC < g->M ? end * GEMM_MC : g->M);
+        rows_unpacked(g, begin * g->mc, end * g->mc < g->M ? end * g->mc : g->M);
         return;
     }
     for (int64_t blk = begin; blk < end; blk++) {
-        int64_t i0 = blk * GEMM_MC, mc = g->M - i0 < GEMM_MC ? g->M - i0 : GEMM_MC;
+        int64_t i0 = blk * g->mc, mc = g->M - i0 < g->mc ? g->M - i0 : g->mc;
         pack_a(g->ta, g->A, g->lda, i0, mc, g->p0, g->kc, mr, Ap);
         for (int64_t jp = 0; jp < g->nc; jp += nr) {
             const float *bp = g->Bp + (jp / nr) * g->kc * nr;
@@ -206,9 +205,15 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
     float *Bp = alloc_floats((int64_t)GEMM_KC * ((nc_max + kern.nr - 1) / kern.nr * kern.nr));
     if (!Bp) return -1;
-    int64_t blocks = (M + GEMM_MC - 1) / GEMM_MC;
+    /* blocks of equal height, at least one per thread (M = 256 in blocks of
+     * 240 and 16 left the second of two threads idle) */
+    int64_t blocks = (M + GEMM_MC - 1) / GEMM_MC, nt = cr_thread_count();
+    if (blocks < nt) blocks = nt;
+    int64_t mc = ((M + blocks - 1) / blocks + kern.mr - 1) / kern.mr * kern.mr;
+    if (mc > GEMM_MC) mc = GEMM_MC;
+    blocks = (M + mc - 1) / mc;
     /* a chunk is worth a thread from about 2^18 multiply-adds */
-    int64_t per_block = (M < GEMM_MC ? M : GEMM_MC) * nc_max * (K < GEMM_KC ? K : GEMM_KC);
+    int64_t per_block = (M < mc ? M : mc) * nc_max * (K < GEMM_KC ? K : GEMM_KC);
     int64_t grain = per_block >= (1 << 18) ? 1 : (1 << 18) / per_block;
     for (int64_t j0 = 0; j0 < N; j0 += GEMM_NC) {
         int64_t nc = N - j0 < GEMM_NC ? N - j0 : GEMM_NC;
@@ -223,6 +228,7 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
                             .lda = lda,
                             .ldb = ldb,
                             .M = M,
+                            .mc = mc,
                             .p0 = p0,
                             .kc = kc,
                             .j0 = j0,
