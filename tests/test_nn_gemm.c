@@ -4,8 +4,9 @@
  * (1, 3, 7, 17, 65, 511 and past KC = 256 and MC = 240), the three
  * transposition cases the layers use (y = x W^T, dx = dy W, dW = dy^T x) and
  * plain NN, leading dimensions wider than the rows, alpha and beta
- * (overwrite with NaN in C, accumulate), and the dispatch through
- * cr_nn_cpu_gemm with CREASE_NN_GEMM's choice forced either way.
+ * (overwrite with NaN in C, accumulate), the same bits whatever the thread
+ * count, and the dispatch through cr_nn_cpu_gemm with CREASE_NN_GEMM's
+ * choice forced either way.
  */
 #include "crease/nn.h"
 #include "nn/cpu/cpu.h"
@@ -13,6 +14,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 static void fill(float *x, int64_t n, cr_rng *rng) {
     for (int64_t i = 0; i < n; i++)
@@ -117,4 +119,23 @@ CR_TEST(nn_gemm, dispatch_either_way_agrees_with_the_reference) {
              -1);
     CR_CHECK(cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), 0, 0, M, N, K, 0.0f, A, K, B, N, 0.0f, C, N) ==
              -1);
+}
+
+CR_TEST(nn_gemm, same_bits_on_one_thread_and_on_three) {
+    cr_rng rng = cr_rng_make(18, 0);
+    enum { M = 700, N = 40, K = 300 };
+    float *A = malloc(M * K * 4), *B = malloc(K * N * 4), *C1 = malloc(M * N * 4);
+    float *C3 = malloc(M * N * 4);
+    CR_REQUIRE(A && B && C1 && C3);
+    fill(A, M * K, &rng), fill(B, K * N, &rng);
+    int prev = cr_thread_count();
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_set_thread_count(1);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, N, K, 1.0f, A, K, B, K, 0.0f, C1, N) == 0);
+        cr_set_thread_count(3);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, N, K, 1.0f, A, K, B, K, 0.0f, C3, N) == 0);
+        CR_CHECK(memcmp(C1, C3, (size_t)M * N * 4) == 0);
+    }
+    cr_set_thread_count(prev);
+    free(A), free(B), free(C1), free(C3);
 }

@@ -196,10 +196,11 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
         /* N far below the tile's width (a 3-wide output layer, a 6-wide
          * input's dW): C^T = op(B)^T op(A)^T pads MR rows instead of NR
          * columns, C written through strides */
-        const float *T = A;
-        int64_t t = M, tl = lda, tt = ta;
+        const float *tA = A;
+        int64_t tM = M, tlda = lda;
+        int tta = ta;
         A = B, M = N, lda = ldb, ta = !tb;
-        B = T, N = t, ldb = tl, tb = !(int)tt;
+        B = tA, N = tM, ldb = tlda, tb = !tta;
         rs = 1, cs = ldc;
     }
     int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
