@@ -246,24 +246,3 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     free(Bp);
     return 0;
 }
-
-static int gemm_choice = -1; /* -1: not read yet; 0: OpenBLAS; 1: own */
-
-int cr_nn_cpu_gemm_uses_own(void) {
-    if (gemm_choice < 0) {
-        const char *env = getenv("CREASE_NN_GEMM");
-        if (env && strcmp(env, "blas") == 0)
-            gemm_choice = 0;
-        else if (env && strcmp(env, "own") == 0)
-            gemm_choice = 1;
-        else /* measured in docs/nn.md: own GEMM on the vector levels */
-            gemm_choice = cr_nn_cpu_simd() >= NN_SIMD_AVX2;
-    }
-    return gemm_choice;
-}
-
-int cr_nn_cpu_set_gemm_own(int own) {
-    int prev = cr_nn_cpu_gemm_uses_own();
-    gemm_choice = own != 0;
-    return prev;
-}

@@ -11,11 +11,50 @@
 #include "nn/cpu/cpu.h"
 
 #include <cblas.h>
+#include <stdlib.h>
+#include <string.h>
 
 static void scale_block(float *C, int64_t M, int64_t N, int64_t ldc, float beta) {
     for (int64_t i = 0; i < M; i++)
         for (int64_t j = 0; j < N; j++)
             C[i * ldc + j] = beta == 0.0f ? 0.0f : beta * C[i * ldc + j];
+}
+
+/* OpenBLAS kernels that beat the own GEMM on a level (docs/nn.md, "The
+ * engine's own GEMM"): on AVX-512 its SkylakeX family, on AVX2 also its
+ * Haswell and Zen; below them (Prescott, Sandybridge ...) the own one wins. */
+static int blas_core_wins(int level) {
+    static const char *const avx512[] = {"SkylakeX", "Cooperlake", "SapphireRapids"};
+    static const char *const avx2[] = {"Haswell", "Zen"};
+    const char *core = openblas_get_corename();
+    if (!core) return 0;
+    for (size_t i = 0; i < sizeof avx512 / sizeof *avx512; i++)
+        if (strcmp(core, avx512[i]) == 0) return 1;
+    for (size_t i = 0; level < NN_SIMD_AVX512 && i < sizeof avx2 / sizeof *avx2; i++)
+        if (strcmp(core, avx2[i]) == 0) return 1;
+    return 0;
+}
+
+static int gemm_choice = -1; /* -1: not read yet; 0: OpenBLAS; 1: own */
+
+int cr_nn_cpu_gemm_uses_own(void) {
+    if (gemm_choice < 0) {
+        const char *env = getenv("CREASE_NN_GEMM");
+        int level = cr_nn_cpu_simd();
+        if (env && strcmp(env, "blas") == 0)
+            gemm_choice = 0;
+        else if (env && strcmp(env, "own") == 0)
+            gemm_choice = 1;
+        else
+            gemm_choice = level >= NN_SIMD_AVX2 && !blas_core_wins(level);
+    }
+    return gemm_choice;
+}
+
+int cr_nn_cpu_set_gemm_own(int own) {
+    int prev = cr_nn_cpu_gemm_uses_own();
+    gemm_choice = own != 0;
+    return prev;
 }
 
 static int ld(int64_t x) {
