@@ -251,7 +251,7 @@ typedef struct cr_gdsr_rollout_result {
     double cpu_seconds_per_frame;       /* the same in process CPU time (clock()) */
 } cr_gdsr_rollout_result;
 
-enum { CR_GDSR_RELAX_DEFAULT = 8 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
+enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
 
 /* Run the model over clip k of d, feeding back its own corrections;
  * collision handling (Eq. 26-27) pushes C^ vertices out of the body to

@@ -60,7 +60,7 @@ void help_gdsr(void) {
         "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
-        "  --relax N            smoothing steps that spread the collision pushes (default 8)\n"
+        "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
         "  --frames N           only the clip's first N frames\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
         "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"

@@ -48,12 +48,12 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
             d[i] = x[i] - raw[i];
         for (int32_t i = 0; i < n; i++)
             moved[i] = d[3 * i] != 0.0f || d[3 * i + 1] != 0.0f || d[3 * i + 2] != 0.0f;
-        memcpy(dn, d, (size_t)n * 3 * sizeof(float));
+        /* smooth on the moved vertices and their one-ring (moved[i] |= 2) */
         for (int32_t i = 0; i < n; i++) {
             int32_t b0 = t->vv_off[i], b1 = t->vv_off[i + 1];
-            int near = moved[i];
+            int near = moved[i] & 1;
             for (int32_t e = b0; !near && e < b1; e++)
-                near = moved[t->vv[e]];
+                near = moved[t->vv[e]] & 1;
             if (!near || b1 == b0) continue;
             float s[3] = {0, 0, 0};
             for (int32_t e = b0; e < b1; e++)
@@ -61,10 +61,23 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                     s[k] += d[3 * (int64_t)t->vv[e] + k];
             for (int k = 0; k < 3; k++)
                 dn[3 * (int64_t)i + k] = 0.5f * d[3 * (int64_t)i + k] + 0.5f * s[k] / (b1 - b0);
+            moved[i] |= 2;
         }
-        for (int64_t i = 0; i < 3 * (int64_t)n; i++)
-            x[i] = raw[i] + dn[i];
-        cr_gdsr_push_out(b, x, n, eps, sd, nrm, NULL);
+        /* only the smoothed vertices moved: push those (gathered into d) */
+        int64_t c = 0;
+        for (int32_t i = 0; i < n; i++)
+            if (moved[i] & 2) {
+                for (int k = 0; k < 3; k++)
+                    d[3 * c + k] = raw[3 * (int64_t)i + k] + dn[3 * (int64_t)i + k];
+                c++;
+            }
+        cr_gdsr_push_out(b, d, c, eps, sd, nrm, NULL);
+        c = 0;
+        for (int32_t i = 0; i < n; i++)
+            if (moved[i] & 2) {
+                memcpy(&x[3 * (int64_t)i], &d[3 * c], 3 * sizeof(float));
+                c++;
+            }
     }
     cr_gdsr_push_out(b, x, n, eps, sd, nrm, NULL); /* concave spots: once more */
 }
