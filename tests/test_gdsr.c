@@ -276,7 +276,7 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     CR_CHECK_OK(cr_gdsr_model_load(path, &m, &err), &err);
     if (m) {
         cr_gdsr_rollout_result ro;
-        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, &ro, &err), &err);
+        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, &ro, &err), &err);
         CR_CHECK(ro.inside_after == 0);
         cr_gdsr_rollout_free(&ro);
     }
@@ -332,7 +332,7 @@ CR_TEST(gdsr, untrained_model_is_upsampling) {
     cr_gdsr_model_def def = tiny_def();
     CR_CHECK_OK(cr_gdsr_model_create(&def, &m, &err), &err);
     cr_gdsr_rollout_result r;
-    CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, &r, &err), &err);
+    CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, &r, &err), &err);
     double worst = 0;
     for (int64_t i = 0; i < (int64_t)r.nframes * r.nv_high * 3; i++)
         worst = fmax(worst, fabs((double)r.gdsr_raw[i] - r.upsampled[i]));
@@ -649,4 +649,60 @@ CR_TEST(gdsr, coarse_target_of_the_rest_is_the_low_rest) {
     cr_mesh_destroy(lo);
     cr_mesh_destroy(hi);
     cr_mesh_destroy(body);
+}
+
+/* Sum over the sheet's edges of (|e| / |e_rest| - 1)^2. */
+static double edge_strain(const cr_topology *t, const float *x, const float *rest) {
+    double s = 0.0;
+    for (int32_t e = 0; e < t->ne; e++) {
+        const int32_t a = t->edge[2 * e], b = t->edge[2 * e + 1];
+        double l = 0.0, l0 = 0.0;
+        for (int k = 0; k < 3; k++) {
+            double d = (double)x[3 * a + k] - x[3 * b + k],
+                   d0 = (double)rest[3 * a + k] - rest[3 * b + k];
+            l += d * d, l0 += d0 * d0;
+        }
+        s += (sqrt(l / l0) - 1.0) * (sqrt(l / l0) - 1.0);
+    }
+    return s;
+}
+
+/* A 20 cm sheet with a ball poking 1 cm through its middle: the per-vertex
+ * push (0 steps) and the spread one (8) both leave every vertex outside;
+ * the spread one strains the edges less and leaves the far corner alone. */
+CR_TEST(gdsr, collision_relax_keeps_outside_and_lowers_strain) {
+    cr_error err = {0};
+    cr_mesh *sheet = NULL, *ball = NULL;
+    cr_topology *t = NULL;
+    cr_bvh *b = NULL;
+    CR_REQUIRE(cr_prim_plane(31, 31, 0.2f, 0.2f, &sheet, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_icosphere(0.03f, 3, &ball, &err) == CR_OK);
+    for (int32_t i = 0; i < ball->nv; i++)
+        ball->pos[3 * i + 1] -= 0.02f;
+    CR_REQUIRE(cr_bvh_build(ball->pos, ball->nv, ball->tri, ball->nf, &b, &err) == CR_OK);
+    CR_REQUIRE(cr_topology_build(sheet, &t, &err) == CR_OK);
+    int32_t n = sheet->nv;
+    float *x = malloc((size_t)n * 3 * sizeof(float)), *sd = malloc((size_t)n * sizeof(float));
+    float *nrm = malloc((size_t)n * 3 * sizeof(float)), *d = malloc((size_t)n * 6 * sizeof(float));
+    uint8_t *moved = malloc((size_t)n);
+    double strain[2];
+    for (int pass = 0; pass < 2; pass++) {
+        memcpy(x, sheet->pos, (size_t)n * 3 * sizeof(float));
+        cr_gdsr_relax_push(b, t, sheet->pos, x, 0.001f, pass ? 8 : 0, sd, nrm, d, d + 3 * n, moved);
+        cr_bvh_signed_distance_batch(b, x, n, 1.0f, sd, NULL, NULL);
+        int32_t inside = 0;
+        for (int32_t i = 0; i < n; i++)
+            inside += sd[i] < 0.0f;
+        CR_CHECK(inside == 0);
+        CR_CHECK(x[1] == sheet->pos[1]); /* vertex 0, the corner, 14 cm from the ball */
+        strain[pass] = edge_strain(t, x, sheet->pos);
+    }
+    printf("  edge strain: push %.4g, spread %.4g\n", strain[0], strain[1]);
+    CR_CHECK(strain[0] > 0.0);
+    CR_CHECK(strain[1] < 0.5 * strain[0]);
+    free(x), free(sd), free(nrm), free(d), free(moved);
+    cr_bvh_destroy(b);
+    cr_topology_destroy(t);
+    cr_mesh_destroy(sheet);
+    cr_mesh_destroy(ball);
 }

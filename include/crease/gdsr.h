@@ -251,11 +251,16 @@ typedef struct cr_gdsr_rollout_result {
     double cpu_seconds_per_frame;       /* the same in process CPU time (clock()) */
 } cr_gdsr_rollout_result;
 
+enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
+
 /* Run the model over clip k of d, feeding back its own corrections;
  * collision handling (Eq. 26-27) pushes C^ vertices out of the body to
  * `eps` along the body's normal, carries that push to the high vertices
- * through Eq. 1, then pushes out any high vertex still inside. */
-cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps,
+ * through Eq. 1, then pushes out any high vertex still inside; `relax`
+ * Laplacian steps (each followed by a push) spread the high vertices'
+ * displacement over their neighbours so that it adds little strain (0:
+ * the per-vertex push alone). */
+cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           cr_gdsr_rollout_result *out, cr_error *err);
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
 

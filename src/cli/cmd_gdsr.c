@@ -60,6 +60,7 @@ void help_gdsr(void) {
         "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
+        "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
         "  --frames N           only the clip's first N frames\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
         "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
@@ -326,7 +327,7 @@ static int cmd_run(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
     const char *model = NULL, *baseline = NULL, *out = NULL;
     float eps = 0.002f;
-    int quiet = 0, json = 0, frames = 0;
+    int quiet = 0, json = 0, frames = 0, relax = CR_GDSR_RELAX_DEFAULT;
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
         CLI_STR("--garment", &garment),
@@ -335,6 +336,7 @@ static int cmd_run(int argc, char **argv) {
         CLI_STR("--model", &model),
         CLI_STR("--baseline-model", &baseline),
         CLI_FLOAT("--eps", &eps, 0, 0.05),
+        CLI_INT("--relax", &relax, 0, 1000),
         CLI_INT("--frames", &frames, 3, 1000000),
         CLI_OUTPUT(&out),
         CLI_FLAG("--quiet", &quiet),
@@ -360,9 +362,9 @@ static int cmd_run(int argc, char **argv) {
     const cr_gdsr_clip *cl = &d.clip[0];
     if (cr_mkdir_p(out, &err) != CR_OK) goto done;
     if (cr_gdsr_model_load(model, &m, &err) != CR_OK) goto done;
-    if (cr_gdsr_rollout(m, &d, 0, eps, &r, &err) != CR_OK) goto done;
+    if (cr_gdsr_rollout(m, &d, 0, eps, relax, &r, &err) != CR_OK) goto done;
     if (baseline && (cr_gdsr_model_load(baseline, &mb, &err) != CR_OK ||
-                     cr_gdsr_rollout(mb, &d, 0, eps, &rb, &err) != CR_OK))
+                     cr_gdsr_rollout(mb, &d, 0, eps, relax, &rb, &err) != CR_OK))
         goto done;
     struct {
         const char *name;

@@ -2,6 +2,7 @@
 #ifndef CREASE_GDSR_INTERNAL_H
 #define CREASE_GDSR_INTERNAL_H
 
+#include "crease/bvh.h"
 #include "crease/gdsr.h"
 #include "crease/nn_graph.h"
 #include "crease/nn_layers.h"
@@ -83,5 +84,20 @@ cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor
 /* The model def as JSON (heap string) and back. */
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *def);
 cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *def, cr_error *err);
+
+/* collide.c. Push points of x (n,3) with signed distance below eps out
+ * along the body's normal; returns how many were inside (sd < 0) before.
+ * The push of each point is written to push (may be NULL). sd (n), nrm
+ * (n,3) scratch. */
+int64_t cr_gdsr_push_out(const cr_bvh *b, float *x, int64_t n, float eps, float *sd, float *nrm,
+                         float *push);
+/* Push x (V,3), the mesh of t, out to eps, spread its displacement from
+ * raw by `iters` Jacobi steps of the uniform Laplacian on the moved
+ * vertices and their one-ring, each followed by a push out, then push out
+ * once more (0 iterations: the per-vertex push, twice). Scratch: sd (V), nrm, d, dn (V,3),
+ * moved (V). */
+void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw, float *x,
+                        float eps, int iters, float *sd, float *nrm, float *d, float *dn,
+                        uint8_t *moved);
 
 #endif

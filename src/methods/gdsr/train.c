@@ -148,7 +148,7 @@ static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, do
     int32_t Vh = d->high->nv;
     for (int c = first; c < d->nclips; c++) {
         cr_gdsr_rollout_result r;
-        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, &r, err));
+        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, 0, &r, err)); /* val reads gdsr_raw */
         for (int32_t t = 2; t < r.nframes; t++)
             for (int32_t i = 0; i < Vh; i++) {
                 const float *x = r.gdsr_raw + ((int64_t)t * Vh + i) * 3,
@@ -434,29 +434,7 @@ void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
     memset(r, 0, sizeof *r);
 }
 
-/* Push points of x (n,3) with signed distance below eps out along the
- * body's normal; returns how many were inside (sd < 0) before. The push of
- * each point is added to push (may be NULL). */
-static int64_t push_out(cr_bvh *b, float *x, int64_t n, float eps, float *sd, float *nrm,
-                        float *push) {
-    cr_bvh_signed_distance_batch(b, x, n, 0.2f, sd, nrm, NULL);
-    int64_t inside = 0;
-    for (int64_t i = 0; i < n; i++) {
-        if (sd[i] < 0) inside++;
-        if (sd[i] < eps) {
-            float s = eps - sd[i];
-            for (int k = 0; k < 3; k++) {
-                x[3 * i + k] += s * nrm[3 * i + k];
-                if (push) push[3 * i + k] = s * nrm[3 * i + k];
-            }
-        } else if (push) {
-            push[3 * i] = push[3 * i + 1] = push[3 * i + 2] = 0.0f;
-        }
-    }
-    return inside;
-}
-
-cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps,
+cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           cr_gdsr_rollout_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     if (clip < 0 || clip >= d->nclips)
@@ -484,14 +462,18 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     float *hpush = malloc((size_t)nh3 * sizeof(float));
     float *sd = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * sizeof(float));
     float *nrm = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * 3 * sizeof(float));
+    float *rd = malloc((size_t)nh3 * 2 * sizeof(float)); /* relax scratch: d, dn */
+    uint8_t *moved = malloc((size_t)Vh + 1);
+    cr_topology *htopo = NULL;
     float *e0 = NULL, *e1 = NULL;
     cr_status st;
     if (!out->gdsr || !out->gdsr_raw || !out->upsampled || !bp || !node || !fs.chat1 || !fs.chat2 ||
-        !fs.dprev || !chat || !lpush || !hpush || !sd || !nrm) {
+        !fs.dprev || !chat || !lpush || !hpush || !sd || !nrm || !rd || !moved) {
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
     }
     if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
+    if ((st = cr_topology_build(d->high, &htopo, err)) != CR_OK) goto done;
     e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
     e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
     if (!e0 || !e1) {
@@ -517,8 +499,9 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         if (t < 2) { /* no history yet: the upsampled input */
             memcpy(raw, up, (size_t)nh3 * sizeof(float));
             memcpy(fin, up, (size_t)nh3 * sizeof(float));
-            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
-            push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            cr_gdsr_relax_push(bv, htopo, up, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
+            cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
             continue;
         }
         double t0 = cr_time_now();
@@ -538,12 +521,13 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         /* Eq. 26-27: push C^ out of the body, carry the push to the high
          * vertices through Eq. 1, then any high vertex still inside */
         memcpy(fin, raw, (size_t)nh3 * sizeof(float));
-        push_out(bv, chat, low->nv, eps, sd, nrm, lpush);
+        cr_gdsr_push_out(bv, chat, low->nv, eps, sd, nrm, lpush);
         cr_gdsr_upsample(d, lpush, hpush);
         for (int64_t i = 0; i < nh3; i++)
             fin[i] += hpush[i];
-        push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
-        push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL); /* concave spots: once more */
+        /* the high vertices still inside, the pushes spread so that they
+         * do not strain (collide.c) */
+        cr_gdsr_relax_push(bv, htopo, raw, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
         tsum += cr_time_now() - t0;
         csum += (double)(clock() - c0) / CLOCKS_PER_SEC;
         tcount++;
@@ -585,6 +569,9 @@ done:
     free(hpush);
     free(sd);
     free(nrm);
+    free(rd);
+    free(moved);
+    cr_topology_destroy(htopo);
     cr_bvh_destroy(bv);
     cr_nn_ctx_destroy(ctx);
     cr_gdsr_graph_free(&g);
