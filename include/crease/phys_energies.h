@@ -169,9 +169,10 @@ int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], dou
  * detection (d(x) = n . sum_k w_k x_k is the pair's distance there, and
  * keeps its sign when the pair is pushed through), penalised by the body
  * collision's cubic k max(eps - d, 0)^3 (cr_collision_penalty). Elements of
- * four vertices: VT (p, a, b, c), EE (a, b, c, d). Pairs sharing a vertex,
- * and pairs closer than the query radius at rest (the garment given to
- * create), are left out. Gradient and Hessian are exact (d is linear) and
+ * four vertices: VT (p, a, b, c), EE (a, b, c, d). Pairs sharing a vertex
+ * are left out; a pair closer than the query radius at rest (the garment
+ * given to create) is a pair only within half its rest distance, with a
+ * thickness of a quarter of it. Gradient and Hessian are exact (d is linear) and
  * PSD. Found by a BVH over the cloth, refitted at every detection; see
  * self_contact.c. */
 #define CR_SELF_CONTACT_QUERY 2.0

@@ -11,9 +11,12 @@
  *     only, so each edge pair once),
  * are measured exactly (point-triangle: the BVH's Ericson closest point;
  * edge-edge: Ericson 5.1.9). A pair within r is kept unless it shares a
- * vertex or was closer than r at rest (the garment's initial positions):
- * such pairs are neighbours in the cloth (a vertex and the triangles two
- * rings away on a mesh of edges under r), not layers meeting. Both passes
+ * vertex. A pair closer than r at rest (the garment's initial positions) is
+ * a neighbour in the cloth (a vertex and the triangles two rings away on a
+ * mesh of edges under r), not layers meeting: it is kept only within half
+ * its rest distance d_r, with thickness d_r / 4 (REST_SHARE), so it carries
+ * no force at rest but a fold tighter than an edge still meets one (left
+ * out entirely, such pairs let the tall strip's tight folds cross). Both passes
  * count first and fill second, per item in parallel, so the pair list is
  * the same at any thread count.
  *
@@ -22,7 +25,8 @@
  * first edge, so d starts at the unsigned distance):
  *     d(x) = n . sum_k w_k x_k       VT: w = (1, -b0, -b1, -b2)
  *                                   EE: w = (1-s, s, -(1-t), -t)
- *     E = k max(eps - d, 0)^3        (the body collision's cubic, same k)
+ *     E = k max(eps - d, 0)^3        (the body collision's cubic, same k;
+ *                                   eps the pair's thickness)
  * d is linear in x, so the gradient w_k (-3 k s^2 n) and the Hessian
  * w_a w_b 6 k s n n^T (s = eps - d) are exact and PSD, as in collision.c.
  * A pair pushed through keeps its side: d goes negative and the penalty
@@ -43,6 +47,11 @@
 #define DETECT_GRAIN 2048
 /* Partners per vertex or edge the count pass keeps for the fill pass. */
 #define CACHE 12
+/* A rest neighbour (a pair closer than r at rest) is a pair when it has
+ * closed to this share of its rest distance, with thickness that radius
+ * over CR_SELF_CONTACT_QUERY: mesh neighbours carry no force at rest, and
+ * a fold tighter than an edge still meets a penalty. */
+#define REST_SHARE 0.5
 
 struct cr_self_contact {
     int32_t nv, nf, ne;
@@ -60,6 +69,7 @@ struct cr_self_contact {
     double *w;     /* (P,4) */
     double *n;     /* (P,3) */
     double *d0;    /* (P) distance at detection, m */
+    double *epsp;  /* (P) the pair's thickness: eps, or less for a rest neighbour, m */
     /* Per vertex: the nearest pair's distance (r when none), the positions
      * at detection, and the pairs it is in (4 pair + local). */
     double *dmin, *xdet;
@@ -71,8 +81,10 @@ struct cr_self_contact {
      * the edges e2 > e, within r at rest (no pairs ever). */
     int64_t *vt_rest_off, *ee_rest_off;     /* (V+1), (E+1) */
     int32_t *vt_rest, *ee_rest;             /* faces, edges */
+    double *vt_rest_d, *ee_rest_d;          /* their distances at rest, m */
     int32_t *vt_rest_off32, *ee_rest_off32; /* counts while they are built */
     int32_t *found, *cache; /* (V+E) pairs per vertex, then edge; (V+E, CACHE) their partners */
+    double *cache_r;        /* (V+E, CACHE) the partners' query radii */
     const double *x;        /* positions being detected at */
 };
 
@@ -83,10 +95,11 @@ void cr_self_contact_destroy(cr_self_contact *sc) {
     if (!sc) return;
     free(sc->tri), free(sc->edge), free(sc->face_edge), free(sc->edge_face), free(sc->rest);
     cr_bvh_destroy(sc->bvh);
-    free(sc->xf), free(sc->elem), free(sc->w), free(sc->n), free(sc->d0);
+    free(sc->xf), free(sc->elem), free(sc->w), free(sc->n), free(sc->d0), free(sc->epsp);
     free(sc->dmin), free(sc->xdet), free(sc->vp_off), free(sc->vp);
     free(sc->cnt_v), free(sc->cnt_e);
     free(sc->vt_rest_off), free(sc->ee_rest_off), free(sc->vt_rest), free(sc->ee_rest);
+    free(sc->vt_rest_d), free(sc->ee_rest_d), free(sc->cache_r);
     free(sc->vt_rest_off32), free(sc->ee_rest_off32), free(sc->found), free(sc->cache);
     free(sc);
 }
@@ -120,9 +133,10 @@ cr_status cr_self_contact_create(const cr_mesh *garment, const cr_topology *topo
     sc->cnt_e = cr_calloc(e1, sizeof(int32_t), err);
     sc->found = cr_calloc(v1 + e1, sizeof(int32_t), err);
     sc->cache = cr_malloc(CACHE * (v1 + e1) * sizeof(int32_t), err);
+    sc->cache_r = cr_malloc(CACHE * (v1 + e1) * sizeof(double), err);
     if (!sc->tri || !sc->edge || !sc->face_edge || !sc->edge_face || !sc->rest || !sc->xf ||
         !sc->dmin || !sc->xdet || !sc->vp_off || !sc->cnt_v || !sc->cnt_e || !sc->found ||
-        !sc->cache) {
+        !sc->cache || !sc->cache_r) {
         cr_self_contact_destroy(sc);
         return err ? err->status : CR_ERR_MEMORY;
     }
@@ -255,10 +269,11 @@ typedef struct detect_ctx {
     int *oom; /* set to 1 by a task that could not allocate */
 } detect_ctx;
 
-/* Keep pair idx (kind) at the current positions? Writes it at slot `at`
- * when filling. */
-static int consider(cr_self_contact *sc, int kind, const int32_t *idx, int fill, int64_t at) {
-    double bst[3], r2 = sc->r * sc->r;
+/* Keep pair idx (kind), query radius r, at the current positions? Writes
+ * it at slot `at` when filling, with thickness r / CR_SELF_CONTACT_QUERY. */
+static int consider(cr_self_contact *sc, int kind, const int32_t *idx, double r, int fill,
+                    int64_t at) {
+    double bst[3], r2 = r * r;
     double d2 = pair_dist2(kind, sc->x, idx, bst);
     if (!(d2 < r2)) return 0;
     double X[12], n[3], w[4];
@@ -270,6 +285,7 @@ static int consider(cr_self_contact *sc, int kind, const int32_t *idx, int fill,
         memcpy(sc->w + 4 * at, w, sizeof w);
         memcpy(sc->n + 3 * at, n, sizeof n);
         sc->d0[at] = d;
+        sc->epsp[at] = r == sc->r ? sc->eps : r / CR_SELF_CONTACT_QUERY;
     }
     return 1;
 }
@@ -288,21 +304,28 @@ static int64_t box_faces(const cr_bvh *b, const float *lo, const float *hi, int3
 
 /* One candidate of item `item` (a vertex or an edge) with partner `other`
  * (a face or an edge): at create, listed when within r at rest; later,
- * skipped when listed (stamp[other] == item + 1), else measured. */
+ * measured against r, or against REST_SHARE of its rest distance when it
+ * is listed (stamp[other] == item + 1, rest_d[other] that distance). */
 static int candidate(const detect_ctx *c, int kind, int64_t item, int32_t other, const int32_t *idx,
-                     const int32_t *stamp, int64_t at, int64_t found) {
+                     const int32_t *stamp, const double *rest_d, int64_t at, int64_t found) {
     cr_self_contact *sc = c->sc;
     if (c->rest) {
-        double bst[3];
-        if (!(pair_dist2(kind, sc->rest, idx, bst) < sc->r * sc->r)) return 0;
-        if (c->fill) (kind == 0 ? sc->vt_rest : sc->ee_rest)[at] = other;
+        double bst[3], d2 = pair_dist2(kind, sc->rest, idx, bst);
+        if (!(d2 < sc->r * sc->r)) return 0;
+        if (c->fill) {
+            (kind == 0 ? sc->vt_rest : sc->ee_rest)[at] = other;
+            (kind == 0 ? sc->vt_rest_d : sc->ee_rest_d)[at] = sqrt(d2);
+        }
         return 1;
     }
-    if (stamp[other] == item + 1) return 0;
-    int keep = consider(sc, kind, idx, c->fill, at);
+    double r = stamp[other] == item + 1 ? REST_SHARE * rest_d[other] : sc->r;
+    int keep = consider(sc, kind, idx, r, c->fill, at);
     /* The count pass remembers the partners, so the fill pass need not search again. */
     int64_t slot = kind == 0 ? item : sc->nv + item;
-    if (keep && !c->fill && found < CACHE) sc->cache[CACHE * slot + found] = other;
+    if (keep && !c->fill && found < CACHE) {
+        sc->cache[CACHE * slot + found] = other;
+        sc->cache_r[CACHE * slot + found] = r;
+    }
     return keep;
 }
 
@@ -322,17 +345,20 @@ static int replay(const detect_ctx *c, int kind, int64_t item, int64_t at) {
             const int32_t *a = sc->edge + 2 * item, *b = sc->edge + 2 * (int64_t)other;
             idx[0] = a[0], idx[1] = a[1], idx[2] = b[0], idx[3] = b[1];
         }
-        consider(sc, kind, idx, 1, at + q);
+        consider(sc, kind, idx, sc->cache_r[CACHE * slot + q], 1, at + q);
     }
     return 1;
 }
 
-/* Mark item's rest neighbours (list[off[item] .. off[item+1])) in stamp. */
-static void stamp_rest(const detect_ctx *c, const int64_t *off, const int32_t *list, int64_t item,
-                       int32_t *stamp) {
+/* Mark item's rest neighbours (list[off[item] .. off[item+1])) in stamp,
+ * their rest distances in rest_d. */
+static void stamp_rest(const detect_ctx *c, const int64_t *off, const int32_t *list,
+                       const double *dist, int64_t item, int32_t *stamp, double *rest_d) {
     if (c->rest) return;
-    for (int64_t q = off[item]; q < off[item + 1]; q++)
+    for (int64_t q = off[item]; q < off[item + 1]; q++) {
         stamp[list[q]] = (int32_t)(item + 1);
+        rest_d[list[q]] = dist[q];
+    }
 }
 
 static void vt_range(void *vctx, int64_t begin, int64_t end) {
@@ -341,7 +367,9 @@ static void vt_range(void *vctx, int64_t begin, int64_t end) {
     int32_t local[BOX_FACES], *faces = local;
     int64_t cap = BOX_FACES;
     int32_t *stamp = c->rest ? NULL : calloc((size_t)sc->nf + 1, sizeof(int32_t));
-    if (!c->rest && !stamp) {
+    double *rest_d = c->rest ? NULL : malloc(((size_t)sc->nf + 1) * sizeof(double));
+    if (!c->rest && (!stamp || !rest_d)) {
+        free(stamp), free(rest_d);
         *c->oom = 1;
         return;
     }
@@ -353,19 +381,19 @@ static void vt_range(void *vctx, int64_t begin, int64_t end) {
         float lo[3] = {p[0] - r, p[1] - r, p[2] - r}, hi[3] = {p[0] + r, p[1] + r, p[2] + r};
         int64_t nf = box_faces(sc->bvh, lo, hi, &faces, &cap, local);
         if (nf < 0) *c->oom = 1;
-        stamp_rest(c, sc->vt_rest_off, sc->vt_rest, i, stamp);
+        stamp_rest(c, sc->vt_rest_off, sc->vt_rest, sc->vt_rest_d, i, stamp, rest_d);
         int64_t at = c->fill ? cnt[i] : 0, found = 0;
         for (int64_t q = 0; q < nf; q++) {
             const int32_t *t = sc->tri + 3 * (int64_t)faces[q];
             if (t[0] == i || t[1] == i || t[2] == i) continue;
             int32_t idx[4] = {(int32_t)i, t[0], t[1], t[2]};
-            found += candidate(c, 0, i, faces[q], idx, stamp, at + found, found);
+            found += candidate(c, 0, i, faces[q], idx, stamp, rest_d, at + found, found);
         }
         if (!c->fill) cnt[i] = (int32_t)found;
         if (!c->fill && !c->rest) sc->found[i] = (int32_t)found;
     }
     if (faces != local) free(faces);
-    free(stamp);
+    free(stamp), free(rest_d);
 }
 
 static void ee_range(void *vctx, int64_t begin, int64_t end) {
@@ -374,7 +402,9 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
     int32_t local[BOX_FACES], *faces = local;
     int64_t cap = BOX_FACES;
     int32_t *stamp = c->rest ? NULL : calloc((size_t)sc->ne + 1, sizeof(int32_t));
-    if (!c->rest && !stamp) {
+    double *rest_d = c->rest ? NULL : malloc(((size_t)sc->ne + 1) * sizeof(double));
+    if (!c->rest && (!stamp || !rest_d)) {
+        free(stamp), free(rest_d);
         *c->oom = 1;
         return;
     }
@@ -391,7 +421,7 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
         }
         int64_t nf = box_faces(sc->bvh, lo, hi, &faces, &cap, local);
         if (nf < 0) *c->oom = 1;
-        stamp_rest(c, sc->ee_rest_off, sc->ee_rest, e, stamp);
+        stamp_rest(c, sc->ee_rest_off, sc->ee_rest, sc->ee_rest_d, e, stamp, rest_d);
         int64_t at = c->fill ? cnt[e] : 0, found = 0;
         for (int64_t q = 0; q < nf; q++) {
             int32_t f = faces[q];
@@ -401,14 +431,14 @@ static void ee_range(void *vctx, int64_t begin, int64_t end) {
                 const int32_t *ov = sc->edge + 2 * (int64_t)e2;
                 if (ov[0] == ev[0] || ov[0] == ev[1] || ov[1] == ev[0] || ov[1] == ev[1]) continue;
                 int32_t idx[4] = {ev[0], ev[1], ov[0], ov[1]};
-                found += candidate(c, 1, e, e2, idx, stamp, at + found, found);
+                found += candidate(c, 1, e, e2, idx, stamp, rest_d, at + found, found);
             }
         }
         if (!c->fill) cnt[e] = (int32_t)found;
         if (!c->fill && !c->rest) sc->found[sc->nv + e] = (int32_t)found;
     }
     if (faces != local) free(faces);
-    free(stamp);
+    free(stamp), free(rest_d);
 }
 
 /* Turn counts (n) into exclusive offsets starting at base; returns the total. */
@@ -435,7 +465,9 @@ static cr_status grow_pairs(cr_self_contact *sc, int64_t np, cr_error *err) {
     if (n) sc->n = n;
     double *d0 = realloc(sc->d0, (size_t)cap * sizeof(double));
     if (d0) sc->d0 = d0;
-    if (!elem || !w || !n || !d0)
+    double *epsp = realloc(sc->epsp, (size_t)cap * sizeof(double));
+    if (epsp) sc->epsp = epsp;
+    if (!elem || !w || !n || !d0 || !epsp)
         return CR_FAIL(err, CR_ERR_MEMORY, "self-contact: out of memory for %lld pairs",
                        (long long)np);
     sc->cap = (int32_t)cap;
@@ -463,7 +495,10 @@ static cr_status rest_neighbours(cr_self_contact *sc, cr_error *err) {
         return CR_FAIL(err, CR_ERR_RANGE, "self-contact: too many rest neighbours");
     sc->vt_rest = cr_malloc(((size_t)sc->vt_rest_off[nv] + 1) * sizeof(int32_t), err);
     sc->ee_rest = cr_malloc(((size_t)sc->ee_rest_off[ne] + 1) * sizeof(int32_t), err);
-    if (!sc->vt_rest || !sc->ee_rest) return err ? err->status : CR_ERR_MEMORY;
+    sc->vt_rest_d = cr_malloc(((size_t)sc->vt_rest_off[nv] + 1) * sizeof(double), err);
+    sc->ee_rest_d = cr_malloc(((size_t)sc->ee_rest_off[ne] + 1) * sizeof(double), err);
+    if (!sc->vt_rest || !sc->ee_rest || !sc->vt_rest_d || !sc->ee_rest_d)
+        return err ? err->status : CR_ERR_MEMORY;
     for (int32_t i = 0; i < nv; i++)
         sc->vt_rest_off32[i] = (int32_t)sc->vt_rest_off[i];
     for (int32_t e = 0; e < ne; e++)
@@ -540,7 +575,7 @@ static double self_kernel(const void *data, int32_t e, const double *xe, double 
     const cr_self_contact *sc = data;
     const double *n = sc->n + 3 * (int64_t)e, *w = sc->w + 4 * (int64_t)e;
     double g3[3], H3[9];
-    double v = cr_collision_penalty(sc->k, sc->eps, pair_d(sc, e, xe), n, g3, H3);
+    double v = cr_collision_penalty(sc->k, sc->epsp[e], pair_d(sc, e, xe), n, g3, H3);
     if (g)
         for (int a = 0; a < 4; a++)
             for (int k = 0; k < 3; k++)
@@ -559,7 +594,7 @@ static double self_vertex_block(const void *data, int32_t e, int k, const double
     const cr_self_contact *sc = data;
     const double *n = sc->n + 3 * (int64_t)e, *w = sc->w + 4 * (int64_t)e;
     double g3[3], H3[9];
-    double v = cr_collision_penalty(sc->k, sc->eps, pair_d(sc, e, xe), n, g3, H3);
+    double v = cr_collision_penalty(sc->k, sc->epsp[e], pair_d(sc, e, xe), n, g3, H3);
     if (g)
         for (int j = 0; j < 3; j++)
             g[j] = w[k] * g3[j];
