@@ -72,6 +72,15 @@ static cr_swingar_motion seq_motion(const cr_swingar_data *d, int i) {
     return mo;
 }
 
+/* A context with an arena of `mib` MiB, NULL when it cannot be made. */
+static cr_nn_ctx *test_ctx(size_t mib) {
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = mib << 20;
+    cr_nn_ctx *ctx = NULL;
+    cr_error err = {0};
+    return cr_nn_ctx_create(&cd, &ctx, &err) == CR_OK ? ctx : NULL;
+}
+
 CR_TEST(swingar, skinning_weights_sum_to_one) {
     const cr_swingar_data *d = tiny_data();
     CR_REQUIRE(d);
@@ -81,10 +90,8 @@ CR_TEST(swingar, skinning_weights_sum_to_one) {
     cr_swingar *m = NULL;
     CR_CHECK_OK(cr_swingar_create(&def, 3, &m, &err), &err);
     CR_REQUIRE(m);
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = (size_t)128 << 20;
-    cr_nn_ctx *ctx = NULL;
-    CR_CHECK_OK(cr_nn_ctx_create(&cd, &ctx, &err), &err);
+    cr_nn_ctx *ctx = test_ctx(128);
+    CR_REQUIRE(ctx);
     const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
     cr_swingar_motion mo = seq_motion(d, 0);
     cr_swingar_parts parts;
@@ -123,10 +130,8 @@ CR_TEST(swingar, untrained_model_is_the_skinned_garment) {
     cr_swingar *m = NULL;
     CR_CHECK_OK(cr_swingar_create(&def, 3, &m, &err), &err);
     CR_REQUIRE(m);
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = (size_t)128 << 20;
-    cr_nn_ctx *ctx = NULL;
-    CR_CHECK_OK(cr_nn_ctx_create(&cd, &ctx, &err), &err);
+    cr_nn_ctx *ctx = test_ctx(128);
+    CR_REQUIRE(ctx);
     const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
     cr_swingar_motion mo = seq_motion(d, 0);
     cr_swingar_parts parts;
@@ -147,11 +152,8 @@ CR_TEST(swingar, untrained_model_is_the_skinned_garment) {
 
 /* Frames [0, T) of motion i in one forward, the reference for predict. */
 static float *one_forward(cr_swingar *m, const cr_swingar_garment *g, const cr_swingar_motion *mo) {
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = (size_t)256 << 20;
-    cr_nn_ctx *ctx = NULL;
-    cr_error err = {0};
-    if (cr_nn_ctx_create(&cd, &ctx, &err) != CR_OK) return NULL;
+    cr_nn_ctx *ctx = test_ctx(256);
+    if (!ctx) return NULL;
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, 0, mo->nframes, NULL);
     float *out = y ? malloc(sizeof(float) * (size_t)y->numel) : NULL;
