@@ -50,6 +50,16 @@ check "gdsr run training clip" bash -c "'$crease' gdsr run --dataset '$tmp/data'
 check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" normal_angle_deg))" \
   better "$tmp/w.json" normal_angle_deg 1.0
 check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
+# from a motion to wrinkles: the low input simulated by the dataset machinery
+check "gdsr run --simulate" bash -c "'$crease' gdsr run --model '$tmp/m/model.safetensors' --simulate \
+  --motion dance --dataset '$tmp/data' --frames 6 -o '$tmp/s' --quiet --json > '$tmp/s.json'"
+check "simulated input" test -s "$tmp/s/sim/sequences/tshirt_low_normal_dance/garment.pc2" \
+  -a ! -e "$tmp/s/sim/sequences/tshirt_high_normal_dance" -a -s "$tmp/s/gdsr.pc2"
+check "simulated pair is the training pair" cmp "$tmp/s/sim/garments/normal/tshirt_low.obj" \
+  "$tmp/data/garments/normal/tshirt_low.obj"
+check "simulated: 7 samples" grep -q '"frames":7,' "$tmp/s.json"
+expect_exit 2 "needs --simulate" gdsr run --model "$tmp/m/model.safetensors" --dataset "$tmp/data" \
+  --motion dance --reference -o "$tmp/s2"
 expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
 # the strain L1 and the wrinkle loss on, one epoch, under the paper's first lambdas: their
 # terms are logged and above zero

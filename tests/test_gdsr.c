@@ -706,3 +706,35 @@ CR_TEST(gdsr, collision_relax_keeps_outside_and_lowers_strain) {
     cr_mesh_destroy(sheet);
     cr_mesh_destroy(ball);
 }
+
+/* gdsr run --simulate's input: one low-resolution sequence made by the
+ * dataset machinery, with the high mesh and Eq. 1 but no high run. */
+CR_TEST(gdsr, simulate_makes_a_low_only_input_with_its_pair) {
+    cr_error err = {0};
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/gdsr_sim", cr_test_tmpdir());
+    cr_gdsr_sim_def sd = cr_gdsr_sim_default_def();
+    sd.out_dir = dir, sd.motion = "walk", sd.frames = 3, sd.quiet = 1;
+    sd.low_vertices = 500, sd.high_vertices = 1000;
+    cr_gdsr_data d;
+    cr_gdsr_sim_result r;
+    CR_CHECK_OK(cr_gdsr_simulate(&sd, &d, &r, &err), &err);
+    CR_CHECK(!strcmp(r.garment, "tshirt") && !strcmp(r.motion, "walk"));
+    CR_CHECK(d.nclips == 1 && d.clip[0].nframes == 4); /* frames + 1 samples */
+    CR_CHECK(d.clip[0].low && d.clip[0].body && !d.clip[0].high);
+    CR_CHECK(r.low_vertices == d.low->nv && d.high->nv > d.low->nv);
+    /* the garment moved with the body */
+    int64_t last = (int64_t)3 * d.low->nv * 3;
+    double moved = 0;
+    for (int32_t i = 0; i < 3 * d.low->nv; i++)
+        moved = fmax(moved, fabs(d.clip[0].low[last + i] - d.clip[0].low[i]));
+    CR_CHECK(moved > 1e-4);
+    char path[1100];
+    snprintf(path, sizeof path, "%s/sequences/tshirt_high_normal_walk", dir);
+    FILE *f = fopen(path, "r"); /* not simulated */
+    CR_CHECK(!f);
+    if (f) fclose(f);
+    cr_gdsr_data_free(&d);
+    sd.motion = "no_such_clip";
+    CR_CHECK(cr_gdsr_simulate(&sd, &d, &r, &err) != CR_OK);
+}

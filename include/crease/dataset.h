@@ -75,6 +75,9 @@ typedef struct cr_dataset_def {
     int self_contact;         /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
     float self_thickness;     /* its thickness, m; 0 (default): cr_sim_def's */
     uint64_t seed;            /* recorded in the manifest (the simulator has no randomness) */
+    uint32_t mesh_only_res;   /* bit r set: res[r]'s garments (and the low/high correspondence)
+                                 are made but its sequences are not simulated (gdsr run's
+                                 low-only input with its high pair); default 0 */
     int quiet;                /* 1: no progress bar */
     /* Motion files (clips are made at fps and start at the rest pose): read
      * with motion_import, then made ready by cr_motion_prepare with
@@ -107,6 +110,10 @@ typedef struct cr_dataset_result {
  * an unknown garment, body or resolution; CR_ERR_IO for the output folder.
  * Sequences that fail do not fail the call: they are counted in `failed`. */
 cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out, cr_error *err);
+
+/* A motion's name in the dataset's files: the clip's name ("walk"), or a
+ * file's base name without its extension ("dance" for "mocap/dance.bvh"). */
+void cr_dataset_motion_label(const char *spec, char *out, size_t size);
 
 #ifdef __cplusplus
 }

@@ -72,6 +72,46 @@ cr_status cr_gdsr_data_from_arrays(const cr_mesh *low, const cr_mesh *high, cons
                                    cr_gdsr_data *out, cr_error *err);
 void cr_gdsr_data_free(cr_gdsr_data *d); /* zeroes it; a zeroed struct is a no-op */
 
+/* The low-resolution input simulated from a motion (`gdsr run --simulate`):
+ * a `crease dataset` of one garment on one body and one motion is made in
+ * out_dir by cr_dataset_generate (the same garment templates, body, motion
+ * preparation and simulator as the training data), with the garment at
+ * both resolutions and the low/high correspondence; only the low
+ * resolution is simulated unless `reference` is set. */
+typedef struct cr_gdsr_sim_def {
+    const char *out_dir; /* the one-sequence dataset (required) */
+    const char *garment; /* a garment type or variant spec (dataset.h; default "tshirt") */
+    const char *body;    /* mannequin preset (default "normal") */
+    const char *motion;  /* a clip name or a motion file (.npz, .bvh) (required) */
+    const char *like;    /* NULL, or a dataset folder (the model's training data) whose
+                            manifest.json gives low_vertices, high_vertices, fps and
+                            material unless set below */
+    int32_t low_vertices, high_vertices; /* 0: like's, else the dataset defaults */
+    int32_t frames;                      /* simulated frames (default 60) */
+    float fps;                           /* 0: like's, else 30 */
+    const char *material;                /* NULL: like's, else "cotton" */
+    int reference;                       /* 1: the high resolution too (a reference) */
+    int quiet;
+    const struct cr_motion_import_def *motion_import;   /* NULL: the dataset's defaults */
+    const struct cr_motion_prepare_def *motion_prepare; /* NULL: the dataset's defaults */
+} cr_gdsr_sim_def;
+
+cr_gdsr_sim_def cr_gdsr_sim_default_def(void);
+
+typedef struct cr_gdsr_sim_result {
+    char garment[128]; /* the garment's label (its files' name in out_dir) */
+    char motion[64];   /* the motion's label (a file's base name) */
+    int32_t low_vertices, high_vertices;
+    double seconds;          /* the dataset run, set-up included */
+    double max_inside_share; /* the low garment's largest share inside the body */
+} cr_gdsr_sim_result;
+
+/* Simulate, then load the result as data with one clip (high NULL without
+ * `reference`). CR_ERR_INVALID naming a bad field, a failed sequence with
+ * the simulator's reason; like's manifest errors name the file. */
+cr_status cr_gdsr_simulate(const cr_gdsr_sim_def *def, cr_gdsr_data *out, cr_gdsr_sim_result *res,
+                           cr_error *err);
+
 /* C*: the high positions high_pos (Vh,3) sampled at each low vertex's
  * point on the high mesh (coarse_face, coarse_bary): out (Vl,3). */
 void cr_gdsr_coarse_target(const cr_gdsr_data *d, const float *high_pos, float *out);

@@ -6,6 +6,7 @@
 #include "crease/eval.h"
 #include "crease/gdsr.h"
 #include "crease/mesh_io.h"
+#include "crease/motion.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -14,7 +15,9 @@
 void help_gdsr(void) {
     printf(
         "usage: crease gdsr train --dataset DIR --motions M1,M2 -o OUT [options]\n"
-        "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n\n"
+        "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n"
+        "       crease gdsr run --model F --simulate --motion CLIP|FILE.bvh|FILE.npz [--body B]\n"
+        "                       [--garment G] [--dataset DIR] [--frames N] -o DIR\n\n"
         "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
         "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
         "common:\n"
@@ -61,7 +64,19 @@ void help_gdsr(void) {
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
         "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
-        "  --frames N           only the clip's first N frames\n"
+        "  --frames N           only the clip's first N frames (with --simulate: frames to\n"
+        "                       simulate, default 60)\n"
+        "run --simulate (the low-resolution input made from the motion by `crease dataset`'s\n"
+        "machinery into DIR/sim: garment template, posed body, simulator):\n"
+        "  --simulate           --motion is a clip name or a motion file (.bvh, .npz) to\n"
+        "                       simulate the low garment on; --dataset (optional) is then the\n"
+        "                       training data whose manifest gives the vertex counts, fps and\n"
+        "                       material (else 2000, 8000, 30, cotton)\n"
+        "  --reference          simulate the high resolution too: a reference and the\n"
+        "                       metrics table (slow: the high simulation)\n"
+        "  --low-vertices N --high-vertices N   the garment pair's target vertex counts\n"
+        "  --scale S --start-frame N --end-frame N --ease-in S --ground G   a motion file's\n"
+        "                       preparation, as in `crease dataset` (docs/motions.md)\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
         "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
         "                       E_v, E_uv over the frames)\n"
@@ -328,6 +343,8 @@ static int cmd_run(int argc, char **argv) {
     const char *model = NULL, *baseline = NULL, *out = NULL;
     float eps = 0.002f;
     int quiet = 0, json = 0, frames = 0, relax = CR_GDSR_RELAX_DEFAULT;
+    int simulate = 0, reference = 0, lowv = 0, highv = 0;
+    cli_motion_file mf = cli_motion_file_default(1.0f);
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
         CLI_STR("--garment", &garment),
@@ -338,6 +355,11 @@ static int cmd_run(int argc, char **argv) {
         CLI_FLOAT("--eps", &eps, 0, 0.05),
         CLI_INT("--relax", &relax, 0, 1000),
         CLI_INT("--frames", &frames, 3, 1000000),
+        CLI_FLAG("--simulate", &simulate),
+        CLI_FLAG("--reference", &reference),
+        CLI_INT("--low-vertices", &lowv, 500, 100000),
+        CLI_INT("--high-vertices", &highv, 500, 100000),
+        CLI_MOTION_FILE_OPTS(&mf),
         CLI_OUTPUT(&out),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
@@ -346,11 +368,35 @@ static int cmd_run(int argc, char **argv) {
     int npos = 0;
     int rc = cli_parse("gdsr run", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
-    if (!dataset || !motion || !model || !out)
-        return cli_usage("gdsr run", "needs --dataset, --motion, --model and -o");
+    if (!motion || !model || !out || (!dataset && !simulate))
+        return cli_usage("gdsr run", "needs --motion, --model, -o and --dataset or --simulate");
+    if (!simulate && (reference || lowv || highv))
+        return cli_usage("gdsr run", "--reference, --low-vertices and --high-vertices need "
+                                     "--simulate");
     cr_error err = {0};
     cr_gdsr_data d;
-    if (cr_gdsr_data_load(dataset, garment, body, &motion, 1, &d, &err) != CR_OK)
+    cr_gdsr_sim_result sr = {0};
+    char simdir[1100];
+    if (simulate) {
+        cr_motion_import_def imp;
+        cr_motion_prepare_def pd;
+        cli_motion_file_defs(&mf, &imp, &pd);
+        snprintf(simdir, sizeof simdir, "%s/sim", out);
+        cr_gdsr_sim_def sd = cr_gdsr_sim_default_def();
+        sd.out_dir = simdir, sd.garment = garment, sd.body = body, sd.motion = motion;
+        sd.like = dataset, sd.low_vertices = lowv, sd.high_vertices = highv;
+        if (frames > 0) sd.frames = frames;
+        sd.reference = reference, sd.quiet = quiet;
+        sd.motion_import = &imp, sd.motion_prepare = &pd;
+        if (cr_gdsr_simulate(&sd, &d, &sr, &err) != CR_OK) return cli_fail(&err);
+        fprintf(stderr,
+                "gdsr run: simulated %s on %s (%s), %d frames, %d low vertices%s, %.1f s "
+                "(%s)\n",
+                sr.garment, body, sr.motion, d.clip[0].nframes - 1, sr.low_vertices,
+                reference ? " and the high reference" : "", sr.seconds, simdir);
+        motion = sr.motion;
+        frames = 0;
+    } else if (cr_gdsr_data_load(dataset, garment, body, &motion, 1, &d, &err) != CR_OK)
         return cli_fail(&err);
     cr_gdsr_model *m = NULL, *mb = NULL;
     cr_gdsr_rollout_result r = {0}, rb = {0};
@@ -412,6 +458,14 @@ static int cmd_run(int argc, char **argv) {
     cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
     cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
     cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
+    if (simulate) {
+        cJSON *o = cJSON_AddObjectToObject(j, "simulated");
+        cJSON_AddStringToObject(o, "dir", simdir);
+        cJSON_AddStringToObject(o, "garment", sr.garment);
+        cJSON_AddBoolToObject(o, "reference", reference);
+        cJSON_AddNumberToObject(o, "seconds", sr.seconds);
+        cJSON_AddNumberToObject(o, "max_inside_share", sr.max_inside_share);
+    }
     {
         char *s = cJSON_Print(j);
         snprintf(path, sizeof path, "%s/summary.json", out);

@@ -116,8 +116,7 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
 
 /* ------------------------------------------------------------- assets -- */
 
-/* "walk" for a clip, the file's base name without extension for a file. */
-static void motion_label(const char *spec, char *out, size_t size) {
+void cr_dataset_motion_label(const char *spec, char *out, size_t size) {
     const char *base = strrchr(spec, '/');
     base = base ? base + 1 : spec;
     snprintf(out, size, "%s", base);
@@ -217,7 +216,7 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
     const cr_dataset_def *d = &ds->def;
     int64_t step = 0;
     for (int m = 0; m < d->nmotions; m++) {
-        motion_label(d->motions[m], ds->motion_name[m], sizeof ds->motion_name[m]);
+        cr_dataset_motion_label(d->motions[m], ds->motion_name[m], sizeof ds->motion_name[m]);
         cr_motion_prepare_report *rep = &ds->motion_rep[m];
         if (is_clip(d->motions[m])) {
             CR_TRY(cr_motion_clip(d->motions[m], d->frames + 1, d->fps, &ds->motion[m], err));

@@ -55,14 +55,17 @@ static int already_done(const dataset *ds, dataset_seq *q) {
 
 cr_status cr_dataset_plan(dataset *ds, cr_error *err) {
     const cr_dataset_def *d = &ds->def;
-    ds->nseq = d->ngarments * d->nmotions * d->nbodies * d->nres;
-    ds->seq = cr_calloc((size_t)ds->nseq, sizeof(dataset_seq), err);
+    int nsim = 0;
+    for (int r = 0; r < d->nres; r++)
+        nsim += !(d->mesh_only_res >> r & 1u);
+    ds->nseq = d->ngarments * d->nmotions * d->nbodies * nsim;
+    ds->seq = cr_calloc((size_t)(ds->nseq > 0 ? ds->nseq : 1), sizeof(dataset_seq), err);
     if (!ds->seq) return err ? err->status : CR_ERR_MEMORY;
     int k = 0;
     for (int b = 0; b < d->nbodies; b++)
         for (int g = 0; g < d->ngarments; g++)
             for (int r = 0; r < d->nres; r++)
-                for (int m = 0; m < d->nmotions; m++, k++) {
+                for (int m = 0; m < d->nmotions && !(d->mesh_only_res >> r & 1u); m++, k++) {
                     dataset_seq *q = &ds->seq[k];
                     q->b = b, q->g = g, q->r = r, q->m = m;
                     snprintf(q->id, sizeof q->id, "%s_%s_%s_%s", ds->variant[g].label, d->res[r],
@@ -399,6 +402,7 @@ static cJSON *manifest(const dataset *ds) {
     cJSON_AddStringToObject(def, "material", d->material);
     cJSON_AddBoolToObject(def, "plastic", d->plastic);
     cJSON_AddNumberToObject(def, "seed", (double)d->seed);
+    if (d->mesh_only_res) cJSON_AddNumberToObject(def, "mesh_only_res", d->mesh_only_res);
     cJSON *bodies = cJSON_AddArrayToObject(j, "bodies");
     for (int b = 0; b < d->nbodies; b++) {
         cJSON *o = cJSON_CreateObject();

@@ -53,6 +53,9 @@ void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out) {
     cr_garment_apply_correspondence(d->low, low_pos, d->face, d->bary, d->high->nv, out);
 }
 
+/* want_frames > 0: exactly that many samples; < 0: at least -want_frames, the
+ * first of them kept (a motion file's posed body runs past the simulated
+ * frames). */
 static cr_status read_pc2(const char *path, int32_t nv, int32_t want_frames, float **out,
                           int32_t *nframes, cr_error *err) {
     cr_pc2 pc = {0};
@@ -63,11 +66,14 @@ static cr_status read_pc2(const char *path, int32_t nv, int32_t want_frames, flo
         return CR_FAIL(err, CR_ERR_SHAPE, "%s: %d points per sample, the mesh has %d", path, got,
                        nv);
     }
-    if (want_frames > 0 && pc.nframes != want_frames) {
+    if ((want_frames > 0 && pc.nframes != want_frames) ||
+        (want_frames < 0 && pc.nframes < -want_frames)) {
         int32_t got = pc.nframes;
         cr_pc2_free(&pc);
-        return CR_FAIL(err, CR_ERR_SHAPE, "%s: %d samples, expected %d", path, got, want_frames);
+        return CR_FAIL(err, CR_ERR_SHAPE, "%s: %d samples, expected %s%d", path, got,
+                       want_frames < 0 ? "at least " : "", abs(want_frames));
     }
+    if (want_frames < 0) pc.nframes = -want_frames;
     *out = pc.frames;
     *nframes = pc.nframes;
     return CR_OK;
@@ -129,7 +135,7 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
         if (hf) fclose(hf);
         if (hf && (st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK) goto fail;
         snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", dir, body, motions[i]);
-        if ((st = read_pc2(path, out->body->nv, T, &c->body, &T2, err)) != CR_OK) goto fail;
+        if ((st = read_pc2(path, out->body->nv, -T, &c->body, &T2, err)) != CR_OK) goto fail;
         c->nframes = T;
     }
     return CR_OK;
