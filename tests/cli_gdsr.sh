@@ -31,7 +31,9 @@ check "resumed from 3" grep -q '"resumed_from":3,' "$tmp/t2.json"
 check "log: 40 lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq 40 ]]"
 check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
 check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
-  -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv"
+  -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv" \
+  -a -s "$tmp/r/gdsr.glb" -a -s "$tmp/r/compare.png" -a -s "$tmp/r/compare_normals.png"
+check "glb animated" grep -q '"glb_animated":true,' "$tmp/r.json"
 # metric K of the table: the first value is upsampling's, the second gdsr's
 vals() { grep -o "\"$2\":[-0-9.eE+]*" "$1" | cut -d: -f2 | tr '\n' ' '; }
 better() { # better FILE KEY FACTOR [higher]: gdsr's value beats FACTOR x upsampling's

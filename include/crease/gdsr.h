@@ -304,6 +304,27 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
                           cr_gdsr_rollout_result *out, cr_error *err);
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
 
+/* ---------------------------------------------------------- outputs -- */
+
+enum { CR_GDSR_GLB_MAX_FRAMES = 300 }; /* `gdsr run`'s animated glb at most (then the last) */
+
+/* The high-resolution sequence x (T,Vh,3) as glb: a morph-target animation
+ * (cr_glb_write_sequence, base mesh frame 0) when nframes <= max_frames,
+ * else the last frame alone (the animation's weights grow as T^2 and its
+ * targets as T); *animated (may be NULL) says which. */
+cr_status cr_gdsr_write_glb(const cr_mesh *high, const float *x, int32_t nframes, float fps,
+                            int32_t max_frames, const char *path, int *animated, cr_error *err);
+
+/* Frame `frame` of clip `clip` side by side, size x size pixels a panel,
+ * labelled: the low-resolution input, gdsr, barycentric upsampling and the
+ * high-resolution reference when the clip has one, each garment rendered
+ * alone (cr_render_scene, framed on itself) into png_path; with
+ * normals_path (may be NULL) their normal maps over the UV chart, the SSIM
+ * maps of crease eval (the low input's over its own chart). */
+cr_status cr_gdsr_render_compare(const cr_gdsr_data *d, int clip, const cr_gdsr_rollout_result *r,
+                                 int32_t frame, int size, const char *png_path,
+                                 const char *normals_path, cr_error *err);
+
 #ifdef __cplusplus
 }
 #endif

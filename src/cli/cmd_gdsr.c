@@ -77,9 +77,16 @@ void help_gdsr(void) {
         "  --low-vertices N --high-vertices N   the garment pair's target vertex counts\n"
         "  --scale S --start-frame N --end-frame N --ease-in S --ground G   a motion file's\n"
         "                       preparation, as in `crease dataset` (docs/motions.md)\n"
+        "  --png-frame F        the frame of compare.png (default -1: the last)\n"
+        "  --png-size N         pixels per panel (default 512)\n"
+        "  --glb-max-frames N   gdsr.glb animates up to N frames (default 300), else it holds\n"
+        "                       the last frame alone\n"
+        "  --fps F              gdsr.glb's playback rate (default 30)\n"
         "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
-        "                       high.obj, summary.json, strain.csv and strain.png (E_u,\n"
-        "                       E_v, E_uv over the frames)\n"
+        "                       high.obj, gdsr.glb (morph-target animation), compare.png\n"
+        "                       (low input, gdsr, upsampling, reference side by side) and\n"
+        "                       compare_normals.png (their UV normal maps), summary.json,\n"
+        "                       strain.csv and strain.png (E_u, E_v, E_uv over the frames)\n"
         "A motion without a high sequence in the dataset is rolled out without a reference\n"
         "(no metrics table; the strain over frames and collisions are still measured).\n");
 }
@@ -343,7 +350,9 @@ static int cmd_run(int argc, char **argv) {
     const char *model = NULL, *baseline = NULL, *out = NULL;
     float eps = 0.002f;
     int quiet = 0, json = 0, frames = 0, relax = CR_GDSR_RELAX_DEFAULT;
-    int simulate = 0, reference = 0, lowv = 0, highv = 0;
+    int simulate = 0, reference = 0, lowv = 0, highv = 0, png_frame = -1, png_size = 512;
+    int glb_max = CR_GDSR_GLB_MAX_FRAMES;
+    float fps = 30.0f;
     cli_motion_file mf = cli_motion_file_default(1.0f);
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
@@ -360,6 +369,10 @@ static int cmd_run(int argc, char **argv) {
         CLI_INT("--low-vertices", &lowv, 500, 100000),
         CLI_INT("--high-vertices", &highv, 500, 100000),
         CLI_MOTION_FILE_OPTS(&mf),
+        CLI_INT("--png-frame", &png_frame, -1, 1000000),
+        CLI_INT("--png-size", &png_size, 16, 4096),
+        CLI_INT("--glb-max-frames", &glb_max, 0, 100000),
+        CLI_FLOAT("--fps", &fps, 0.01, 1000),
         CLI_OUTPUT(&out),
         CLI_FLAG("--quiet", &quiet),
         CLI_FLAG("--json", &json),
@@ -427,6 +440,17 @@ static int cmd_run(int argc, char **argv) {
     }
     snprintf(path, sizeof path, "%s/high.obj", out);
     if (cr_obj_write(path, d.high, &err) != CR_OK) goto done;
+    int animated = 0;
+    snprintf(path, sizeof path, "%s/gdsr.glb", out);
+    if (cr_gdsr_write_glb(d.high, r.gdsr, cl->nframes, fps, glb_max, path, &animated, &err) !=
+        CR_OK)
+        goto done;
+    if (png_frame < 0 || png_frame >= cl->nframes) png_frame = cl->nframes - 1;
+    char npath[1100];
+    snprintf(path, sizeof path, "%s/compare.png", out);
+    snprintf(npath, sizeof npath, "%s/compare_normals.png", out);
+    if (cr_gdsr_render_compare(&d, 0, &r, png_frame, png_size, path, npath, &err) != CR_OK)
+        goto done;
     snprintf(path, sizeof path, "%s/body.pc2", out);
     if (cr_pc2_write(path, cl->body, d.body->nv, cl->nframes, 0, 1, &err) != CR_OK) goto done;
     snprintf(path, sizeof path, "%s/body.obj", out);
@@ -458,6 +482,8 @@ static int cmd_run(int argc, char **argv) {
     cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
     cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
     cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
+    cJSON_AddBoolToObject(j, "glb_animated", animated);
+    cJSON_AddNumberToObject(j, "png_frame", png_frame);
     if (simulate) {
         cJSON *o = cJSON_AddObjectToObject(j, "simulated");
         cJSON_AddStringToObject(o, "dir", simdir);
