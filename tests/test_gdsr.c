@@ -801,3 +801,207 @@ CR_TEST(gdsr, glb_and_pictures_of_a_rollout) {
     free(up);
     cr_gdsr_data_free(&d);
 }
+
+/* Two layers by hand: the quad (vertices 0-3, y = 0) and a copy (4-7)
+ * moved so that 4 is 1.5 cm above 0, 5 is 2.5 cm above 1, 6 is 1.41 cm from
+ * 2 and 7 is far: with sigma_l = 2 cm the layer edges are 0-4 and 2-6, both
+ * ways, never a pair of one layer. */
+CR_TEST(gdsr, layer_edges_on_a_hand_made_two_layer_configuration) {
+    cr_error err = {0};
+    cr_mesh *a = quad(), *b = quad();
+    CR_REQUIRE(a && b);
+    CR_REQUIRE(cr_mesh_append(a, b, &err) == CR_OK);
+    CR_REQUIRE(a->nv == 8 && a->nf == 4);
+    int32_t layer[8];
+    CR_CHECK(cr_gdsr_mesh_layers(a, layer) == 2);
+    for (int i = 0; i < 8; i++)
+        CR_CHECK(layer[i] == (i >= 4));
+    float c[24];
+    memcpy(c, a->pos, sizeof c);
+    c[3 * 4 + 1] = 0.015f;                          /* above 0 */
+    c[3 * 5 + 1] = 0.025f;                          /* above 1, too far */
+    c[3 * 6 + 0] = 1.01f, c[3 * 6 + 1] = 0.01f;     /* beside 2 */
+    c[3 * 7 + 0] = c[3 * 7 + 1] = c[3 * 7 + 2] = 5; /* far */
+    cr_gdsr_graph g;
+    CR_CHECK_OK(cr_gdsr_graph_build(a, &g, &err), &err);
+    CR_CHECK(g.ne[2] == 0);
+    CR_CHECK_OK(cr_gdsr_layer_edges(&g, layer, c, 0.02f, &err), &err);
+    const int32_t want[4][2] = {{0, 4}, {2, 6}, {4, 0}, {6, 2}}; /* receiver, sender */
+    CR_CHECK(g.ne[2] == 4);
+    for (int e = 0; e < 4 && g.ne[2] == 4; e++)
+        CR_CHECK(g.rcv[2][e] == want[e][0] && g.snd[2][e] == want[e][1]);
+    float f[4 * CR_GDSR_EDGE_FEATURES];
+    if (g.ne[2] == 4) {
+        cr_gdsr_layer_edge_features(&g, c, 0.02f, f);
+        const float *f0 = f, *f1 = f + CR_GDSR_EDGE_FEATURES; /* 4 -> 0 and 6 -> 2, dm */
+        CR_CHECK(f0[0] == 0 && f0[1] == 0 && f0[2] == 0);
+        CR_CHECK_NEAR(f0[3], 0.2f, 1e-6);  /* sigma_l where the rest length was */
+        CR_CHECK_NEAR(f0[5], 0.15f, 1e-6); /* c_4 - c_0 */
+        CR_CHECK_NEAR(f0[4], 0.0f, 1e-6);
+        CR_CHECK_NEAR(f0[7], 0.15f, 1e-6);
+        CR_CHECK_NEAR(f1[4], 0.1f, 1e-5);
+        CR_CHECK_NEAR(f1[5], 0.1f, 1e-5);
+        CR_CHECK_NEAR(f1[7], 0.141421f, 1e-5);
+        CR_CHECK_NEAR(f[2 * CR_GDSR_EDGE_FEATURES + 5], -0.15f, 1e-6); /* 0 -> 4: reversed */
+    }
+    /* a radius past the quad's 1 m edges: still no pair of one layer */
+    CR_CHECK_OK(cr_gdsr_layer_edges(&g, layer, c, 1.2f, &err), &err);
+    CR_CHECK(g.ne[2] > 4);
+    for (int64_t e = 0; e < g.ne[2]; e++)
+        CR_CHECK(layer[g.rcv[2][e]] != layer[g.snd[2][e]]);
+    /* one layer: none */
+    int32_t one[8] = {0};
+    CR_CHECK_OK(cr_gdsr_layer_edges(&g, one, c, 1.2f, &err), &err);
+    CR_CHECK(g.ne[2] == 0);
+    cr_gdsr_graph_free(&g);
+    cr_mesh_destroy(a);
+    cr_mesh_destroy(b);
+}
+
+/* The grid finds exactly the pairs a brute-force search finds. */
+CR_TEST(gdsr, layer_edges_match_brute_force) {
+    cr_error err = {0};
+    enum { N = 400 };
+    cr_rng rng = cr_rng_make(3, 0);
+    float c[3 * N];
+    int32_t layer[N];
+    for (int i = 0; i < N; i++) {
+        layer[i] = i % 3;
+        for (int k = 0; k < 3; k++)
+            c[3 * i + k] = 0.1f * (float)cr_rng_uniform(&rng);
+    }
+    cr_gdsr_graph g = {.nv = N};
+    CR_CHECK_OK(cr_gdsr_layer_edges(&g, layer, c, 0.02f, &err), &err);
+    int64_t want = 0;
+    for (int i = 0; i < N; i++)
+        for (int l = 0; l < N; l++) {
+            float d2 = 0;
+            for (int k = 0; k < 3; k++)
+                d2 += (c[3 * l + k] - c[3 * i + k]) * (c[3 * l + k] - c[3 * i + k]);
+            want += layer[i] != layer[l] && d2 < 0.02f * 0.02f;
+        }
+    printf("  %lld layer edges\n", (long long)want);
+    CR_CHECK(want > 100);
+    CR_CHECK(g.ne[2] == want);
+    cr_gdsr_graph_free(&g);
+}
+
+/* Two 40 cm sheets 1 cm apart (their UVs side by side), rippling: an outfit
+ * of two layers. */
+static int two_layer_data(cr_gdsr_data *d) {
+    cr_error err = {0};
+    cr_mesh *lo = NULL, *hi = NULL, *lo2 = NULL, *hi2 = NULL, *body = NULL;
+    if (cr_prim_plane(5, 5, 0.4f, 0.4f, &lo, &err) != CR_OK) return 0;
+    if (cr_prim_plane(9, 9, 0.4f, 0.4f, &hi, &err) != CR_OK) return 0;
+    if (cr_mesh_clone(lo, &lo2, &err) != CR_OK || cr_mesh_clone(hi, &hi2, &err) != CR_OK) return 0;
+    cr_mesh *two[2][2] = {{lo, lo2}, {hi, hi2}};
+    for (int r = 0; r < 2; r++) {
+        cr_mesh *b = two[r][1];
+        for (int32_t i = 0; i < b->nv; i++)
+            b->pos[3 * i + 1] += 0.01f;
+        for (int32_t i = 0; i < b->nuv; i++)
+            b->uv[2 * i] += 2.0f;
+        if (cr_mesh_append(two[r][0], b, &err) != CR_OK) return 0;
+    }
+    if (cr_prim_icosphere(0.05f, 1, &body, &err) != CR_OK) return 0;
+    int T = 6;
+    float *L = malloc((size_t)T * lo->nv * 12), *H = malloc((size_t)T * hi->nv * 12);
+    float *B = malloc((size_t)T * body->nv * 12);
+    for (int t = 0; t < T; t++) {
+        float ph = 0.4f * t;
+        const cr_mesh *ms[2] = {lo, hi};
+        float *out[2] = {L, H};
+        for (int r = 0; r < 2; r++)
+            for (int32_t i = 0; i < ms[r]->nv; i++) {
+                const float *p = ms[r]->pos + 3 * i;
+                float *o = out[r] + ((size_t)t * ms[r]->nv + i) * 3;
+                o[0] = p[0], o[2] = p[2];
+                o[1] = p[1] + 0.02f * sinf(6 * p[0] + ph) + (r ? 0.003f * sinf(40 * p[2]) : 0);
+            }
+        for (int32_t i = 0; i < body->nv * 3; i++)
+            B[(size_t)t * body->nv * 3 + i] = body->pos[i] - (i % 3 == 1 ? 0.3f : 0);
+    }
+    cr_status st = cr_gdsr_data_from_arrays(lo, hi, body, T, L, H, B, d, &err);
+    free(L), free(H), free(B);
+    cr_mesh_destroy(lo), cr_mesh_destroy(hi), cr_mesh_destroy(lo2), cr_mesh_destroy(hi2);
+    cr_mesh_destroy(body);
+    return st == CR_OK;
+}
+
+/* On an outfit, training turns the layer edges on (auto): H gets a third
+ * edge set, the layer edges change the trained model's output and reach
+ * their encoder's weights through the gradient, and the model rolls out;
+ * off, the same model is smaller. */
+CR_TEST(gdsr, two_layer_outfit_trains_with_layer_edges) {
+    cr_gdsr_data d;
+    CR_REQUIRE(two_layer_data(&d));
+    CR_CHECK(d.nlayers == 2);
+    cr_error err = {0};
+    cr_gdsr_train_def def = cr_gdsr_train_default_def();
+    def.model = tiny_def();
+    def.model.out_scale = 1.0f;
+    def.epochs = 2;
+    def.lr = 3e-3f;
+    def.quiet = 1;
+    char dir[1024], path[1100];
+    snprintf(dir, sizeof dir, "%s/gdsr_layers", cr_test_tmpdir());
+    def.out_dir = dir;
+    cr_gdsr_train_result on, off;
+    CR_CHECK_OK(cr_gdsr_train(&def, &d, &on, &err), &err);
+    snprintf(path, sizeof path, "%s/model.safetensors", dir);
+    cr_gdsr_model *m = NULL;
+    CR_CHECK_OK(cr_gdsr_model_load(path, &m, &err), &err);
+    if (m) {
+        CR_CHECK(cr_gdsr_model_get_def(m)->layer_edges == 1);
+        cr_tensor *w = cr_nn_params_find(cr_gdsr_model_params(m), "H.encoder.edge2.0.weight");
+        CR_CHECK(w != NULL);
+        /* frame 2's layer edges reach the output and their encoder's gradient */
+        int32_t nl = d.low->nv;
+        const float *c = d.clip[0].low + 2 * 3 * nl;
+        cr_gdsr_graph g;
+        CR_CHECK_OK(cr_gdsr_graph_build(d.low, &g, &err), &err);
+        CR_CHECK_OK(cr_gdsr_layer_edges(&g, d.layer, c, 0.02f, &err), &err);
+        printf("  %lld layer edges at frame 2\n", (long long)g.ne[2]);
+        CR_CHECK(g.ne[2] >= 2 * 25); /* each vertex and the one 1 cm above it, at least */
+        float *node = malloc((size_t)nl * CR_GDSR_NODE_FEATURES * sizeof(float));
+        float *e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+        float *e1 = malloc((size_t)g.ne[1] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+        float *e2 = malloc((size_t)(g.ne[2] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
+        float *far = malloc((size_t)nl * 3 * sizeof(float));
+        for (int32_t i = 0; i < 3 * nl; i++)
+            far[i] = c[i] + 1.0f; /* the body out of reach */
+        cr_gdsr_frame_in in = {
+            .c = c, .c_prev = c - 3 * nl, .c_prev2 = c - 6 * nl, .body_point = far};
+        cr_gdsr_features(d.low, &g, &in, 0.015f, node, e0, e1);
+        cr_gdsr_layer_edge_features(&g, c, 0.02f, e2);
+        cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+        cr_nn_ctx *ctx = NULL;
+        CR_CHECK_OK(cr_nn_ctx_create(&cd, &ctx, &err), &err);
+        cr_tensor *chat = NULL;
+        cr_tensor *x1 = cr_gdsr_forward(ctx, m, &d, &g, node, e0, e1, e2, c, &chat);
+        cr_tensor *x2 = cr_gdsr_forward(ctx, m, &d, &g, node, e0, e1, NULL, c, &chat);
+        CR_REQUIRE(x1 && x2);
+        double diff = 0;
+        for (int64_t i = 0; i < x1->numel; i++)
+            diff = fmax(diff, fabs(x1->data[i] - x2->data[i]));
+        CR_CHECK(diff > 1e-6);
+        cr_nn_params_zero_grad(cr_gdsr_model_params(m));
+        CR_CHECK_OK(cr_nn_backward(ctx, cr_nn_sum(ctx, x1), &err), &err);
+        double gmax = 0;
+        for (int64_t i = 0; w && w->grad && i < w->numel; i++)
+            gmax = fmax(gmax, fabs(w->grad[i]));
+        CR_CHECK(gmax > 0);
+        cr_nn_ctx_destroy(ctx);
+        free(node), free(e0), free(e1), free(e2), free(far);
+        cr_gdsr_graph_free(&g);
+        cr_gdsr_rollout_result ro;
+        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, 0, &ro, &err), &err);
+        cr_gdsr_rollout_free(&ro);
+    }
+    cr_gdsr_model_destroy(m);
+    def.model.layer_edges = 0;
+    snprintf(dir, sizeof dir, "%s/gdsr_layers_off", cr_test_tmpdir());
+    CR_CHECK_OK(cr_gdsr_train(&def, &d, &off, &err), &err);
+    CR_CHECK(off.params < on.params);
+    cr_gdsr_data_free(&d);
+}

@@ -53,6 +53,8 @@ typedef struct cr_gdsr_data {
     int32_t *coarse_face;       /* (Vl) high face under each low vertex through the UVs */
     float *coarse_bary;         /* (Vl,3) its barycentric weights: the ground-truth coarse
                                    shape C* = cr_gdsr_coarse_target(high simulation) */
+    int32_t *layer;             /* (Vl) each low vertex's garment layer (cr_gdsr_mesh_layers) */
+    int32_t nlayers;            /* 1 for a single-layer garment */
     int32_t nclips;
     cr_gdsr_clip clip[CR_GDSR_MAX_CLIPS];
 } cr_gdsr_data;
@@ -123,16 +125,39 @@ void cr_gdsr_upsample(const cr_gdsr_data *d, const float *low_pos, float *out);
 
 enum { CR_GDSR_NODE_FEATURES = 19, CR_GDSR_EDGE_FEATURES = 8 };
 
-/* The low mesh's graph: 1-ring edges (both directions) and 2-ring edges
- * (vertex pairs at graph distance exactly 2, both directions). */
+/* The low mesh's graph: set 0 the 1-ring edges (both directions), set 1 the
+ * 2-ring edges (vertex pairs at graph distance exactly 2, both directions),
+ * both fixed; set 2 the layer edges of one frame (cr_gdsr_layer_edges; empty
+ * after cr_gdsr_graph_build). Edge e of set s: message from snd[s][e] to
+ * rcv[s][e]. */
 typedef struct cr_gdsr_graph {
     int32_t nv;
-    int64_t ne[2];
-    int32_t *snd[2], *rcv[2];
+    int64_t ne[3];
+    int32_t *snd[3], *rcv[3];
+    int64_t cap2; /* set 2's allocated edges */
 } cr_gdsr_graph;
 
 cr_status cr_gdsr_graph_build(const cr_mesh *low, cr_gdsr_graph *out, cr_error *err);
 void cr_gdsr_graph_free(cr_gdsr_graph *g);
+
+/* The layers of a garment (outfit) mesh: its connected components, numbered
+ * from 0 in the order of their lowest vertex; layer (V). Returns how many.
+ * (Two garments worn one over the other are two components; the paper's
+ * double-layered dress, sewn at the waist, would need the layer given.) */
+int32_t cr_gdsr_mesh_layers(const cr_mesh *m, int32_t *layer);
+
+/* Layer edges (section 4.1): every pair of low vertices i, l on different
+ * layers with |c_i - c_l| < sigma_l at positions c (Vl,3), both directions,
+ * into set 2 of g, ordered by receiver then sender (a uniform grid of cell
+ * sigma_l finds them). layer NULL or one layer: none. */
+cr_status cr_gdsr_layer_edges(cr_gdsr_graph *g, const int32_t *layer, const float *c, float sigma_l,
+                              cr_error *err);
+/* Their features (ne[2], 8), laid out as Eq. 5's (cr_gdsr_features) with the
+ * rest part replaced as the paper does: [0, 0, 0, sigma_l, c_l - c_i,
+ * |c_l - c_i|] in dm for the edge from l to i (no rest state spans two
+ * layers; the paper puts the constant sigma_l where the rest length was). */
+void cr_gdsr_layer_edge_features(const cr_gdsr_graph *g, const float *c, float sigma_l,
+                                 float *edge2);
 
 /* What the features of one frame are made from (all (Vl,3) unless said). */
 typedef struct cr_gdsr_frame_in {
@@ -165,6 +190,10 @@ typedef struct cr_gdsr_model_def {
     float omega0, s0;     /* WIRE (paper 5, 10) */
     int use_decoder;      /* 1: E on (gdsr); 0: GDSR(-d), C^ = C */
     float sigma_b;        /* body interaction radius, m (0.015) */
+    int layer_edges;      /* 1: H has a third edge set, the layer edges (Eq. 7's sum over
+                             l); 0: not; -1 (default): cr_gdsr_train turns it on when the
+                             training garment has two layers or more */
+    float sigma_l;        /* layer edge radius, m (0.020, the authors' code) */
     float out_scale;      /* E's and A's outputs times this, m per unit: a small start keeps
                              Adam's first steps below the data's mm errors (default 0.01) */
     uint64_t seed;        /* initialisation (default 1) */
@@ -197,12 +226,14 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
 cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
                          int64_t npoints, const int32_t *face, const float *bary);
 
-/* One frame forward: features (Vl,19) and edge features -> *chat (Vl,3),
+/* One frame forward: features (Vl,19) and edge features (edge2: the layer
+ * edges', ignored by a model without them) -> *chat (Vl,3),
  * the corrected coarse garment, and returns the high-resolution garment
  * (Vh,3) = S[C^] + residual in the frame of C^ (Eq. 12). */
 cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data *d,
                            const cr_gdsr_graph *g, const float *node, const float *edge0,
-                           const float *edge1, const float *c, cr_tensor **chat);
+                           const float *edge1, const float *edge2, const float *c,
+                           cr_tensor **chat);
 
 /* --------------------------------------------------------- training -- */
 

@@ -52,6 +52,10 @@ void help_gdsr(void) {
         "  --val-motions LIST   held-out clips rolled out each epoch: log.jsonl's val_med_m\n"
         "                       against val_upsampled_med_m\n"
         "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
+        "  --layer-edges auto|on|off  edges between low vertices of different garment layers\n"
+        "                       (connected components) closer than sigma_l, a third edge set\n"
+        "                       of H (default auto: on when the garment has two layers)\n"
+        "  --sigma-l M          their radius, m (default 0.02)\n"
         "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
         "  --latent N --steps N --wire-width N   model sizes\n"
         "  --seed S             (default 1)\n"
@@ -100,8 +104,9 @@ static int split(char *s, const char **out, int cap) {
 
 static int cmd_train(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motions = NULL;
-    const char *val = NULL;
-    float out_scale = 0;
+    const char *val = NULL, *layer_edges = NULL;
+    static const char *const layer_choices[] = {"auto", "on", "off", NULL};
+    float out_scale = 0, sigma_l = 0;
     int quiet = 0, json = 0, nodec = 0, paper = 0, latent = 0, steps = -1, wirew = 0, seed = 1;
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
     const cli_opt opts[] = {
@@ -131,6 +136,8 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--out-scale", &out_scale, 1e-6, 10),
         CLI_STR("--val-motions", &val),
         CLI_FLAG("--no-decoder", &nodec),
+        CLI_CHOICE("--layer-edges", &layer_edges, layer_choices),
+        CLI_FLOAT("--sigma-l", &sigma_l, 1e-4, 1),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--latent", &latent, 4, 1024),
         CLI_INT("--steps", &steps, 0, 32),
@@ -154,6 +161,11 @@ static int cmd_train(int argc, char **argv) {
     if (steps >= 0) def.model.steps = steps;
     if (wirew) def.model.wire_width = wirew;
     def.model.use_decoder = !nodec;
+    if (layer_edges)
+        def.model.layer_edges = !strcmp(layer_edges, "on")    ? 1
+                                : !strcmp(layer_edges, "off") ? 0
+                                                              : -1;
+    if (sigma_l > 0) def.model.sigma_l = sigma_l;
     def.model.seed = (uint64_t)seed;
     if (out_scale > 0) def.model.out_scale = out_scale;
     def.quiet = quiet;

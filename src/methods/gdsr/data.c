@@ -22,6 +22,7 @@ void cr_gdsr_data_free(cr_gdsr_data *d) {
     free(d->bary);
     free(d->coarse_face);
     free(d->coarse_bary);
+    free(d->layer);
     for (int i = 0; i < d->nclips; i++) {
         free(d->clip[i].low);
         free(d->clip[i].high);
@@ -37,6 +38,9 @@ void cr_gdsr_data_free(cr_gdsr_data *d) {
  * held-out walk, and the coarse L1 pulled C^ toward it; docs/gdsr.md.) */
 static cr_status coarse_operator(cr_gdsr_data *d, cr_error *err) {
     int32_t nl = d->low->nv;
+    d->layer = malloc((size_t)nl * sizeof(int32_t));
+    if (!d->layer) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    d->nlayers = cr_gdsr_mesh_layers(d->low, d->layer);
     d->coarse_face = malloc((size_t)nl * sizeof(int32_t));
     d->coarse_bary = malloc((size_t)nl * 3 * sizeof(float));
     if (!d->coarse_face || !d->coarse_bary)
@@ -187,7 +191,7 @@ fail:
 
 void cr_gdsr_graph_free(cr_gdsr_graph *g) {
     if (!g) return;
-    for (int s = 0; s < 2; s++) {
+    for (int s = 0; s < 3; s++) {
         free(g->snd[s]);
         free(g->rcv[s]);
     }
@@ -364,5 +368,158 @@ void cr_gdsr_features(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_
             o[3] = sqrtf(r2);
             o[7] = sqrtf(c2);
         }
+    }
+}
+
+/* ------------------------------------------------------ layer edges -- */
+
+static int32_t find_root(int32_t *parent, int32_t i) {
+    while (parent[i] != i) {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    return i;
+}
+
+int32_t cr_gdsr_mesh_layers(const cr_mesh *m, int32_t *layer) {
+    int32_t nv = m->nv;
+    /* union-find over the triangles' corners, in layer[] itself */
+    for (int32_t i = 0; i < nv; i++)
+        layer[i] = i;
+    for (int32_t f = 0; f < m->nf; f++)
+        for (int k = 1; k < 3; k++) {
+            int32_t a = find_root(layer, m->tri[3 * f]), b = find_root(layer, m->tri[3 * f + k]);
+            if (a != b) layer[a > b ? a : b] = a < b ? a : b; /* the lower root wins */
+        }
+    /* each vertex to its root, the component's lowest vertex (so below or at it) */
+    for (int32_t i = 0; i < nv; i++)
+        layer[i] = find_root(layer, i);
+    /* number the roots in order, as -(id + 1) while the roots are still read */
+    int32_t n = 0;
+    for (int32_t i = 0; i < nv; i++)
+        layer[i] = layer[i] == i ? -(++n) : layer[layer[i]];
+    for (int32_t i = 0; i < nv; i++)
+        layer[i] = -layer[i] - 1;
+    return n;
+}
+
+typedef struct cell_item {
+    int64_t key;
+    int32_t v;
+} cell_item;
+
+static int cmp_cell(const void *a, const void *b) {
+    const cell_item *x = a, *y = b;
+    if (x->key != y->key) return (x->key > y->key) - (x->key < y->key);
+    return (x->v > y->v) - (x->v < y->v);
+}
+
+enum { CELL_BITS = 21 }; /* cells per axis < 2^21: 42 km at 2 cm */
+
+static int64_t cell_key(int64_t x, int64_t y, int64_t z) {
+    return (x << (2 * CELL_BITS)) | (y << CELL_BITS) | z;
+}
+
+static cr_status push_edge(cr_gdsr_graph *g, int32_t rcv, int32_t snd, cr_error *err) {
+    if (g->ne[2] == g->cap2) {
+        int64_t cap = g->cap2 ? 2 * g->cap2 : 1024;
+        int32_t *r = realloc(g->rcv[2], (size_t)cap * sizeof(int32_t));
+        if (r) g->rcv[2] = r;
+        int32_t *s = r ? realloc(g->snd[2], (size_t)cap * sizeof(int32_t)) : NULL;
+        if (s) g->snd[2] = s;
+        if (!r || !s) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (layer edges)");
+        g->cap2 = cap;
+    }
+    g->rcv[2][g->ne[2]] = rcv;
+    g->snd[2][g->ne[2]] = snd;
+    g->ne[2]++;
+    return CR_OK;
+}
+
+cr_status cr_gdsr_layer_edges(cr_gdsr_graph *g, const int32_t *layer, const float *c, float sigma_l,
+                              cr_error *err) {
+    g->ne[2] = 0;
+    int32_t nv = g->nv;
+    int multi = 0;
+    for (int32_t i = 1; layer && i < nv && !multi; i++)
+        multi = layer[i] != layer[0];
+    if (!multi) return CR_OK;
+    if (!(sigma_l > 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr layer edges: sigma_l = %g m", (double)sigma_l);
+    float lo[3] = {c[0], c[1], c[2]};
+    for (int32_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++) {
+            if (!isfinite(c[3 * i + k]))
+                return CR_FAIL(err, CR_ERR_NAN, "gdsr layer edges: vertex %d is not finite", i);
+            lo[k] = fminf(lo[k], c[3 * i + k]);
+        }
+    cell_item *it = malloc((size_t)nv * sizeof(cell_item));
+    int32_t(*cell)[3] = malloc((size_t)nv * sizeof *cell);
+    int32_t *tmp = malloc((size_t)nv * sizeof(int32_t));
+    cr_status st = it && cell && tmp ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    for (int32_t i = 0; i < nv && st == CR_OK; i++) {
+        for (int k = 0; k < 3; k++) {
+            double q = floor(((double)c[3 * i + k] - lo[k]) / sigma_l) + 1; /* >= 1: room below */
+            if (q >= (double)((1 << CELL_BITS) - 1))
+                st = CR_FAIL(err, CR_ERR_RANGE,
+                             "gdsr layer edges: the garment spans more than %d cells of %g m",
+                             (1 << CELL_BITS) - 2, (double)sigma_l);
+            cell[i][k] = (int32_t)q;
+        }
+        it[i] = (cell_item){cell_key(cell[i][0], cell[i][1], cell[i][2]), i};
+    }
+    if (st == CR_OK) qsort(it, (size_t)nv, sizeof *it, cmp_cell);
+    const float s2 = sigma_l * sigma_l;
+    for (int32_t i = 0; i < nv && st == CR_OK; i++) {
+        int32_t nt = 0;
+        for (int dx = -1; dx <= 1; dx++)
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dz = -1; dz <= 1; dz++) {
+                    int64_t key = cell_key(cell[i][0] + dx, cell[i][1] + dy, cell[i][2] + dz);
+                    /* the first item of the cell (lower bound) */
+                    int32_t a = 0, b = nv;
+                    while (a < b) {
+                        int32_t mid = a + (b - a) / 2;
+                        if (it[mid].key < key)
+                            a = mid + 1;
+                        else
+                            b = mid;
+                    }
+                    for (; a < nv && it[a].key == key; a++) {
+                        int32_t l = it[a].v;
+                        if (layer[l] == layer[i]) continue;
+                        float d2 = 0;
+                        for (int k = 0; k < 3; k++) {
+                            float e = c[3 * l + k] - c[3 * i + k];
+                            d2 += e * e;
+                        }
+                        if (d2 < s2) tmp[nt++] = l;
+                    }
+                }
+        qsort(tmp, (size_t)nt, sizeof(int32_t), cmp_i32);
+        for (int32_t a = 0; a < nt && st == CR_OK; a++)
+            st = push_edge(g, i, tmp[a], err);
+    }
+    free(it);
+    free(cell);
+    free(tmp);
+    if (st != CR_OK) g->ne[2] = 0;
+    return st;
+}
+
+void cr_gdsr_layer_edge_features(const cr_gdsr_graph *g, const float *c, float sigma_l,
+                                 float *edge2) {
+    for (int64_t e = 0; e < g->ne[2]; e++) {
+        int32_t i = g->rcv[2][e], l = g->snd[2][e];
+        float *o = edge2 + (int64_t)CR_GDSR_EDGE_FEATURES * e;
+        float c2 = 0;
+        for (int k = 0; k < 3; k++) {
+            float d = 10.0f * (c[3 * l + k] - c[3 * i + k]);
+            o[k] = 0.0f;
+            o[4 + k] = d;
+            c2 += d * d;
+        }
+        o[3] = 10.0f * sigma_l;
+        o[7] = sqrtf(c2);
     }
 }

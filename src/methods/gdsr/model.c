@@ -21,6 +21,8 @@ cr_gdsr_model_def cr_gdsr_model_default_def(void) {
                            .s0 = 10.0f,
                            .use_decoder = 1,
                            .sigma_b = 0.015f,
+                           .layer_edges = -1,
+                           .sigma_l = 0.020f,
                            .out_scale = 0.01f,
                            .seed = 1,
                            .cookie = CR_GDSR_COOKIE};
@@ -57,6 +59,8 @@ cr_status cr_gdsr_model_def_validate(const cr_gdsr_model_def *d, cr_error *err) 
     RANGE(omega0, 0.01f, 100.0f)
     RANGE(s0, 0.0f, 100.0f)
     RANGE(sigma_b, 1e-4f, 1.0f)
+    RANGE(layer_edges, -1, 1)
+    RANGE(sigma_l, 1e-4f, 1.0f)
     RANGE(out_scale, 1e-6f, 10.0f)
 #undef RANGE
     return CR_OK;
@@ -91,13 +95,14 @@ cr_status cr_gdsr_model_create(const cr_gdsr_model_def *def, cr_gdsr_model **out
     cr_gdsr_model *m = calloc(1, sizeof *m);
     if (!m) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
     m->def = *def;
+    if (m->def.layer_edges < 0) m->def.layer_edges = 0; /* auto is cr_gdsr_train's to settle */
     cr_status st;
     cr_rng rng = cr_rng_make(def->seed, 19);
     if ((st = cr_nn_params_create(&m->params, err)) != CR_OK) goto fail;
     cr_mpnn_def nd = cr_mpnn_default_def();
     nd.node_in = CR_GDSR_NODE_FEATURES;
-    nd.edge_sets = 2;
-    nd.edge_in[0] = nd.edge_in[1] = CR_GDSR_EDGE_FEATURES;
+    nd.edge_sets = m->def.layer_edges ? 3 : 2; /* Eq. 7's sum over layer edges */
+    nd.edge_in[0] = nd.edge_in[1] = nd.edge_in[2] = CR_GDSR_EDGE_FEATURES;
     nd.node_out = (def->use_decoder ? def->decoder_features : 0) + def->hyper_features;
     nd.latent = def->latent;
     nd.steps = def->steps;
@@ -288,17 +293,20 @@ cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, c
 
 cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data *d,
                            const cr_gdsr_graph *g, const float *node, const float *edge0,
-                           const float *edge1, const float *c, cr_tensor **chat_out) {
+                           const float *edge1, const float *edge2, const float *c,
+                           cr_tensor **chat_out) {
     const cr_mesh *low = d->low;
     int64_t V = low->nv, Vh = d->high->nv;
-    cr_nn_graph graphs[2] = {
-        {.nodes = V, .edges = g->ne[0], .senders = g->snd[0], .receivers = g->rcv[0]},
-        {.nodes = V, .edges = g->ne[1], .senders = g->snd[1], .receivers = g->rcv[1]}};
+    cr_nn_graph graphs[3];
+    cr_tensor *ex[3] = {NULL, NULL, NULL};
+    const float *ef[3] = {edge0, edge1, edge2};
+    for (int s = 0; s < 3; s++) {
+        int64_t ne = s < 2 || (m->def.layer_edges && edge2) ? g->ne[s] : 0;
+        graphs[s] =
+            (cr_nn_graph){.nodes = V, .edges = ne, .senders = g->snd[s], .receivers = g->rcv[s]};
+        if (ne > 0) ex[s] = cr_nn_from(ctx, 2, (int64_t[]){ne, CR_GDSR_EDGE_FEATURES}, ef[s]);
+    }
     cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){V, CR_GDSR_NODE_FEATURES}, node);
-    cr_tensor *ex[2] = {
-        cr_nn_from(ctx, 2, (int64_t[]){g->ne[0], CR_GDSR_EDGE_FEATURES}, edge0),
-        g->ne[1] > 0 ? cr_nn_from(ctx, 2, (int64_t[]){g->ne[1], CR_GDSR_EDGE_FEATURES}, edge1)
-                     : NULL};
     cr_tensor *y = cr_mpnn_forward(ctx, m->net, x, graphs, ex, NULL);
     if (!y) return NULL;
     cr_tensor *cten = cr_nn_from(ctx, 2, (int64_t[]){V, 3}, c);
@@ -365,6 +373,8 @@ char *cr_gdsr_model_def_json(const cr_gdsr_model_def *d) {
     cJSON_AddNumberToObject(j, "s0", d->s0);
     cJSON_AddNumberToObject(j, "use_decoder", d->use_decoder);
     cJSON_AddNumberToObject(j, "sigma_b", d->sigma_b);
+    cJSON_AddNumberToObject(j, "layer_edges", d->layer_edges);
+    cJSON_AddNumberToObject(j, "sigma_l", d->sigma_l);
     cJSON_AddNumberToObject(j, "out_scale", d->out_scale);
     cJSON_AddNumberToObject(j, "seed", (double)d->seed);
     char *s = cJSON_PrintUnformatted(j);
@@ -393,6 +403,9 @@ cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "omega0"))) d->omega0 = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "s0"))) d->s0 = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_b"))) d->sigma_b = (float)v->valuedouble;
+    d->layer_edges = 0; /* models written before the field: two edge sets */
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "layer_edges"))) d->layer_edges = v->valueint;
+    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_l"))) d->sigma_l = (float)v->valuedouble;
     if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "seed"))) d->seed = (uint64_t)v->valuedouble;
     cJSON_Delete(j);
     return cr_gdsr_model_def_validate(d, err);

@@ -81,12 +81,17 @@ static cr_tensor *face_normals_t(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *m,
 typedef struct frame_state {
     float *chat1, *chat2, *dprev; /* (Vl,3) C^_{t-1}, C^_{t-2}, d_{t-1} */
     int have;                     /* frames of the model's own output so far */
+    float *e2;                    /* (cap, 8) this frame's layer edge features */
+    int64_t e2cap;
 } frame_state;
 
-/* Features of frame t (t >= 2) of clip c, input positions cin (Vl,3). */
-static void frame_features(const cr_gdsr_data *d, const cr_gdsr_graph *g, const float *low,
-                           int32_t t, const float *cin, const float *bp, const frame_state *fs,
-                           float sigma_b, float *node, float *e0, float *e1) {
+/* Features of frame t (t >= 2) of clip c, input positions cin (Vl,3); with
+ * layer edges in the model and two layers or more, this frame's layer edges
+ * (set 2 of g, found at cin) and their features (fs->e2). */
+static cr_status frame_features(const cr_gdsr_data *d, const cr_gdsr_model_def *md,
+                                cr_gdsr_graph *g, const float *low, int32_t t, const float *cin,
+                                const float *bp, frame_state *fs, float *node, float *e0, float *e1,
+                                cr_error *err) {
     int64_t nl3 = (int64_t)d->low->nv * 3;
     cr_gdsr_frame_in in = {.c = cin,
                            .c_prev = low + (t - 1) * nl3,
@@ -95,7 +100,17 @@ static void frame_features(const cr_gdsr_data *d, const cr_gdsr_graph *g, const 
                            .chat_prev = fs->have >= 2 ? fs->chat1 : NULL,
                            .chat_prev2 = fs->have >= 2 ? fs->chat2 : NULL,
                            .body_point = bp};
-    cr_gdsr_features(d->low, g, &in, sigma_b, node, e0, e1);
+    cr_gdsr_features(d->low, g, &in, md->sigma_b, node, e0, e1);
+    g->ne[2] = 0;
+    if (!md->layer_edges || d->nlayers < 2) return CR_OK;
+    CR_TRY(cr_gdsr_layer_edges(g, d->layer, cin, md->sigma_l, err));
+    if (g->ne[2] > fs->e2cap) {
+        float *e2 = realloc(fs->e2, (size_t)g->ne[2] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+        if (!e2) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (layer edges)");
+        fs->e2 = e2, fs->e2cap = g->ne[2];
+    }
+    cr_gdsr_layer_edge_features(g, cin, md->sigma_l, fs->e2);
+    return CR_OK;
 }
 
 static void state_push(frame_state *fs, const float *chat, const float *c, int64_t n3) {
@@ -223,7 +238,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     snprintf(log_path, sizeof log_path, "%s/log.jsonl", def->out_dir);
     cr_status st;
     double t0 = cr_time_now();
-    if ((st = cr_gdsr_model_create(&def->model, &m, err)) != CR_OK) goto done;
+    cr_gdsr_model_def md = def->model;
+    if (md.layer_edges < 0) md.layer_edges = d->nlayers > 1; /* auto: on for an outfit */
+    if ((st = cr_gdsr_model_create(&md, &m, err)) != CR_OK) goto done;
     out->params = cr_nn_params_numel(m->params);
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
     od.lr.kind = CR_LR_STEP;
@@ -302,14 +319,15 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 for (int64_t i = 0; i < nl3; i++)
                     cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
                 cr_gdsr_coarse_target(d, ht, cstar);
-                frame_features(d, &g, cl->low, t, cin, bp[c] + t * nl3, &fs, def->model.sigma_b,
-                               node, e0, e1);
+                if ((st = frame_features(d, &m->def, &g, cl->low, t, cin, bp[c] + t * nl3, &fs,
+                                         node, e0, e1, err)) != CR_OK)
+                    goto done;
                 cr_nn_ctx_reset(ctx);
                 cr_tensor *chat = NULL;
                 /* noise_features_only: C^ and S[C^] start from the clean C
                  * (nothing to denoise) */
                 const float *base = def->noise_features_only ? ct : cin;
-                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, base, &chat);
+                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, fs.e2, base, &chat);
                 cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, cstar);
                 cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
                 cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
@@ -415,6 +433,7 @@ done:
     free(fs.chat1);
     free(fs.chat2);
     free(fs.dprev);
+    free(fs.e2);
     cr_gdsr_graph_free(&g);
     cr_gdsr_reg_free(&reg);
     cr_gdsr_wrinkle_free(&wr);
@@ -506,10 +525,12 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         }
         double t0 = cr_time_now();
         clock_t c0 = clock();
-        frame_features(d, &g, cl->low, t, ct, bp + t * nl3, &fs, m->def.sigma_b, node, e0, e1);
+        if ((st = frame_features(d, &m->def, &g, cl->low, t, ct, bp + t * nl3, &fs, node, e0, e1,
+                                 err)) != CR_OK)
+            goto done;
         cr_nn_ctx_reset(ctx);
         cr_tensor *ch = NULL;
-        cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, ct, &ch);
+        cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, fs.e2, ct, &ch);
         if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
         if (!X || !ch) {
             st = CR_FAIL(err, CR_ERR_INVALID, "gdsr rollout: forward failed at frame %d", t);
@@ -564,6 +585,7 @@ done:
     free(fs.chat1);
     free(fs.chat2);
     free(fs.dprev);
+    free(fs.e2);
     free(chat);
     free(lpush);
     free(hpush);
