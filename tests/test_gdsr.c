@@ -542,11 +542,14 @@ typedef struct wrinkle_check {
     gdsr_wrinkle *w;
     const float *ref;
     float scale;
+    const gdsr_patch *patches;
+    int npatches;
 } wrinkle_check;
 
 static cr_tensor *build_wrinkle(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     wrinkle_check *c = user;
-    return cr_nn_mul_scalar(ctx, cr_gdsr_wrinkle_loss(ctx, c->w, in[0], c->ref), c->scale);
+    return cr_nn_mul_scalar(
+        ctx, cr_gdsr_wrinkle_loss(ctx, c->w, in[0], c->ref, c->patches, c->npatches), c->scale);
 }
 
 /* The wrinkle loss (Eq. 20, filter bank): the flat sheet's map is its
@@ -575,17 +578,19 @@ CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
     CR_CHECK(m0 > 0.9999f);
     deform(hi, ref, 0.01f);
     cr_nn_ctx_reset(ctx);
-    cr_tensor *l =
-        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, ref), ref);
+    cr_tensor *l = cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, ref),
+                                        ref, NULL, 0);
     CR_CHECK(l->data[0] == 0.0f);
     deform(hi, x, 0.0f); /* the same stretch and shear, no ripple */
     cr_nn_ctx_reset(ctx);
     float flat =
-        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref)->data[0];
+        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref, NULL, 0)
+            ->data[0];
     deform(hi, x, 0.005f); /* half the ripple */
     cr_nn_ctx_reset(ctx);
     float half =
-        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref)->data[0];
+        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref, NULL, 0)
+            ->data[0];
     CR_CHECK(flat > 0.01f && half > 0.3f * flat && half < 0.7f * flat);
     nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 12);
     for (int64_t i = 0; i < n; i++)
@@ -1003,5 +1008,78 @@ CR_TEST(gdsr, two_layer_outfit_trains_with_layer_edges) {
     snprintf(dir, sizeof dir, "%s/gdsr_layers_off", cr_test_tmpdir());
     CR_CHECK_OK(cr_gdsr_train(&def, &d, &off, &err), &err);
     CR_CHECK(off.params < on.params);
+    cr_gdsr_data_free(&d);
+}
+
+/* Eq. 24's patches: drawn inside the map around chart texels, the same for
+ * the same stream; one patch over the whole map is the whole-chart loss; a
+ * ripple on one side of the sheet costs in a patch there and nothing in a
+ * patch on the other side; the gradient through two patches against
+ * central differences. */
+CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_wrinkle w;
+    CR_REQUIRE(cr_gdsr_wrinkle_create(hi, 32, &w, &err) == CR_OK);
+    gdsr_patch p[8], q[8];
+    cr_rng r1 = cr_rng_make(5, 0), r2 = cr_rng_make(5, 0);
+    cr_gdsr_wrinkle_draw_patches(&w, 8, 12, &r1, p);
+    cr_gdsr_wrinkle_draw_patches(&w, 8, 12, &r2, q);
+    int distinct = 0;
+    for (int k = 0; k < 8; k++) {
+        CR_CHECK(p[k].side == 12 && p[k].r0 >= 0 && p[k].c0 >= 0 && p[k].r0 + 12 <= 32 &&
+                 p[k].c0 + 12 <= 32);
+        CR_CHECK(p[k].r0 == q[k].r0 && p[k].c0 == q[k].c0);
+        distinct += k > 0 && (p[k].r0 != p[0].r0 || p[k].c0 != p[0].c0);
+    }
+    CR_CHECK(distinct > 0);
+    cr_gdsr_wrinkle_draw_patches(&w, 1, 64, &r1, q); /* larger than the map: the map */
+    CR_CHECK(q[0].side == 32 && q[0].r0 == 0 && q[0].c0 == 0);
+    int64_t n = (int64_t)hi->nv * 3;
+    float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    CR_REQUIRE(ctx && x && ref);
+    deform(hi, ref, 0.01f);
+    deform(hi, x, 0.0f);
+    cr_tensor *X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
+    float whole = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, NULL, 0)->data[0];
+    float one = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, q, 1)->data[0];
+    CR_CHECK_NEAR(one, whole, 1e-6 * whole);
+    /* the ripple only where x < -0.1 m: the flat x against it */
+    memcpy(x, hi->pos, (size_t)n * sizeof(float));
+    memcpy(ref, hi->pos, (size_t)n * sizeof(float));
+    for (int32_t i = 0; i < hi->nv; i++)
+        if (hi->pos[3 * i] < -0.1f) ref[3 * i + 1] += 0.01f * sinf(60 * hi->pos[3 * i + 2]);
+    const gdsr_patch side[2] = {{12, 0, 8}, {12, 24, 8}}; /* the map's two edges */
+    float l[2];
+    for (int k = 0; k < 2; k++) {
+        cr_nn_ctx_reset(ctx);
+        X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
+        l[k] = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, side + k, 1)->data[0];
+    }
+    printf("  patch losses at the two edges: %.4g, %.4g\n", l[0], l[1]);
+    CR_CHECK(fmaxf(l[0], l[1]) > 0.01f && fminf(l[0], l[1]) == 0.0f);
+    /* gradient through two patches */
+    deform(hi, ref, 0.01f);
+    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 13);
+    for (int64_t i = 0; i < n; i++)
+        x[i] += ref[i];
+    wrinkle_check c = {.w = &w, .ref = ref, .scale = 5.0f, .patches = p, .npatches = 2};
+    float g = max_grad(build_wrinkle, &c, x, hi->nv);
+    CR_CHECK(g > 0.2f && g < 50.0f);
+    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = "wrinkle patches";
+    gd.step = 1e-4;
+    gd.max_elems = 60;
+    gd.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
+    cr_nn_ctx_destroy(ctx);
+    free(x);
+    free(ref);
+    cr_gdsr_wrinkle_free(&w);
     cr_gdsr_data_free(&d);
 }

@@ -264,9 +264,13 @@ typedef struct cr_gdsr_train_def {
      * w_wrinkle    Eq. 20's feature term, a fixed filter bank for VGG: L1 of oriented
      *              first and second differences (steps 1, 2, 4 texels) of X's and
      *              X_ref's normal maps over the UV chart, summed over steps (default 0)
-     * wrinkle_side the normal map's side in texels (default 128) */
+     * wrinkle_side the normal map's side in texels (default 128)
+     * wrinkle_patches  Eq. 24's random square patches of the map a step, the loss
+     *              their mean (default 8, the paper's; 0: the whole chart as one patch)
+     * wrinkle_patch_side  their side in texels (default 32, a quarter of the default
+     *              map's), each around a chart texel drawn uniformly */
     float w_strain_l1, w_wrinkle;
-    int wrinkle_side;
+    int wrinkle_side, wrinkle_patches, wrinkle_patch_side;
     /* Eq. 25's schedule: lambda_c (coarse term) starts at lambda_c0 and lambda_w
      * (every fine-garment term) at lambda_w0; every lambda_every epochs each moves
      * lambda_step toward 1 and stops there. The paper: 1.9, 0.1, 0.2, 10. Default

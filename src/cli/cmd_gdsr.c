@@ -44,6 +44,10 @@ void help_gdsr(void) {
         "  --w-wrinkle W        L1 of a filter bank's responses to the output's and the\n"
         "                       reference's UV normal maps (Eq. 20 without VGG; default 0)\n"
         "  --wrinkle-side N     that normal map's side in texels (default 128)\n"
+        "  --wrinkle-patches N  Eq. 24: the loss is the mean over N random square patches of\n"
+        "                       the map a step (default 8, the paper's; 0: the whole chart)\n"
+        "  --wrinkle-patch-side N  their side in texels (default 32), each around a chart\n"
+        "                       texel drawn uniformly\n"
         "  --lambda-c0 L --lambda-w0 L   Eq. 25's weights of the coarse and the fine terms\n"
         "                       at the start (default 1, 1; the paper's 1.9, 0.1), moved\n"
         "  --lambda-step S --lambda-every N   S toward 1 every N epochs (default 0.2, 10)\n"
@@ -129,6 +133,8 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--w-strain-l1", &def.w_strain_l1, 0, 1e6),
         CLI_FLOAT("--w-wrinkle", &def.w_wrinkle, 0, 1e6),
         CLI_INT("--wrinkle-side", &def.wrinkle_side, 8, 2048),
+        CLI_INT("--wrinkle-patches", &def.wrinkle_patches, 0, 1024),
+        CLI_INT("--wrinkle-patch-side", &def.wrinkle_patch_side, 1, 2048),
         CLI_FLOAT("--lambda-c0", &def.lambda_c0, 1e-3, 100),
         CLI_FLOAT("--lambda-w0", &def.lambda_w0, 1e-3, 100),
         CLI_FLOAT("--lambda-step", &def.lambda_step, 0, 100),

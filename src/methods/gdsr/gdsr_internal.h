@@ -68,7 +68,15 @@ typedef struct gdsr_wrinkle {
      * direction d (rows, columns, both diagonals), as indices into the texels */
     int64_t nvalid[CR_GDSR_WRINKLE_SCALES];
     int32_t *tap[CR_GDSR_WRINKLE_SCALES][CR_GDSR_WRINKLE_TAPS];
+    int32_t *valid_px[CR_GDSR_WRINKLE_SCALES]; /* (nvalid) row * side + column of each */
+    int32_t *tex_px;                           /* (ntex) row * side + column of each texel */
+    int32_t *scratch;                          /* (ntex) patch member indices */
 } gdsr_wrinkle;
+
+/* A square crop of the normal map: rows r0 .. r0 + side - 1, columns c0 ... */
+typedef struct gdsr_patch {
+    int32_t r0, c0, side;
+} gdsr_patch;
 
 /* side: the normal map is side^2 texels over the UV bounds (needs UVs). */
 cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w, cr_error *err);
@@ -77,9 +85,17 @@ void cr_gdsr_wrinkle_free(gdsr_wrinkle *w); /* zeroes it; a zeroed struct is a n
  * normals interpolated by the texel's barycentrics, normalised (crease
  * eval's normal map before its (n + 1) / 2). */
 cr_tensor *cr_gdsr_wrinkle_normals(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x);
-/* sum over scales of the mean |R(x) - R(ref)| over the filter responses R: a scalar. */
+/* n patches (Eq. 20-24's P) of side x side texels (at most the map's side),
+ * each around a chart texel drawn uniformly (so every patch holds garment)
+ * and moved inside the map. */
+void cr_gdsr_wrinkle_draw_patches(const gdsr_wrinkle *w, int n, int side, cr_rng *rng,
+                                  gdsr_patch *out);
+/* Eq. 24's mean over the patches of Eq. 20's feature term: per patch the
+ * sum over scales of the mean |R(x) - R(ref)| over the filter responses R at
+ * the patch's texels (a patch with none at a scale skips it). patches NULL
+ * or npatches 0: the whole chart as one patch. A scalar. */
 cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x,
-                                const float *ref);
+                                const float *ref, const gdsr_patch *patches, int npatches);
 
 /* The model def as JSON (heap string) and back. */
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *def);

@@ -31,6 +31,8 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_bend = 0.1f,
                            .w_laplacian = 1.0f,
                            .wrinkle_side = 128,
+                           .wrinkle_patches = 8,
+                           .wrinkle_patch_side = 32,
                            .lambda_c0 = 1.0f,
                            .lambda_w0 = 1.0f,
                            .lambda_step = 0.2f,
@@ -197,6 +199,10 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian, w_strain_l1, "
                        "w_wrinkle must be >= 0");
+    if (def->wrinkle_patches < 0 || def->wrinkle_patches > 1024 || def->wrinkle_patch_side < 1)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: wrinkle_patches %d (0..1024), wrinkle_patch_side %d (>= 1)",
+                       def->wrinkle_patches, def->wrinkle_patch_side);
     if (!(def->lambda_c0 > 0 && def->lambda_w0 > 0 && def->lambda_step >= 0 &&
           def->lambda_every >= 1))
         return CR_FAIL(err, CR_ERR_INVALID,
@@ -231,6 +237,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     frame_state fs = {0};
     gdsr_reg reg = {0};
     gdsr_wrinkle wr = {0};
+    gdsr_patch *patches = NULL;
     FILE *log = NULL;
     char ckpt[1100], model_path[1100], log_path[1100];
     snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
@@ -257,6 +264,11 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     if (def->w_wrinkle > 0 &&
         (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &wr, err)) != CR_OK)
         goto done;
+    if (def->w_wrinkle > 0 && def->wrinkle_patches > 0 &&
+        !(patches = malloc((size_t)def->wrinkle_patches * sizeof *patches))) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto done;
+    }
     node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
     e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
     e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
@@ -338,7 +350,17 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 cr_tensor *rt[6] = {0};
                 cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
                 if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &reg, X, ht);
-                if (def->w_wrinkle > 0) rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht);
+                if (def->w_wrinkle > 0) {
+                    /* Eq. 24's random patches, drawn from their own counter-based stream
+                       per step (a pure function of seed and step: resume stays exact) */
+                    cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
+                                              (uint64_t)(ep * steps_per_epoch + n));
+                    if (patches)
+                        cr_gdsr_wrinkle_draw_patches(&wr, def->wrinkle_patches,
+                                                     def->wrinkle_patch_side, &prng, patches);
+                    rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht, patches,
+                                                 patches ? def->wrinkle_patches : 0);
+                }
                 /* Eq. 25: lambda_c on the coarse term, lambda_w on the fine garment's */
                 cr_tensor *all[9] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3], rt[4], rt[5]};
                 const float wall[9] = {
@@ -437,6 +459,7 @@ done:
     cr_gdsr_graph_free(&g);
     cr_gdsr_reg_free(&reg);
     cr_gdsr_wrinkle_free(&wr);
+    free(patches);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);
     cr_gdsr_model_destroy(m);

@@ -6,7 +6,8 @@
  * and second differences (even, ridge-like) along rows, columns and both
  * diagonals at steps of 1, 2 and 4 texels stand for VGG's multi-layer
  * features; as in Eq. 20 they are compared by L1, summed over the scales
- * (layers). The whole chart is one patch (docs/gdsr.md). */
+ * (layers). Eq. 24: the mean over random square patches of the map (8 a
+ * step by default), or the whole chart as one patch (docs/gdsr.md). */
 #include "gdsr_internal.h"
 
 #include "crease/eval.h"
@@ -24,9 +25,13 @@ void cr_gdsr_wrinkle_free(gdsr_wrinkle *w) {
         free(w->tex_v[k]);
         free(w->tex_b[k]);
     }
-    for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++)
+    for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++) {
         for (int k = 0; k < CR_GDSR_WRINKLE_TAPS; k++)
             free(w->tap[s][k]);
+        free(w->valid_px[s]);
+    }
+    free(w->tex_px);
+    free(w->scratch);
     memset(w, 0, sizeof *w);
 }
 
@@ -50,9 +55,13 @@ cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w,
         ok &= (w->tex_v[k] = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
         ok &= (w->tex_b[k] = malloc(((size_t)w->ntex + 1) * sizeof(float))) != NULL;
     }
-    for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++)
+    for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++) {
         for (int k = 0; k < CR_GDSR_WRINKLE_TAPS; k++)
             ok &= (w->tap[s][k] = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
+        ok &= (w->valid_px[s] = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
+    }
+    ok &= (w->tex_px = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
+    ok &= (w->scratch = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
     if (!ok) {
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
@@ -68,6 +77,7 @@ cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w,
             w->tex_v[k][t] = high->tri[3 * (int64_t)face[p] + k];
             w->tex_b[k][t] = (float)bary[3 * p + k];
         }
+        w->tex_px[t] = (int32_t)p;
         t++;
     }
     for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++) {
@@ -88,6 +98,7 @@ cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w,
                 if (!in) continue;
                 for (int k = 0; k < CR_GDSR_WRINKLE_TAPS; k++)
                     w->tap[s][k][m] = nb[k];
+                w->valid_px[s][m] = i * side + j;
                 m++;
             }
         w->nvalid[s] = m;
@@ -135,17 +146,48 @@ static cr_tensor *responses(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *tn
     return cr_nn_concat(ctx, 8, r, 1);
 }
 
+void cr_gdsr_wrinkle_draw_patches(const gdsr_wrinkle *w, int n, int side, cr_rng *rng,
+                                  gdsr_patch *out) {
+    if (side > w->side) side = w->side;
+    if (side < 1) side = 1;
+    for (int k = 0; k < n; k++) {
+        int32_t px = w->ntex > 0 ? w->tex_px[cr_rng_below(rng, (uint32_t)w->ntex)] : 0;
+        int32_t r = px / w->side - side / 2, c = px % w->side - side / 2;
+        r = r < 0 ? 0 : r > w->side - side ? w->side - side : r;
+        c = c < 0 ? 0 : c > w->side - side ? w->side - side : c;
+        out[k] = (gdsr_patch){r, c, side};
+    }
+}
+
 cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x,
-                                const float *ref) {
+                                const float *ref, const gdsr_patch *patches, int npatches) {
     cr_tensor *tx = cr_gdsr_wrinkle_normals(ctx, w, x);
     cr_tensor *tr = cr_gdsr_wrinkle_normals(ctx, w, cr_nn_from(ctx, 2, (int64_t[]){w->nv, 3}, ref));
+    if (!patches) npatches = 0;
     cr_tensor *loss = NULL;
     for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++) {
         if (w->nvalid[s] < 1) continue;
-        cr_tensor *e =
-            cr_nn_sub(ctx, responses(ctx, w, tx, s), cr_nn_detach(ctx, responses(ctx, w, tr, s)));
-        cr_tensor *l = cr_nn_mean(ctx, cr_nn_abs(ctx, e));
-        loss = loss ? cr_nn_add(ctx, loss, l) : l;
+        cr_tensor *e = cr_nn_abs(ctx, cr_nn_sub(ctx, responses(ctx, w, tx, s),
+                                                cr_nn_detach(ctx, responses(ctx, w, tr, s))));
+        if (npatches == 0) {
+            cr_tensor *l = cr_nn_mean(ctx, e);
+            loss = loss ? cr_nn_add(ctx, loss, l) : l;
+            continue;
+        }
+        for (int p = 0; p < npatches; p++) {
+            /* this patch's texels at this scale (gather_rows copies the indices) */
+            const gdsr_patch *q = patches + p;
+            int64_t m = 0;
+            for (int64_t v = 0; v < w->nvalid[s]; v++) {
+                int32_t r = w->valid_px[s][v] / w->side, c = w->valid_px[s][v] % w->side;
+                if (r >= q->r0 && r < q->r0 + q->side && c >= q->c0 && c < q->c0 + q->side)
+                    w->scratch[m++] = (int32_t)v;
+            }
+            if (m == 0) continue;
+            cr_tensor *l = cr_nn_mul_scalar(
+                ctx, cr_nn_mean(ctx, cr_nn_gather_rows(ctx, e, w->scratch, m)), 1.0f / npatches);
+            loss = loss ? cr_nn_add(ctx, loss, l) : l;
+        }
     }
     return loss ? loss : cr_nn_mul_scalar(ctx, cr_nn_sum(ctx, x), 0.0f);
 }
