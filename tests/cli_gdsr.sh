@@ -60,7 +60,7 @@ check "simulated input" test -s "$tmp/s/sim/sequences/tshirt_low_normal_dance/ga
 check "simulated pair is the training pair" cmp "$tmp/s/sim/garments/normal/tshirt_low.obj" \
   "$tmp/data/garments/normal/tshirt_low.obj"
 check "simulated: 7 samples" grep -q '"frames":7,' "$tmp/s.json"
-expect_exit 2 "needs --simulate" gdsr run --model "$tmp/m/model.safetensors" --dataset "$tmp/data" \
+expect_exit 2 "need --simulate" gdsr run --model "$tmp/m/model.safetensors" --dataset "$tmp/data" \
   --motion dance --reference -o "$tmp/s2"
 expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
 # the strain L1 and the wrinkle loss on, one epoch, under the paper's first lambdas: their
