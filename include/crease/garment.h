@@ -4,6 +4,7 @@
  *   build a garment of a type at a target vertex count       cr_garment_create
  *   one fitted template, many resolutions sharing its UVs     cr_garment_template_*
  *   layers worn over each other (vest over t-shirt)           cr_garment_create_layers
+ *   layers merged into one outfit garment (two components)    cr_garment_outfit
  *   quality figures (angles, clearance, topology)             cr_garment_measure
  *   skinning the garment with the body's pose                 cr_garment_pose
  *   high vertex -> (low face, barycentric), gdsr Eq. 1        cr_garment_correspondence
@@ -258,6 +259,30 @@ void cr_garment_template_destroy(cr_garment_template *t);
  * out (n) receives the garments; on failure all are NULL. */
 cr_status cr_garment_create_layers(const cr_garment_def *defs, int32_t n, const cr_body_model *body,
                                    cr_garment **out, cr_error *err);
+
+/* Outfits: garments worn over each other merged into one garment, one
+ * connected component per layer (vertices, faces, UVs, panels and skinning
+ * in layer order, innermost first), so a simulator treats them as one cloth
+ * and its self-contact keeps the layers apart. Layer k's UV charts are
+ * scaled into the strip u in [k/n, (k+1)/n) of one layout with one
+ * uv_scale_m (uv * uv_scale_m stays metres along the cloth), so a UV
+ * correspondence (cr_garment_correspondence) maps each layer onto itself
+ * and every resolution of the same templates shares the layout. Each layer
+ * is checked against those inside it: no edge of one crosses a face of the
+ * other, and every inner vertex whose closest point on the layer lies
+ * inside one of its faces within 5 cm is at least CR_GARMENT_OUTFIT_MIN_GAP
+ * behind it; a layer that fails is moved out along its normals by 1 mm
+ * steps, up to CR_GARMENT_OUTFIT_MAX_STEPS mm (offset_m (n), may be NULL,
+ * receives each layer's move), else CR_ERR_TOPOLOGY naming the layer. The
+ * outfit's type and clearance are its first layer's; panels are named
+ * "<layer>_<panel>". CR_ERR_INVALID for n outside [2,
+ * CR_GARMENT_OUTFIT_MAX_LAYERS], a layer without UVs or normals, or more
+ * than CR_GARMENT_MAX_PANELS panels in all. */
+#define CR_GARMENT_OUTFIT_MAX_LAYERS 4
+#define CR_GARMENT_OUTFIT_MIN_GAP 0.004f
+#define CR_GARMENT_OUTFIT_MAX_STEPS 20
+cr_status cr_garment_outfit(const cr_garment *const *layers, int32_t n, cr_garment **out,
+                            float *offset_m, cr_error *err);
 
 /* Number of edges of `a` that cross a face of `b` plus edges of `b` that
  * cross a face of `a` (0 for layers that do not intersect), or -1 with err

@@ -10,7 +10,11 @@
  * last, so a run that stops leaves every finished sequence marked and the
  * next run skips it.
  *
- * Left out: self-collision between layers, bodies other than the mannequin
+ * An outfit (garments worn over each other, "tshirt+vest") is built by
+ * dataset_outfit.c into one garment of one component per layer and
+ * simulated with self-contact on, so its layers collide.
+ *
+ * Left out: bodies other than the mannequin
  * presets (an SMPL model could be added as a body source), and distributing
  * sequences over machines.
  */
@@ -84,7 +88,7 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
         return CR_FAIL(err, CR_ERR_INVALID, "dataset: max_collider_step = %g m, need 0 to 10",
                        d->max_collider_step);
     for (int i = 0; i < d->ngarments; i++) {
-        CR_TRY(cr_garment_variant_parse(d->garments[i], &ds->variant[i], err));
+        CR_TRY(cr_dataset_outfit_parse(d->garments[i], &ds->outfit[i], &ds->variant[i], err));
         ds->garment_type[i] = ds->variant[i].def.type;
         for (int j = 0; j < i; j++)
             if (!strcmp(ds->variant[i].label, ds->variant[j].label))
@@ -196,6 +200,19 @@ static cr_status write_correspondence(const dataset *ds, const char *body, const
     return st;
 }
 
+/* With both resolutions: garment g's correspondence on body b. */
+static cr_status write_pair(const dataset *ds, int b, int g, cr_error *err) {
+    int lo = -1, hi = -1;
+    for (int r = 0; r < ds->def.nres; r++)
+        if (!strcmp(ds->def.res[r], "low"))
+            lo = r;
+        else
+            hi = r;
+    if (lo < 0 || hi < 0) return CR_OK;
+    return write_correspondence(ds, ds->def.bodies[b], ds->variant[g].label, ds->garment[b][g][lo],
+                                ds->garment[b][g][hi], err);
+}
+
 static cr_status make_dirs(const dataset *ds, cr_error *err) {
     char path[CR_DATASET_PATH];
     const char *sub[] = {"motions", "sequences"};
@@ -250,6 +267,16 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
                                 ds->motion[m]->nframes, 0.0f, 1.0f, err));
         }
         for (int g = 0; g < d->ngarments; g++) {
+            if (ds->outfit[g].nparts) { /* layers merged into one garment: dataset_outfit.c */
+                ds->built[b][g] = ds->variant[g];
+                CR_TRY(cr_dataset_outfit_build(ds, b, g, err));
+                for (int r = 0; r < d->nres; r++)
+                    CR_TRY(write_garment(ds, d->bodies[b], ds->variant[g].label, d->res[r],
+                                         ds->garment[b][g][r], err));
+                CR_TRY(write_pair(ds, b, g, err));
+                cr_progress_update(bar, ++step, "%s on %s", ds->variant[g].label, d->bodies[b]);
+                continue;
+            }
             /* A random variant is drawn and checked at the lowest resolution
              * asked; a fixed one is built as given. */
             cr_garment_variant *v = &ds->built[b][g];
@@ -273,15 +300,7 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
             }
             cr_garment_template_destroy(t);
             CR_TRY(st);
-            int lo = -1, hi = -1;
-            for (int r = 0; r < d->nres; r++)
-                if (!strcmp(d->res[r], "low"))
-                    lo = r;
-                else
-                    hi = r;
-            if (lo >= 0 && hi >= 0)
-                CR_TRY(write_correspondence(ds, d->bodies[b], v->label, ds->garment[b][g][lo],
-                                            ds->garment[b][g][hi], err));
+            CR_TRY(write_pair(ds, b, g, err));
             cr_progress_update(bar, ++step, "%s on %s", v->label, d->bodies[b]);
         }
     }

@@ -23,6 +23,18 @@ typedef struct dataset_seq {
     char failure[200];
 } dataset_seq;
 
+/* An outfit: garment variants worn over each other, innermost first, merged
+ * into one garment per resolution (dataset_outfit.c); nparts 0 for a single
+ * garment. */
+#define CR_DATASET_OUTFIT_SUBSTEPS 4 /* at least this many per frame for an outfit */
+typedef struct dataset_outfit {
+    int32_t nparts;
+    cr_garment_variant part[CR_GARMENT_OUTFIT_MAX_LAYERS];                        /* as parsed */
+    cr_garment_variant built[CR_DATASET_MAX_ITEMS][CR_GARMENT_OUTFIT_MAX_LAYERS]; /* [body] */
+    float offset_m[CR_DATASET_MAX_ITEMS][2][CR_GARMENT_OUTFIT_MAX_LAYERS]; /* [body][res]: moved
+                                                                              out at build */
+} dataset_outfit;
+
 typedef struct dataset {
     cr_dataset_def def;
     cr_garment_type garment_type[CR_DATASET_MAX_ITEMS];
@@ -30,6 +42,7 @@ typedef struct dataset {
     /* [body][garment]: the variant as built on that body (a random draw that
      * fails the checks on one body is replaced there only) */
     cr_garment_variant built[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS];
+    dataset_outfit outfit[CR_DATASET_MAX_ITEMS];
     int32_t res_vertices[2];
     char motion_name[CR_DATASET_MAX_ITEMS][64];
     cr_motion *motion[CR_DATASET_MAX_ITEMS];
@@ -41,6 +54,12 @@ typedef struct dataset {
     int nseq;
 } dataset;
 
+/* A garment spec: a variant, or an outfit of '+'-joined variants (o->nparts
+ * set, *v its first part under the outfit's label). CR_ERR_INVALID naming it. */
+cr_status cr_dataset_outfit_parse(const char *spec, dataset_outfit *o, cr_garment_variant *v,
+                                  cr_error *err);
+/* Build outfit g on body b: ds->garment[b][g][r] for every resolution. */
+cr_status cr_dataset_outfit_build(dataset *ds, int b, int g, cr_error *err);
 /* Every combination, marked SEQ_SKIPPED where result.json says done. */
 cr_status cr_dataset_plan(dataset *ds, cr_error *err);
 /* Simulate the pending sequences, several at once; failures are recorded. */

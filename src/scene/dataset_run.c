@@ -225,7 +225,16 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     sd.dt = 1.0 / d->fps;
     sd.plasticity = d->plastic;
     sd.solver = (cr_sim_solver)d->solver;
-    if (d->self_contact >= 0) sd.self_contact = d->self_contact;
+    if (d->self_contact >= 0)
+        sd.self_contact = d->self_contact;
+    else if (ds->outfit[q->g].nparts)
+        sd.self_contact = 1; /* an outfit's layers collide (dataset_outfit.c) */
+    /* Newton finds the contact pairs once per substep, and a pair that closes
+     * by more than the query radius (8 mm) within one is missed: a vest's
+     * armhole fell 2 cm in one frame and passed through the t-shirt at one
+     * substep (and the high one at two). */
+    if (ds->outfit[q->g].nparts && sd.substeps < CR_DATASET_OUTFIT_SUBSTEPS)
+        sd.substeps = CR_DATASET_OUTFIT_SUBSTEPS;
     if (d->self_thickness > 0.0f) sd.self_contact_thickness = d->self_thickness;
     sd.collider = body->rest;
     sd.collider_frames = ds->posed[q->b][q->m];
@@ -461,6 +470,18 @@ static cJSON *manifest(const dataset *ds) {
                     cJSON_AddNumberToObject(o, "seed", (double)v->seed);
                     cJSON_AddNumberToObject(o, "attempts", v->attempts);
                     if (v->rejected[0]) cJSON_AddStringToObject(o, "rejected", v->rejected);
+                }
+                const dataset_outfit *of = &ds->outfit[g];
+                if (of->nparts) { /* its layers, innermost first, as the parts were built */
+                    cJSON *ls = cJSON_AddArrayToObject(o, "layers");
+                    for (int k = 0; k < of->nparts; k++) {
+                        cJSON *lo = cJSON_CreateObject();
+                        cJSON_AddStringToObject(lo, "label", of->part[k].label);
+                        cr_garment_def_spec(&of->built[b][k].def, spec, sizeof spec);
+                        cJSON_AddStringToObject(lo, "spec", spec);
+                        cJSON_AddNumberToObject(lo, "moved_out_m", of->offset_m[b][r][k]);
+                        cJSON_AddItemToArray(ls, lo);
+                    }
                 }
                 cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
                 cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
