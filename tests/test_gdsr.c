@@ -933,6 +933,71 @@ static int two_layer_data(cr_gdsr_data *d) {
     return st == CR_OK;
 }
 
+/* Eq. 27 on a hand-made configuration: the two sheets' outer one (1 cm
+ * above) pushed 1.2 cm down, 2 mm through the inner one: every outer coarse
+ * vertex and every outer high vertex (every other one 3 mm lower still, as
+ * a wrinkle residual) ends sigma above the inner sheet, the
+ * inner one does not move; at its rest 1 cm nothing moves; moved 1 m aside
+ * (beyond gamma) it is not a collision. */
+CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
+    cr_gdsr_data d;
+    CR_REQUIRE(two_layer_data(&d));
+    const int32_t nl = d.low->nv, nh = d.high->nv;
+    float *c = malloc(sizeof(float) * 3 * (size_t)nl), *x = malloc(sizeof(float) * 3 * (size_t)nh);
+    float *c0 = malloc(sizeof(float) * 3 * (size_t)nl);
+    cr_error err = {0};
+    const float sig = CR_GDSR_LAYER_SIGMA, gam = CR_GDSR_LAYER_GAMMA;
+    for (int pass = 0; pass < 3; pass++) {
+        memcpy(c, d.low->pos, sizeof(float) * 3 * (size_t)nl);
+        for (int32_t i = 0; i < nl; i++)
+            if (d.layer[i] == 1) {
+                if (pass == 0) c[3 * i + 1] -= 0.012f;
+                if (pass == 2) c[3 * i + 1] -= 0.012f, c[3 * i] += 1.0f;
+            }
+        memcpy(c0, c, sizeof(float) * 3 * (size_t)nl);
+        cr_gdsr_upsample(&d, c, x);
+        int32_t dipped = 0; /* a residual: every other outer high vertex 3 mm lower */
+        for (int32_t v = 0; pass == 0 && v < nh; v += 2)
+            if (d.layer[d.low->tri[3 * d.face[v]]] == 1) x[3 * v + 1] -= 0.003f, dipped++;
+        int64_t fine = -1;
+        int64_t n = cr_gdsr_layer_push(&d, c, x, sig, gam, &fine, &err);
+        printf("  pass %d: %lld coarse and %lld high vertices pushed\n", pass, (long long)n,
+               (long long)fine);
+        int32_t outer_low = 0, outer_high = 0, inner_moved = 0, low_short = 0, high_short = 0;
+        for (int32_t i = 0; i < nl; i++) {
+            if (d.layer[i] == 0) {
+                inner_moved += memcmp(c + 3 * i, c0 + 3 * i, 3 * sizeof(float)) != 0;
+                continue;
+            }
+            outer_low++;
+            low_short += c[3 * i + 1] < sig - 1e-5f; /* the inner sheet lies at y = 0 */
+        }
+        for (int32_t v = 0; v < nh; v++) {
+            int32_t lay = d.layer[d.low->tri[3 * d.face[v]]];
+            if (lay != 1) continue;
+            outer_high++;
+            high_short += x[3 * v + 1] < sig - 1e-5f;
+        }
+        CR_CHECK(inner_moved == 0);
+        if (pass == 0) {
+            /* the coarse push lifts the high sheet to sigma; the dipped ones
+             * need Eq. 27's own push */
+            CR_CHECK(n == outer_low && fine == dipped && dipped > 0 && outer_high > 2 * dipped - 2);
+            CR_CHECK(low_short == 0 && high_short == 0);
+        } else {
+            CR_CHECK(n == 0 && fine == 0);
+            CR_CHECK(memcmp(c, c0, sizeof(float) * 3 * (size_t)nl) == 0);
+        }
+    }
+    /* a single layer: nothing to do */
+    int32_t nlay = d.nlayers;
+    d.nlayers = 1;
+    CR_CHECK(cr_gdsr_layer_push(&d, c, x, sig, gam, NULL, &err) == 0);
+    d.nlayers = nlay;
+    free(c), free(x), free(c0);
+    cr_gdsr_data_free(&d);
+}
+
 /* On an outfit, training turns the layer edges on (auto): H gets a third
  * edge set, the layer edges change the trained model's output and reach
  * their encoder's weights through the gradient, and the model rolls out;

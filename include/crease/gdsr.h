@@ -317,16 +317,23 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
 
 typedef struct cr_gdsr_rollout_result {
     int32_t nframes, nv_high;
-    float *gdsr;                        /* (T,Vh,3) after collision handling */
-    float *gdsr_raw;                    /* (T,Vh,3) before */
-    float *upsampled;                   /* (T,Vh,3) barycentric upsampling of C */
-    double inside_before, inside_after; /* largest share of high vertices inside the body on a
-                                           frame, before and after handling */
-    double seconds_per_frame;           /* gdsr, handling included, wall clock */
-    double cpu_seconds_per_frame;       /* the same in process CPU time (clock()) */
+    float *gdsr;                             /* (T,Vh,3) after collision handling */
+    float *gdsr_raw;                         /* (T,Vh,3) before */
+    float *upsampled;                        /* (T,Vh,3) barycentric upsampling of C */
+    double inside_before, inside_after;      /* largest share of high vertices inside the body on a
+                                                frame, before and after handling */
+    int64_t layer_pushed, layer_pushed_high; /* Eq. 27 on an outfit: coarse and high vertices
+                                                pushed out of the layer under them, summed
+                                                over the frames */
+    double seconds_per_frame;                /* gdsr, handling included, wall clock */
+    double cpu_seconds_per_frame;            /* the same in process CPU time (clock()) */
 } cr_gdsr_rollout_result;
 
 enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
+/* Eq. 27's constants (the authors' code): the gap kept between layers, m,
+ * and how near an inner vertex must be to count (the garment is open). */
+#define CR_GDSR_LAYER_SIGMA 0.005f
+#define CR_GDSR_LAYER_GAMMA 0.025f
 
 /* Run the model over clip k of d, feeding back its own corrections;
  * collision handling (Eq. 26-27) pushes C^ vertices out of the body to
@@ -334,7 +341,11 @@ enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` 
  * through Eq. 1, then pushes out any high vertex still inside; `relax`
  * Laplacian steps (each followed by a push) spread the high vertices'
  * displacement over their neighbours so that it adds little strain (0:
- * the per-vertex push alone). */
+ * the per-vertex push alone). On an outfit (two layers or more, layer k + 1
+ * worn over layer k) Eq. 27 follows: outer C^ vertices closer than
+ * CR_GDSR_LAYER_SIGMA to the layer under them are pushed out along its
+ * normal, the push carried to the high vertices, and the high vertices
+ * over a pushed one pushed to the same gap. */
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           cr_gdsr_rollout_result *out, cr_error *err);
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);

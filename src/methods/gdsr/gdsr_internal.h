@@ -116,4 +116,14 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                         float eps, int iters, float *sd, float *nrm, float *d, float *dn,
                         uint8_t *moved);
 
+/* Layer collisions (Eq. 27, collide.c): exterior coarse vertices of C^
+ * (Vl,3) within gamma of a vertex of a layer under theirs and closer than
+ * sigma along its normal are pushed out along it to sigma (in place), the
+ * push carried to x (Vh,3) through Eq. 1, then the high vertices whose
+ * nearest coarse vertex was pushed are pushed by Eq. 27. Returns the coarse
+ * vertices pushed (fine_pushed, may be NULL: the high ones), -1 with err
+ * set on failure; 0 for a single layer. */
+int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float sigma, float gamma,
+                           int64_t *fine_pushed, cr_error *err);
+
 #endif

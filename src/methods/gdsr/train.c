@@ -476,6 +476,17 @@ void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
     memset(r, 0, sizeof *r);
 }
 
+/* Eq. 27 on one frame, counted into out. */
+static cr_status layer_push(const cr_gdsr_data *d, float *chat, float *fin,
+                            cr_gdsr_rollout_result *out, cr_error *err) {
+    int64_t fine = 0;
+    int64_t n =
+        cr_gdsr_layer_push(d, chat, fin, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA, &fine, err);
+    if (n < 0) return err ? err->status : CR_ERR_MEMORY;
+    out->layer_pushed += n, out->layer_pushed_high += fine;
+    return CR_OK;
+}
+
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           cr_gdsr_rollout_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
@@ -544,6 +555,8 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
             cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
             cr_gdsr_relax_push(bv, htopo, up, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
             cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
+            memcpy(chat, ct, (size_t)nl3 * sizeof(float));
+            if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
             continue;
         }
         double t0 = cr_time_now();
@@ -572,6 +585,8 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         /* the high vertices still inside, the pushes spread so that they
          * do not strain (collide.c) */
         cr_gdsr_relax_push(bv, htopo, raw, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
+        /* then the layers (Eq. 27), after the body */
+        if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
         tsum += cr_time_now() - t0;
         csum += (double)(clock() - c0) / CLOCKS_PER_SEC;
         tcount++;
