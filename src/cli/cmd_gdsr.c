@@ -480,6 +480,9 @@ static int cmd_run(int argc, char **argv) {
             "inside the body: %.3f %% before handling, %.3f %% after\n",
             motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame,
             r.cpu_seconds_per_frame, 100 * r.inside_before, 100 * r.inside_after);
+    if (d.nlayers > 1)
+        fprintf(stderr, "  layers (Eq. 27): %lld coarse and %lld high vertices pushed out\n",
+                (long long)r.layer_pushed, (long long)r.layer_pushed_high);
     if (cl->high) {
         fprintf(stderr, "  %-10s", "");
         for (int k = 0; k < NSHOWN; k++)
@@ -501,6 +504,8 @@ static int cmd_run(int argc, char **argv) {
     cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
     cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
     cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
+    cJSON_AddNumberToObject(j, "layer_pushed", (double)r.layer_pushed);
+    cJSON_AddNumberToObject(j, "layer_pushed_high", (double)r.layer_pushed_high);
     cJSON_AddBoolToObject(j, "glb_animated", animated);
     cJSON_AddNumberToObject(j, "png_frame", png_frame);
     if (simulate) {
