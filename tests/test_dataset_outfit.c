@@ -149,6 +149,14 @@ CR_TEST(dataset, two_layer_outfit_collides_and_keeps_its_layers) {
     garments[0] = "tshirt+cape";
     CR_CHECK(cr_dataset_generate(&d, &r, &err) == CR_ERR_INVALID);
     CR_CHECK(strstr(err.msg, "cape"));
+    /* the files' name of a spec, as gdsr run --simulate finds them */
+    char label[128];
+    CR_CHECK_OK(cr_dataset_garment_label("tshirt:length=0.9+vest", label, sizeof label, &err),
+                &err);
+    CR_CHECK(!strcmp(label, "tshirt_length0.9+vest"));
+    CR_CHECK_OK(cr_dataset_garment_label("dress:seed=3", label, sizeof label, &err), &err);
+    CR_CHECK(!strcmp(label, "dress_seed3"));
+    CR_CHECK(cr_dataset_garment_label("tshirt+skirt", label, sizeof label, &err) == CR_ERR_INVALID);
 }
 
 CR_TEST(dataset, outfit_moves_out_a_layer_given_inside) {

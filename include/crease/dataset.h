@@ -115,6 +115,11 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
  * file's base name without its extension ("dance" for "mocap/dance.bvh"). */
 void cr_dataset_motion_label(const char *spec, char *out, size_t size);
 
+/* A garment spec's name in the dataset's files: the variant's label
+ * ("dress_seed3"), or an outfit's ("tshirt+vest": its parts' labels joined
+ * by '+'). CR_ERR_INVALID naming a bad spec. */
+cr_status cr_dataset_garment_label(const char *spec, char *out, size_t size, cr_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -104,3 +104,13 @@ cr_status cr_dataset_outfit_build(dataset *ds, int b, int g, cr_error *err) {
             cr_garment_destroy(part[k][r]);
     return st;
 }
+
+cr_status cr_dataset_garment_label(const char *spec, char *out, size_t size, cr_error *err) {
+    dataset_outfit *o = cr_calloc(1, sizeof *o, err); /* large: its per-body copies */
+    if (!o) return err ? err->status : CR_ERR_MEMORY;
+    cr_garment_variant v;
+    cr_status st = cr_dataset_outfit_parse(spec, o, &v, err);
+    if (st == CR_OK) snprintf(out, size, "%s", v.label);
+    free(o);
+    return st;
+}

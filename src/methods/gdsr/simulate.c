@@ -65,9 +65,7 @@ cr_status cr_gdsr_simulate(const cr_gdsr_sim_def *def, cr_gdsr_data *out, cr_gds
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr simulate: no motion (a clip or a file)");
     const char *garment = def->garment ? def->garment : "tshirt";
     const char *body = def->body ? def->body : "normal";
-    cr_garment_variant v;
-    CR_TRY(cr_garment_variant_parse(garment, &v, err));
-    snprintf(res->garment, sizeof res->garment, "%s", v.label);
+    CR_TRY(cr_dataset_garment_label(garment, res->garment, sizeof res->garment, err));
     cr_dataset_motion_label(def->motion, res->motion, sizeof res->motion);
 
     cr_dataset_def dd = cr_dataset_default_def();
