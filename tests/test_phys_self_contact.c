@@ -43,9 +43,9 @@ static double rng_unit(uint64_t *s) {
 
 /* Every pair of two sheets 2 mm apart, jittered: gradient and vertex blocks
  * against central differences (d is linear, so the Hessian is exact). Then
- * the same sheets 30 um apart (below the barrier's floor, eps / 100 = 40 um,
- * where its Taylor expansion takes over), jittered across it and, in the
- * third case, through the other sheet (d < 0). */
+ * the same sheets 190 um apart, jittered across the barrier's floor (eps / 20
+ * = 200 um, where its Taylor expansion takes over), and 100 um apart,
+ * jittered through the other sheet (d < 0). */
 CR_TEST(phys_self_contact, pair_kernel_matches_finite_differences) {
     cr_mesh *m = two_sheets(4, 0.03f, 4, 0.03f, 0.5f);
     CR_REQUIRE(m);
@@ -62,8 +62,8 @@ CR_TEST(phys_self_contact, pair_kernel_matches_finite_differences) {
     const struct {
         double gap, jitter, normal, after, h;
     } cases[3] = {{2e-3, 1e-3, 1.0, 2e-4, 1e-7},
-                  {3e-5, 1e-3, 0.0, 2e-5, 1e-8},
-                  {3e-5, 1e-3, 0.0, 1.5e-4, 1e-8}};
+                  {1.9e-4, 1e-3, 0.0, 4e-5, 1e-8},
+                  {1e-4, 1e-3, 0.0, 4e-4, 1e-8}};
     for (int cs = 0; cs < 3; cs++) {
         for (int32_t i = 0; i < m->nv; i++)
             for (int k = 0; k < 3; k++)

@@ -169,7 +169,7 @@ int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], dou
  * keeps its sign when the pair is pushed through), penalised below eps by
  * IPC's log barrier -k eps (d - eps)^2 ln(d / eps) (k (eps - d)^3, the body
  * collision's cubic, to leading order at eps; unbounded force as d -> 0),
- * continued below d = eps / 100 by its quadratic Taylor expansion, so it is
+ * continued below d = eps / 20 by its quadratic Taylor expansion, so it is
  * finite for any d (Newton has no step bound). Elements of
  * four vertices: VT (p, a, b, c), EE (a, b, c, d). Pairs sharing a vertex
  * are left out; a pair closer than the query radius at rest (the garment
