@@ -12,13 +12,16 @@
  *           pushing the cloth around;
  *   tall    a 25 x 100 cm cotton strip of 50 x 200 vertices stood on its lower
  *           edge 1 cm above the ground (a 4 x 4 m box) and tipped 0.2 rad: it
- *           falls and piles onto itself (the self-contact scene).
+ *           falls and piles onto itself (the self-contact scene); tall2k5 the
+ *           same strip at 25 x 100 vertices (1 cm edges: mesh neighbours
+ *           within the self-contact query radius at rest).
  * The first frames of a scene include its setup transient; the split is
  * summed over the frames finished (cr_scene_run, the loop `crease simulate`
  * and the datasets use). Threads: all, or the second argument.
  *
  * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
- *   scene: all (default), sphere, tube5k, tube10k, tube40k, tall (not in all)
+ *   scene: all (default), sphere, tube5k, tube10k, tube40k, tall, tall2k5 (the
+ *   tall ones not in all)
  *   frames: 30 by default (10 for tube40k)
  *   --solver: newton (default) or vbd times that solver; compare runs a
  *   converged Newton reference (newton_tol 1e-5 m/s, no relative
@@ -203,10 +206,10 @@ static int bench_tube(const char *name, int segments, int rings, int frames) {
     return rc;
 }
 
-static int bench_tall(int frames) {
+static int bench_tall(const char *name, int32_t nx, int32_t ny, int frames) {
     cr_error err = {0};
     cr_mesh *cloth = NULL, *ground = NULL;
-    if (cr_prim_plane(50, 200, 0.25f, 1.0f, &cloth, &err) != CR_OK ||
+    if (cr_prim_plane(nx, ny, 0.25f, 1.0f, &cloth, &err) != CR_OK ||
         cr_prim_box(4.0f, 0.2f, 4.0f, 2, &ground, &err) != CR_OK) {
         fprintf(stderr, "bench_sim: %s\n", err.msg);
         return 1;
@@ -221,7 +224,7 @@ static int bench_tall(int frames) {
     cr_sim_def d = cr_sim_default_def();
     cr_material_preset("cotton", &d.material, &err);
     d.collider = ground;
-    int rc = run_mode("tall10k", cloth, &d, frames);
+    int rc = run_mode(name, cloth, &d, frames);
     /* Crossing triangle pairs at the end, exactly (what self-contact prevents). */
     float *p = last_positions ? malloc(sizeof(float) * 3 * (size_t)cloth->nv) : NULL;
     cr_bvh *b = NULL;
@@ -229,7 +232,7 @@ static int bench_tall(int frames) {
         for (int64_t k = 0; k < 3 * (int64_t)cloth->nv; k++)
             p[k] = (float)last_positions[k];
         if (cr_bvh_build(p, cloth->nv, cloth->tri, cloth->nf, &b, &err) == CR_OK)
-            printf("sim tall10k: %lld crossing triangle pairs at the end\n",
+            printf("sim %s: %lld crossing triangle pairs at the end\n", name,
                    (long long)cr_bvh_self_intersections(b));
     }
     cr_bvh_destroy(b);
@@ -276,6 +279,7 @@ int main(int argc, char **argv) {
     if (all || !strcmp(which, "tube5k")) rc |= bench_tube("tube5k", 70, 70, frames);    /* 4,970 */
     if (all || !strcmp(which, "tube10k")) rc |= bench_tube("tube10k", 100, 99, frames); /* 10,000 */
     if (all || !strcmp(which, "tube40k")) rc |= bench_tube("tube40k", 200, 199, big);   /* 40,000 */
-    if (!strcmp(which, "tall")) rc |= bench_tall(frames);                               /* 10,000 */
+    if (!strcmp(which, "tall")) rc |= bench_tall("tall10k", 50, 200, frames);           /* 10,000 */
+    if (!strcmp(which, "tall2k5")) rc |= bench_tall("tall2k5", 25, 100, frames);        /* 2,500 */
     return rc;
 }

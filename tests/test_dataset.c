@@ -7,6 +7,7 @@
 #include "test.h"
 
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -41,6 +42,17 @@ CR_TEST(dataset, small_dataset_is_complete_and_resumes) {
            r.max_inside_share[0], r.max_inside_share[1]);
     CR_CHECK(r.sequences == 4 && r.done == 4 && r.skipped == 0 && r.failed == 0);
     CR_CHECK(r.max_inside_share[0] < 0.005 && r.max_inside_share[1] < 0.005);
+    printf("    crossing triangle pairs, most on a frame (as built): tshirt %lld (%lld), skirt "
+           "%lld (%lld); seconds %.1f, %.1f\n",
+           (long long)r.max_crossings[0], (long long)r.rest_crossings[0],
+           (long long)r.max_crossings[1], (long long)r.rest_crossings[1], r.seconds_by_garment[0],
+           r.seconds_by_garment[1]);
+    CR_CHECK(r.max_crossings[0] >= 0 && r.max_crossings[1] >= 0);
+    CR_CHECK(r.rest_crossings[0] >= 0 && r.rest_crossings[1] >= 0);
+    CR_CHECK(r.failed_by_garment[0] == 0 && r.failed_by_garment[1] == 0);
+    CR_CHECK(r.seconds_by_garment[0] > 0.0 && r.seconds_by_garment[1] > 0.0);
+    CR_CHECK(r.seconds_by_garment[0] + r.seconds_by_garment[1] <= r.seconds);
+    const cr_dataset_result first = r;
 
     char path[700];
     snprintf(path, sizeof path, "%s/manifest.json", dir);
@@ -59,6 +71,24 @@ CR_TEST(dataset, small_dataset_is_complete_and_resumes) {
         CR_CHECK_OK(cr_pc2_read(path, &p, &err), &err);
         CR_CHECK(p.nframes == 9); /* the rest state and 8 frames */
         cr_pc2_free(&p);
+        /* the crossings in the manifest and in result.json, the same number */
+        const cJSON *mc = cJSON_GetObjectItemCaseSensitive(q, "max_crossings");
+        const cJSON *id = cJSON_GetObjectItemCaseSensitive(q, "id");
+        CR_REQUIRE(cJSON_IsNumber(mc) && cJSON_IsString(id));
+        snprintf(path, sizeof path, "%s/sequences/%s/result.json", dir, id->valuestring);
+        cJSON *res = read_json(path);
+        CR_REQUIRE(res);
+        const cJSON *rc = cJSON_GetObjectItemCaseSensitive(res, "max_crossings");
+        const cJSON *rr = cJSON_GetObjectItemCaseSensitive(res, "rest_crossings");
+        CR_CHECK(cJSON_IsNumber(rc) && rc->valuedouble == mc->valuedouble);
+        CR_CHECK(cJSON_IsNumber(rr) && rr->valuedouble >= 0);
+        cJSON_Delete(res);
+    }
+    const cJSON *gms = cJSON_GetObjectItemCaseSensitive(m, "garments");
+    CR_CHECK(cJSON_GetArraySize(gms) == 4);
+    cJSON_ArrayForEach(q, gms) {
+        const cJSON *rc = cJSON_GetObjectItemCaseSensitive(q, "rest_crossings");
+        CR_CHECK(cJSON_IsNumber(rc) && rc->valuedouble >= 0);
     }
     cJSON_Delete(m);
     snprintf(path, sizeof path, "%s/garments/normal/skirt_high_from_low.npz", dir);
@@ -69,6 +99,12 @@ CR_TEST(dataset, small_dataset_is_complete_and_resumes) {
     /* The same definition again: nothing left to do. */
     CR_CHECK_OK(cr_dataset_generate(&d, &r, &err), &err);
     CR_CHECK(r.done == 0 && r.skipped == 4 && r.failed == 0);
+    /* The figures of skipped sequences come back from their result.json. */
+    for (int g = 0; g < 2; g++) {
+        CR_CHECK(r.max_crossings[g] == first.max_crossings[g]);
+        CR_CHECK(r.rest_crossings[g] == first.rest_crossings[g]);
+        CR_CHECK(fabs(r.seconds_by_garment[g] - first.seconds_by_garment[g]) < 1e-6);
+    }
 }
 
 CR_TEST(dataset, bad_definitions_are_refused_by_name) {

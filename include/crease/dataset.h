@@ -104,6 +104,19 @@ typedef struct cr_dataset_result {
      * substeps before the simulator projects vertices out. */
     double max_inside_share[CR_DATASET_MAX_ITEMS];
     double max_inside_share_solver[CR_DATASET_MAX_ITEMS];
+    /* Per garment: crossing (intersecting) triangle pairs of the garment with
+     * itself (cr_bvh_self_intersections), the most on any stored frame of a
+     * sequence that did not fail, and the most on the garment as built (its
+     * rest state, frame 0: seams that touch at rest count there, not as the
+     * simulation's); -1 where nothing was counted (every sequence failed). */
+    int64_t max_crossings[CR_DATASET_MAX_ITEMS];
+    int64_t rest_crossings[CR_DATASET_MAX_ITEMS];
+    /* Per garment: its failed sequences, and the seconds of all its
+     * sequences (this call's, and those of the sequences skipped as done, as
+     * their result.json recorded them): not deterministic, so kept out of
+     * the manifest, which is the same bytes for every run of one def. */
+    int32_t failed_by_garment[CR_DATASET_MAX_ITEMS];
+    double seconds_by_garment[CR_DATASET_MAX_ITEMS];
 } cr_dataset_result;
 
 /* Generate (or complete) the dataset. CR_ERR_INVALID naming a bad field or

@@ -8,14 +8,14 @@
  * alive while the term is used. Formulas and sources: docs/physics.md.
  *
  *   energy     element   E per element                                        file
- *   membrane   triangle  A0 psi(F), F = Ds Dm^-1; StVK or Baraff-Witkin       membrane_stvk.c, _bw.c
- *   bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
+ *   membrane   triangle  A0 psi(F), F = Ds Dm^-1; StVK or Baraff-Witkin       membrane_stvk.c,
+ * _bw.c bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
  *   gravity    vertex    -m_i g . x_i                                         gravity.c
  *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
  *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
  *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
  *   pin        vertex    k/2 |x_i - target_i|^2 over the pinned vertices          pin.c
- *   self_contact pair    k max(eps - d(x), 0)^3, d = n . sum w_k x_k, VT or EE  self_contact.c
+ *   self_contact pair    -k eps (d-eps)^2 ln(d/eps) for d < eps, d = n . sum w_k x_k self_contact.c
  *
  * Threading: _create/_update/_set mutate and must not overlap a kernel call;
  * kernels are pure and may run on many threads at once.
@@ -143,8 +143,7 @@ void cr_collision_destroy(cr_collision *c);
  * distance to the collider at x, m, negative inside; normal (V,3) the unit
  * outward normal at the closest point. A vertex the query did not reach may
  * carry any dist >= eps (e.g. the query's max_dist) and a zero normal. */
-void cr_collision_update(cr_collision *c, const double *x, const float *dist,
-                         const float *normal);
+void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal);
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
@@ -167,8 +166,11 @@ int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], dou
  * cloth found within a query radius of CR_SELF_CONTACT_QUERY times the
  * thickness eps, each with its unit normal n and weights w fixed at
  * detection (d(x) = n . sum_k w_k x_k is the pair's distance there, and
- * keeps its sign when the pair is pushed through), penalised by the body
- * collision's cubic k max(eps - d, 0)^3 (cr_collision_penalty). Elements of
+ * keeps its sign when the pair is pushed through), penalised below eps by
+ * IPC's log barrier -k eps (d - eps)^2 ln(d / eps) (k (eps - d)^3, the body
+ * collision's cubic, to leading order at eps; unbounded force as d -> 0),
+ * continued below d = eps / 20 by its quadratic Taylor expansion, so it is
+ * finite for any d (Newton has no step bound). Elements of
  * four vertices: VT (p, a, b, c), EE (a, b, c, d). Pairs sharing a vertex
  * are left out; a pair closer than the query radius at rest (the garment
  * given to create) is a pair only within half its rest distance, with a
@@ -234,8 +236,8 @@ void cr_pin_term(const cr_pin *p, cr_energy_term *out);
 typedef struct cr_friction cr_friction;
 /* eps_v: slip (m over one step) below which friction acts as static (IPC's
  * eps_v h; 1e-4 m is a fair start at h = 1/30 s). */
-cr_status cr_friction_create(int32_t nv, const cr_material *mat, double eps_v,
-                             cr_friction **out, cr_error *err);
+cr_status cr_friction_create(int32_t nv, const cr_material *mat, double eps_v, cr_friction **out,
+                             cr_error *err);
 void cr_friction_destroy(cr_friction *f);
 /* Once per step, after cr_collision_update at the step-start positions:
  * freeze lambda_i and T_i from c's contacts, and the anchors x_start + db.

@@ -144,12 +144,18 @@ int cmd_dataset(int argc, char **argv) {
     fprintf(stderr,
             "dataset: %d sequences in %s: %d simulated, %d already done, %d failed (%.1f s)\n",
             r.sequences, def.out_dir, r.done, r.skipped, r.failed, r.seconds);
-    for (int g = 0; g < r.ngarments; g++)
+    for (int g = 0; g < r.ngarments; g++) {
         fprintf(stderr,
                 "  %-10s most vertices inside the body on a frame: %.3f%% (in a substep before "
                 "the simulator's projection: %.3f%%)\n",
                 def.garments[g], 100.0 * r.max_inside_share[g],
                 100.0 * r.max_inside_share_solver[g]);
+        fprintf(stderr,
+                "  %-10s most crossing triangle pairs on a frame: %lld (as built, at rest: "
+                "%lld); %d of %d sequences failed; %.1f s\n",
+                def.garments[g], (long long)r.max_crossings[g], (long long)r.rest_crossings[g],
+                r.failed_by_garment[g], r.sequences / r.ngarments, r.seconds_by_garment[g]);
+    }
     if (r.done + r.skipped > 0)
         fprintf(stderr, "view: crease view %s -o %s/view\n", def.out_dir, def.out_dir);
     if (json) {
@@ -163,9 +169,17 @@ int cmd_dataset(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
         cJSON *share = cJSON_AddObjectToObject(j, "max_inside_share");
         cJSON *solver = cJSON_AddObjectToObject(j, "max_inside_share_solver");
+        cJSON *cross = cJSON_AddObjectToObject(j, "max_crossings");
+        cJSON *rest = cJSON_AddObjectToObject(j, "rest_crossings");
+        cJSON *failed = cJSON_AddObjectToObject(j, "failed_by_garment");
+        cJSON *secs = cJSON_AddObjectToObject(j, "seconds_by_garment");
         for (int g = 0; g < r.ngarments; g++) {
             cJSON_AddNumberToObject(share, def.garments[g], r.max_inside_share[g]);
             cJSON_AddNumberToObject(solver, def.garments[g], r.max_inside_share_solver[g]);
+            cJSON_AddNumberToObject(cross, def.garments[g], (double)r.max_crossings[g]);
+            cJSON_AddNumberToObject(rest, def.garments[g], (double)r.rest_crossings[g]);
+            cJSON_AddNumberToObject(failed, def.garments[g], r.failed_by_garment[g]);
+            cJSON_AddNumberToObject(secs, def.garments[g], r.seconds_by_garment[g]);
         }
         cli_json_print(j);
     }

@@ -556,11 +556,16 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
     if (dynamic) {
         if (vbd) {
+            /* The clamp before the walk within the self-contact bound: after
+             * it, the clamp lifted both layers of a fold on the floor to one
+             * height, outside the bound, and the layers crossed. */
             cr_vbd_initial_guess(s, h);
+            if (s->bvh) clamp_guess(s);
             CR_TRY(cr_vbd_bound_guess(s, err));
-        } else
+        } else {
             memcpy(s->x, s->x_pred, (size_t)n3 * sizeof(double));
-        if (s->bvh) clamp_guess(s);
+            if (s->bvh) clamp_guess(s);
+        }
     }
     move_pins(s, t1);
     if (vbd)

@@ -476,7 +476,9 @@ cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err) {
      * sweeps, held back by the membrane, win back slowly (a falling cloth
      * fell in slow motion), so the pairs are found again where the cut
      * guess lies and the full guess tried from there, up to
-     * VBD_GUESS_DETECTIONS times. */
+     * VBD_GUESS_DETECTIONS times. The guess comes with the collider's clamp
+     * (sim.c): a clamp after the walk moved vertices past the bound, and
+     * lifted both layers of a fold on the floor to one height. */
     const size_t n3 = 3 * (size_t)s->nv;
     memcpy(v->xa, s->x, n3 * sizeof(double)); /* the full guess */
     for (int k = 0;; k++) {
@@ -560,21 +562,9 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
     int converged = 0, it;
-    /* The guess was walked out within the bound (cr_vbd_bound_guess), and
-     * then the collider's clamp and the pins may have moved vertices past
-     * it: the collider wins, and the pairs are found again where they are
-     * (a bound that pulled them back put a walking body's sleeves inside
-     * the arms). */
-    if (s->self) {
-        int past = 0;
-        for (int32_t i = 0; i < s->nv && !past; i++) {
-            double xi[3] = {s->x[3 * (int64_t)i], s->x[3 * (int64_t)i + 1],
-                            s->x[3 * (int64_t)i + 2]};
-            past = !s->pinned[i] && bound_move(s, i, xi);
-        }
-        if (past) CR_TRY(cr_sim_detect_self(s, s->x, 0, err));
-        memset(v->bounded, 0, (size_t)s->nv);
-    }
+    /* The guess, the collider's clamp included, was walked out within the
+     * bound (cr_vbd_bound_guess): every free vertex starts within it. */
+    if (s->self) memset(v->bounded, 0, (size_t)s->nv);
     memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));
     /* The objective at the sweep's start, for the current linearisation of
      * the collider (only the collision term changes with it). */

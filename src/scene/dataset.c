@@ -294,6 +294,14 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
             for (int r = 0; r < d->nres && st == CR_OK; r++) {
                 st = cr_garment_template_instantiate(t, ds->res_vertices[r], ds->body[b],
                                                      &ds->garment[b][g][r], err);
+                if (st == CR_OK) {
+                    const cr_mesh *gm = ds->garment[b][g][r]->mesh;
+                    cr_bvh *cloth = NULL;
+                    int64_t n = cr_dataset_crossings(&cloth, gm, gm->pos, err);
+                    cr_bvh_destroy(cloth);
+                    ds->rest_crossings[b][g][r] = n;
+                    if (n < 0) st = err ? err->status : CR_ERR_MEMORY;
+                }
                 if (st == CR_OK)
                     st = write_garment(ds, d->bodies[b], v->label, d->res[r], ds->garment[b][g][r],
                                        err);
@@ -356,12 +364,23 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
     if (st == CR_OK) {
         out->sequences = ds->nseq;
         out->ngarments = def->ngarments;
+        for (int g = 0; g < def->ngarments; g++) {
+            out->max_crossings[g] = -1;
+            for (int b = 0; b < def->nbodies; b++)
+                for (int r = 0; r < def->nres; r++)
+                    if (ds->rest_crossings[b][g][r] > out->rest_crossings[g])
+                        out->rest_crossings[g] = ds->rest_crossings[b][g][r];
+        }
         for (int i = 0; i < ds->nseq; i++) {
             const dataset_seq *q = &ds->seq[i];
             out->done += q->state == SEQ_DONE;
             out->skipped += q->state == SEQ_SKIPPED;
             out->failed += q->state == SEQ_FAILED;
+            out->failed_by_garment[q->g] += q->state == SEQ_FAILED;
+            out->seconds_by_garment[q->g] += q->seconds;
             if (q->state == SEQ_FAILED) continue;
+            if (q->max_crossings > out->max_crossings[q->g])
+                out->max_crossings[q->g] = q->max_crossings;
             out->max_inside_share[q->g] = fmax(out->max_inside_share[q->g], q->max_inside_share);
             out->max_inside_share_solver[q->g] =
                 fmax(out->max_inside_share_solver[q->g], q->max_inside_share_solver);

@@ -4,6 +4,7 @@
 #define CREASE_DATASET_INTERNAL_H
 
 #include "crease/body.h"
+#include "crease/bvh.h"
 #include "crease/dataset.h"
 #include "crease/garment.h"
 
@@ -18,6 +19,7 @@ typedef struct dataset_seq {
     double max_inside_share;        /* largest share of a stored frame's vertices inside the body */
     double max_inside_share_solver; /* ... of a substep's, before the simulator's projection */
     double max_penetration_m;
+    int64_t max_crossings; /* most crossing triangle pairs on a stored frame (rest excluded) */
     int32_t frames_done;
     double seconds;
     char failure[200];
@@ -50,6 +52,8 @@ typedef struct dataset {
     cr_body_model *body[CR_DATASET_MAX_ITEMS];
     float *posed[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS]; /* [body][motion] (T,Vb,3) */
     cr_garment *garment[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS][2]; /* [body][garment][res] */
+    /* [body][garment][res]: crossing triangle pairs of the garment as built */
+    int64_t rest_crossings[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS][2];
     dataset_seq *seq;
     int nseq;
 } dataset;
@@ -64,6 +68,9 @@ cr_status cr_dataset_outfit_build(dataset *ds, int b, int g, cr_error *err);
 cr_status cr_dataset_plan(dataset *ds, cr_error *err);
 /* Simulate the pending sequences, several at once; failures are recorded. */
 void cr_dataset_run_sequences(dataset *ds);
+/* Crossing triangle pairs of mesh m at positions pos (V,3): *bvh is built
+ * over them when NULL, else refitted. -1 with err set on failure. */
+int64_t cr_dataset_crossings(cr_bvh **bvh, const cr_mesh *m, const float *pos, cr_error *err);
 /* manifest.json from the def, the assets and the sequences' states. */
 cr_status cr_dataset_write_manifest(const dataset *ds, cr_error *err);
 

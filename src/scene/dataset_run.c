@@ -6,6 +6,12 @@
  * body of its own (what the dataset holds), and per substep before the
  * simulator projects vertices out (the report's `projected`: what the
  * solver let through, the projection's share of the work).
+ *
+ * Crossing (intersecting) triangle pairs of the garment with itself are
+ * counted exactly on every stored frame (cr_bvh_self_intersections over a
+ * BVH of the garment refitted to the frame), and on the garment as built
+ * (dataset.c): a seam whose panels touch at rest counts there, so the two
+ * are told apart.
  */
 #include "dataset_internal.h"
 
@@ -44,10 +50,15 @@ static int already_done(const dataset *ds, dataset_seq *q) {
         const cJSON *pen = cJSON_GetObjectItemCaseSensitive(j, "max_penetration_m");
         const cJSON *frames = cJSON_GetObjectItemCaseSensitive(j, "frames");
         const cJSON *solver = cJSON_GetObjectItemCaseSensitive(j, "max_inside_share_solver");
+        const cJSON *cross = cJSON_GetObjectItemCaseSensitive(j, "max_crossings");
+        const cJSON *secs = cJSON_GetObjectItemCaseSensitive(j, "seconds");
         q->max_inside_share = cJSON_IsNumber(share) ? share->valuedouble : 0.0;
         q->max_inside_share_solver = cJSON_IsNumber(solver) ? solver->valuedouble : 0.0;
         q->max_penetration_m = cJSON_IsNumber(pen) ? pen->valuedouble : 0.0;
         q->frames_done = cJSON_IsNumber(frames) ? frames->valueint : 0;
+        /* -1: a result.json from before crossings were counted */
+        q->max_crossings = cJSON_IsNumber(cross) ? (int64_t)cross->valuedouble : -1;
+        q->seconds = cJSON_IsNumber(secs) ? secs->valuedouble : 0.0;
     }
     cJSON_Delete(j);
     return done;
@@ -161,6 +172,8 @@ static cr_status write_result(const dataset *ds, const dataset_seq *q, cr_error 
     cJSON_AddNumberToObject(j, "max_inside_share", q->max_inside_share);
     cJSON_AddNumberToObject(j, "max_inside_share_solver", q->max_inside_share_solver);
     cJSON_AddNumberToObject(j, "max_penetration_m", q->max_penetration_m);
+    cJSON_AddNumberToObject(j, "max_crossings", (double)q->max_crossings);
+    cJSON_AddNumberToObject(j, "rest_crossings", (double)ds->rest_crossings[q->b][q->g][q->r]);
     if (q->state == SEQ_FAILED) cJSON_AddStringToObject(j, "failure", q->failure);
     return write_json(path, j, err);
 }
@@ -184,13 +197,26 @@ static double inside_share(cr_bvh *bvh, const float *posed, int32_t nframes, int
     return (double)inside / nv;
 }
 
-/* The stored frames' share of vertices inside the body, the largest so far. */
+int64_t cr_dataset_crossings(cr_bvh **bvh, const cr_mesh *m, const float *pos, cr_error *err) {
+    cr_status st =
+        *bvh ? cr_bvh_refit(*bvh, pos, err) : cr_bvh_build(pos, m->nv, m->tri, m->nf, bvh, err);
+    if (st != CR_OK) return -1;
+    int64_t n = cr_bvh_self_intersections(*bvh);
+    if (n < 0) CR_FAIL(err, CR_ERR_MEMORY, "dataset: out of memory counting crossing triangles");
+    return n;
+}
+
+/* Per stored frame: the share of vertices inside the body and the garment's
+ * crossing triangle pairs, the largest of each so far. */
 typedef struct inside_ctx {
     cr_bvh *bvh;
     const float *posed;
     int32_t nframes;
     float *xf, *dist;
     double max_share;
+    const cr_mesh *garment;
+    cr_bvh *cloth; /* over the garment, refitted to each frame */
+    int64_t max_crossings;
 } inside_ctx;
 
 static cr_status count_inside(void *vctx, const cr_sim *sim, const cr_sim_report *rep,
@@ -201,6 +227,10 @@ static cr_status count_inside(void *vctx, const cr_sim *sim, const cr_sim_report
         inside_share(c->bvh, c->posed, c->nframes, so_far->frames, sim, c->xf, c->dist, err);
     if (isnan(share)) return err ? err->status : CR_ERR_MEMORY;
     c->max_share = fmax(c->max_share, share);
+    /* inside_share left the frame's positions in xf */
+    int64_t n = cr_dataset_crossings(&c->cloth, c->garment, c->xf, err);
+    if (n < 0) return err ? err->status : CR_ERR_MEMORY;
+    if (n > c->max_crossings) c->max_crossings = n;
     return CR_OK;
 }
 
@@ -265,10 +295,12 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     snprintf(path, sizeof path, "%s/frames.jsonl", dir);
     if (st == CR_OK) st = cr_scene_record_create(path, sim, g->mesh, d->frames + 1, &rec, err);
     if (st == CR_OK) {
-        inside_ctx ic = {bvh, sd.collider_frames, mo->nframes, xf, dist, 0.0};
+        inside_ctx ic = {bvh, sd.collider_frames, mo->nframes, xf, dist, 0.0, g->mesh, NULL, 0};
         cr_scene_run_stats run = {0};
         st = cr_scene_run(sim, d->frames, rec, count_inside, &ic, &run, err);
+        cr_bvh_destroy(ic.cloth);
         q->max_inside_share = ic.max_share;
+        q->max_crossings = ic.max_crossings;
         q->max_inside_share_solver = run.max_projected_share;
         q->max_penetration_m = run.max_penetration_m;
         q->frames_done = run.frames;
@@ -486,6 +518,7 @@ static cJSON *manifest(const dataset *ds) {
                 cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
                 cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
                 cJSON_AddNumberToObject(o, "uv_scale_m", gm ? gm->uv_scale_m : 0);
+                cJSON_AddNumberToObject(o, "rest_crossings", (double)ds->rest_crossings[b][g][r]);
                 cJSON_AddItemToArray(garments, o);
             }
     cJSON *seqs = cJSON_AddArrayToObject(j, "sequences");
@@ -505,6 +538,7 @@ static cJSON *manifest(const dataset *ds) {
         cJSON_AddNumberToObject(o, "frames", q->frames_done);
         cJSON_AddNumberToObject(o, "max_inside_share", q->max_inside_share);
         cJSON_AddNumberToObject(o, "max_inside_share_solver", q->max_inside_share_solver);
+        cJSON_AddNumberToObject(o, "max_crossings", (double)q->max_crossings);
         if (q->state == SEQ_FAILED) cJSON_AddStringToObject(o, "failure", q->failure);
         cJSON_AddItemToArray(seqs, o);
     }
