@@ -236,6 +236,7 @@ static void fidelity(const bench_opts *o) {
 }
 
 int main(int argc, char **argv) {
+    cr_parallel_prefer_passive_wait(argv);
     bench_opts o = {.scenes = "ball,torus,prism",
                     .cap = 6000,
                     .samples = 1024,
