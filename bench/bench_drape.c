@@ -220,6 +220,7 @@ static void fidelity(const bench_opts *o) {
             d.variant = (cr_drape_variant)v;
             d.samples = o->samples;
             d.epochs = o->fidelity_epochs;
+            d.stop_at_converged = 0; /* equal epochs for every variant */
             d.quiet = 1;
             d.seed = o->seed;
             cr_drape_result r;

@@ -536,6 +536,33 @@ static cr_status resume(drape_run *r, cr_drape_result *res, cr_error *err) {
 
 /* ----------------------------------------------------------- the loop -- */
 
+/* Epochs at lr / 10 after convergence when the run stops there: the settle
+ * phase the cap's schedule would have run at its end (a run that stops at
+ * convergence never reaches it, and its contacts would be left jittering in
+ * the eps band). */
+static int settle_after(const cr_drape_def *def) {
+    return def->stop_at_converged && def->lr_final < 0.0f ? def->settle_epochs : 0;
+}
+
+/* Move the schedule's one drop by ten to step `step` when it lies later:
+ * a new optimiser with Adam's moments and step count carried over. */
+static cr_status settle_from(drape_run *r, int64_t step, cr_error *err) {
+    cr_optim_def od = *cr_optim_get_def(r->opt);
+    if (od.lr.kind != CR_LR_STEP || od.lr.step_every <= step || step < 1) return CR_OK;
+    od.lr.step_every = step;
+    cr_optim *o = NULL;
+    CR_TRY(cr_optim_create(&od, cr_drape_model_params(r->model), &o, err));
+    int64_t n = 0;
+    cr_nn_params_data(cr_drape_model_params(r->model), &n);
+    for (int k = 0; k < cr_optim_state_count(o); k++)
+        memcpy(cr_optim_state(o, k, NULL), cr_optim_state(r->opt, k, NULL),
+               (size_t)n * sizeof(float));
+    cr_optim_set_step_count(o, cr_optim_step_count(r->opt));
+    cr_optim_destroy(r->opt);
+    r->opt = o;
+    return CR_OK;
+}
+
 /* Record an evaluation at the current epoch and test convergence. */
 static cr_status evaluate_and_log(drape_run *r, cr_drape_result *res, cr_error *err) {
     double t0 = cr_time_now();
@@ -574,15 +601,24 @@ static cr_status train(drape_run *r, cr_drape_result *res, cr_error *err) {
     cr_progress bar;
     cr_progress_begin(&bar, label, def->epochs, def->quiet);
     cr_status st = CR_OK;
+    /* a resumed run that had converged settles from there */
+    if (settle_after(def) > 0 && res->converged_epoch >= 0)
+        st = settle_from(r, res->converged_epoch, err);
     while (res->epochs < def->epochs && st == CR_OK) {
-        if (def->stop_at_converged && res->converged_epoch >= 0) break;
+        if (def->stop_at_converged && res->converged_epoch >= 0 &&
+            res->epochs >= res->converged_epoch + settle_after(def))
+            break;
         double t0 = cr_time_now();
         st = r->structures ? structure_epoch(r, res->epochs, err) : mesh_epoch(r, err);
         res->seconds += cr_time_now() - t0;
         if (st != CR_OK) break;
         res->epochs++;
-        if (res->epochs % def->eval_every == 0 || res->epochs == def->epochs)
+        if (res->epochs % def->eval_every == 0 || res->epochs == def->epochs) {
+            int was = res->converged_epoch;
             st = evaluate_and_log(r, res, err);
+            if (st == CR_OK && was < 0 && res->converged_epoch >= 0 && settle_after(def) > 0)
+                st = settle_from(r, cr_optim_step_count(r->opt), err);
+        }
         if (st == CR_OK && def->out_dir && def->checkpoint_every > 0 &&
             res->epochs % def->checkpoint_every == 0)
             st = save_checkpoint(r, res, err);
