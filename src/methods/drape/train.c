@@ -58,7 +58,9 @@ typedef struct drape_run {
     int structures; /* 1: local-structure variants */
     int drawn;      /* 1 once centre holds this run's samples */
     cr_drape_sampler *sampler;
-    drape_batch train, cells, eval;
+    drape_batch train, cells;
+    drape_batch *eval; /* (ceil(M / EVAL_BATCH)) the fixed structures, built once */
+    int neval_batches, eval_built;
     float *centre, *theta;           /* (N,2), (N) this epoch's samples */
     float *cell_loss;                /* (G*G) */
     float *cell_theta;               /* (G*G) */
@@ -179,7 +181,11 @@ static cr_status setup(drape_run *r, cr_error *err) {
             r->eval_centre[2 * k + 1] = (i + 0.5f) / e;
             r->eval_theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&er));
         }
-    CR_TRY(cr_drape_batch_alloc(&r->eval, EVAL_BATCH, err));
+    r->neval_batches = (int)((r->neval + EVAL_BATCH - 1) / EVAL_BATCH);
+    r->eval = cr_calloc((size_t)r->neval_batches, sizeof *r->eval, err);
+    if (!r->eval) return CR_ERR_MEMORY;
+    for (int k = 0; k < r->neval_batches; k++)
+        CR_TRY(cr_drape_batch_alloc(&r->eval[k], EVAL_BATCH, err));
     if (def->out_dir) {
         CR_TRY(cr_mkdir_p(def->out_dir, err));
         snprintf(r->ckpt_path, sizeof r->ckpt_path, "%s/checkpoint.safetensors", def->out_dir);
@@ -190,7 +196,10 @@ static cr_status setup(drape_run *r, cr_error *err) {
 
 static void run_free(drape_run *r) {
     cr_drape_sampler_destroy(r->sampler);
-    cr_drape_batch_free(&r->train), cr_drape_batch_free(&r->cells), cr_drape_batch_free(&r->eval);
+    cr_drape_batch_free(&r->train), cr_drape_batch_free(&r->cells);
+    for (int k = 0; r->eval && k < r->neval_batches; k++)
+        cr_drape_batch_free(&r->eval[k]);
+    free(r->eval);
     free(r->centre), free(r->theta), free(r->cell_loss), free(r->cell_theta);
     free(r->eval_centre), free(r->eval_theta), free(r->x), free(r->per_structure);
     cr_drape_mesh_losses_free(&r->ml);
@@ -204,32 +213,41 @@ static void run_free(drape_run *r) {
 
 /* ------------------------------------------------------- evaluation -- */
 
-/* Structures at centres (n,2) with angles (n), scored with the current
- * surface under `lc`: weighted sums added into sums[4]; *kept (may be NULL)
- * gets how many fitted on the chart, r->per_structure their totals. */
-static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
-                       const float *theta, int64_t n, double sums[4], int64_t *kept,
-                       cr_error *err) {
-    cr_status st =
-        cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square, err);
-    if (st == CR_OK) st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
+/* The built structures of b scored with the current surface under `lc`:
+ * weighted sums added into sums[4]; *kept (may be NULL) gets how many fitted
+ * on the chart, r->per_structure their totals. */
+static cr_status score_built(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, double sums[4],
+                             int64_t *kept, cr_error *err) {
+    cr_status st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
     if (st == CR_OK) st = cr_drape_batch_eval(r->ctx, lc, b, r->x, sums, r->per_structure, err);
     cr_nn_ctx_reset(r->ctx);
     if (kept) *kept += b->n;
     return st;
 }
 
+/* The same for structures built at centres (n,2) with angles (n). */
+static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
+                       const float *theta, int64_t n, double sums[4], int64_t *kept,
+                       cr_error *err) {
+    CR_TRY(cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square, err));
+    return score_built(r, b, lc, sums, kept, err);
+}
+
 /* Mean weighted terms per fixed structure. */
 static cr_status evaluate(drape_run *r, cr_drape_terms *out, cr_error *err) {
     double sums[4] = {0};
     int64_t kept = 0;
-    cr_status st = CR_OK;
-    for (int64_t s = 0; s < r->neval && st == CR_OK; s += EVAL_BATCH) {
+    /* The fixed structures depend on the rest chart alone: built at the
+     * first evaluation, scored with the current surface at every one. */
+    for (int k = 0; !r->eval_built && k < r->neval_batches; k++) {
+        int64_t s = (int64_t)k * EVAL_BATCH;
         int64_t len = r->neval - s < EVAL_BATCH ? r->neval - s : EVAL_BATCH;
-        st = score(r, &r->eval, &r->lc, r->eval_centre + 2 * s, r->eval_theta + s, len, sums, &kept,
-                   err);
+        CR_TRY(cr_drape_batch_build(&r->eval[k], r->model, r->eval_centre + 2 * s,
+                                    r->eval_theta + s, len, r->def->side, r->scene.square, err));
     }
-    CR_TRY(st);
+    r->eval_built = 1;
+    for (int k = 0; k < r->neval_batches; k++)
+        CR_TRY(score_built(r, &r->eval[k], &r->lc, sums, &kept, err));
     if (kept == 0)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "drape: no evaluation structure fits on the cloth's UV chart");
