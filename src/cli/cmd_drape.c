@@ -76,8 +76,9 @@ void help_drape(void) {
         "  --render-size N      PNG side in pixels (default 1024)\n"
         "  --quiet              no progress bar\n"
         "  --json               end with a JSON summary on stdout\n\n"
-        "The default ball run stops at convergence (epoch 10,500 of seed 1): about 6 CPU-minutes,\n"
-        "7 minutes on a shared 2-core machine (docs/drape.md).\n");
+        "The default ball run stops at convergence (epoch 10,500 of seed 1): about 4.5 "
+        "CPU-minutes,\n"
+        "9 minutes on a loaded 2-core machine (docs/drape.md).\n");
 }
 
 static cJSON *terms_object(const cr_drape_terms *t) {
