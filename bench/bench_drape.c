@@ -220,6 +220,7 @@ static void fidelity(const bench_opts *o) {
             d.variant = (cr_drape_variant)v;
             d.samples = o->samples;
             d.epochs = o->fidelity_epochs;
+            d.stop_at_converged = 0; /* equal epochs for every variant */
             d.quiet = 1;
             d.seed = o->seed;
             cr_drape_result r;
@@ -236,6 +237,7 @@ static void fidelity(const bench_opts *o) {
 }
 
 int main(int argc, char **argv) {
+    cr_parallel_prefer_passive_wait(argv);
     bench_opts o = {.scenes = "ball,torus,prism",
                     .cap = 6000,
                     .samples = 1024,

@@ -557,6 +557,28 @@ CR_TEST(drape, resume_equals_a_straight_run) {
     }
 }
 
+/* The default run stops at convergence after settle_epochs more (at lr / 10);
+ * --no-stop trains to the cap. A loose tolerance converges in tens of epochs. */
+CR_TEST(drape, stops_after_settling_at_convergence) {
+    cr_drape_def d = cr_drape_default_def(CR_DRAPE_BALL);
+    CR_CHECK(d.stop_at_converged == 1 && d.epochs == 15000);
+    d = coarse_def(CR_DRAPE_INR_UNIFORM);
+    d.lr_final = -1.0f;
+    d.settle_epochs = 10;
+    d.converge_window = 20;
+    d.converge_tol = 1.0f;
+    d.epochs = 200;
+    cr_drape_result r;
+    cr_error err = {0};
+    CR_CHECK_OK(cr_drape_run(&d, &r, NULL, &err), &err);
+    CR_CHECK(r.converged_epoch >= 20 && r.converged_epoch < 190);
+    CR_CHECK(r.epochs == r.converged_epoch + 10);
+    d.stop_at_converged = 0;
+    d.epochs = 60;
+    CR_CHECK_OK(cr_drape_run(&d, &r, NULL, &err), &err);
+    CR_CHECK(r.epochs == 60 && r.converged_epoch >= 0);
+}
+
 CR_TEST(drape, outputs_are_written) {
     char dir[512], path[700];
     snprintf(dir, sizeof dir, "%s/drape_outputs", cr_test_tmpdir());

@@ -133,6 +133,15 @@ typedef void (*cr_range_fn)(void *ctx, int64_t begin, int64_t end);
 void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx);
 int cr_thread_count(void);
 void cr_set_thread_count(int n); /* n <= 0: leave as the runtime chose */
+/* For a program's main, before anything else: when neither OMP_WAIT_POLICY
+ * nor GOMP_SPINCOUNT is set, set OMP_WAIT_POLICY=passive and re-execute the
+ * program (argv as given) so the OpenMP runtime reads it at load; returns
+ * only when nothing was done or the re-execution failed. Idle OpenMP threads
+ * then sleep instead of spinning for milliseconds after every parallel
+ * region: on a machine shared with other jobs the spinning threads took the
+ * cores from the working ones (a drape epoch 8x slower on 2 cores at load 5,
+ * docs/drape.md). Built without OpenMP it does nothing. */
+void cr_parallel_prefer_passive_wait(char **argv);
 
 /* ----------------------------------------------------------------- timer -- */
 

@@ -156,11 +156,12 @@ typedef struct cr_drape_def {
     float lr_final;    /* at the last epoch, cosine from lr; < 0: no cosine (default -1) */
     int settle_epochs; /* without a cosine: the last this many epochs (at most half the
                           run) go at lr / 10, so contacts settle out of the eps band
-                          (default 250; 0: constant lr throughout) */
+                          (default 250; 0: constant lr throughout); with
+                          stop_at_converged, the epochs after convergence */
     float beta2;       /* Adam's second-moment decay (default 0.999) */
     float clip;        /* gradient-norm clip, times the running mean of recent norms (default 3;
                           0: off) */
-    int epochs;        /* cap on epochs, >= 1 (default 5000) */
+    int epochs;        /* cap on epochs, >= 1 (default 15000) */
     int samples;       /* N structures per epoch (default 1024) */
 
     /* sampler (structure variants) */
@@ -175,7 +176,8 @@ typedef struct cr_drape_def {
     int eval_every;        /* epochs between evaluations (default 50) */
     int converge_window;   /* epochs (default 2000) */
     float converge_tol;    /* default 0.01 */
-    int stop_at_converged; /* 1: stop there (default 0: train to `epochs`) */
+    int stop_at_converged; /* 1 (default): stop there, after settle_epochs at lr / 10;
+                              0: train to `epochs` */
 
     uint64_t seed; /* initialisation, sampling, rotations (default 1) */
 

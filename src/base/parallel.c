@@ -1,9 +1,24 @@
 /* parallel.c: chunked parallel-for over an index range, on OpenMP when built with it. */
 #include "crease/base.h"
 
+#include <stdlib.h>
+#include <unistd.h>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
+
+void cr_parallel_prefer_passive_wait(char **argv) {
+#ifdef _OPENMP
+    if (!argv || getenv("OMP_WAIT_POLICY") || getenv("GOMP_SPINCOUNT")) return;
+    if (setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
+    execv("/proc/self/exe", argv);
+    /* no /proc or exec refused: go on with the runtime's default policy */
+    unsetenv("OMP_WAIT_POLICY");
+#else
+    (void)argv;
+#endif
+}
 
 int cr_thread_count(void) {
 #ifdef _OPENMP

@@ -59,6 +59,7 @@ static void usage(FILE *to) {
 }
 
 int main(int argc, char **argv) {
+    cr_parallel_prefer_passive_wait(argv);
     if (argc < 2) {
         usage(stderr);
         return CLI_USAGE;

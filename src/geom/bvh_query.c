@@ -275,7 +275,10 @@ int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist,
         if (n->count > 0) {
             for (int32_t k = 0; k < n->count; k++) {
                 const int32_t *t = &b->tri[3 * (size_t)b->order[n->start + k]];
-                for (int c = 0; c < 3; c++) {
+                /* a one-vertex face (v, v, v), as in a tree of vertices alone
+                 * (drape_collision.c): one corner is all three */
+                const int corners = t[1] == t[0] && t[2] == t[0] ? 1 : 3;
+                for (int c = 0; c < corners; c++) {
                     const float *q = &b->pos[3 * (size_t)t[c]];
                     double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1],
                            dz = (double)p[2] - q[2];

@@ -106,6 +106,32 @@ static void forward_range(void *p, int64_t begin, int64_t end) {
     }
 }
 
+/* Forward with the gradient as well: values into val, the unscaled
+ * gradients into stash (NE, nvert, 3) for backward to scale. */
+static void forward_grad_range(void *p, int64_t begin, int64_t end) {
+    const range_job *j = p;
+    const int n = 3 * j->s->nvert;
+    double xe[3 * CR_ENERGY_MAX_VERTS];
+    for (int64_t e = begin; e < end; e++) {
+        gather_element(j, (int32_t)e, xe);
+        j->val[e] = j->s->kernel(j->s, j->b, (int32_t)e, xe, j->aux ? j->aux[e] : 0.0,
+                                 j->stash + n * e, NULL);
+    }
+}
+
+/* Scale forward's gradients by the output grad, in place (the same product
+ * c * g the kernel call below makes, so the same bits). */
+static void scale_range(void *p, int64_t begin, int64_t end) {
+    const range_job *j = p;
+    const loss_spec *s = j->s;
+    const int n = 3 * s->nvert;
+    for (int64_t e = begin; e < end; e++) {
+        const double c = s->weight * (s->per_element ? j->gout[e] : j->gout[0]);
+        for (int k = 0; k < n; k++)
+            j->stash[n * e + k] = c * j->stash[n * e + k];
+    }
+}
+
 static void backward_range(void *p, int64_t begin, int64_t end) {
     const range_job *j = p;
     const loss_spec *s = j->s;
@@ -146,7 +172,7 @@ static void gather_range(void *p, int64_t begin, int64_t end) {
 
 static cr_status loss_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
                               cr_tensor *const *out, int nout, void **stash, cr_error *err) {
-    (void)nout, (void)stash;
+    (void)nout;
     loss_spec *s = op->user;
     int64_t B = 0;
     CR_TRY(check_inputs(s, in, nin, &B, err));
@@ -155,14 +181,27 @@ static cr_status loss_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *
     if (!val) return CR_FAIL(err, CR_ERR_MEMORY, "loss_energy(%s): arena full", s->term);
     const cr_tensor *aux = s->has_aux ? in[s->npos] : NULL;
     const int64_t aux_stride = aux && aux->ndim == 2 ? NE : 0;
+    /* One item whose positions will get a gradient (and no aux gradient):
+     * the kernel's gradient comes with its value here, and backward only
+     * scales it, instead of calling the kernel again (for the drape's
+     * collision term that is a second nearest-vertex search per point). */
+    int need_x = 0;
+    for (int q = 0; q < s->npos; q++)
+        need_x |= in[q]->requires_grad;
+    double *g = NULL;
+    if (B == 1 && need_x && !(aux && aux->requires_grad) && cr_nn_ctx_grad_enabled(ctx)) {
+        g = cr_nn_scratch(ctx, "loss_energy", sizeof(double) * (size_t)(3 * NE * s->nvert + 1));
+        if (!g) return CR_FAIL(err, CR_ERR_MEMORY, "loss_energy(%s): arena full", s->term);
+    }
+    *stash = g;
     float *y = out[0]->data;
     for (int64_t b = 0; b < B; b++) {
-        range_job j = {.s = s, .b = b, .val = val};
+        range_job j = {.s = s, .b = b, .val = val, .stash = g};
         for (int q = 0; q < s->npos; q++)
             j.x[q] = in[q]->data + 3 * V * b;
         if (aux) j.aux = aux->data + aux_stride * b;
         if (s->prepare) CR_TRY(s->prepare(s, b, j.x[0], err));
-        cr_parallel_for(NE, ELEM_GRAIN, forward_range, &j);
+        cr_parallel_for(NE, ELEM_GRAIN, g ? forward_grad_range : forward_range, &j);
         if (s->per_element) {
             for (int64_t e = 0; e < NE; e++)
                 y[NE * b + e] = (float)(s->weight * val[e]);
@@ -178,7 +217,7 @@ static cr_status loss_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *
 
 static cr_status loss_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
                                cr_tensor *const *out, int nout, void *stash, cr_error *err) {
-    (void)nin, (void)nout, (void)stash;
+    (void)nin, (void)nout;
     const loss_spec *s = op->user;
     const int64_t NE = s->nelem, V = s->V, P = s->npos * V, n = NE * s->nvert;
     const int64_t B = in[0]->ndim == 3 ? in[0]->shape[0] : 1;
@@ -194,7 +233,8 @@ static cr_status loss_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
         /* vertex -> slots CSR, slots in increasing element order */
         start = cr_nn_scratch(ctx, "loss_energy", sizeof(int32_t) * (size_t)(P + 1));
         slot = cr_nn_scratch(ctx, "loss_energy", sizeof(int32_t) * (size_t)(n + 1));
-        st = cr_nn_scratch(ctx, "loss_energy", sizeof(double) * (size_t)(3 * n + 1));
+        st =
+            stash ? stash : cr_nn_scratch(ctx, "loss_energy", sizeof(double) * (size_t)(3 * n + 1));
         if (!start || !slot || !st)
             return CR_FAIL(err, CR_ERR_MEMORY, "loss_energy(%s): arena full", s->term);
         memset(start, 0, sizeof(int32_t) * (size_t)(P + 1));
@@ -220,7 +260,7 @@ static cr_status loss_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
             j.aux = aux->data + aux_stride * b;
             j.aux_grad = need_aux ? aux->grad + aux_stride * b : NULL;
         }
-        cr_parallel_for(NE, ELEM_GRAIN, backward_range, &j);
+        cr_parallel_for(NE, ELEM_GRAIN, stash ? scale_range : backward_range, &j);
         if (need_x) cr_parallel_for(V, VERT_GRAIN, gather_range, &j);
     }
     return CR_OK;

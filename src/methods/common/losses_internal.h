@@ -8,7 +8,8 @@
  * element, e.g. a rest angle) and a per-item kernel. Forward runs the kernel
  * (values only) over the elements of each item; backward runs it again with
  * gradients, scaled by the output grad, into a per-item stash (nelem, nvert,
- * 3) of doubles, then gathers each vertex's slots in element order through a
+ * 3) of doubles (for one item needing position grads, forward already took
+ * the gradients with the values and backward scales them), then gathers each vertex's slots in element order through a
  * vertex -> slot CSR. Both loops are cr_parallel_for over independent
  * elements / vertices, so the bits do not depend on the thread count.
  */

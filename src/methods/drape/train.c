@@ -58,7 +58,9 @@ typedef struct drape_run {
     int structures; /* 1: local-structure variants */
     int drawn;      /* 1 once centre holds this run's samples */
     cr_drape_sampler *sampler;
-    drape_batch train, cells, eval;
+    drape_batch train, cells;
+    drape_batch *eval; /* (ceil(M / EVAL_BATCH)) the fixed structures, built once */
+    int neval_batches, eval_built;
     float *centre, *theta;           /* (N,2), (N) this epoch's samples */
     float *cell_loss;                /* (G*G) */
     float *cell_theta;               /* (G*G) */
@@ -179,7 +181,11 @@ static cr_status setup(drape_run *r, cr_error *err) {
             r->eval_centre[2 * k + 1] = (i + 0.5f) / e;
             r->eval_theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&er));
         }
-    CR_TRY(cr_drape_batch_alloc(&r->eval, EVAL_BATCH, err));
+    r->neval_batches = (int)((r->neval + EVAL_BATCH - 1) / EVAL_BATCH);
+    r->eval = cr_calloc((size_t)r->neval_batches, sizeof *r->eval, err);
+    if (!r->eval) return CR_ERR_MEMORY;
+    for (int k = 0; k < r->neval_batches; k++)
+        CR_TRY(cr_drape_batch_alloc(&r->eval[k], EVAL_BATCH, err));
     if (def->out_dir) {
         CR_TRY(cr_mkdir_p(def->out_dir, err));
         snprintf(r->ckpt_path, sizeof r->ckpt_path, "%s/checkpoint.safetensors", def->out_dir);
@@ -190,7 +196,10 @@ static cr_status setup(drape_run *r, cr_error *err) {
 
 static void run_free(drape_run *r) {
     cr_drape_sampler_destroy(r->sampler);
-    cr_drape_batch_free(&r->train), cr_drape_batch_free(&r->cells), cr_drape_batch_free(&r->eval);
+    cr_drape_batch_free(&r->train), cr_drape_batch_free(&r->cells);
+    for (int k = 0; r->eval && k < r->neval_batches; k++)
+        cr_drape_batch_free(&r->eval[k]);
+    free(r->eval);
     free(r->centre), free(r->theta), free(r->cell_loss), free(r->cell_theta);
     free(r->eval_centre), free(r->eval_theta), free(r->x), free(r->per_structure);
     cr_drape_mesh_losses_free(&r->ml);
@@ -204,32 +213,41 @@ static void run_free(drape_run *r) {
 
 /* ------------------------------------------------------- evaluation -- */
 
-/* Structures at centres (n,2) with angles (n), scored with the current
- * surface under `lc`: weighted sums added into sums[4]; *kept (may be NULL)
- * gets how many fitted on the chart, r->per_structure their totals. */
-static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
-                       const float *theta, int64_t n, double sums[4], int64_t *kept,
-                       cr_error *err) {
-    cr_status st =
-        cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square, err);
-    if (st == CR_OK) st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
+/* The built structures of b scored with the current surface under `lc`:
+ * weighted sums added into sums[4]; *kept (may be NULL) gets how many fitted
+ * on the chart, r->per_structure their totals. */
+static cr_status score_built(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, double sums[4],
+                             int64_t *kept, cr_error *err) {
+    cr_status st = cr_drape_model_eval(r->ctx, r->model, b->uv, b->p0, 6 * b->n, r->x, err);
     if (st == CR_OK) st = cr_drape_batch_eval(r->ctx, lc, b, r->x, sums, r->per_structure, err);
     cr_nn_ctx_reset(r->ctx);
     if (kept) *kept += b->n;
     return st;
 }
 
+/* The same for structures built at centres (n,2) with angles (n). */
+static cr_status score(drape_run *r, drape_batch *b, const drape_loss_ctx *lc, const float *centre,
+                       const float *theta, int64_t n, double sums[4], int64_t *kept,
+                       cr_error *err) {
+    CR_TRY(cr_drape_batch_build(b, r->model, centre, theta, n, r->def->side, r->scene.square, err));
+    return score_built(r, b, lc, sums, kept, err);
+}
+
 /* Mean weighted terms per fixed structure. */
 static cr_status evaluate(drape_run *r, cr_drape_terms *out, cr_error *err) {
     double sums[4] = {0};
     int64_t kept = 0;
-    cr_status st = CR_OK;
-    for (int64_t s = 0; s < r->neval && st == CR_OK; s += EVAL_BATCH) {
+    /* The fixed structures depend on the rest chart alone: built at the
+     * first evaluation, scored with the current surface at every one. */
+    for (int k = 0; !r->eval_built && k < r->neval_batches; k++) {
+        int64_t s = (int64_t)k * EVAL_BATCH;
         int64_t len = r->neval - s < EVAL_BATCH ? r->neval - s : EVAL_BATCH;
-        st = score(r, &r->eval, &r->lc, r->eval_centre + 2 * s, r->eval_theta + s, len, sums, &kept,
-                   err);
+        CR_TRY(cr_drape_batch_build(&r->eval[k], r->model, r->eval_centre + 2 * s,
+                                    r->eval_theta + s, len, r->def->side, r->scene.square, err));
     }
-    CR_TRY(st);
+    r->eval_built = 1;
+    for (int k = 0; k < r->neval_batches; k++)
+        CR_TRY(score_built(r, &r->eval[k], &r->lc, sums, &kept, err));
     if (kept == 0)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "drape: no evaluation structure fits on the cloth's UV chart");
@@ -536,6 +554,33 @@ static cr_status resume(drape_run *r, cr_drape_result *res, cr_error *err) {
 
 /* ----------------------------------------------------------- the loop -- */
 
+/* Epochs at lr / 10 after convergence when the run stops there: the settle
+ * phase the cap's schedule would have run at its end (a run that stops at
+ * convergence never reaches it, and its contacts would be left jittering in
+ * the eps band). */
+static int settle_after(const cr_drape_def *def) {
+    return def->stop_at_converged && def->lr_final < 0.0f ? def->settle_epochs : 0;
+}
+
+/* Move the schedule's one drop by ten to step `step` when it lies later:
+ * a new optimiser with Adam's moments and step count carried over. */
+static cr_status settle_from(drape_run *r, int64_t step, cr_error *err) {
+    cr_optim_def od = *cr_optim_get_def(r->opt);
+    if (od.lr.kind != CR_LR_STEP || od.lr.step_every <= step || step < 1) return CR_OK;
+    od.lr.step_every = step;
+    cr_optim *o = NULL;
+    CR_TRY(cr_optim_create(&od, cr_drape_model_params(r->model), &o, err));
+    int64_t n = 0;
+    cr_nn_params_data(cr_drape_model_params(r->model), &n);
+    for (int k = 0; k < cr_optim_state_count(o); k++)
+        memcpy(cr_optim_state(o, k, NULL), cr_optim_state(r->opt, k, NULL),
+               (size_t)n * sizeof(float));
+    cr_optim_set_step_count(o, cr_optim_step_count(r->opt));
+    cr_optim_destroy(r->opt);
+    r->opt = o;
+    return CR_OK;
+}
+
 /* Record an evaluation at the current epoch and test convergence. */
 static cr_status evaluate_and_log(drape_run *r, cr_drape_result *res, cr_error *err) {
     double t0 = cr_time_now();
@@ -574,15 +619,24 @@ static cr_status train(drape_run *r, cr_drape_result *res, cr_error *err) {
     cr_progress bar;
     cr_progress_begin(&bar, label, def->epochs, def->quiet);
     cr_status st = CR_OK;
+    /* a resumed run that had converged settles from there */
+    if (settle_after(def) > 0 && res->converged_epoch >= 0)
+        st = settle_from(r, res->converged_epoch, err);
     while (res->epochs < def->epochs && st == CR_OK) {
-        if (def->stop_at_converged && res->converged_epoch >= 0) break;
+        if (def->stop_at_converged && res->converged_epoch >= 0 &&
+            res->epochs >= res->converged_epoch + settle_after(def))
+            break;
         double t0 = cr_time_now();
         st = r->structures ? structure_epoch(r, res->epochs, err) : mesh_epoch(r, err);
         res->seconds += cr_time_now() - t0;
         if (st != CR_OK) break;
         res->epochs++;
-        if (res->epochs % def->eval_every == 0 || res->epochs == def->epochs)
+        if (res->epochs % def->eval_every == 0 || res->epochs == def->epochs) {
+            int was = res->converged_epoch;
             st = evaluate_and_log(r, res, err);
+            if (st == CR_OK && was < 0 && res->converged_epoch >= 0 && settle_after(def) > 0)
+                st = settle_from(r, cr_optim_step_count(r->opt), err);
+        }
         if (st == CR_OK && def->out_dir && def->checkpoint_every > 0 &&
             res->epochs % def->checkpoint_every == 0)
             st = save_checkpoint(r, res, err);
