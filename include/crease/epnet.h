@@ -62,7 +62,8 @@ typedef struct cr_epnet_def {
     int32_t garment_vertices;   /* template target vertex count (default 600; authors ~4-5k) */
     const char *body;           /* mannequin preset (default "normal") */
     const char *const *motions; /* training clips (motion.h names) or files; default the
-                                   five procedural clips walk, squat, twist, dance, jump */
+                                   eight procedural clips walk, squat, twist, dance, jump,
+                                   reach, lean, stretch (raise_arms and bend held out) */
     int nmotions;
     int32_t frames; /* frames per training clip (default 60 = 2 s; authors 93 = 3 s) */
     float fps;      /* default 30 (dt 1/30 s, the authors') */

