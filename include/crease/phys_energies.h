@@ -8,8 +8,8 @@
  * alive while the term is used. Formulas and sources: docs/physics.md.
  *
  *   energy     element   E per element                                        file
- *   membrane   triangle  A0 psi(F), F = Ds Dm^-1; StVK or Baraff-Witkin       membrane_stvk.c, _bw.c
- *   bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
+ *   membrane   triangle  A0 psi(F), F = Ds Dm^-1; StVK or Baraff-Witkin       membrane_stvk.c,
+ * _bw.c bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
  *   gravity    vertex    -m_i g . x_i                                         gravity.c
  *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
  *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
@@ -105,6 +105,11 @@ void cr_bending_term(const cr_bending *b, cr_energy_term *out);
  * dE/dtheta_rest = -k_e (theta - theta_rest), wrapped as the energy is. */
 double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
                               double *g, double *H, double *g_rest);
+/* Hinge h's angle residual wrap(theta(xe) - theta_rest) in (-pi, pi], rad,
+ * wrapped as the energy is, and g (12, may be NULL) its gradient
+ * d theta / d xe (zero on a degenerate hinge). */
+double cr_bending_residual(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                           double *g);
 
 /* ------------------------------------------------------------- gravity -- */
 
@@ -143,8 +148,7 @@ void cr_collision_destroy(cr_collision *c);
  * distance to the collider at x, m, negative inside; normal (V,3) the unit
  * outward normal at the closest point. A vertex the query did not reach may
  * carry any dist >= eps (e.g. the query's max_dist) and a zero normal. */
-void cr_collision_update(cr_collision *c, const double *x, const float *dist,
-                         const float *normal);
+void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal);
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
@@ -234,8 +238,8 @@ void cr_pin_term(const cr_pin *p, cr_energy_term *out);
 typedef struct cr_friction cr_friction;
 /* eps_v: slip (m over one step) below which friction acts as static (IPC's
  * eps_v h; 1e-4 m is a fair start at h = 1/30 s). */
-cr_status cr_friction_create(int32_t nv, const cr_material *mat, double eps_v,
-                             cr_friction **out, cr_error *err);
+cr_status cr_friction_create(int32_t nv, const cr_material *mat, double eps_v, cr_friction **out,
+                             cr_error *err);
 void cr_friction_destroy(cr_friction *f);
 /* Once per step, after cr_collision_update at the step-start positions:
  * freeze lambda_i and T_i from c's contacts, and the anchors x_start + db.
