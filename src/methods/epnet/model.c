@@ -72,6 +72,7 @@ cr_epnet_def cr_epnet_default_def(void) {
     cr_epnet_material(&d.material);
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
     d.w_pin = 100.0;
+    d.w_rb_response = 0; /* off: at 1 and 0.1 it raised BED and PE on the held-out motions */
     d.sharpness = 50;
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
