@@ -12,11 +12,11 @@ json_between() {
 }
 
 check "motion --help" bash -c "'$crease' motion --help | grep -q usage"
-check "motion --list: 10 clips" bash -c "[[ \$('$crease' motion --list | wc -l) -eq 10 ]]"
+check "motion --list: 13 clips" bash -c "[[ \$('$crease' motion --list | wc -l) -eq 13 ]]"
 check "motion --list --json" bash -c "'$crease' motion --list --json | grep -q '\"name\":\"raise_arms\"'"
 
 # --- every clip, 40 frames, written and read back -----------------------------------------
-for clip in walk run jump bend raise_arms squat twist dance stairs dodge; do
+for clip in walk run jump bend raise_arms squat twist dance stairs dodge reach lean stretch; do
   check "clip $clip" bash -c "'$crease' motion --clip $clip --frames 40 -o '$tmp/$clip.npz' --json \
     > '$tmp/$clip.json'"
   check "clip $clip back" bash -c "'$crease' motion --input '$tmp/$clip.npz' --json > '$tmp/$clip.in.json'"

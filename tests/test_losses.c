@@ -385,6 +385,11 @@ static cr_tensor *build_bending(cr_nn_ctx *ctx, cr_tensor *const *in, void *user
     return cr_loss_bending(ctx, j->c->bend, j->weight, in[0], in[1]);
 }
 
+static cr_tensor *build_residual(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const item_job *j = user;
+    return cr_loss_hinge_residual(ctx, j->c->bend, j->weight, in[0], in[1]);
+}
+
 static cr_tensor *build_inertia(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     const item_job *j = user;
     return cr_loss_inertia(ctx, j->mass, j->c->V, j->h, j->weight, in[0], in[1], in[2]);
@@ -422,6 +427,53 @@ static float *random_angles(int64_t n, double amp, uint64_t seed) {
     for (int64_t i = 0; i < n; i++)
         r[i] = (float)(amp * (2.0 * cr_rng_uniform(&g) - 1.0));
     return r;
+}
+
+/* Hinge residuals: the values are the hinges' angles minus the rest, wrapped
+ * (checked against cr_bending_angles, including a rest past pi), and the
+ * gradients to x and to the rest match central differences. */
+CR_TEST(losses, hinge_residual_values_and_gradients) {
+    cloth c;
+    CR_REQUIRE(cloth_make(&c, 4, 0.3f, CR_MEMBRANE_STVK));
+    const int B = 2;
+    const int32_t H = cr_bending_count(c.bend), V = c.V;
+    float *x = states(&c, B, 0.01, 29), *rest = random_angles((int64_t)B * H, 0.4, 5);
+    rest[3] += (float)(2.0 * M_PI); /* wraps back to the same residual */
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)8 << 20);
+    cr_tensor *xt = cr_nn_wrap(ctx, 3, (int64_t[]){B, V, 3}, x);
+    cr_tensor *rt = cr_nn_wrap(ctx, 2, (int64_t[]){B, H}, rest);
+    cr_tensor *r = cr_loss_hinge_residual(ctx, c.bend, 2.0, xt, rt);
+    cr_tensor *own = cr_loss_hinge_residual(ctx, c.bend, 1.0, xt, NULL);
+    CR_REQUIRE(r && own && r->ndim == 2 && r->shape[0] == B && r->shape[1] == H);
+    double *xd = malloc(sizeof(double) * 3 * (size_t)V), *th = malloc(sizeof(double) * (size_t)H);
+    const double *rest0 = cr_bending_rest_angles(c.bend);
+    double worst = 0, worst_own = 0, biggest = 0;
+    for (int b = 0; b < B; b++) {
+        for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+            xd[i] = x[3 * (int64_t)V * b + i];
+        cr_bending_angles(c.bend, xd, th);
+        for (int32_t h = 0; h < H; h++) {
+            double want = th[h] - rest[(int64_t)b * H + h];
+            want = remainder(want, 2.0 * M_PI);
+            worst = fmax(worst, fabs(r->data[(int64_t)b * H + h] - 2.0 * want));
+            worst_own = fmax(worst_own, fabs(own->data[(int64_t)b * H + h] - (th[h] - rest0[h])));
+            biggest = fmax(biggest, fabs(want));
+        }
+    }
+    CR_CHECK(worst < 1e-5 && worst_own < 1e-5);
+    CR_CHECK(biggest > 0.1); /* the residuals are not all near zero */
+    free(xd), free(th);
+    cr_nn_ctx_destroy(ctx);
+    item_job j = {.c = &c};
+    nn_gradcheck_input in[2] = {nn_gradcheck_in(3, (int64_t[]){B, V, 3}, x),
+                                nn_gradcheck_in(2, (int64_t[]){B, H}, rest)};
+    for (int which = 0; which < 2; which++) {
+        in[0].requires_grad = which == 0, in[1].requires_grad = which == 1;
+        CR_CHECK(check_items(which ? "residual d/d(rest)" : "residual d/dx", build_residual, &j, 2,
+                             in, 1e-3, 3e-3) == 0);
+    }
+    free(x), free(rest);
+    cloth_destroy(&c);
 }
 
 CR_TEST(losses, gradient_bending_rest_per_item) {

@@ -93,7 +93,7 @@ CR_TEST(motion, clips_start_at_rest_and_stay_smooth_and_human) {
     cr_error err = {0};
     int n = 0;
     const char *const *names = cr_motion_clip_names(&n);
-    CR_CHECK(n == 10 && names[10] == NULL);
+    CR_CHECK(n == 13 && names[13] == NULL);
     const double elbow_axis[2][3] = {{-M_SQRT1_2, -M_SQRT1_2, 0}, {-M_SQRT1_2, M_SQRT1_2, 0}};
     for (int c = 0; c < n; c++) {
         cr_motion *m = NULL;
@@ -195,6 +195,31 @@ CR_TEST(motion, clips_move_limbs_the_right_way) {
     bone_dir(m, 60, CR_JOINT_SPINE3, 0, 1, 0, d);
     bone_dir(m, 60, CR_JOINT_LEFT_HIP, 0, -1, 0, e);
     CR_CHECK(d[2] > 0.9 && e[1] < -0.99);
+    cr_motion_destroy(m);
+    /* reach at 0.5 s: the left arm overhead, the right one down; at 1.5 s the right arm up. */
+    CR_CHECK_OK(cr_motion_clip("reach", 46, 30, &m, &err), &err);
+    bone_dir(m, 15, CR_JOINT_LEFT_SHOULDER, 1, -1, 0, d);
+    bone_dir(m, 15, CR_JOINT_RIGHT_SHOULDER, -1, -1, 0, e);
+    CR_CHECK(d[1] > 0.85 && e[1] < -0.5);
+    bone_dir(m, 45, CR_JOINT_RIGHT_SHOULDER, -1, -1, 0, e);
+    CR_CHECK(e[1] > 0.9);
+    cr_motion_destroy(m);
+    /* lean at 0.6 s: the chest tipped forward about 1.25 rad, the thighs vertical;
+     * at 1.8 s (the second lean) the chest leans to the body's left (+X). */
+    CR_CHECK_OK(cr_motion_clip("lean", 55, 30, &m, &err), &err);
+    bone_dir(m, 18, CR_JOINT_SPINE3, 0, 1, 0, d);
+    bone_dir(m, 18, CR_JOINT_LEFT_HIP, 0, -1, 0, e);
+    CR_CHECK(d[2] > 0.9 && e[1] < -0.99);
+    bone_dir(m, 54, CR_JOINT_SPINE3, 0, 1, 0, d);
+    CR_CHECK(d[0] > 0.3 && fabs(d[2]) < 0.1);
+    cr_motion_destroy(m);
+    /* stretch at 1.2 s: both arms up and forward, the chest bent to the left. */
+    CR_CHECK_OK(cr_motion_clip("stretch", 37, 30, &m, &err), &err);
+    bone_dir(m, 36, CR_JOINT_LEFT_SHOULDER, 1, -1, 0, d);
+    bone_dir(m, 36, CR_JOINT_RIGHT_SHOULDER, -1, -1, 0, e);
+    CR_CHECK(d[1] > 0.6 && e[1] > 0.6 && d[2] > 0.2 && e[2] > 0.2);
+    bone_dir(m, 36, CR_JOINT_SPINE3, 0, 1, 0, d);
+    CR_CHECK(d[0] > 0.2);
     cr_motion_destroy(m);
     /* run: forearms come forward; jump: 0.25 m of flight; stairs climb. */
     CR_CHECK_OK(cr_motion_clip("run", 60, 30, &m, &err), &err);

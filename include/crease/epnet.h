@@ -62,7 +62,8 @@ typedef struct cr_epnet_def {
     int32_t garment_vertices;   /* template target vertex count (default 600; authors ~4-5k) */
     const char *body;           /* mannequin preset (default "normal") */
     const char *const *motions; /* training clips (motion.h names) or files; default the
-                                   five procedural clips walk, squat, twist, dance, jump */
+                                   eight procedural clips walk, squat, twist, dance, jump,
+                                   reach, lean, stretch (raise_arms and bend held out) */
     int nmotions;
     int32_t frames; /* frames per training clip (default 60 = 2 s; authors 93 = 3 s) */
     float fps;      /* default 30 (dt 1/30 s, the authors') */
@@ -70,14 +71,18 @@ typedef struct cr_epnet_def {
     cr_material material; /* epnet preset: density 0.2, Baraff-Witkin stretch 20, shear 2,
                              bending 0.002, collision 4 mm, yield 0.52 rad, gain 1 */
     double w_stretch, w_shear, w_bending, w_gravity, w_collision, w_inertia; /* all 1 */
-    double pin_top;     /* m: rest vertices within this of the garment's top are pinned to their
-                           skinned positions (the loss's pinning term and the reference's pins):
-                           a waistband, which the loss (no friction) cannot hold up otherwise.
-                           Default 0 (none); train's default for a skirt or trousers 0.01 */
-    double w_pin;       /* pinning weight, J/m^2 per vertex (default 100, the authors') */
-    double sharpness;   /* Eq. 5 sigmoid sharpness (default 50) */
-    int inertia_detach; /* 1: the inertia term's frames t-1, t-2 held fixed (implicit Euler
-                           per frame); 0: gradients through all three (default 0) */
+    double pin_top;       /* m: rest vertices within this of the garment's top are pinned to their
+                             skinned positions (the loss's pinning term and the reference's pins):
+                             a waistband, which the loss (no friction) cannot hold up otherwise.
+                             Default 0 (none); train's default for a skirt or trousers 0.01 */
+    double w_pin;         /* pinning weight, J/m^2 per vertex (default 100, the authors') */
+    double w_rb_response; /* RB response (the authors' unnamed loss; our form, docs/epnet.md):
+                             w sum_h |RB_h| (theta_h - theta_bar_h - RB_h)^2 per frame, rad^3:
+                             pulls E-Net's hinges that carry RB toward their rest angle + RB,
+                             in proportion to |RB|. 0: off */
+    double sharpness;     /* Eq. 5 sigmoid sharpness (default 50) */
+    int inertia_detach;   /* 1: the inertia term's frames t-1, t-2 held fixed (implicit Euler
+                             per frame); 0: gradients through all three (default 0) */
     /* E-Net sizes (authors: static 64-128-256-512, dynamic 2x32 + 2x512 + GRU 512,
      * RB 256-128-64, decoder 3x512) */
     int static_widths[CR_EPNET_MAX_LAYERS]; /* default 32, 64 */
@@ -126,12 +131,12 @@ int32_t cr_epnet_hinge_count(const cr_epnet *m);
 int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
 
 /* Loss terms of one forward pass, J per frame. */
-enum { CR_EPNET_NTERMS = 7 };
+enum { CR_EPNET_NTERMS = 8 };
 extern const char *const cr_epnet_term_names[CR_EPNET_NTERMS];
 typedef struct cr_epnet_losses {
     double total;
     double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia,
-                                     pinning */
+                                     pinning, rb_response (each weighted) */
 } cr_epnet_losses;
 
 /* A sequence the model runs on: a motion (clip name or file) on a body

@@ -56,6 +56,15 @@ cr_tensor *cr_loss_weighted_sum(cr_nn_ctx *ctx, cr_tensor *const *terms, const f
 cr_tensor *cr_loss_bending(cr_nn_ctx *ctx, const cr_bending *b, double weight, cr_tensor *x,
                            cr_tensor *rest);
 
+/* Hinge angle residuals, not an energy: weight wrap(theta_h(x) - rest_h) per
+ * hinge of b, rad, wrapped into (-pi, pi] as the bending energy is.
+ * x (B,V,3) gives (B,H), x (V,3) gives (H); rest (B,H) or (H), rad; NULL:
+ * b's own. Gradients flow to x (weight d theta/dx) and, when rest
+ * requires grad, to rest (-weight). For losses on the angles themselves,
+ * built from the tape's ops (epnet's RB response). */
+cr_tensor *cr_loss_hinge_residual(cr_nn_ctx *ctx, const cr_bending *b, double weight, cr_tensor *x,
+                                  cr_tensor *rest);
+
 /* Implicit Euler's inertia over three consecutive states, each (B,V,3):
  *     E = sum_i m_i / (2 h^2) |x_t - 2 x_{t-1} + x_{t-2}|^2,
  * cr_inertia's energy with x_pred = 2 x_{t-1} - x_{t-2}; gradients flow to

@@ -105,6 +105,11 @@ void cr_bending_term(const cr_bending *b, cr_energy_term *out);
  * dE/dtheta_rest = -k_e (theta - theta_rest), wrapped as the energy is. */
 double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
                               double *g, double *H, double *g_rest);
+/* Hinge h's angle residual wrap(theta(xe) - theta_rest) in (-pi, pi], rad,
+ * wrapped as the energy is, and g (12, may be NULL) its gradient
+ * d theta / d xe (zero on a degenerate hinge). */
+double cr_bending_residual(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                           double *g);
 
 /* ------------------------------------------------------------- gravity -- */
 

@@ -1,5 +1,6 @@
 /* motion_clips.c: procedural motion clips for garment simulation: walk, run,
- * jump, bend, raise_arms, squat, twist, dance, stairs and dodge.
+ * jump, bend, raise_arms, squat, twist, dance, stairs, dodge, reach, lean and
+ * stretch.
  *
  * Each clip is a function of time built from a handful of joint angles
  * (sinusoids for cycles, smooth bumps for phases such as a jump's crouch,
@@ -293,6 +294,116 @@ static void clip_dodge(clip_frame *c) {
     c->trans[1] = c->ramp * -0.15 * duck;
 }
 
+/* Clips whose every repetition is aimed elsewhere: repetition n of a cycle
+ * of `period` s uses entry n % count of a table, and the entries change only
+ * where the repetition's bump is zero with zero slope, so the clip stays C1. */
+static int repetition(double ph, double period, double *u) {
+    double k = floor(ph / period);
+    *u = ph / period - k;
+    return (int)k;
+}
+
+/* One arm at a time reaching out and back, 1 s a reach, left and right in
+ * turn, each reach aimed elsewhere: overhead out to the side, straight up,
+ * forward and up, up and forward, forward at shoulder height (the table has
+ * five entries, so over ten reaches each arm goes everywhere). The collar
+ * lifts on high reaches, the chest leans a little away from the reaching
+ * arm, the other arm swings a little. Arm directions of the entries (left
+ * arm, unit vector, +Y up, +Z forward): (0.09, 0.98, 0.17), (-0.04, 1.00,
+ * 0.04), (0.57, 0.42, 0.71), (0.27, 0.70, 0.66), (0.75, -0.14, 0.65).
+ * Covers raise_arms' range of shoulder poses one arm at a time, faster and
+ * in other directions; it is not that motion. */
+static void clip_reach(clip_frame *c) {
+    static const struct {
+        double raise, swing, elbow, shrug, lean;
+    } to[5] = {
+        {1.95, 0.25, 0.15, 0.30, 0.10}, /* overhead, out to the side */
+        {2.05, 0.05, 0.10, 0.35, 0.12}, /* straight up */
+        {0.45, 1.60, 0.10, 0.15, 0.00}, /* forward and up */
+        {1.30, 1.20, 0.30, 0.25, 0.05}, /* up and forward */
+        {0.15, 1.15, 0.40, 0.05, 0.00}, /* forward, shoulder height */
+    };
+    double u;
+    const int n = repetition(c->ph, 1.0, &u), side = n % 2, k = n % 5;
+    const double b = bump(u, 0.0, 1.0);
+    shrug(c, side, to[k].shrug * b);
+    arm_raise(c, side, to[k].raise * b);
+    arm_swing(c, side, to[k].swing * b);
+    elbow_flex(c, side, to[k].elbow * b);
+    arm_swing(c, 1 - side, 0.2 * b);
+    elbow_flex(c, 1 - side, 0.2 * b);
+    lean(c, CR_JOINT_SPINE2, (side ? 1 : -1) * to[k].lean * b); /* away from the arm */
+    bend(c, CR_JOINT_SPINE3, -0.05 * b * (to[k].raise > 1.0));
+}
+
+/* Leaning the torso, 1.2 s a lean, to a different depth or side each time:
+ * forward by 1.25, 0.65 and 0.95 rad in all over the pelvis and the spine
+ * (the hips flex so the legs stay upright, the hips go back), and to the
+ * left and the right by 0.40 and 0.45 rad in the spine, the arms swinging
+ * forward and back against each other throughout. Covers bend's range of
+ * torso poses at other depths and with moving arms; it is not that motion. */
+static void clip_lean(clip_frame *c) {
+    static const struct {
+        double fwd, side, swing, turn;
+    } to[5] = {
+        {1.25, 0.00, 0.45, 0.00},  /* deep, forward */
+        {0.00, 0.40, 0.30, 0.00},  /* to the left */
+        {0.65, 0.00, 0.60, 0.15},  /* halfway forward, turning a little */
+        {0.00, -0.45, 0.30, 0.00}, /* to the right */
+        {0.95, 0.15, 0.50, -0.10}, /* forward and a little left */
+    };
+    double u;
+    const int k = repetition(c->ph, 1.2, &u) % 5;
+    const double b = bump(u, 0.0, 1.0), f = to[k].fwd * b, sd = to[k].side * b;
+    bend(c, CR_JOINT_PELVIS, 0.4 * f);
+    for (int s = 0; s < 2; s++) {
+        hip_flex(c, s, 0.4 * f); /* the legs stay vertical under the tilting pelvis */
+        knee_flex(c, s, 0.08 * f);
+        /* the arms hang toward the floor as the chest tips, and swing */
+        arm_swing(c, s, 0.8 * f + (s ? -1 : 1) * to[k].swing * b * sin(2 * TAU * u));
+        elbow_flex(c, s, 0.2 * b);
+    }
+    bend(c, CR_JOINT_SPINE1, 0.25 * f);
+    bend(c, CR_JOINT_SPINE2, 0.2 * f);
+    bend(c, CR_JOINT_SPINE3, 0.15 * f);
+    bend(c, CR_JOINT_NECK, -0.2 * f);
+    lean(c, CR_JOINT_SPINE1, 0.4 * sd);
+    lean(c, CR_JOINT_SPINE2, 0.35 * sd);
+    lean(c, CR_JOINT_SPINE3, 0.25 * sd);
+    twist(c, CR_JOINT_SPINE2, to[k].turn * b);
+    c->trans[1] = c->ramp * -0.025 * f;
+    c->trans[2] = c->ramp * -0.06 * f;
+}
+
+/* Stretching with both arms up, 2.4 s a stretch: the arms rise through the
+ * front to overhead at unequal heights while the chest bends to one side and
+ * arches back, then come down; the side and the heights change each time
+ * (three variants). Covers raise_arms' two-arms-up poses, reached through
+ * the front and with a side bend; it is not that motion. */
+static void clip_stretch(clip_frame *c) {
+    static const struct {
+        double raise[2], swing[2], side, arch;
+    } to[3] = {
+        {{0.90, 1.20}, {2.00, 1.50}, 0.35, 0.10},  /* bending left, the left arm higher */
+        {{1.30, 0.90}, {1.30, 2.00}, -0.35, 0.10}, /* bending right, the right arm higher */
+        {{0.60, 0.60}, {1.70, 1.70}, 0.00, 0.20},  /* both forward and up, arching back */
+    };
+    double u;
+    const int k = repetition(c->ph, 2.4, &u) % 3;
+    const double a = bump(u, 0.0, 1.0), sd = to[k].side * bump(u, 0.25, 0.8);
+    for (int s = 0; s < 2; s++) {
+        shrug(c, s, 0.3 * a);
+        arm_raise(c, s, to[k].raise[s] * a);
+        arm_swing(c, s, to[k].swing[s] * a);
+        elbow_flex(c, s, 0.25 * a);
+    }
+    lean(c, CR_JOINT_SPINE1, 0.35 * sd);
+    lean(c, CR_JOINT_SPINE2, 0.35 * sd);
+    lean(c, CR_JOINT_SPINE3, 0.3 * sd);
+    bend(c, CR_JOINT_SPINE2, -0.5 * to[k].arch * a);
+    bend(c, CR_JOINT_SPINE3, -0.5 * to[k].arch * a);
+}
+
 typedef struct clip_entry {
     const char *name, *summary;
     void (*fn)(clip_frame *c);
@@ -309,12 +420,16 @@ static const clip_entry clips[] = {
     {"dance", "swaying side to side with swinging arms, 2 s beat", clip_dance},
     {"stairs", "climbing stairs (0.17 m rise, 0.28 m tread), 1.4 s per two steps", clip_stairs},
     {"dodge", "side-stepping left and right with a lean and a duck, 2.4 s", clip_dodge},
+    {"reach", "one arm at a time reaching up, overhead or forward, 1 s a reach", clip_reach},
+    {"lean", "leaning the torso forward to varied depths and to the sides, 1.2 s a lean",
+     clip_lean},
+    {"stretch", "both arms up through the front with a side bend, 2.4 s a stretch", clip_stretch},
 };
 enum { NCLIPS = sizeof clips / sizeof clips[0] };
 
-static const char *const clip_names[NCLIPS + 1] = {"walk",       "run",   "jump",  "bend",
-                                                   "raise_arms", "squat", "twist", "dance",
-                                                   "stairs",     "dodge", NULL};
+static const char *const clip_names[NCLIPS + 1] = {
+    "walk",  "run",    "jump",  "bend",  "raise_arms", "squat",   "twist",
+    "dance", "stairs", "dodge", "reach", "lean",       "stretch", NULL};
 
 const char *const *cr_motion_clip_names(int *count) {
     if (count) *count = NCLIPS;

@@ -16,7 +16,8 @@ void help_epnet(void) {
            "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
            "  --vertices N         garment vertex count (default 600)\n"
            "  --body B             slim, normal (default) or heavy\n"
-           "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump)\n"
+           "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
+           "                       reach,lean,stretch)\n"
            "  --frames N           frames per clip (default 60)\n"
            "  --yield Y            yield angle, rad (default 0.52)\n"
            "  --cycles N           curriculum cycles (default 4)\n"
@@ -25,6 +26,8 @@ void help_epnet(void) {
            "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
            "  --detach-inertia     inertia with frames t-1, t-2 held fixed (implicit Euler)\n"
            "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+           "  --w-rb-response W    RB response loss weight (default 0: off; docs/epnet.md):\n"
+           "                       W sum over hinges of |RB| (theta - theta_bar - RB)^2\n"
            "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
            "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
@@ -60,7 +63,7 @@ static int run_train(int argc, char **argv) {
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1, detach = d.inertia_detach;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending;
+          wb = (float)d.w_bending, wrr = (float)d.w_rb_response;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -75,6 +78,7 @@ static int run_train(int argc, char **argv) {
         CLI_FLAG("--detach-inertia", &detach),
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
+        CLI_FLOAT("--w-rb-response", &wrr, 0, 1e6),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -99,7 +103,7 @@ static int run_train(int argc, char **argv) {
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb;
+    d.pin_top = pin_top, d.w_bending = wb, d.w_rb_response = wrr;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;

@@ -14,7 +14,7 @@ void help_motion(void) {
            "(+Y up, facing +Z, metres) and write it as crease's motion .npz.\n\n"
            "options:\n"
            "  --clip NAME      walk, run, jump, bend, raise_arms, squat, twist, dance, stairs,\n"
-           "                   dodge (see --list)\n"
+           "                   dodge, reach, lean, stretch (see --list)\n"
            "  --frames N       clip length in frames (default 120)\n"
            "  --fps F          clip frame rate (default 30); for an --input, resample to F\n"
            "                   (slerp; default: the file's rate)\n"

@@ -163,6 +163,17 @@ double cr_bending_kernel_rest(const cr_bending *b, int32_t h, double theta_rest,
     return 0.5 * ke * d * d;
 }
 
+double cr_bending_residual(const cr_bending *b, int32_t h, double theta_rest, const double *xe,
+                           double *g) {
+    (void)b, (void)h;
+    if (!g) return wrap_angle(cr_dihedral64_angle(xe) - theta_rest);
+    double gy[9];
+    int ok = 0;
+    const double theta = cr_dihedral64_derivs_y(xe, gy, NULL, &ok);
+    cr_dihedral64_grad_x(gy, g); /* zero on a degenerate hinge */
+    return wrap_angle(theta - theta_rest);
+}
+
 static double bending_kernel(const void *data, int32_t e, const double *xe, double *g, double *H) {
     const cr_bending *b = data;
     return cr_bending_kernel_rest(b, e, b->rest[e], xe, g, H, NULL);

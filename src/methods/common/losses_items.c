@@ -1,7 +1,7 @@
 /* losses_items.c: the losses whose element data change per batch item, on
  * the generic op of losses.c: bending with rest angles per item (and their
- * gradient), inertia over three consecutive states, and collision against a
- * body given per frame.
+ * gradient), hinge angle residuals, inertia over three consecutive states,
+ * and collision against a body given per frame.
  *
  * B batch items, V garment vertices, H hinges, V_b body vertices, F_b body
  * triangles. The math is phys/'s: cr_bending_kernel_rest (bending.c),
@@ -44,6 +44,38 @@ cr_tensor *cr_loss_bending(cr_nn_ctx *ctx, const cr_bending *b, double weight, c
     s->has_aux = 1;
     s->weight = weight;
     s->kernel = bending_rest_kernel;
+    s->data = b;
+    cr_tensor *in[2] = {x, rest};
+    return cr_loss_spec_run(ctx, s, in);
+}
+
+static double residual_kernel(const loss_spec *s, int64_t b, int32_t e, const double *xe,
+                              double aux, double *g, double *g_aux) {
+    (void)b;
+    if (g_aux) *g_aux = -1.0; /* the wrap is locally the identity */
+    return cr_bending_residual(s->data, e, aux, xe, g);
+}
+
+cr_tensor *cr_loss_hinge_residual(cr_nn_ctx *ctx, const cr_bending *b, double weight, cr_tensor *x,
+                                  cr_tensor *rest) {
+    if (!ctx || !b || !x) return NULL;
+    if (!rest) { /* b's own rest angles, read only */
+        const int32_t H = cr_bending_count(b);
+        const double *r = cr_bending_rest_angles((cr_bending *)b);
+        if (!(rest = cr_nn_new(ctx, 1, (int64_t[]){H}))) return NULL;
+        for (int32_t h = 0; h < H; h++)
+            rest->data[h] = (float)r[h];
+    }
+    loss_spec *s = cr_loss_spec_new(ctx);
+    if (!s) return NULL;
+    s->term = "hinge residual";
+    s->nelem = cr_bending_count(b);
+    s->nvert = 4;
+    s->elem = cr_bending_hinges(b);
+    s->has_aux = 1;
+    s->per_element = 1;
+    s->weight = weight;
+    s->kernel = residual_kernel;
     s->data = b;
     cr_tensor *in[2] = {x, rest};
     return cr_loss_spec_run(ctx, s, in);

@@ -33,9 +33,14 @@
 #define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
 
 const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
-    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
+    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning", "rb_response"};
 
-static const char *const default_motions[] = {"walk", "squat", "twist", "dance", "jump"};
+/* The training clips: the first five of the earlier rounds, plus reach, lean
+ * and stretch, which cover the held-out raise_arms' and bend's range of arm
+ * and torso poses (one arm at a time, other depths, through the front)
+ * without being those motions. */
+static const char *const default_motions[] = {"walk", "squat", "twist", "dance",
+                                              "jump", "reach", "lean",  "stretch"};
 
 void cr_epnet_material(cr_material *out) {
     cr_error e;
@@ -61,12 +66,13 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.garment_vertices = 600;
     d.body = "normal";
     d.motions = default_motions;
-    d.nmotions = 5;
+    d.nmotions = (int)(sizeof default_motions / sizeof default_motions[0]);
     d.frames = 60;
     d.fps = 30;
     cr_epnet_material(&d.material);
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
     d.w_pin = 100.0;
+    d.w_rb_response = 0; /* off: at 1 and 0.1 it raised BED and PE on the held-out motions */
     d.sharpness = 50;
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
@@ -117,6 +123,9 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
+    if (!(d->w_rb_response >= 0) || !isfinite(d->w_rb_response))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: w_rb_response %g must be finite and >= 0",
+                       d->w_rb_response);
     if (!(d->pin_top >= 0) || !(d->w_pin >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: pin_top %g and w_pin %g must be >= 0",
                        d->pin_top, d->w_pin);
@@ -484,6 +493,29 @@ static cr_tensor *pin_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x) {
     return cr_nn_sum(c, cr_nn_mul(c, cr_nn_square(c, cr_nn_sub(c, x, target)), mask));
 }
 
+/* RB response: sum over frames and hinges of |RB| r^2, r = theta - theta_bar
+ * - RB the hinge's residual (rest: the (T,H) angles theta_bar + RB). A
+ * bending-like pull toward the rest angle + RB on the hinges that carry RB,
+ * in proportion to RB and in rad^2, not scaled by the bending stiffness, so
+ * hinges without RB are free. Why: with the bending term alone E-Net realised
+ * a tenth of RB, and a stiffer bending term stiffened the whole garment
+ * instead (docs/epnet.md). Two-sided, not a one-sided reward for reaching RB:
+ * a one-sided pull overshot RB (a tiny E-Net bent its hinges 1.7 x RB in 15
+ * steps), and since each cycle's RB comes from E-Net's angles by Eq. 4-5, an
+ * overshoot past the yield would grow RB from cycle to cycle. */
+static cr_tensor *rb_response_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x,
+                                   cr_tensor *rest, const float *rb) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t T = s->T, H = m->nh;
+    if (!rb || m->def.w_rb_response == 0) return cr_nn_zeros(c, 1, (int64_t[]){1});
+    cr_tensor *w = cr_nn_new(c, 2, (int64_t[]){T, H});
+    if (!w) return NULL;
+    for (int64_t i = 0; i < T * H; i++)
+        w->data[i] = fabsf(rb[i]);
+    cr_tensor *r = cr_loss_hinge_residual(c, m->bending, 1.0, x, rest);
+    return cr_nn_sum(c, cr_nn_mul(c, w, cr_nn_square(c, r)));
+}
+
 static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
                             cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
@@ -509,11 +541,12 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
                         cr_nn_slice(c, x, 0, 2, T - 2), past(c, x, 1, T - 2, d->inertia_detach),
                         past(c, x, 0, T - 2, d->inertia_detach)),
         pin_term(m, s, x),
+        rb_response_term(m, s, x, rest, rb),
     };
     const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
                                       (float)(d->w_bending / T),   (float)(d->w_gravity / T),
                                       (float)(d->w_collision / T), (float)(d->w_inertia / T),
-                                      (float)(d->w_pin / T)};
+                                      (float)(d->w_pin / T),       (float)(d->w_rb_response / T)};
     return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
 }
 
