@@ -51,7 +51,11 @@ CR_TEST(dataset, small_dataset_is_complete_and_resumes) {
     CR_CHECK(r.rest_crossings[0] >= 0 && r.rest_crossings[1] >= 0);
     CR_CHECK(r.failed_by_garment[0] == 0 && r.failed_by_garment[1] == 0);
     CR_CHECK(r.seconds_by_garment[0] > 0.0 && r.seconds_by_garment[1] > 0.0);
-    CR_CHECK(r.seconds_by_garment[0] + r.seconds_by_garment[1] <= r.seconds);
+    /* Sequences run side by side on the threads, so a garment's seconds (the sum over
+     * its sequences) may pass the wall time, but no sequence outlasts the run: each of
+     * these garments has two (low and high). */
+    CR_CHECK(r.seconds_by_garment[0] <= 2.0 * r.seconds &&
+             r.seconds_by_garment[1] <= 2.0 * r.seconds);
     const cr_dataset_result first = r;
 
     char path[700];

@@ -55,7 +55,7 @@ static int64_t layer_crossings(const cr_mesh *m, const int32_t *layer, const flo
     return n;
 }
 
-CR_TEST(dataset, two_layer_outfit_collides_and_keeps_its_layers) {
+CR_TEST(dataset_outfit, two_layer_outfit_collides_and_keeps_its_layers) {
     char dir[512];
     snprintf(dir, sizeof dir, "%s/dataset_outfit", cr_test_tmpdir());
     const char *garments[] = {"tshirt+vest"}, *motions[] = {"raise_arms"};
@@ -159,7 +159,7 @@ CR_TEST(dataset, two_layer_outfit_collides_and_keeps_its_layers) {
     CR_CHECK(cr_dataset_garment_label("tshirt+skirt", label, sizeof label, &err) == CR_ERR_INVALID);
 }
 
-CR_TEST(dataset, outfit_moves_out_a_layer_given_inside) {
+CR_TEST(dataset_outfit, outfit_moves_out_a_layer_given_inside) {
     cr_mannequin_def md = cr_mannequin_default_def();
     cr_body_model *body = NULL;
     cr_error err = {0};
