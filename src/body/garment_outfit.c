@@ -146,9 +146,13 @@ cr_status cr_garment_outfit(const cr_garment *const *layers, int32_t n, cr_garme
         memcpy(g->skin_weight + 4 * (int64_t)v0, l->skin_weight, sizeof(float) * 4 * src->nv);
         for (int32_t f = 0; f < src->nf; f++)
             g->panel[f0 + f] = l->panel[f] + g->npanels;
-        for (int32_t p = 0; p < l->npanels; p++)
-            snprintf(g->panel_name[g->npanels + p], sizeof g->panel_name[0], "%d_%.20s", k,
-                     l->panel_name[p]);
+        for (int32_t p = 0; p < l->npanels; p++) {
+            /* A long layer name is cut to fit; using the return value keeps
+               -Wformat-truncation quiet at every optimisation level. */
+            const int written = snprintf(g->panel_name[g->npanels + p], sizeof g->panel_name[0],
+                                         "%d_%.20s", k, l->panel_name[p]);
+            if (written < 0) g->panel_name[g->npanels + p][0] = '\0';
+        }
         g->npanels += l->npanels;
         v0 += src->nv, f0 += src->nf, u0 += src->nuv;
     }
