@@ -2,9 +2,11 @@
  * layers do not depend on which kernel OpenBLAS picks at load time (its
  * Prescott fallback runs the MLP step 2-4x slower; docs/nn.md).
  *
- * Goto/BLIS blocking: B is packed once per (KC x NC) block into panels of NR
- * columns, each thread packs its MC x KC block of A into panels of MR rows,
- * and a register-tile micro-kernel runs over the panels. The micro-kernels
+ * Goto/BLIS blocking, with the packing cut to what pays at these shapes: a
+ * transposed B is packed once per (KC x NC) block into panels of NR columns,
+ * a row-major B and A are read in place through their strides, and only
+ * the partial tiles at the edges are packed, zero-padded; a register-tile
+ * micro-kernel runs over the tiles. The micro-kernels
  * (cpu_gemm_impl.h) are one source instantiated for AVX2 + FMA (6 x 16) and
  * AVX-512F (12 x 32) with target attributes; the portable level has a plain C
  * 4 x 8 tile. Work splits over the MC blocks of C with cr_parallel_for; every
@@ -32,8 +34,9 @@ enum {
     SCALAR_NR = 8,
 };
 
-typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                             float *C, int64_t rs, int64_t cs, int mr, int nr);
+typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
+                             const float *Bp, int64_t ldbp, float alpha, float beta, float *C,
+                             int64_t rs, int64_t cs, int mr, int nr);
 
 #if NN_GEMM_X86
 #define VW 8
@@ -65,13 +68,14 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, const float *Bp, float
 #undef VMR
 #endif
 
-static void gemm_tile_scalar(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                             float *C, int64_t rs, int64_t cs, int mr, int nr) {
+static void gemm_tile_scalar(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
+                             const float *Bp, int64_t ldbp, float alpha, float beta, float *C,
+                             int64_t rs, int64_t cs, int mr, int nr) {
     float acc[SCALAR_MR][SCALAR_NR] = {{0}};
-    for (int64_t k = 0; k < kc; k++, Ap += SCALAR_MR, Bp += SCALAR_NR)
+    for (int64_t k = 0; k < kc; k++, Ap += csa, Bp += ldbp)
         for (int i = 0; i < SCALAR_MR; i++)
             for (int j = 0; j < SCALAR_NR; j++)
-                acc[i][j] += Ap[i] * Bp[j];
+                acc[i][j] += Ap[i * rsa] * Bp[j];
     for (int i = 0; i < mr; i++)
         for (int j = 0; j < nr; j++) {
             float *c = C + i * rs + j * cs;
@@ -95,20 +99,25 @@ static gemm_kernel kernel_for(int level) {
 }
 
 /* op(A) rows [i0, i0 + mc), k [p0, p0 + kc) into panels of mr rows:
- * panel p, step k at Ap[p kc mr + k mr + r]; rows past mc are zero. */
+ * panel p, step k at Ap[p kc mr + k mr + r]; rows past mc are zero. The
+ * loops read A along its memory (a row of A, or a row of A^T, at a time). */
 static void pack_a(int ta, const float *A, int64_t lda, int64_t i0, int64_t mc, int64_t p0,
                    int64_t kc, int mr, float *Ap) {
     for (int64_t ip = 0; ip < mc; ip += mr, Ap += kc * mr) {
         int64_t rows = mc - ip < mr ? mc - ip : mr;
-        for (int64_t k = 0; k < kc; k++) {
-            float *dst = Ap + k * mr;
+        if (rows < mr)
+            for (int64_t k = 0; k < kc; k++)
+                for (int64_t r = rows; r < mr; r++)
+                    Ap[k * mr + r] = 0.0f;
+        if (ta)
+            for (int64_t k = 0; k < kc; k++)
+                memcpy(Ap + k * mr, A + (p0 + k) * lda + i0 + ip, (size_t)rows * sizeof(float));
+        else
             for (int64_t r = 0; r < rows; r++) {
-                int64_t i = i0 + ip + r, kk = p0 + k;
-                dst[r] = ta ? A[kk * lda + i] : A[i * lda + kk];
+                const float *src = A + (i0 + ip + r) * lda + p0;
+                for (int64_t k = 0; k < kc; k++)
+                    Ap[k * mr + r] = src[k];
             }
-            for (int64_t r = rows; r < mr; r++)
-                dst[r] = 0.0f;
-        }
     }
 }
 
@@ -117,27 +126,30 @@ static void pack_a(int ta, const float *A, int64_t lda, int64_t i0, int64_t mc, 
 static void pack_b(int tb, const float *B, int64_t ldb, int64_t p0, int64_t kc, int64_t j0,
                    int64_t nc, int nr, float *Bp) {
     for (int64_t jp = 0; jp < nc; jp += nr, Bp += kc * nr) {
-        int64_t cols = nc - jp < nr ? nc - jp : nr;
-        for (int64_t k = 0; k < kc; k++) {
-            float *dst = Bp + k * nr;
-            int64_t kk = p0 + k, j = j0 + jp;
-            if (tb)
-                for (int64_t c = 0; c < cols; c++)
-                    dst[c] = B[(j + c) * ldb + kk];
-            else
-                memcpy(dst, B + kk * ldb + j, (size_t)cols * sizeof(float));
-            for (int64_t c = cols; c < nr; c++)
-                dst[c] = 0.0f;
-        }
+        int64_t cols = nc - jp < nr ? nc - jp : nr, j = j0 + jp;
+        if (cols < nr)
+            for (int64_t k = 0; k < kc; k++)
+                for (int64_t c = cols; c < nr; c++)
+                    Bp[k * nr + c] = 0.0f;
+        if (tb)
+            for (int64_t c = 0; c < cols; c++) {
+                const float *src = B + (j + c) * ldb + p0;
+                for (int64_t k = 0; k < kc; k++)
+                    Bp[k * nr + c] = src[k];
+            }
+        else
+            for (int64_t k = 0; k < kc; k++)
+                memcpy(Bp + k * nr, B + (p0 + k) * ldb + j, (size_t)cols * sizeof(float));
     }
 }
 
 typedef struct gemm_block {
     gemm_kernel kern;
     int ta, tb;
-    const float *A, *B;                      /* B unpacked: for rows_unpacked */
+    const float *A, *B;                      /* unpacked: read in place, or rows_unpacked */
     int64_t lda, ldb, M, mc, p0, kc, j0, nc; /* mc: rows per block */
-    const float *Bp;
+    const float *Bp; /* packed panels; with b_direct only the last, partial one */
+    int b_direct;    /* full panels of B read in place (B row-major, tb 0) */
     float alpha, beta;
     float *C;
     int64_t rs, cs; /* C's element (i, j) at C[i rs + j cs] */
@@ -160,26 +172,41 @@ static void *alloc_floats(int64_t n) {
     return aligned_alloc(64, bytes);
 }
 
-/* MC blocks [begin, end) of C's rows against the packed B block. */
+/* MC blocks [begin, end) of C's rows against the B block. Full tiles read
+ * A in place through its strides: at the layers' widths (K up to a few
+ * hundred) packing A cost more than the multiply-adds it fed (a drape epoch
+ * spent 12 % packing A, 11 % in the tile). Only a block's last, partial
+ * tile is packed, into zero-padded rows. The sums run in the same k order
+ * either way, so the bits do not change. */
 static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
     gemm_block *g = vctx;
     int mr = g->kern.mr, nr = g->kern.nr;
-    float *Ap = alloc_floats(g->mc * g->kc);
+    float *Ap = alloc_floats((int64_t)mr * g->kc);
     if (!Ap) { /* out of memory: these rows unpacked, slowly */
         rows_unpacked(g, begin * g->mc, end * g->mc < g->M ? end * g->mc : g->M);
         return;
     }
+    const int64_t rsa = g->ta ? 1 : g->lda, csa = g->ta ? g->lda : 1;
     for (int64_t blk = begin; blk < end; blk++) {
         int64_t i0 = blk * g->mc, mc = g->M - i0 < g->mc ? g->M - i0 : g->mc;
-        pack_a(g->ta, g->A, g->lda, i0, mc, g->p0, g->kc, mr, Ap);
+        int64_t full = mc / mr * mr;
+        if (full < mc) pack_a(g->ta, g->A, g->lda, i0 + full, mc - full, g->p0, g->kc, mr, Ap);
         for (int64_t jp = 0; jp < g->nc; jp += nr) {
-            const float *bp = g->Bp + (jp / nr) * g->kc * nr;
             int nrr = g->nc - jp < nr ? (int)(g->nc - jp) : nr;
+            const float *bp = g->Bp + (jp / nr) * g->kc * nr;
+            int64_t ldbp = nr;
+            if (g->b_direct && nrr == nr) {
+                bp = g->B + g->p0 * g->ldb + g->j0 + jp;
+                ldbp = g->ldb;
+            } else if (g->b_direct) {
+                bp = g->Bp;
+            }
             for (int64_t ip = 0; ip < mc; ip += mr) {
                 int mrr = mc - ip < mr ? (int)(mc - ip) : mr;
-                g->kern.tile(g->kc, Ap + (ip / mr) * g->kc * mr, bp, g->alpha, g->beta,
-                             g->C + (i0 + ip) * g->rs + (g->j0 + jp) * g->cs, g->rs, g->cs, mrr,
-                             nrr);
+                const float *a = ip < full ? g->A + (i0 + ip) * rsa + g->p0 * csa : Ap;
+                g->kern.tile(g->kc, a, ip < full ? rsa : 1, ip < full ? csa : mr, bp, ldbp,
+                             g->alpha, g->beta, g->C + (i0 + ip) * g->rs + (g->j0 + jp) * g->cs,
+                             g->rs, g->cs, mrr, nrr);
             }
         }
     }
@@ -220,7 +247,10 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
         int64_t nc = N - j0 < GEMM_NC ? N - j0 : GEMM_NC;
         for (int64_t p0 = 0; p0 < K; p0 += GEMM_KC) {
             int64_t kc = K - p0 < GEMM_KC ? K - p0 : GEMM_KC;
-            pack_b(tb, B, ldb, p0, kc, j0, nc, kern.nr, Bp);
+            /* a row-major B is read in place but for its last, partial panel */
+            const int b_direct = !tb;
+            int64_t tail = b_direct ? nc / kern.nr * kern.nr : 0;
+            if (tail < nc) pack_b(tb, B, ldb, p0, kc, j0 + tail, nc - tail, kern.nr, Bp);
             gemm_block g = {.kern = kern,
                             .ta = ta,
                             .tb = tb,
@@ -235,6 +265,7 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
                             .j0 = j0,
                             .nc = nc,
                             .Bp = Bp,
+                            .b_direct = b_direct,
                             .alpha = alpha,
                             .beta = p0 == 0 ? beta : 1.0f,
                             .C = C,

@@ -11,8 +11,11 @@
  * The tile is VMR rows by 2 VW columns: 2 VMR accumulator registers, two
  * loads of packed B and VMR broadcasts of packed A per k. AVX2: 6 x 16, 12
  * accumulators of the 16 ymm registers; AVX-512: 12 x 32, 24 of the 32 zmm
- * (twice the multiply-adds per load of B). Packed A holds VMR values per k,
- * packed B 2 VW per k, both zero-padded at the edges, so the k loop has no
+ * (twice the multiply-adds per load of B). A is read through strides: row r,
+ * step k at Ap[r rsa + k csa], so the tile runs on packed A (rsa 1, csa VMR)
+ * or straight on the caller's matrix (row-major: rsa lda, csa 1; transposed:
+ * rsa 1, csa lda); B likewise at Bp[k ldbp + c], packed (ldbp 2 VW) or the
+ * caller's rows. The caller pads or packs the edges, so the k loop has no
  * tails.
  */
 
@@ -31,11 +34,12 @@ static inline VT void V(gstore)(float *p, V(gf) v) {
 /* acc[i][h] = sum_k Ap[k][i] Bp[k][h VW ..]: the k loop alone, so that
  * alpha and beta do not hold two of the registers the accumulators need
  * (AVX2 has 16: 12 accumulators, two B vectors, one broadcast). */
-static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap, const float *Bp,
+static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap, int64_t rsa,
+                                                     int64_t csa, const float *Bp, int64_t ldbp,
                                                      V(gf) acc[VMR][2]) {
 #define GEMM_ACC(i) V(gf) c##i##_0 = {0}, c##i##_1 = {0}
 #define GEMM_ROW(i)                                                                                \
-    a = VBCAST(Ap + i);                                                                            \
+    a = VBCAST(Ap + i * rsa);                                                                      \
     c##i##_0 = VFMA(a, b0, c##i##_0);                                                              \
     c##i##_1 = VFMA(a, b1, c##i##_1)
 #define GEMM_SAVE(i) acc[i][0] = c##i##_0, acc[i][1] = c##i##_1
@@ -63,8 +67,8 @@ static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap
 #if VMR > 6
         GEMM_ROWS12(GEMM_ROW);
 #endif
-        Ap += VMR;
-        Bp += 2 * VW;
+        Ap += csa;
+        Bp += ldbp;
     }
     GEMM_ROWS(GEMM_SAVE);
 #if VMR > 6
@@ -79,10 +83,11 @@ static VT __attribute__((noinline)) void V(gemm_acc)(int64_t kc, const float *Ap
 
 /* C[i rs + j cs] = alpha sum_k Ap[k][i] Bp[k][j] + beta C[..] for i < mr,
  * j < nr (C not read when beta is 0); mr <= VMR, nr <= 2 VW. */
-static VT void V(gemm_tile)(int64_t kc, const float *Ap, const float *Bp, float alpha, float beta,
-                            float *C, int64_t rs, int64_t cs, int mr, int nr) {
+static VT void V(gemm_tile)(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
+                            const float *Bp, int64_t ldbp, float alpha, float beta, float *C,
+                            int64_t rs, int64_t cs, int mr, int nr) {
     V(gf) acc[VMR][2];
-    V(gemm_acc)(kc, Ap, Bp, acc);
+    V(gemm_acc)(kc, Ap, rsa, csa, Bp, ldbp, acc);
     if (nr == 2 * VW && cs == 1) {
         for (int i = 0; i < mr; i++) {
             float *c = C + i * rs;
