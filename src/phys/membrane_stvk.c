@@ -169,11 +169,20 @@ static void project2(double *m) {
  * + lambda s_p^2, psi_12 = lambda s1 s2. The same matrix as cr_psd_project
  * of the rotated block, to roundoff (tested), at a fraction of a Jacobi
  * eigensolve. A: (4x4, index 2j + component) as in cr_membrane_project_hf. */
-static void stvk_inplane_projected(double mu, double lambda, double a, double b, double d,
-                                   double *A) {
-    /* V from the eigenvectors of M^T M = [[a^2, ab], [ab, b^2 + d^2]]. */
-    const double x = a * a - (b * b + d * d), y = 2.0 * a * b, r = sqrt(x * x + y * y);
-    const double s1 = sqrt(0.5 * (a * a + b * b + d * d + r)), s2 = a * d / s1;
+typedef struct stvk_modes {
+    double s1, s2;         /* singular values of M, s1 >= s2 >= 0 */
+    double vc, vs;         /* v1 = (vc, vs), v2 = (-vs, vc) */
+    double lt, lf, hs[3];  /* twist and flip eigenvalues, scaling 2x2; all clamped */
+} stvk_modes;
+
+/* The eigensystem of StVK's in-plane Hessian, clamped, from M's Gram matrix
+ * M^T M = [[g00, g01], [g01, g11]] (= F^T F) and det M = jac > 0: what the
+ * whole kernel and the vertex block share. */
+static void stvk_modes_from_gram(double mu, double lambda, double g00, double g01, double g11,
+                                 double jac, stvk_modes *o) {
+    /* V from the eigenvectors of M^T M. */
+    const double x = g00 - g11, y = 2.0 * g01, r = sqrt(x * x + y * y);
+    const double s1 = sqrt(0.5 * (g00 + g11 + r)), s2 = jac / s1;
     double c = 1.0, sn = 0.0; /* v1 = (c, sn) at angle atan2(y, x)/2 */
     if (r > 0.0) {
         if (x >= 0.0) {
@@ -184,20 +193,29 @@ static void stvk_inplane_projected(double mu, double lambda, double a, double b,
             c = y / (2.0 * r * sn);
         }
     }
+    const double i2 = s1 * s1 + s2 * s2 - 2.0;
+    const double lt = mu * (s1 * s1 - s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    const double lf = mu * (s1 * s1 + s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    o->hs[0] = mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1;
+    o->hs[1] = lambda * s1 * s2;
+    o->hs[2] = mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2;
+    o->lt = fmax(lt, 0.0), o->lf = fmax(lf, 0.0);
+    project2(o->hs);
+    o->s1 = s1, o->s2 = s2, o->vc = c, o->vs = sn;
+}
+
+static void stvk_inplane_projected(double mu, double lambda, double a, double b, double d,
+                                   double *A) {
+    stvk_modes md;
+    stvk_modes_from_gram(mu, lambda, a * a, a * b, b * b + d * d, a * d, &md);
+    const double s1 = md.s1, c = md.vc, sn = md.vs, lt = md.lt, lf = md.lf;
+    const double *hs = md.hs;
     const double v1[2] = {c, sn}, v2[2] = {-sn, c};
     /* u1 = M v1 / s1; u2 = its perpendicular (det U = det M / det V > 0). */
     double u1[2] = {(a * c + b * sn) / s1, d * sn / s1};
     const double un = sqrt(u1[0] * u1[0] + u1[1] * u1[1]);
     u1[0] /= un, u1[1] /= un;
     const double u2[2] = {-u1[1], u1[0]};
-    const double i2 = s1 * s1 + s2 * s2 - 2.0;
-    double lt = mu * (s1 * s1 - s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
-    double lf = mu * (s1 * s1 + s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
-    double hs[3] = {mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1,
-                    lambda * s1 * s2,
-                    mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2};
-    lt = fmax(lt, 0.0), lf = fmax(lf, 0.0);
-    project2(hs);
     /* Modes as vec(D), D[comp][col] at index 2 col + comp. */
     double w1[4], w2[4], wt[4], wf[4];
     for (int j = 0; j < 2; j++)
@@ -214,6 +232,52 @@ static void stvk_inplane_projected(double mu, double lambda, double a, double b,
                              hs[2] * w2[i] * w2[k] + lt * wt[i] * wt[k] + lf * wf[i] * wf[k];
             A[4 * i + k] = A[4 * k + i] = v;
         }
+}
+
+/* Vertex k's (k,k) block of the projected StVK Hessian (the whole density,
+ * stress not PSD), straight from f0, f1 without the in-plane 4x4: with
+ * (c0, c1) = vertex k's coefficients, alpha = (c0, c1).v1, beta = (c0, c1).v2,
+ * the modes contract to alpha u1, beta u2, (alpha u2 - beta u1)/sqrt2 and
+ * (beta u1 + alpha u2)/sqrt2, so the
+ * in-plane part is Y00 r1 r1^T + Y01 (r1 r2^T + r2 r1^T) + Y11 r2 r2^T with
+ * r1 = F v1/|F v1|, r2 = n x r1 (the 3-D images of u1, u2), plus the normal
+ * part (c0, c1) N (c0, c1)^T n n^T. The same matrix as the (k,k) block of
+ * the whole kernel's (stvk_inplane_projected, hf_from_frame), to roundoff (tested: phys_energy.vertex_blocks).
+ * 0 when f0, f1 do not span a plane (plane_frame's test). */
+static int stvk_block_projected(double mu, double lambda, const double *f, double g00, double g01,
+                                double g11, const double *N, double c0, double c1, double area,
+                                double *H) {
+    const double *f0 = f, *f1 = f + 3;
+    double n[3] = {f0[1] * f1[2] - f0[2] * f1[1], f0[2] * f1[0] - f0[0] * f1[2],
+                   f0[0] * f1[1] - f0[1] * f1[0]};
+    const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if (!(g00 > 0.0) || !(n2 > 1e-16 * g00 * g11)) return 0;
+    const double jac = sqrt(n2);
+    for (int p = 0; p < 3; p++)
+        n[p] /= jac;
+    stvk_modes md;
+    stvk_modes_from_gram(mu, lambda, g00, g01, g11, jac, &md);
+    double r1[3];
+    for (int p = 0; p < 3; p++)
+        r1[p] = md.vc * f0[p] + md.vs * f1[p];
+    const double rl = 1.0 / sqrt(r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2]);
+    for (int p = 0; p < 3; p++)
+        r1[p] *= rl;
+    const double r2[3] = {n[1] * r1[2] - n[2] * r1[1], n[2] * r1[0] - n[0] * r1[2],
+                          n[0] * r1[1] - n[1] * r1[0]};
+    const double al = c0 * md.vc + c1 * md.vs, be = c1 * md.vc - c0 * md.vs;
+    const double ltf = 0.5 * (md.lt + md.lf);
+    const double y00 = md.hs[0] * al * al + ltf * be * be;
+    const double y01 = al * be * (md.hs[1] + 0.5 * (md.lf - md.lt));
+    const double y11 = md.hs[2] * be * be + ltf * al * al;
+    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
+    for (int p = 0; p < 3; p++)
+        for (int q = p; q < 3; q++) {
+            const double v = y00 * r1[p] * r1[q] + y01 * (r1[p] * r2[q] + r2[p] * r1[q]) +
+                             y11 * r2[p] * r2[q] + xn * n[p] * n[q];
+            H[3 * p + q] = H[3 * q + p] = area * v;
+        }
+    return 1;
 }
 
 /* n^T M n for the 3x3 block M of HF at block (j, l). */
@@ -323,27 +387,6 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     hf_from_frame(R, A, N, HF);
 }
 
-/* Vertex k's block, area sum_jl c_kj c_kl HF_jl, of the HF that
- * hf_from_frame(R, A, N) would build, without building it. */
-static void block_from_frame(const double *R, const double *A, const double *N, const double *c,
-                             int k, double area, double *H) {
-    const double c0 = c[2 * k], c1 = c[2 * k + 1], w[2] = {c0, c1};
-    double X[4] = {0.0, 0.0, 0.0, 0.0}; /* in-plane 2x2 */
-    for (int j = 0; j < 2; j++)
-        for (int l = 0; l < 2; l++)
-            for (int p = 0; p < 2; p++)
-                for (int q = 0; q < 2; q++)
-                    X[2 * p + q] += w[j] * w[l] * A[4 * (2 * j + p) + 2 * l + q];
-    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
-    for (int p = 0; p < 3; p++)
-        for (int q = p; q < 3; q++) {
-            const double v = R[3 * p] * (X[0] * R[3 * q] + X[1] * R[3 * q + 1]) +
-                             R[3 * p + 1] * (X[2] * R[3 * q] + X[3] * R[3 * q + 1]) +
-                             xn * R[3 * p + 2] * R[3 * q + 2];
-            H[3 * p + q] = H[3 * q + p] = area * v;
-        }
-}
-
 /* The StVK density with the stretch terms (mu (E11^2 + E22^2) + lambda/2
  * tr(E)^2) scaled by cs and the shear term (2 mu E12^2) by csh, each 0 or 1:
  * (1, 1) is the full density, bit for bit. k < 0: the whole element's g (9)
@@ -375,15 +418,20 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
     double R[9], fa, fb, fd;
     /* The whole density is isotropic (its parts are not): its projection
      * has a closed form in the plane, and its normal block is S. */
-    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && plane_frame(f, R, &fa, &fb, &fd)) {
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && k >= 0) {
+        double N[3] = {S00, S01, S11};
+        project2(N);
+        if (stvk_block_projected(m->mu, m->lambda, f, a, cc, b, N, c[2 * k], c[2 * k + 1],
+                                 m->area[e], H)) {
+            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+            return m->area[e] * psi;
+        }
+    }
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && k < 0 &&
+        plane_frame(f, R, &fa, &fb, &fd)) {
         double A[16], N[3] = {S00, S01, S11};
         stvk_inplane_projected(m->mu, m->lambda, fa, fb, fd, A);
         project2(N);
-        if (k >= 0) {
-            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
-            block_from_frame(R, A, N, c, k, m->area[e], H);
-            return m->area[e] * psi;
-        }
         hf_from_frame(R, A, N, HF);
     } else if (H && k >= 0 && !(projected && !stress_psd)) {
         /* The block in closed form: sum_jl c_kj c_kl HF_jl with the HF below
