@@ -39,7 +39,7 @@ static double angle_from(const double *e, const double *u, const double *v, doub
     cross3d(v, e, NB);
     cross3d(NB, NA, c);
     /* atan2 ignores the positive scales |NA|, |NB|: no normalisation needed. */
-    return atan2(dot3d(c, e) / L, dot3d(NA, NB));
+    return cr_dihedral64_atan2(dot3d(c, e) / L, dot3d(NA, NB));
 }
 
 double cr_dihedral64_angle(const double *x) {
@@ -181,7 +181,7 @@ double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok) {
     if (L > 0.0) {
         double c[3];
         cross3d(NB, NA, c);
-        theta = atan2(dot3d(c, e) / L, dot3d(NA, NB));
+        theta = cr_dihedral64_atan2(dot3d(c, e) / L, dot3d(NA, NB));
     }
     /* a = ^e x u = NA/L and b = v x ^e = NB/L, so a/|a|^2 = NA L/|NA|^2. */
     const double A2 = dot3d(NA, NA), B2 = dot3d(NB, NB);
