@@ -389,7 +389,7 @@ static void bending_exact_hessian(double ke, double d, const double *x, double *
 }
 
 /* The hinge's atan2 (dihedral64.h) against libm's: within 2 ulp of the
-^ * result (bound 3) on random directions at every scale, both quadrant signs, near the
+ * result (bound 3) on random directions at every scale, both quadrant signs, near the
  * reduction's fold (|y/x| about tan(pi/8)) and the swap (|y| = |x|), and
  * libm's own answers for zeros, infinities and NaN. */
 static double ulp_distance(double a, double b) {
