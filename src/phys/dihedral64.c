@@ -33,13 +33,19 @@ static void dinv(const double *a, double a2, double *D) {
             D[3 * i + j] = s * ((i == j ? a2 : 0.0) - 2.0 * a[i] * a[j]);
 }
 
+/* fmax without the call (the same result, NaN included: the other operand). */
+static inline double maxd(double a, double b) {
+    return a > b || b != b ? a : b;
+}
+
 static double angle_from(const double *e, const double *u, const double *v, double L) {
     double NA[3], NB[3], c[3];
     cross3d(e, u, NA);
     cross3d(v, e, NB);
     cross3d(NB, NA, c);
-    /* atan2 ignores the positive scales |NA|, |NB|: no normalisation needed. */
-    return cr_dihedral64_atan2(dot3d(c, e) / L, dot3d(NA, NB));
+    /* atan2 ignores the positive scales |NA|, |NB| and L (sin = c.e/L,
+     * cos = NA.NB over the same |NA||NB|): no normalisation needed. */
+    return cr_dihedral64_atan2(dot3d(c, e), L * dot3d(NA, NB));
 }
 
 double cr_dihedral64_angle(const double *x) {
@@ -58,7 +64,7 @@ double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) 
     sub3d(x + 6, x, u);
     sub3d(x + 9, x, v);
     const double L2 = dot3d(e, e);
-    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
+    const double scale = maxd(L2, maxd(dot3d(u, u), dot3d(v, v)));
     const double L = sqrt(L2);
     const double theta = L > 0.0 ? angle_from(e, u, v, L) : 0.0;
     double eh[3] = {e[0] / L, e[1] / L, e[2] / L}, a[3], b[3];
@@ -172,7 +178,7 @@ double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok) {
     sub3d(x + 6, x, u);
     sub3d(x + 9, x, v);
     const double L2 = dot3d(e, e);
-    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
+    const double scale = maxd(L2, maxd(dot3d(u, u), dot3d(v, v)));
     const double L = sqrt(L2);
     /* angle_from's operations, in its order: the same bits. */
     cross3d(e, u, NA);
@@ -181,7 +187,7 @@ double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok) {
     if (L > 0.0) {
         double c[3];
         cross3d(NB, NA, c);
-        theta = cr_dihedral64_atan2(dot3d(c, e) / L, dot3d(NA, NB));
+        theta = cr_dihedral64_atan2(dot3d(c, e), L * dot3d(NA, NB));
     }
     /* a = ^e x u = NA/L and b = v x ^e = NB/L, so a/|a|^2 = NA L/|NA|^2. */
     const double A2 = dot3d(NA, NA), B2 = dot3d(NB, NB);

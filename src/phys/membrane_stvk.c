@@ -140,6 +140,7 @@ void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energ
 /* Clamp the symmetric 2x2 [[a, b], [b, c]] (m[0], m[1], m[2]) to PSD. */
 static void project2(double *m) {
     const double a = m[0], b = m[1], c = m[2];
+    if (a >= 0.0 && c >= 0.0 && a * c >= b * b) return; /* PSD: no square root */
     const double mean = 0.5 * (a + c), r = sqrt(0.25 * (a - c) * (a - c) + b * b);
     const double l1 = mean + r, l2 = mean - r;
     if (l2 >= 0.0) return;
@@ -199,7 +200,7 @@ static void stvk_modes_from_gram(double mu, double lambda, double g00, double g0
     o->hs[0] = mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1;
     o->hs[1] = lambda * s1 * s2;
     o->hs[2] = mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2;
-    o->lt = fmax(lt, 0.0), o->lf = fmax(lf, 0.0);
+    o->lt = lt > 0.0 ? lt : 0.0, o->lf = lf > 0.0 ? lf : 0.0; /* fmax(., 0) without the call */
     project2(o->hs);
     o->s1 = s1, o->s2 = s2, o->vc = c, o->vs = sn;
 }
