@@ -388,6 +388,42 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     hf_from_frame(R, A, N, HF);
 }
 
+/* Vertex k's block where no projection is needed (the Gauss-Newton part, or
+ * the whole Hessian with a PSD stress S = (S00, S01, S11), NULL for the
+ * Gauss-Newton part alone), in closed form: sum_jl c_kj c_kl HF_jl of
+ * stvk_eval's HF is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
+ * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
+static void stvk_block_direct(double mu_s, double mu_sh, double lambda, const double *f,
+                              const double *S, double c0, double c1, double area, double *H) {
+    const double *f0 = f, *f1 = f + 3;
+    const double cs2 = S ? c0 * c0 * S[0] + 2.0 * c0 * c1 * S[1] + c1 * c1 * S[2] : 0.0;
+    double w[3], sv[3];
+    for (int d = 0; d < 3; d++)
+        w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
+    for (int p = 0; p < 3; p++)
+        for (int q = p; q < 3; q++) {
+            const double v = lambda * w[p] * w[q] +
+                             2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
+                             mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
+            H[3 * p + q] = H[3 * q + p] = area * v;
+        }
+}
+
+/* The density psi(a, b, cc) and its stress S = 2 mu E + lambda tr(E) I
+ * (S00, S11, S01), a = f0.f0, b = f1.f1, cc = f0.f1, with the stretch terms'
+ * mu_s and lambda and the shear term's mu_sh. */
+static inline double stvk_psi(double mu_s, double mu_sh, double lambda, double a, double b,
+                              double cc, double *S) {
+    const double tr = a + b - 2.0;
+    if (S) {
+        S[0] = mu_s * (a - 1.0) + 0.5 * lambda * tr;
+        S[1] = mu_sh * cc;
+        S[2] = mu_s * (b - 1.0) + 0.5 * lambda * tr;
+    }
+    return mu_s * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0)) +
+           mu_sh * 0.5 * cc * cc + 0.125 * lambda * tr * tr;
+}
+
 /* The StVK density with the stretch terms (mu (E11^2 + E22^2) + lambda/2
  * tr(E)^2) scaled by cs and the shear term (2 mu E12^2) by csh, each 0 or 1:
  * (1, 1) is the full density, bit for bit. k < 0: the whole element's g (9)
@@ -401,14 +437,11 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
     const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
     const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
     const double mu_s = cs * m->mu, lambda = cs * m->lambda, mu_sh = csh * m->mu;
-    const double tr = a + b - 2.0;
-    const double psi = mu_s * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0)) +
-                       mu_sh * 0.5 * cc * cc + 0.125 * lambda * tr * tr;
+    double St[3];
+    const double psi = stvk_psi(mu_s, mu_sh, lambda, a, b, cc, St);
     if (!g && !H) return m->area[e] * psi;
     /* S = 2 mu E + lambda tr(E) I, so P = F S: gF_0 = S00 f0 + S01 f1, ... */
-    const double S00 = mu_s * (a - 1.0) + 0.5 * lambda * tr;
-    const double S11 = mu_s * (b - 1.0) + 0.5 * lambda * tr;
-    const double S01 = mu_sh * cc;
+    const double S00 = St[0], S11 = St[2], S01 = St[1];
     double gF[6], HF[36];
     for (int d = 0; d < 3; d++) {
         gF[d] = S00 * f0[d] + S01 * f1[d];
@@ -435,23 +468,11 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
         project2(N);
         hf_from_frame(R, A, N, HF);
     } else if (H && k >= 0 && !(projected && !stress_psd)) {
-        /* The block in closed form: sum_jl c_kj c_kl HF_jl with the HF below
-         * is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
-         * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
-        const double c0 = c[2 * k], c1 = c[2 * k + 1], area = m->area[e];
-        const double cs2 = projected ? c0 * c0 * S00 + 2.0 * c0 * c1 * S01 + c1 * c1 * S11 : 0.0;
-        double w[3], sv[3];
-        for (int d = 0; d < 3; d++)
-            w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
-        for (int p = 0; p < 3; p++)
-            for (int q = p; q < 3; q++) {
-                const double v = lambda * w[p] * w[q] +
-                                 2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
-                                 mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
-                H[3 * p + q] = H[3 * q + p] = area * v;
-            }
-        cr_membrane_to_vertex(c, area, k, gF, NULL, g, NULL);
-        return area * psi;
+        const double S[3] = {S00, S01, S11};
+        stvk_block_direct(mu_s, mu_sh, lambda, f, projected ? S : NULL, c[2 * k], c[2 * k + 1],
+                          m->area[e], H);
+        cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+        return m->area[e] * psi;
     } else if (H) {
         /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
          * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
@@ -497,9 +518,43 @@ double cr_membrane_stvk_shear_kernel(const void *data, int32_t e, const double *
     return stvk_eval(data, 0.0, 1.0, e, -1, xe, g, H);
 }
 
+/* The whole density's block, the common case of a VBD sweep, without
+ * stvk_eval's element-sized paths (the same expressions: stvk_psi,
+ * stvk_block_direct, stvk_block_projected); the Gauss-Newton mode and a
+ * triangle that spans no plane go to stvk_eval. */
 double cr_membrane_stvk_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
                                double *H) {
-    return stvk_eval(data, 1.0, 1.0, e, k, xe, g, H);
+    const cr_membrane *m = data;
+    if (H && m->mode != CR_HESSIAN_PROJECTED) return stvk_eval(m, 1.0, 1.0, e, k, xe, g, H);
+    double f[6], c[6], S[3];
+    cr_membrane_deform(m, e, xe, f, c);
+    const double *f0 = f, *f1 = f + 3;
+    const double a = f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2];
+    const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
+    const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
+    const double mu = m->mu, lambda = m->lambda, area = m->area[e];
+    const double psi = stvk_psi(mu, mu, lambda, a, b, cc, S);
+    if (!g && !H) return area * psi;
+    if (H) {
+        const int stress_psd = S[0] >= 0.0 && S[2] >= 0.0 && S[0] * S[2] >= S[1] * S[1];
+        if (stress_psd) {
+            stvk_block_direct(mu, mu, lambda, f, S, c[2 * k], c[2 * k + 1], area, H);
+        } else {
+            double N[3] = {S[0], S[1], S[2]};
+            project2(N);
+            if (!stvk_block_projected(mu, lambda, f, a, cc, b, N, c[2 * k], c[2 * k + 1], area,
+                                      H))
+                return stvk_eval(m, 1.0, 1.0, e, k, xe, g, H);
+        }
+    }
+    if (g) {
+        const double c0 = c[2 * k], c1 = c[2 * k + 1];
+        for (int d = 0; d < 3; d++) {
+            const double gF0 = S[0] * f0[d] + S[1] * f1[d], gF1 = S[1] * f0[d] + S[2] * f1[d];
+            g[d] = area * (c0 * gF0 + c1 * gF1);
+        }
+    }
+    return area * psi;
 }
 
 double cr_membrane_stvk_stretch_vertex(const void *data, int32_t e, int k, const double *xe,
