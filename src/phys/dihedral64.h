@@ -22,6 +22,13 @@
 
 #include <math.h>
 
+#include "base/vec3.h"
+
+/* fmax without the call (the same result, NaN included: the other operand). */
+static inline double cr_dihedral64_maxd(double a, double b) {
+    return a > b || b != b ? a : b;
+}
+
 /* atan2(y, x) for the hinge angle, within 2 ulp of libm's (tested, bound 3): the
  * reduction r = min/max(|x|, |y|) in [0, 1], folded by atan r = pi/4 +
  * atan((r - 1)/(r + 1)) above tan(pi/8), leaves |t| <= 0.4143, where
@@ -79,6 +86,49 @@ void cr_dihedral64_hess_x(const double *Hy, double *Hx);
  * cr_dihedral64_derivs_y + cr_dihedral64_grad_x up to roundoff, from the two
  * face normals alone. Degenerate hinges as there (gk 0, *ok 0). */
 double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok);
+
+/* The same, inline (bending's vertex block, the hot loop of a VBD sweep). */
+static inline double cr_dihedral64_vertex_grad_inline(const double *x, int k, double *gk,
+                                                      int *ok) {
+    double e[3], u[3], v[3], NA[3], NB[3];
+    sub3d(x + 3, x, e);
+    sub3d(x + 6, x, u);
+    sub3d(x + 9, x, v);
+    const double L2 = dot3d(e, e);
+    const double scale = cr_dihedral64_maxd(L2, cr_dihedral64_maxd(dot3d(u, u), dot3d(v, v)));
+    const double L = sqrt(L2);
+    /* angle_from's operations, in its order: the same bits. */
+    cross3d(e, u, NA);
+    cross3d(v, e, NB);
+    double theta = 0.0;
+    if (L > 0.0) {
+        double c[3];
+        cross3d(NB, NA, c);
+        theta = cr_dihedral64_atan2(dot3d(c, e), L * dot3d(NA, NB));
+    }
+    /* a = ^e x u = NA/L and b = v x ^e = NB/L, so a/|a|^2 = NA L/|NA|^2. */
+    const double A2 = dot3d(NA, NA), B2 = dot3d(NB, NB);
+    *ok = L2 > 1e-24 * scale && A2 > 1e-24 * scale * L2 && B2 > 1e-24 * scale * L2;
+    if (!*ok) {
+        gk[0] = gk[1] = gk[2] = 0.0;
+        return theta;
+    }
+    const double su = L / A2, sv = L / B2;
+    double cu, cv; /* gk = cu NA + cv NB */
+    if (k == 2) {
+        cu = su, cv = 0.0;
+    } else if (k == 3) {
+        cu = 0.0, cv = sv;
+    } else {
+        const double alpha = dot3d(u, e) / L2, beta = dot3d(v, e) / L2;
+        /* g_e = -alpha g_u - beta g_v; g_x0 = -(g_e + g_u + g_v). */
+        cu = k == 1 ? -alpha * su : (alpha - 1.0) * su;
+        cv = k == 1 ? -beta * sv : (beta - 1.0) * sv;
+    }
+    for (int i = 0; i < 3; i++)
+        gk[i] = cu * NA[i] + cv * NB[i];
+    return theta;
+}
 
 /* The (k,k) 3x3 block of cr_dihedral64_hess_x's Hx, from Hy (9x9). */
 void cr_dihedral64_hess_x_block(const double *Hy, int k, double *Hk);

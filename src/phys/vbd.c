@@ -321,7 +321,18 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t slot, int32_t i, 
         if (el < 0) continue;
         double gl[3], Hl[9];
         double w = term->weight;
-        e += w * term->kernel(term->data, el, xi, g ? gl : NULL, g ? Hl : NULL);
+        const double el_e = term->kernel(term->data, el, xi, g ? gl : NULL, g ? Hl : NULL);
+        if (w == 1.0) {
+            e += el_e;
+            if (g) {
+                for (int k = 0; k < 3; k++)
+                    g[k] += gl[k];
+                for (int k = 0; k < 9; k++)
+                    H[k] += Hl[k];
+            }
+            continue;
+        }
+        e += w * el_e;
         if (g) {
             for (int k = 0; k < 3; k++)
                 g[k] += w * gl[k];
