@@ -205,7 +205,7 @@ static double bending_vertex(const void *data, int32_t e, int k, const double *x
     }
     double gk[3];
     int ok = 0;
-    const double d = wrap_angle(cr_dihedral64_vertex_grad(xe, k, gk, &ok) - b->rest[e]);
+    const double d = wrap_angle(cr_dihedral64_vertex_grad_inline(xe, k, gk, &ok) - b->rest[e]);
     if (g)
         for (int r = 0; r < 3; r++)
             g[r] = ke * d * gk[r];

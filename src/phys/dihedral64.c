@@ -33,13 +33,15 @@ static void dinv(const double *a, double a2, double *D) {
             D[3 * i + j] = s * ((i == j ? a2 : 0.0) - 2.0 * a[i] * a[j]);
 }
 
+
 static double angle_from(const double *e, const double *u, const double *v, double L) {
     double NA[3], NB[3], c[3];
     cross3d(e, u, NA);
     cross3d(v, e, NB);
     cross3d(NB, NA, c);
-    /* atan2 ignores the positive scales |NA|, |NB|: no normalisation needed. */
-    return atan2(dot3d(c, e) / L, dot3d(NA, NB));
+    /* atan2 ignores the positive scales |NA|, |NB| and L (sin = c.e/L,
+     * cos = NA.NB over the same |NA||NB|): no normalisation needed. */
+    return cr_dihedral64_atan2(dot3d(c, e), L * dot3d(NA, NB));
 }
 
 double cr_dihedral64_angle(const double *x) {
@@ -58,7 +60,7 @@ double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) 
     sub3d(x + 6, x, u);
     sub3d(x + 9, x, v);
     const double L2 = dot3d(e, e);
-    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
+    const double scale = cr_dihedral64_maxd(L2, cr_dihedral64_maxd(dot3d(u, u), dot3d(v, v)));
     const double L = sqrt(L2);
     const double theta = L > 0.0 ? angle_from(e, u, v, L) : 0.0;
     double eh[3] = {e[0] / L, e[1] / L, e[2] / L}, a[3], b[3];
@@ -167,44 +169,7 @@ void cr_dihedral64_hess_x(const double *Hy, double *Hx) {
 }
 
 double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok) {
-    double e[3], u[3], v[3], NA[3], NB[3];
-    sub3d(x + 3, x, e);
-    sub3d(x + 6, x, u);
-    sub3d(x + 9, x, v);
-    const double L2 = dot3d(e, e);
-    const double scale = fmax(L2, fmax(dot3d(u, u), dot3d(v, v)));
-    const double L = sqrt(L2);
-    /* angle_from's operations, in its order: the same bits. */
-    cross3d(e, u, NA);
-    cross3d(v, e, NB);
-    double theta = 0.0;
-    if (L > 0.0) {
-        double c[3];
-        cross3d(NB, NA, c);
-        theta = atan2(dot3d(c, e) / L, dot3d(NA, NB));
-    }
-    /* a = ^e x u = NA/L and b = v x ^e = NB/L, so a/|a|^2 = NA L/|NA|^2. */
-    const double A2 = dot3d(NA, NA), B2 = dot3d(NB, NB);
-    *ok = L2 > 1e-24 * scale && A2 > 1e-24 * scale * L2 && B2 > 1e-24 * scale * L2;
-    if (!*ok) {
-        gk[0] = gk[1] = gk[2] = 0.0;
-        return theta;
-    }
-    const double su = L / A2, sv = L / B2;
-    double cu, cv; /* gk = cu NA + cv NB */
-    if (k == 2) {
-        cu = su, cv = 0.0;
-    } else if (k == 3) {
-        cu = 0.0, cv = sv;
-    } else {
-        const double alpha = dot3d(u, e) / L2, beta = dot3d(v, e) / L2;
-        /* g_e = -alpha g_u - beta g_v; g_x0 = -(g_e + g_u + g_v). */
-        cu = k == 1 ? -alpha * su : (alpha - 1.0) * su;
-        cv = k == 1 ? -beta * sv : (beta - 1.0) * sv;
-    }
-    for (int i = 0; i < 3; i++)
-        gk[i] = cu * NA[i] + cv * NB[i];
-    return theta;
+    return cr_dihedral64_vertex_grad_inline(x, k, gk, ok);
 }
 
 void cr_dihedral64_hess_x_block(const double *Hy, int k, double *Hk) {

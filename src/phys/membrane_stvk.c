@@ -140,6 +140,7 @@ void cr_membrane_term_part(const cr_membrane *m, cr_membrane_part part, cr_energ
 /* Clamp the symmetric 2x2 [[a, b], [b, c]] (m[0], m[1], m[2]) to PSD. */
 static void project2(double *m) {
     const double a = m[0], b = m[1], c = m[2];
+    if (a >= 0.0 && c >= 0.0 && a * c >= b * b) return; /* PSD: no square root */
     const double mean = 0.5 * (a + c), r = sqrt(0.25 * (a - c) * (a - c) + b * b);
     const double l1 = mean + r, l2 = mean - r;
     if (l2 >= 0.0) return;
@@ -169,11 +170,20 @@ static void project2(double *m) {
  * + lambda s_p^2, psi_12 = lambda s1 s2. The same matrix as cr_psd_project
  * of the rotated block, to roundoff (tested), at a fraction of a Jacobi
  * eigensolve. A: (4x4, index 2j + component) as in cr_membrane_project_hf. */
-static void stvk_inplane_projected(double mu, double lambda, double a, double b, double d,
-                                   double *A) {
-    /* V from the eigenvectors of M^T M = [[a^2, ab], [ab, b^2 + d^2]]. */
-    const double x = a * a - (b * b + d * d), y = 2.0 * a * b, r = sqrt(x * x + y * y);
-    const double s1 = sqrt(0.5 * (a * a + b * b + d * d + r)), s2 = a * d / s1;
+typedef struct stvk_modes {
+    double s1, s2;         /* singular values of M, s1 >= s2 >= 0 */
+    double vc, vs;         /* v1 = (vc, vs), v2 = (-vs, vc) */
+    double lt, lf, hs[3];  /* twist and flip eigenvalues, scaling 2x2; all clamped */
+} stvk_modes;
+
+/* The eigensystem of StVK's in-plane Hessian, clamped, from M's Gram matrix
+ * M^T M = [[g00, g01], [g01, g11]] (= F^T F) and det M = jac > 0: what the
+ * whole kernel and the vertex block share. */
+static void stvk_modes_from_gram(double mu, double lambda, double g00, double g01, double g11,
+                                 double jac, stvk_modes *o) {
+    /* V from the eigenvectors of M^T M. */
+    const double x = g00 - g11, y = 2.0 * g01, r = sqrt(x * x + y * y);
+    const double s1 = sqrt(0.5 * (g00 + g11 + r)), s2 = jac / s1;
     double c = 1.0, sn = 0.0; /* v1 = (c, sn) at angle atan2(y, x)/2 */
     if (r > 0.0) {
         if (x >= 0.0) {
@@ -184,20 +194,29 @@ static void stvk_inplane_projected(double mu, double lambda, double a, double b,
             c = y / (2.0 * r * sn);
         }
     }
+    const double i2 = s1 * s1 + s2 * s2 - 2.0;
+    const double lt = mu * (s1 * s1 - s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    const double lf = mu * (s1 * s1 + s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
+    o->hs[0] = mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1;
+    o->hs[1] = lambda * s1 * s2;
+    o->hs[2] = mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2;
+    o->lt = lt > 0.0 ? lt : 0.0, o->lf = lf > 0.0 ? lf : 0.0; /* fmax(., 0) without the call */
+    project2(o->hs);
+    o->s1 = s1, o->s2 = s2, o->vc = c, o->vs = sn;
+}
+
+static void stvk_inplane_projected(double mu, double lambda, double a, double b, double d,
+                                   double *A) {
+    stvk_modes md;
+    stvk_modes_from_gram(mu, lambda, a * a, a * b, b * b + d * d, a * d, &md);
+    const double s1 = md.s1, c = md.vc, sn = md.vs, lt = md.lt, lf = md.lf;
+    const double *hs = md.hs;
     const double v1[2] = {c, sn}, v2[2] = {-sn, c};
     /* u1 = M v1 / s1; u2 = its perpendicular (det U = det M / det V > 0). */
     double u1[2] = {(a * c + b * sn) / s1, d * sn / s1};
     const double un = sqrt(u1[0] * u1[0] + u1[1] * u1[1]);
     u1[0] /= un, u1[1] /= un;
     const double u2[2] = {-u1[1], u1[0]};
-    const double i2 = s1 * s1 + s2 * s2 - 2.0;
-    double lt = mu * (s1 * s1 - s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
-    double lf = mu * (s1 * s1 + s1 * s2 + s2 * s2 - 1.0) + 0.5 * lambda * i2;
-    double hs[3] = {mu * (3.0 * s1 * s1 - 1.0) + 0.5 * lambda * i2 + lambda * s1 * s1,
-                    lambda * s1 * s2,
-                    mu * (3.0 * s2 * s2 - 1.0) + 0.5 * lambda * i2 + lambda * s2 * s2};
-    lt = fmax(lt, 0.0), lf = fmax(lf, 0.0);
-    project2(hs);
     /* Modes as vec(D), D[comp][col] at index 2 col + comp. */
     double w1[4], w2[4], wt[4], wf[4];
     for (int j = 0; j < 2; j++)
@@ -214,6 +233,52 @@ static void stvk_inplane_projected(double mu, double lambda, double a, double b,
                              hs[2] * w2[i] * w2[k] + lt * wt[i] * wt[k] + lf * wf[i] * wf[k];
             A[4 * i + k] = A[4 * k + i] = v;
         }
+}
+
+/* Vertex k's (k,k) block of the projected StVK Hessian (the whole density,
+ * stress not PSD), straight from f0, f1 without the in-plane 4x4: with
+ * (c0, c1) = vertex k's coefficients, alpha = (c0, c1).v1, beta = (c0, c1).v2,
+ * the modes contract to alpha u1, beta u2, (alpha u2 - beta u1)/sqrt2 and
+ * (beta u1 + alpha u2)/sqrt2, so the
+ * in-plane part is Y00 r1 r1^T + Y01 (r1 r2^T + r2 r1^T) + Y11 r2 r2^T with
+ * r1 = F v1/|F v1|, r2 = n x r1 (the 3-D images of u1, u2), plus the normal
+ * part (c0, c1) N (c0, c1)^T n n^T. The same matrix as the (k,k) block of
+ * the whole kernel's (stvk_inplane_projected, hf_from_frame), to roundoff (tested: phys_energy.vertex_blocks).
+ * 0 when f0, f1 do not span a plane (plane_frame's test). */
+static int stvk_block_projected(double mu, double lambda, const double *f, double g00, double g01,
+                                double g11, const double *N, double c0, double c1, double area,
+                                double *H) {
+    const double *f0 = f, *f1 = f + 3;
+    double n[3] = {f0[1] * f1[2] - f0[2] * f1[1], f0[2] * f1[0] - f0[0] * f1[2],
+                   f0[0] * f1[1] - f0[1] * f1[0]};
+    const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if (!(g00 > 0.0) || !(n2 > 1e-16 * g00 * g11)) return 0;
+    const double jac = sqrt(n2);
+    for (int p = 0; p < 3; p++)
+        n[p] /= jac;
+    stvk_modes md;
+    stvk_modes_from_gram(mu, lambda, g00, g01, g11, jac, &md);
+    double r1[3];
+    for (int p = 0; p < 3; p++)
+        r1[p] = md.vc * f0[p] + md.vs * f1[p];
+    const double rl = 1.0 / sqrt(r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2]);
+    for (int p = 0; p < 3; p++)
+        r1[p] *= rl;
+    const double r2[3] = {n[1] * r1[2] - n[2] * r1[1], n[2] * r1[0] - n[0] * r1[2],
+                          n[0] * r1[1] - n[1] * r1[0]};
+    const double al = c0 * md.vc + c1 * md.vs, be = c1 * md.vc - c0 * md.vs;
+    const double ltf = 0.5 * (md.lt + md.lf);
+    const double y00 = md.hs[0] * al * al + ltf * be * be;
+    const double y01 = al * be * (md.hs[1] + 0.5 * (md.lf - md.lt));
+    const double y11 = md.hs[2] * be * be + ltf * al * al;
+    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
+    for (int p = 0; p < 3; p++)
+        for (int q = p; q < 3; q++) {
+            const double v = y00 * r1[p] * r1[q] + y01 * (r1[p] * r2[q] + r2[p] * r1[q]) +
+                             y11 * r2[p] * r2[q] + xn * n[p] * n[q];
+            H[3 * p + q] = H[3 * q + p] = area * v;
+        }
+    return 1;
 }
 
 /* n^T M n for the 3x3 block M of HF at block (j, l). */
@@ -323,25 +388,40 @@ void cr_membrane_project_hf(const double *f, double *HF) {
     hf_from_frame(R, A, N, HF);
 }
 
-/* Vertex k's block, area sum_jl c_kj c_kl HF_jl, of the HF that
- * hf_from_frame(R, A, N) would build, without building it. */
-static void block_from_frame(const double *R, const double *A, const double *N, const double *c,
-                             int k, double area, double *H) {
-    const double c0 = c[2 * k], c1 = c[2 * k + 1], w[2] = {c0, c1};
-    double X[4] = {0.0, 0.0, 0.0, 0.0}; /* in-plane 2x2 */
-    for (int j = 0; j < 2; j++)
-        for (int l = 0; l < 2; l++)
-            for (int p = 0; p < 2; p++)
-                for (int q = 0; q < 2; q++)
-                    X[2 * p + q] += w[j] * w[l] * A[4 * (2 * j + p) + 2 * l + q];
-    const double xn = c0 * c0 * N[0] + 2.0 * c0 * c1 * N[1] + c1 * c1 * N[2];
+/* Vertex k's block where no projection is needed (the Gauss-Newton part, or
+ * the whole Hessian with a PSD stress S = (S00, S01, S11), NULL for the
+ * Gauss-Newton part alone), in closed form: sum_jl c_kj c_kl HF_jl of
+ * stvk_eval's HF is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
+ * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
+static void stvk_block_direct(double mu_s, double mu_sh, double lambda, const double *f,
+                              const double *S, double c0, double c1, double area, double *H) {
+    const double *f0 = f, *f1 = f + 3;
+    const double cs2 = S ? c0 * c0 * S[0] + 2.0 * c0 * c1 * S[1] + c1 * c1 * S[2] : 0.0;
+    double w[3], sv[3];
+    for (int d = 0; d < 3; d++)
+        w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
     for (int p = 0; p < 3; p++)
         for (int q = p; q < 3; q++) {
-            const double v = R[3 * p] * (X[0] * R[3 * q] + X[1] * R[3 * q + 1]) +
-                             R[3 * p + 1] * (X[2] * R[3 * q] + X[3] * R[3 * q + 1]) +
-                             xn * R[3 * p + 2] * R[3 * q + 2];
+            const double v = lambda * w[p] * w[q] +
+                             2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
+                             mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
             H[3 * p + q] = H[3 * q + p] = area * v;
         }
+}
+
+/* The density psi(a, b, cc) and its stress S = 2 mu E + lambda tr(E) I
+ * (S00, S11, S01), a = f0.f0, b = f1.f1, cc = f0.f1, with the stretch terms'
+ * mu_s and lambda and the shear term's mu_sh. */
+static inline double stvk_psi(double mu_s, double mu_sh, double lambda, double a, double b,
+                              double cc, double *S) {
+    const double tr = a + b - 2.0;
+    if (S) {
+        S[0] = mu_s * (a - 1.0) + 0.5 * lambda * tr;
+        S[1] = mu_sh * cc;
+        S[2] = mu_s * (b - 1.0) + 0.5 * lambda * tr;
+    }
+    return mu_s * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0)) +
+           mu_sh * 0.5 * cc * cc + 0.125 * lambda * tr * tr;
 }
 
 /* The StVK density with the stretch terms (mu (E11^2 + E22^2) + lambda/2
@@ -357,14 +437,11 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
     const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
     const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
     const double mu_s = cs * m->mu, lambda = cs * m->lambda, mu_sh = csh * m->mu;
-    const double tr = a + b - 2.0;
-    const double psi = mu_s * (0.25 * (a - 1.0) * (a - 1.0) + 0.25 * (b - 1.0) * (b - 1.0)) +
-                       mu_sh * 0.5 * cc * cc + 0.125 * lambda * tr * tr;
+    double St[3];
+    const double psi = stvk_psi(mu_s, mu_sh, lambda, a, b, cc, St);
     if (!g && !H) return m->area[e] * psi;
     /* S = 2 mu E + lambda tr(E) I, so P = F S: gF_0 = S00 f0 + S01 f1, ... */
-    const double S00 = mu_s * (a - 1.0) + 0.5 * lambda * tr;
-    const double S11 = mu_s * (b - 1.0) + 0.5 * lambda * tr;
-    const double S01 = mu_sh * cc;
+    const double S00 = St[0], S11 = St[2], S01 = St[1];
     double gF[6], HF[36];
     for (int d = 0; d < 3; d++) {
         gF[d] = S00 * f0[d] + S01 * f1[d];
@@ -375,34 +452,27 @@ static double stvk_eval(const cr_membrane *m, double cs, double csh, int32_t e, 
     double R[9], fa, fb, fd;
     /* The whole density is isotropic (its parts are not): its projection
      * has a closed form in the plane, and its normal block is S. */
-    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && plane_frame(f, R, &fa, &fb, &fd)) {
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && k >= 0) {
+        double N[3] = {S00, S01, S11};
+        project2(N);
+        if (stvk_block_projected(m->mu, m->lambda, f, a, cc, b, N, c[2 * k], c[2 * k + 1],
+                                 m->area[e], H)) {
+            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+            return m->area[e] * psi;
+        }
+    }
+    if (projected && !stress_psd && cs == 1.0 && csh == 1.0 && k < 0 &&
+        plane_frame(f, R, &fa, &fb, &fd)) {
         double A[16], N[3] = {S00, S01, S11};
         stvk_inplane_projected(m->mu, m->lambda, fa, fb, fd, A);
         project2(N);
-        if (k >= 0) {
-            cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
-            block_from_frame(R, A, N, c, k, m->area[e], H);
-            return m->area[e] * psi;
-        }
         hf_from_frame(R, A, N, HF);
     } else if (H && k >= 0 && !(projected && !stress_psd)) {
-        /* The block in closed form: sum_jl c_kj c_kl HF_jl with the HF below
-         * is lambda w w^T + 2 mu (c0^2 f0 f0^T + c1^2 f1 f1^T)
-         * + mu_sh s s^T (+ (c S c) I), w = c0 f0 + c1 f1, s = c0 f1 + c1 f0. */
-        const double c0 = c[2 * k], c1 = c[2 * k + 1], area = m->area[e];
-        const double cs2 = projected ? c0 * c0 * S00 + 2.0 * c0 * c1 * S01 + c1 * c1 * S11 : 0.0;
-        double w[3], sv[3];
-        for (int d = 0; d < 3; d++)
-            w[d] = c0 * f0[d] + c1 * f1[d], sv[d] = c0 * f1[d] + c1 * f0[d];
-        for (int p = 0; p < 3; p++)
-            for (int q = p; q < 3; q++) {
-                const double v = lambda * w[p] * w[q] +
-                                 2.0 * mu_s * (c0 * c0 * f0[p] * f0[q] + c1 * c1 * f1[p] * f1[q]) +
-                                 mu_sh * sv[p] * sv[q] + (p == q ? cs2 : 0.0);
-                H[3 * p + q] = H[3 * q + p] = area * v;
-            }
-        cr_membrane_to_vertex(c, area, k, gF, NULL, g, NULL);
-        return area * psi;
+        const double S[3] = {S00, S01, S11};
+        stvk_block_direct(mu_s, mu_sh, lambda, f, projected ? S : NULL, c[2 * k], c[2 * k + 1],
+                          m->area[e], H);
+        cr_membrane_to_vertex(c, m->area[e], k, gF, NULL, g, NULL);
+        return m->area[e] * psi;
     } else if (H) {
         /* Gauss-Newton part: d(a,b,c)/dF^T W d(a,b,c)/dF with
          * W = [[mu/2 + lambda/4, lambda/4, 0], [lambda/4, mu/2 + lambda/4, 0], [0, 0, mu]]
@@ -448,9 +518,43 @@ double cr_membrane_stvk_shear_kernel(const void *data, int32_t e, const double *
     return stvk_eval(data, 0.0, 1.0, e, -1, xe, g, H);
 }
 
+/* The whole density's block, the common case of a VBD sweep, without
+ * stvk_eval's element-sized paths (the same expressions: stvk_psi,
+ * stvk_block_direct, stvk_block_projected); the Gauss-Newton mode and a
+ * triangle that spans no plane go to stvk_eval. */
 double cr_membrane_stvk_vertex(const void *data, int32_t e, int k, const double *xe, double *g,
                                double *H) {
-    return stvk_eval(data, 1.0, 1.0, e, k, xe, g, H);
+    const cr_membrane *m = data;
+    if (H && m->mode != CR_HESSIAN_PROJECTED) return stvk_eval(m, 1.0, 1.0, e, k, xe, g, H);
+    double f[6], c[6], S[3];
+    cr_membrane_deform(m, e, xe, f, c);
+    const double *f0 = f, *f1 = f + 3;
+    const double a = f0[0] * f0[0] + f0[1] * f0[1] + f0[2] * f0[2];
+    const double b = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2];
+    const double cc = f0[0] * f1[0] + f0[1] * f1[1] + f0[2] * f1[2];
+    const double mu = m->mu, lambda = m->lambda, area = m->area[e];
+    const double psi = stvk_psi(mu, mu, lambda, a, b, cc, S);
+    if (!g && !H) return area * psi;
+    if (H) {
+        const int stress_psd = S[0] >= 0.0 && S[2] >= 0.0 && S[0] * S[2] >= S[1] * S[1];
+        if (stress_psd) {
+            stvk_block_direct(mu, mu, lambda, f, S, c[2 * k], c[2 * k + 1], area, H);
+        } else {
+            double N[3] = {S[0], S[1], S[2]};
+            project2(N);
+            if (!stvk_block_projected(mu, lambda, f, a, cc, b, N, c[2 * k], c[2 * k + 1], area,
+                                      H))
+                return stvk_eval(m, 1.0, 1.0, e, k, xe, g, H);
+        }
+    }
+    if (g) {
+        const double c0 = c[2 * k], c1 = c[2 * k + 1];
+        for (int d = 0; d < 3; d++) {
+            const double gF0 = S[0] * f0[d] + S[1] * f1[d], gF1 = S[1] * f0[d] + S[2] * f1[d];
+            g[d] = area * (c0 * gF0 + c1 * gF1);
+        }
+    }
+    return area * psi;
 }
 
 double cr_membrane_stvk_stretch_vertex(const void *data, int32_t e, int k, const double *xe,

@@ -55,18 +55,33 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "phys/vbd_internal.h"
 
 /* Step halvings of the per-vertex line search. */
 #define VBD_LINE_SEARCH 6
-/* Vertices of one colour worth a thread: a parallel region per colour costs
- * tens of microseconds, more on a loaded machine. */
+/* Free vertices per thread below which a sweep runs on one: a sweep is one
+ * parallel region with a barrier per colour, each some microseconds (more on
+ * a loaded machine). */
 #define VBD_GRAIN 256
 /* The step bound's fraction of the nearest pair's distance (the paper's
  * gamma_p; Warp's 0.4). */
 #define VBD_BOUND 0.4
 /* Detections that walk the initial guess out in steps of the bound. */
 #define VBD_GUESS_DETECTIONS 4
+
+/* One incidence of a free vertex into a multi-vertex element, with the
+ * element's vertices copied in (the gather streams these, not the terms'
+ * element lists). */
+typedef struct vbd_adj {
+    int32_t elem;
+    int16_t term;
+    int16_t local;                   /* the vertex is ev[local] */
+    int32_t ev[CR_ENERGY_MAX_VERTS]; /* the element's vertices (term->nvert of them) */
+} vbd_adj;
 
 struct cr_vbd {
     int32_t nv;
@@ -75,6 +90,8 @@ struct cr_vbd {
     int32_t *col_vert; /* the free vertices, by colour, ascending within one */
     int64_t *inc_off;  /* (V+1) */
     cr_vbd_incidence *inc;
+    int64_t *adj_off;  /* (nfree+1): slot k = col_vert[k]'s incidences in adj */
+    vbd_adj *adj;      /* the incidences again, in colour order */
     int32_t *map[CR_SIM_MAX_TERMS]; /* one-vertex terms with an element list: vertex -> element */
     double *xa, *xb;                /* (V,3) the last two iterates, for Chebyshev */
     double *move, *gnorm;           /* (V) per vertex of the last sweep, m and N */
@@ -88,6 +105,7 @@ struct cr_vbd {
 void cr_vbd_destroy(cr_vbd *v) {
     if (!v) return;
     free(v->col_off), free(v->col_vert), free(v->inc_off), free(v->inc);
+    free(v->adj_off), free(v->adj);
     for (int t = 0; t < CR_SIM_MAX_TERMS; t++)
         free(v->map[t]);
     free(v->xa), free(v->xb), free(v->move), free(v->gnorm), free(v->hel);
@@ -170,6 +188,31 @@ cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
             if (colour[i] >= 0) v->col_vert[at[colour[i]]++] = i;
         free(at);
     }
+    {
+        const int32_t nfree = v->col_off[v->ncol];
+        v->adj_off = cr_malloc(((size_t)nfree + 1) * sizeof(int64_t), err);
+        if (!v->adj_off) goto fail;
+        v->adj_off[0] = 0;
+        for (int32_t k = 0; k < nfree; k++) {
+            const int32_t i = v->col_vert[k];
+            v->adj_off[k + 1] = v->adj_off[k] + (v->inc_off[i + 1] - v->inc_off[i]);
+        }
+        v->adj = cr_malloc((size_t)(v->adj_off[nfree] > 0 ? v->adj_off[nfree] : 1) * sizeof(vbd_adj),
+                           err);
+        if (!v->adj) goto fail;
+        for (int32_t k = 0; k < nfree; k++) {
+            const int32_t i = v->col_vert[k];
+            vbd_adj *ad = v->adj + v->adj_off[k];
+            for (int64_t q = v->inc_off[i]; q < v->inc_off[i + 1]; q++, ad++) {
+                const cr_vbd_incidence *in = &v->inc[q];
+                const cr_energy_term *term = &s->terms[in->term];
+                memset(ad, 0, sizeof *ad);
+                ad->elem = in->elem, ad->term = in->term, ad->local = in->local;
+                for (int b = 0; b < term->nvert; b++)
+                    ad->ev[b] = term->elem[(int64_t)term->nvert * in->elem + b];
+            }
+        }
+    }
     goto done;
 fail:
     st = err && err->status != CR_OK ? err->status : CR_ERR_MEMORY;
@@ -211,7 +254,6 @@ void cr_vbd_initial_guess(cr_sim *s, double h) {
 typedef struct sweep_ctx {
     cr_sim *s;
     cr_vbd *v;
-    const int32_t *verts; /* this colour's vertices */
     double kd_h;          /* damping k_d / h (k_d in s): a multiple of the Hessian */
     double max_step;      /* m */
     int fresh;            /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
@@ -258,13 +300,14 @@ static double gather_self(const cr_sim *s, const cr_vbd *v, int32_t i, const dou
     return e;
 }
 
-/* The local objective of vertex i with x_i = xi and the other vertices at
- * s->x. With g (3) not NULL, also its gradient and the Hessian block H (9)
- * of the one-vertex terms; with Hel (9) not NULL too, the block of the
- * multi-vertex (elastic) terms goes there (else their kernels run without
- * their Hessians). */
-static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double xi[3], double *g,
-                     double *H, double *Hel) {
+/* The local objective of vertex i (col_vert[slot]) with x_i = xi and the
+ * other vertices at s->x. With g (3) not NULL, also its gradient and the
+ * Hessian block H (9) of the one-vertex terms; with Hel (9) not NULL too,
+ * the block of the multi-vertex (elastic) terms goes there (else their
+ * kernels run without their Hessians). A weight of 1 is not multiplied in
+ * (the same bits). */
+static double gather(const cr_sim *s, const cr_vbd *v, int32_t slot, int32_t i, const double xi[3],
+                     double *g, double *H, double *Hel) {
     double e = 0.0;
     if (g) {
         memset(g, 0, 3 * sizeof(double));
@@ -278,7 +321,18 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double x
         if (el < 0) continue;
         double gl[3], Hl[9];
         double w = term->weight;
-        e += w * term->kernel(term->data, el, xi, g ? gl : NULL, g ? Hl : NULL);
+        const double el_e = term->kernel(term->data, el, xi, g ? gl : NULL, g ? Hl : NULL);
+        if (w == 1.0) {
+            e += el_e;
+            if (g) {
+                for (int k = 0; k < 3; k++)
+                    g[k] += gl[k];
+                for (int k = 0; k < 9; k++)
+                    H[k] += Hl[k];
+            }
+            continue;
+        }
+        e += w * el_e;
         if (g) {
             for (int k = 0; k < 3; k++)
                 g[k] += w * gl[k];
@@ -286,22 +340,33 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double x
                 H[k] += w * Hl[k];
         }
     }
-    for (int64_t k = v->inc_off[i]; k < v->inc_off[i + 1]; k++) {
-        const cr_vbd_incidence *in = &v->inc[k];
-        const cr_energy_term *term = &s->terms[in->term];
-        if (term->weight == 0.0) continue;
-        const int nvert = term->nvert, n = 3 * nvert, a = in->local;
-        const int32_t *ev = term->elem + (int64_t)nvert * in->elem;
+    const vbd_adj *ad = v->adj + v->adj_off[slot], *const ad_end = v->adj + v->adj_off[slot + 1];
+    for (; ad < ad_end; ad++) {
+        const cr_energy_term *term = &s->terms[ad->term];
+        const double w = term->weight;
+        if (w == 0.0) continue;
+        const int nvert = term->nvert, n = 3 * nvert, a = ad->local;
         double xe[3 * CR_ENERGY_MAX_VERTS];
         for (int b = 0; b < nvert; b++) {
-            const double *src = b == a ? xi : s->x + 3 * (int64_t)ev[b];
+            const double *src = s->x + 3 * (int64_t)ad->ev[b];
             xe[3 * b] = src[0], xe[3 * b + 1] = src[1], xe[3 * b + 2] = src[2];
         }
-        double w = term->weight;
+        xe[3 * a] = xi[0], xe[3 * a + 1] = xi[1], xe[3 * a + 2] = xi[2];
         if (term->vertex_block) {
             double gb[3], Hb[9];
-            e +=
-                w * term->vertex_block(term->data, in->elem, a, xe, g ? gb : NULL, Hel ? Hb : NULL);
+            const double eb =
+                term->vertex_block(term->data, ad->elem, a, xe, g ? gb : NULL, Hel ? Hb : NULL);
+            if (w == 1.0) {
+                e += eb;
+                if (g)
+                    for (int r = 0; r < 3; r++)
+                        g[r] += gb[r];
+                if (Hel)
+                    for (int r = 0; r < 9; r++)
+                        Hel[r] += Hb[r];
+                continue;
+            }
+            e += w * eb;
             if (g)
                 for (int r = 0; r < 3; r++)
                     g[r] += w * gb[r];
@@ -312,7 +377,7 @@ static double gather(const cr_sim *s, const cr_vbd *v, int32_t i, const double x
         }
         /* No block kernel: slice the element's. */
         double ge[3 * CR_ENERGY_MAX_VERTS], He[9 * CR_ENERGY_MAX_VERTS * CR_ENERGY_MAX_VERTS];
-        e += w * term->kernel(term->data, in->elem, xe, g ? ge : NULL, Hel ? He : NULL);
+        e += w * term->kernel(term->data, ad->elem, xe, g ? ge : NULL, Hel ? He : NULL);
         if (g)
             for (int r = 0; r < 3; r++)
                 g[r] += w * ge[3 * a + r];
@@ -393,14 +458,16 @@ static void finish_move(const cr_sim *s, cr_vbd *v, int32_t i, const double *xo,
     v->move[i] = len;
 }
 
-/* One vertex's block Newton step with its line search, in place in s->x. */
-static void vertex_step(const sweep_ctx *c, int32_t i) {
+/* One vertex's block Newton step with its line search, in place in s->x:
+ * the vertex in slot `slot` of the colour order. */
+static void vertex_step(const sweep_ctx *c, int32_t slot) {
     cr_sim *s = c->s;
     cr_vbd *v = c->v;
+    const int32_t i = v->col_vert[slot];
     double *xi = s->x + 3 * (int64_t)i;
     const double xo[3] = {xi[0], xi[1], xi[2]};
     double g[3], H[9], d0[3] = {0.0, 0.0, 0.0}, *Hel = v->hel + 9 * (int64_t)i;
-    double e0 = gather(s, v, i, xo, g, H, c->fresh ? Hel : NULL);
+    double e0 = gather(s, v, slot, i, xo, g, H, c->fresh ? Hel : NULL);
     for (int k = 0; k < 9; k++)
         H[k] += Hel[k];
     if (c->kd_h > 0.0) {
@@ -446,7 +513,7 @@ static void vertex_step(const sweep_ctx *c, int32_t i) {
         double xn[3];
         for (int k = 0; k < 3; k++)
             xn[k] = xo[k] + alpha * dx[k];
-        double en = gather(s, v, i, xn, NULL, NULL, NULL);
+        double en = gather(s, v, slot, i, xn, NULL, NULL, NULL);
         if (c->kd_h > 0.0) {
             double dn[3];
             for (int k = 0; k < 3; k++)
@@ -461,11 +528,6 @@ static void vertex_step(const sweep_ctx *c, int32_t i) {
     }
 }
 
-static void sweep_range(void *vctx, int64_t begin, int64_t end) {
-    const sweep_ctx *c = vctx;
-    for (int64_t k = begin; k < end; k++)
-        vertex_step(c, c->verts[k]);
-}
 
 /* --------------------------------------------------------------- solve -- */
 
@@ -492,12 +554,26 @@ cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err) {
     return CR_OK;
 }
 
-/* One sweep: the colours one after the other, each one's vertices in parallel. */
+/* One sweep: the colours one after the other, each one's vertices in
+ * parallel, in one parallel region with a static split of each colour and
+ * its barrier (a vertex's step does not depend on which thread runs it). */
 static void sweep(cr_sim *s, cr_vbd *v, sweep_ctx *c) {
     double t = cr_time_now();
-    for (int col = 0; col < v->ncol; col++) {
-        c->verts = v->col_vert + v->col_off[col];
-        cr_parallel_for(v->col_off[col + 1] - v->col_off[col], VBD_GRAIN, sweep_range, c);
+    const int32_t nfree = v->col_off[v->ncol];
+    int threads = cr_thread_count();
+    if ((int64_t)threads * VBD_GRAIN > nfree) threads = (int)(nfree / VBD_GRAIN);
+    if (threads <= 1) {
+        for (int32_t k = 0; k < nfree; k++)
+            vertex_step(c, k);
+    } else {
+#ifdef _OPENMP
+#pragma omp parallel num_threads(threads)
+        for (int col = 0; col < v->ncol; col++) {
+#pragma omp for schedule(static)
+            for (int32_t k = v->col_off[col]; k < v->col_off[col + 1]; k++)
+                vertex_step(c, k);
+        }
+#endif
     }
     s->rep->seconds_assembly += cr_time_now() - t;
 }
@@ -558,7 +634,7 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
         for (int32_t e = 0; e < term->nelem; e++)
             v->map[t][term->elem[e]] = e;
     }
-    sweep_ctx c = {s, v, NULL, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1, 0};
+    sweep_ctx c = {s, v, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1, 0};
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
     int converged = 0, it;
