@@ -55,12 +55,8 @@ double cr_dihedral64_angle(const double *x) {
 }
 
 double cr_dihedral64_derivs_y(const double *x, double *gy, double *Hy, int *ok) {
-    double e[3], u[3], v[3];
-    sub3d(x + 3, x, e);
-    sub3d(x + 6, x, u);
-    sub3d(x + 9, x, v);
-    const double L2 = dot3d(e, e);
-    const double scale = cr_dihedral64_maxd(L2, cr_dihedral64_maxd(dot3d(u, u), dot3d(v, v)));
+    double e[3], u[3], v[3], scale;
+    const double L2 = cr_dihedral64_edges(x, e, u, v, &scale);
     const double L = sqrt(L2);
     const double theta = L > 0.0 ? angle_from(e, u, v, L) : 0.0;
     double eh[3] = {e[0] / L, e[1] / L, e[2] / L}, a[3], b[3];

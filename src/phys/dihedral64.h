@@ -81,6 +81,18 @@ void cr_dihedral64_grad_x(const double *gy, double *gx);
 /* Hessian in x (12x12) from Hy (9x9): Hx = J^T Hy J. */
 void cr_dihedral64_hess_x(const double *Hy, double *Hx);
 
+/* The hinge's edges from x0: e = x1 - x0, u = x2 - x0, v = x3 - x0; returns |e|^2
+ * and sets *scale, the largest squared edge (the degeneracy tests' yardstick). */
+static inline double cr_dihedral64_edges(const double *x, double *e, double *u, double *v,
+                                         double *scale) {
+    sub3d(x + 3, x, e);
+    sub3d(x + 6, x, u);
+    sub3d(x + 9, x, v);
+    const double L2 = dot3d(e, e);
+    *scale = cr_dihedral64_maxd(L2, cr_dihedral64_maxd(dot3d(u, u), dot3d(v, v)));
+    return L2;
+}
+
 /* Vertex k's share (k = 0..3): theta (returned, the same bits as
  * cr_dihedral64_angle) and d theta/dx_k (3), equal to the row of
  * cr_dihedral64_derivs_y + cr_dihedral64_grad_x up to roundoff, from the two
@@ -90,12 +102,8 @@ double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok);
 /* The same, inline (bending's vertex block, the hot loop of a VBD sweep). */
 static inline double cr_dihedral64_vertex_grad_inline(const double *x, int k, double *gk,
                                                       int *ok) {
-    double e[3], u[3], v[3], NA[3], NB[3];
-    sub3d(x + 3, x, e);
-    sub3d(x + 6, x, u);
-    sub3d(x + 9, x, v);
-    const double L2 = dot3d(e, e);
-    const double scale = cr_dihedral64_maxd(L2, cr_dihedral64_maxd(dot3d(u, u), dot3d(v, v)));
+    double e[3], u[3], v[3], NA[3], NB[3], scale;
+    const double L2 = cr_dihedral64_edges(x, e, u, v, &scale);
     const double L = sqrt(L2);
     /* angle_from's operations, in its order: the same bits. */
     cross3d(e, u, NA);
