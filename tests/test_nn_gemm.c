@@ -4,8 +4,9 @@
  * (1, 3, 7, 17, 65, 511 and past KC = 256 and MC = 240), the three
  * transposition cases the layers use (y = x W^T, dx = dy W, dW = dy^T x) and
  * plain NN, leading dimensions wider than the rows, alpha and beta
- * (overwrite with NaN in C, accumulate), the same bits whatever the thread
- * count, and the dispatch through cr_nn_cpu_gemm with CREASE_NN_GEMM's
+ * (overwrite with NaN in C, accumulate), the narrow forward's dot-product
+ * path, more B blocks than one parallel region packs, the same bits whatever
+ * the thread count, and the dispatch through cr_nn_cpu_gemm with CREASE_NN_GEMM's
  * choice forced either way.
  */
 #include "crease/nn.h"
@@ -92,6 +93,14 @@ CR_TEST(nn_gemm, layer_shapes_past_the_blocks_with_alpha_and_beta) {
         /* dW (N,K) += dy^T (N,M) x (M,K): M the reduction, past KC */
         CR_CHECK(gemm_error(level, 1, 0, 64, 6, 1029, 1.0f, 1.0f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 1, 0, 3, 64, 777, 1.0f, 1.0f, &rng) < 8.0);
+        /* the narrow forward (N <= 8: a dot product per element), K with and
+         * without a tail past the vector width, past KC */
+        CR_CHECK(gemm_error(level, 0, 1, 4100, 3, 64, 1.0f, 0.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 1, 300, 8, 300, 0.5f, 1.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 1, 97, 1, 13, 1.0f, 0.0f, &rng) < 8.0);
+        /* more B blocks than one parallel region's packing budget (2 x 5 of
+         * KC x NC, 8 to a region at AVX-512's panel width) */
+        CR_CHECK(gemm_error(level, 0, 1, 13, 2100, 1100, 1.0f, 0.0f, &rng) < 8.0);
         /* general alpha and beta, the last case */
         CR_CHECK(gemm_error(level, 1, 1, 33, 47, 300, -0.5f, 0.25f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 0, 121, 33, 17, 2.0f, -1.0f, &rng) < 8.0);
@@ -135,6 +144,12 @@ CR_TEST(nn_gemm, same_bits_on_one_thread_and_on_three) {
         cr_set_thread_count(3);
         CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, N, K, 1.0f, A, K, B, K, 0.0f, C3, N) == 0);
         CR_CHECK(memcmp(C1, C3, (size_t)M * N * 4) == 0);
+        /* the narrow forward, 3 outputs */
+        cr_set_thread_count(1);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, 3, K, 1.0f, A, K, B, K, 0.0f, C1, 3) == 0);
+        cr_set_thread_count(3);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, 3, K, 1.0f, A, K, B, K, 0.0f, C3, 3) == 0);
+        CR_CHECK(memcmp(C1, C3, (size_t)M * 3 * 4) == 0);
     }
     cr_set_thread_count(prev);
     free(A), free(B), free(C1), free(C3);

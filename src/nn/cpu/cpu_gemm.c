@@ -30,6 +30,8 @@ enum {
     GEMM_KC = 256,  /* k per packed block: an A panel and a B panel stay in L1 */
     GEMM_MC = 240,  /* rows per thread block at most: packed A in L2 */
     GEMM_NC = 2048, /* columns per packed B block */
+    GEMM_PACK_BUDGET = 1 << 22,
+    GEMM_DOT_GRAIN = 1 << 18, /* multiply-adds per chunk of the narrow forward, at least */ /* floats of packed B per parallel region, at most (16 MB) */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
 };
@@ -45,6 +47,12 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t c
 #define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
 #define VBCAST(p) _mm256_broadcast_ss(p)
 #define VMR 6
+static inline __attribute__((target("avx2,fma"))) float hsum_avx2(__m256 v) {
+    __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+    return _mm_cvtss_f32(_mm_add_ss(s, _mm_movehdup_ps(s)));
+}
+#define VHSUM(v) hsum_avx2((__m256)(v))
 #include "nn/cpu/cpu_gemm_impl.h"
 #undef VW
 #undef VT
@@ -52,6 +60,7 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t c
 #undef VFMA
 #undef VBCAST
 #undef VMR
+#undef VHSUM
 
 #define VW 16
 #define VT __attribute__((target("avx512f")))
@@ -59,6 +68,7 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t c
 #define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
 #define VBCAST(p) _mm512_set1_ps(*(p))
 #define VMR 12
+#define VHSUM(v) _mm512_reduce_add_ps((__m512)(v))
 #include "nn/cpu/cpu_gemm_impl.h"
 #undef VW
 #undef VT
@@ -66,6 +76,7 @@ typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t c
 #undef VFMA
 #undef VBCAST
 #undef VMR
+#undef VHSUM
 #endif
 
 static void gemm_tile_scalar(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
@@ -83,19 +94,38 @@ static void gemm_tile_scalar(int64_t kc, const float *Ap, int64_t rsa, int64_t c
         }
 }
 
+static void gemm_dot_rows_scalar(int64_t i0, int64_t i1, int64_t N, int64_t K, float alpha,
+                                 const float *A, int64_t lda, const float *B, int64_t ldb,
+                                 float beta, float *C, int64_t ldc) {
+    for (int64_t i = i0; i < i1; i++)
+        for (int64_t j = 0; j < N; j++) {
+            float s = 0.0f;
+            for (int64_t k = 0; k < K; k++)
+                s += A[i * lda + k] * B[j * ldb + k];
+            float *c = C + i * ldc + j;
+            *c = beta == 0.0f ? alpha * s : alpha * s + beta * *c;
+        }
+}
+
+typedef void (*gemm_dot_fn)(int64_t i0, int64_t i1, int64_t N, int64_t K, float alpha,
+                            const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                            float *C, int64_t ldc);
+
 typedef struct gemm_kernel {
     int mr, nr;
     gemm_tile_fn tile;
+    gemm_dot_fn dot;
 } gemm_kernel;
 
 static gemm_kernel kernel_for(int level) {
 #if NN_GEMM_X86
-    if (level >= NN_SIMD_AVX512) return (gemm_kernel){12, 32, gemm_tile_avx512};
-    if (level >= NN_SIMD_AVX2) return (gemm_kernel){6, 16, gemm_tile_avx2};
+    if (level >= NN_SIMD_AVX512)
+        return (gemm_kernel){12, 32, gemm_tile_avx512, gemm_dot_rows_avx512};
+    if (level >= NN_SIMD_AVX2) return (gemm_kernel){6, 16, gemm_tile_avx2, gemm_dot_rows_avx2};
 #else
     (void)level;
 #endif
-    return (gemm_kernel){SCALAR_MR, SCALAR_NR, gemm_tile_scalar};
+    return (gemm_kernel){SCALAR_MR, SCALAR_NR, gemm_tile_scalar, gemm_dot_rows_scalar};
 }
 
 /* op(A) rows [i0, i0 + mc), k [p0, p0 + kc) into panels of mr rows:
@@ -143,27 +173,36 @@ static void pack_b(int tb, const float *B, int64_t ldb, int64_t p0, int64_t kc, 
     }
 }
 
+/* One (KC x NC) block of op(B): k [p0, p0 + kc), columns [j0, j0 + nc). */
+typedef struct b_block {
+    int64_t p0, kc, j0, nc;
+    const float *Bp; /* packed panels; with b_direct only the last, partial one */
+    float beta;      /* the caller's beta for the first k block, 1 after */
+} b_block;
+
 typedef struct gemm_block {
     gemm_kernel kern;
     int ta, tb;
-    const float *A, *B;                      /* unpacked: read in place, or rows_unpacked */
-    int64_t lda, ldb, M, mc, p0, kc, j0, nc; /* mc: rows per block */
-    const float *Bp; /* packed panels; with b_direct only the last, partial one */
-    int b_direct;    /* full panels of B read in place (B row-major, tb 0) */
-    float alpha, beta;
+    const float *A, *B; /* unpacked: read in place, or rows_unpacked */
+    int64_t lda, ldb, M, mc; /* mc: rows per block */
+    const b_block *blocks;   /* the B blocks this parallel region runs, in k order per column */
+    int64_t nblocks;
+    int b_direct; /* full panels of B read in place (B row-major, tb 0) */
+    float alpha;
     float *C;
     int64_t rs, cs; /* C's element (i, j) at C[i rs + j cs] */
 } gemm_block;
 
-static void rows_unpacked(const gemm_block *g, int64_t i_begin, int64_t i_end) {
+static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begin,
+                          int64_t i_end) {
     for (int64_t i = i_begin; i < i_end; i++)
-        for (int64_t j = g->j0; j < g->j0 + g->nc; j++) {
+        for (int64_t j = bb->j0; j < bb->j0 + bb->nc; j++) {
             float s = 0.0f;
-            for (int64_t k = g->p0; k < g->p0 + g->kc; k++)
+            for (int64_t k = bb->p0; k < bb->p0 + bb->kc; k++)
                 s += (g->ta ? g->A[k * g->lda + i] : g->A[i * g->lda + k]) *
                      (g->tb ? g->B[j * g->ldb + k] : g->B[k * g->ldb + j]);
             float *c = g->C + i * g->rs + j * g->cs;
-            *c = g->beta == 0.0f ? g->alpha * s : g->alpha * s + g->beta * *c;
+            *c = bb->beta == 0.0f ? g->alpha * s : g->alpha * s + bb->beta * *c;
         }
 }
 
@@ -172,45 +211,69 @@ static void *alloc_floats(int64_t n) {
     return aligned_alloc(64, bytes);
 }
 
-/* MC blocks [begin, end) of C's rows against the B block. Full tiles read
- * A in place through its strides: at the layers' widths (K up to a few
- * hundred) packing A cost more than the multiply-adds it fed (a drape epoch
- * spent 12 % packing A, 11 % in the tile). Only a block's last, partial
- * tile is packed, into zero-padded rows. The sums run in the same k order
- * either way, so the bits do not change. */
+/* MC blocks [begin, end) of C's rows against every B block of the region,
+ * the B blocks outer so that a block stays in cache over the chunk's rows.
+ * Full tiles read A in place through its strides: at the layers' widths (K
+ * up to a few hundred) packing A cost more than the multiply-adds it fed (a
+ * drape epoch spent 12 % packing A, 11 % in the tile). Only a block's last,
+ * partial tile is packed, into zero-padded rows. Each element of C sums its
+ * k blocks in increasing order in one thread, so the bits do not depend on
+ * the thread count or on how the blocks are grouped into regions. */
 static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
     gemm_block *g = vctx;
     int mr = g->kern.mr, nr = g->kern.nr;
-    float *Ap = alloc_floats((int64_t)mr * g->kc);
-    if (!Ap) { /* out of memory: these rows unpacked, slowly */
-        rows_unpacked(g, begin * g->mc, end * g->mc < g->M ? end * g->mc : g->M);
-        return;
-    }
+    float *Ap = alloc_floats((int64_t)mr * GEMM_KC);
     const int64_t rsa = g->ta ? 1 : g->lda, csa = g->ta ? g->lda : 1;
-    for (int64_t blk = begin; blk < end; blk++) {
-        int64_t i0 = blk * g->mc, mc = g->M - i0 < g->mc ? g->M - i0 : g->mc;
-        int64_t full = mc / mr * mr;
-        if (full < mc) pack_a(g->ta, g->A, g->lda, i0 + full, mc - full, g->p0, g->kc, mr, Ap);
-        for (int64_t jp = 0; jp < g->nc; jp += nr) {
-            int nrr = g->nc - jp < nr ? (int)(g->nc - jp) : nr;
-            const float *bp = g->Bp + (jp / nr) * g->kc * nr;
-            int64_t ldbp = nr;
-            if (g->b_direct && nrr == nr) {
-                bp = g->B + g->p0 * g->ldb + g->j0 + jp;
-                ldbp = g->ldb;
-            } else if (g->b_direct) {
-                bp = g->Bp;
-            }
-            for (int64_t ip = 0; ip < mc; ip += mr) {
-                int mrr = mc - ip < mr ? (int)(mc - ip) : mr;
-                const float *a = ip < full ? g->A + (i0 + ip) * rsa + g->p0 * csa : Ap;
-                g->kern.tile(g->kc, a, ip < full ? rsa : 1, ip < full ? csa : mr, bp, ldbp,
-                             g->alpha, g->beta, g->C + (i0 + ip) * g->rs + (g->j0 + jp) * g->cs,
-                             g->rs, g->cs, mrr, nrr);
+    for (int64_t b = 0; b < g->nblocks; b++) {
+        const b_block *bb = &g->blocks[b];
+        if (!Ap) { /* out of memory: these rows unpacked, slowly */
+            rows_unpacked(g, bb, begin * g->mc, end * g->mc < g->M ? end * g->mc : g->M);
+            continue;
+        }
+        for (int64_t blk = begin; blk < end; blk++) {
+            int64_t i0 = blk * g->mc, mc = g->M - i0 < g->mc ? g->M - i0 : g->mc;
+            int64_t full = mc / mr * mr;
+            if (full < mc) pack_a(g->ta, g->A, g->lda, i0 + full, mc - full, bb->p0, bb->kc, mr, Ap);
+            for (int64_t jp = 0; jp < bb->nc; jp += nr) {
+                int nrr = bb->nc - jp < nr ? (int)(bb->nc - jp) : nr;
+                const float *bp = bb->Bp + (jp / nr) * bb->kc * nr;
+                int64_t ldbp = nr;
+                if (g->b_direct && nrr == nr) {
+                    bp = g->B + bb->p0 * g->ldb + bb->j0 + jp;
+                    ldbp = g->ldb;
+                } else if (g->b_direct) {
+                    bp = bb->Bp;
+                }
+                for (int64_t ip = 0; ip < mc; ip += mr) {
+                    int mrr = mc - ip < mr ? (int)(mc - ip) : mr;
+                    const float *a = ip < full ? g->A + (i0 + ip) * rsa + bb->p0 * csa : Ap;
+                    g->kern.tile(bb->kc, a, ip < full ? rsa : 1, ip < full ? csa : mr, bp, ldbp,
+                                 g->alpha, bb->beta,
+                                 g->C + (i0 + ip) * g->rs + (bb->j0 + jp) * g->cs, g->rs, g->cs,
+                                 mrr, nrr);
+                }
             }
         }
     }
     free(Ap);
+}
+
+typedef struct gemm_dot {
+    gemm_dot_fn fn;
+    int64_t N, K;
+    float alpha;
+    const float *A;
+    int64_t lda;
+    const float *B;
+    int64_t ldb;
+    float beta;
+    float *C;
+    int64_t ldc;
+} gemm_dot;
+
+static void dot_rows(void *vctx, int64_t begin, int64_t end) {
+    const gemm_dot *g = vctx;
+    g->fn(begin, end, g->N, g->K, g->alpha, g->A, g->lda, g->B, g->ldb, g->beta, g->C, g->ldc);
 }
 
 int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
@@ -219,6 +282,12 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     if (M <= 0 || N <= 0 || K <= 0 || alpha == 0.0f) return -1; /* the caller's cases */
     gemm_kernel kern = kernel_for(level);
     int64_t rs = ldc, cs = 1;
+    if (!ta && tb && N * 4 <= kern.nr && N <= 8 && M > N) {
+        gemm_dot g = {kern.dot, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+        int64_t per_row = N * K > 0 ? N * K : 1;
+        cr_parallel_for(M, per_row >= GEMM_DOT_GRAIN ? 1 : GEMM_DOT_GRAIN / per_row, dot_rows, &g);
+        return 0;
+    }
     if (N * 4 <= kern.nr && M > N) {
         /* N far below the tile's width (a 3-wide output layer, a 6-wide
          * input's dW): C^T = op(B)^T op(A)^T pads MR rows instead of NR
@@ -230,9 +299,6 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
         B = tA, N = tM, ldb = tlda, tb = !tta;
         rs = 1, cs = ldc;
     }
-    int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
-    float *Bp = alloc_floats((int64_t)GEMM_KC * ((nc_max + kern.nr - 1) / kern.nr * kern.nr));
-    if (!Bp) return -1;
     /* blocks of equal height, at least one per thread (M = 256 in blocks of
      * 240 and 16 left the second of two threads idle) */
     int64_t blocks = (M + GEMM_MC - 1) / GEMM_MC, nt = cr_thread_count();
@@ -240,40 +306,47 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     int64_t mc = ((M + blocks - 1) / blocks + kern.mr - 1) / kern.mr * kern.mr;
     if (mc > GEMM_MC) mc = GEMM_MC;
     blocks = (M + mc - 1) / mc;
+    int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
     /* a chunk is worth a thread from about 2^18 multiply-adds */
     int64_t per_block = (M < mc ? M : mc) * nc_max * (K < GEMM_KC ? K : GEMM_KC);
     int64_t grain = per_block >= (1 << 18) ? 1 : (1 << 18) / per_block;
-    for (int64_t j0 = 0; j0 < N; j0 += GEMM_NC) {
-        int64_t nc = N - j0 < GEMM_NC ? N - j0 : GEMM_NC;
-        for (int64_t p0 = 0; p0 < K; p0 += GEMM_KC) {
-            int64_t kc = K - p0 < GEMM_KC ? K - p0 : GEMM_KC;
-            /* a row-major B is read in place but for its last, partial panel */
-            const int b_direct = !tb;
-            int64_t tail = b_direct ? nc / kern.nr * kern.nr : 0;
-            if (tail < nc) pack_b(tb, B, ldb, p0, kc, j0 + tail, nc - tail, kern.nr, Bp);
-            gemm_block g = {.kern = kern,
-                            .ta = ta,
-                            .tb = tb,
-                            .A = A,
-                            .B = B,
-                            .lda = lda,
-                            .ldb = ldb,
-                            .M = M,
-                            .mc = mc,
-                            .p0 = p0,
-                            .kc = kc,
-                            .j0 = j0,
-                            .nc = nc,
-                            .Bp = Bp,
-                            .b_direct = b_direct,
-                            .alpha = alpha,
-                            .beta = p0 == 0 ? beta : 1.0f,
-                            .C = C,
-                            .rs = rs,
-                            .cs = cs};
-            cr_parallel_for(blocks, grain, gemm_rows, &g);
-        }
+    /* B's blocks, packed ahead as far as GEMM_PACK_BUDGET floats go, run in
+     * one parallel region: a region per k block cost a thread wake-up every
+     * 256 k, and a weights gradient (K = the batch) had 16 of them. */
+    const int b_direct = !tb; /* a row-major B is read in place but for its last, partial panel */
+    int64_t nj = (N + GEMM_NC - 1) / GEMM_NC, np = (K + GEMM_KC - 1) / GEMM_KC;
+    int64_t per_b = b_direct ? (int64_t)GEMM_KC * kern.nr
+                             : (int64_t)GEMM_KC * ((nc_max + kern.nr - 1) / kern.nr * kern.nr);
+    int64_t group = GEMM_PACK_BUDGET / per_b;
+    if (group < 1) group = 1;
+    if (group > nj * np) group = nj * np;
+    float *Bp = alloc_floats(group * per_b);
+    b_block *bbs = malloc((size_t)group * sizeof *bbs);
+    if (!Bp || !bbs) {
+        free(Bp), free(bbs);
+        return -1;
     }
+    gemm_block g = {.kern = kern, .ta = ta, .tb = tb, .A = A, .B = B, .lda = lda, .ldb = ldb,
+                    .M = M, .mc = mc, .blocks = bbs, .b_direct = b_direct, .alpha = alpha,
+                    .C = C, .rs = rs, .cs = cs};
+    for (int64_t first = 0; first < nj * np; first += group) {
+        int64_t n = nj * np - first < group ? nj * np - first : group;
+        for (int64_t q = 0; q < n; q++) {
+            int64_t jb = (first + q) / np, pb = (first + q) % np;
+            b_block *bb = &bbs[q];
+            bb->j0 = jb * GEMM_NC, bb->nc = N - bb->j0 < GEMM_NC ? N - bb->j0 : GEMM_NC;
+            bb->p0 = pb * GEMM_KC, bb->kc = K - bb->p0 < GEMM_KC ? K - bb->p0 : GEMM_KC;
+            bb->beta = pb == 0 ? beta : 1.0f;
+            float *dst = Bp + q * per_b;
+            bb->Bp = dst;
+            int64_t tail = b_direct ? bb->nc / kern.nr * kern.nr : 0;
+            if (tail < bb->nc)
+                pack_b(tb, B, ldb, bb->p0, bb->kc, bb->j0 + tail, bb->nc - tail, kern.nr, dst);
+        }
+        g.nblocks = n;
+        cr_parallel_for(blocks, grain, gemm_rows, &g);
+    }
+    free(bbs);
     free(Bp);
     return 0;
 }
