@@ -1,6 +1,9 @@
 /* test_base.c: status messages, arena, RNG, parallel-for, config, atomic files. */
+#include "base/atan2d.h"
 #include "crease/base.h"
 #include "test.h"
+
+#include <math.h>
 
 #include <stddef.h>
 #include <stdlib.h>
@@ -153,4 +156,38 @@ CR_TEST(base, atomic_write_commits_or_leaves_nothing) {
     CR_CHECK(strcmp(ext, "glb") == 0);
     cr_path_ext("a/b.c/mesh", ext, sizeof ext);
     CR_CHECK(ext[0] == 0);
+}
+
+static double ulp_distance(double a, double b) {
+    if (a == b) return 0.0;
+    const double u = nextafter(fabs(b), INFINITY) - fabs(b);
+    return fabs(a - b) / u;
+}
+
+CR_TEST(base, atan2d_within_3_ulp_of_libm) {
+    cr_rng r = cr_rng_make(77, 0);
+    double worst = 0.0;
+    for (int k = 0; k < 400000; k++) {
+        double y, x;
+        if (k % 4 == 0) { /* around the fold and the swap */
+            const double q = k % 8 == 0 ? 0.41421356237309503 : 1.0;
+            x = ldexp(1.0, (int)(cr_rng_uniform(&r) * 80.0) - 40);
+            y = x * q * (1.0 + 1e-9 * (cr_rng_uniform(&r) - 0.5));
+        } else {
+            x = ldexp(cr_rng_uniform(&r) + 0.5, (int)(cr_rng_uniform(&r) * 120.0) - 60);
+            y = ldexp(cr_rng_uniform(&r) + 0.5, (int)(cr_rng_uniform(&r) * 120.0) - 60);
+        }
+        if (k & 1) x = -x;
+        if (k & 2) y = -y;
+        worst = fmax(worst, ulp_distance(cr_atan2d(y, x), atan2(y, x)));
+    }
+    CR_CHECK(worst <= 3.0);
+    printf("  cr_atan2d: %.1f ulp from libm's at worst\n", worst);
+    const double sp[] = {0.0, -0.0, 1.0, -1.0, INFINITY, -INFINITY, 1e-310, -1e308};
+    for (int i = 0; i < 8; i++)
+        for (int j = 0; j < 8; j++) {
+            const double a = cr_atan2d(sp[i], sp[j]), b = atan2(sp[i], sp[j]);
+            CR_CHECK(ulp_distance(a, b) <= 3.0 && signbit(a) == signbit(b));
+        }
+    CR_CHECK(isnan(cr_atan2d(NAN, 1.0)) && isnan(cr_atan2d(1.0, NAN)));
 }

@@ -392,40 +392,6 @@ static void bending_exact_hessian(double ke, double d, const double *x, double *
  * result (bound 3) on random directions at every scale, both quadrant signs, near the
  * reduction's fold (|y/x| about tan(pi/8)) and the swap (|y| = |x|), and
  * libm's own answers for zeros, infinities and NaN. */
-static double ulp_distance(double a, double b) {
-    if (a == b) return 0.0;
-    const double u = nextafter(fabs(b), INFINITY) - fabs(b);
-    return fabs(a - b) / u;
-}
-
-CR_TEST(phys_energy, dihedral64_atan2) {
-    cr_rng r = cr_rng_make(77, 0);
-    double worst = 0.0;
-    for (int k = 0; k < 400000; k++) {
-        double y, x;
-        if (k % 4 == 0) { /* around the fold and the swap */
-            const double q = k % 8 == 0 ? 0.41421356237309503 : 1.0;
-            x = ldexp(1.0, (int)(cr_rng_uniform(&r) * 80.0) - 40);
-            y = x * q * (1.0 + 1e-9 * (cr_rng_uniform(&r) - 0.5));
-        } else {
-            x = ldexp(cr_rng_uniform(&r) + 0.5, (int)(cr_rng_uniform(&r) * 120.0) - 60);
-            y = ldexp(cr_rng_uniform(&r) + 0.5, (int)(cr_rng_uniform(&r) * 120.0) - 60);
-        }
-        if (k & 1) x = -x;
-        if (k & 2) y = -y;
-        worst = fmax(worst, ulp_distance(cr_dihedral64_atan2(y, x), atan2(y, x)));
-    }
-    CR_CHECK(worst <= 3.0);
-    printf("  hinge atan2: %.1f ulp from libm's at worst\n", worst);
-    const double sp[] = {0.0, -0.0, 1.0, -1.0, INFINITY, -INFINITY, 1e-310, -1e308};
-    for (int i = 0; i < 8; i++)
-        for (int j = 0; j < 8; j++) {
-            const double a = cr_dihedral64_atan2(sp[i], sp[j]), b = atan2(sp[i], sp[j]);
-            CR_CHECK(ulp_distance(a, b) <= 3.0 && signbit(a) == signbit(b));
-        }
-    CR_CHECK(isnan(cr_dihedral64_atan2(NAN, 1.0)) && isnan(cr_dihedral64_atan2(1.0, NAN)));
-}
-
 CR_TEST(phys_energy, bending) {
     cr_error err;
     cr_material mat = material("cotton", CR_MEMBRANE_STVK);

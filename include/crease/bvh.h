@@ -89,7 +89,10 @@ int32_t cr_bvh_depth(const cr_bvh *b);               /* levels below the root */
 const float *cr_bvh_positions(const cr_bvh *b);      /* (V,3) the BVH's copy, m */
 const int32_t *cr_bvh_triangles(const cr_bvh *b);    /* (F,3) */
 const float *cr_bvh_face_normals(const cr_bvh *b);   /* (F,3) unit; zero for degenerate faces */
-const float *cr_bvh_vertex_normals(const cr_bvh *b); /* (V,3) unit, angle-weighted */
+/* (V,3) unit, angle-weighted. After a refit the first call recomputes them
+ * (the queries do not need it): make that call before sharing the array with
+ * other threads. */
+const float *cr_bvh_vertex_normals(const cr_bvh *b);
 
 /* Exact closest point on the mesh (Ericson, Real-Time Collision Detection,
  * 5.1.5, in double), visiting nodes nearest first and pruning by box

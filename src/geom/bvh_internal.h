@@ -42,7 +42,9 @@ struct cr_bvh {
     int32_t *adj;      /* (F,3) face across edge k (corner k to k+1), -1 on a boundary or
                           non-manifold edge */
     float *fnormal;    /* (F,3) unit face normals */
-    float *vnormal;    /* (V,3) unit angle-weighted vertex normals */
+    float *vnormal;    /* (V,3) unit angle-weighted vertex normals; stale after a refit
+                          until cr_bvh_vertex_normals (queries compute the ones they meet) */
+    int vnormal_stale;
     int64_t *vf_start; /* (V+1) faces around vertex v are vf[vf_start[v] .. vf_start[v+1]) */
     int32_t *vf;       /* (3F) vertex-to-face incidence */
     int32_t *order;    /* (F) faces in leaf order */
@@ -50,5 +52,9 @@ struct cr_bvh {
                           triangles from one contiguous run instead of via tri and pos */
     bvh_node *nodes;   /* (nnodes), root first */
 };
+
+/* Vertex v's unit angle-weighted normal from the current positions and face
+ * normals (what vnormal holds when not stale), into out. */
+void cr_bvh_vertex_normal_of(const cr_bvh *b, int64_t v, float out[3]);
 
 #endif

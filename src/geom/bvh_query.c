@@ -207,8 +207,16 @@ int cr_bvh_closest(const cr_bvh *b, const float p[3], float max_dist, cr_bvh_hit
 /* Pseudo-normal of the feature holding the closest point (unnormalised for edges). */
 static void pseudo_normal(const cr_bvh *b, int32_t f, const tri_closest *c, double n[3]) {
     const float *src = &b->fnormal[3 * (size_t)f];
-    if (c->feature == CR_BVH_VERTEX)
-        src = &b->vnormal[3 * (size_t)b->tri[3 * (size_t)f + c->local]];
+    float vn[3];
+    if (c->feature == CR_BVH_VERTEX) {
+        const int32_t v = b->tri[3 * (size_t)f + c->local];
+        if (b->vnormal_stale) {
+            cr_bvh_vertex_normal_of(b, v, vn);
+            src = vn;
+        } else {
+            src = &b->vnormal[3 * (size_t)v];
+        }
+    }
     for (int d = 0; d < 3; d++)
         n[d] = src[d];
     if (c->feature == CR_BVH_EDGE) {

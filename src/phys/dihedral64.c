@@ -41,7 +41,7 @@ static double angle_from(const double *e, const double *u, const double *v, doub
     cross3d(NB, NA, c);
     /* atan2 ignores the positive scales |NA|, |NB| and L (sin = c.e/L,
      * cos = NA.NB over the same |NA||NB|): no normalisation needed. */
-    return cr_dihedral64_atan2(dot3d(c, e), L * dot3d(NA, NB));
+    return cr_atan2d(dot3d(c, e), L * dot3d(NA, NB));
 }
 
 double cr_dihedral64_angle(const double *x) {
