@@ -62,17 +62,21 @@ CR_TEST(base, philox_is_counter_based_and_uniform) {
     }
     CR_CHECK_NEAR(sum / n, 0.5, 0.005);
     CR_CHECK_NEAR(sum2 / n, 1.0, 0.02);
-    for (int k = 0; k < 10; k++) CR_CHECK_NEAR(below[k] / (double)n, 0.1, 0.005);
+    for (int k = 0; k < 10; k++)
+        CR_CHECK_NEAR(below[k] / (double)n, 0.1, 0.005);
 }
 
 CR_TEST(base, shuffle_is_a_permutation) {
     int32_t a[100];
-    for (int i = 0; i < 100; i++) a[i] = i;
+    for (int i = 0; i < 100; i++)
+        a[i] = i;
     cr_rng r = cr_rng_make(3, 1);
     cr_rng_shuffle_i32(&r, a, 100);
     int seen[100] = {0}, moved = 0;
-    for (int i = 0; i < 100; i++) seen[a[i]]++, moved += a[i] != i;
-    for (int i = 0; i < 100; i++) CR_CHECK(seen[i] == 1);
+    for (int i = 0; i < 100; i++)
+        seen[a[i]]++, moved += a[i] != i;
+    for (int i = 0; i < 100; i++)
+        CR_CHECK(seen[i] == 1);
     CR_CHECK(moved > 50);
 }
 
@@ -82,7 +86,8 @@ typedef struct {
 
 static void square_range(void *ctx, int64_t begin, int64_t end) {
     square_ctx *c = ctx;
-    for (int64_t i = begin; i < end; i++) c->out[i] += i * i;
+    for (int64_t i = begin; i < end; i++)
+        c->out[i] += i * i;
 }
 
 CR_TEST(base, parallel_for_covers_every_index_once) {
@@ -90,7 +95,8 @@ CR_TEST(base, parallel_for_covers_every_index_once) {
         int64_t *out = calloc((size_t)n + 1, sizeof *out);
         square_ctx c = {out};
         cr_parallel_for(n, 7, square_range, &c);
-        for (int64_t i = 0; i < n; i++) CR_CHECK(out[i] == i * i);
+        for (int64_t i = 0; i < n; i++)
+            CR_CHECK(out[i] == i * i);
         free(out);
     }
 }

@@ -37,8 +37,8 @@ static inline double cr_atan2d(double y, double x) {
     const double q2 = p89 + z2 * 1.62858201153657823623e-02;
     const double corr = t * (z * ((q0 + z4 * q1) + z8 * q2));
     /* pi/4, pi/2 and pi as a double and the rest. */
-    double a = fold ? 7.85398163397448278999e-01 - ((corr - 3.06161699786838301793e-17) - t)
-                    : t - corr;
+    double a =
+        fold ? 7.85398163397448278999e-01 - ((corr - 3.06161699786838301793e-17) - t) : t - corr;
     if (swap) a = 1.57079632679489655800e+00 - (a - 6.12323399573676603587e-17);
     if (signbit(x)) a = 3.14159265358979311600e+00 - (a - 1.2246467991473531772e-16);
     return copysign(a, y);

@@ -65,8 +65,7 @@ static inline double cr_dihedral64_edges(const double *x, double *e, double *u, 
 double cr_dihedral64_vertex_grad(const double *x, int k, double *gk, int *ok);
 
 /* The same, inline (bending's vertex block, the hot loop of a VBD sweep). */
-static inline double cr_dihedral64_vertex_grad_inline(const double *x, int k, double *gk,
-                                                      int *ok) {
+static inline double cr_dihedral64_vertex_grad_inline(const double *x, int k, double *gk, int *ok) {
     double e[3], u[3], v[3], NA[3], NB[3], scale;
     const double L2 = cr_dihedral64_edges(x, e, u, v, &scale);
     const double L = sqrt(L2);

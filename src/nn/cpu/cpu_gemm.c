@@ -31,14 +31,16 @@ enum {
     GEMM_MC = 240,  /* rows per thread block at most: packed A in L2 */
     GEMM_NC = 2048, /* columns per packed B block */
     GEMM_PACK_BUDGET = 1 << 22,
-    GEMM_DOT_GRAIN = 1 << 18, /* multiply-adds per chunk of the narrow forward, at least */ /* floats of packed B per parallel region, at most (16 MB) */
+    GEMM_DOT_GRAIN = 1 << 18,
+    /* multiply-adds per chunk of the narrow forward, at least */ /* floats of packed B per parallel
+                                                                     region, at most (16 MB) */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
 };
 
-typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
-                             const float *Bp, int64_t ldbp, float alpha, float beta, float *C,
-                             int64_t rs, int64_t cs, int mr, int nr);
+typedef void (*gemm_tile_fn)(int64_t kc, const float *Ap, int64_t rsa, int64_t csa, const float *Bp,
+                             int64_t ldbp, float alpha, float beta, float *C, int64_t rs,
+                             int64_t cs, int mr, int nr);
 
 #if NN_GEMM_X86
 #define VW 8
@@ -79,9 +81,9 @@ static inline __attribute__((target("avx2,fma"))) float hsum_avx2(__m256 v) {
 #undef VHSUM
 #endif
 
-static void gemm_tile_scalar(int64_t kc, const float *Ap, int64_t rsa, int64_t csa,
-                             const float *Bp, int64_t ldbp, float alpha, float beta, float *C,
-                             int64_t rs, int64_t cs, int mr, int nr) {
+static void gemm_tile_scalar(int64_t kc, const float *Ap, int64_t rsa, int64_t csa, const float *Bp,
+                             int64_t ldbp, float alpha, float beta, float *C, int64_t rs,
+                             int64_t cs, int mr, int nr) {
     float acc[SCALAR_MR][SCALAR_NR] = {{0}};
     for (int64_t k = 0; k < kc; k++, Ap += csa, Bp += ldbp)
         for (int i = 0; i < SCALAR_MR; i++)
@@ -183,7 +185,7 @@ typedef struct b_block {
 typedef struct gemm_block {
     gemm_kernel kern;
     int ta, tb;
-    const float *A, *B; /* unpacked: read in place, or rows_unpacked */
+    const float *A, *B;      /* unpacked: read in place, or rows_unpacked */
     int64_t lda, ldb, M, mc; /* mc: rows per block */
     const b_block *blocks;   /* the B blocks this parallel region runs, in k order per column */
     int64_t nblocks;
@@ -193,8 +195,7 @@ typedef struct gemm_block {
     int64_t rs, cs; /* C's element (i, j) at C[i rs + j cs] */
 } gemm_block;
 
-static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begin,
-                          int64_t i_end) {
+static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begin, int64_t i_end) {
     for (int64_t i = i_begin; i < i_end; i++)
         for (int64_t j = bb->j0; j < bb->j0 + bb->nc; j++) {
             float s = 0.0f;
@@ -233,7 +234,8 @@ static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
         for (int64_t blk = begin; blk < end; blk++) {
             int64_t i0 = blk * g->mc, mc = g->M - i0 < g->mc ? g->M - i0 : g->mc;
             int64_t full = mc / mr * mr;
-            if (full < mc) pack_a(g->ta, g->A, g->lda, i0 + full, mc - full, bb->p0, bb->kc, mr, Ap);
+            if (full < mc)
+                pack_a(g->ta, g->A, g->lda, i0 + full, mc - full, bb->p0, bb->kc, mr, Ap);
             for (int64_t jp = 0; jp < bb->nc; jp += nr) {
                 int nrr = bb->nc - jp < nr ? (int)(bb->nc - jp) : nr;
                 const float *bp = bb->Bp + (jp / nr) * bb->kc * nr;
@@ -326,9 +328,21 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
         free(Bp), free(bbs);
         return -1;
     }
-    gemm_block g = {.kern = kern, .ta = ta, .tb = tb, .A = A, .B = B, .lda = lda, .ldb = ldb,
-                    .M = M, .mc = mc, .blocks = bbs, .b_direct = b_direct, .alpha = alpha,
-                    .C = C, .rs = rs, .cs = cs};
+    gemm_block g = {.kern = kern,
+                    .ta = ta,
+                    .tb = tb,
+                    .A = A,
+                    .B = B,
+                    .lda = lda,
+                    .ldb = ldb,
+                    .M = M,
+                    .mc = mc,
+                    .blocks = bbs,
+                    .b_direct = b_direct,
+                    .alpha = alpha,
+                    .C = C,
+                    .rs = rs,
+                    .cs = cs};
     for (int64_t first = 0; first < nj * np; first += group) {
         int64_t n = nj * np - first < group ? nj * np - first : group;
         for (int64_t q = 0; q < n; q++) {
