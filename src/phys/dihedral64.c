@@ -33,7 +33,6 @@ static void dinv(const double *a, double a2, double *D) {
             D[3 * i + j] = s * ((i == j ? a2 : 0.0) - 2.0 * a[i] * a[j]);
 }
 
-
 static double angle_from(const double *e, const double *u, const double *v, double L) {
     double NA[3], NB[3], c[3];
     cross3d(e, u, NA);

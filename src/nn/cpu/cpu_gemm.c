@@ -27,13 +27,11 @@
 #endif
 
 enum {
-    GEMM_KC = 256,  /* k per packed block: an A panel and a B panel stay in L1 */
-    GEMM_MC = 240,  /* rows per thread block at most: packed A in L2 */
-    GEMM_NC = 2048, /* columns per packed B block */
-    GEMM_PACK_BUDGET = 1 << 22,
-    GEMM_DOT_GRAIN = 1 << 18,
-    /* multiply-adds per chunk of the narrow forward, at least */ /* floats of packed B per parallel
-                                                                     region, at most (16 MB) */
+    GEMM_KC = 256,              /* k per packed block: an A panel and a B panel stay in L1 */
+    GEMM_MC = 240,              /* rows per thread block at most: packed A in L2 */
+    GEMM_NC = 2048,             /* columns per packed B block */
+    GEMM_PACK_BUDGET = 1 << 22, /* floats of packed B per parallel region, at most (16 MB) */
+    GEMM_GRAIN = 1 << 18,       /* multiply-adds a chunk is worth a thread from, about */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
 };
@@ -260,6 +258,11 @@ static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
     free(Ap);
 }
 
+/* Items per parallel chunk when each costs `per` multiply-adds. */
+static int64_t chunk_grain(int64_t per) {
+    return per >= GEMM_GRAIN ? 1 : GEMM_GRAIN / per;
+}
+
 typedef struct gemm_dot {
     gemm_dot_fn fn;
     int64_t N, K;
@@ -286,8 +289,7 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     int64_t rs = ldc, cs = 1;
     if (!ta && tb && N * 4 <= kern.nr && N <= 8 && M > N) {
         gemm_dot g = {kern.dot, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
-        int64_t per_row = N * K > 0 ? N * K : 1;
-        cr_parallel_for(M, per_row >= GEMM_DOT_GRAIN ? 1 : GEMM_DOT_GRAIN / per_row, dot_rows, &g);
+        cr_parallel_for(M, chunk_grain(N * K), dot_rows, &g);
         return 0;
     }
     if (N * 4 <= kern.nr && M > N) {
@@ -309,9 +311,7 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     if (mc > GEMM_MC) mc = GEMM_MC;
     blocks = (M + mc - 1) / mc;
     int64_t nc_max = N < GEMM_NC ? N : GEMM_NC;
-    /* a chunk is worth a thread from about 2^18 multiply-adds */
-    int64_t per_block = (M < mc ? M : mc) * nc_max * (K < GEMM_KC ? K : GEMM_KC);
-    int64_t grain = per_block >= (1 << 18) ? 1 : (1 << 18) / per_block;
+    int64_t grain = chunk_grain((M < mc ? M : mc) * nc_max * (K < GEMM_KC ? K : GEMM_KC));
     /* B's blocks, packed ahead as far as GEMM_PACK_BUDGET floats go, run in
      * one parallel region: a region per k block cost a thread wake-up every
      * 256 k, and a weights gradient (K = the batch) had 16 of them. */
