@@ -7,7 +7,10 @@
 source "$(dirname "$0")/lib_cli.sh" "$1"
 export OPENBLAS_NUM_THREADS=1
 
-small=(--vertices 500 --motions squat --frames 12 --epochs 40 --pnet-epochs 1 --yield 0.1 --lr 3e-4)
+# a quick run (clang, sanitizers) trains 8 epochs a cycle and leaves the fall of the elastic
+# terms to a full run
+epochs=$(size 40 8)
+small=(--vertices 500 --motions squat --frames 12 --epochs $epochs --pnet-epochs 1 --yield 0.1 --lr 3e-4)
 
 check "epnet --help" bash -c "'$crease' epnet --help | grep -q usage"
 check "epnet listed" bash -c "'$crease' --help | grep -q 'epnet '"
@@ -16,15 +19,15 @@ check "epnet train" bash -c "'$crease' epnet train ${small[*]} --cycles 2 -o '$t
 check "train fields" json_has "$tmp/t.json" cycles first_loss last_loss first_stretch last_stretch pnet_mse
 check "train: 2 cycles" grep -q '"cycles":2' "$tmp/t.json"
 # stretch + shear + bending of the skinned template fall at least threefold
-check "elastic terms fall 3x" python3 -c "
+[[ $quick == 0 ]] && check "elastic terms fall 3x" python3 -c "
 import json,sys; j=json.loads(open('$tmp/t.json').read().splitlines()[-1])
 f=j['first_stretch']+j['first_shear']+j['first_bending']; l=j['last_stretch']+j['last_shear']+j['last_bending']
 sys.exit(0 if l < f/3 else 1)"
 check "checkpoints" test -s "$tmp/m/enet.safetensors" -a -s "$tmp/m/pnet.safetensors" -a -s "$tmp/m/model.json"
-check "progress lines" bash -c "[[ \$(wc -l < '$tmp/m/progress.jsonl') -eq 82 ]]"
+check "progress lines" bash -c "[[ \$(wc -l < '$tmp/m/progress.jsonl') -eq $((2 * (epochs + 1))) ]]"
 check "resume to 3 cycles" bash -c "'$crease' epnet train ${small[*]} --cycles 3 --resume -o '$tmp/m' --json > '$tmp/r.json'"
 check "resumed: 3 cycles" grep -q '"cycles":3' "$tmp/r.json"
-check "resumed: 41 more lines" bash -c "[[ \$(wc -l < '$tmp/m/progress.jsonl') -eq 123 ]]"
+check "resumed: $((epochs + 1)) more lines" bash -c "[[ \$(wc -l < '$tmp/m/progress.jsonl') -eq $((3 * (epochs + 1))) ]]"
 
 check "epnet run" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --hold 10 -o '$tmp/o' --json > '$tmp/o.json'"
 check "run fields" json_has "$tmp/o.json" frames vertices seconds_per_frame max_abs_rb min_body_distance finite

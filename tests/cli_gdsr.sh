@@ -9,6 +9,8 @@
 # where the upsampling leaves some inside; the same on the training clip.
 # The mean vertex distance is NOT better than upsampling's yet, on either
 # clip (docs/gdsr.md), so it is not checked. Exit codes: 2 for usage, 1 for a missing dataset.
+# In a quick run (CREASE_TEST_QUICK: clang, sanitizers) it trains 2 epochs and checks
+# the code paths and the collision handling, not the comparisons that need training.
 # Usage: cli_gdsr.sh PATH_TO_CREASE
 source "$(dirname "$0")/lib_cli.sh" "$1"
 export OMP_WAIT_POLICY=passive
@@ -23,14 +25,17 @@ check "dataset" "$crease" dataset --garments tshirt --motions walk,dance --res l
   --low-vertices 500 --high-vertices 1000 --frames 16 --quiet -o "$tmp/data"
 small=(--dataset "$tmp/data" --motions walk --latent 32 --steps 2 --wire-width 8 --lr 0.002 --halve-every 15
        --quiet)
-check "gdsr train 3 epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs 3 -o '$tmp/m' --json > '$tmp/t1.json'"
+first=$(size 3 1)
+check "gdsr train $first epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs $first -o '$tmp/m' --json > '$tmp/t1.json'"
 # 20 epochs: the held-out checks below hold with a wider margin than at 40 (normal angle
-# 5.765 against upsampling's 5.870 degrees; 5.856 at 40), in half the time
-check "gdsr train resumes to 20" bash -c "'$crease' gdsr train ${small[*]} --epochs 20 --resume -o '$tmp/m' --json > '$tmp/t2.json'"
+# 5.765 against upsampling's 5.870 degrees; 5.856 at 40), in half the time. In a quick
+# run 1 then 2, and the comparisons with upsampling are left to the release stage.
+epochs=$(size 20 2)
+check "gdsr train resumes to $epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs $epochs --resume -o '$tmp/m' --json > '$tmp/t2.json'"
 check "train fields" json_has "$tmp/t2.json" command params epochs resumed_from first_loss loss \
   coarse_l1_m fine_l1_m normal_l1 stretch shear bend laplacian_l1_m seconds
-check "resumed from 3" grep -q '"resumed_from":3,' "$tmp/t2.json"
-check "log: 20 lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq 20 ]]"
+check "resumed from $first" grep -q "\"resumed_from\":$first," "$tmp/t2.json"
+check "log: $epochs lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq $epochs ]]"
 check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
 check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
   -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv" \
@@ -43,17 +48,21 @@ better() { # better FILE KEY FACTOR [higher]: gdsr's value beats FACTOR x upsamp
   awk -v s="$v" -v f="$3" -v h="${4:-}" 'BEGIN { split(s, a, " ");
     exit !(h == "" ? a[2] < f * a[1] : a[2] > f * a[1]) }'
 }
-check "held-out: normal angle below upsampling's ($(vals "$tmp/r.json" normal_angle_deg))" \
-  better "$tmp/r.json" normal_angle_deg 1.0
-check "held-out: normal-map SSIM above upsampling's ($(vals "$tmp/r.json" ssim))" \
-  better "$tmp/r.json" ssim 1.0 higher
+if [[ $quick == 0 ]]; then
+  check "held-out: normal angle below upsampling's ($(vals "$tmp/r.json" normal_angle_deg))" \
+    better "$tmp/r.json" normal_angle_deg 1.0
+  check "held-out: normal-map SSIM above upsampling's ($(vals "$tmp/r.json" ssim))" \
+    better "$tmp/r.json" ssim 1.0 higher
+fi
 check "held-out: under 0.1 % inside after handling" json_below "$tmp/r.json" inside_after 0.001
 check "held-out: upsampling is inside the body ($(vals "$tmp/r.json" collision_ratio))" \
   better "$tmp/r.json" collision_ratio 0.1
-check "gdsr run training clip" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion walk --model '$tmp/m/model.safetensors' -o '$tmp/w' --json > '$tmp/w.json'"
-check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" normal_angle_deg))" \
-  better "$tmp/w.json" normal_angle_deg 1.0
-check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
+if [[ $quick == 0 ]]; then # the same code as the held-out run's
+  check "gdsr run training clip" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion walk --model '$tmp/m/model.safetensors' -o '$tmp/w' --json > '$tmp/w.json'"
+  check "training clip: normal angle below upsampling's ($(vals "$tmp/w.json" normal_angle_deg))" \
+    better "$tmp/w.json" normal_angle_deg 1.0
+  check "training clip: under 0.1 % inside after handling" json_below "$tmp/w.json" inside_after 0.001
+fi
 # from a motion to wrinkles: the low input simulated by the dataset machinery
 check "gdsr run --simulate" bash -c "'$crease' gdsr run --model '$tmp/m/model.safetensors' --simulate \
   --motion dance --dataset '$tmp/data' --frames 6 -o '$tmp/s' --quiet --json > '$tmp/s.json'"

@@ -12,14 +12,17 @@ export OPENBLAS_NUM_THREADS=1 OMP_WAIT_POLICY=passive
 check "swingar --help" bash -c "'$crease' swingar --help | grep -q usage"
 check "dataset" "$crease" dataset --garments dress --motions walk,twist --low-vertices 500 \
   --frames 12 -o "$tmp/data" --quiet
-check "train" bash -c "'$crease' swingar train --dataset '$tmp/data' --size tiny --epochs 8 \
+# a quick run (clang, sanitizers) trains 2 + 2 epochs and leaves the comparison with
+# skinning to a full run
+first=$(size 8 2) last=$(size 14 4)
+check "train" bash -c "'$crease' swingar train --dataset '$tmp/data' --size tiny --epochs $first \
   --window 4 --batch 2 --lr 1e-2 --test-motions twist -o '$tmp/m.safetensors' --quiet --json \
   > '$tmp/t.json'"
 check "train fields" json_has "$tmp/t.json" params epochs first_loss last_loss test_vert_m
 check "one train, one test sequence" grep -q '"train_sequences":1,"test_sequences":1' "$tmp/t.json"
-check "resume" bash -c "'$crease' swingar train --dataset '$tmp/data' --epochs 14 --window 4 \
+check "resume" bash -c "'$crease' swingar train --dataset '$tmp/data' --epochs $last --window 4 \
   --batch 2 --lr 1e-2 --test-motions twist --resume '$tmp/m.safetensors' \
-  -o '$tmp/m.safetensors' --quiet --json | grep -q '\"epochs\":14,'"
+  -o '$tmp/m.safetensors' --quiet --json | grep -q '\"epochs\":$last,'"
 g="$tmp/data/garments/normal/dress_low.obj"
 check "run" bash -c "'$crease' swingar run --model '$tmp/m.safetensors' --garment '$g' \
   --motion walk --frames 13 -o '$tmp/pred' --json > '$tmp/r.json'"
@@ -37,7 +40,8 @@ edist() { # mean E_dist (cm) of a prediction against the simulation
 model=$(edist "$tmp/pred")
 skinned=$(edist "$tmp/skin")
 echo "cli_swingar: E_dist on the training clip: model $model cm, skinned $skinned cm"
-check "model closer to the simulation than skinning" \
+check "E_dist measured" test -n "$model" -a -n "$skinned"
+[[ $quick == 0 ]] && check "model closer to the simulation than skinning" \
   awk -v a="$model" -v b="$skinned" 'BEGIN { exit !(a != "" && b != "" && a < b) }'
 expect_exit 2 "missing --dataset" swingar train -o "$tmp/x.safetensors"
 expect_exit 2 "train or run" swingar fly

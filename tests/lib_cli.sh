@@ -7,6 +7,11 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 passed=0
 failed=0
+# Set by ctest in the quick builds (clang, sanitizers: CMakeLists.txt, tests/test.h): the
+# heaviest scripts train and simulate less there and leave the checks that need the full
+# size to the release stage.
+quick=${CREASE_TEST_QUICK:-0}
+size() { if [[ $quick != 0 ]]; then echo "$2"; else echo "$1"; fi; } # size FULL SMALL
 
 check() { # check NAME COMMAND... : the command must succeed
   local name=$1; shift

@@ -47,6 +47,11 @@ const char *cr_test_tmpdir(void) {
     return tmpdir;
 }
 
+int cr_test_quick(void) {
+    const char *v = getenv("CREASE_TEST_QUICK");
+    return v && *v && strcmp(v, "0") != 0;
+}
+
 static int by_name(const void *a, const void *b) {
     return strcmp(((const test_entry *)a)->name, ((const test_entry *)b)->name);
 }
@@ -66,13 +71,16 @@ int main(int argc, char **argv) {
         if (strncmp(tests[i].name, filter, strlen(filter)) != 0) continue;
         current_failures = 0;
         fprintf(stderr, "[ RUN  ] %s\n", tests[i].name);
+        double started = cr_time_now();
         tests[i].fn();
+        double took = cr_time_now() - started;
         if (current_failures == 0) {
             passed++;
-            fprintf(stderr, "[  OK  ] %s\n", tests[i].name);
+            fprintf(stderr, "[  OK  ] %s (%.2f s)\n", tests[i].name, took);
         } else {
             failed++;
-            fprintf(stderr, "[ FAIL ] %s (%d checks failed)\n", tests[i].name, current_failures);
+            fprintf(stderr, "[ FAIL ] %s (%d checks failed, %.2f s)\n", tests[i].name,
+                    current_failures, took);
         }
     }
     char cmd[300];

@@ -20,6 +20,15 @@ void cr_test_fail_here(const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 /* Scratch directory for files a test writes (created by the runner). */
 const char *cr_test_tmpdir(void);
+/* 1 where the environment sets CREASE_TEST_QUICK. ctest does in the builds
+ * configured with -DCREASE_TEST_QUICK=ON: `make check`'s second compiler
+ * (clang) and its sanitizer build, which runs code 3-5x slower. There the
+ * heaviest tests train and simulate less and keep every code path; the checks
+ * of a physical outcome that need the full size are made once, by the release
+ * stage (`make test`). */
+int cr_test_quick(void);
+/* full in a full run, small in a quick one */
+#define CR_TEST_SIZE(full, small) (cr_test_quick() ? (small) : (full))
 
 #define CR_TEST(module, name)                                                                      \
     static void test_##module##_##name(void);                                                      \

@@ -122,7 +122,7 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
         CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, 0, &s, &err) == CR_OK);
         cr_epnet_losses l0, l;
         CR_REQUIRE(cr_epnet_enet_step(m, s, NULL, 0, &l0, &err) == CR_OK);
-        for (int i = 0; i < 60; i++)
+        for (int i = 0; i < CR_TEST_SIZE(60, 6); i++)
             CR_REQUIRE(cr_epnet_enet_step(m, s, NULL, 1, &l, &err) == CR_OK);
         CR_REQUIRE(cr_epnet_enet_step(m, s, NULL, 0, &l, &err) == CR_OK);
         fprintf(stderr, "  inertia_detach %d: enet loss %.5g -> %.5g J/frame\n", detach, l0.total,
@@ -131,12 +131,15 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
             fprintf(stderr, "    %s %.5g -> %.5g\n", cr_epnet_term_names[k], l0.term[k], l.term[k]);
         CR_CHECK(isfinite(l.total));
         /* the elastic energy of the skinned template (stretch + shear + bending)
-         * falls at least fivefold, and the total (gravity included) falls */
+         * falls at least fivefold, and the total (gravity included) falls: after
+         * 60 steps, so in a full run only */
         const double el0 = l0.term[0] + l0.term[1] + l0.term[2];
         const double el = l.term[0] + l.term[1] + l.term[2];
-        CR_CHECK(el < 0.2 * el0);
-        CR_CHECK(l.total < l0.total);
-        CR_CHECK(l.term[4] < 0.01 * el0); /* and it stays (nearly) outside the body */
+        if (!cr_test_quick()) {
+            CR_CHECK(el < 0.2 * el0);
+            CR_CHECK(l.total < l0.total);
+            CR_CHECK(l.term[4] < 0.01 * el0); /* and it stays (nearly) outside the body */
+        }
         cr_epnet_seq_destroy(s);
         cr_epnet_destroy(m);
     }
@@ -249,8 +252,8 @@ CR_TEST(epnet, pnet_fits_a_known_rb_field) {
     double mse0 = 0, mse = 0;
     CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 1, &mse0, &err) == CR_OK);
     double t0 = cr_time_now();
-    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 40, &mse, &err) == CR_OK);
-    fprintf(stderr, "  pnet: %.3f s per step\n", (cr_time_now() - t0) / 40);
+    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 12, &mse, &err) == CR_OK);
+    fprintf(stderr, "  pnet: %.3f s per step\n", (cr_time_now() - t0) / 12);
     fprintf(stderr, "  pnet mse %.3g -> %.3g rad^2\n", mse0, mse);
     CR_CHECK(mse < 0.1 * mse0);
     free(pos), free(theta), free(rb);
@@ -267,10 +270,11 @@ CR_TEST(epnet, pnet_rb_follows_the_rule_and_stays_bounded) {
     cr_epnet_def d = tiny_def();
     d.material.yield_angle = 0.05; /* so the squat's angles pass it */
     d.pnet_lr = 0.1f;
+    d.pnet_frames = 2;
     cr_epnet *m = NULL;
     CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
     cr_epnet_seq *s = NULL;
-    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, 20, &s, &err) == CR_OK);
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, CR_TEST_SIZE(20, 4), &s, &err) == CR_OK);
     const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m),
                   V = cr_epnet_garment(m)->nv;
     float *pos = malloc(sizeof(float) * 3 * (size_t)T * V),
@@ -428,6 +432,8 @@ CR_TEST(epnet, resume_is_bit_exact) {
     snprintf(b, sizeof b, "/tmp/epnet_test_b_%d", (int)getpid());
     const char *motions[2] = {"squat", "twist"};
     cr_epnet_def d = tiny_def();
+    d.frames = CR_TEST_SIZE(12, 6);
+    d.pnet_frames = 2; /* the frames drawn come from the resumed generator all the same */
     d.motions = motions, d.nmotions = 2;
     d.cycles = 2, d.enet_epochs = 2, d.pnet_epochs = 2, d.quiet = 1;
     d.out_dir = a;

@@ -323,6 +323,7 @@ CR_TEST(swingar, tiny_model_lowers_its_loss) {
     cr_swingar_train_def t = tiny_train();
     t.stall_epochs = 1000; /* vertex loss only: one objective from start to end */
     t.lr = 3e-3f;
+    t.epochs = CR_TEST_SIZE(8, 2);
     cr_error err = {0};
     cr_swingar *m = NULL;
     cr_swingar_train_result r;
@@ -330,9 +331,12 @@ CR_TEST(swingar, tiny_model_lowers_its_loss) {
     printf("    %lld params, %d epochs in %.1f s: loss %.5f -> %.5f, vertex %.2f -> %.2f cm\n",
            (long long)r.params, r.epochs_done, r.seconds, r.first_loss, r.last_loss,
            100 * r.first_vert_m, 100 * r.last_vert_m);
-    CR_CHECK(r.epochs_done == 8);
-    CR_CHECK(r.last_loss < 0.9f * r.first_loss);
-    CR_CHECK(r.last_vert_m < r.first_vert_m);
+    CR_CHECK(r.epochs_done == t.epochs);
+    CR_CHECK(isfinite(r.last_loss));
+    if (!cr_test_quick()) { /* 8 epochs: a full run */
+        CR_CHECK(r.last_loss < 0.9f * r.first_loss);
+        CR_CHECK(r.last_vert_m < r.first_vert_m);
+    }
     cr_swingar_destroy(m);
 }
 
