@@ -42,10 +42,12 @@ check "self-contact no divergence" grep -q '"diverged":false' "$tmp/simsc.json"
 check "self-contact logged" grep -q '"self_contact_pairs"' "$tmp/simsc/frames.jsonl"
 check "self-contact bad value refused" bash -c "! '$crease' simulate --garment '$tmp/cloth.obj' \
   --object sphere --frames 1 --self-contact yes -o '$tmp/simsc2' --quiet 2>/dev/null"
+# 15 settling frames: the static solve (Newton) from the still falling cloth of 10 took 172
+# of its 200 iterations with VBD's penalty at the material's stiffness and ran out at 10x
 check "drape-static --solver vbd" bash -c "'$crease' drape-static --object sphere --res 12 \
-  --max-frames 10 --solver vbd -o '$tmp/dsv' --json > '$tmp/dsv.json' 2>/dev/null"
-# (the settling frames' depth before projection: VBD leaves 4 mm, docs/physics.md)
-check "drape-static vbd penetration < 1 cm" json_below "$tmp/dsv.json" max_penetration_m 1e-2
+  --max-frames 15 --solver vbd -o '$tmp/dsv' --json > '$tmp/dsv.json' 2>/dev/null"
+# the settling frames' depth before projection (the fast-solver issue's bound)
+check "drape-static vbd penetration < 1 mm" json_below "$tmp/dsv.json" max_penetration_m 1e-3
 check "drape-static vbd converged" grep -q '"converged":true' "$tmp/dsv.json"
 
 # --- drape-static: a 16x16 cloth over the sphere -----------------------------------------

@@ -194,10 +194,11 @@ CR_TEST(phys_vbd, energy_decreases_per_iteration) {
 }
 
 /* The 32 x 32 drop of test_phys_sim.c with VBD: rests outside the sphere,
- * draped over its top. Before the projection VBD leaves vertices deeper than
- * Newton (3.6 mm measured at 30 sweeps, 5.5 mm at 20, against Newton's
- * < 2 mm: the sweeps do not push the last millimetres out against the
- * membrane), so that bound is 1 cm here. */
+ * draped over its top, and no vertex is more than 1 mm inside before the
+ * projection of any substep (the fast-solver issue's bound). With the
+ * material's collider penalty (vbd_collision_scale 1) VBD left 3.6 mm at 30
+ * sweeps: its Gauss-Seidel leaves the impact's load on the first vertices in
+ * contact (about 100 N each); at the default scale 10, 0 mm. */
 CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
     enum { FRAMES = 30 };
     cr_mesh *cloth = fixture_flat_cloth(32, 1.0f, 0.34f), *sphere = NULL;
@@ -223,7 +224,7 @@ CR_TEST(phys_vbd, cloth_dropped_on_sphere) {
            "sweeps per substep, %d backoffs, %.1f ms per frame\n",
            deepest, pen, rep.contacts, iters / (double)FRAMES, backoffs, 1e3 * secs / FRAMES);
     CR_CHECK(deepest < 1e-3);
-    CR_CHECK(pen < 1e-2);
+    CR_CHECK(pen < 1e-3);
     CR_CHECK(rep.contacts > 10);
     /* It drapes over the top. The cloth's centre creeps sideways: the
      * unconverged membrane leaves a residual force that friction does not

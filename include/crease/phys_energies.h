@@ -150,6 +150,9 @@ void cr_collision_destroy(cr_collision *c);
  * carry any dist >= eps (e.g. the query's max_dist) and a zero normal. */
 void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal);
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
+/* The penalty's k, J/m^3 (created with the material's collision_stiffness):
+ * the simulator's VBD sweeps take a stiffer one (crease/phys_sim.h). */
+void cr_collision_set_stiffness(cr_collision *c, double k);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
 /* The penalty of one vertex at signed distance d (m) from the collider whose

@@ -169,23 +169,29 @@ typedef struct cr_sim_def {
                                      friction acts when material.friction > 0 and a collider */
     int plasticity;               /* 1: update rest angles after every substep */
     cr_plastic_rule plastic_rule;
-    double max_speed;       /* m/s: a faster vertex means the substep diverged (default 50) */
-    double max_penetration; /* m: a vertex deeper inside the collider means the substep
-                               diverged (default 0.05) */
-    cr_sim_solver solver;   /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
-                               solves (cr_sim_solve_static, quasi_static) use Newton always */
-    int vbd_iterations;     /* VBD sweeps per substep at most (default 30); stops earlier when
-                               a sweep's largest vertex move is below newton_tol h */
-    double vbd_chebyshev;   /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
-                               an extrapolation that raises the objective is dropped */
-    int vbd_hessian_every;  /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
-                               every this many sweeps, gradients every sweep (default 1: the
-                               vertex blocks are cheap, and a stale block overshoots) */
-    double vbd_damping;     /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
-                               in Newton's potential, so it moves the solution) */
-    int self_contact;       /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
-                               (self_contact.c; docs/physics.md, "Self-contact";
-                               default 0) */
+    double max_speed;           /* m/s: a faster vertex means the substep diverged (default 50) */
+    double max_penetration;     /* m: a vertex deeper inside the collider means the substep
+                                   diverged (default 0.05) */
+    cr_sim_solver solver;       /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
+                                   solves (cr_sim_solve_static, quasi_static) use Newton always */
+    int vbd_iterations;         /* VBD sweeps per substep at most (default 30); stops earlier when
+                                   a sweep's largest vertex move is below newton_tol h */
+    double vbd_chebyshev;       /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
+                                   an extrapolation that raises the objective is dropped */
+    int vbd_hessian_every;      /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks
+                                   every this many sweeps, gradients every sweep (default 1: the
+                                   vertex blocks are cheap, and a stale block overshoots) */
+    double vbd_damping;         /* k_d, s: VBD's Rayleigh stiffness damping (default 0; it is not
+                                   in Newton's potential, so it moves the solution) */
+    double vbd_collision_scale; /* VBD's collider penalty is this many times the material's
+                                   collision_stiffness (>= 1; default 10). Gauss-Seidel leaves
+                                   an impact's load on the first vertices in contact (100 N
+                                   where converged Newton spreads 10), which the material's
+                                   penalty let sink 4 mm; 10x keeps them in the thickness
+                                   band (docs/physics.md). Friction's normal force follows. */
+    int self_contact;           /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
+                                   (self_contact.c; docs/physics.md, "Self-contact";
+                                   default 0) */
     double self_contact_thickness;    /* m: pairs closer than this are pushed apart (default 4e-3:
                                          two layers of a 1-2 mm fabric with room; under the edge
                                          length of a 10k garment, so mesh neighbours are no

@@ -77,6 +77,11 @@ void cr_collision_update(cr_collision *c, const double *x, const float *dist, co
     c->max_pen = min_d < 0.0 ? -min_d : 0.0;
 }
 
+void cr_collision_set_stiffness(cr_collision *c, double k) {
+    CR_ASSERT(c && k > 0.0);
+    c->k = k;
+}
+
 double cr_collision_max_penetration(const cr_collision *c) {
     return c->max_pen;
 }

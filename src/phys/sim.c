@@ -85,6 +85,7 @@ cr_sim_def cr_sim_default_def(void) {
     d.vbd_chebyshev = 0.9;
     d.vbd_damping = 0.0;
     d.vbd_hessian_every = 1;
+    d.vbd_collision_scale = 10.0;
     d.self_contact = 0;
     d.self_contact_thickness = 4e-3;
     d.cookie = CR_SIM_DEF_COOKIE;
@@ -544,6 +545,12 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     /* Radius of the collider query (see the file comment). */
     o.base_radius = d->material.collision_thickness + s->pen_start + motion +
                     2.0 * (h * vmax + h * h * g) + 1e-3;
+    /* VBD's sweeps take the collider's penalty vbd_collision_scale times
+     * stiffer (crease/phys_sim.h says why), friction's normal force with it;
+     * Newton's solves, static ones of a VBD simulator included, the material's. */
+    if (s->collision)
+        cr_collision_set_stiffness(s->collision, d->material.collision_stiffness *
+                                                     (vbd ? d->vbd_collision_scale : 1.0));
     /* Linearise the collider at the step's start (friction freezes its
      * contacts there too), then start Newton from x_pred with every vertex the
      * prediction would push into the thickness put back to half of it. */

@@ -122,6 +122,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
                   (isfinite(d->self_contact_thickness) && d->self_contact_thickness > 0.0 &&
                    d->self_contact_thickness < 1.0),
               "self_contact_thickness must be in (0, 1) m, got %g", d->self_contact_thickness);
+    CHECK_DEF(isfinite(d->vbd_collision_scale) && d->vbd_collision_scale >= 1.0,
+              "vbd_collision_scale must be >= 1, got %g", d->vbd_collision_scale);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
               "vbd_damping must be >= 0, got %g s", d->vbd_damping);
     return CR_OK;
