@@ -251,9 +251,10 @@ CR_TEST(epnet, pnet_fits_a_known_rb_field) {
             theta[(size_t)t * H + h] -= 0.1f;
     double mse0 = 0, mse = 0;
     CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 1, &mse0, &err) == CR_OK);
+    enum { STEPS = 12 }; /* the MSE ends 17x below the bound (40 steps: 500x) */
     double t0 = cr_time_now();
-    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, 12, &mse, &err) == CR_OK);
-    fprintf(stderr, "  pnet: %.3f s per step\n", (cr_time_now() - t0) / 12);
+    CR_REQUIRE(cr_epnet_pnet_fit(m, s, pos, theta, rb, STEPS, &mse, &err) == CR_OK);
+    fprintf(stderr, "  pnet: %.3f s per step\n", (cr_time_now() - t0) / STEPS);
     fprintf(stderr, "  pnet mse %.3g -> %.3g rad^2\n", mse0, mse);
     CR_CHECK(mse < 0.1 * mse0);
     free(pos), free(theta), free(rb);
