@@ -89,9 +89,11 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
                "frame\n",
                name, st.seconds_self_contact / n, st.self_contact_detections / n,
                st.self_contact_pairs / n);
-    printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations; %lld capped substeps, "
-           "%lld VBD retries, %lld backoffs, max penetration before projection %.2f mm, %s\n",
-           name, st.newton_iterations / n, st.factorisations / n, st.newton_capped, st.vbd_retries,
+    printf("sim %s per frame: %.1f Newton iterations, %.1f factorisations, %.0f VBD vertex "
+           "re-queries; %lld capped substeps, %lld VBD retries, %lld backoffs, max penetration "
+           "before projection %.2f mm, %s\n",
+           name, st.newton_iterations / n, st.factorisations / n, st.vbd_requeries / n,
+           st.newton_capped, st.vbd_retries,
            st.backoffs, 1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
     free(last_positions);

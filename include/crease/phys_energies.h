@@ -149,6 +149,10 @@ void cr_collision_destroy(cr_collision *c);
  * outward normal at the closest point. A vertex the query did not reach may
  * carry any dist >= eps (e.g. the query's max_dist) and a zero normal. */
 void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal);
+/* The same for the n vertices idx only (each at its x_i, dist_i, normal_i);
+ * the others keep their linearisation. */
+void cr_collision_update_vertices(cr_collision *c, const double *x, const float *dist,
+                                  const float *normal, const int32_t *idx, int32_t n);
 void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 /* The penalty's k, J/m^3 (created with the material's collision_stiffness):
  * the simulator's VBD sweeps take a stiffer one (crease/phys_sim.h). */

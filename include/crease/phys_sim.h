@@ -134,7 +134,7 @@ typedef struct cr_sim_def {
                                    below this, m/s (default 1e-3), */
     double newton_rtol;         /* ... or below this fraction of the largest move since the
                                    substep's start (default 1e-2: 1% of the velocity) */
-    int static_max_iterations;  /* cr_sim_solve_static and quasi-static frames (default 200) */
+    int static_max_iterations;  /* cr_sim_solve_static and quasi-static frames (default 500) */
     double static_tol;          /* static convergence: largest vertex move of a step, m (1e-6) */
     double static_max_step;     /* static Newton steps are shortened to this largest vertex move, m:
                                    a free mode (rotation about a pin line) has no curvature to
@@ -189,6 +189,11 @@ typedef struct cr_sim_def {
                                    where converged Newton spreads 10), which the material's
                                    penalty let sink 4 mm; 10x keeps them in the thickness
                                    band (docs/physics.md). Friction's normal force follows. */
+    double vbd_requery_move;    /* before each sweep after the first, VBD queries the collider
+                                   again only for the vertices that moved more than this
+                                   fraction of collision_thickness since their last query and
+                                   may be inside the thickness (default 0.05); 0: every vertex,
+                                   every sweep (a quarter of a sweep on the sphere drop) */
     int self_contact;           /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
                                    (self_contact.c; docs/physics.md, "Self-contact";
                                    default 0) */
@@ -227,6 +232,7 @@ typedef struct cr_sim_report {
     double seconds_solve;     /* triangular solves */
     double seconds_collision; /* BVH refits and signed-distance queries */
     int vbd_retries;          /* VBD sweeps whose objective rose, run again with line searches */
+    int64_t vbd_requeries;    /* vertex collider queries of VBD's sweeps after the first */
     double seconds_self_contact;  /* self-contact pair finding and the assembly rebuilt for it */
     int32_t self_contact_pairs;   /* pairs of the last detection */
     int self_contact_detections;  /* detections, summed over substeps (VBD: once, and again

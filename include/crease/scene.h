@@ -172,6 +172,7 @@ typedef struct cr_scene_run_stats {
     long long factorisations;
     long long newton_capped;    /* substeps that stopped at the iteration limit */
     long long vbd_retries;      /* VBD sweeps run again with line searches (cr_sim_report) */
+    long long vbd_requeries;    /* vertex collider queries of VBD's later sweeps (cr_sim_report) */
     long long backoffs;         /* failed attempts retried with more substeps */
     double max_penetration_m;   /* deepest vertex inside the collider before projection */
     double max_projected_share; /* largest share of the vertices projected out of the
@@ -212,6 +213,7 @@ typedef struct cr_scene_sim_def {
     float fps;                   /* default 30 */
     int substeps;                /* 0: cr_sim_def's default */
     int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
+    int vbd_iterations;          /* VBD sweeps per substep at most; 0: cr_sim_def's default */
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
     int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */

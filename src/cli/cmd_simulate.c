@@ -47,6 +47,8 @@ void help_simulate(void) {
         "                       than M metres, ceil(motion / M) (default 0: off)\n"
         "  --newton-iterations N  Newton iterations per substep at most (default 8; 4 is about\n"
         "                       twice as fast and damps bending, docs/physics.md)\n"
+        "  --vbd-iterations N   VBD sweeps per substep at most (default 30; fewer are faster\n"
+        "                       and further from the converged step, docs/physics.md)\n"
         "  --fps F              frames per second (default 30)\n"
         "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
         "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
@@ -62,7 +64,7 @@ typedef struct {
     const char *solver, *self_contact;
     float self_contact_thickness;
     cli_motion_file mf; /* --motion's options */
-    int frames, substeps, newton_iterations, plastic, json, quiet, has_offset;
+    int frames, substeps, newton_iterations, vbd_iterations, plastic, json, quiet, has_offset;
     float fps, offset[3], max_collider_step;
     int32_t *pins;
     int32_t npins;
@@ -121,6 +123,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_INT("--substeps", &o->substeps, 1, 4096),
         CLI_FLOAT("--max-collider-step", &o->max_collider_step, 0, 1000),
         CLI_INT("--newton-iterations", &o->newton_iterations, 1, 1000),
+        CLI_INT("--vbd-iterations", &o->vbd_iterations, 1, 100000),
         CLI_FLOAT("--fps", &o->fps, 0.01, 100000),
         CLI_CUSTOM("--pin", parse_pins, o, 1),
         {.name = "--garment-offset",
@@ -192,7 +195,8 @@ int cmd_simulate(int argc, char **argv) {
     def.object = o.object, def.body_mesh = o.body_mesh, def.body = o.body;
     def.material = o.material, def.material_json = o.material_json;
     def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
-    def.newton_iterations = o.newton_iterations, def.max_collider_step = o.max_collider_step;
+    def.newton_iterations = o.newton_iterations, def.vbd_iterations = o.vbd_iterations;
+    def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");
     def.self_contact = cli_self_contact(o.self_contact);

@@ -62,19 +62,38 @@ void cr_collision_destroy(cr_collision *c) {
     free(c);
 }
 
+/* Vertex i's linearisation at x_i (a non-finite distance is a query that
+ * reached nothing). */
+static void update_vertex(cr_collision *c, int32_t i, const double *x, const float *dist,
+                          const float *normal) {
+    const int far = !isfinite(dist[i]);
+    c->dist[i] = far ? INFINITY : (double)dist[i];
+    for (int d = 0; d < 3; d++) {
+        c->x[3 * (int64_t)i + d] = x[3 * (int64_t)i + d];
+        c->normal[3 * (int64_t)i + d] = far ? 0.0 : (double)normal[3 * (int64_t)i + d];
+    }
+}
+
+static void update_max_pen(cr_collision *c) {
+    double min_d = INFINITY;
+    for (int32_t i = 0; i < c->nv; i++)
+        min_d = fmin(min_d, c->dist[i]);
+    c->max_pen = min_d < 0.0 ? -min_d : 0.0;
+}
+
 void cr_collision_update(cr_collision *c, const double *x, const float *dist, const float *normal) {
     CR_ASSERT(c && x && dist && normal);
-    memcpy(c->x, x, sizeof(double) * 3 * (size_t)c->nv);
-    double min_d = INFINITY;
-    for (int32_t i = 0; i < c->nv; i++) {
-        /* A non-finite distance is a query that reached nothing. */
-        const int far = !isfinite(dist[i]);
-        c->dist[i] = far ? INFINITY : (double)dist[i];
-        for (int d = 0; d < 3; d++)
-            c->normal[3 * i + d] = far ? 0.0 : (double)normal[3 * i + d];
-        min_d = fmin(min_d, c->dist[i]);
-    }
-    c->max_pen = min_d < 0.0 ? -min_d : 0.0;
+    for (int32_t i = 0; i < c->nv; i++)
+        update_vertex(c, i, x, dist, normal);
+    update_max_pen(c);
+}
+
+void cr_collision_update_vertices(cr_collision *c, const double *x, const float *dist,
+                                  const float *normal, const int32_t *idx, int32_t n) {
+    CR_ASSERT(c && x && dist && normal && (idx || n == 0));
+    for (int32_t k = 0; k < n; k++)
+        update_vertex(c, idx[k], x, dist, normal);
+    update_max_pen(c);
 }
 
 void cr_collision_set_stiffness(cr_collision *c, double k) {

@@ -49,6 +49,11 @@ cr_status cr_sim_detect_self(cr_sim *s, const double *x, int newton, cr_error *e
 /* sim.c's evaluation (timed into the report) and collider query, for vbd.c. */
 double cr_sim_eval(cr_sim *s, const double *x, double *grad, int hessian);
 void cr_sim_query_collider(cr_sim *s, const double *x, double radius);
+/* The same query for only the vertices whose linearisation may have gone
+ * stale: moved more than move_tol since their last query and possibly within
+ * the collision band now. The others keep theirs, which for a vertex outside
+ * the band gives the same zero penalty as a new query. */
+void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol);
 
 struct cr_sim {
     cr_sim_def def; /* a copy; def.pinned and def.collider are not used after create */
@@ -93,6 +98,12 @@ struct cr_sim {
     double *disp;                              /* (V,3) collider motion under contacts, m */
     double *theta;                             /* (H) rad */
     float *xf, *dist, *normal;                 /* (V,3), (V), (V,3) */
+    /* Each vertex's last collider query (cr_sim_requery_collider): where,
+     * and a lower bound on its signed distance then, m; the selection and
+     * its results, compact. */
+    double *qx, *qlow;      /* (V,3), (V) */
+    int32_t *qsel;          /* (V) */
+    float *qdist, *qnormal; /* (V), (V,3) */
 
     /* Collider. */
     cr_bvh *bvh;             /* NULL without a collider */

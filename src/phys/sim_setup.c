@@ -53,6 +53,7 @@ void cr_sim_destroy(cr_sim *s) {
     free(s->a_prev), free(s->a_frame);
     free(s->x_start), free(s->x_pred), free(s->grad), free(s->dx), free(s->xt), free(s->disp);
     free(s->theta), free(s->xf), free(s->dist), free(s->normal);
+    free(s->qx), free(s->qlow), free(s->qsel), free(s->qdist), free(s->qnormal);
     free(s->collider_rest), free(s->cpos), free(s->cpos_prev);
     free(s);
 }
@@ -124,6 +125,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
               "self_contact_thickness must be in (0, 1) m, got %g", d->self_contact_thickness);
     CHECK_DEF(isfinite(d->vbd_collision_scale) && d->vbd_collision_scale >= 1.0,
               "vbd_collision_scale must be >= 1, got %g", d->vbd_collision_scale);
+    CHECK_DEF(isfinite(d->vbd_requery_move) && d->vbd_requery_move >= 0.0,
+              "vbd_requery_move must be >= 0, got %g", d->vbd_requery_move);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
               "vbd_damping must be >= 0, got %g s", d->vbd_damping);
     return CR_OK;
@@ -168,6 +171,13 @@ static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     s->normal = cr_calloc(n3, sizeof(float), err);
     s->pinned = cr_calloc((size_t)s->nv, 1, err);
     if (!s->rest_frame || !s->theta || !s->xf || !s->dist || !s->normal || !s->pinned)
+        return err ? err->status : CR_ERR_MEMORY;
+    s->qx = cr_calloc(n3, sizeof(double), err);
+    s->qlow = cr_calloc((size_t)s->nv, sizeof(double), err);
+    s->qsel = cr_calloc((size_t)s->nv, sizeof(int32_t), err);
+    s->qdist = cr_calloc((size_t)s->nv, sizeof(float), err);
+    s->qnormal = cr_calloc(n3, sizeof(float), err);
+    if (!s->qx || !s->qlow || !s->qsel || !s->qdist || !s->qnormal)
         return err ? err->status : CR_ERR_MEMORY;
     return CR_OK;
 }

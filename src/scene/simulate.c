@@ -77,6 +77,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->substeps > 0) def->substeps = o->substeps;
     def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
+    if (o->vbd_iterations > 0) def->vbd_iterations = o->vbd_iterations;
     def->plasticity = o->plastic;
     def->solver = (cr_sim_solver)o->solver;
     if (o->self_contact >= 0) def->self_contact = o->self_contact;
