@@ -64,8 +64,8 @@ sim_peers() {
   fi
 
   mkdir -p "$out"
-  printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s\n' res vertices "blender" \
-    "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm"
+  printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s %-22s\n' res vertices "blender" \
+    "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm" "strain p99 % b/n/v"
   for res in ${PEERS_RES:-64 128}; do
     b=$out/blender$res
     c=$out/crease$res
@@ -87,12 +87,22 @@ sim_peers() {
     bp=$(field "$b/result.json" max_penetration_m)
     np=$(field "$c/newton/summary.json" max_penetration_m)
     vp=$(field "$c/vbd/summary.json" max_penetration_m)
+    # The edge strain at the last frame (Blender's rest edges are its grid's, 1 m / res), so
+    # that a fast result that is stretched or crumpled does not pass for a good one.
+    strain() { python3 "$root/scripts/edge_strain.py" "$@" >"${@: -1}.strain.json" &&
+      field "${@: -1}.strain.json" p99; }
+    bst=$(strain "$b/final.obj" --rest-length "$(awk -v r=$res 'BEGIN { print 1.0 / r }')" \
+      "$b/final.obj")
+    nst=$(strain "$c/cloth.obj" "$c/newton/sim.pc2")
+    vst=$(strain "$c/cloth.obj" "$c/vbd/sim.pc2")
     awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v bp="$bp" \
-      -v np="$np" -v vp="$vp" 'BEGIN { printf "%-6d %-9d %-10.4f %-10.4f %-10.4f %-8.2f %-8.2f %-10.3f %-10.3f %-10.3f\n",
-        r, v, bs, ns, vs, bs / ns, bs / vs, 1e3 * bp, 1e3 * np, 1e3 * vp }'
+      -v np="$np" -v vp="$vp" -v bst="$bst" -v nst="$nst" -v vst="$vst" \
+      'BEGIN { printf "%-6d %-9d %-10.4f %-10.4f %-10.4f %-8.2f %-8.2f %-10.3f %-10.3f %-10.3f %.2f/%.2f/%.2f\n",
+        r, v, bs, ns, vs, bs / ns, bs / vs, 1e3 * bp, 1e3 * np, 1e3 * vp, 1e2 * bst, 1e2 * nst, 1e2 * vst }'
   done
   echo "(seconds per frame; ratio-n, ratio-v = blender / crease Newton, VBD; crease depth is the deepest vertex inside the"
-  echo " sphere before projection over the run, blender's at the last frame; outputs in $out)"
+  echo " sphere before projection over the run, blender's at the last frame; strain p99: the 99th percentile of"
+  echo " |l / l0 - 1| over the edges at the last frame, scripts/edge_strain.py; outputs in $out)"
 }
 
 # pyval JSON_LINE KEY: one field of a JSON line ("null" stays null)

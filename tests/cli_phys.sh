@@ -34,6 +34,19 @@ check "simulate --solver vbd" bash -c "'$crease' simulate --garment '$tmp/cloth.
 check "vbd no divergence" grep -q '"diverged":false' "$tmp/simv.json"
 check "vbd penetration < 1 mm" json_below "$tmp/simv.json" max_penetration_m 1e-3
 check "vbd differs from newton" bash -c "! cmp -s '$tmp/sim/sim.pc2' '$tmp/simv/sim.pc2'"
+# scripts/edge_strain.py (bench-peers' strain column): Newton's cloth is not stretched, a copy
+# scaled by 1.1 is stretched by 10 % on every edge, a PC2 of other vertices is refused
+strain=$(dirname "$0")/../scripts/edge_strain.py
+check "edge strain of newton's run < 1 %" bash -c "python3 '$strain' '$tmp/cloth.obj' '$tmp/sim/sim.pc2' \
+  --every-frame > '$tmp/strain.json'"
+check "edge strain fields" json_below "$tmp/strain.json" largest_p99 0.01
+awk '$1 == "v" { printf "v %.9g %.9g %.9g\n", 1.1 * $2, 1.1 * $3, 1.1 * $4; next } { print }' \
+  "$tmp/cloth.obj" > "$tmp/cloth_scaled.obj"
+check "edge strain of a 1.1x copy is 0.1" bash -c "python3 '$strain' '$tmp/cloth.obj' '$tmp/cloth_scaled.obj' \
+  | python3 -c 'import json,sys; d=json.load(sys.stdin); assert abs(d[\"p99\"] - 0.1) < 1e-5 and abs(d[\"max\"] - 0.1) < 1e-5, d'"
+"$crease" primitive plane --res 6 -o "$tmp/plane6.obj" >/dev/null
+check "edge strain refuses a pc2 of another mesh" bash -c "python3 '$strain' '$tmp/plane6.obj' \
+  '$tmp/sim/sim.pc2' 2>&1 >/dev/null | grep -q '144 points, the rest mesh has 36'"
 # --vbd-iterations: fewer sweeps, another trajectory; 0 is refused
 check "simulate --vbd-iterations 5" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
   --garment-offset 0,0.35,0 --object sphere --frames 5 --material cotton --solver vbd \
