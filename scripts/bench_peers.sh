@@ -43,6 +43,12 @@ except ValueError: d=json.loads(t[-1])
 print(d[sys.argv[2]])' "$1" "$2"
 }
 
+# strain REST RESULT [options]: the p99 edge strain of RESULT's last frame (its JSON beside
+# RESULT), so that a fast result that is stretched or crumpled does not pass for a good one.
+strain() {
+  python3 "$root/scripts/edge_strain.py" "$@" >"$2.strain.json" && field "$2.strain.json" p99
+}
+
 sim_peers() {
   if [[ ! -f $peer ]]; then
     echo "bench-peers: the Blender harness $peer is missing" >&2
@@ -87,12 +93,9 @@ sim_peers() {
     bp=$(field "$b/result.json" max_penetration_m)
     np=$(field "$c/newton/summary.json" max_penetration_m)
     vp=$(field "$c/vbd/summary.json" max_penetration_m)
-    # The edge strain at the last frame (Blender's rest edges are its grid's, 1 m / res), so
-    # that a fast result that is stretched or crumpled does not pass for a good one.
-    strain() { python3 "$root/scripts/edge_strain.py" "$@" >"${@: -1}.strain.json" &&
-      field "${@: -1}.strain.json" p99; }
-    bst=$(strain "$b/final.obj" --rest-length "$(awk -v r=$res 'BEGIN { print 1.0 / r }')" \
-      "$b/final.obj")
+    # Blender's rest edges are its grid's, 1 m / res.
+    bst=$(strain "$b/final.obj" "$b/final.obj" \
+      --rest-length "$(awk -v r=$res 'BEGIN { print 1.0 / r }')")
     nst=$(strain "$c/cloth.obj" "$c/newton/sim.pc2")
     vst=$(strain "$c/cloth.obj" "$c/vbd/sim.pc2")
     awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v bp="$bp" \

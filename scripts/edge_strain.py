@@ -12,6 +12,7 @@ bench_peers.sh puts it beside the speed so that a fast result that is
 stretched or crumpled cannot pass for a good one. No numpy: plain Python
 (Debian's python3 alone).
 """
+import argparse
 import json
 import math
 import struct
@@ -75,34 +76,31 @@ def strains(edges, rest, x):
 
 
 def main(argv):
-    args = [a for a in argv if not a.startswith("--")]
-    every = "--every-frame" in argv
-    rest_length = None
-    if "--rest-length" in argv:
-        i = argv.index("--rest-length")
-        try:
-            rest_length = float(argv[i + 1])
-            args.remove(argv[i + 1])
-        except (IndexError, ValueError):
-            fail("--rest-length needs a length in metres")
-        if not rest_length > 0.0:
-            fail("--rest-length must be > 0")
-    if len(args) != 2:
-        fail("usage: edge_strain.py REST.obj RESULT.obj|RESULT.pc2 [--rest-length L] [--every-frame]")
-    verts, faces = read_obj(args[0])
+    ap = argparse.ArgumentParser(prog="edge_strain.py", description="Edge strain of a cloth.")
+    ap.add_argument("rest", help="rest mesh (OBJ)")
+    ap.add_argument("result", help="the result: OBJ, or PC2 (its last sample)")
+    ap.add_argument("--rest-length", type=float, help="every rest edge this long, m")
+    ap.add_argument("--every-frame", action="store_true",
+                    help="also the largest p99 over all of a PC2's samples")
+    args = ap.parse_args(argv)
+    rest_length = args.rest_length
+    if rest_length is not None and not rest_length > 0.0:
+        fail("--rest-length must be > 0")
+    every = args.every_frame
+    verts, faces = read_obj(args.rest)
     edges = sorted({(min(f[i], f[(i + 1) % len(f)]), max(f[i], f[(i + 1) % len(f)]))
                     for f in faces for i in range(len(f))})
     if not edges:
-        fail("%s: no faces" % args[0])
+        fail("%s: no faces" % args.rest)
     rest = [rest_length or math.dist(verts[a], verts[b]) for a, b in edges]
     if min(rest) <= 0.0:
-        fail("%s: an edge of zero length" % args[0])
-    if args[1].endswith(".pc2"):
-        frames = read_pc2(args[1], len(verts), every)
+        fail("%s: an edge of zero length" % args.rest)
+    if args.result.endswith(".pc2"):
+        frames = read_pc2(args.result, len(verts), every)
     else:
-        x, _ = read_obj(args[1])
+        x, _ = read_obj(args.result)
         if len(x) != len(verts):
-            fail("%s: %d vertices, the rest mesh has %d" % (args[1], len(x), len(verts)))
+            fail("%s: %d vertices, the rest mesh has %d" % (args.result, len(x), len(verts)))
         frames = [x]
     p99 = lambda s: s[min(len(s) - 1, int(0.99 * len(s)))]
     s = strains(edges, rest, frames[-1])

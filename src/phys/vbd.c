@@ -46,7 +46,8 @@
  * sweep was a quarter of a sweep on the sphere drop; at 0.1 mm of slide on a
  * 0.3 m sphere the tangent plane's error is 2e-8 m). Converged when an
  * iteration's largest vertex move is below o->tol; o->rtol is not used: a
- * Gauss-Seidel sweep's move shrinks long before the iterate converges. Pinned vertices are not coloured.
+ * Gauss-Seidel sweep's move shrinks long before the iterate converges.
+ * Pinned vertices are not coloured.
  *
  * Cost per iteration: every element's vertex-block kernel
  * (cr_energy_term.vertex_block: that vertex's gradient and 3x3 block only)
