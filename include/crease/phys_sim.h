@@ -194,6 +194,12 @@ typedef struct cr_sim_def {
                                    fraction of collision_thickness since their last query and
                                    may be inside the thickness (default 0.05); 0: every vertex,
                                    every sweep (a quarter of a sweep on the sphere drop) */
+    int vbd_coarse_every;       /* VBD's coarse-level correction every this many sweeps (0: off):
+                                   one Newton step on aggregates of vertices, which removes the
+                                   smooth error the sweeps hardly touch (vbd_coarse.c,
+                                   docs/physics.md) */
+    int vbd_coarse_rings;       /* an aggregate is a vertex and its free neighbours within this
+                                   many rings, 1..8 (default 2: about 19 vertices of a grid) */
     int self_contact;           /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
                                    (self_contact.c; docs/physics.md, "Self-contact";
                                    default 0) */
@@ -233,6 +239,8 @@ typedef struct cr_sim_report {
     double seconds_collision; /* BVH refits and signed-distance queries */
     int vbd_retries;          /* VBD sweeps whose objective rose, run again with line searches */
     int64_t vbd_requeries;    /* vertex collider queries of VBD's sweeps after the first */
+    int vbd_coarse_steps;     /* VBD coarse corrections taken (Armijo accepted), summed */
+    int vbd_coarse_rejected;  /* ... and tried but not taken */
     double seconds_self_contact;  /* self-contact pair finding and the assembly rebuilt for it */
     int32_t self_contact_pairs;   /* pairs of the last detection */
     int self_contact_detections;  /* detections, summed over substeps (VBD: once, and again

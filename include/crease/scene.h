@@ -173,6 +173,7 @@ typedef struct cr_scene_run_stats {
     long long newton_capped;    /* substeps that stopped at the iteration limit */
     long long vbd_retries;      /* VBD sweeps run again with line searches (cr_sim_report) */
     long long vbd_requeries;    /* vertex collider queries of VBD's later sweeps (cr_sim_report) */
+    long long vbd_coarse_steps; /* VBD coarse corrections taken (cr_sim_report) */
     long long backoffs;         /* failed attempts retried with more substeps */
     double max_penetration_m;   /* deepest vertex inside the collider before projection */
     double max_projected_share; /* largest share of the vertices projected out of the
@@ -214,6 +215,9 @@ typedef struct cr_scene_sim_def {
     int substeps;                /* 0: cr_sim_def's default */
     int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
     int vbd_iterations;          /* VBD sweeps per substep at most; 0: cr_sim_def's default */
+    int vbd_coarse_every;        /* VBD's coarse correction every N sweeps; 0: off, -1 (what
+                                    cr_scene_sim_default_def gives): cr_sim_def's default */
+    int vbd_coarse_rings;        /* its aggregates' rings; 0: cr_sim_def's default */
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
     int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */

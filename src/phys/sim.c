@@ -91,6 +91,8 @@ cr_sim_def cr_sim_default_def(void) {
     d.vbd_hessian_every = 1;
     d.vbd_collision_scale = 10.0;
     d.vbd_requery_move = 0.05;
+    d.vbd_coarse_every = 0;
+    d.vbd_coarse_rings = 2;
     d.self_contact = 0;
     d.self_contact_thickness = 4e-3;
     d.cookie = CR_SIM_DEF_COOKIE;
@@ -372,6 +374,7 @@ cr_status cr_sim_detect_self(cr_sim *s, const double *x, int newton, cr_error *e
         cr_assembly_destroy(s->assembly);
         s->assembly = NULL;
         CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
+        s->assembly_builds++;
         cr_cholesky_destroy(s->chol);
         s->chol = NULL;
     }

@@ -75,8 +75,10 @@ struct cr_sim {
     sim_drag drag;
     double term_values[CR_SIM_MAX_TERMS]; /* J, of the last evaluation */
     cr_assembly *assembly;
-    cr_cholesky *chol; /* NULL with the VBD solver */
-    cr_vbd *vbd;       /* NULL with the Newton solver */
+    cr_cholesky *chol;                /* NULL with the VBD solver */
+    cr_vbd *vbd;                      /* NULL with the Newton solver */
+    struct cr_vbd_coarse *vbd_coarse; /* VBD's coarse correction, NULL when off */
+    int64_t assembly_builds;          /* times s->assembly was made (the coarse map follows) */
 
     uint8_t *pinned;    /* (V) 1 = held */
     int32_t *pin_index; /* (npin) the pinned vertices in the order of def.pin_frames */

@@ -36,6 +36,7 @@ void cr_sim_destroy(cr_sim *s) {
     if (!s) return;
     cr_cholesky_destroy(s->chol);
     cr_vbd_destroy(s->vbd);
+    cr_vbd_coarse_destroy(s->vbd_coarse);
     cr_assembly_destroy(s->assembly);
     cr_friction_destroy(s->friction);
     cr_collision_destroy(s->collision);
@@ -127,6 +128,10 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
               "vbd_collision_scale must be >= 1, got %g", d->vbd_collision_scale);
     CHECK_DEF(isfinite(d->vbd_requery_move) && d->vbd_requery_move >= 0.0,
               "vbd_requery_move must be >= 0, got %g", d->vbd_requery_move);
+    CHECK_DEF(d->vbd_coarse_every >= 0, "vbd_coarse_every must be >= 0 (0: off), got %d",
+              d->vbd_coarse_every);
+    CHECK_DEF(d->vbd_coarse_rings >= 1 && d->vbd_coarse_rings <= 8,
+              "vbd_coarse_rings must be in 1..8, got %d", d->vbd_coarse_rings);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,
               "vbd_damping must be >= 0, got %g s", d->vbd_damping);
     return CR_OK;
@@ -239,12 +244,16 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
         cr_self_contact_term(s->self, &t), add_term(s, t);
     }
     CR_TRY(cr_assembly_create(s->terms, s->nterms, s->nv, &s->assembly, err));
+    s->assembly_builds++;
     /* VBD's simulator analyses the Cholesky pattern only when a static solve
      * first needs it (sim.c). */
-    if (d->solver == CR_SIM_SOLVER_VBD)
+    if (d->solver == CR_SIM_SOLVER_VBD) {
         CR_TRY(cr_vbd_create(s, &s->vbd, err));
-    else
+        if (d->vbd_coarse_every > 0)
+            CR_TRY(cr_vbd_coarse_create(s, d->vbd_coarse_rings, &s->vbd_coarse, err));
+    } else {
         CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
+    }
 
     if (s->bvh) {
         /* Unbounded once, so a garment that starts inside the collider is seen. */

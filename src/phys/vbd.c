@@ -75,6 +75,8 @@
 /* The step bound's fraction of the nearest pair's distance (the paper's
  * gamma_p; Warp's 0.4). */
 #define VBD_BOUND 0.4
+/* Step halvings of the coarse correction's line search. */
+#define VBD_COARSE_LINE_SEARCH 8
 /* Detections that walk the initial guess out in steps of the bound. */
 #define VBD_GUESS_DETECTIONS 4
 
@@ -95,8 +97,8 @@ struct cr_vbd {
     int32_t *col_vert; /* the free vertices, by colour, ascending within one */
     int64_t *inc_off;  /* (V+1) */
     cr_vbd_incidence *inc;
-    int64_t *adj_off;  /* (nfree+1): slot k = col_vert[k]'s incidences in adj */
-    vbd_adj *adj;      /* the incidences again, in colour order */
+    int64_t *adj_off;               /* (nfree+1): slot k = col_vert[k]'s incidences in adj */
+    vbd_adj *adj;                   /* the incidences again, in colour order */
     int32_t *map[CR_SIM_MAX_TERMS]; /* one-vertex terms with an element list: vertex -> element */
     double *xa, *xb;                /* (V,3) the last two iterates, for Chebyshev */
     double *move, *gnorm;           /* (V) per vertex of the last sweep, m and N */
@@ -202,8 +204,8 @@ cr_status cr_vbd_create(const cr_sim *s, cr_vbd **out, cr_error *err) {
             const int32_t i = v->col_vert[k];
             v->adj_off[k + 1] = v->adj_off[k] + (v->inc_off[i + 1] - v->inc_off[i]);
         }
-        v->adj = cr_malloc((size_t)(v->adj_off[nfree] > 0 ? v->adj_off[nfree] : 1) * sizeof(vbd_adj),
-                           err);
+        v->adj = cr_malloc(
+            (size_t)(v->adj_off[nfree] > 0 ? v->adj_off[nfree] : 1) * sizeof(vbd_adj), err);
         if (!v->adj) goto fail;
         for (int32_t k = 0; k < nfree; k++) {
             const int32_t i = v->col_vert[k];
@@ -259,10 +261,10 @@ void cr_vbd_initial_guess(cr_sim *s, double h) {
 typedef struct sweep_ctx {
     cr_sim *s;
     cr_vbd *v;
-    double kd_h;          /* damping k_d / h (k_d in s): a multiple of the Hessian */
-    double max_step;      /* m */
-    int fresh;            /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
-    int line_search;      /* 1: each vertex backtracks on its local energy; 0: full steps */
+    double kd_h;     /* damping k_d / h (k_d in s): a multiple of the Hessian */
+    double max_step; /* m */
+    int fresh;       /* 1: this sweep evaluates the elastic Hessian blocks into v->hel */
+    int line_search; /* 1: each vertex backtracks on its local energy; 0: full steps */
 } sweep_ctx;
 
 /* Vertex i's share of the self-contact pairs around it (the pairs change
@@ -533,7 +535,6 @@ static void vertex_step(const sweep_ctx *c, int32_t slot) {
     }
 }
 
-
 /* --------------------------------------------------------------- solve -- */
 
 cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err) {
@@ -623,6 +624,56 @@ static double reeval_term(cr_sim *s, int t, const double *x) {
     return total;
 }
 
+/* Vertex block descent's coarse correction at s->x, whose objective is
+ * *e_start: the direction from vbd_coarse.c, cut to o->max_step for the
+ * largest vertex move (and to the self-contact bound), and an Armijo
+ * backtracking search on the whole objective. *taken = 1 when the step was
+ * kept (s->x and *e_start moved, its largest vertex move added to *moved,
+ * which grows the collider's query radius); else s->x and the term values are as they
+ * were. */
+static cr_status coarse_step(cr_sim *s, cr_vbd *v, const newton_opts *o, double *e_start,
+                             double *moved, int *taken, cr_error *err) {
+    const int64_t n3 = 3 * (int64_t)s->nv;
+    double tv[CR_SIM_MAX_TERMS];
+    *taken = 0;
+    memcpy(tv, s->term_values, sizeof tv);
+    double e0 = cr_sim_eval(s, s->x, s->grad, 1);
+    for (int32_t i = 0; i < s->nv; i++)
+        if (s->pinned[i]) memset(s->grad + 3 * (int64_t)i, 0, 3 * sizeof(double));
+    int ok = 0;
+    double *dir = s->dx;
+    if (isfinite(e0)) CR_TRY(cr_vbd_coarse_direction(s, s->vbd_coarse, s->grad, dir, &ok, err));
+    double gd = 0.0, longest = 0.0;
+    if (ok)
+        for (int32_t i = 0; i < s->nv; i++) {
+            const double *g = s->grad + 3 * (int64_t)i, *p = dir + 3 * (int64_t)i;
+            gd += g[0] * p[0] + g[1] * p[1] + g[2] * p[2];
+            double l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+            if (l2 > longest) longest = l2;
+        }
+    longest = sqrt(longest);
+    if (ok && gd < 0.0 && isfinite(longest) && longest > 0.0) {
+        double alpha = longest > o->max_step ? o->max_step / longest : 1.0;
+        for (int ls = 0; ls <= VBD_COARSE_LINE_SEARCH; ls++, alpha *= 0.5) {
+            for (int64_t k = 0; k < n3; k++)
+                s->xt[k] = s->x[k] + alpha * dir[k];
+            if (s->self) bound_all(s, v, s->xt);
+            double e = cr_sim_eval(s, s->xt, NULL, 0);
+            if (isfinite(e) && e <= e0 + s->def.armijo * alpha * gd) {
+                memcpy(s->x, s->xt, (size_t)n3 * sizeof(double));
+                *e_start = e, *taken = 1;
+                *moved += alpha * longest;
+                s->rep->vbd_coarse_steps++;
+                return CR_OK;
+            }
+        }
+    }
+    s->rep->vbd_coarse_rejected++;
+    /* reeval_term sums the term values of the last evaluation: those of s->x. */
+    memcpy(s->term_values, tv, sizeof tv);
+    return CR_OK;
+}
+
 cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     cr_vbd *v = s->vbd;
     cr_sim_report *rep = s->rep;
@@ -673,6 +724,15 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
                 e_start = cr_sim_eval(s, s->x, NULL, 0);
             }
         }
+        /* The coarse correction: a Newton step on the aggregates, where
+         * the sweeps leave a region's smooth error (vbd_coarse.c). The
+         * extrapolation restarts after it: the last two iterates no longer
+         * lie on one sweep's path. */
+        int coarse = 0;
+        if (s->vbd_coarse && it > 0 && it % d->vbd_coarse_every == 0) {
+            CR_TRY(coarse_step(s, v, o, &e_start, &moved, &coarse, err));
+            if (coarse) omega = 1.0;
+        }
         memcpy(v->xa, v->xb, (size_t)n3 * sizeof(double)); /* x^{n-1} */
         memcpy(v->xb, s->x, (size_t)n3 * sizeof(double));  /* x^n */
         c.fresh = it % d->vbd_hessian_every == 0;
@@ -685,7 +745,7 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
          * vertices' line searches, which then stay on for the substep. */
         double e = NAN;
         int kept = 0;
-        if (rho > 0.0 && it > 0 && finite) {
+        if (rho > 0.0 && it > 0 && !coarse && finite) {
             double w = omega == 1.0 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
             double *xt = s->xt;
             for (int64_t k = 0; k < n3; k++)

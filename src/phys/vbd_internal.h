@@ -20,4 +20,23 @@ cr_status cr_vbd_colour(int32_t nv, const int64_t *inc_off, const cr_vbd_inciden
                         const cr_energy_term *terms, const uint8_t *skip, int32_t *colour,
                         int *ncolours, cr_error *err);
 
+/* The coarse-level correction (vbd_coarse.c): aggregates of a vertex and
+ * its free neighbours within `rings` rings of the Hessian's pattern, made
+ * once from s->assembly (before any self-contact pair). */
+typedef struct cr_vbd_coarse cr_vbd_coarse;
+cr_status cr_vbd_coarse_create(const cr_sim *s, int rings, cr_vbd_coarse **out, cr_error *err);
+void cr_vbd_coarse_destroy(cr_vbd_coarse *c);
+int32_t cr_vbd_coarse_count(const cr_vbd_coarse *c);
+/* The rotation blocks' relative diagonal shift (default 1e-6; 0 for the
+ * tests that check the coarse system exactly, where no block is singular). */
+void cr_vbd_coarse_set_rotation_shift(cr_vbd_coarse *c, double shift);
+/* Each vertex's aggregate (V), -1 for pinned vertices. */
+const int32_t *cr_vbd_coarse_aggregates(const cr_vbd_coarse *c);
+/* The coarse direction dir (V,3) = P (P^T H P)^-1 (-P^T grad), H the
+ * assembly's Hessian as the caller's last cr_sim_eval(..., hessian 1) left
+ * it and grad its gradient (pinned rows zero). *ok = 0 when there is none
+ * (no aggregate, or P^T H P indefinite after the Cholesky's shifts). */
+cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *grad, double *dir,
+                                  int *ok, cr_error *err);
+
 #endif

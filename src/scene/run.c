@@ -24,6 +24,7 @@ static void add_frame(cr_scene_run_stats *s, const cr_sim_report *rep, int32_t n
     s->newton_capped += rep->newton_capped;
     s->vbd_retries += rep->vbd_retries;
     s->vbd_requeries += rep->vbd_requeries;
+    s->vbd_coarse_steps += rep->vbd_coarse_steps;
     s->backoffs += rep->backoffs;
     s->max_penetration_m = fmax(s->max_penetration_m, rep->max_penetration_m);
     double projected = rep->projected / ((double)nv * (rep->substeps > 0 ? rep->substeps : 1));

@@ -13,8 +13,11 @@ enum { DEFAULT_RENDER_SIZE = 800 };
 /* ----------------------------------------------------------- simulate -- */
 
 cr_scene_sim_def cr_scene_sim_default_def(void) {
-    return (cr_scene_sim_def){
-        .material = "cotton", .fps = 30.0f, .render_size = DEFAULT_RENDER_SIZE, .self_contact = -1};
+    return (cr_scene_sim_def){.material = "cotton",
+                              .fps = 30.0f,
+                              .render_size = DEFAULT_RENDER_SIZE,
+                              .self_contact = -1,
+                              .vbd_coarse_every = -1};
 }
 
 static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
@@ -78,6 +81,8 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     if (o->vbd_iterations > 0) def->vbd_iterations = o->vbd_iterations;
+    if (o->vbd_coarse_every >= 0) def->vbd_coarse_every = o->vbd_coarse_every;
+    if (o->vbd_coarse_rings > 0) def->vbd_coarse_rings = o->vbd_coarse_rings;
     def->plasticity = o->plastic;
     def->solver = (cr_sim_solver)o->solver;
     if (o->self_contact >= 0) def->self_contact = o->self_contact;
