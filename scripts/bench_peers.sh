@@ -5,7 +5,9 @@
 #        1 m square cloth of (res+1)^2 vertices at y = 0.5 dropped on a sphere
 #        of radius 0.3 m, 120 frames at 30 fps, at res = 64 and 128 quads per
 #        side. Prints seconds per frame for Blender and for crease with each
-#        solver (Newton, VBD: `--solver`), the ratios (Blender / crease: above
+#        solver (Newton, VBD: `--solver`; and VBD with its coarse correction,
+#        PEERS_VBD_COARSE, default "--vbd-coarse 2 --vbd-coarse-refresh 3"),
+#        the ratios (Blender / crease: above
 #        1 means crease is faster) and each one's deepest vertex inside the
 #        sphere. PEERS_FRAMES, PEERS_RES: a shorter run. The harness is
 #        ../shared/peers/blender_drape.py (its docstring gives the scene and
@@ -70,8 +72,9 @@ sim_peers() {
   fi
 
   mkdir -p "$out"
-  printf '%-6s %-9s %-10s %-10s %-10s %-8s %-8s %-10s %-10s %-10s %-22s\n' res vertices "blender" \
-    "newton" "vbd" "ratio-n" "ratio-v" "blender mm" "newton mm" "vbd mm" "strain p99 % b/n/v"
+  coarse_args=${PEERS_VBD_COARSE:---vbd-coarse 2 --vbd-coarse-refresh 3}
+  printf '%-6s %-9s %-8s %-8s %-8s %-8s %-8s %-8s %-8s %-22s %-26s\n' res vertices "blender" \
+    "newton" "vbd" "vbd+c" "ratio-n" "ratio-v" "ratio-vc" "depth mm b/n/v/vc" "strain p99 % b/n/v/vc"
   for res in ${PEERS_RES:-64 128}; do
     b=$out/blender$res
     c=$out/crease$res
@@ -80,16 +83,22 @@ sim_peers() {
       --threads $threads --collider sphere --out "$b" >"$b/log.txt" 2>&1 ||
       { echo "bench-peers: blender failed at res $res, see $b/log.txt" >&2; return 1; }
     "$crease" primitive plane --res $((res + 1)) --size 1 -o "$c/cloth.obj" >/dev/null
-    for solver in newton vbd; do
-      mkdir -p "$c/$solver"
+    for run in newton vbd vbdc; do
+      solver=${run%c}
+      extra=()
+      [[ $run == vbdc ]] && read -r -a extra <<<"$coarse_args"
+      mkdir -p "$c/$run"
       OMP_NUM_THREADS=$threads "$crease" simulate --garment "$c/cloth.obj" --garment-offset 0,0.5,0 \
-        --object sphere --frames $frames --fps 30 --material cotton --solver $solver -o "$c/$solver" \
-        --quiet --json >"$c/$solver/summary.json" 2>"$c/$solver/log.txt" ||
-        { echo "bench-peers: crease simulate --solver $solver failed at res $res, see $c/$solver/log.txt" >&2; return 1; }
+        --object sphere --frames $frames --fps 30 --material cotton --solver $solver "${extra[@]}" \
+        -o "$c/$run" --quiet --json >"$c/$run/summary.json" 2>"$c/$run/log.txt" ||
+        { echo "bench-peers: crease simulate --solver $solver ${extra[*]} failed at res $res, see $c/$run/log.txt" >&2; return 1; }
     done
     bs=$(field "$b/result.json" seconds_per_frame)
     ns=$(field "$c/newton/summary.json" seconds_per_frame)
     vs=$(field "$c/vbd/summary.json" seconds_per_frame)
+    cs=$(field "$c/vbdc/summary.json" seconds_per_frame)
+    cp=$(field "$c/vbdc/summary.json" max_penetration_m)
+    cst=$(strain "$c/cloth.obj" "$c/vbdc/sim.pc2")
     bp=$(field "$b/result.json" max_penetration_m)
     np=$(field "$c/newton/summary.json" max_penetration_m)
     vp=$(field "$c/vbd/summary.json" max_penetration_m)
@@ -98,12 +107,16 @@ sim_peers() {
       --rest-length "$(awk -v r=$res 'BEGIN { print 1.0 / r }')")
     nst=$(strain "$c/cloth.obj" "$c/newton/sim.pc2")
     vst=$(strain "$c/cloth.obj" "$c/vbd/sim.pc2")
-    awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v bp="$bp" \
-      -v np="$np" -v vp="$vp" -v bst="$bst" -v nst="$nst" -v vst="$vst" \
-      'BEGIN { printf "%-6d %-9d %-10.4f %-10.4f %-10.4f %-8.2f %-8.2f %-10.3f %-10.3f %-10.3f %.2f/%.2f/%.2f\n",
-        r, v, bs, ns, vs, bs / ns, bs / vs, 1e3 * bp, 1e3 * np, 1e3 * vp, 1e2 * bst, 1e2 * nst, 1e2 * vst }'
+    awk -v r=$res -v v=$(((res + 1) * (res + 1))) -v bs="$bs" -v ns="$ns" -v vs="$vs" -v cs="$cs" \
+      -v bp="$bp" -v np="$np" -v vp="$vp" -v cp="$cp" -v bst="$bst" -v nst="$nst" -v vst="$vst" \
+      -v cst="$cst" \
+      'BEGIN { printf "%-6d %-9d %-8.4f %-8.4f %-8.4f %-8.4f %-8.2f %-8.2f %-8.2f %-22s %.2f/%.2f/%.2f/%.2f\n",
+        r, v, bs, ns, vs, cs, bs / ns, bs / vs, bs / cs,
+        sprintf("%.2f/%.2f/%.2f/%.2f", 1e3 * bp, 1e3 * np, 1e3 * vp, 1e3 * cp),
+        1e2 * bst, 1e2 * nst, 1e2 * vst, 1e2 * cst }'
   done
-  echo "(seconds per frame; ratio-n, ratio-v = blender / crease Newton, VBD; crease depth is the deepest vertex inside the"
+  echo "(seconds per frame; ratio-n, ratio-v, ratio-vc = blender / crease Newton, VBD, VBD + coarse ($coarse_args);"
+  echo " crease depth is the deepest vertex inside the"
   echo " sphere before projection over the run, blender's at the last frame; strain p99: the 99th percentile of"
   echo " |l / l0 - 1| over the edges at the last frame, scripts/edge_strain.py; outputs in $out)"
 }

@@ -122,6 +122,8 @@ CR_TEST(phys_vbd_coarse, direction_solves_the_coarse_system) {
         if (s->pinned[i]) memset(g + 3 * i, 0, 3 * sizeof *g);
     int ok = 0;
     cr_vbd_coarse_set_rotation_shift(s->vbd_coarse, 0.0);
+    CR_CHECK_OK(cr_vbd_coarse_factor(s, s->vbd_coarse, &ok, &err), &err);
+    CR_REQUIRE(ok);
     CR_CHECK_OK(cr_vbd_coarse_direction(s, s->vbd_coarse, g, dir, &ok, &err), &err);
     CR_REQUIRE(ok);
     cr_hessian_multiply(cr_assembly_hessian(s->assembly), dir, hp);
@@ -163,6 +165,8 @@ CR_TEST(phys_vbd_coarse, direction_solves_the_coarse_system) {
         scale[rot] = fmax(scale[rot], fabs(rhs[k]));
     }
     cr_vbd_coarse_set_rotation_shift(s->vbd_coarse, 1e-6);
+    CR_CHECK_OK(cr_vbd_coarse_factor(s, s->vbd_coarse, &ok, &err), &err);
+    CR_REQUIRE(ok);
     CR_CHECK_OK(cr_vbd_coarse_direction(s, s->vbd_coarse, g, dir, &ok, &err), &err);
     CR_REQUIRE(ok);
     gd = 0.0;

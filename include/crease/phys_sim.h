@@ -200,6 +200,10 @@ typedef struct cr_sim_def {
                                    docs/physics.md) */
     int vbd_coarse_rings;       /* an aggregate is a vertex and its free neighbours within this
                                    many rings, 1..8 (default 2: about 19 vertices of a grid) */
+    int vbd_coarse_refresh;     /* the coarse matrix is evaluated and factorised again every this
+                                   many corrections, and at each substep's first (default 1);
+                                   the others reuse it with a fresh gradient, which saves the
+                                   Hessian's evaluation */
     int self_contact;           /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
                                    (self_contact.c; docs/physics.md, "Self-contact";
                                    default 0) */

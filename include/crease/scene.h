@@ -218,6 +218,7 @@ typedef struct cr_scene_sim_def {
     int vbd_coarse_every;        /* VBD's coarse correction every N sweeps; 0: off, -1 (what
                                     cr_scene_sim_default_def gives): cr_sim_def's default */
     int vbd_coarse_rings;        /* its aggregates' rings; 0: cr_sim_def's default */
+    int vbd_coarse_refresh;      /* corrections per coarse factorisation; 0: cr_sim_def's */
     float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
     int plastic;                 /* 1: plastic bending */
     int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */

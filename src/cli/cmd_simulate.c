@@ -53,6 +53,8 @@ void help_simulate(void) {
         "                       patches of vertices that removes the stretch the sweeps leave\n"
         "                       after an impact (0: off; default: the simulator's)\n"
         "  --vbd-coarse-rings R  a patch is a vertex and its neighbours within R rings, 1..8\n"
+        "  --vbd-coarse-refresh K  the coarse matrix again every K corrections (and at each\n"
+        "                       substep's first); between, the last one with a new gradient\n"
         "  --fps F              frames per second (default 30)\n"
         "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
         "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
@@ -69,7 +71,7 @@ typedef struct {
     float self_contact_thickness;
     cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, vbd_iterations, plastic, json, quiet, has_offset;
-    int vbd_coarse_every, vbd_coarse_rings;
+    int vbd_coarse_every, vbd_coarse_rings, vbd_coarse_refresh;
     float fps, offset[3], max_collider_step;
     int32_t *pins;
     int32_t npins;
@@ -131,6 +133,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_INT("--vbd-iterations", &o->vbd_iterations, 1, 100000),
         CLI_INT("--vbd-coarse", &o->vbd_coarse_every, 0, 100000),
         CLI_INT("--vbd-coarse-rings", &o->vbd_coarse_rings, 1, 8),
+        CLI_INT("--vbd-coarse-refresh", &o->vbd_coarse_refresh, 1, 100000),
         CLI_FLOAT("--fps", &o->fps, 0.01, 100000),
         CLI_CUSTOM("--pin", parse_pins, o, 1),
         {.name = "--garment-offset",
@@ -207,6 +210,7 @@ int cmd_simulate(int argc, char **argv) {
     def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
     def.newton_iterations = o.newton_iterations, def.vbd_iterations = o.vbd_iterations;
     def.vbd_coarse_every = o.vbd_coarse_every, def.vbd_coarse_rings = o.vbd_coarse_rings;
+    def.vbd_coarse_refresh = o.vbd_coarse_refresh;
     def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");

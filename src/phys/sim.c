@@ -93,6 +93,7 @@ cr_sim_def cr_sim_default_def(void) {
     d.vbd_requery_move = 0.05;
     d.vbd_coarse_every = 0;
     d.vbd_coarse_rings = 2;
+    d.vbd_coarse_refresh = 1;
     d.self_contact = 0;
     d.self_contact_thickness = 4e-3;
     d.cookie = CR_SIM_DEF_COOKIE;

@@ -130,6 +130,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
               "vbd_requery_move must be >= 0, got %g", d->vbd_requery_move);
     CHECK_DEF(d->vbd_coarse_every >= 0, "vbd_coarse_every must be >= 0 (0: off), got %d",
               d->vbd_coarse_every);
+    CHECK_DEF(d->vbd_coarse_refresh >= 1, "vbd_coarse_refresh must be >= 1, got %d",
+              d->vbd_coarse_refresh);
     CHECK_DEF(d->vbd_coarse_rings >= 1 && d->vbd_coarse_rings <= 8,
               "vbd_coarse_rings must be in 1..8, got %d", d->vbd_coarse_rings);
     CHECK_DEF(isfinite(d->vbd_damping) && d->vbd_damping >= 0.0,

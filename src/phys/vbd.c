@@ -625,24 +625,26 @@ static double reeval_term(cr_sim *s, int t, const double *x) {
 }
 
 /* Vertex block descent's coarse correction at s->x, whose objective is
- * *e_start: the direction from vbd_coarse.c, cut to o->max_step for the
- * largest vertex move (and to the self-contact bound), and an Armijo
+ * *e_start: the direction from vbd_coarse.c (with P^T H P evaluated and
+ * factorised again when `refresh`, else the last one's), cut to o->max_step
+ * for the largest vertex move (and to the self-contact bound), and an Armijo
  * backtracking search on the whole objective. *taken = 1 when the step was
  * kept (s->x and *e_start moved, its largest vertex move added to *moved,
- * which grows the collider's query radius); else s->x and the term values are as they
- * were. */
-static cr_status coarse_step(cr_sim *s, cr_vbd *v, const newton_opts *o, double *e_start,
-                             double *moved, int *taken, cr_error *err) {
+ * which grows the collider's query radius); else s->x and the term values
+ * are as they were. */
+static cr_status coarse_step(cr_sim *s, cr_vbd *v, const newton_opts *o, int refresh,
+                             double *e_start, double *moved, int *taken, cr_error *err) {
     const int64_t n3 = 3 * (int64_t)s->nv;
     double tv[CR_SIM_MAX_TERMS];
     *taken = 0;
     memcpy(tv, s->term_values, sizeof tv);
-    double e0 = cr_sim_eval(s, s->x, s->grad, 1);
+    double e0 = cr_sim_eval(s, s->x, s->grad, refresh);
     for (int32_t i = 0; i < s->nv; i++)
         if (s->pinned[i]) memset(s->grad + 3 * (int64_t)i, 0, 3 * sizeof(double));
-    int ok = 0;
+    int ok = isfinite(e0);
     double *dir = s->dx;
-    if (isfinite(e0)) CR_TRY(cr_vbd_coarse_direction(s, s->vbd_coarse, s->grad, dir, &ok, err));
+    if (ok && refresh) CR_TRY(cr_vbd_coarse_factor(s, s->vbd_coarse, &ok, err));
+    if (ok) CR_TRY(cr_vbd_coarse_direction(s, s->vbd_coarse, s->grad, dir, &ok, err));
     double gd = 0.0, longest = 0.0;
     if (ok)
         for (int32_t i = 0; i < s->nv; i++) {
@@ -693,7 +695,7 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
     sweep_ctx c = {s, v, dynamic ? d->vbd_damping / o->h : 0.0, o->max_step, 1, 0};
     const double rho = dynamic ? d->vbd_chebyshev : 0.0;
     double omega = 1.0, moved = 0.0, tv[CR_SIM_MAX_TERMS];
-    int converged = 0, it;
+    int converged = 0, it, corrections = 0;
     /* The guess, the collider's clamp included, was walked out within the
      * bound (cr_vbd_bound_guess): every free vertex starts within it. */
     if (s->self) memset(v->bounded, 0, (size_t)s->nv);
@@ -730,7 +732,9 @@ cr_status cr_vbd_solve(cr_sim *s, const newton_opts *o, cr_error *err) {
          * lie on one sweep's path. */
         int coarse = 0;
         if (s->vbd_coarse && it > 0 && it % d->vbd_coarse_every == 0) {
-            CR_TRY(coarse_step(s, v, o, &e_start, &moved, &coarse, err));
+            const int refresh = corrections % d->vbd_coarse_refresh == 0;
+            CR_TRY(coarse_step(s, v, o, refresh, &e_start, &moved, &coarse, err));
+            corrections++;
             if (coarse) omega = 1.0;
         }
         memcpy(v->xa, v->xb, (size_t)n3 * sizeof(double)); /* x^{n-1} */

@@ -59,14 +59,17 @@ struct cr_vbd_coarse {
     double *gc;       /* (2M,3) -P^T g, then the coarse solution (t_a, w_a) */
     double *centre;   /* (M,3) the aggregates' centroids at the iterate, m */
     int32_t *size;    /* (M) their vertices */
+    double *arm;      /* (V,3) each vertex from its aggregate's centroid at the last
+                         factorisation, m: the rotations' basis until the next */
     double rot_shift; /* the rotation blocks' relative shift (1e-6) */
+    int factored;     /* 1: chol holds a positive definite P^T H P */
 };
 
 void cr_vbd_coarse_destroy(cr_vbd_coarse *c) {
     if (!c) return;
     free(c->agg), free(c->slot), free(c->how), free(c->gc);
     free(c->qrow), free(c->qcol), free(c->qbase0), free(c->qbase1);
-    free(c->centre), free(c->size);
+    free(c->centre), free(c->size), free(c->arm);
     free(c->hc.col_off), free(c->hc.row), free(c->hc.col), free(c->hc.val);
     cr_cholesky_destroy(c->chol);
     free(c);
@@ -159,7 +162,8 @@ cr_status cr_vbd_coarse_create(const cr_sim *s, int rings, cr_vbd_coarse **out, 
         c->gc = cr_malloc((size_t)c->nagg * 6 * sizeof *c->gc, err);
         c->centre = cr_malloc((size_t)c->nagg * 3 * sizeof *c->centre, err);
         c->size = cr_calloc((size_t)c->nagg, sizeof *c->size, err);
-        if (!c->gc || !c->centre || !c->size)
+        c->arm = cr_malloc((size_t)s->nv * 3 * sizeof *c->arm, err);
+        if (!c->gc || !c->centre || !c->size || !c->arm)
             st = err ? err->status : CR_ERR_MEMORY;
         else
             for (int32_t i = 0; i < s->nv; i++)
@@ -298,10 +302,10 @@ static void add3(double *dst, const double *a) {
 }
 
 /* S_i = -[r_i]x, the map from an aggregate's rotation w to vertex i's
- * motion w x r_i (r_i = x_i - c_a). */
-static void rotation_map(const cr_vbd_coarse *c, const double *x, int32_t i, double *S) {
-    const double *p = x + 3 * (int64_t)i, *ce = c->centre + 3 * c->agg[i];
-    const double rx = p[0] - ce[0], ry = p[1] - ce[1], rz = p[2] - ce[2];
+ * motion w x r_i (r_i = x_i - c_a at the factorisation). */
+static void rotation_map(const cr_vbd_coarse *c, int32_t i, double *S) {
+    const double *r = c->arm + 3 * (int64_t)i;
+    const double rx = r[0], ry = r[1], rz = r[2];
     const double m[9] = {0.0, rz, -ry, -rz, 0.0, rx, ry, -rx, 0.0};
     memcpy(S, m, sizeof m);
 }
@@ -323,21 +327,24 @@ static void add_fine(const double *H, const double *Si, const double *Sj, double
     add3(b11, SiTHSj);
 }
 
-cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *grad, double *dir,
-                                  int *ok, cr_error *err) {
+cr_status cr_vbd_coarse_factor(cr_sim *s, cr_vbd_coarse *c, int *ok, cr_error *err) {
     *ok = 0;
-    memset(dir, 0, (size_t)s->nv * 3 * sizeof *dir);
+    c->factored = 0;
     if (c->nagg == 0) return CR_OK;
     if (c->builds != s->assembly_builds) CR_TRY(build_map(s, c, err));
     const cr_hessian *h = cr_assembly_hessian(s->assembly);
     const double *x = s->x;
     double t = cr_time_now();
-    /* The aggregates' centroids at the iterate. */
+    /* The rotations' arms from the aggregates' centroids at the iterate. */
     memset(c->centre, 0, (size_t)c->nagg * 3 * sizeof *c->centre);
     for (int32_t i = 0; i < s->nv; i++)
         if (c->agg[i] >= 0)
             for (int d = 0; d < 3; d++)
                 c->centre[3 * c->agg[i] + d] += x[3 * (int64_t)i + d] / c->size[c->agg[i]];
+    for (int32_t i = 0; i < s->nv; i++)
+        for (int d = 0; d < 3; d++)
+            c->arm[3 * (int64_t)i + d] =
+                c->agg[i] >= 0 ? x[3 * (int64_t)i + d] - c->centre[3 * c->agg[i] + d] : 0.0;
     memset(c->hc.val, 0, (size_t)c->hc.nblock * 9 * sizeof *c->hc.val);
     for (int64_t k = 0; k < h->nblock; k++) {
         const int64_t q = c->slot[k];
@@ -348,8 +355,8 @@ cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *gra
         double *b01 = c->hc.val + 9 * c->qbase1[q], *b11 = b01 + 9;
         const double *f = h->val + 9 * k;
         double Si[9], Sj[9], fT[9];
-        rotation_map(c, x, h->row[k], Si);
-        rotation_map(c, x, h->col[k], Sj);
+        rotation_map(c, h->row[k], Si);
+        rotation_map(c, h->col[k], Sj);
         if (c->how[k] == ADD_TRANSPOSE || c->how[k] == ADD_BOTH) transpose3(f, fT);
         if (c->how[k] != ADD_TRANSPOSE) add_fine(f, Si, Sj, b00, b01, b10, b11);
         /* Block (j, i) of the symmetric matrix is f^T. */
@@ -364,42 +371,52 @@ cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *gra
         for (int d = 0; d < 3; d++)
             rr[4 * d] += c->rot_shift * (rr[4 * d] + floor);
     }
-    memset(c->gc, 0, (size_t)c->nagg * 6 * sizeof *c->gc);
-    for (int32_t i = 0; i < s->nv; i++) {
-        const int32_t a = c->agg[i];
-        if (a < 0) continue;
-        const double *g = grad + 3 * (int64_t)i;
-        double S[9];
-        rotation_map(c, x, i, S);
-        for (int d = 0; d < 3; d++) {
-            c->gc[6 * a + d] -= g[d];
-            /* (S^T g)_d = sum_r S[r][d] g_r */
-            c->gc[6 * a + 3 + d] -= S[d] * g[0] + S[3 + d] * g[1] + S[6 + d] * g[2];
-        }
-    }
     s->rep->seconds_assembly += cr_time_now() - t;
     t = cr_time_now();
     cr_error local = {0};
     cr_status st = cr_cholesky_factor(c->chol, &c->hc, NULL, &local);
     s->rep->seconds_factor += cr_time_now() - t;
     s->rep->factorisations++;
-    /* A coarse matrix still indefinite after the shifts: no correction this
-     * time (the sweeps go on); NaN is an error. */
+    /* A coarse matrix still indefinite after the shifts: no correction
+     * until the next factorisation (the sweeps go on); NaN is an error. */
     if (st == CR_ERR_DIVERGED) return CR_OK;
     if (st != CR_OK) return CR_FAIL(err, st, "vbd coarse correction: %s", local.msg);
-    t = cr_time_now();
+    c->factored = 1;
+    *ok = 1;
+    return CR_OK;
+}
+
+cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *grad, double *dir,
+                                  int *ok, cr_error *err) {
+    *ok = 0;
+    memset(dir, 0, (size_t)s->nv * 3 * sizeof *dir);
+    if (!c->factored) return CR_OK;
+    double t = cr_time_now();
+    memset(c->gc, 0, (size_t)c->nagg * 6 * sizeof *c->gc);
+    for (int32_t i = 0; i < s->nv; i++) {
+        const int32_t a = c->agg[i];
+        if (a < 0) continue;
+        const double *g = grad + 3 * (int64_t)i;
+        double S[9];
+        rotation_map(c, i, S);
+        for (int d = 0; d < 3; d++) {
+            c->gc[6 * a + d] -= g[d];
+            /* (S^T g)_d = sum_r S[r][d] g_r */
+            c->gc[6 * a + 3 + d] -= S[d] * g[0] + S[3 + d] * g[1] + S[6 + d] * g[2];
+        }
+    }
     CR_TRY(cr_cholesky_solve(c->chol, c->gc, c->gc, err));
-    s->rep->seconds_solve += cr_time_now() - t;
     for (int32_t i = 0; i < s->nv; i++) {
         const int32_t a = c->agg[i];
         if (a < 0) continue;
         double S[9];
-        rotation_map(c, x, i, S);
+        rotation_map(c, i, S);
         const double *tr = c->gc + 6 * a, *w = tr + 3;
         for (int d = 0; d < 3; d++)
             dir[3 * (int64_t)i + d] =
                 tr[d] + S[3 * d] * w[0] + S[3 * d + 1] * w[1] + S[3 * d + 2] * w[2];
     }
+    s->rep->seconds_solve += cr_time_now() - t;
     *ok = 1;
     return CR_OK;
 }

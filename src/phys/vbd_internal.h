@@ -32,10 +32,14 @@ int32_t cr_vbd_coarse_count(const cr_vbd_coarse *c);
 void cr_vbd_coarse_set_rotation_shift(cr_vbd_coarse *c, double shift);
 /* Each vertex's aggregate (V), -1 for pinned vertices. */
 const int32_t *cr_vbd_coarse_aggregates(const cr_vbd_coarse *c);
-/* The coarse direction dir (V,3) = P (P^T H P)^-1 (-P^T grad), H the
- * assembly's Hessian as the caller's last cr_sim_eval(..., hessian 1) left
- * it and grad its gradient (pinned rows zero). *ok = 0 when there is none
- * (no aggregate, or P^T H P indefinite after the Cholesky's shifts). */
+/* P^T H P factorised, H the assembly's Hessian as the caller's last
+ * cr_sim_eval(..., hessian 1) left it, P the aggregates' rigid motions about
+ * their centroids at s->x (kept until the next factorisation). *ok = 0 when
+ * there is none (no aggregate, or P^T H P indefinite after the Cholesky's
+ * shifts); the directions then give none either. */
+cr_status cr_vbd_coarse_factor(cr_sim *s, cr_vbd_coarse *c, int *ok, cr_error *err);
+/* The coarse direction dir (V,3) = P (P^T H P)^-1 (-P^T grad) with the last
+ * factorisation, grad the objective's gradient (pinned rows zero). */
 cr_status cr_vbd_coarse_direction(cr_sim *s, cr_vbd_coarse *c, const double *grad, double *dir,
                                   int *ok, cr_error *err);
 

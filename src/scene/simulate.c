@@ -83,6 +83,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->vbd_iterations > 0) def->vbd_iterations = o->vbd_iterations;
     if (o->vbd_coarse_every >= 0) def->vbd_coarse_every = o->vbd_coarse_every;
     if (o->vbd_coarse_rings > 0) def->vbd_coarse_rings = o->vbd_coarse_rings;
+    if (o->vbd_coarse_refresh > 0) def->vbd_coarse_refresh = o->vbd_coarse_refresh;
     def->plasticity = o->plastic;
     def->solver = (cr_sim_solver)o->solver;
     if (o->self_contact >= 0) def->self_contact = o->self_contact;
