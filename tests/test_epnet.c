@@ -317,10 +317,13 @@ CR_TEST(epnet, pnet_rb_follows_the_rule_and_stays_bounded) {
 
 /* Persistence on the simulator side: raise the arms and lower them (4 s at
  * 10 fps), hold 1 s; count the hinges whose angle stays more than 0.3 rad
- * off the rest mesh's after the return. The elastic simulation (plasticity
- * off) keeps some too (the shirt rides up, friction holds it there, it
- * drapes under gravity: measured 13 %), the plastic one clearly more
- * (measured 18.7 %, its rest angles moved past 0.1 rad on 34 %). */
+ * off the rest mesh's after the return. Run without friction, as the
+ * E-Net's loss is: with friction the shirt sticks and slips, and where it
+ * comes to rest depends on the last bits of the arithmetic (the elastic
+ * share measured 13.9-19.9 % across OpenBLAS's kernels, the plastic one
+ * 16.2-20.3 %, so neither ordering held). Frictionless, measured on the
+ * Prescott, Sandybridge, Haswell and SkylakeX kernels: elastic 3.8-4.0 %,
+ * plastic 6.9 %, its rest angles moved past 0.1 rad on 18.2-18.5 %. */
 CR_TEST(epnet, reference_keeps_more_creases_than_the_elastic_one) {
     cr_error err;
     cr_epnet_def d = tiny_def();
@@ -339,7 +342,7 @@ CR_TEST(epnet, reference_keeps_more_creases_than_the_elastic_one) {
     const float *bar = cr_epnet_rest_angles(m);
     double share[2], moved = 0;
     for (int plastic = 0; plastic < 2; plastic++) {
-        CR_REQUIRE(cr_epnet_reference(m, s, plastic, pos, rest, &err) == CR_OK);
+        CR_REQUIRE(cr_epnet_reference_friction(m, s, plastic, 0.0, pos, rest, &err) == CR_OK);
         cr_epnet_angles(m, pos, T, theta);
         share[plastic] = cr_epnet_fold_share(theta, bar, T - 1, H, 0.3);
         if (plastic)
@@ -350,8 +353,8 @@ CR_TEST(epnet, reference_keeps_more_creases_than_the_elastic_one) {
             "  folded past 0.3 rad after the return: plastic %.3f, elastic %.3f; plastic rest "
             "moved past 0.1 rad: %.3f\n",
             share[1], share[0], moved);
-    CR_CHECK(share[1] > 0.1);
-    CR_CHECK(share[1] > 1.25 * share[0]);
+    CR_CHECK(share[1] > 0.05);
+    CR_CHECK(share[1] > 1.4 * share[0]);
     CR_CHECK(moved > 0.1);
     free(pos), free(theta), free(rest);
     cr_epnet_seq_destroy(s);
