@@ -55,7 +55,7 @@ check "vbd-iterations changes the trajectory" bash -c "! cmp -s '$tmp/simv/sim.p
 check "vbd-iterations 0 refused" bash -c "! '$crease' simulate --garment '$tmp/cloth.obj' \
   --object sphere --frames 1 --solver vbd --vbd-iterations 0 -o '$tmp/simv0' --quiet 2>/dev/null"
 # --vbd-coarse: the coarse correction runs (its count in the summary), changes the trajectory,
-# leaves nothing inside the sphere; rings outside 1..8 are refused
+# leaves nothing inside the sphere; rings outside 1..8 and a refresh of 0 are refused
 check "simulate --vbd-coarse 2" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
   --garment-offset 0,0.35,0 --object sphere --frames 5 --material cotton --solver vbd \
   --vbd-coarse 2 --vbd-coarse-rings 1 -o '$tmp/simvc' --quiet --json > '$tmp/simvc.json'"
@@ -64,6 +64,8 @@ check "vbd-coarse penetration < 1 mm" json_below "$tmp/simvc.json" max_penetrati
 check "vbd-coarse changes the trajectory" bash -c "! cmp -s '$tmp/simv/sim.pc2' '$tmp/simvc/sim.pc2'"
 expect_exit 2 "--vbd-coarse-rings" simulate --garment "$tmp/cloth.obj" --object sphere --frames 1 \
   --solver vbd --vbd-coarse 2 --vbd-coarse-rings 9 -o "$tmp/x"
+expect_exit 2 "--vbd-coarse-refresh" simulate --garment "$tmp/cloth.obj" --object sphere --frames 1 \
+  --solver vbd --vbd-coarse 2 --vbd-coarse-refresh 0 -o "$tmp/x"
 # --self-contact on: the same scene with cloth self-contact; its log has the pairs
 check "simulate --self-contact on" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
   --garment-offset 0,0.35,0 --object sphere --frames 3 --solver vbd --self-contact on \
