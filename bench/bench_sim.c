@@ -20,14 +20,28 @@
  * and the datasets use). Threads: all, or the second argument.
  *
  * Usage: bench_sim [scene] [threads] [frames] [--solver newton|vbd|compare]
+ *                  [--vbd-iterations N] [--vbd-collision-scale S] [--vbd-tolerance T]
+ *                  [--vbd-coarse N] [--vbd-coarse-refresh K] [--reference FILE]
+ *                  [--self-contact on|off]
  *   scene: all (default), sphere, tube5k, tube10k, tube40k, tall, tall2k5 (the
  *   tall ones not in all)
  *   frames: 30 by default (10 for tube40k)
  *   --solver: newton (default) or vbd times that solver; compare runs a
  *   converged Newton reference (newton_tol 1e-5 m/s, no relative
- *   tolerance, 40 iterations), Newton at its default cap of 8 and VBD at
- *   its defaults, and prints each one's mean and largest vertex distance to
- *   the reference after the last frame.
+ *   tolerance, 40 iterations), the same from a start moved by 10 um (the
+ *   scene's sensitivity), Newton at its default cap of 8, VBD at its
+ *   defaults and VBD with the coarse correction, and prints each one's mean
+ *   and largest vertex distance to the reference after the last frame.
+ *   --vbd-iterations N: the VBD runs' sweeps per substep (default the
+ *   simulator's, 30); --vbd-collision-scale S: their collider penalty's
+ *   factor (default 10; 1 is the material's, Newton's); --vbd-tolerance T:
+ *   their stopping tolerance, cr_sim_def.vbd_tol, m/s (a sweep moving no
+ *   vertex further than T h stops the substep; default newton_tol's 1e-3).
+ *   --vbd-coarse N, --vbd-coarse-refresh K: compare's corrected VBD run
+ *   (default every 2 sweeps, the factor reused for 3 corrections).
+ *   --reference FILE: compare reads its converged reference from FILE when
+ *   it is there, else writes it there, and skips the 10 um run; keep one
+ *   file per scene and frame count.
  *   --self-contact on|off: cloth self-contact (default off); the split then
  *   shows its detection (pairs, BVH refits, the assembly rebuilt for them).
  * `bench_sim tube10k 2 1500` is the issue's stability run (1,500 frames).
@@ -55,6 +69,11 @@ static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep
 
 static int solver_mode = 0;  /* 0 newton, 1 vbd, 2 compare */
 static int self_contact = 0; /* --self-contact on */
+static int vbd_sweeps = 0;   /* --vbd-iterations N; 0: the simulator's default */
+static double vbd_collision_scale = 0; /* --vbd-collision-scale S; 0: the default */
+static double vbd_tol = 0;             /* --vbd-tolerance T (m/s); 0: the default */
+static const char *reference_cache = NULL; /* --reference FILE: compare's reference */
+static int coarse_every = 2, coarse_refresh = 3; /* compare's VBD + coarse run */
 
 /* After a run: its final positions (V,3), for compare; owned here. */
 static double *last_positions = NULL;
@@ -104,38 +123,131 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
     return stopped;
 }
 
-/* One scene with the chosen solver, or the three runs of compare. */
+/* The command line's VBD options, on a def whose solver is VBD. */
+static void vbd_options(cr_sim_def *d) {
+    if (d->solver != CR_SIM_SOLVER_VBD) return;
+    if (vbd_sweeps > 0) d->vbd_iterations = vbd_sweeps;
+    if (vbd_collision_scale > 0) d->vbd_collision_scale = vbd_collision_scale;
+    if (vbd_tol > 0) d->vbd_tol = vbd_tol;
+}
+
+/* compare's reference positions from --reference's file, when it holds nv
+ * vertices (*cached set), else NULL. The file is raw doubles: the caller
+ * keeps it to one scene, thread count and frame count. */
+static double *load_reference(int32_t nv, int *cached) {
+    *cached = 0;
+    FILE *f = fopen(reference_cache, "rb");
+    if (!f) return NULL;
+    double *ref = malloc(sizeof(double) * 3 * (size_t)nv);
+    if (ref && fread(ref, sizeof(double), 3 * (size_t)nv, f) == 3 * (size_t)nv &&
+        fgetc(f) == EOF) {
+        *cached = 1;
+        printf("bench_sim: the converged reference read from %s\n", reference_cache);
+    } else {
+        fprintf(stderr, "bench_sim: %s is not a reference of %d vertices; computing it\n",
+                reference_cache, nv);
+        free(ref);
+        ref = NULL;
+    }
+    fclose(f);
+    return ref;
+}
+
+static void save_reference(const double *ref, int32_t nv) {
+    cr_error err = {0};
+    cr_atomic_file f;
+    if (cr_atomic_open(&f, reference_cache, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s\n", err.msg);
+        return;
+    }
+    if (fwrite(ref, sizeof(double), 3 * (size_t)nv, f.fp) != 3 * (size_t)nv) {
+        fprintf(stderr, "bench_sim: could not write %s\n", reference_cache);
+        cr_atomic_abort(&f);
+        return;
+    }
+    if (cr_atomic_commit(&f, &err) != CR_OK) fprintf(stderr, "bench_sim: %s\n", err.msg);
+}
+
+/* compare's converged reference: tolerance 1e-5 m/s, no relative one, 40
+ * iterations. */
+static void converge(cr_sim_def *d) {
+    d->solver = CR_SIM_SOLVER_NEWTON;
+    d->newton_tol = 1e-5, d->newton_rtol = 0.0, d->newton_max_iterations = 40;
+}
+
+/* Mean and largest distance of last_positions from ref, less a translation
+ * shift (V,3 each). */
+static void distance(const double *ref, int32_t nv, const double shift[3], double *mean,
+                     double *worst) {
+    *mean = 0.0, *worst = 0.0;
+    for (int64_t i = 0; i < 3 * (int64_t)nv; i += 3) {
+        double dx = last_positions[i] - shift[0] - ref[i],
+               dy = last_positions[i + 1] - shift[1] - ref[i + 1],
+               dz = last_positions[i + 2] - shift[2] - ref[i + 2];
+        double r = sqrt(dx * dx + dy * dy + dz * dz);
+        *mean += r / nv;
+        *worst = fmax(*worst, r);
+    }
+}
+
+/* One scene with the chosen solver, or compare's runs: the converged
+ * reference, then each variant's distance to it after the last frame. The
+ * first variant is the reference again from a start moved 10 um along x:
+ * where the scene amplifies small differences (cloth dropped centred on a
+ * sphere chooses a side to slide to), that distance is the floor below
+ * which no solver's distance says anything. */
 static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
     cr_sim_def d = *base;
     d.self_contact = self_contact;
     if (solver_mode < 2) {
         d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
+        vbd_options(&d);
         return run(name, garment, &d, frames);
     }
-    int64_t n3 = 3 * (int64_t)garment->nv;
-    d.newton_tol = 1e-5, d.newton_rtol = 0.0, d.newton_max_iterations = 40;
-    int rc = run(name, garment, &d, frames);
-    double *ref = last_positions;
-    last_positions = NULL;
-    if (!ref) return 1;
-    for (int k = 0; k < 2; k++) {
+    int rc = 0, cached = 0;
+    double *ref = reference_cache ? load_reference(garment->nv, &cached) : NULL;
+    if (!cached) {
+        converge(&d);
+        rc = run(name, garment, &d, frames);
+        ref = last_positions;
+        last_positions = NULL;
+        if (!ref) return 1;
+        if (reference_cache) save_reference(ref, garment->nv);
+    }
+    cr_error err = {0};
+    cr_mesh *moved = NULL;
+    if (cr_mesh_clone(garment, &moved, &err) != CR_OK) {
+        fprintf(stderr, "bench_sim: %s: %s\n", name, err.msg);
+        free(ref);
+        return 1;
+    }
+    const double nudge = 1e-5;
+    for (int32_t v = 0; v < moved->nv; v++)
+        moved->pos[3 * v] += (float)nudge;
+    char coarse_name[64];
+    snprintf(coarse_name, sizeof coarse_name, "vbd with coarse every %d, refresh %d,",
+             coarse_every, coarse_refresh);
+    const char *variant[] = {"newton (converged, start moved 10 um)", "newton (capped at 8)",
+                             "vbd", coarse_name};
+    for (int k = reference_cache ? 1 : 0; k < 4; k++) {
         d = *base;
         d.self_contact = self_contact;
-        d.solver = k == 0 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
-        rc |= run(name, garment, &d, frames);
+        double shift[3] = {0, 0, 0};
+        d.solver = k < 2 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
+        if (k == 0) converge(&d), shift[0] = nudge;
+        if (k == 3) d.vbd_coarse_every = coarse_every, d.vbd_coarse_refresh = coarse_refresh;
+        vbd_options(&d);
+        rc |= run(name, k == 0 ? moved : garment, &d, frames);
         if (!last_positions) continue;
-        double mean = 0.0, worst = 0.0;
-        for (int64_t i = 0; i < n3; i += 3) {
-            double dx = last_positions[i] - ref[i], dy = last_positions[i + 1] - ref[i + 1],
-                   dz = last_positions[i + 2] - ref[i + 2], r = sqrt(dx * dx + dy * dy + dz * dz);
-            mean += r / garment->nv;
-            worst = fmax(worst, r);
-        }
+        double mean, worst;
+        distance(ref, garment->nv, shift, &mean, &worst);
+        char sweeps[32] = "";
+        if (k >= 2) snprintf(sweeps, sizeof sweeps, " (%d sweeps)", d.vbd_iterations);
         printf("sim %s accuracy %s%s after %d frames: mean %.2f mm, largest %.2f mm from "
                "converged Newton\n",
-               name, cr_sim_solver_name(d.solver), k == 0 ? " (capped at 8)" : " (defaults)",
-               frames, 1e3 * mean, 1e3 * worst);
+               name, variant[k], sweeps, frames, 1e3 * mean, 1e3 * worst);
     }
+    cr_mesh_destroy(moved);
     free(ref);
     return rc;
 }
@@ -244,32 +356,57 @@ static int bench_tall(const char *name, int32_t nx, int32_t ny, int frames) {
     return rc;
 }
 
+/* Takes "--name value" out of argv wherever it is; its value, or NULL. */
+static const char *take_option(int *argc, char **argv, const char *name) {
+    for (int i = 1; i + 1 < *argc; i++)
+        if (!strcmp(argv[i], name)) {
+            const char *value = argv[i + 1];
+            for (int j = i; j + 2 < *argc; j++)
+                argv[j] = argv[j + 2];
+            *argc -= 2;
+            return value;
+        }
+    return NULL;
+}
+
 int main(int argc, char **argv) {
-    for (int i = 1; i < argc; i++)
-        if (!strcmp(argv[i], "--self-contact") && i + 1 < argc) {
-            self_contact = !strcmp(argv[i + 1], "on");
-            if (!self_contact && strcmp(argv[i + 1], "off")) {
-                fprintf(stderr, "bench_sim: --self-contact on|off, got %s\n", argv[i + 1]);
-                return 2;
-            }
-            for (int j = i; j + 2 < argc; j++)
-                argv[j] = argv[j + 2];
-            argc -= 2;
-            break;
+    const char *v;
+    if ((v = take_option(&argc, argv, "--self-contact"))) {
+        self_contact = !strcmp(v, "on");
+        if (!self_contact && strcmp(v, "off")) {
+            fprintf(stderr, "bench_sim: --self-contact on|off, got %s\n", v);
+            return 2;
         }
-    for (int i = 1; i < argc; i++)
-        if (!strcmp(argv[i], "--solver") && i + 1 < argc) {
-            const char *m = argv[i + 1];
-            solver_mode = !strcmp(m, "vbd") ? 1 : !strcmp(m, "compare") ? 2 : 0;
-            if (solver_mode == 0 && strcmp(m, "newton")) {
-                fprintf(stderr, "bench_sim: --solver newton|vbd|compare, got %s\n", m);
-                return 2;
-            }
-            for (int j = i; j + 2 < argc; j++)
-                argv[j] = argv[j + 2];
-            argc -= 2;
-            break;
+    }
+    if ((v = take_option(&argc, argv, "--solver"))) {
+        solver_mode = !strcmp(v, "vbd") ? 1 : !strcmp(v, "compare") ? 2 : 0;
+        if (solver_mode == 0 && strcmp(v, "newton")) {
+            fprintf(stderr, "bench_sim: --solver newton|vbd|compare, got %s\n", v);
+            return 2;
         }
+    }
+    if ((v = take_option(&argc, argv, "--vbd-iterations")) && (vbd_sweeps = atoi(v)) < 1) {
+        fprintf(stderr, "bench_sim: --vbd-iterations wants a count >= 1, got %s\n", v);
+        return 2;
+    }
+    reference_cache = take_option(&argc, argv, "--reference");
+    if ((v = take_option(&argc, argv, "--vbd-coarse")) && (coarse_every = atoi(v)) < 1) {
+        fprintf(stderr, "bench_sim: --vbd-coarse wants a sweep count >= 1, got %s\n", v);
+        return 2;
+    }
+    if ((v = take_option(&argc, argv, "--vbd-coarse-refresh")) && (coarse_refresh = atoi(v)) < 1) {
+        fprintf(stderr, "bench_sim: --vbd-coarse-refresh wants a count >= 1, got %s\n", v);
+        return 2;
+    }
+    if ((v = take_option(&argc, argv, "--vbd-tolerance")) && !((vbd_tol = atof(v)) > 0.0)) {
+        fprintf(stderr, "bench_sim: --vbd-tolerance wants a speed > 0 (m/s), got %s\n", v);
+        return 2;
+    }
+    if ((v = take_option(&argc, argv, "--vbd-collision-scale")) &&
+        !((vbd_collision_scale = atof(v)) >= 1.0)) {
+        fprintf(stderr, "bench_sim: --vbd-collision-scale wants a number >= 1, got %s\n", v);
+        return 2;
+    }
     const char *which = argc > 1 ? argv[1] : "all";
     if (argc > 2) cr_set_thread_count(atoi(argv[2]));
     int frames = argc > 3 ? atoi(argv[3]) : 30, big = argc > 3 ? frames : 10;

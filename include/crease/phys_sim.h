@@ -175,7 +175,12 @@ typedef struct cr_sim_def {
     cr_sim_solver solver;       /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
                                    solves (cr_sim_solve_static, quasi_static) use Newton always */
     int vbd_iterations;         /* VBD sweeps per substep at most (default 30); stops earlier when
-                                   a sweep's largest vertex move is below newton_tol h */
+                                   a sweep's largest vertex move is below vbd_tol h */
+    double vbd_tol;             /* m/s: VBD's stopping tolerance (default 0: newton_tol's). A
+                                   sweep's move understates its error, which Gauss-Seidel
+                                   shrinks by a factor near 1 a sweep: with the coarse
+                                   correction, 1e-5 and 100 sweeps came within 2 mm of
+                                   converged Newton on the 10k tube (docs/physics.md) */
     double vbd_chebyshev;       /* rho of the Chebyshev acceleration, [0, 1) (default 0.9; 0: off);
                                    an extrapolation that raises the objective is dropped */
     int vbd_hessian_every;      /* VBD re-evaluates the elastic terms' per-vertex Hessian blocks

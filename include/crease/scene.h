@@ -215,6 +215,7 @@ typedef struct cr_scene_sim_def {
     int substeps;                /* 0: cr_sim_def's default */
     int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
     int vbd_iterations;          /* VBD sweeps per substep at most; 0: cr_sim_def's default */
+    float vbd_tol;               /* VBD's stopping tolerance, m/s; 0: cr_sim_def's default */
     int vbd_coarse_every;        /* VBD's coarse correction every N sweeps; 0: off, -1 (what
                                     cr_scene_sim_default_def gives): cr_sim_def's default */
     int vbd_coarse_rings;        /* its aggregates' rings; 0: cr_sim_def's default */

@@ -49,6 +49,9 @@ void help_simulate(void) {
         "                       twice as fast and damps bending, docs/physics.md)\n"
         "  --vbd-iterations N   VBD sweeps per substep at most (default 30; fewer are faster\n"
         "                       and further from the converged step, docs/physics.md)\n"
+        "  --vbd-tolerance T    a VBD substep stops when a sweep moves no vertex further than\n"
+        "                       T / fps / substeps (m/s; default 1e-3, Newton's; 1e-5 with\n"
+        "                       --vbd-coarse 2 --vbd-iterations 100 is near converged Newton)\n"
         "  --vbd-coarse N       VBD's coarse-level correction every N sweeps: a Newton step on\n"
         "                       patches of vertices that removes the stretch the sweeps leave\n"
         "                       after an impact (0: off; default: the simulator's)\n"
@@ -72,7 +75,7 @@ typedef struct {
     cli_motion_file mf; /* --motion's options */
     int frames, substeps, newton_iterations, vbd_iterations, plastic, json, quiet, has_offset;
     int vbd_coarse_every, vbd_coarse_rings, vbd_coarse_refresh;
-    float fps, offset[3], max_collider_step;
+    float fps, offset[3], max_collider_step, vbd_tol;
     int32_t *pins;
     int32_t npins;
 } sim_opts;
@@ -131,6 +134,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_FLOAT("--max-collider-step", &o->max_collider_step, 0, 1000),
         CLI_INT("--newton-iterations", &o->newton_iterations, 1, 1000),
         CLI_INT("--vbd-iterations", &o->vbd_iterations, 1, 100000),
+        CLI_FLOAT("--vbd-tolerance", &o->vbd_tol, 1e-9, 1),
         CLI_INT("--vbd-coarse", &o->vbd_coarse_every, 0, 100000),
         CLI_INT("--vbd-coarse-rings", &o->vbd_coarse_rings, 1, 8),
         CLI_INT("--vbd-coarse-refresh", &o->vbd_coarse_refresh, 1, 100000),
@@ -210,7 +214,7 @@ int cmd_simulate(int argc, char **argv) {
     def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
     def.newton_iterations = o.newton_iterations, def.vbd_iterations = o.vbd_iterations;
     def.vbd_coarse_every = o.vbd_coarse_every, def.vbd_coarse_rings = o.vbd_coarse_rings;
-    def.vbd_coarse_refresh = o.vbd_coarse_refresh;
+    def.vbd_coarse_refresh = o.vbd_coarse_refresh, def.vbd_tol = o.vbd_tol;
     def.max_collider_step = o.max_collider_step;
     def.plastic = o.plastic, def.pins = o.pins, def.npins = o.npins;
     def.solver = cr_sim_solver_parse(o.solver ? o.solver : "newton");

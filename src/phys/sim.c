@@ -86,6 +86,7 @@ cr_sim_def cr_sim_default_def(void) {
     d.max_penetration = 0.05;
     d.solver = CR_SIM_SOLVER_NEWTON;
     d.vbd_iterations = 30;
+    d.vbd_tol = 0.0; /* newton_tol's */
     d.vbd_chebyshev = 0.9;
     d.vbd_damping = 0.0;
     d.vbd_hessian_every = 1;
@@ -595,7 +596,8 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     else
         o.max_iterations = dynamic ? d->newton_max_iterations : d->static_max_iterations;
     o.h = dynamic ? h : 0.0;
-    o.tol = dynamic ? d->newton_tol * h : d->static_tol;
+    const double tol = vbd && d->vbd_tol > 0.0 ? d->vbd_tol : d->newton_tol;
+    o.tol = dynamic ? tol * h : d->static_tol;
     o.rtol = dynamic ? d->newton_rtol : 0.0;
     o.max_step = dynamic ? INFINITY : d->static_max_step;
     /* Radius of the collider query (see the file comment). */

@@ -118,6 +118,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(d->vbd_hessian_every >= 1, "vbd_hessian_every must be >= 1, got %d",
               d->vbd_hessian_every);
     CHECK_DEF(d->vbd_iterations >= 1, "vbd_iterations must be >= 1, got %d", d->vbd_iterations);
+    CHECK_DEF(isfinite(d->vbd_tol) && d->vbd_tol >= 0.0,
+              "vbd_tol must be >= 0 m/s (0: newton_tol's), got %g", d->vbd_tol);
     CHECK_DEF(isfinite(d->vbd_chebyshev) && d->vbd_chebyshev >= 0.0 && d->vbd_chebyshev < 1.0,
               "vbd_chebyshev must be in [0, 1), got %g", d->vbd_chebyshev);
     CHECK_DEF(!d->self_contact ||

@@ -81,6 +81,7 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     def->max_collider_step = o->max_collider_step;
     if (o->newton_iterations > 0) def->newton_max_iterations = o->newton_iterations;
     if (o->vbd_iterations > 0) def->vbd_iterations = o->vbd_iterations;
+    if (o->vbd_tol > 0.0f) def->vbd_tol = o->vbd_tol;
     if (o->vbd_coarse_every >= 0) def->vbd_coarse_every = o->vbd_coarse_every;
     if (o->vbd_coarse_rings > 0) def->vbd_coarse_rings = o->vbd_coarse_rings;
     if (o->vbd_coarse_refresh > 0) def->vbd_coarse_refresh = o->vbd_coarse_refresh;
