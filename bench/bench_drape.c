@@ -237,7 +237,7 @@ static void fidelity(const bench_opts *o) {
 }
 
 int main(int argc, char **argv) {
-    cr_parallel_prefer_passive_wait(argv);
+    cr_parallel_choose_wait_policy(argv);
     bench_opts o = {.scenes = "ball,torus,prism",
                     .cap = 6000,
                     .samples = 1024,

@@ -101,6 +101,16 @@ CR_TEST(base, parallel_for_covers_every_index_once) {
     }
 }
 
+CR_TEST(base, wait_policy_spins_only_with_a_cpu_for_every_thread) {
+    CR_CHECK(strcmp(cr_parallel_wait_policy_for(0.0, 2, 2), "spin") == 0);
+    CR_CHECK(strcmp(cr_parallel_wait_policy_for(1.0, 2, 4), "spin") == 0);
+    /* another runnable job on a 2-core machine, an unreadable count, more
+     * threads than CPUs */
+    CR_CHECK(strcmp(cr_parallel_wait_policy_for(1.0, 2, 2), "passive") == 0);
+    CR_CHECK(strcmp(cr_parallel_wait_policy_for(-1.0, 1, 8), "passive") == 0);
+    CR_CHECK(strcmp(cr_parallel_wait_policy_for(0.0, 4, 2), "passive") == 0);
+}
+
 typedef struct {
     float stiffness;
     int steps;

@@ -98,6 +98,10 @@ CR_TEST(nn_gemm, layer_shapes_past_the_blocks_with_alpha_and_beta) {
         CR_CHECK(gemm_error(level, 0, 1, 4100, 3, 64, 1.0f, 0.0f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 1, 300, 8, 300, 0.5f, 1.0f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 1, 97, 1, 13, 1.0f, 0.0f, &rng) < 8.0);
+        /* the same path with B not transposed (dx of a 6-wide input layer,
+         * W copied to N x K first), with beta 0 and accumulating */
+        CR_CHECK(gemm_error(level, 0, 0, 6144, 6, 64, 1.0f, 0.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 0, 300, 3, 67, 0.5f, 1.0f, &rng) < 8.0);
         /* more B blocks than one parallel region's packing budget (2 x 5 of
          * KC x NC, 8 to a region at AVX-512's panel width) */
         CR_CHECK(gemm_error(level, 0, 1, 13, 2100, 1100, 1.0f, 0.0f, &rng) < 8.0);
@@ -113,7 +117,7 @@ CR_TEST(nn_gemm, dispatch_either_way_agrees_with_the_reference) {
     float A[150 * 30], B[30 * 20], C[150 * 20], R[150 * 20];
     fill(A, M * K, &rng), fill(B, K * N, &rng);
     cr_nn_cpu_gemm_naive(0, 0, M, N, K, 1.0f, A, K, B, N, 0.0f, R, N);
-    for (int own = 0; own < 2; own++) {
+    for (int own = 0; own < 3; own++) { /* OpenBLAS, own, by shape */
         int prev = cr_nn_cpu_set_gemm_own(own);
         CR_CHECK(cr_nn_cpu_gemm_uses_own() == own);
         cr_nn_cpu_gemm(0, 0, M, N, K, 1.0f, A, K, B, N, 0.0f, C, N);

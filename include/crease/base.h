@@ -134,13 +134,25 @@ void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx);
 int cr_thread_count(void);
 void cr_set_thread_count(int n); /* n <= 0: leave as the runtime chose */
 /* For a program's main, before anything else: when neither OMP_WAIT_POLICY
- * nor GOMP_SPINCOUNT is set, set OMP_WAIT_POLICY=passive and re-execute the
- * program (argv as given) so the OpenMP runtime reads it at load; returns
- * only when nothing was done or the re-execution failed. Idle OpenMP threads
- * then sleep instead of spinning for milliseconds after every parallel
- * region: on a machine shared with other jobs the spinning threads took the
- * cores from the working ones (a drape epoch 8x slower on 2 cores at load 5,
- * docs/drape.md). Built without OpenMP it does nothing. */
+ * nor GOMP_SPINCOUNT is set, choose how idle OpenMP threads wait and
+ * re-execute the program (argv as given) so the runtime reads it at load;
+ * returns only when nothing was done or the re-execution failed.
+ * libgomp's default spins for milliseconds after every parallel region: on
+ * a machine shared with other jobs the spinning threads took the cores from
+ * the working ones (a drape epoch 8x slower on 2 cores at load 5,
+ * docs/drape.md). Sleeping at once (passive) costs a wake-up per region
+ * instead, 20 % of a drape epoch on a quiet machine. So: when the other
+ * processes' runnable threads leave a CPU for every thread of this run,
+ * spin briefly (GOMP_SPINCOUNT CR_PARALLEL_SPIN_COUNT, some microseconds),
+ * otherwise passive (cr_parallel_wait_policy_for). Neither changes a
+ * result's bits. Built without OpenMP it does nothing. */
+#define CR_PARALLEL_SPIN_COUNT "10000"
+void cr_parallel_choose_wait_policy(char **argv);
+/* "spin" or "passive" for the other processes' runnable threads (negative:
+ * unknown), the threads a run will use and the CPUs it may use. */
+const char *cr_parallel_wait_policy_for(double load, int threads, int cpus);
+/* The same re-execution, always passive: for the test runner, whose
+ * processes ctest runs side by side, so the load at start says nothing. */
 void cr_parallel_prefer_passive_wait(char **argv);
 
 /* ----------------------------------------------------------------- timer -- */

@@ -1,23 +1,87 @@
 /* parallel.c: chunked parallel-for over an index range, on OpenMP when built with it. */
+#define _GNU_SOURCE /* sched_getaffinity, CPU_COUNT */
 #include "crease/base.h"
 
+#include <sched.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
-void cr_parallel_prefer_passive_wait(char **argv) {
 #ifdef _OPENMP
-    if (!argv || getenv("OMP_WAIT_POLICY") || getenv("GOMP_SPINCOUNT")) return;
-    if (setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
+/* The CPUs this process may run on. */
+static int usable_cpus(void) {
+#ifdef CPU_COUNT
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return CPU_COUNT(&set);
+#endif
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+/* Other processes' runnable threads now: the most of five looks 2 ms apart
+ * at /proc/loadavg's running count, less this reader; negative when it
+ * cannot be read. An instant, not the 1-minute average, which still holds
+ * a finished job's load (the previous run's two threads, a build) for
+ * minutes. */
+static double runnable_others(void) {
+    double most = -1.0;
+    for (int look = 0; look < 5; look++) {
+        FILE *f = fopen("/proc/loadavg", "r");
+        if (!f) return -1.0;
+        double a1, a5, a15;
+        int running = 0, total = 0;
+        if (fscanf(f, "%lf %lf %lf %d/%d", &a1, &a5, &a15, &running, &total) == 5 &&
+            running - 1 > most)
+            most = running - 1;
+        fclose(f);
+        if (look < 4) usleep(2000);
+    }
+    return most;
+}
+#endif
+
+const char *cr_parallel_wait_policy_for(double others, int threads, int cpus) {
+    return others >= 0.0 && others + threads <= cpus ? "spin" : "passive";
+}
+
+/* Set name=value and re-execute; returns when that could not be done. */
+static void reexec_with(const char *name, const char *value, char **argv) {
+#ifdef _OPENMP
+    if (setenv(name, value, 1) != 0) return;
     execv("/proc/self/exe", argv);
     /* no /proc or exec refused: go on with the runtime's default policy */
-    unsetenv("OMP_WAIT_POLICY");
+    unsetenv(name);
+#else
+    (void)name, (void)value, (void)argv;
+#endif
+}
+
+static int wait_policy_set(char **argv) {
+    return !argv || getenv("OMP_WAIT_POLICY") || getenv("GOMP_SPINCOUNT");
+}
+
+void cr_parallel_choose_wait_policy(char **argv) {
+#ifdef _OPENMP
+    if (wait_policy_set(argv)) return;
+    int cpus = usable_cpus(), threads = cpus;
+    const char *env = getenv("OMP_NUM_THREADS");
+    if (env && atoi(env) > 0) threads = atoi(env);
+    if (strcmp(cr_parallel_wait_policy_for(runnable_others(), threads, cpus), "spin") == 0)
+        reexec_with("GOMP_SPINCOUNT", CR_PARALLEL_SPIN_COUNT, argv);
+    else
+        reexec_with("OMP_WAIT_POLICY", "passive", argv);
 #else
     (void)argv;
 #endif
+}
+
+void cr_parallel_prefer_passive_wait(char **argv) {
+    if (!wait_policy_set(argv)) reexec_with("OMP_WAIT_POLICY", "passive", argv);
 }
 
 int cr_thread_count(void) {

@@ -59,7 +59,7 @@ static void usage(FILE *to) {
 }
 
 int main(int argc, char **argv) {
-    cr_parallel_prefer_passive_wait(argv);
+    cr_parallel_choose_wait_policy(argv);
     if (argc < 2) {
         usage(stderr);
         return CLI_USAGE;

@@ -41,7 +41,9 @@ static const double BUCKET_OCCUPANCY = 3.0;
 enum { QUERY_CHUNK = 16 };
 /* A coarse bucket holding more samples than this is searched through its fine buckets. */
 enum { DESCEND_COUNT = 24 };
-enum { BUCKET_GRAIN = 256, DENSE_CELL_GRAIN = 64 };
+/* Buckets per parallel chunk: a bucket holds a few samples and their dense
+ * points, so a few dozen buckets already cost more than a thread start. */
+enum { BUCKET_GRAIN = 16, DENSE_CELL_GRAIN = 64 };
 /* Slack on pruning distances (UV units), far above float rounding of the
  * bucket edges (~1e-7) and far below any spacing Lloyd cares about. */
 static const float PRUNE_SLACK = 1e-6f;

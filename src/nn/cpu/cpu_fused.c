@@ -10,9 +10,10 @@
  * chosen once at run time from the CPU's features; CREASE_NN_SIMD=scalar in
  * the environment, or cr_nn_cpu_set_simd, forces the scalar one (the
  * gradient tests run every path the machine has).
- * Column sums accumulate in double, each column over the rows in order, so
- * the bias gradient does not depend on the thread count or the path (up to
- * the last bit of the float dz each path rounds alike).
+ * Column sums accumulate in double, each column over blocks of 512 rows in
+ * order and then over the blocks in order, so the bias gradient does not
+ * depend on the thread count or the path (up to the last bit of the float dz
+ * each path rounds alike).
  * The piecewise-linear activations also have an AVX-512F path (16 lanes,
  * mask registers); tanh, sigmoid and softplus run through the vector
  * transcendental kernels of cpu_vmath.c on the AVX2 and AVX-512 levels.
@@ -31,9 +32,10 @@
 #endif
 
 enum {
-    SUM_COLS = 256
-}; /* columns one backward unit owns: whole rows up to 256 wide, so the pass streams through memory
-    */
+    SUM_COLS = 256, /* columns one backward unit owns: whole rows up to 256 wide, so the pass
+                       streams through memory */
+    SUM_ROWS = 512  /* rows one backward unit owns, so a narrow layer's pass runs in parallel */
+};
 
 /* ----------------------------------------------------------- dispatch -- */
 
@@ -309,7 +311,8 @@ typedef struct fused_args {
     float p;
     const float *b, *y, *dy;
     float *out, *dz, *db;
-    int64_t R, C, units;
+    double *partial; /* act_bias_backward: per row block column sums, or NULL */
+    int64_t R, C, units, block_rows, col_blocks;
     int pl;         /* linear_level(act) */
     int level, vfn; /* vfn >= 0: the smooth activation's vector kernel on `level` */
 } fused_args;
@@ -354,27 +357,40 @@ void cr_nn_cpu_bias_act_forward(cr_op act, float p, const float *b, float *y, in
     cr_parallel_for(R, nn_cpu_row_grain(C), bias_act_range, &g);
 }
 
-/* One unit: a block of up to SUM_COLS columns over all rows. */
+/* One unit: a block of up to SUM_COLS columns over one block of
+ * g->block_rows rows. With a bias gradient and more than one row block, each
+ * unit writes its column sums to its own slot of g->partial (row block
+ * major), which the caller adds up in row block order; the blocks are fixed
+ * by the shape, not by the thread count. With one row block the unit adds
+ * its sums to db itself, as no other unit touches those columns. */
 static void act_grad_range(void *vctx, int64_t begin, int64_t end) {
     const fused_args *g = vctx;
     for (int64_t u = begin; u < end; u++) {
-        int64_t c0 = u * SUM_COLS, w = g->C - c0 < SUM_COLS ? g->C - c0 : SUM_COLS;
+        int64_t cb = u % g->col_blocks, rb = u / g->col_blocks;
+        int64_t c0 = cb * SUM_COLS, w = g->C - c0 < SUM_COLS ? g->C - c0 : SUM_COLS;
+        int64_t r0 = rb * g->block_rows;
+        int64_t rows = g->R - r0 < g->block_rows ? g->R - r0 : g->block_rows;
+        const float *y = g->y + r0 * g->C, *dy = g->dy + r0 * g->C;
+        float *dz = g->dz ? g->dz + r0 * g->C : NULL;
         double acc[SUM_COLS];
         for (int64_t c = 0; c < w; c++)
             acc[c] = 0.0;
         double *a = g->db ? acc : NULL;
         if (g->vfn >= 0)
-            act_grad_cols_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, g->y, g->dy, g->R, g->C,
-                              c0, w, g->dz, a);
+            act_grad_cols_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, y, dy, rows, g->C, c0,
+                              w, dz, a);
         else if (g->pl == NN_SIMD_SCALAR)
-            act_grad_cols_scalar(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+            act_grad_cols_scalar(g->act, g->p, y, dy, rows, g->C, c0, w, dz, a);
 #if NN_CPU_X86
         else if (g->pl >= NN_SIMD_AVX512)
-            act_grad_cols_avx512(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+            act_grad_cols_avx512(g->act, g->p, y, dy, rows, g->C, c0, w, dz, a);
         else
-            act_grad_cols_avx2(g->act, g->p, g->y, g->dy, g->R, g->C, c0, w, g->dz, a);
+            act_grad_cols_avx2(g->act, g->p, y, dy, rows, g->C, c0, w, dz, a);
 #endif
-        if (g->db)
+        if (!g->db) continue;
+        if (g->partial)
+            memcpy(g->partial + rb * g->C + c0, acc, (size_t)w * sizeof *acc);
+        else
             for (int64_t c = 0; c < w; c++)
                 g->db[c0 + c] += (float)acc[c];
     }
@@ -382,7 +398,7 @@ static void act_grad_range(void *vctx, int64_t begin, int64_t end) {
 
 void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float *dy, int64_t R,
                                  int64_t C, float *dz, float *db) {
-    if ((!dz && !db) || C == 0) return;
+    if ((!dz && !db) || C == 0 || R == 0) return;
     fused_args g = {.act = act,
                     .p = p,
                     .y = y,
@@ -391,11 +407,27 @@ void cr_nn_cpu_act_bias_backward(cr_op act, float p, const float *y, const float
                     .db = db,
                     .R = R,
                     .C = C,
-                    .units = (C + SUM_COLS - 1) / SUM_COLS,
+                    .block_rows = SUM_ROWS,
+                    .col_blocks = (C + SUM_COLS - 1) / SUM_COLS,
                     .pl = linear_level(act),
                     .level = cr_nn_cpu_simd(),
                     .vfn = vec_fn_for(act, 1)};
-    int64_t work = R * (C < SUM_COLS ? C : SUM_COLS);
-    int64_t grain = work >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / (work > 0 ? work : 1);
+    int64_t row_blocks = (R + SUM_ROWS - 1) / SUM_ROWS;
+    if (db && row_blocks > 1) {
+        g.partial = malloc((size_t)row_blocks * (size_t)C * sizeof *g.partial);
+        if (!g.partial) row_blocks = 1, g.block_rows = R; /* no scratch: whole columns */
+    }
+    g.units = g.col_blocks * row_blocks;
+    int64_t work = g.block_rows * (C < SUM_COLS ? C : SUM_COLS);
+    int64_t grain = work >= NN_CPU_GRAIN ? 1 : NN_CPU_GRAIN / work;
     cr_parallel_for(g.units, grain, act_grad_range, &g);
+    if (g.partial) {
+        for (int64_t c = 0; c < C; c++) {
+            double sum = 0.0;
+            for (int64_t rb = 0; rb < row_blocks; rb++)
+                sum += g.partial[rb * C + c];
+            db[c] += (float)sum;
+        }
+        free(g.partial);
+    }
 }

@@ -287,9 +287,23 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
     if (M <= 0 || N <= 0 || K <= 0 || alpha == 0.0f) return -1; /* the caller's cases */
     gemm_kernel kern = kernel_for(level);
     int64_t rs = ldc, cs = 1;
-    if (!ta && tb && N * 4 <= kern.nr && N <= 8 && M > N) {
-        gemm_dot g = {kern.dot, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+    if (!ta && N * 4 <= kern.nr && N <= 8 && M > N) {
+        /* A narrow product (the 3-wide output layer's forward; dx of a
+         * 6-wide input layer, B = W not transposed): a dot product per
+         * element, parallel over the rows. An untransposed B (K x N) is
+         * copied to N x K first; through the C^T path below its packing
+         * ran serially and M = 6 left one thread for the whole product. */
+        float *Bt = NULL;
+        if (!tb) {
+            Bt = alloc_floats(N * K);
+            if (!Bt) return -1;
+            for (int64_t k = 0; k < K; k++)
+                for (int64_t j = 0; j < N; j++)
+                    Bt[j * K + k] = B[k * ldb + j];
+        }
+        gemm_dot g = {kern.dot, N, K, alpha, A, lda, Bt ? Bt : B, Bt ? K : ldb, beta, C, ldc};
         cr_parallel_for(M, chunk_grain(N * K), dot_rows, &g);
+        free(Bt);
         return 0;
     }
     if (N * 4 <= kern.nr && M > N) {

@@ -35,7 +35,8 @@ static int blas_core_wins(int level) {
     return 0;
 }
 
-static int gemm_choice = -1; /* -1: not read yet; 0: OpenBLAS; 1: own */
+/* -1: not read yet; 0: OpenBLAS; 1: own; 2: by shape (gemm_narrow) */
+static int gemm_choice = -1;
 
 int cr_nn_cpu_gemm_uses_own(void) {
     if (gemm_choice < 0) {
@@ -45,15 +46,27 @@ int cr_nn_cpu_gemm_uses_own(void) {
             gemm_choice = 0;
         else if (env && strcmp(env, "own") == 0)
             gemm_choice = 1;
+        else if (level < NN_SIMD_AVX2)
+            gemm_choice = 0;
         else
-            gemm_choice = level >= NN_SIMD_AVX2 && !blas_core_wins(level);
+            gemm_choice = blas_core_wins(level) ? 2 : 1;
     }
     return gemm_choice;
 }
 
+/* Where OpenBLAS runs a good kernel it keeps the square products, and the
+ * own GEMM takes those with a side below 128: a 3- or 6-wide layer, a
+ * 64-wide MLP (the drape's), where OpenBLAS's beta pass, packing and thread
+ * start cost more than the multiply-adds (docs/nn.md, "Both GEMMs by
+ * shape"). */
+static int gemm_narrow(int64_t M, int64_t N, int64_t K) {
+    enum { GEMM_OWN_BELOW = 128 };
+    return M < GEMM_OWN_BELOW || N < GEMM_OWN_BELOW || K < GEMM_OWN_BELOW;
+}
+
 int cr_nn_cpu_set_gemm_own(int own) {
     int prev = cr_nn_cpu_gemm_uses_own();
-    gemm_choice = own != 0;
+    gemm_choice = own == 2 ? 2 : own != 0;
     return prev;
 }
 
@@ -68,7 +81,8 @@ void cr_nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha
         scale_block(C, M, N, ldc, beta);
         return;
     }
-    if (alpha != 0.0f && cr_nn_cpu_gemm_uses_own() &&
+    int own = cr_nn_cpu_gemm_uses_own();
+    if (alpha != 0.0f && (own == 1 || (own == 2 && gemm_narrow(M, N, K))) &&
         cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C,
                            ldc) == 0)
         return;
