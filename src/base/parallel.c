@@ -23,25 +23,26 @@ static int usable_cpus(void) {
     return n > 0 ? (int)n : 1;
 }
 
-/* Other processes' runnable threads now: the most of five looks 2 ms apart
- * at /proc/loadavg's running count, less this reader; negative when it
- * cannot be read. An instant, not the 1-minute average, which still holds
- * a finished job's load (the previous run's two threads, a build) for
- * minutes. */
+/* Other processes' runnable threads now: the fewest of five looks 2 ms
+ * apart at /proc/loadavg's running count, less this reader (a job that
+ * competes for the CPUs shows in every look, a short-lived process in one);
+ * negative when it cannot be read. An instant, not the 1-minute average,
+ * which still holds a finished job's load (the previous run's two threads,
+ * a build) for minutes. */
 static double runnable_others(void) {
-    double most = -1.0;
+    double fewest = -1.0;
     for (int look = 0; look < 5; look++) {
         FILE *f = fopen("/proc/loadavg", "r");
         if (!f) return -1.0;
         double a1, a5, a15;
         int running = 0, total = 0;
         if (fscanf(f, "%lf %lf %lf %d/%d", &a1, &a5, &a15, &running, &total) == 5 &&
-            running - 1 > most)
-            most = running - 1;
+            (fewest < 0.0 || running - 1 < fewest))
+            fewest = running - 1;
         fclose(f);
         if (look < 4) usleep(2000);
     }
-    return most;
+    return fewest;
 }
 #endif
 

@@ -101,15 +101,21 @@ static inline VT V(vf) V(log)(V(vf) x) {
     return V(sel)(x < 0.0f, V(splat)(NAN), V(sel)(x != x, x, y));
 }
 
-/* log(1 + e) for e in [0, 1]: log(u), u = 1 + e rounded, plus the rounding
- * c = e - (u - 1) (exact) over u. c is below half an ulp of u, so 1/u by the
- * line 1.5 - u/2 (12 % off at worst on [1, 2]) errs by under 0.1 ulp of the
- * result, and no lane divides (the scalar path's log(u) e / (u - 1) cost a
- * division per element; at u = 1 this gives e exactly). */
+/* log(1 + e) for e in [0, 1] (softplus's), as e + e^2 R(e) with R a
+ * degree-7 fit of (log1p(e) - e) / e^2 in relative error of the whole
+ * (3.3e-8; 1.4 ulp at most in float over [0, 1], measured on 2M points):
+ * 9 vector operations where log(1 + e) through log_normal took about 29,
+ * and exact as e goes to 0. */
 static inline VT V(vf) V(log1p01)(V(vf) e) {
-    V(vf) u = e + 1.0f;
-    V(vf) c = e - (u - 1.0f);
-    return VFMA(c, VFMA(u, V(splat)(-0.5f), V(splat)(1.5f)), V(log_normal)(u));
+    V(vf) r = V(splat)(5.364822689e-03f);
+    r = VFMA(r, e, V(splat)(-3.006578609e-02f));
+    r = VFMA(r, e, V(splat)(7.920452207e-02f));
+    r = VFMA(r, e, V(splat)(-1.375380158e-01f));
+    r = VFMA(r, e, V(splat)(1.915365458e-01f));
+    r = VFMA(r, e, V(splat)(-2.485716343e-01f));
+    r = VFMA(r, e, V(splat)(3.332132399e-01f));
+    r = VFMA(r, e, V(splat)(-4.999964833e-01f));
+    return VFMA(e * e, r, e);
 }
 
 static inline VT V(vf) V(tanh)(V(vf) x) {
