@@ -146,10 +146,10 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
                        const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
                        float *C, int64_t ldc);
 /* cpu_matmul.c: whether cr_nn_cpu_gemm uses it: CREASE_NN_GEMM=own|blas
- * (1, 0); unset, own on the AVX2 and AVX-512 levels (1), or, where OpenBLAS
- * runs a kernel measured faster on square products there (SkylakeX on
- * AVX-512; also Haswell, Zen on AVX2), own for products with a side below
- * 128 and OpenBLAS for the others (2); OpenBLAS on the portable level (0).
+ * (1, 0); unset, own on the AVX2 and AVX-512 levels (1) unless OpenBLAS
+ * runs a kernel measured faster there: on AVX-512 (SkylakeX family) own for
+ * products with a side below 128 and OpenBLAS for the others (2), on AVX2
+ * (Haswell, Zen) OpenBLAS (0); OpenBLAS on the portable level (0).
  * The setter (for tests and benchmarks) takes 0, 1 or 2 and returns the
  * previous choice; not safe while kernels run on other threads. */
 int cr_nn_cpu_gemm_uses_own(void);

@@ -48,8 +48,10 @@ int cr_nn_cpu_gemm_uses_own(void) {
             gemm_choice = 1;
         else if (level < NN_SIMD_AVX2)
             gemm_choice = 0;
+        else if (blas_core_wins(level)) /* by shape measured on AVX-512 only */
+            gemm_choice = level >= NN_SIMD_AVX512 ? 2 : 0;
         else
-            gemm_choice = blas_core_wins(level) ? 2 : 1;
+            gemm_choice = 1;
     }
     return gemm_choice;
 }
