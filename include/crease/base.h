@@ -150,7 +150,7 @@ void cr_set_thread_count(int n); /* n <= 0: leave as the runtime chose */
 void cr_parallel_choose_wait_policy(char **argv);
 /* "spin" or "passive" for the other processes' runnable threads (negative:
  * unknown), the threads a run will use and the CPUs it may use. */
-const char *cr_parallel_wait_policy_for(double load, int threads, int cpus);
+const char *cr_parallel_wait_policy_for(double others, int threads, int cpus);
 /* The same re-execution, always passive: for the test runner, whose
  * processes ctest runs side by side, so the load at start says nothing. */
 void cr_parallel_prefer_passive_wait(char **argv);

@@ -71,7 +71,8 @@ void cr_parallel_choose_wait_policy(char **argv) {
     if (wait_policy_set(argv)) return;
     int cpus = usable_cpus(), threads = cpus;
     const char *env = getenv("OMP_NUM_THREADS");
-    if (env && atoi(env) > 0) threads = atoi(env);
+    int asked = env ? atoi(env) : 0;
+    if (asked > 0) threads = asked;
     if (strcmp(cr_parallel_wait_policy_for(runnable_others(), threads, cpus), "spin") == 0)
         reexec_with("GOMP_SPINCOUNT", CR_PARALLEL_SPIN_COUNT, argv);
     else

@@ -56,11 +56,11 @@ int cr_nn_cpu_gemm_uses_own(void) {
     return gemm_choice;
 }
 
-/* Where OpenBLAS runs a good kernel it keeps the square products, and the
- * own GEMM takes those with a side below 128: a 3- or 6-wide layer, a
- * 64-wide MLP (the drape's), where OpenBLAS's beta pass, packing and thread
- * start cost more than the multiply-adds (docs/nn.md, "Both GEMMs by
- * shape"). */
+/* Where OpenBLAS runs its SkylakeX-family kernel on AVX-512 it keeps the
+ * square products, and the own GEMM takes those with a side below 128: a 3-
+ * or 6-wide layer, a 64-wide MLP (the drape's), where OpenBLAS's beta pass,
+ * packing and thread start cost more than the multiply-adds (docs/nn.md,
+ * "The narrow layers on both threads, both GEMMs by shape"). */
 static int gemm_narrow(int64_t M, int64_t N, int64_t K) {
     enum { GEMM_OWN_BELOW = 128 };
     return M < GEMM_OWN_BELOW || N < GEMM_OWN_BELOW || K < GEMM_OWN_BELOW;
