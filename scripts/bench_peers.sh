@@ -18,8 +18,15 @@
 #        bench_nn_mlp against ../shared/peers/torch_mlp.py (the 6-W-W-W-3 ReLU
 #        training step at batch 4,096, W = 64 and 256). Installs Debian's
 #        `python3-torch` if it is missing (root), here only.
+#        Each comparison runs PEERS_REPEAT times (default 3), the two programs
+#        alternating, and the median ratio is printed: on a shared 2-core
+#        virtual machine one run's time moves by up to 2x with the neighbours.
+#        PyTorch runs on the OpenBLAS kernel OpenBLAS picks itself (the
+#        OPENBLAS_CORETYPE / OPENBLAS_L2_SIZE that some machines set are dropped
+#        for its process; PEERS_TORCH_OPENBLAS=env keeps them); the kernel each
+#        program ran is printed.
 # Never part of `make check`. Set OPENBLAS_CORETYPE for this script's process
-# to measure under another OpenBLAS kernel (e.g. Prescott).
+# to measure crease under another OpenBLAS kernel (e.g. Prescott).
 # BENCH_THREADS (default 2) sets the threads of every run.
 # Usage: bench_peers.sh CREASE_BINARY [OUT_DIR] [sim,nn]
 set -euo pipefail
@@ -139,42 +146,76 @@ nn_peers() {
       { echo "bench-peers nn: could not install python3-torch; no comparison was run" >&2; return 1; }
   fi
   mkdir -p "$out/nn"
-  echo "== grid model to 1 % relative L2 (crease fit vs torch_fit.py), $threads threads"
-  local t c
+  # PyTorch runs on OpenBLAS's own choice of kernel (its best on this CPU): the variables some
+  # machines set to pin an old kernel are dropped for its process only. crease runs in the
+  # environment as given; its GEMM does not depend on OpenBLAS's kernel (docs/nn.md).
+  local -a torch_env=(env)
+  [[ ${PEERS_TORCH_OPENBLAS:-own} == env ]] || torch_env=(env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE)
+  local kernel_py='import ctypes, torch
+lib = next((l.split()[-1] for l in open("/proc/self/maps") if "blas" in l.split()[-1]), None)
+try:
+    f = ctypes.CDLL(lib).openblas_get_corename; f.restype = ctypes.c_char_p; print(f().decode())
+except Exception:
+    print("unknown (%s)" % lib)'
+  echo "OpenBLAS kernel: crease's process $(OMP_NUM_THREADS=1 "$bindir/bench_nn_mlp" 1 2>/dev/null |
+    sed -n 's/.*core type \([A-Za-z0-9]*\).*/\1/p' | head -1), PyTorch's $("${torch_env[@]}" $torch_py -c "$kernel_py")"
+  local reps=${PEERS_REPEAT:-3} rep t c
+  echo "== grid model to 1 % relative L2 (crease fit vs torch_fit.py), $threads threads, $reps runs each, alternating"
   rm -f "$out/nn/"*.json*
-  t=$($torch_py "$peers/torch_fit.py" --device cpu --threads $threads --models grid --eval-every 5 | tail -1)
-  echo "$t" >"$out/nn/torch_fit.json"
-  rm -rf "$out/nn/fit_grid"
-  c=$(OMP_NUM_THREADS=$threads "$crease" fit --model grid -o "$out/nn/fit_grid" --eval-every 5 \
-      --quiet --json 2>"$out/nn/fit_grid.log" | tail -1)
-  echo "$c" >"$out/nn/crease_fit.json"
-  python3 - "$out/nn/crease_fit.json" "$out/nn/torch_fit.json" <<'PY'
-import json, sys
-c, t = (json.loads(open(p).read().strip().splitlines()[-1]) for p in sys.argv[1:3])
-rows = [("crease", c["epochs_to_target"], c["seconds_to_target"], c["seconds"] / max(c["epochs"], 1)),
-        ("pytorch", t["epochs_to_target"], t["seconds_to_target"], t["seconds_per_epoch"])]
-print("%-8s %-15s %-17s %-17s" % ("peer", "epochs to 1 %", "seconds to 1 %", "seconds/epoch"))
-for name, e, s, pe in rows:
-    print("%-8s %-15s %-17s %-17.4f" % (name, "-" if e is None or e < 0 else e,
-                                         "-" if s is None or s < 0 else "%.3f" % s, pe))
-if (c["seconds_to_target"] or -1) > 0 and (t["seconds_to_target"] or -1) > 0:
-    print("(PyTorch / crease seconds to 1 %%: %.2fx)" % (t["seconds_to_target"] / c["seconds_to_target"]))
+  for rep in $(seq "$reps"); do
+    t=$("${torch_env[@]}" $torch_py "$peers/torch_fit.py" --device cpu --threads $threads --models grid \
+        --eval-every 5 | tail -1)
+    echo "$t" >>"$out/nn/torch_fit.jsonl"
+    rm -rf "$out/nn/fit_grid"
+    c=$(OMP_NUM_THREADS=$threads "$crease" fit --model grid -o "$out/nn/fit_grid" --eval-every 5 \
+        --quiet --json 2>"$out/nn/fit_grid.log" | tail -1)
+    echo "$c" >>"$out/nn/crease_fit.jsonl"
+  done
+  python3 - "$out/nn/crease_fit.jsonl" "$out/nn/torch_fit.jsonl" <<'PY'
+import json, statistics, sys
+cs, ts = ([json.loads(l) for l in open(p) if l.strip()] for p in sys.argv[1:3])
+print("%-4s %-22s %-22s %s" % ("run", "crease epochs / s", "pytorch epochs / s", "pytorch / crease"))
+ratios = []
+for i, (c, t) in enumerate(zip(cs, ts), 1):
+    ok = (c["seconds_to_target"] or -1) > 0 and (t["seconds_to_target"] or -1) > 0
+    r = t["seconds_to_target"] / c["seconds_to_target"] if ok else None
+    if r: ratios.append(r)
+    print("%-4d %-22s %-22s %s" % (i, "%s / %.3f" % (c["epochs_to_target"], c["seconds_to_target"]),
+                                   "%s / %.3f" % (t["epochs_to_target"], t["seconds_to_target"] or -1),
+                                   "%.2fx" % r if r else "-"))
+if ratios:
+    print("(PyTorch / crease seconds to 1 %%, median of %d: %.2fx)" % (len(ratios), statistics.median(ratios)))
 PY
 
-  echo "== MLP 6-W-W-W-3 ReLU training step, batch 4096 (bench_nn_mlp vs torch_mlp.py), $threads threads"
-  OMP_NUM_THREADS=$threads "$bindir/bench_nn_mlp" 30 >"$out/nn/bench_nn_mlp.txt" ||
-    { echo "bench-peers nn: bench_nn_mlp failed" >&2; return 1; }
-  $torch_py "$peers/torch_mlp.py" --threads $threads --widths 64,256 >"$out/nn/torch_mlp.jsonl"
-  head -2 "$out/nn/bench_nn_mlp.txt"
-  printf '%-6s %-17s %-18s %-9s %-10s\n' width "crease ms/step" "pytorch ms/step" ratio "gemm share"
-  local w cm tm share
-  for w in 64 256; do
-    cm=$(sed -n "s/^mlp 6-$w-.*step \([0-9.]*\) ms.*/\1/p" "$out/nn/bench_nn_mlp.txt")
-    share=$(sed -n "s/^mlp 6-$w-.*gemm share \([0-9.]*\).*/\1/p" "$out/nn/bench_nn_mlp.txt")
-    tm=$(grep "\"width\": $w," "$out/nn/torch_mlp.jsonl" | python3 -c 'import json,sys; print(json.loads(sys.stdin.read())["ms_per_step"])')
-    awk -v w=$w -v c="$cm" -v t="$tm" -v s="$share" \
-      'BEGIN { printf "%-6d %-17.3f %-18.3f %-9.2f %-10s\n", w, c, t, t / c, s }'
+  echo "== MLP 6-W-W-W-3 ReLU training step, batch 4096 (bench_nn_mlp vs torch_mlp.py), $threads threads, $reps runs each, alternating"
+  rm -f "$out/nn/bench_nn_mlp.txt" "$out/nn/torch_mlp.jsonl"
+  for rep in $(seq "$reps"); do
+    OMP_NUM_THREADS=$threads "$bindir/bench_nn_mlp" 30 >>"$out/nn/bench_nn_mlp.txt" ||
+      { echo "bench-peers nn: bench_nn_mlp failed" >&2; return 1; }
+    "${torch_env[@]}" $torch_py "$peers/torch_mlp.py" --threads $threads --widths 64,256 \
+      >>"$out/nn/torch_mlp.jsonl"
   done
+  head -2 "$out/nn/bench_nn_mlp.txt"
+  python3 - "$out/nn/bench_nn_mlp.txt" "$out/nn/torch_mlp.jsonl" <<'PY'
+import json, re, statistics, sys
+crease = {}
+for line in open(sys.argv[1]):
+    m = re.match(r"mlp 6-(\d+)-.*step ([0-9.]+) ms.*gemm share ([0-9.]+)", line)
+    if m: crease.setdefault(int(m[1]), []).append((float(m[2]), float(m[3])))
+torch = {}
+for line in open(sys.argv[2]):
+    if line.strip():
+        d = json.loads(line); torch.setdefault(d["width"], []).append(d["ms_per_step"])
+print("%-6s %-4s %-15s %-16s %-8s %s" % ("width", "run", "crease ms/step", "pytorch ms/step", "ratio", "gemm share"))
+for w in sorted(crease):
+    ratios = []
+    for i, ((cm, share), tm) in enumerate(zip(crease[w], torch.get(w, [])), 1):
+        ratios.append(tm / cm)
+        print("%-6d %-4d %-15.3f %-16.3f %-8.2f %.2f" % (w, i, cm, tm, tm / cm, share))
+    if ratios:
+        print("%-6d median ratio %.2fx, median gemm share %.2f" % (w, statistics.median(ratios),
+              statistics.median(s for _, s in crease[w])))
+PY
   echo "(ratio = pytorch / crease: above 1 means crease is faster; outputs in $out/nn)"
 }
 

@@ -16,6 +16,10 @@
  * cell (a stable counting sort), then threads own whole rows of nodes and each
  * node gathers, in double, from the points of its (up to) four cells in a
  * fixed order; the naive serial scatter is what the tests compare against.
+ * A level with at least half as many nodes as the batch has points (crease
+ * fit's 4,096 points on 101 x 101 and 51 x 51 nodes) takes that plain scatter
+ * instead, in point order, a thread per level: the gather's cost is in the
+ * nodes, the scatter's in the points.
  * d/d(u,v) is the bilinear derivative, per point and so trivially parallel:
  *   dF/du = r_l ((1-fy)(G[i+1][j] - G[i][j]) + fy (G[i+1][j+1] - G[i][j+1])).
  * u and v are clamped to [0,1] (a UV layout's border, where float round-off
@@ -123,6 +127,8 @@ typedef struct grid_job {
     const int64_t *off;  /* (r*r+1) points of each cell in sorted order */
     const int32_t *perm; /* (N) sorted position -> point */
     const float *frac;   /* (N,2) fx, fy of each point on this level */
+    float *lv_grads[CR_GRID_MAX_LEVELS]; /* scatter: each level's gradient or NULL */
+    int64_t npoints;                     /* scatter: N */
 } grid_job;
 
 static void grid_forward_range(void *arg, int64_t begin, int64_t end) {
@@ -212,6 +218,38 @@ static void grid_gather_rows(void *arg, int64_t begin, int64_t end) {
     }
 }
 
+/* Levels [begin,end) of a small batch: each level's gradient by the plain
+ * scatter of its points' four bilinear weights, in point order (one thread
+ * a level, so the sums are the same on any thread count). */
+static void grid_scatter_levels(void *arg, int64_t begin, int64_t end) {
+    const grid_job *job = arg;
+    const cr_grid_encoding_def *def = &job->g->def;
+    int L = def->levels, F = def->features;
+    int64_t n = job->npoints;
+    for (int64_t l = begin; l < end; l++) {
+        int r = job->g->cells[l], s = r + 1;
+        float *lg = job->lv_grads[l];
+        if (!lg) continue;
+        for (int64_t p = 0; p < n; p++) {
+            int i, j;
+            float fx, fy;
+            locate(clamp01(job->uv[2 * p]), r, &i, &fx);
+            locate(clamp01(job->uv[2 * p + 1]), r, &j, &fy);
+            const float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy,
+                        w11 = fx * fy;
+            const float *go = job->gout + p * L * F + l * F;
+            float *g00 = lg + ((int64_t)j * s + i) * F, *g10 = g00 + F;
+            float *g01 = g00 + (int64_t)s * F, *g11 = g01 + F;
+            for (int f = 0; f < F; f++) {
+                g00[f] += w00 * go[f];
+                g10[f] += w10 * go[f];
+                g01[f] += w01 * go[f];
+                g11[f] += w11 * go[f];
+            }
+        }
+    }
+}
+
 static cr_status grid_check(const cr_grid_encoding *g, cr_tensor *const *in, int nin,
                             cr_error *err) {
     if (nin != 1 + g->def.levels)
@@ -256,8 +294,21 @@ static cr_status grid_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
         job.uv_grad = in[0]->grad;
         cr_parallel_for(n, 256, grid_uv_grad_range, &job);
     }
+    /* A level with at least half as many nodes as the batch has points
+     * scatters (the sorted gather visits every node, most of them with no
+     * point, after a serial sort); on a finer batch it sorts and gathers. */
+    int scatter = 0;
     for (int l = 0; l < g->def.levels; l++) {
-        if (!in[1 + l]->requires_grad) continue;
+        int64_t s = g->cells[l] + 1;
+        job.lv_grads[l] = NULL;
+        if (!in[1 + l]->requires_grad || n > 2 * s * s) continue;
+        job.lv_grads[l] = in[1 + l]->grad;
+        scatter = 1;
+    }
+    job.npoints = n;
+    if (scatter) cr_parallel_for(g->def.levels, 1, grid_scatter_levels, &job);
+    for (int l = 0; l < g->def.levels; l++) {
+        if (!in[1 + l]->requires_grad || job.lv_grads[l]) continue;
         int r = g->cells[l];
         int64_t cells = (int64_t)r * r;
         int64_t *off = cr_nn_scratch(ctx, "grid_encoding", (size_t)(cells + 1) * sizeof(int64_t));
