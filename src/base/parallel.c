@@ -102,6 +102,14 @@ void cr_set_thread_count(int n) {
 #endif
 }
 
+static int in_parallel(void) {
+#ifdef _OPENMP
+    return omp_in_parallel();
+#else
+    return 0;
+#endif
+}
+
 void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx) {
     if (n <= 0) return;
     int threads = cr_thread_count();
@@ -109,7 +117,9 @@ void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx) {
     int64_t chunks = (n + grain - 1) / grain;
     /* A few chunks per thread balance uneven work without much overhead. */
     if (chunks > 4 * (int64_t)threads) chunks = 4 * (int64_t)threads;
-    if (threads <= 1 || chunks <= 1) {
+    /* Inside a parallel region (a fused op's block worker calling a kernel)
+     * the range runs on the calling thread: regions do not nest. */
+    if (threads <= 1 || chunks <= 1 || in_parallel()) {
         fn(ctx, 0, n);
         return;
     }

@@ -11,6 +11,7 @@
  * defaults that keep checkpoints interchangeable.
  */
 #include "crease/nn_layers.h"
+#include "nn/mlp_fused.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -383,8 +384,30 @@ static cr_op fused_act(cr_act act, float param) {
     }
 }
 
+/* The whole MLP as one op over blocks of rows (mlp_fused.c) when every
+ * layer is a fused linear without layer norm or residual link. */
+static cr_tensor *forward_fused(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x) {
+    const cr_mlp_def *def = &mlp->def;
+    if (!cr_nn_mlp_fused_usable(ctx)) return NULL;
+    cr_tensor *w[CR_MLP_MAX_LAYERS], *b[CR_MLP_MAX_LAYERS];
+    cr_op op[CR_MLP_MAX_LAYERS];
+    float p[CR_MLP_MAX_LAYERS];
+    for (int i = 0; i < def->nlayers; i++) {
+        cr_act act = cr_mlp_layer_act(def, i, &p[i]);
+        op[i] = fused_act(act, p[i]);
+        if (op[i] == CR_OP_COUNT || mlp->ln_weight[i] || cr_mlp_layer_residual(def, i))
+            return NULL;
+        w[i] = mlp->layer[i].weight, b[i] = mlp->layer[i].bias;
+    }
+    return cr_nn_mlp_fused(ctx, x, def->nlayers, w, b, op, p);
+}
+
 cr_tensor *cr_mlp_forward(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x) {
     const cr_mlp_def *def = &mlp->def;
+    if (x && cr_nn_mlp_fused_enabled()) {
+        cr_tensor *y = forward_fused(ctx, mlp, x);
+        if (y || cr_nn_ctx_error(ctx, NULL) != CR_OK) return y;
+    }
     cr_tensor *h = x;
     for (int i = 0; i < def->nlayers; i++) {
         float param;
