@@ -37,7 +37,9 @@ enum {
     FUSED_BLOCK_FLOATS = 32768, /* a block's widest activation, floats: 128 KB, in L2 */
     FUSED_BLOCK_MIN = 32,
     FUSED_BLOCK_MAX = 512,
-    FUSED_CHUNKS = 16, /* backward's row chunks at most: the partial gradients' count */
+    FUSED_CHUNKS = 16, /* row chunks at most: the partial gradients' count */
+    FUSED_PARTIAL_FLOATS = 1 << 22, /* the partial gradients together at most (16 MB), so a
+                                       wide MLP takes fewer chunks */
 };
 
 typedef struct mlp_fused {
@@ -229,6 +231,8 @@ static cr_status fused_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor
     for (int l = 0; l < m->nl - 1; l++)
         if (!m->hidden[l])
             return CR_FAIL(err, CR_ERR_INVALID, "mlp: backward without the forward's activations");
+    if (j.nparts > 0 && j.chunks * j.nparts > FUSED_PARTIAL_FLOATS) /* by the shape alone */
+        j.chunks = FUSED_PARTIAL_FLOATS / j.nparts > 1 ? FUSED_PARTIAL_FLOATS / j.nparts : 1;
     j.scratch = cr_nn_scratch(ctx, "mlp",
                               (size_t)(j.chunks * 3 * m->block_rows * max_width(m)) * sizeof(float));
     if (!j.scratch) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the blocks' scratch");
