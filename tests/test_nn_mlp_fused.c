@@ -6,9 +6,10 @@
  * of many blocks, and of more blocks than chunks (64-wide layers run in
  * blocks of 512 rows, 16 chunks at most), widths that change the block
  * height (256 wide: blocks of 128 rows), a model wide enough to take fewer
- * chunks, every fused activation.
+ * chunks, every fused activation, on every SIMD level the CPU runs.
  */
 #include "crease/nn_layers.h"
+#include "nn/cpu/cpu.h"
 #include "nn/mlp_fused.h"
 #include "nn_gradcheck.h"
 #include "test.h"
@@ -103,51 +104,59 @@ CR_TEST(nn_mlp_fused, matches_the_layer_path_and_the_thread_count) {
         {3, {5, 256, 256, 4}, CR_ACT_SIGMOID, CR_ACT_NONE, 0.0f, 1100},
         /* odd widths */
         {2, {7, 33, 5}, CR_ACT_LEAKY_RELU, CR_ACT_TANH, 0.1f, 2049},
-        /* 363,603 parameters: 11 chunks, not 16, keep the partials within 16 MB */
-        {3, {4, 600, 600, 3}, CR_ACT_TANH, CR_ACT_NONE, 0.0f, 800},
+        /* 363,603 parameters: 11 chunks, not 13 (13 blocks of 48 rows), keep the partials
+         * within 16 MB */
+        {3, {4, 600, 600, 3}, CR_ACT_TANH, CR_ACT_NONE, 0.0f, 600},
     };
-    for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
-        const shape_case *c = &cases[k];
-        cr_error err = {0};
-        cr_rng rng = cr_rng_make(40 + k, 0);
-        cr_nn_params *P = NULL;
-        CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
-        cr_mlp_def d = cr_mlp_default_def();
-        d.nlayers = c->nl;
-        memcpy(d.widths, c->widths, (size_t)(c->nl + 1) * sizeof(int));
-        d.act = c->act;
-        d.out_act = c->out_act;
-        d.leaky_slope = d.softplus_beta = c->param;
-        cr_mlp *m = NULL;
-        CR_CHECK_OK(cr_mlp_create(&d, P, "mlp", &rng, &m, &err), &err);
-        for (int l = 0; l < c->nl; l++)
-            fill_rand(m->layer[l].bias->data, c->widths[l + 1], &rng, -0.5f, 0.5f);
-        const int64_t nx = c->rows * c->widths[0], ny = c->rows * c->widths[c->nl];
-        float *x = malloc((size_t)nx * sizeof(float)), *w = malloc((size_t)ny * sizeof(float));
-        fill_rand(x, nx, &rng, -1, 1);
-        fill_rand(w, ny, &rng, -1, 1);
-        const int all = cr_thread_count();
-        step_out layers = run_step(m, P, x, c->rows, w, 0, all);
-        step_out fused = run_step(m, P, x, c->rows, w, 1, all);
-        step_out one = run_step(m, P, x, c->rows, w, 1, 1);
-        /* The same products in another grouping: the values to float
-         * rounding; the gradients (the weights': sums over the rows) to 1e-4
-         * of themselves or 1e-6 of the largest, about 8 ulps of it (the
-         * 600-wide case differs by 1.5e-6 of its largest). */
-        CR_CHECK(max_rel(fused.y, layers.y, ny, 1e-3) < 1e-5);
-        CR_CHECK(max_rel(fused.gx, layers.gx, nx, 1e-2 * max_abs(layers.gx, nx)) < 1e-4);
-        CR_CHECK(max_rel(fused.grads, layers.grads, fused.np,
-                         1e-2 * max_abs(layers.grads, layers.np)) < 1e-4);
-        /* The gradient is not zero, so the comparison can fail. */
-        CR_CHECK(max_abs(fused.grads, fused.np) > 1e-3);
-        CR_CHECK(memcmp(fused.y, one.y, (size_t)ny * sizeof(float)) == 0);
-        CR_CHECK(memcmp(fused.grads, one.grads, (size_t)fused.np * sizeof(float)) == 0);
-        CR_CHECK(memcmp(fused.gx, one.gx, (size_t)nx * sizeof(float)) == 0);
-        step_free(&layers), step_free(&fused), step_free(&one);
-        free(x), free(w);
-        cr_mlp_destroy(m);
-        cr_nn_params_destroy(P);
+    /* every SIMD level this CPU runs, the kernels the op calls dispatching on it */
+    const int prev_level = cr_nn_cpu_simd();
+    const size_t ncases = sizeof cases / sizeof *cases;
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        for (size_t k = 0; k < ncases; k++) {
+            const shape_case *c = &cases[k];
+            cr_error err = {0};
+            cr_rng rng = cr_rng_make(40 + k, 0);
+            cr_nn_params *P = NULL;
+            CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
+            cr_mlp_def d = cr_mlp_default_def();
+            d.nlayers = c->nl;
+            memcpy(d.widths, c->widths, (size_t)(c->nl + 1) * sizeof(int));
+            d.act = c->act;
+            d.out_act = c->out_act;
+            d.leaky_slope = d.softplus_beta = c->param;
+            cr_mlp *m = NULL;
+            CR_CHECK_OK(cr_mlp_create(&d, P, "mlp", &rng, &m, &err), &err);
+            for (int l = 0; l < c->nl; l++)
+                fill_rand(m->layer[l].bias->data, c->widths[l + 1], &rng, -0.5f, 0.5f);
+            const int64_t nx = c->rows * c->widths[0], ny = c->rows * c->widths[c->nl];
+            float *x = malloc((size_t)nx * sizeof(float)), *w = malloc((size_t)ny * sizeof(float));
+            fill_rand(x, nx, &rng, -1, 1);
+            fill_rand(w, ny, &rng, -1, 1);
+            const int all = cr_thread_count();
+            step_out layers = run_step(m, P, x, c->rows, w, 0, all);
+            step_out fused = run_step(m, P, x, c->rows, w, 1, all);
+            step_out one = run_step(m, P, x, c->rows, w, 1, 1);
+            /* The same products in another grouping: the values to float
+             * rounding; the gradients (the weights': sums over the rows) to 1e-4
+             * of themselves or 1e-6 of the largest, about 8 ulps of it (the
+             * 600-wide case differs by 1.5e-6 of its largest). */
+            CR_CHECK(max_rel(fused.y, layers.y, ny, 1e-3) < 1e-5);
+            CR_CHECK(max_rel(fused.gx, layers.gx, nx, 1e-2 * max_abs(layers.gx, nx)) < 1e-4);
+            CR_CHECK(max_rel(fused.grads, layers.grads, fused.np,
+                             1e-2 * max_abs(layers.grads, layers.np)) < 1e-4);
+            /* The gradient is not zero, so the comparison can fail. */
+            CR_CHECK(max_abs(fused.grads, fused.np) > 1e-3);
+            CR_CHECK(memcmp(fused.y, one.y, (size_t)ny * sizeof(float)) == 0);
+            CR_CHECK(memcmp(fused.grads, one.grads, (size_t)fused.np * sizeof(float)) == 0);
+            CR_CHECK(memcmp(fused.gx, one.gx, (size_t)nx * sizeof(float)) == 0);
+            step_free(&layers), step_free(&fused), step_free(&one);
+            free(x), free(w);
+            cr_mlp_destroy(m);
+            cr_nn_params_destroy(P);
+        }
     }
+    cr_nn_cpu_set_simd(prev_level);
 }
 
 static cr_tensor *build_mlp(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {

@@ -37,7 +37,7 @@ enum {
     FUSED_BLOCK_FLOATS = 32768, /* a block's widest activation, floats: 128 KB, in L2 */
     FUSED_BLOCK_MIN = 32,
     FUSED_BLOCK_MAX = 512,
-    FUSED_CHUNKS = 16, /* row chunks at most: the partial gradients' count */
+    FUSED_CHUNKS = 16,              /* row chunks at most: the partial gradients' count */
     FUSED_PARTIAL_FLOATS = 1 << 22, /* the partial gradients together at most (16 MB), so a
                                        wide MLP takes fewer chunks */
 };
@@ -67,7 +67,7 @@ typedef struct fwd_job {
     const float *x;
     float *y;
     const float *wt[CR_MLP_MAX_LAYERS], *b[CR_MLP_MAX_LAYERS]; /* W^T (in, out): read in place */
-    float *scratch; /* (chunks, 2, block_rows, widest) */
+    float *scratch;                                            /* (chunks, 2, block_rows, widest) */
     int64_t chunks;
 } fwd_job;
 
@@ -127,8 +127,8 @@ static cr_status fused_forward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor 
             cr_nn_scratch(ctx, "mlp", (size_t)(m->rows * m->width[l + 1]) * sizeof(float));
         if (!m->hidden[l]) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the activations");
     }
-    j.scratch = cr_nn_scratch(ctx, "mlp",
-                              (size_t)(j.chunks * 2 * m->block_rows * max_width(m)) * sizeof(float));
+    j.scratch = cr_nn_scratch(
+        ctx, "mlp", (size_t)(j.chunks * 2 * m->block_rows * max_width(m)) * sizeof(float));
     if (!j.scratch) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the blocks' scratch");
     cr_parallel_for(j.chunks, 1, forward_chunks, &j);
     return CR_OK;
@@ -142,7 +142,7 @@ typedef struct bwd_job {
     float *dx;                   /* x's grad or NULL */
     const float *w[CR_MLP_MAX_LAYERS];
     int64_t off_w[CR_MLP_MAX_LAYERS], off_b[CR_MLP_MAX_LAYERS]; /* in a partial, or -1 */
-    int64_t nparts;   /* floats of one chunk's partial gradient */
+    int64_t nparts;  /* floats of one chunk's partial gradient */
     float *partials; /* (chunks, nparts), each zeroed by its chunk */
     float *scratch;  /* (chunks, 3, block_rows, widest) */
     int64_t chunks;
@@ -177,8 +177,7 @@ static void backward_chunks(void *arg, int64_t begin, int64_t end) {
                     be->act_bias_backward(CR_OP_NONE, 0.0f, g, g, rr, out, NULL, db);
                 }
                 if (j->off_w[l] >= 0)
-                    be->gemm(1, 0, out, in, rr, 1.0f, gz, out, h, in, 1.0f, part + j->off_w[l],
-                             in);
+                    be->gemm(1, 0, out, in, rr, 1.0f, gz, out, h, in, 1.0f, part + j->off_w[l], in);
                 if (l > 0) {
                     float *next = dh[l % 2];
                     be->gemm(0, 0, rr, in, out, 1.0f, gz, out, j->w[l], in, 0.0f, next, in);
@@ -233,8 +232,8 @@ static cr_status fused_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor
             return CR_FAIL(err, CR_ERR_INVALID, "mlp: backward without the forward's activations");
     if (j.nparts > 0 && j.chunks * j.nparts > FUSED_PARTIAL_FLOATS) /* by the shape alone */
         j.chunks = FUSED_PARTIAL_FLOATS / j.nparts > 1 ? FUSED_PARTIAL_FLOATS / j.nparts : 1;
-    j.scratch = cr_nn_scratch(ctx, "mlp",
-                              (size_t)(j.chunks * 3 * m->block_rows * max_width(m)) * sizeof(float));
+    j.scratch = cr_nn_scratch(
+        ctx, "mlp", (size_t)(j.chunks * 3 * m->block_rows * max_width(m)) * sizeof(float));
     if (!j.scratch) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the blocks' scratch");
     j.partials = cr_nn_scratch(ctx, "mlp", (size_t)(j.chunks * j.nparts) * sizeof(float) + 1);
     if (!j.partials) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the partial gradients");
