@@ -191,20 +191,29 @@ static void backward_chunks(void *arg, int64_t begin, int64_t end) {
     }
 }
 
+/* The gradients the partials add to: grad[k] takes partial floats
+ * [off[k], off[k] + n[k]) of every chunk; off increases with k. */
 typedef struct sum_job {
     const bwd_job *j;
-    float *grad;
-    int64_t off;
+    int count;
+    float *grad[2 * CR_MLP_MAX_LAYERS];
+    int64_t off[2 * CR_MLP_MAX_LAYERS], n[2 * CR_MLP_MAX_LAYERS];
 } sum_job;
 
-/* grad[i] += the chunks' partials of element i, in chunk order. */
+/* Partial floats [begin, end): each added, chunk by chunk in order, to its
+ * gradient element (one region for every tensor of the MLP). */
 static void sum_partials(void *arg, int64_t begin, int64_t end) {
     const sum_job *s = arg;
-    for (int64_t i = begin; i < end; i++) {
-        double acc = 0.0;
-        for (int64_t c = 0; c < s->j->chunks; c++)
-            acc += s->j->partials[c * s->j->nparts + s->off + i];
-        s->grad[i] += (float)acc;
+    const bwd_job *j = s->j;
+    for (int k = 0; k < s->count; k++) {
+        const int64_t lo = begin > s->off[k] ? begin : s->off[k];
+        const int64_t hi = end < s->off[k] + s->n[k] ? end : s->off[k] + s->n[k];
+        for (int64_t i = lo; i < hi; i++) {
+            double acc = 0.0;
+            for (int64_t c = 0; c < j->chunks; c++)
+                acc += j->partials[c * j->nparts + i];
+            s->grad[k][i - s->off[k]] += (float)acc;
+        }
     }
 }
 
@@ -238,14 +247,16 @@ static cr_status fused_backward(const cr_fused_op *op, cr_nn_ctx *ctx, cr_tensor
     j.partials = cr_nn_scratch(ctx, "mlp", (size_t)(j.chunks * j.nparts) * sizeof(float) + 1);
     if (!j.partials) return CR_FAIL(err, CR_ERR_MEMORY, "mlp: no arena for the partial gradients");
     cr_parallel_for(j.chunks, 1, backward_chunks, &j);
+    sum_job s = {.j = &j};
     for (int l = 0; l < m->nl; l++)
         for (int k = 0; k < 2; k++) {
             const int64_t off = k == 0 ? j.off_w[l] : j.off_b[l];
             if (off < 0) continue;
             const cr_tensor *t = in[1 + 2 * l + k];
-            sum_job s = {.j = &j, .grad = t->grad, .off = off};
-            cr_parallel_for(t->numel, 4096, sum_partials, &s);
+            s.grad[s.count] = t->grad, s.off[s.count] = off, s.n[s.count] = t->numel;
+            s.count++;
         }
+    cr_parallel_for(j.nparts, 4096, sum_partials, &s);
     return CR_OK;
 }
 
