@@ -18,9 +18,10 @@
  *             The partials are then added in chunk order, so the sums do not
  *             depend on the thread count (the chunks are fixed by the shape).
  *
- * The kernels are the backend's (GEMM, bias + activation, activation
- * gradient + bias sums), called from inside the region, where they run on
- * the calling thread (cr_parallel_for does not nest). Used by cr_mlp_forward
+ * The kernels are the CPU backend's (the engine's own GEMM, bias +
+ * activation, activation gradient + bias sums), called from inside the
+ * region, where they run on the calling thread (cr_parallel_for does not
+ * nest). Used by cr_mlp_forward
  * for an MLP of fusable activations without layer norm or residual links on
  * the CPU backend; every other MLP takes the layer-by-layer path.
  * Leaves out: recomputing the forward in backward instead of keeping it
@@ -28,6 +29,7 @@
  */
 #include "nn/mlp_fused.h"
 
+#include "nn/cpu/cpu.h"
 #include "nn/tape.h"
 
 #include <stdlib.h>
@@ -52,6 +54,19 @@ typedef struct mlp_fused {
     int64_t rows, block_rows, nblocks;
     float *hidden[CR_MLP_MAX_LAYERS]; /* (rows, width[l+1]) outputs of layers 0..nl-2, or NULL */
 } mlp_fused;
+
+/* C = A op B (+ C) on the calling thread, by the engine's own GEMM whatever
+ * cr_nn_cpu_gemm would pick: OpenBLAS called from inside the region takes
+ * other paths than outside it (and on one thread than on several), which
+ * made the bits depend on the thread count; the own GEMM sums each element
+ * in one order whatever the product's height. The reference loop is the
+ * fallback when the own GEMM cannot get its packing memory. */
+static void block_gemm(int ta, int64_t M, int64_t N, int64_t K, const float *A, int64_t lda,
+                       const float *B, int64_t ldb, float beta, float *C, int64_t ldc) {
+    if (cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), ta, 0, M, N, K, 1.0f, A, lda, B, ldb, beta, C, ldc) !=
+        0)
+        cr_nn_cpu_gemm_naive(ta, 0, M, N, K, 1.0f, A, lda, B, ldb, beta, C, ldc);
+}
 
 static int max_width(const mlp_fused *m) {
     int w = 0;
@@ -88,7 +103,7 @@ static void forward_chunks(void *arg, int64_t begin, int64_t end) {
                 float *z = l == m->nl - 1 ? j->y + r0 * out
                            : m->hidden[l] ? m->hidden[l] + r0 * out
                                           : tmp[l % 2];
-                m->be->gemm(0, 0, rr, out, in, 1.0f, h, in, j->wt[l], out, 0.0f, z, out);
+                block_gemm(0, rr, out, in, h, in, j->wt[l], out, 0.0f, z, out);
                 m->be->bias_act_forward(m->act[l], m->p[l], j->b[l], z, rr, out);
                 h = z;
             }
@@ -164,27 +179,24 @@ static void backward_chunks(void *arg, int64_t begin, int64_t end) {
             const float *g = j->dy + r0 * m->width[m->nl]; /* dL/d(layer l's output) */
             for (int l = m->nl - 1; l >= 0; l--) {
                 const int in = m->width[l], out = m->width[l + 1];
-                const float *y = l == m->nl - 1 ? NULL : m->hidden[l] + r0 * out;
+                const float *y = (l == m->nl - 1 ? j->y_out : m->hidden[l]) + r0 * out;
                 const float *h = l == 0 ? j->x + r0 * in : m->hidden[l - 1] + r0 * in;
                 float *db = j->off_b[l] >= 0 ? part + j->off_b[l] : NULL;
                 const float *gz = g;
                 if (m->act[l] != CR_OP_NONE) {
-                    /* the last layer's output is the op's: y from the tape */
-                    be->act_bias_backward(m->act[l], m->p[l], y ? y : j->y_out + r0 * out, g, rr,
-                                          out, dz, db);
+                    be->act_bias_backward(m->act[l], m->p[l], y, g, rr, out, dz, db);
                     gz = dz;
                 } else if (db) {
                     be->act_bias_backward(CR_OP_NONE, 0.0f, g, g, rr, out, NULL, db);
                 }
                 if (j->off_w[l] >= 0)
-                    be->gemm(1, 0, out, in, rr, 1.0f, gz, out, h, in, 1.0f, part + j->off_w[l], in);
+                    block_gemm(1, out, in, rr, gz, out, h, in, 1.0f, part + j->off_w[l], in);
                 if (l > 0) {
                     float *next = dh[l % 2];
-                    be->gemm(0, 0, rr, in, out, 1.0f, gz, out, j->w[l], in, 0.0f, next, in);
+                    block_gemm(0, rr, in, out, gz, out, j->w[l], in, 0.0f, next, in);
                     g = next;
                 } else if (j->dx) {
-                    be->gemm(0, 0, rr, in, out, 1.0f, gz, out, j->w[0], in, 1.0f, j->dx + r0 * in,
-                             in);
+                    block_gemm(0, rr, in, out, gz, out, j->w[0], in, 1.0f, j->dx + r0 * in, in);
                 }
             }
         }
