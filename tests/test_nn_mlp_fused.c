@@ -184,7 +184,7 @@ CR_TEST(nn_mlp_fused, gradcheck_across_blocks) {
     enum { R = 700 };
     float *x = malloc(R * 6 * sizeof(float));
     fill_rand(x, R * 6, &rng, -1, 1);
-    CR_CHECK(cr_nn_mlp_fused_enabled());
+    const int prev = cr_nn_mlp_fused_set(1);
     nn_gradcheck_input in[1] = {{2, {R, 6}, x, 1}};
     nn_gradcheck_def gd = nn_gradcheck_default_def();
     gd.name = "mlp fused";
@@ -193,6 +193,7 @@ CR_TEST(nn_mlp_fused, gradcheck_across_blocks) {
     nn_gradcheck_result res;
     CR_CHECK(nn_gradcheck(&gd, 1, in, P, build_mlp, m, &res) == 0);
     CR_CHECK(res.checked >= 4 * 40);
+    cr_nn_mlp_fused_set(prev);
     free(x);
     cr_mlp_destroy(m);
     cr_nn_params_destroy(P);

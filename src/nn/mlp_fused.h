@@ -6,9 +6,10 @@
 #include "crease/nn.h"
 #include "crease/nn_layers.h"
 
-/* Whether cr_mlp_forward takes the fused path where it can: on unless the
- * environment has CREASE_NN_MLP=layers; cr_nn_mlp_fused_set overrides it
- * (returns the previous setting; tests and benchmarks run both paths). */
+/* Whether cr_mlp_forward takes the fused path where it can: off unless the
+ * environment has CREASE_NN_MLP=fused (mlp_fused.c says why);
+ * cr_nn_mlp_fused_set overrides it (returns the previous setting; tests and
+ * benchmarks run both paths). */
 int cr_nn_mlp_fused_enabled(void);
 int cr_nn_mlp_fused_set(int on);
 
