@@ -18,19 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static cr_nn_ctx *make_ctx(void) {
-    cr_nn_ctx_def d = cr_nn_ctx_default_def();
-    d.arena_bytes = (size_t)256 << 20;
-    cr_nn_ctx *ctx = NULL;
-    cr_error err = {0};
-    CR_CHECK_OK(cr_nn_ctx_create(&d, &ctx, &err), &err);
-    return ctx;
-}
-
-static void fill_rand(float *a, int64_t n, cr_rng *r, float lo, float hi) {
-    for (int64_t i = 0; i < n; i++)
-        a[i] = lo + (hi - lo) * cr_rng_uniformf(r);
-}
+enum { ARENA = 256 << 20 };
 
 /* One step's output and every gradient (parameters, then x) of
  * L = sum(y * wts), on the path `fused` selects and `threads` threads. */
@@ -44,7 +32,8 @@ static step_out run_step(const cr_mlp *m, cr_nn_params *P, const float *x, int64
     cr_error err = {0};
     int prev_fused = cr_nn_mlp_fused_set(fused), prev_threads = cr_thread_count();
     cr_set_thread_count(threads);
-    cr_nn_ctx *ctx = make_ctx();
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(ARENA);
+    CR_CHECK(ctx != NULL);
     const int in = m->def.widths[0], out = m->def.widths[m->def.nlayers];
     cr_nn_params_zero_grad(P);
     cr_tensor *xt = cr_nn_from(ctx, 2, (int64_t[]){rows, in}, x);
@@ -130,11 +119,12 @@ CR_TEST(nn_mlp_fused, matches_the_layer_path_and_the_thread_count) {
             cr_mlp *m = NULL;
             CR_CHECK_OK(cr_mlp_create(&d, P, "mlp", &rng, &m, &err), &err);
             for (int l = 0; l < c->nl; l++)
-                fill_rand(m->layer[l].bias->data, c->widths[l + 1], &rng, -0.5f, 0.5f);
+                nn_gradcheck_fill(m->layer[l].bias->data, c->widths[l + 1], -0.5f, 0.5f, 0.0f,
+                                  100 * k + l);
             const int64_t nx = c->rows * c->widths[0], ny = c->rows * c->widths[c->nl];
             float *x = malloc((size_t)nx * sizeof(float)), *w = malloc((size_t)ny * sizeof(float));
-            fill_rand(x, nx, &rng, -1, 1);
-            fill_rand(w, ny, &rng, -1, 1);
+            nn_gradcheck_fill(x, nx, -1, 1, 0.0f, 100 * k + 50);
+            nn_gradcheck_fill(w, ny, -1, 1, 0.0f, 100 * k + 51);
             const int all = cr_thread_count();
             step_out layers = run_step(m, P, x, c->rows, w, 0, all);
             step_out fused = run_step(m, P, x, c->rows, w, 1, all);
@@ -183,7 +173,7 @@ CR_TEST(nn_mlp_fused, gradcheck_across_blocks) {
     CR_CHECK_OK(cr_mlp_create(&d, P, "mlp", &rng, &m, &err), &err);
     enum { R = 700 };
     float *x = malloc(R * 6 * sizeof(float));
-    fill_rand(x, R * 6, &rng, -1, 1);
+    nn_gradcheck_fill(x, R * 6, -1, 1, 0.0f, 52);
     const int prev = cr_nn_mlp_fused_set(1);
     nn_gradcheck_input in[1] = {{2, {R, 6}, x, 1}};
     nn_gradcheck_def gd = nn_gradcheck_default_def();
@@ -200,7 +190,8 @@ CR_TEST(nn_mlp_fused, gradcheck_across_blocks) {
 }
 
 CR_TEST(nn_mlp_fused, refuses_a_weight_of_the_wrong_width) {
-    cr_nn_ctx *ctx = make_ctx();
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(ARENA);
+    CR_REQUIRE(ctx);
     cr_tensor *x = cr_nn_zeros(ctx, 2, (int64_t[]){10, 4});
     cr_tensor *w = cr_nn_zeros(ctx, 2, (int64_t[]){8, 5}), *b = cr_nn_zeros(ctx, 1, (int64_t[]){8});
     cr_op act = CR_OP_RELU;

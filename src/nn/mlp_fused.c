@@ -18,10 +18,10 @@
  *             The partials are then added in chunk order, so the sums do not
  *             depend on the thread count (the chunks are fixed by the shape).
  *
- * The kernels are the CPU backend's (the engine's own GEMM, bias +
- * activation, activation gradient + bias sums), called from inside the
- * region, where they run on the calling thread (cr_parallel_for does not
- * nest). Used by cr_mlp_forward
+ * The kernels are the CPU backend's own (the engine's GEMM, bias +
+ * activation, activation gradient + bias sums), called directly from inside
+ * the region, where they run on the calling thread (cr_parallel_for does not
+ * nest); cr_nn_mlp_fused_usable keeps the op to the CPU backend. Used by cr_mlp_forward
  * for an MLP of fusable activations without layer norm or residual links on
  * the CPU backend; every other MLP takes the layer-by-layer path.
  * Off by default (CREASE_NN_MLP=fused or cr_nn_mlp_fused_set(1) turns it
@@ -50,7 +50,6 @@ enum {
 
 typedef struct mlp_fused {
     cr_fused_op op;
-    const cr_nn_backend *be;
     int nl;
     int width[CR_MLP_MAX_LAYERS + 1];
     cr_op act[CR_MLP_MAX_LAYERS];
@@ -70,6 +69,17 @@ static void block_gemm(int ta, int64_t M, int64_t N, int64_t K, const float *A, 
     if (cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), ta, 0, M, N, K, 1.0f, A, lda, B, ldb, beta, C, ldc) !=
         0)
         cr_nn_cpu_gemm_naive(ta, 0, M, N, K, 1.0f, A, lda, B, ldb, beta, C, ldc);
+}
+
+/* The first block of chunk c of `chunks` (the chunk's end: that of c + 1). */
+static int64_t chunk_first_block(const mlp_fused *m, int64_t c, int64_t chunks) {
+    return m->nblocks * c / chunks;
+}
+
+/* Rows of block blk: block_rows but for the last, partial one. */
+static int64_t block_height(const mlp_fused *m, int64_t blk) {
+    const int64_t left = m->rows - blk * m->block_rows;
+    return left < m->block_rows ? left : m->block_rows;
 }
 
 static int max_width(const mlp_fused *m) {
@@ -97,10 +107,9 @@ static void forward_chunks(void *arg, int64_t begin, int64_t end) {
     const int64_t one = m->block_rows * max_width(m);
     for (int64_t c = begin; c < end; c++) {
         float *tmp[2] = {j->scratch + 2 * c * one, j->scratch + (2 * c + 1) * one};
-        const int64_t b0 = m->nblocks * c / j->chunks, b1 = m->nblocks * (c + 1) / j->chunks;
-        for (int64_t blk = b0; blk < b1; blk++) {
-            const int64_t r0 = blk * m->block_rows;
-            const int64_t rr = m->rows - r0 < m->block_rows ? m->rows - r0 : m->block_rows;
+        const int64_t b1 = chunk_first_block(m, c + 1, j->chunks);
+        for (int64_t blk = chunk_first_block(m, c, j->chunks); blk < b1; blk++) {
+            const int64_t r0 = blk * m->block_rows, rr = block_height(m, blk);
             const float *h = j->x + r0 * m->width[0];
             for (int l = 0; l < m->nl; l++) {
                 const int in = m->width[l], out = m->width[l + 1];
@@ -108,7 +117,7 @@ static void forward_chunks(void *arg, int64_t begin, int64_t end) {
                            : m->hidden[l] ? m->hidden[l] + r0 * out
                                           : tmp[l % 2];
                 block_gemm(0, rr, out, in, h, in, j->wt[l], out, 0.0f, z, out);
-                m->be->bias_act_forward(m->act[l], m->p[l], j->b[l], z, rr, out);
+                cr_nn_cpu_bias_act_forward(m->act[l], m->p[l], j->b[l], z, rr, out);
                 h = z;
             }
         }
@@ -170,16 +179,14 @@ typedef struct bwd_job {
 static void backward_chunks(void *arg, int64_t begin, int64_t end) {
     const bwd_job *j = arg;
     const mlp_fused *m = j->m;
-    const cr_nn_backend *be = m->be;
     const int64_t one = m->block_rows * max_width(m);
     for (int64_t c = begin; c < end; c++) {
         float *dz = j->scratch + 3 * c * one, *dh[2] = {dz + one, dz + 2 * one};
         float *part = j->partials + c * j->nparts;
         memset(part, 0, (size_t)j->nparts * sizeof(float));
-        const int64_t b0 = m->nblocks * c / j->chunks, b1 = m->nblocks * (c + 1) / j->chunks;
-        for (int64_t blk = b0; blk < b1; blk++) {
-            const int64_t r0 = blk * m->block_rows;
-            const int64_t rr = m->rows - r0 < m->block_rows ? m->rows - r0 : m->block_rows;
+        const int64_t b1 = chunk_first_block(m, c + 1, j->chunks);
+        for (int64_t blk = chunk_first_block(m, c, j->chunks); blk < b1; blk++) {
+            const int64_t r0 = blk * m->block_rows, rr = block_height(m, blk);
             const float *g = j->dy + r0 * m->width[m->nl]; /* dL/d(layer l's output) */
             for (int l = m->nl - 1; l >= 0; l--) {
                 const int in = m->width[l], out = m->width[l + 1];
@@ -188,10 +195,10 @@ static void backward_chunks(void *arg, int64_t begin, int64_t end) {
                 float *db = j->off_b[l] >= 0 ? part + j->off_b[l] : NULL;
                 const float *gz = g;
                 if (m->act[l] != CR_OP_NONE) {
-                    be->act_bias_backward(m->act[l], m->p[l], y, g, rr, out, dz, db);
+                    cr_nn_cpu_act_bias_backward(m->act[l], m->p[l], y, g, rr, out, dz, db);
                     gz = dz;
                 } else if (db) {
-                    be->act_bias_backward(CR_OP_NONE, 0.0f, g, g, rr, out, NULL, db);
+                    cr_nn_cpu_act_bias_backward(CR_OP_NONE, 0.0f, g, g, rr, out, NULL, db);
                 }
                 if (j->off_w[l] >= 0)
                     block_gemm(1, out, in, rr, gz, out, h, in, 1.0f, part + j->off_w[l], in);
@@ -308,7 +315,6 @@ cr_tensor *cr_nn_mlp_fused(cr_nn_ctx *ctx, cr_tensor *x, int nl, cr_tensor *cons
     memset(m, 0, sizeof *m);
     m->op = (cr_fused_op){
         .name = "mlp", .forward = fused_forward, .backward = fused_backward, .user = m};
-    m->be = ctx->be;
     m->nl = nl;
     int64_t rows, cols;
     cr_nn_rows_cols(x, &rows, &cols);
