@@ -108,7 +108,8 @@ int cr_bvh_signed_distance(const cr_bvh *b, const float p[3], float max_dist, fl
                            float normal[3], cr_bvh_hit *hit);
 
 /* Mesh vertex closest to p (among vertices used by a triangle): its index, or
- * -1 when none within max_dist; *dist (may be NULL) gets its distance. Its
+ * -1 when none within max_dist; of vertices at the same distance the lowest
+ * index; *dist (may be NULL) gets its distance. Its
  * normal is cr_bvh_vertex_normals(b)[3 * v]. */
 int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist, float *dist);
 

@@ -291,7 +291,10 @@ int32_t cr_bvh_nearest_vertex(const cr_bvh *b, const float p[3], float max_dist,
                     double dx = (double)p[0] - q[0], dy = (double)p[1] - q[1],
                            dz = (double)p[2] - q[2];
                     double d2 = dx * dx + dy * dy + dz * dz;
-                    if (d2 < best || (best_v < 0 && d2 == best)) best = d2, best_v = t[c];
+                    /* ties to the lowest index, whatever the order of the visit
+                     * (vertex_grid.c answers the same) */
+                    if (d2 < best || (d2 == best && (best_v < 0 || t[c] < best_v)))
+                        best = d2, best_v = t[c];
                 }
             }
             continue;

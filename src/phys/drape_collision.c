@@ -24,6 +24,7 @@
 #include "crease/phys_energies.h"
 
 #include "crease/bvh.h"
+#include "crease/vertex_grid.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -33,6 +34,7 @@ struct cr_drape_collision {
     int32_t n; /* points */
     const cr_bvh *bvh;
     cr_bvh *vertices; /* vertex mode: a tree over the object's vertices alone (owned) */
+    cr_vertex_grid *grid; /* vertex mode: the tree's answers by candidate lists (owned) */
     cr_drape_collision_mode mode;
     double eps;         /* m */
     float lo[3], hi[3]; /* the object's box grown by |eps|, m */
@@ -72,8 +74,11 @@ cr_status cr_drape_collision_create(const cr_bvh *object, cr_drape_collision_mod
             tri[3 * (size_t)v] = tri[3 * (size_t)v + 1] = tri[3 * (size_t)v + 2] = v;
         if (st == CR_OK) st = cr_bvh_build(pos, nv, tri, nv, &c->vertices, err);
         free(tri);
+        /* the same answers as the tree's, about 6 times sooner for points a
+         * few centimetres off a dense object (crease/vertex_grid.h) */
+        if (st == CR_OK) st = cr_vertex_grid_build(c->vertices, c->lo, c->hi, NULL, &c->grid, err);
         if (st != CR_OK) {
-            free(c);
+            cr_drape_collision_destroy(c);
             return st;
         }
     }
@@ -82,7 +87,10 @@ cr_status cr_drape_collision_create(const cr_bvh *object, cr_drape_collision_mod
 }
 
 void cr_drape_collision_destroy(cr_drape_collision *c) {
-    if (c) cr_bvh_destroy(c->vertices);
+    if (c) {
+        cr_vertex_grid_destroy(c->grid);
+        cr_bvh_destroy(c->vertices);
+    }
     free(c);
 }
 
@@ -98,7 +106,7 @@ static int distance(const cr_drape_collision *c, const double *xe, double *s, do
     for (int d = 0; d < 3; d++)
         if (p[d] < c->lo[d] || p[d] > c->hi[d]) return 0;
     if (c->mode == CR_DRAPE_COLLIDE_VERTEX) {
-        const int32_t v = cr_bvh_nearest_vertex(c->vertices, p, INFINITY, NULL);
+        const int32_t v = cr_vertex_grid_nearest(c->grid, p, NULL);
         if (v < 0) return 0;
         const float *q = cr_bvh_positions(c->bvh) + 3 * (int64_t)v;
         const float *n = cr_bvh_vertex_normals(c->bvh) + 3 * (int64_t)v;
