@@ -15,7 +15,8 @@
  *
  * Barycentrics are double and sum to one. A point counts as inside a triangle
  * when every barycentric is >= -CR_UV_LOOKUP_EPS, so points on shared edges
- * and corners are found (by whichever triangle holds them most deeply).
+ * and corners are found (by whichever triangle holds them most deeply; in
+ * overlapping charts by one of the triangles that hold them).
  * Triangles of zero UV area are never returned. The lookup copies what it
  * needs from the mesh (UVs and both index triples), so the mesh may change or
  * go away afterwards; it is read-only once built and safe to share between
