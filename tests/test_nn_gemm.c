@@ -5,7 +5,7 @@
  * transposition cases the layers use (y = x W^T, dx = dy W, dW = dy^T x) and
  * plain NN, leading dimensions wider than the rows, alpha and beta
  * (overwrite with NaN in C, accumulate), the narrow forward's dot-product
- * path, more B blocks than one parallel region packs, the same bits whatever
+ * path, a long k split into chunks (weights gradients), more B blocks than one parallel region packs, the same bits whatever
  * the thread count, and the dispatch through cr_nn_cpu_gemm with CREASE_NN_GEMM's
  * choice forced either way.
  */
@@ -105,6 +105,15 @@ CR_TEST(nn_gemm, layer_shapes_past_the_blocks_with_alpha_and_beta) {
         /* more B blocks than one parallel region's packing budget (2 x 5 of
          * KC x NC, 8 to a region at AVX-512's panel width) */
         CR_CHECK(gemm_error(level, 0, 1, 13, 2100, 1100, 1.0f, 0.0f, &rng) < 8.0);
+        /* k split into chunks summed after (K >= 2048 and 8 x the output's
+         * sides): a drape batch's dW at widths 6, 64 and 3, k not a multiple
+         * of the chunks, every transposition, alpha and beta */
+        CR_CHECK(gemm_error(level, 1, 0, 64, 6, 6144, 1.0f, 1.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 1, 0, 3, 64, 4099, 1.0f, 0.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 1, 0, 64, 64, 2053, 1.0f, 1.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 1, 17, 5, 3001, -0.5f, 0.25f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 1, 1, 9, 33, 2300, 2.0f, 0.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 0, 2, 7, 9000, 1.0f, -1.0f, &rng) < 8.0);
         /* general alpha and beta, the last case */
         CR_CHECK(gemm_error(level, 1, 1, 33, 47, 300, -0.5f, 0.25f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 0, 121, 33, 17, 2.0f, -1.0f, &rng) < 8.0);
@@ -136,7 +145,7 @@ CR_TEST(nn_gemm, dispatch_either_way_agrees_with_the_reference) {
 
 CR_TEST(nn_gemm, same_bits_on_one_thread_and_on_three) {
     cr_rng rng = cr_rng_make(18, 0);
-    enum { M = 700, N = 40, K = 300 };
+    enum { M = 700, N = 40, K = 300, KS = 6000 /* a k that splits; 8 KS floats fit in A */ };
     float *A = malloc(M * K * 4), *B = malloc(K * N * 4), *C1 = malloc(M * N * 4);
     float *C3 = malloc(M * N * 4);
     CR_REQUIRE(A && B && C1 && C3);
@@ -154,6 +163,14 @@ CR_TEST(nn_gemm, same_bits_on_one_thread_and_on_three) {
         cr_set_thread_count(3);
         CR_CHECK(cr_nn_cpu_gemm_own(level, 0, 1, M, 3, K, 1.0f, A, K, B, K, 0.0f, C3, 3) == 0);
         CR_CHECK(memcmp(C1, C3, (size_t)M * 3 * 4) == 0);
+        /* k split into chunks: C (3 x 5) = X^T (3 x KS) Y (KS x 5), X and Y
+         * read from A */
+        const float *X = A, *Y = A + 3 * KS;
+        cr_set_thread_count(1);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 1, 0, 3, 5, KS, 1.0f, X, 3, Y, 5, 0.0f, C1, 5) == 0);
+        cr_set_thread_count(3);
+        CR_CHECK(cr_nn_cpu_gemm_own(level, 1, 0, 3, 5, KS, 1.0f, X, 3, Y, 5, 0.0f, C3, 5) == 0);
+        CR_CHECK(memcmp(C1, C3, (size_t)3 * 5 * 4) == 0);
     }
     cr_set_thread_count(prev);
     free(A), free(B), free(C1), free(C3);

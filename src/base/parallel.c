@@ -115,7 +115,12 @@ void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx) {
     int threads = cr_thread_count();
     if (grain <= 0) grain = 256;
     int64_t chunks = (n + grain - 1) / grain;
-    /* A few chunks per thread balance uneven work without much overhead. */
+    /* At most a few chunks per thread, each thread taking a contiguous run
+     * of them (static): the same share of every range goes to the same
+     * thread, so rows one op wrote are in that core's cache when the next
+     * op reads them. With dynamic scheduling the rows wandered between cores
+     * and a width-64 MLP step ran no faster on two threads than on one
+     * (docs/nn.md, "Static chunks"). */
     if (chunks > 4 * (int64_t)threads) chunks = 4 * (int64_t)threads;
     /* Inside a parallel region (a fused op's block worker calling a kernel)
      * the range runs on the calling thread: regions do not nest. */
@@ -124,7 +129,7 @@ void cr_parallel_for(int64_t n, int64_t grain, cr_range_fn fn, void *ctx) {
         return;
     }
 #ifdef _OPENMP
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(static)
 #endif
     for (int64_t c = 0; c < chunks; c++) {
         int64_t begin = n * c / chunks, end = n * (c + 1) / chunks;

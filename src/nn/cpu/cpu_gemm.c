@@ -32,6 +32,10 @@ enum {
     GEMM_NC = 2048,             /* columns per packed B block */
     GEMM_PACK_BUDGET = 1 << 22, /* floats of packed B per parallel region, at most (16 MB) */
     GEMM_GRAIN = 1 << 18,       /* multiply-adds a chunk is worth a thread from, about */
+    GEMM_SPLIT_K_MIN = 2048,    /* k from which a product with a small C splits k */
+    GEMM_SPLIT_K_ROWS = 512,    /* k per chunk, about */
+    GEMM_SPLIT_K_CHUNKS = 16,   /* chunks at most */
+    GEMM_SPLIT_K_FLOATS = 1 << 22, /* the partial products together at most (16 MB) */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
 };
@@ -281,10 +285,89 @@ static void dot_rows(void *vctx, int64_t begin, int64_t end) {
     g->fn(begin, end, g->N, g->K, g->alpha, g->A, g->lda, g->B, g->ldb, g->beta, g->C, g->ldc);
 }
 
+static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                        const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                        float *C, int64_t ldc);
+
+/* Chunks of k for a product whose k (a batch's rows) dwarfs its output, 0 for
+ * none: a fixed function of the shape, so the bits do not depend on the
+ * thread count. */
+static int64_t split_k_chunks(int64_t M, int64_t N, int64_t K) {
+    if (K < GEMM_SPLIT_K_MIN || K < 8 * (M > N ? M : N)) return 0;
+    int64_t chunks = K / GEMM_SPLIT_K_ROWS;
+    if (chunks > GEMM_SPLIT_K_CHUNKS) chunks = GEMM_SPLIT_K_CHUNKS;
+    while (chunks > 1 && chunks * M * N > GEMM_SPLIT_K_FLOATS)
+        chunks--;
+    return chunks >= 2 ? chunks : 0;
+}
+
+typedef struct gemm_split {
+    int level, ta, tb;
+    int64_t M, N, K, chunks;
+    const float *A, *B;
+    int64_t lda, ldb;
+    float *partial; /* (chunks, M, N) */
+    int failed;
+    float alpha, beta;
+    float *C;
+    int64_t ldc;
+} gemm_split;
+
+static void split_k_range(void *vctx, int64_t begin, int64_t end) {
+    gemm_split *g = vctx;
+    for (int64_t c = begin; c < end; c++) {
+        int64_t k0 = c * g->K / g->chunks, k1 = (c + 1) * g->K / g->chunks;
+        const float *a = g->A + (g->ta ? k0 * g->lda : k0);
+        const float *b = g->B + (g->tb ? k0 : k0 * g->ldb);
+        if (gemm_blocked(g->level, g->ta, g->tb, g->M, g->N, k1 - k0, 1.0f, a, g->lda, b, g->ldb,
+                         0.0f, g->partial + c * g->M * g->N, g->N) != 0)
+            g->failed = 1;
+    }
+}
+
+/* C's rows [begin, end) = alpha * the chunks' sum, in chunk order, in double. */
+static void split_k_sum(void *vctx, int64_t begin, int64_t end) {
+    const gemm_split *g = vctx;
+    for (int64_t i = begin; i < end; i++)
+        for (int64_t j = 0; j < g->N; j++) {
+            double s = 0.0;
+            for (int64_t c = 0; c < g->chunks; c++)
+                s += g->partial[(c * g->M + i) * g->N + j];
+            float *out = &g->C[i * g->ldc + j];
+            *out = g->beta == 0.0f ? (float)(g->alpha * s) : (float)(g->alpha * s) + g->beta * *out;
+        }
+}
+
 int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
                        const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
                        float *C, int64_t ldc) {
     if (M <= 0 || N <= 0 || K <= 0 || alpha == 0.0f) return -1; /* the caller's cases */
+    /* A weights gradient, dW = dz^T x over a batch of thousands of rows: by
+     * chunks of rows, each on one thread into its own partial product, then
+     * summed. Split over C's rows instead (below), both threads read every
+     * row of dz and x, which the forward had left in the other core's cache:
+     * the layer path's step at width 64 was no faster on two threads than
+     * on one. */
+    const int64_t chunks = split_k_chunks(M, N, K);
+    if (chunks > 0) {
+        gemm_split g = {.level = level, .ta = ta, .tb = tb, .M = M, .N = N, .K = K,
+                        .chunks = chunks, .A = A, .B = B, .lda = lda, .ldb = ldb,
+                        .alpha = alpha, .beta = beta, .C = C, .ldc = ldc};
+        g.partial = alloc_floats(chunks * M * N);
+        if (g.partial) {
+            cr_parallel_for(chunks, 1, split_k_range, &g);
+            if (!g.failed) cr_parallel_for(M, chunk_grain(N * chunks), split_k_sum, &g);
+            free(g.partial);
+            if (!g.failed) return 0;
+            return -1;
+        }
+    }
+    return gemm_blocked(level, ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+}
+
+static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha,
+                        const float *A, int64_t lda, const float *B, int64_t ldb, float beta,
+                        float *C, int64_t ldc) {
     gemm_kernel kern = kernel_for(level);
     int64_t rs = ldc, cs = 1;
     if (!ta && N * 4 <= kern.nr && N <= 8 && M > N) {
