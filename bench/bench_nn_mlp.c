@@ -6,7 +6,8 @@
  * The MLP is the drape paper's head shape, 6-W-W-W-3 with ReLU: per layer one
  * forward GEMM x W^T and two backward GEMMs (dX = dY W, dW = dY^T X; the
  * first layer's dX is not needed). "gemm share" = raw GEMM time / step time;
- * the rest is activations, bias sums, the loss, the tape and Adam.
+ * the rest is activations, bias sums, the loss, the tape and Adam. Then the
+ * step alone (no raw GEMMs between) on one thread and on all.
  *
  *   bench_nn_mlp [iters] [width]   (default 30 iterations of widths 64 and
  *                                  256; prints medians, and the fastest step
@@ -45,6 +46,30 @@ static double raw_gemms(const int *width, int nl, float *a, float *b, float *c) 
     return cr_time_now() - t0;
 }
 
+typedef struct step_ctx {
+    cr_nn_ctx *ctx;
+    cr_mlp *mlp;
+    cr_nn_params *params;
+    cr_optim *opt;
+    float *x, *y;
+} step_ctx;
+
+/* One training step (forward, backward, Adam): its seconds, -1 on error. */
+static double one_step(const step_ctx *s, cr_error *err) {
+    double t0 = cr_time_now();
+    cr_nn_ctx_reset(s->ctx);
+    cr_tensor *xt = cr_nn_wrap(s->ctx, 2, (int64_t[]){BATCH, IN}, s->x);
+    cr_tensor *yt = cr_nn_wrap(s->ctx, 2, (int64_t[]){BATCH, OUT}, s->y);
+    cr_tensor *loss = cr_nn_mean(
+        s->ctx, cr_nn_square(s->ctx, cr_nn_sub(s->ctx, cr_mlp_forward(s->ctx, s->mlp, xt), yt)));
+    cr_nn_params_zero_grad(s->params);
+    if (cr_nn_backward(s->ctx, loss, err) || cr_optim_step(s->opt, err)) {
+        fprintf(stderr, "bench_nn_mlp: %s\n", err->msg);
+        return -1.0;
+    }
+    return cr_time_now() - t0;
+}
+
 static int run(int hidden, int iters) {
     cr_error err = {0};
     cr_rng rng = cr_rng_make(1, 0);
@@ -75,22 +100,29 @@ static int run(int hidden, int iters) {
         x[i] = cr_rng_uniformf(&rng);
     for (int i = 0; i < BATCH * OUT; i++)
         y[i] = cr_rng_uniformf(&rng);
+    step_ctx sc = {ctx, mlp, params, opt, x, y};
     for (int it = -3; it < iters; it++) { /* three warm-up steps */
-        double t0 = cr_time_now();
-        cr_nn_ctx_reset(ctx);
-        cr_tensor *xt = cr_nn_wrap(ctx, 2, (int64_t[]){BATCH, IN}, x);
-        cr_tensor *yt = cr_nn_wrap(ctx, 2, (int64_t[]){BATCH, OUT}, y);
-        cr_tensor *loss =
-            cr_nn_mean(ctx, cr_nn_square(ctx, cr_nn_sub(ctx, cr_mlp_forward(ctx, mlp, xt), yt)));
-        cr_nn_params_zero_grad(params);
-        if (cr_nn_backward(ctx, loss, &err) || cr_optim_step(opt, &err)) {
-            fprintf(stderr, "bench_nn_mlp: %s\n", err.msg);
-            return 1;
-        }
-        double step = cr_time_now() - t0;
+        double step = one_step(&sc, &err);
+        if (step < 0.0) return 1;
         double gemm = raw_gemms(width, HIDDEN_LAYERS + 1, a, b, c);
         if (it >= 0) t_step[it] = step, t_gemm[it] = gemm;
     }
+    /* the engine's step alone, on one thread and on all: how far the
+     * second thread helps (a step whose ops hand rows from core to core
+     * gains nothing; docs/nn.md, "Static chunks") */
+    double alone[2];
+    const int threads = cr_thread_count();
+    for (int k = 0; k < 2; k++) {
+        cr_set_thread_count(k == 0 ? 1 : threads);
+        double t[MAX_ITERS];
+        for (int it = -3; it < iters; it++) {
+            double step = one_step(&sc, &err);
+            if (step < 0.0) return 1;
+            if (it >= 0) t[it] = step;
+        }
+        alone[k] = bench_median(t, iters);
+    }
+    cr_set_thread_count(threads);
     /* fastest of each, the figure least disturbed by other processes on a
      * shared machine (medians sort the arrays, so take these first) */
     double best_step = t_step[0], best_gemm = t_gemm[0];
@@ -103,6 +135,8 @@ static int run(int hidden, int iters) {
            "gemm share %.2f (step/gemm %.2f); fastest: %.2f ms per step, raw GEMMs %.2f ms\n",
            hidden, hidden, hidden, BATCH, 1e3 * step, BATCH / step, 1e3 * gemm, gemm / step,
            step / gemm, 1e3 * best_step, 1e3 * best_gemm);
+    printf("  the step alone: %.2f ms on 1 thread, %.2f ms on %d (%.2fx)\n", 1e3 * alone[0],
+           1e3 * alone[1], threads, alone[0] / alone[1]);
     free(x), free(y), free(a), free(b), free(c);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);

@@ -196,6 +196,7 @@ PY
       >>"$out/nn/torch_mlp.jsonl"
   done
   head -2 "$out/nn/bench_nn_mlp.txt"
+  grep "step alone" "$out/nn/bench_nn_mlp.txt" | sed 's/^ */crease, /'
   python3 - "$out/nn/bench_nn_mlp.txt" "$out/nn/torch_mlp.jsonl" <<'PY'
 import json, re, statistics, sys
 crease = {}
