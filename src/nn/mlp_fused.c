@@ -25,9 +25,10 @@
  * for an MLP of fusable activations without layer norm or residual links on
  * the CPU backend; every other MLP takes the layer-by-layer path.
  * Off by default (CREASE_NN_MLP=fused or cr_nn_mlp_fused_set(1) turns it
- * on): with it the drape's prism converged later with adaptive sampling than
- * with uniform sampling in five seeds of five, where the layer path has it
- * the other way round in five of five, and no cause was found (docs/nn.md).
+ * on): since the layer path keeps each thread on its own rows and splits the
+ * weights gradient by chunks of rows (cr_parallel_for, cpu_gemm.c), it is
+ * within 5 % of this op on the drape's MLP shape, and this op's extra code
+ * path is not worth a default (docs/nn.md, "Static chunks").
  * Leaves out: recomputing the forward in backward instead of keeping it
  * (checkpointing), a GPU version.
  */
