@@ -165,8 +165,8 @@ CR_TEST(vertex_grid, ties_go_to_the_lowest_index) {
     cr_mesh_destroy(m);
 }
 
-/* Short lists and a short reach send most cells to the tree; the answers do
- * not change, nor do they with the thread count. */
+/* Short lists, a short reach or a small memory budget send cells to the
+ * tree; the answers do not change, nor do they with the thread count. */
 CR_TEST(vertex_grid, fallbacks_and_threads_change_nothing) {
     cr_error err = {0};
     cr_mesh *m = NULL;
@@ -186,6 +186,16 @@ CR_TEST(vertex_grid, fallbacks_and_threads_change_nothing) {
     int64_t overfull = 0;
     cr_vertex_grid_stats(g, NULL, NULL, &overfull);
     CR_CHECK(overfull > 0);
+    CR_CHECK(mismatches(m, tree, g, pts, n) == 0);
+    cr_vertex_grid_destroy(g);
+    /* a memory budget of 500 entries: the cells past it keep no list */
+    cr_vertex_grid_opts small = cr_vertex_grid_default_opts();
+    small.max_entries = 500;
+    CR_CHECK_OK(cr_vertex_grid_build(tree, lo, hi, &small, &g, &err), &err);
+    CR_REQUIRE(g);
+    int64_t listed = 0;
+    cr_vertex_grid_stats(g, NULL, &listed, NULL);
+    CR_CHECK(listed > 0 && listed <= 500);
     CR_CHECK(mismatches(m, tree, g, pts, n) == 0);
     cr_vertex_grid_destroy(g);
 
@@ -230,6 +240,9 @@ CR_TEST(vertex_grid, rejects_bad_input) {
     CR_CHECK(cr_vertex_grid_build(tree, lo, hi, &o, &g, &err) == CR_ERR_INVALID && !g);
     o = cr_vertex_grid_default_opts();
     o.reach_cells = NAN;
+    CR_CHECK(cr_vertex_grid_build(tree, lo, hi, &o, &g, &err) == CR_ERR_INVALID && !g);
+    o = cr_vertex_grid_default_opts();
+    o.max_entries = -1;
     CR_CHECK(cr_vertex_grid_build(tree, lo, hi, &o, &g, &err) == CR_ERR_INVALID && !g);
     o = cr_vertex_grid_default_opts();
     o.max_list = 0;

@@ -39,6 +39,8 @@ typedef struct cr_vertex_grid_opts {
     int32_t max_list;        /* a cell with more candidates keeps none (the BVH answers); 64 */
     double reach_cells;      /* a cell with a corner farther than this many cells from every
                                 vertex keeps none (the BVH answers); 12 */
+    int64_t max_entries;     /* list entries in all at most (16 bytes each; cells past the
+                                budget keep none); 2^23, 128 MB */
 } cr_vertex_grid_opts;
 
 cr_vertex_grid_opts cr_vertex_grid_default_opts(void);

@@ -23,6 +23,7 @@
 #include "geom/bvh_internal.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -42,8 +43,11 @@ struct cr_vertex_grid {
 };
 
 cr_vertex_grid_opts cr_vertex_grid_default_opts(void) {
-    return (cr_vertex_grid_opts){
-        .cells_per_vertex = 2.0, .max_cells = 1 << 21, .max_list = 64, .reach_cells = 12.0};
+    return (cr_vertex_grid_opts){.cells_per_vertex = 2.0,
+                                 .max_cells = 1 << 21,
+                                 .max_list = 64,
+                                 .reach_cells = 12.0,
+                                 .max_entries = (int64_t)1 << 23};
 }
 
 void cr_vertex_grid_destroy(cr_vertex_grid *g) {
@@ -69,6 +73,8 @@ typedef struct build_ctx {
     int32_t *node_vertex; /* ((n0 + 1) (n1 + 1) (n2 + 1)) nearest vertex of each grid node */
     float reach;          /* m: node searches stop there */
     int32_t max_list;
+    int64_t max_entries;
+    atomic_llong entries; /* listed so far, against max_entries */
 } build_ctx;
 
 static double box_box_dist2(const bvh_node *n, const double a[3], const double b[3]) {
@@ -214,6 +220,9 @@ static void build_range(void *vctx, int64_t begin, int64_t end) {
                                                    idx[2] + (k >> 2 & 1)];
             int32_t n = cell_candidates(g->tree, corner_vertex, a, b, bc->max_list, list, raw);
             if (n < 0) n = 0; /* overfull or out of reach: the BVH answers */
+            /* past the memory budget the remaining cells keep no list (which
+             * ones then depends on the threads' timing; the answers do not) */
+            if (n > 0 && atomic_fetch_add(&bc->entries, n) + n > bc->max_entries) n = 0;
             if (o->len + n > o->cap) {
                 int64_t cap = o->cap ? 2 * o->cap : 4096;
                 while (cap < o->len + n)
@@ -264,6 +273,9 @@ cr_status cr_vertex_grid_build(const cr_bvh *tree, const float lo[3], const floa
     if (!(o.reach_cells > 0.0))
         return CR_FAIL(err, CR_ERR_INVALID, "vertex grid: reach_cells %g must be > 0",
                        o.reach_cells);
+    if (o.max_entries < 0)
+        return CR_FAIL(err, CR_ERR_INVALID, "vertex grid: max_entries %lld must be >= 0",
+                       (long long)o.max_entries);
     if (o.max_cells < 1 || o.max_list < 1 || o.max_list > (1 << 20))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "vertex grid: max_cells %d must be >= 1 and max_list %d in [1, 2^20]",
@@ -288,7 +300,11 @@ cr_status cr_vertex_grid_build(const cr_bvh *tree, const float lo[3], const floa
 
     const int64_t nchunks = (g->cells + CHUNK_CELLS - 1) / CHUNK_CELLS;
     const int64_t nodes = (int64_t)(g->n[0] + 1) * (g->n[1] + 1) * (g->n[2] + 1);
-    build_ctx bc = {.g = g, .max_list = o.max_list, .reach = (float)(o.reach_cells * g->h)};
+    build_ctx bc = {.g = g,
+                    .max_list = o.max_list,
+                    .max_entries = o.max_entries,
+                    .reach = (float)(o.reach_cells * g->h)};
+    atomic_init(&bc.entries, 0);
     bc.chunks = cr_calloc((size_t)nchunks, sizeof *bc.chunks, err);
     bc.node_vertex = cr_malloc((size_t)nodes * sizeof *bc.node_vertex, err);
     g->start = cr_malloc((size_t)(g->cells + 1) * sizeof *g->start, err);
