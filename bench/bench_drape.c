@@ -28,6 +28,8 @@
 #include "crease/mesh_io.h"
 #include "crease/scene.h"
 
+#include "bench_stats.h"
+
 #include <cblas.h>
 #include <math.h>
 #include <stdio.h>
@@ -125,16 +127,6 @@ static int table2_run(const bench_opts *o, cr_drape_scene scene, cr_drape_varian
     return r.converged_epoch;
 }
 
-static void mean_sd(const double *x, int n, double *mean, double *sd) {
-    double s = 0.0, q = 0.0;
-    for (int i = 0; i < n; i++)
-        s += x[i];
-    *mean = n > 0 ? s / n : 0.0;
-    for (int i = 0; i < n; i++)
-        q += (x[i] - *mean) * (x[i] - *mean);
-    *sd = n > 1 ? sqrt(q / (n - 1)) : 0.0;
-}
-
 /* Per scene, both variants on seeds seed .. seed + seeds - 1. One run's
  * convergence epoch moves by a thousand or more with the last bits of the
  * arithmetic (docs/drape.md, "Table 2, five seeds"), so with several seeds
@@ -163,7 +155,7 @@ static void table2(const bench_opts *o) {
         }
         double mu[2], sd[2];
         for (int k = 0; k < 2; k++)
-            mean_sd(ep + k * o->seeds, o->seeds, &mu[k], &sd[k]);
+            bench_mean_sd(ep + k * o->seeds, o->seeds, &mu[k], &sd[k]);
         const char *name = cr_drape_scene_name(scenes[s]);
         const double want = 100.0 * (paper[s][0] - paper[s][1]) / paper[s][0];
         if (o->seeds == 1)

@@ -1,22 +1,27 @@
 /* vertex_grid.c: nearest vertex by a uniform grid of candidate lists.
  *
  * A vertex v can be the nearest to a point q of a cell only if q is at least
- * as close to v as to the vertex v_c nearest to the cell's centre:
- *     |q - v_c|^2 - |q - v|^2 = 2 q.(v - v_c) + |v_c|^2 - |v|^2 >= 0.
+ * as close to v as to any other vertex c, in particular to each anchor: the
+ * vertices nearest to the cell's eight corners (one BVH query per grid node,
+ * shared by the eight cells around it).
+ *     |q - c|^2 - |q - v|^2 = 2 q.(v - c) + |c|^2 - |v|^2 >= 0.
  * The left side is linear in q, so its largest value over the cell's box is
- * at the corner picked axis by axis by the sign of v - v_c. A cell's list is
- * every vertex for which that maximum is >= 0 (less a rounding slack, so the
- * list errs on the long side): it holds the nearest vertex of every point of
- * the cell, exactly. The vertices to test come from the BVH, pruned by the
- * distance from a node's box to the cell's box against the farthest corner's
- * distance to v_c (no point of the cell has its nearest vertex farther).
- * Cell boxes are grown by a thousandth of a cell, so a point that rounding
- * puts in the neighbouring cell is still covered.
+ * at the corner picked axis by axis by the sign of v - c. A cell's list is
+ * every vertex for which that maximum is >= 0 against every anchor (less a
+ * rounding slack, so the list errs on the long side): it holds the nearest
+ * vertex of every point of the cell, exactly. The vertices to test come from
+ * the BVH, pruned by the distance from a node's box to the cell's box against
+ * the smallest over anchors of the farthest corner's distance (no point of
+ * the cell has its nearest vertex farther). Cell boxes are grown by a
+ * thousandth of a cell, so a point that rounding puts in the neighbouring
+ * cell is still covered.
  *
  * Lists are sorted by vertex index and a query keeps the first strictly
  * closer vertex, so ties go to the lowest index, as in the BVH's query.
  * Lists are built in parallel over fixed chunks of cells and joined in cell
- * order: the grid is the same on any thread count.
+ * order: the grid is the same on any thread count, unless the entry budget
+ * runs out (then which cells keep a list depends on the threads' timing;
+ * the answers never do).
  */
 #include "crease/vertex_grid.h"
 
@@ -179,13 +184,19 @@ static int32_t cell_candidates(const cr_bvh *t, const int32_t corner_vertex[8], 
     return n > max_list ? -1 : n;
 }
 
+/* (i, j, k) of flat index c over an n0 x n1 x n2 array, k fastest. */
+static void unflatten(int64_t c, int64_t n1, int64_t n2, int64_t idx[3]) {
+    idx[0] = c / (n1 * n2), idx[1] = c / n2 % n1, idx[2] = c % n2;
+}
+
 /* The vertex nearest to each grid node within the reach (-1 beyond). */
 static void node_range(void *vctx, int64_t begin, int64_t end) {
     build_ctx *bc = vctx;
     const cr_vertex_grid *g = bc->g;
     const int64_t n1 = g->n[1] + 1, n2 = g->n[2] + 1;
     for (int64_t i = begin; i < end; i++) {
-        const int64_t idx[3] = {i / (n1 * n2), i / n2 % n1, i % n2};
+        int64_t idx[3];
+        unflatten(i, n1, n2, idx);
         float q[3];
         for (int d = 0; d < 3; d++)
             q[d] = (float)(g->lo[d] + (double)idx[d] * g->h);
@@ -206,8 +217,8 @@ static void build_range(void *vctx, int64_t begin, int64_t end) {
             continue;
         }
         for (int64_t c = ch * CHUNK_CELLS; c < (ch + 1) * CHUNK_CELLS && c < g->cells; c++) {
-            const int64_t idx[3] = {c / ((int64_t)g->n[1] * g->n[2]), c / g->n[2] % g->n[1],
-                                    c % g->n[2]};
+            int64_t idx[3];
+            unflatten(c, g->n[1], g->n[2], idx);
             double a[3], b[3];
             for (int d = 0; d < 3; d++) {
                 a[d] = g->lo[d] + (double)idx[d] * g->h - 1e-3 * g->h;

@@ -358,8 +358,7 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
             cr_parallel_for(chunks, 1, split_k_range, &g);
             if (!g.failed) cr_parallel_for(M, chunk_grain(N * chunks), split_k_sum, &g);
             free(g.partial);
-            if (!g.failed) return 0;
-            return -1;
+            return g.failed ? -1 : 0;
         }
     }
     return gemm_blocked(level, ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
