@@ -250,6 +250,16 @@ typedef struct cr_gdsr_train_def {
     float w_coarse;          /* lambda_c: L1 of C^ - C* (Eq. 13) (default 1) */
     float w_fine;            /* L1 of the high garment - reference (default 1) */
     float w_normal;          /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
+    /* Eq. 13 and 15-19 on the corrected coarse garment C^ against C*, each
+     * times lambda_c beside w_coarse (the weights are Eq. 13's and Eq. 15's
+     * times Eq. 19's 0.01, as the paper prints them; 0 turns a term off):
+     *   w_coarse_normal  L1 of C^'s face normals against C*'s (Eq. 13: 0.01)
+     *   w_coarse_smooth  mean over (Vl,3) of C^'s squared uniform Laplacian
+     *                    (Eq. 15's 10^4 ||Delta C^||^2: 10^4 x 0.01 = 100)
+     *   w_coarse_bend    k_b/2 (theta(C^) - theta(C*))^2, mean over hinges (Eq. 15's
+     *                    0.1 |theta - theta*|, squared as w_bend is: 0.1 x 0.01 = 0.001)
+     *   w_coarse_strain  Eq. 16-18: as w_strain_l1, on C^ against C* (0.01) */
+    float w_coarse_normal, w_coarse_smooth, w_coarse_bend, w_coarse_strain;
     /* Regularisers on the high-resolution output X (Eq. 15-19), each a mean:
      *   w_stretch  Baraff-Witkin stretch ((|w_u|-1)^2 + (|w_v|-1)^2), area-weighted mean
      *   w_shear    Baraff-Witkin shear (w_u . w_v)^2, area-weighted mean
@@ -298,6 +308,8 @@ typedef struct cr_gdsr_train_result {
     double last_coarse, last_fine, last_normal;
     double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
     double last_strain_l1, last_wrinkle;                        /* (0 when their weight is) */
+    double last_coarse_normal, last_coarse_smooth, last_coarse_bend,
+        last_coarse_strain; /* the coarse terms on C^, unweighted (0 when their weight is) */
     double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
     double seconds;
     int64_t params;

@@ -35,6 +35,13 @@ void help_gdsr(void) {
         "  --noise M            input noise on C, m (default 0.003)\n"
         "  --noise-features-only  not on the C that C^ and the upsampling start from\n"
         "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
+        "  --w-coarse-normal W  L1 of C^'s face normals against C*'s (Eq. 13; default 0.01)\n"
+        "  --w-coarse-smooth W  mean squared uniform Laplacian of C^, m^2 (Eq. 15 x 19;\n"
+        "                       default 100)\n"
+        "  --w-coarse-bend W    C^'s dihedral angles toward C*'s, mean k_e/2 dtheta^2\n"
+        "                       (Eq. 15 x 19; default 0.001)\n"
+        "  --w-coarse-strain W  Eq. 16-18 on C^ against C* (default 0.01); the coarse\n"
+        "                       terms are scaled by lambda_c, 0 turns one off\n"
         "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
         "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
         "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
@@ -127,6 +134,10 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
         CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
         CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
+        CLI_FLOAT("--w-coarse-normal", &def.w_coarse_normal, 0, 1e6),
+        CLI_FLOAT("--w-coarse-smooth", &def.w_coarse_smooth, 0, 1e8),
+        CLI_FLOAT("--w-coarse-bend", &def.w_coarse_bend, 0, 1e6),
+        CLI_FLOAT("--w-coarse-strain", &def.w_coarse_strain, 0, 1e6),
         CLI_FLOAT("--w-stretch", &def.w_stretch, 0, 1e6),
         CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
         CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
@@ -222,6 +233,10 @@ static int cmd_train(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "laplacian_l1_m", r.last_laplacian);
         cJSON_AddNumberToObject(j, "strain_l1", r.last_strain_l1);
         cJSON_AddNumberToObject(j, "wrinkle", r.last_wrinkle);
+        cJSON_AddNumberToObject(j, "coarse_normal_l1", r.last_coarse_normal);
+        cJSON_AddNumberToObject(j, "coarse_smooth", r.last_coarse_smooth);
+        cJSON_AddNumberToObject(j, "coarse_bend", r.last_coarse_bend);
+        cJSON_AddNumberToObject(j, "coarse_strain_l1", r.last_coarse_strain);
         if (def.val_clips > 0) {
             cJSON_AddNumberToObject(j, "val_med_m", r.last_val_med);
             cJSON_AddNumberToObject(j, "val_upsampled_med_m", r.val_upsampled_med);

@@ -20,7 +20,8 @@ struct cr_gdsr_model {
     int64_t nparams; /* P: the WIRE target's floats per triangle */
 };
 
-/* The regularisers of regularise.c, built once from the rest high mesh. */
+/* The regularisers of regularise.c, built once from a rest mesh (the high
+ * one for the output, the low one for C^). */
 typedef struct gdsr_reg {
     cr_membrane *membrane; /* Baraff-Witkin, unit stiffnesses, rest = the rest mesh laid flat */
     cr_topology *topo;
@@ -51,6 +52,11 @@ void cr_gdsr_reg_terms(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *r
  * |w_u.w_v(x) - w_u.w_v(ref)| (w from the rest mesh laid flat, as crease eval's
  * e_u, e_v, e_uv). A scalar. */
 cr_tensor *cr_gdsr_reg_strain_l1(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref);
+/* k_b/2 (theta(x) - theta(ref))^2, mean over hinges (NULL when out of memory). */
+cr_tensor *cr_gdsr_reg_bend(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref);
+/* Eq. 15's smoothing: the mean over (V,3) of the squared uniform Laplacian
+ * of x itself (not of an error). A scalar. */
+cr_tensor *cr_gdsr_reg_smooth(cr_nn_ctx *ctx, const gdsr_reg *r, cr_tensor *x);
 
 /* The wrinkle loss of wrinkle.c (Eq. 20 with a fixed filter bank in place
  * of VGG): the output's and the reference's normal maps over the UV chart,

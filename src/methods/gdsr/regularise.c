@@ -1,7 +1,9 @@
-/* regularise.c: gdsr's physics and smoothness terms on the high-resolution
- * output (sec. 4.5, Eq. 15-19): Baraff-Witkin stretch and shear, bending
- * toward the reference's dihedral angles, and the L1 of the uniform
- * Laplacian of the error. The membrane and bending go through the generic
+/* regularise.c: gdsr's physics and smoothness terms (sec. 4.5, Eq. 15-19
+ * and 21-23): Baraff-Witkin stretch and shear, bending toward the
+ * reference's dihedral angles, the L1 of the uniform Laplacian of the error,
+ * the strain against the reference's, and the squared Laplacian of the
+ * corrected coarse garment (Eq. 15's smoothing). Built once per mesh: the
+ * high one for the output, the low one for C^. The membrane and bending go through the generic
  * loss op (losses.h) on phys/ kernels, with unit stiffnesses and weights
  * that turn their sums into means (docs/gdsr.md). */
 #include "gdsr_internal.h"
@@ -107,6 +109,21 @@ static cr_tensor *laplacian(cr_nn_ctx *ctx, const gdsr_reg *r, cr_tensor *x) {
     return cr_nn_sub(ctx, s, x);
 }
 
+cr_tensor *cr_gdsr_reg_bend(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref) {
+    /* the reference's dihedral angles as this frame's rest angles */
+    int32_t H = cr_bending_count(r->bending);
+    for (int64_t i = 0; i < (int64_t)r->nv * 3; i++)
+        r->xd[i] = ref[i];
+    double *th = malloc(((size_t)H + 1) * sizeof(double));
+    if (!th) return NULL;
+    cr_bending_angles(r->bending, r->xd, th);
+    for (int32_t h = 0; h < H; h++)
+        r->theta_ref[h] = (float)th[h];
+    free(th);
+    cr_tensor *rest = cr_nn_from(ctx, 1, (int64_t[]){H}, r->theta_ref);
+    return cr_loss_bending(ctx, r->bending, r->bending_norm, x, rest);
+}
+
 void cr_gdsr_reg_terms(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *ref,
                        cr_tensor **stretch, cr_tensor **shear, cr_tensor **bend, cr_tensor **lap) {
     cr_energy_term t;
@@ -116,21 +133,14 @@ void cr_gdsr_reg_terms(cr_nn_ctx *ctx, gdsr_reg *r, cr_tensor *x, const float *r
     cr_membrane_term_part(r->membrane, CR_MEMBRANE_SHEAR, &t);
     t.weight = r->membrane_norm;
     *shear = cr_loss_energy(ctx, &t, x);
-    /* the reference's dihedral angles as this frame's rest angles */
-    int32_t H = cr_bending_count(r->bending);
-    for (int64_t i = 0; i < (int64_t)r->nv * 3; i++)
-        r->xd[i] = ref[i];
-    double *th = malloc(((size_t)H + 1) * sizeof(double));
-    if (th) {
-        cr_bending_angles(r->bending, r->xd, th);
-        for (int32_t h = 0; h < H; h++)
-            r->theta_ref[h] = (float)th[h];
-        free(th);
-    }
-    cr_tensor *rest = cr_nn_from(ctx, 1, (int64_t[]){H}, r->theta_ref);
-    *bend = th ? cr_loss_bending(ctx, r->bending, r->bending_norm, x, rest) : NULL;
+    *bend = cr_gdsr_reg_bend(ctx, r, x, ref);
     cr_tensor *e = cr_nn_sub(ctx, x, cr_nn_from(ctx, 2, (int64_t[]){r->nv, 3}, ref));
     *lap = cr_nn_mean(ctx, cr_nn_abs(ctx, laplacian(ctx, r, e)));
+}
+
+cr_tensor *cr_gdsr_reg_smooth(cr_nn_ctx *ctx, const gdsr_reg *r, cr_tensor *x) {
+    cr_tensor *l = laplacian(ctx, r, x);
+    return cr_nn_mean(ctx, cr_nn_mul(ctx, l, l));
 }
 
 /* w_u and w_v (F,3) of positions x (V,3). */

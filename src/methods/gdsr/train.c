@@ -1,6 +1,6 @@
 /* train.c: gdsr training (sec. 4.5): each clip rolled out in frame order on
- * the model's own previous corrections, input noise on C, L1 on the coarse
- * shape and on the fine garment, a face-normal term, AdamW with the paper's
+ * the model's own previous corrections, input noise on C, Eq. 13-19 on the
+ * corrected coarse shape, L1 on the fine garment with its regularisers, AdamW with the paper's
  * halving schedule, resumable checkpoints; the model file and its loader;
  * roll-out with explicit collision handling (sec. 4.6). */
 #include "gdsr_internal.h"
@@ -26,6 +26,10 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_coarse = 1.0f,
                            .w_fine = 1.0f,
                            .w_normal = 0.01f,
+                           .w_coarse_normal = 0.01f,
+                           .w_coarse_smooth = 100.0f,
+                           .w_coarse_bend = 0.001f,
+                           .w_coarse_strain = 0.01f,
                            .w_stretch = 1.0f,
                            .w_shear = 1.0f,
                            .w_bend = 0.1f,
@@ -199,6 +203,11 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian, w_strain_l1, "
                        "w_wrinkle must be >= 0");
+    if (!(def->w_coarse_normal >= 0 && def->w_coarse_smooth >= 0 && def->w_coarse_bend >= 0 &&
+          def->w_coarse_strain >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train def: w_coarse_normal, w_coarse_smooth, w_coarse_bend, "
+                       "w_coarse_strain must be >= 0");
     if (def->wrinkle_patches < 0 || def->wrinkle_patches > 1024 || def->wrinkle_patch_side < 1)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: wrinkle_patches %d (0..1024), wrinkle_patch_side %d (>= 1)",
@@ -233,9 +242,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     cr_gdsr_graph g = {0};
     float *node = NULL, *e0 = NULL, *e1 = NULL, *cin = NULL, *cstar = NULL, *nref = NULL;
     float *bp[CR_GDSR_MAX_CLIPS] = {0};
-    int32_t *hcols[3] = {0};
+    int32_t *hcols[3] = {0}, *lcols[3] = {0};
     frame_state fs = {0};
-    gdsr_reg reg = {0};
+    gdsr_reg reg = {0}, creg = {0}; /* on the high mesh (the output), on the low one (C^) */
     gdsr_wrinkle wr = {0};
     gdsr_patch *patches = NULL;
     FILE *log = NULL;
@@ -261,6 +270,9 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
     if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
     if ((st = cr_gdsr_reg_create(high, &reg, err)) != CR_OK) goto done;
+    const int coarse_reg =
+        def->w_coarse_smooth > 0 || def->w_coarse_bend > 0 || def->w_coarse_strain > 0;
+    if (coarse_reg && (st = cr_gdsr_reg_create(low, &creg, err)) != CR_OK) goto done;
     if (def->w_wrinkle > 0 &&
         (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &wr, err)) != CR_OK)
         goto done;
@@ -280,12 +292,16 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     fs.dprev = malloc((size_t)nl3 * sizeof(float));
     for (int k = 0; k < 3; k++) {
         hcols[k] = malloc((size_t)high->nf * sizeof(int32_t));
+        lcols[k] = malloc((size_t)low->nf * sizeof(int32_t));
         if (hcols[k])
             for (int32_t f = 0; f < high->nf; f++)
                 hcols[k][f] = high->tri[3 * f + k];
+        if (lcols[k])
+            for (int32_t f = 0; f < low->nf; f++)
+                lcols[k][f] = low->tri[3 * f + k];
     }
     if (!node || !e0 || !e1 || !cin || !cstar || !nref || !fs.chat1 || !fs.chat2 || !fs.dprev ||
-        !hcols[0] || !hcols[1] || !hcols[2]) {
+        !hcols[0] || !hcols[1] || !hcols[2] || !lcols[0] || !lcols[1] || !lcols[2]) {
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
     }
@@ -319,7 +335,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         goto done;
     }
     for (int ep = epoch0; ep < def->epochs; ep++) {
-        double sum = 0, sc = 0, sf = 0, sn = 0, sr[6] = {0};
+        double sum = 0, sc = 0, sf = 0, sn = 0, sr[10] = {0};
         int64_t n = 0;
         float lam_c, lam_w;
         cr_gdsr_lambdas(def, ep, &lam_c, &lam_w);
@@ -347,7 +363,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 cr_tensor *ln = cr_nn_mean(
                     ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, X, high, hcols),
                                                   face_normals_t(ctx, Hs, high, hcols))));
-                cr_tensor *rt[6] = {0};
+                cr_tensor *rt[10] = {0}; /* the fine garment's six, then C^'s four */
                 cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
                 if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &reg, X, ht);
                 if (def->w_wrinkle > 0) {
@@ -361,16 +377,29 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                     rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht, patches,
                                                  patches ? def->wrinkle_patches : 0);
                 }
-                /* Eq. 25: lambda_c on the coarse term, lambda_w on the fine garment's */
-                cr_tensor *all[9] = {lc, lf, ln, rt[0], rt[1], rt[2], rt[3], rt[4], rt[5]};
-                const float wall[9] = {
-                    lam_c * def->w_coarse,    lam_w * def->w_fine,      lam_w * def->w_normal,
-                    lam_w * def->w_stretch,   lam_w * def->w_shear,     lam_w * def->w_bend,
-                    lam_w * def->w_laplacian, lam_w * def->w_strain_l1, lam_w * def->w_wrinkle};
-                cr_tensor *terms[9];
-                float w[9];
+                /* Eq. 13 and 15-18 on C^ against C* */
+                if (def->w_coarse_normal > 0)
+                    rt[6] = cr_nn_mean(
+                        ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, chat, low, lcols),
+                                                      face_normals_t(ctx, Cs, low, lcols))));
+                if (def->w_coarse_smooth > 0) rt[7] = cr_gdsr_reg_smooth(ctx, &creg, chat);
+                if (def->w_coarse_bend > 0) rt[8] = cr_gdsr_reg_bend(ctx, &creg, chat, cstar);
+                if (def->w_coarse_strain > 0)
+                    rt[9] = cr_gdsr_reg_strain_l1(ctx, &creg, chat, cstar);
+                /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
+                cr_tensor *all[13] = {lc,    lf,    ln,    rt[0], rt[1], rt[2], rt[3],
+                                      rt[4], rt[5], rt[6], rt[7], rt[8], rt[9]};
+                const float wall[13] = {lam_c * def->w_coarse,        lam_w * def->w_fine,
+                                        lam_w * def->w_normal,        lam_w * def->w_stretch,
+                                        lam_w * def->w_shear,         lam_w * def->w_bend,
+                                        lam_w * def->w_laplacian,     lam_w * def->w_strain_l1,
+                                        lam_w * def->w_wrinkle,       lam_c * def->w_coarse_normal,
+                                        lam_c * def->w_coarse_smooth, lam_c * def->w_coarse_bend,
+                                        lam_c * def->w_coarse_strain};
+                cr_tensor *terms[13];
+                float w[13];
                 int nt = 0;
-                for (int k = 0; k < 9; k++) /* the terms off (weight 0) were not built */
+                for (int k = 0; k < 13; k++) /* the terms off (weight 0) were not built */
                     if (all[k]) terms[nt] = all[k], w[nt++] = wall[k];
                 cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
                 if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
@@ -381,7 +410,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 sc += lc->data[0];
                 sf += lf->data[0];
                 sn += ln->data[0];
-                for (int k = 0; k < 6; k++)
+                for (int k = 0; k < 10; k++)
                     sr[k] += rt[k] ? rt[k]->data[0] : 0.0;
                 n++;
                 state_push(&fs, chat->data, base, nl3);
@@ -398,6 +427,10 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         out->last_laplacian = sr[3] / n;
         out->last_strain_l1 = sr[4] / n;
         out->last_wrinkle = sr[5] / n;
+        out->last_coarse_normal = sr[6] / n;
+        out->last_coarse_smooth = sr[7] / n;
+        out->last_coarse_bend = sr[8] / n;
+        out->last_coarse_strain = sr[9] / n;
         if (ep == epoch0) out->first_loss = out->last_loss;
         out->last_val_med = out->val_upsampled_med = NAN;
         if (def->val_clips > 0 && (st = validate(m, d, ntrain, &out->last_val_med,
@@ -407,12 +440,15 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
                 "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
                 "\"laplacian_l1_m\":%.9g,\"strain_l1\":%.9g,\"wrinkle\":%.9g,"
+                "\"coarse_normal_l1\":%.9g,\"coarse_smooth\":%.9g,\"coarse_bend\":%.9g,"
+                "\"coarse_strain_l1\":%.9g,"
                 "\"lambda_c\":%.3g,\"lambda_w\":%.3g,\"val_med_m\":%.9g,"
                 "\"val_upsampled_med_m\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
                 ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
                 out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
-                out->last_strain_l1, out->last_wrinkle, (double)lam_c, (double)lam_w,
-                isnan(out->last_val_med) ? -1.0 : out->last_val_med,
+                out->last_strain_l1, out->last_wrinkle, out->last_coarse_normal,
+                out->last_coarse_smooth, out->last_coarse_bend, out->last_coarse_strain,
+                (double)lam_c, (double)lam_w, isnan(out->last_val_med) ? -1.0 : out->last_val_med,
                 isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
                 (double)cr_optim_lr(opt), cr_time_now() - t0);
         fflush(log);
@@ -444,8 +480,10 @@ done:
     if (log) fclose(log);
     for (int c = 0; c < CR_GDSR_MAX_CLIPS; c++)
         free(bp[c]);
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 3; k++) {
         free(hcols[k]);
+        free(lcols[k]);
+    }
     free(node);
     free(e0);
     free(e1);
@@ -458,6 +496,7 @@ done:
     free(fs.e2);
     cr_gdsr_graph_free(&g);
     cr_gdsr_reg_free(&reg);
+    cr_gdsr_reg_free(&creg);
     cr_gdsr_wrinkle_free(&wr);
     free(patches);
     cr_nn_ctx_destroy(ctx);
