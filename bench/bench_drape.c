@@ -2,10 +2,11 @@
  *
  *   throughput  epochs/s and local structures/s of the default model
  *               (inr-adaptive and inr-uniform on the ball, 100 epochs)
- *   table2      the paper's Table 2: epochs and training time until the
- *               convergence criterion holds, inr-uniform vs inr-adaptive, on
- *               ball, torus and prism (paper: 14900/11950, 20500/17650,
- *               13950/8450 epochs)
+ *   table2      the paper's Table 2: epochs to convergence, inr-uniform vs
+ *               inr-adaptive, on ball, torus and prism (paper: 14900/11950,
+ *               20500/17650, 13950/8450 epochs), each run to the cap and
+ *               measured by the stopping criterion and by the epochs to a
+ *               shared target of the smoothed energy (table2() says why)
  *   fidelity    each variant against a reference quasi-static drape of the
  *               same scene by the physics simulator (`crease drape-static`'s
  *               procedure: settle dynamically, then a static solve): Chamfer
@@ -42,7 +43,9 @@ static const char *const USAGE =
     "                   [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]\n"
     "                   [--ref-res N] [--seed S] [--seeds N]\n"
     "  throughput  epochs/s and structures/s of the default model on the ball\n"
-    "  table2      epochs to convergence, uniform vs adaptive sampling (the paper's Table 2);\n"
+    "  table2      epochs to convergence, uniform vs adaptive sampling (the paper's Table 2),\n"
+    "              each run to the cap: the stopping criterion's epoch, the epochs to 2 % and\n"
+    "              1 % of the shared smoothed final energy, strain + bend at the cap;\n"
     "              --seeds N: seeds S .. S + N - 1, with means, spread and wins\n"
     "  fidelity    each variant against the physics reference's quasi-static drape\n"
     "defaults: all parts, cap 6000, 1024 structures, 2500 fidelity epochs,\n"
@@ -100,73 +103,159 @@ static void throughput(const bench_opts *o) {
 
 /* ----------------------------------------------------------- table 2 -- */
 
-/* One Table 2 run: the convergence epoch (-1: not within the cap). */
-static int table2_run(const bench_opts *o, cr_drape_scene scene, cr_drape_variant v,
-                      uint64_t seed, int paper) {
+/* One run's evaluations on the fixed structures (on_eval's record). */
+typedef struct curve {
+    int n, cap;
+    int *epoch;
+    double *total, *detail; /* the weighted energy; its strain + bend */
+} curve;
+
+static void record_eval(void *user, int epoch, double seconds, const cr_drape_terms *t) {
+    (void)seconds;
+    curve *c = user;
+    if (c->n == c->cap) {
+        c->cap = c->cap ? 2 * c->cap : 512;
+        c->epoch = realloc(c->epoch, (size_t)c->cap * sizeof *c->epoch);
+        c->total = realloc(c->total, (size_t)c->cap * sizeof *c->total);
+        c->detail = realloc(c->detail, (size_t)c->cap * sizeof *c->detail);
+        if (!c->epoch || !c->total || !c->detail) exit(1);
+    }
+    c->epoch[c->n] = epoch;
+    c->total[c->n] = t->total;
+    c->detail[c->n] = t->strain + t->bend;
+    c->n++;
+}
+
+static void curve_free(curve *c) {
+    free(c->epoch);
+    free(c->total);
+    free(c->detail);
+    memset(c, 0, sizeof *c);
+}
+
+/* The median of x[i] over the evaluations i <= last with epoch > last's - span. */
+static double trailing_median(const curve *c, const double *x, int last, int span) {
+    double w[1024];
+    int n = 0;
+    for (int i = last; i >= 0 && n < 1024 && c->epoch[i] > c->epoch[last] - span; i--)
+        w[n++] = x[i];
+    return bench_median(w, n);
+}
+
+/* What a Table 2 run measures, on its whole curve to the cap (constant
+ * learning rate, no stop):
+ *   plateau  the drape's own criterion (the best energy fell by less than 1 %
+ *            of its total fall over 2,000 epochs), -1 if never;
+ *   level    the median energy over the last 2,000 epochs, and the same of
+ *            strain + bend (the wrinkles' share);
+ *   the smoothed curve S(t) = median of the evaluations over (t - 500, t],
+ *   which drops the contact spikes and Adam's jitter, for the time to a
+ *   target. */
+enum { SMOOTH_SPAN = 500, LEVEL_SPAN = 2000 };
+typedef struct t2_run {
+    int plateau;
+    double level, detail;
+    curve c;
+} t2_run;
+
+static void table2_run(const bench_opts *o, cr_drape_scene scene, cr_drape_variant v, uint64_t seed,
+                       t2_run *out) {
+    memset(out, 0, sizeof *out);
     cr_drape_def d = cr_drape_default_def(scene);
     d.variant = v;
     d.samples = o->samples;
     d.epochs = o->cap;
-    d.stop_at_converged = 1;
+    d.stop_at_converged = 0;
+    d.settle_epochs = 0; /* one learning rate throughout: both variants' curves compare */
     d.quiet = 1;
     d.seed = seed;
+    d.on_eval = record_eval;
+    d.on_eval_user = &out->c;
     cr_drape_result r;
     cr_error err = {0};
     if (cr_drape_run(&d, &r, NULL, &err) != CR_OK) fail(&err);
-    char e[32], t[32];
-    if (r.converged_epoch >= 0) {
-        snprintf(e, sizeof e, "%d", r.converged_epoch);
-        snprintf(t, sizeof t, "%.1f", r.converged_seconds);
-    } else {
-        snprintf(e, sizeof e, ">%d", r.epochs);
-        snprintf(t, sizeof t, ">%.1f", r.seconds);
-    }
-    printf("%-6s %-13s %5llu %9s %9d %12s %12.4g\n", cr_drape_scene_name(scene),
-           cr_drape_variant_name(v), (unsigned long long)seed, e, paper, t, r.terms.total);
-    fflush(stdout);
-    return r.converged_epoch;
+    out->plateau = r.converged_epoch;
+    int last = out->c.n - 1;
+    out->level = trailing_median(&out->c, out->c.total, last, LEVEL_SPAN);
+    out->detail = trailing_median(&out->c, out->c.detail, last, LEVEL_SPAN);
 }
 
-/* Per scene, both variants on seeds seed .. seed + seeds - 1. One run's
- * convergence epoch moves by a thousand or more with the last bits of the
- * arithmetic (docs/drape.md, "Table 2, five seeds"), so with several seeds
- * the summary gives the means, their spread and in how many seeds adaptive
- * sampling converged first; runs that did not converge within the cap count
- * as the cap. */
+/* The first epoch at which the smoothed curve is at or below target (-1: never). */
+static int epoch_to(const curve *c, double target) {
+    for (int i = 1; i < c->n; i++)
+        if (trailing_median(c, c->total, i, SMOOTH_SPAN) <= target) return c->epoch[i];
+    return -1;
+}
+
+/* Per scene, both variants on seeds seed .. seed + seeds - 1, each to the cap.
+ * The paper's "epochs required for convergence" is measured two ways:
+ *   plateau  the drape's stopping criterion (docs/drape.md); it fires at an
+ *            epoch that moves by thousands with the last bits of the
+ *            arithmetic, because the best energy of a noisy curve decides it;
+ *   target   epochs until the smoothed energy reaches a target both variants
+ *            share: E_end + q (E_0 - E_end), E_end the lower of the two
+ *            runs' levels, q = 2 % and 1 % (the time-to-target that optimiser
+ *            comparisons use: the same quality for both).
+ * Runs that never get there count as the cap. The level of strain + bend at
+ * the cap is the paper's other claim (Table 3: more detail at equal epochs). */
 static void table2(const bench_opts *o) {
     const cr_drape_scene scenes[3] = {CR_DRAPE_BALL, CR_DRAPE_TORUS, CR_DRAPE_PRISM};
     const int paper[3][2] = {{14900, 11950}, {20500, 17650}, {13950, 8450}};
     const cr_drape_variant vs[2] = {CR_DRAPE_INR_UNIFORM, CR_DRAPE_INR_ADAPTIVE};
-    printf("== Table 2: epochs to convergence (cap %d, %d structures per epoch, %d seed%s)\n",
+    const double qs[2] = {0.02, 0.01};
+    enum { PLATEAU, TARGET2, TARGET1, DETAIL, MEASURES };
+    const char *names[MEASURES] = {"plateau epoch", "epochs to 2 %", "epochs to 1 %",
+                                   "strain+bend at cap"};
+    printf("== Table 2: uniform vs adaptive sampling, each run to %d epochs (constant lr), "
+           "%d structures per epoch, %d seed%s\n",
            o->cap, o->samples, o->seeds, o->seeds > 1 ? "s" : "");
-    printf("%-6s %-13s %5s %9s %9s %12s %12s\n", "scene", "variant", "seed", "epochs", "paper",
-           "seconds", "energy");
+    printf("%-6s %5s | %13s | %13s | %13s | %19s | paper\n", "scene", "seed", "plateau u/a",
+           "to 2 % u/a", "to 1 % u/a", "strain+bend u/a");
     for (int s = 0; s < 3; s++) {
         if (!scene_listed(o, scenes[s])) continue;
-        double *ep = calloc(2 * (size_t)o->seeds, sizeof *ep);
-        if (!ep) exit(1);
-        int ahead = 0;
+        double *m = calloc((size_t)MEASURES * 2 * (size_t)o->seeds, sizeof *m);
+        if (!m) exit(1);
+#define M(k, v, i) m[((k)*2 + (v)) * o->seeds + (i)]
         for (int i = 0; i < o->seeds; i++) {
+            t2_run run[2];
+            for (int k = 0; k < 2; k++)
+                table2_run(o, scenes[s], vs[k], o->seed + (uint64_t)i, &run[k]);
+            double e0 = run[0].c.total[0], end = fmin(run[0].level, run[1].level);
             for (int k = 0; k < 2; k++) {
-                int e = table2_run(o, scenes[s], vs[k], o->seed + (uint64_t)i, paper[s][k]);
-                ep[k * o->seeds + i] = e >= 0 ? e : o->cap;
+                M(PLATEAU, k, i) = run[k].plateau >= 0 ? run[k].plateau : o->cap;
+                for (int q = 0; q < 2; q++) {
+                    int e = epoch_to(&run[k].c, end + qs[q] * (e0 - end));
+                    M(TARGET2 + q, k, i) = e >= 0 ? e : o->cap;
+                }
+                M(DETAIL, k, i) = run[k].detail;
             }
-            ahead += ep[o->seeds + i] < ep[i];
+            printf("%-6s %5llu | %6.0f/%-6.0f | %6.0f/%-6.0f | %6.0f/%-6.0f | %9.3g/%-9.3g | "
+                   "%d/%d\n",
+                   cr_drape_scene_name(scenes[s]), (unsigned long long)(o->seed + i),
+                   M(PLATEAU, 0, i), M(PLATEAU, 1, i), M(TARGET2, 0, i), M(TARGET2, 1, i),
+                   M(TARGET1, 0, i), M(TARGET1, 1, i), M(DETAIL, 0, i), M(DETAIL, 1, i),
+                   paper[s][0], paper[s][1]);
+            fflush(stdout);
+            for (int k = 0; k < 2; k++)
+                curve_free(&run[k].c);
         }
-        double mu[2], sd[2];
-        for (int k = 0; k < 2; k++)
-            bench_mean_sd(ep + k * o->seeds, o->seeds, &mu[k], &sd[k]);
         const char *name = cr_drape_scene_name(scenes[s]);
-        const double want = 100.0 * (paper[s][0] - paper[s][1]) / paper[s][0];
-        if (o->seeds == 1)
-            printf("%-6s adaptive needs %.0f%% fewer epochs (paper %.0f%%)\n", name,
-                   100.0 * (mu[0] - mu[1]) / mu[0], want);
-        else
-            printf("%-6s mean uniform %.0f (sd %.0f), adaptive %.0f (sd %.0f): %.0f%% fewer "
-                   "(paper %.0f%%), adaptive first in %d of %d seeds\n",
-                   name, mu[0], sd[0], mu[1], sd[1], 100.0 * (mu[0] - mu[1]) / mu[0], want, ahead,
-                   o->seeds);
-        free(ep);
+        for (int k = 0; k < MEASURES; k++) {
+            double mu[2], sd[2];
+            int ahead = 0;
+            for (int v = 0; v < 2; v++)
+                bench_mean_sd(&M(k, v, 0), o->seeds, &mu[v], &sd[v]);
+            for (int i = 0; i < o->seeds; i++)
+                ahead += M(k, 1, i) < M(k, 0, i);
+            printf("%-6s %-19s uniform %9.4g (sd %8.3g), adaptive %9.4g (sd %8.3g): %+5.0f%%, "
+                   "adaptive lower in %d of %d\n",
+                   name, names[k], mu[0], sd[0], mu[1], sd[1], 100.0 * (mu[1] - mu[0]) / mu[0],
+                   ahead, o->seeds);
+        }
+        printf("%-6s paper: adaptive needs %.0f%% fewer epochs\n", name,
+               100.0 * (paper[s][0] - paper[s][1]) / paper[s][0]);
+#undef M
+        free(m);
     }
 }
 

@@ -188,7 +188,14 @@ typedef struct cr_drape_def {
     int checkpoint_every; /* epochs between checkpoints (default 250; 0: only at the end) */
     int resume;           /* 1: continue from out_dir/checkpoint.safetensors when present */
     int quiet;            /* 1: no progress bar */
-    uint32_t cookie;      /* set by cr_drape_default_def */
+    /* Called after every evaluation on the fixed structures, the start's
+     * included (NULL: none): the epoch, the training seconds so far and the
+     * weighted terms, as loss.jsonl has them. For live plots and benchmarks
+     * that need the whole curve without an out_dir; a resumed run calls it
+     * only for the evaluations it makes. */
+    void (*on_eval)(void *user, int epoch, double seconds, const cr_drape_terms *terms);
+    void *on_eval_user;
+    uint32_t cookie; /* set by cr_drape_default_def */
 } cr_drape_def;
 
 /* Defaults for `scene` with Table 4's weights (collision 1e6 for torus and

@@ -589,6 +589,7 @@ static cr_status evaluate_and_log(drape_run *r, cr_drape_result *res, cr_error *
     res->eval_seconds += cr_time_now() - t0;
     CR_TRY(push_row(r, &row, err));
     append_log(r, &row, 0);
+    if (r->def->on_eval) r->def->on_eval(r->def->on_eval_user, row.epoch, row.seconds, &row.eval);
     res->terms = row.eval;
     /* best energy so far, now and one window back: upward spikes (a contact
      * overshooting into the eps band) then neither trigger nor delay the test */
