@@ -557,8 +557,23 @@ CR_TEST(drape, resume_equals_a_straight_run) {
     }
 }
 
+typedef struct eval_record {
+    int n, epoch[16];
+    double first, last;
+} eval_record;
+
+static void record(void *user, int epoch, double seconds, const cr_drape_terms *t) {
+    eval_record *r = user;
+    (void)seconds;
+    if (r->n == 0) r->first = t->total;
+    if (r->n < 16) r->epoch[r->n] = epoch;
+    r->n++;
+    r->last = t->total;
+}
+
 /* The default run stops at convergence after settle_epochs more (at lr / 10);
- * --no-stop trains to the cap. A loose tolerance converges in tens of epochs. */
+ * --no-stop trains to the cap. A loose tolerance converges in tens of epochs.
+ * on_eval sees every evaluation. */
 CR_TEST(drape, stops_after_settling_at_convergence) {
     cr_drape_def d = cr_drape_default_def(CR_DRAPE_BALL);
     CR_CHECK(d.stop_at_converged == 1 && d.epochs == 15000);
@@ -575,8 +590,14 @@ CR_TEST(drape, stops_after_settling_at_convergence) {
     CR_CHECK(r.epochs == r.converged_epoch + 10);
     d.stop_at_converged = 0;
     d.epochs = 60;
+    eval_record rec = {0};
+    d.on_eval = record;
+    d.on_eval_user = &rec;
     CR_CHECK_OK(cr_drape_run(&d, &r, NULL, &err), &err);
     CR_CHECK(r.epochs == 60 && r.converged_epoch >= 0);
+    /* on_eval saw the start and every tenth epoch, the last one as the result has it */
+    CR_CHECK(rec.n == 7 && rec.epoch[0] == 0 && rec.epoch[6] == 60);
+    CR_CHECK(rec.first == r.initial.total && rec.last == r.terms.total);
 }
 
 CR_TEST(drape, outputs_are_written) {
