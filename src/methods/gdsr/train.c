@@ -27,7 +27,7 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_fine = 1.0f,
                            .w_normal = 0.01f,
                            .w_coarse_normal = 0.01f,
-                           .w_coarse_smooth = 100.0f,
+                           .w_coarse_smooth = 0.0f,
                            .w_coarse_bend = 0.001f,
                            .w_coarse_strain = 0.01f,
                            .w_stretch = 1.0f,
