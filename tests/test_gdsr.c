@@ -262,6 +262,9 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     def.lr = 3e-3f;
     def.noise_m = 0.0005f;
     def.quiet = 1;
+    /* the paper's coarse terms (off by default), so they are met in training */
+    def.w_coarse_normal = 0.01f, def.w_coarse_bend = 0.001f, def.w_coarse_strain = 0.01f;
+    def.w_coarse_smooth = 100.0f;
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/gdsr_tiny", cr_test_tmpdir());
     def.out_dir = dir;
@@ -269,10 +272,8 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     CR_CHECK_OK(cr_gdsr_train(&def, &d, &r, &err), &err);
     CR_CHECK(r.epochs == 8);
     CR_CHECK(r.last_loss < 0.7 * r.first_loss);
-    /* the coarse terms of Eq. 13 and 15-18 are on by default and were met,
-       but the smoothing (off by default) */
-    CR_CHECK(r.last_coarse_normal > 0 && r.last_coarse_bend > 0 && r.last_coarse_strain > 0);
-    CR_CHECK(r.last_coarse_smooth == 0);
+    CR_CHECK(r.last_coarse_normal > 0 && r.last_coarse_bend > 0 && r.last_coarse_strain > 0 &&
+             r.last_coarse_smooth > 0);
     /* the model file loads and rolls out; outside the body after handling */
     char path[1100];
     snprintf(path, sizeof path, "%s/model.safetensors", dir);

@@ -251,13 +251,15 @@ typedef struct cr_gdsr_train_def {
     float w_fine;            /* L1 of the high garment - reference (default 1) */
     float w_normal;          /* high-resolution face-normal L1 (Eq. 14-style) (default 0.01) */
     /* Eq. 13 and 15-19 on the corrected coarse garment C^ against C*, each
-     * times lambda_c beside w_coarse (the weights are Eq. 13's and Eq. 15's
-     * times Eq. 19's 0.01, as the paper prints them; 0 turns a term off):
-     *   w_coarse_normal  L1 of C^'s face normals against C*'s (Eq. 13: 0.01)
+     * times lambda_c beside w_coarse; the paper's weights (Eq. 13's and
+     * Eq. 15's times Eq. 19's 0.01) in brackets. All 0 (off) by default: on
+     * the t-shirt data the smoothing at 100 shrank C^ and tripled the held-out
+     * strain, and the other three moved distance and strain away from
+     * upsampling's (docs/gdsr.md, "Coarse terms, measured"):
+     *   w_coarse_normal  L1 of C^'s face normals against C*'s (0.01)
      *   w_coarse_smooth  mean over (Vl,3) of C^'s squared uniform Laplacian
      *                    (Eq. 15's 10^4 ||Delta C^||^2: 10^4 x 0.01 = 100, the
-     *                    authors' too; default 0: at 100 it shrinks C^ and tripled
-     *                    the held-out strain, docs/gdsr.md)
+     *                    authors' too)
      *   w_coarse_bend    k_b/2 (theta(C^) - theta(C*))^2, mean over hinges (Eq. 15's
      *                    0.1 |theta - theta*|, squared as w_bend is: 0.1 x 0.01 = 0.001)
      *   w_coarse_strain  Eq. 16-18: as w_strain_l1, on C^ against C* (0.01) */

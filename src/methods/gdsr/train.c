@@ -26,10 +26,7 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_coarse = 1.0f,
                            .w_fine = 1.0f,
                            .w_normal = 0.01f,
-                           .w_coarse_normal = 0.01f,
-                           .w_coarse_smooth = 0.0f,
-                           .w_coarse_bend = 0.001f,
-                           .w_coarse_strain = 0.01f,
+                           /* Eq. 13, 15-18 on C^: off, measured (docs/gdsr.md) */
                            .w_stretch = 1.0f,
                            .w_shear = 1.0f,
                            .w_bend = 0.1f,
