@@ -348,6 +348,15 @@ CR_TEST(gdsr, untrained_model_is_upsampling) {
 }
 
 /* The 9x9 sheet of tiny_data, deformed: stretched, sheared and waved. */
+/* tiny_data and the regularisers on its high mesh (on_low: its low one). */
+static int tiny_reg(cr_gdsr_data *d, int on_low, gdsr_reg *reg) {
+    cr_error err = {0};
+    if (!tiny_data(d)) return 0;
+    if (cr_gdsr_reg_create(on_low ? d->low : d->high, reg, &err) == CR_OK) return 1;
+    cr_gdsr_data_free(d);
+    return 0;
+}
+
 static void deform(const cr_mesh *hi, float *x, float amp) {
     for (int32_t i = 0; i < hi->nv; i++) {
         const float *p = hi->pos + 3 * i;
@@ -359,11 +368,10 @@ static void deform(const cr_mesh *hi, float *x, float amp) {
 
 CR_TEST(gdsr, regularisers_are_eval_strains_and_vanish_at_the_reference) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    gdsr_reg reg;
+    CR_REQUIRE(tiny_reg(&d, 0, &reg));
     cr_error err = {0};
     const cr_mesh *hi = d.high;
-    gdsr_reg reg;
-    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
     float *x = malloc((size_t)hi->nv * 3 * sizeof(float));
     float *ref = malloc((size_t)hi->nv * 3 * sizeof(float));
     deform(hi, x, 0.01f);
@@ -426,11 +434,9 @@ static cr_tensor *build_reg(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
 
 CR_TEST(gdsr, regulariser_gradients_match_finite_differences) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
-    cr_error err = {0};
-    const cr_mesh *hi = d.high;
     gdsr_reg reg;
-    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
+    CR_REQUIRE(tiny_reg(&d, 0, &reg));
+    const cr_mesh *hi = d.high;
     int64_t n = (int64_t)hi->nv * 3;
     float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
     deform(hi, ref, 0.01f);
@@ -497,11 +503,9 @@ static cr_tensor *build_strain(cr_nn_ctx *ctx, cr_tensor *const *in, void *user)
 
 CR_TEST(gdsr, strain_l1_is_zero_at_the_reference_and_its_gradient_matches_fd) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
-    cr_error err = {0};
-    const cr_mesh *hi = d.high;
     gdsr_reg reg;
-    CR_REQUIRE(cr_gdsr_reg_create(hi, &reg, &err) == CR_OK);
+    CR_REQUIRE(tiny_reg(&d, 0, &reg));
+    const cr_mesh *hi = d.high;
     int64_t n = (int64_t)hi->nv * 3;
     float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
     cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
@@ -564,11 +568,10 @@ static double smooth_of(cr_nn_ctx *ctx, gdsr_reg *reg, const float *x, int32_t n
 
 CR_TEST(gdsr, coarse_smoothing_is_the_mean_squared_laplacian) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    gdsr_reg reg;
+    CR_REQUIRE(tiny_reg(&d, 1, &reg));
     cr_error err = {0};
     const cr_mesh *lo = d.low;
-    gdsr_reg reg;
-    CR_REQUIRE(cr_gdsr_reg_create(lo, &reg, &err) == CR_OK);
     cr_topology *tp = NULL;
     CR_REQUIRE(cr_topology_build(lo, &tp, &err) == CR_OK);
     int64_t n = (int64_t)lo->nv * 3;
