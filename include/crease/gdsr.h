@@ -341,7 +341,9 @@ typedef struct cr_gdsr_rollout_result {
     int64_t layer_pushed, layer_pushed_high; /* Eq. 27 on an outfit: coarse and high vertices
                                                 pushed out of the layer under them, summed
                                                 over the frames */
-    double seconds_per_frame;                /* gdsr, handling included, wall clock */
+    double seconds_per_frame;                /* gdsr per frame from frame 2, wall clock: the body
+                                                refit, its closest points (their share), the
+                                                features, the networks and the handling */
     double cpu_seconds_per_frame;            /* the same in process CPU time (clock()) */
 } cr_gdsr_rollout_result;
 
