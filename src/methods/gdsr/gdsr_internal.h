@@ -20,6 +20,10 @@ struct cr_gdsr_model {
     int64_t nparams; /* P: the WIRE target's floats per triangle */
 };
 
+/* Column k of m's triangles: (F) the k-th corner of every face (malloc'd;
+ * NULL when out of memory). */
+int32_t *cr_gdsr_tri_column(const cr_mesh *m, int k);
+
 /* The regularisers of regularise.c, built once from a rest mesh (the high
  * one for the output, the low one for C^). */
 typedef struct gdsr_reg {

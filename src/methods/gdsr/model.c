@@ -158,7 +158,7 @@ fail:
 
 /* ---------------------------------------------------------- helpers -- */
 
-static int32_t *tri_column(const cr_mesh *m, int k) {
+int32_t *cr_gdsr_tri_column(const cr_mesh *m, int k) {
     int32_t *c = malloc((size_t)(m->nf > 0 ? m->nf : 1) * sizeof(int32_t));
     if (c)
         for (int32_t f = 0; f < m->nf; f++)
@@ -170,7 +170,8 @@ static int32_t *tri_column(const cr_mesh *m, int k) {
  * frame of C^ carries gradients). */
 static void face_frames(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *low, cr_tensor **e1,
                         cr_tensor **e2, cr_tensor **n) {
-    int32_t *t0 = tri_column(low, 0), *t1 = tri_column(low, 1), *t2 = tri_column(low, 2);
+    int32_t *t0 = cr_gdsr_tri_column(low, 0), *t1 = cr_gdsr_tri_column(low, 1),
+            *t2 = cr_gdsr_tri_column(low, 2);
     if (!t0 || !t1 || !t2) {
         *e1 = *e2 = *n = NULL;
     } else {

@@ -3,9 +3,9 @@
  * reference's dihedral angles, the L1 of the uniform Laplacian of the error,
  * the strain against the reference's, and the squared Laplacian of the
  * corrected coarse garment (Eq. 15's smoothing). Built once per mesh: the
- * high one for the output, the low one for C^. The membrane and bending go through the generic
- * loss op (losses.h) on phys/ kernels, with unit stiffnesses and weights
- * that turn their sums into means (docs/gdsr.md). */
+ * high one for the output, the low one for C^. The membrane and bending go
+ * through the generic loss op (losses.h) on phys/ kernels, with unit
+ * stiffnesses and weights that turn their sums into means (docs/gdsr.md). */
 #include "gdsr_internal.h"
 
 #include "crease/losses.h"

@@ -1,8 +1,8 @@
 /* train.c: gdsr training (sec. 4.5): each clip rolled out in frame order on
  * the model's own previous corrections, input noise on C, Eq. 13-19 on the
- * corrected coarse shape, L1 on the fine garment with its regularisers, AdamW with the paper's
- * halving schedule, resumable checkpoints; the model file and its loader;
- * roll-out with explicit collision handling (sec. 4.6). */
+ * corrected coarse shape, L1 on the fine garment with its regularisers,
+ * AdamW with the paper's halving schedule, resumable checkpoints; the model
+ * file and its loader; roll-out with explicit collision handling (sec. 4.6). */
 #include "gdsr_internal.h"
 
 #include "crease/bvh.h"
@@ -79,6 +79,13 @@ static cr_tensor *face_normals_t(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *m,
     cr_tensor *u = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, cols[1], m->nf), p0);
     cr_tensor *v = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, cols[2], m->nf), p0);
     return cr_nn_normalize(ctx, cr_nn_cross(ctx, u, v), 1e-12f);
+}
+
+/* The mean L1 of the face normals of x against those of ref (both (V,3) on m). */
+static cr_tensor *normal_l1(cr_nn_ctx *ctx, cr_tensor *x, cr_tensor *ref, const cr_mesh *m,
+                            int32_t **cols) {
+    return cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, x, m, cols),
+                                                    face_normals_t(ctx, ref, m, cols))));
 }
 
 typedef struct frame_state {
@@ -288,14 +295,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     fs.chat2 = malloc((size_t)nl3 * sizeof(float));
     fs.dprev = malloc((size_t)nl3 * sizeof(float));
     for (int k = 0; k < 3; k++) {
-        hcols[k] = malloc((size_t)high->nf * sizeof(int32_t));
-        lcols[k] = malloc((size_t)low->nf * sizeof(int32_t));
-        if (hcols[k])
-            for (int32_t f = 0; f < high->nf; f++)
-                hcols[k][f] = high->tri[3 * f + k];
-        if (lcols[k])
-            for (int32_t f = 0; f < low->nf; f++)
-                lcols[k][f] = low->tri[3 * f + k];
+        hcols[k] = cr_gdsr_tri_column(high, k);
+        lcols[k] = cr_gdsr_tri_column(low, k);
     }
     if (!node || !e0 || !e1 || !cin || !cstar || !nref || !fs.chat1 || !fs.chat2 || !fs.dprev ||
         !hcols[0] || !hcols[1] || !hcols[2] || !lcols[0] || !lcols[1] || !lcols[2]) {
@@ -357,9 +358,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                 cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
                 cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
                 cr_tensor *lf = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
-                cr_tensor *ln = cr_nn_mean(
-                    ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, X, high, hcols),
-                                                  face_normals_t(ctx, Hs, high, hcols))));
+                cr_tensor *ln = normal_l1(ctx, X, Hs, high, hcols);
                 cr_tensor *rt[10] = {0}; /* the fine garment's six, then C^'s four */
                 cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
                 if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &reg, X, ht);
@@ -375,10 +374,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                                                  patches ? def->wrinkle_patches : 0);
                 }
                 /* Eq. 13 and 15-18 on C^ against C* */
-                if (def->w_coarse_normal > 0)
-                    rt[6] = cr_nn_mean(
-                        ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, face_normals_t(ctx, chat, low, lcols),
-                                                      face_normals_t(ctx, Cs, low, lcols))));
+                if (def->w_coarse_normal > 0) rt[6] = normal_l1(ctx, chat, Cs, low, lcols);
                 if (def->w_coarse_smooth > 0) rt[7] = cr_gdsr_reg_smooth(ctx, &creg, chat);
                 if (def->w_coarse_bend > 0) rt[8] = cr_gdsr_reg_bend(ctx, &creg, chat, cstar);
                 if (def->w_coarse_strain > 0)
