@@ -41,6 +41,12 @@ check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s
   -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv" \
   -a -s "$tmp/r/gdsr.glb" -a -s "$tmp/r/compare.png" -a -s "$tmp/r/compare_normals.png"
 check "glb animated" grep -q '"glb_animated":true,' "$tmp/r.json"
+check "the frame time is the sum of its stages" python3 -c "
+import json, sys
+j = json.load(open(sys.argv[1]))
+s = sum(j['stage_seconds_per_frame'].values())
+sys.exit(not (j['seconds_per_frame'] > 0 and j['first_frame_seconds'] > 0
+              and abs(s - j['seconds_per_frame']) <= 1e-6 + 1e-6 * s))" "$tmp/r.json"
 # metric K of the table: the first value is upsampling's, the second gdsr's
 vals() { grep -o "\"$2\":[-0-9.eE+]*" "$1" | cut -d: -f2 | tr '\n' ' '; }
 better() { # better FILE KEY FACTOR [higher]: gdsr's value beats FACTOR x upsampling's

@@ -341,11 +341,22 @@ typedef struct cr_gdsr_rollout_result {
     int64_t layer_pushed, layer_pushed_high; /* Eq. 27 on an outfit: coarse and high vertices
                                                 pushed out of the layer under them, summed
                                                 over the frames */
-    double seconds_per_frame;                /* gdsr per frame from frame 2, wall clock: the body
+    double seconds_per_frame;                /* gdsr per frame from frame 3, wall clock: the body
                                                 refit, its closest points (their share), the
                                                 features, the networks and the handling */
+    double first_frame_seconds;              /* frame 2, the first through the networks, wall
+                                                clock: it also pays the one-time warm-up (the
+                                                arena's first touch, the thread pool), so it
+                                                is left out of seconds_per_frame as the
+                                                simulators' set-up is left out of theirs */
     double cpu_seconds_per_frame;            /* the same in process CPU time (clock()) */
+    double stage_seconds[4];                 /* seconds_per_frame split, wall clock: the body
+                                                (refit and closest points), the graph
+                                                features, the networks, the handling */
 } cr_gdsr_rollout_result;
+
+/* The names of cr_gdsr_rollout_result's stage_seconds, in order. */
+extern const char *const cr_gdsr_stage_names[4];
 
 enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
 /* Eq. 27's constants (the authors' code): the gap kept between layers, m,

@@ -495,6 +495,12 @@ static int cmd_run(int argc, char **argv) {
             "inside the body: %.3f %% before handling, %.3f %% after\n",
             motion, cl->nframes, d.low->nv, d.high->nv, r.seconds_per_frame,
             r.cpu_seconds_per_frame, 100 * r.inside_before, 100 * r.inside_after);
+    fprintf(stderr,
+            "  first frame through the networks %.4f s (with the warm-up); per frame after:",
+            r.first_frame_seconds);
+    for (int k = 0; k < 4; k++)
+        fprintf(stderr, " %s %.4f s%s", cr_gdsr_stage_names[k], r.stage_seconds[k],
+                k < 3 ? "," : "\n");
     if (d.nlayers > 1)
         fprintf(stderr, "  layers (Eq. 27): %lld coarse and %lld high vertices pushed out\n",
                 (long long)r.layer_pushed, (long long)r.layer_pushed_high);
@@ -517,6 +523,10 @@ static int cmd_run(int argc, char **argv) {
     cJSON_AddNumberToObject(j, "high_vertices", d.high->nv);
     cJSON_AddNumberToObject(j, "seconds_per_frame", r.seconds_per_frame);
     cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r.cpu_seconds_per_frame);
+    cJSON_AddNumberToObject(j, "first_frame_seconds", r.first_frame_seconds);
+    cJSON *stages = cJSON_AddObjectToObject(j, "stage_seconds_per_frame");
+    for (int k = 0; k < 4; k++)
+        cJSON_AddNumberToObject(stages, cr_gdsr_stage_names[k], r.stage_seconds[k]);
     cJSON_AddNumberToObject(j, "inside_before", r.inside_before);
     cJSON_AddNumberToObject(j, "inside_after", r.inside_after);
     cJSON_AddNumberToObject(j, "layer_pushed", (double)r.layer_pushed);

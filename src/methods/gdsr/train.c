@@ -500,6 +500,8 @@ done:
 
 /* --------------------------------------------------------- roll-out -- */
 
+const char *const cr_gdsr_stage_names[4] = {"body", "features", "networks", "handling"};
+
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
     if (!r) return;
     free(r->gdsr);
@@ -578,7 +580,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     if ((st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err)) != CR_OK)
         goto done;
-    double tsum = 0, csum = 0;
+    double tsum = 0, csum = 0, stage[4] = {0};
     int tcount = 0;
     for (int32_t t = 0; t < T; t++) {
         const float *ct = cl->low + t * nl3;
@@ -589,6 +591,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         clock_t c0 = clock();
         if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK)
             goto done;
+        double t1 = cr_time_now();
         if (t < 2) { /* no history yet: the upsampled input */
             memcpy(raw, up, (size_t)nh3 * sizeof(float));
             memcpy(fin, up, (size_t)nh3 * sizeof(float));
@@ -602,6 +605,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         if ((st = frame_features(d, &m->def, &g, cl->low, t, ct, bp + t * nl3, &fs, node, e0, e1,
                                  err)) != CR_OK)
             goto done;
+        double t2 = cr_time_now();
         cr_nn_ctx_reset(ctx);
         cr_tensor *ch = NULL;
         cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, fs.e2, ct, &ch);
@@ -613,6 +617,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         memcpy(raw, X->data, (size_t)nh3 * sizeof(float));
         memcpy(chat, ch->data, (size_t)nl3 * sizeof(float));
         state_push(&fs, chat, ct, nl3);
+        double t3 = cr_time_now();
         /* Eq. 26-27: push C^ out of the body, carry the push to the high
          * vertices through Eq. 1, then any high vertex still inside */
         memcpy(fin, raw, (size_t)nh3 * sizeof(float));
@@ -625,9 +630,16 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         cr_gdsr_relax_push(bv, htopo, raw, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
         /* then the layers (Eq. 27), after the body */
         if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
-        tsum += cr_time_now() - t0 + bp_wall;
-        csum += (double)(clock() - c0) / CLOCKS_PER_SEC + bp_cpu;
-        tcount++;
+        double t4 = cr_time_now();
+        if (t == 2 && T > 3) {
+            out->first_frame_seconds = t4 - t0 + bp_wall;
+        } else {
+            stage[0] += t1 - t0 + bp_wall, stage[1] += t2 - t1, stage[2] += t3 - t2;
+            stage[3] += t4 - t3;
+            tsum += t4 - t0 + bp_wall;
+            csum += (double)(clock() - c0) / CLOCKS_PER_SEC + bp_cpu;
+            tcount++;
+        }
         for (int64_t i = 0; i < nh3; i++)
             if (!isfinite(fin[i])) {
                 st =
@@ -652,6 +664,8 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     }
     out->seconds_per_frame = tcount ? tsum / tcount : 0;
     out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
+    for (int k = 0; k < 4; k++)
+        out->stage_seconds[k] = tcount ? stage[k] / tcount : 0;
     st = CR_OK;
 done:
     free(bp);
