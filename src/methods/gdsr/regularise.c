@@ -78,7 +78,7 @@ cr_status cr_gdsr_reg_create(const cr_mesh *high, gdsr_reg *r, cr_error *err) {
     r->nf = high->nf;
     int ok = (r->strain_ref = malloc((size_t)high->nf * 3 * sizeof(float))) != NULL;
     for (int k = 0; k < 3; k++) {
-        ok &= (r->corner[k] = malloc(((size_t)high->nf + 1) * sizeof(int32_t))) != NULL;
+        ok &= (r->corner[k] = cr_gdsr_tri_column(high, k)) != NULL;
         ok &= (r->cu[k] = malloc(((size_t)high->nf + 1) * sizeof(float))) != NULL;
         ok &= (r->cv[k] = malloc(((size_t)high->nf + 1) * sizeof(float))) != NULL;
     }
@@ -89,8 +89,6 @@ cr_status cr_gdsr_reg_create(const cr_mesh *high, gdsr_reg *r, cr_error *err) {
     const double *D = cr_membrane_rest_dminv(r->membrane);
     for (int32_t f = 0; f < high->nf; f++) {
         const double *d = D + 4 * (int64_t)f;
-        for (int k = 0; k < 3; k++)
-            r->corner[k][f] = high->tri[3 * f + k];
         r->cu[1][f] = (float)d[0], r->cv[1][f] = (float)d[1];
         r->cu[2][f] = (float)d[2], r->cv[2][f] = (float)d[3];
         r->cu[0][f] = (float)-(d[0] + d[2]), r->cv[0][f] = (float)-(d[1] + d[3]);

@@ -51,7 +51,7 @@ cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w,
     w->nv = high->nv, w->nf = high->nf, w->side = side;
     int ok = 1;
     for (int k = 0; k < 3; k++) {
-        ok &= (w->corner[k] = malloc(((size_t)high->nf + 1) * sizeof(int32_t))) != NULL;
+        ok &= (w->corner[k] = cr_gdsr_tri_column(high, k)) != NULL;
         ok &= (w->tex_v[k] = malloc(((size_t)w->ntex + 1) * sizeof(int32_t))) != NULL;
         ok &= (w->tex_b[k] = malloc(((size_t)w->ntex + 1) * sizeof(float))) != NULL;
     }
@@ -66,9 +66,6 @@ cr_status cr_gdsr_wrinkle_create(const cr_mesh *high, int side, gdsr_wrinkle *w,
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
     }
-    for (int32_t f = 0; f < high->nf; f++)
-        for (int k = 0; k < 3; k++)
-            w->corner[k][f] = high->tri[3 * f + k];
     int64_t t = 0;
     for (size_t p = 0; p < n; p++) {
         id[p] = face[p] >= 0 ? (int32_t)t : -1;
