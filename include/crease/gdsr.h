@@ -348,7 +348,9 @@ typedef struct cr_gdsr_rollout_result {
                                                 clock: it also pays the one-time warm-up (the
                                                 arena's first touch, the thread pool), so it
                                                 is left out of seconds_per_frame as the
-                                                simulators' set-up is left out of theirs */
+                                                simulators' set-up is left out of theirs
+                                                (0 on a clip of 3 frames or fewer, whose
+                                                one network frame stays in the mean) */
     double cpu_seconds_per_frame;            /* the same in process CPU time (clock()) */
     double stage_seconds[4];                 /* seconds_per_frame split, wall clock: the body
                                                 (refit and closest points), the graph
