@@ -41,12 +41,13 @@ enum { MAX_FRAMES = 150 };
 static const char *const USAGE =
     "usage: bench_drape [--only throughput|table2|fidelity] [--scenes ball,torus,prism]\n"
     "                   [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]\n"
-    "                   [--ref-res N] [--seed S] [--seeds N]\n"
+    "                   [--ref-res N] [--seed S] [--seeds N] [--pdf-collision W]\n"
     "  throughput  epochs/s and structures/s of the default model on the ball\n"
     "  table2      epochs to convergence, uniform vs adaptive sampling (the paper's Table 2),\n"
     "              each run to the cap: the stopping criterion's epoch, the epochs to 2 % and\n"
     "              1 % of the shared smoothed final energy, strain + bend at the cap;\n"
-    "              --seeds N: seeds S .. S + N - 1, with means, spread and wins\n"
+    "              --seeds N: seeds S .. S + N - 1, with means, spread and wins;\n"
+    "              --pdf-collision W: the adaptive PDF's collision weight (default 1)\n"
     "  fidelity    each variant against the physics reference's quasi-static drape\n"
     "defaults: all parts, cap 6000, 1024 structures, 2500 fidelity epochs,\n"
     "refs drape_references, ref-res 256, seed 1, 1 seed\n";
@@ -58,7 +59,8 @@ typedef struct bench_opts {
     int cap, samples, fidelity_epochs, ref_res;
     const char *refs;
     uint64_t seed;
-    int seeds; /* table2: seeds seed .. seed + seeds - 1 */
+    int seeds;            /* table2: seeds seed .. seed + seeds - 1 */
+    double pdf_collision; /* table2: cr_drape_def.pdf_collision */
 } bench_opts;
 
 static const char *object_of(cr_drape_scene s) {
@@ -164,6 +166,7 @@ static void table2_run(const bench_opts *o, cr_drape_scene scene, cr_drape_varia
     cr_drape_def d = cr_drape_default_def(scene);
     d.variant = v;
     d.samples = o->samples;
+    d.pdf_collision = (float)o->pdf_collision;
     d.epochs = o->cap;
     d.stop_at_converged = 0;
     d.settle_epochs = 0; /* one learning rate throughout: both variants' curves compare */
@@ -377,7 +380,8 @@ int main(int argc, char **argv) {
                     .ref_res = 256,
                     .refs = "drape_references",
                     .seed = 1,
-                    .seeds = 1};
+                    .seeds = 1,
+                    .pdf_collision = 1.0};
     for (int i = 1; i < argc; i += 2) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -406,6 +410,8 @@ int main(int argc, char **argv) {
             o.seed = (uint64_t)atoll(v);
         else if (strcmp(a, "--seeds") == 0)
             o.seeds = atoi(v);
+        else if (strcmp(a, "--pdf-collision") == 0)
+            o.pdf_collision = atof(v);
         else {
             fprintf(stderr, "bench_drape: unknown option %s\n", a);
             return 2;

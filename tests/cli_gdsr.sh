@@ -23,8 +23,10 @@ expect_exit 1 "tshirt_low.obj" gdsr train --dataset "$tmp/none" --motions walk -
 
 check "dataset" "$crease" dataset --garments tshirt --motions walk,dance --res low,high \
   --low-vertices 500 --high-vertices 1000 --frames 16 --quiet -o "$tmp/data"
+# stretch and shear at 1, not the default 30: on 16 frames the stiff membrane leaves the
+# held-out normal angle 0.1 % below upsampling's (at 1: 2.8 %), too thin a margin to test
 small=(--dataset "$tmp/data" --motions walk --latent 32 --steps 2 --wire-width 8 --lr 0.002 --halve-every 15
-       --quiet)
+       --w-stretch 1 --w-shear 1 --quiet)
 first=$(size 3 1)
 check "gdsr train $first epochs" bash -c "'$crease' gdsr train ${small[*]} --epochs $first -o '$tmp/m' --json > '$tmp/t1.json'"
 # 20 epochs: the held-out checks below hold with a wider margin than at 40 (normal angle

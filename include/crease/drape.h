@@ -170,6 +170,8 @@ typedef struct cr_drape_def {
     float mu;             /* adaptive share of the samples (default 0.5; inr-uniform: 0) */
     int lloyd_iterations; /* default 2 */
     int pdf_every;        /* epochs between PDF updates (default 5) */
+    float pdf_collision;  /* the collision term's weight in the PDF's per-cell loss, times
+                             its training weight (default 1; gravity's is always 0) */
 
     /* convergence */
     int eval_res;          /* fixed structures per side (default 128) */

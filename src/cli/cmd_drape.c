@@ -62,6 +62,8 @@ void help_drape(void) {
         "  --mu M               adaptive share of the samples (default 0.5)\n"
         "  --lloyd N            Lloyd iterations (default 2)\n"
         "  --pdf-every N        epochs between PDF updates (default 5)\n"
+        "  --pdf-collision W    the collision term's weight in the PDF, times its training\n"
+        "                       weight (default 1; gravity is always left out)\n"
         "convergence (the same for every variant):\n"
         "  --eval-res N         fixed evaluation structures per side (default 128)\n"
         "  --eval-every N       epochs between evaluations (default 50)\n"
@@ -205,6 +207,7 @@ int cmd_drape(int argc, char **argv) {
         CLI_FLOAT("--pin", &def.pin, 0.0, 1e12),
         CLI_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0),
         CLI_FLOAT("--mu", &def.mu, 0.0, 1.0),
+        CLI_FLOAT("--pdf-collision", &def.pdf_collision, 0.0, 1e6),
         CLI_FLOAT("--tol", &def.converge_tol, 0.0, 1.0),
         CLI_FLOAT("--drop-height", &def.gap, 0.0, 1e3),
         CLI_FLOAT("--gap", &def.gap, 0.0, 1e3),

@@ -43,7 +43,7 @@ void help_gdsr(void) {
         "                       weights in brackets, scaled by lambda_c; all four default\n"
         "                       to 0 (off, measured: docs/gdsr.md)\n"
         "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
-        "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 1, 1)\n"
+        "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 30, 30)\n"
         "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
         "                       (default 0.1)\n"
         "  --w-laplacian W      L1 of the uniform Laplacian of the error, m (default 1)\n"

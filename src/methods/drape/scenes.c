@@ -104,6 +104,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
         .mu = 0.5f,
         .lloyd_iterations = 2,
         .pdf_every = 5,
+        .pdf_collision = 1.0f,
         .eval_res = 128,
         .eval_every = 50,
         .converge_window = 2000,
@@ -175,6 +176,7 @@ cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
     CR_TRY(check_f("mu", d->mu, 0.0, 1.0, err));
     CR_TRY(check_i("lloyd_iterations", d->lloyd_iterations, 0, 1000, err));
     CR_TRY(check_i("pdf_every", d->pdf_every, 1, 1000000, err));
+    CR_TRY(check_f("pdf_collision", d->pdf_collision, 0.0, 1e6, err));
     CR_TRY(check_i("eval_res", d->eval_res, 2, 1024, err));
     CR_TRY(check_i("eval_every", d->eval_every, 1, 1000000, err));
     CR_TRY(check_i("converge_window", d->converge_window, 1, 100000000, err));

@@ -264,6 +264,7 @@ static cr_status update_pdf(drape_run *r, cr_error *err) {
         r->cell_theta[k] = (float)(TWO_PI_3 * cr_rng_uniform(&r->rng));
     cr_drape_def nograv = *r->def;
     nograv.w.gravity = 0.0f;
+    nograv.w.collision *= r->def->pdf_collision;
     drape_loss_ctx lc = r->lc; /* the same energies, other weights */
     lc.def = &nograv;
     double sums[4] = {0};

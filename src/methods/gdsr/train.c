@@ -27,8 +27,11 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_fine = 1.0f,
                            .w_normal = 0.01f,
                            /* Eq. 13, 15-18 on C^: off, measured (docs/gdsr.md) */
-                           .w_stretch = 1.0f,
-                           .w_shear = 1.0f,
+                           /* 30, not 1: measured on 3 x 120-frame clips, the
+                              only setting ahead of upsampling on strain and
+                              distance both (docs/gdsr.md, "Longer clips") */
+                           .w_stretch = 30.0f,
+                           .w_shear = 30.0f,
                            .w_bend = 0.1f,
                            .w_laplacian = 1.0f,
                            .wrinkle_side = 128,
