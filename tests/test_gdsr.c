@@ -625,13 +625,14 @@ typedef struct wrinkle_check {
     const float *ref;
     float scale;
     const gdsr_patch *patches;
-    int npatches;
+    int npatches, energy;
 } wrinkle_check;
 
 static cr_tensor *build_wrinkle(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
     wrinkle_check *c = user;
     return cr_nn_mul_scalar(
-        ctx, cr_gdsr_wrinkle_loss(ctx, c->w, in[0], c->ref, c->patches, c->npatches), c->scale);
+        ctx, cr_gdsr_wrinkle_loss(ctx, c->w, in[0], c->ref, c->patches, c->npatches, c->energy),
+        c->scale);
 }
 
 /* The wrinkle loss (Eq. 20, filter bank): the flat sheet's map is its
@@ -661,18 +662,18 @@ CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
     deform(hi, ref, 0.01f);
     cr_nn_ctx_reset(ctx);
     cr_tensor *l = cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, ref),
-                                        ref, NULL, 0);
+                                        ref, NULL, 0, 0);
     CR_CHECK(l->data[0] == 0.0f);
     deform(hi, x, 0.0f); /* the same stretch and shear, no ripple */
     cr_nn_ctx_reset(ctx);
-    float flat =
-        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref, NULL, 0)
-            ->data[0];
+    float flat = cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref,
+                                      NULL, 0, 0)
+                     ->data[0];
     deform(hi, x, 0.005f); /* half the ripple */
     cr_nn_ctx_reset(ctx);
-    float half =
-        cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref, NULL, 0)
-            ->data[0];
+    float half = cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref,
+                                      NULL, 0, 0)
+                     ->data[0];
     CR_CHECK(flat > 0.01f && half > 0.3f * flat && half < 0.7f * flat);
     nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 12);
     for (int64_t i = 0; i < n; i++)
@@ -689,6 +690,63 @@ CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
     nn_gradcheck_result res;
     CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
     CR_CHECK(res.checked == 60);
+    cr_nn_ctx_destroy(ctx);
+    free(x);
+    free(ref);
+    cr_gdsr_wrinkle_free(&w);
+    cr_gdsr_data_free(&d);
+}
+
+/* Energy mode (--wrinkle-energy): zero at the reference; the ripple with
+ * its crests and troughs swapped (x's height minus the ripple) costs next
+ * to nothing, where the texel-by-texel form charges it twice the flat
+ * sheet's cost; the flat sheet costs; over two patches the gradient
+ * against central differences. */
+CR_TEST(gdsr, wrinkle_energy_ignores_where_the_crests_lie) {
+    cr_gdsr_data d;
+    CR_REQUIRE(tiny_data(&d));
+    cr_error err = {0};
+    const cr_mesh *hi = d.high;
+    gdsr_wrinkle w;
+    CR_REQUIRE(cr_gdsr_wrinkle_create(hi, 16, &w, &err) == CR_OK);
+    int64_t n = (int64_t)hi->nv * 3;
+    float *x = malloc((size_t)n * sizeof(float)), *ref = malloc((size_t)n * sizeof(float));
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    CR_REQUIRE(ctx && x && ref);
+    deform(hi, ref, 0.01f);
+    float loss[2][3]; /* [energy][reference, flat, swapped] */
+    for (int e = 0; e < 2; e++)
+        for (int k = 0; k < 3; k++) {
+            deform(hi, x, k == 1 ? 0.0f : k == 2 ? -0.01f : 0.01f);
+            cr_nn_ctx_reset(ctx);
+            loss[e][k] =
+                cr_gdsr_wrinkle_loss(ctx, &w, cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x), ref,
+                                     NULL, 0, e)
+                    ->data[0];
+        }
+    printf("  texel by texel: flat %.4g, swapped %.4g; energy: flat %.4g, swapped %.4g\n",
+           loss[0][1], loss[0][2], loss[1][1], loss[1][2]);
+    CR_CHECK(loss[1][0] == 0.0f && loss[0][0] == 0.0f);
+    CR_CHECK(loss[0][2] > 1.5f * loss[0][1]); /* the phase costs texel by texel */
+    CR_CHECK(loss[1][1] > 0.005f && loss[1][2] < 0.05f * loss[1][1]);
+    gdsr_patch p[2];
+    cr_rng r = cr_rng_make(3, 0);
+    cr_gdsr_wrinkle_draw_patches(&w, 2, 8, &r, p);
+    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 14);
+    for (int64_t i = 0; i < n; i++)
+        x[i] += ref[i];
+    wrinkle_check c = {
+        .w = &w, .ref = ref, .scale = 5.0f, .patches = p, .npatches = 2, .energy = 1};
+    float g = max_grad(build_wrinkle, &c, x, hi->nv);
+    CR_CHECK(g > 0.05f && g < 50.0f);
+    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = "wrinkle energy";
+    gd.step = 1e-4;
+    gd.max_elems = 60;
+    gd.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
     cr_nn_ctx_destroy(ctx);
     free(x);
     free(ref);
@@ -1191,8 +1249,8 @@ CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
     deform(hi, ref, 0.01f);
     deform(hi, x, 0.0f);
     cr_tensor *X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
-    float whole = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, NULL, 0)->data[0];
-    float one = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, q, 1)->data[0];
+    float whole = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, NULL, 0, 0)->data[0];
+    float one = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, q, 1, 0)->data[0];
     CR_CHECK_NEAR(one, whole, 1e-6 * whole);
     /* the ripple only where x < -0.1 m: the flat x against it */
     memcpy(x, hi->pos, (size_t)n * sizeof(float));
@@ -1204,7 +1262,7 @@ CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
     for (int k = 0; k < 2; k++) {
         cr_nn_ctx_reset(ctx);
         X = cr_nn_from(ctx, 2, (int64_t[]){hi->nv, 3}, x);
-        l[k] = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, side + k, 1)->data[0];
+        l[k] = cr_gdsr_wrinkle_loss(ctx, &w, X, ref, side + k, 1, 0)->data[0];
     }
     printf("  patch losses at the two edges: %.4g, %.4g\n", l[0], l[1]);
     CR_CHECK(fmaxf(l[0], l[1]) > 0.01f && fminf(l[0], l[1]) == 0.0f);

@@ -282,9 +282,12 @@ typedef struct cr_gdsr_train_def {
      * wrinkle_patches  Eq. 24's random square patches of the map a step, the loss
      *              their mean (default 8, the paper's; 0: the whole chart as one patch)
      * wrinkle_patch_side  their side in texels (default 32, a quarter of the default
-     *              map's), each around a chart texel drawn uniformly */
+     *              map's), each around a chart texel drawn uniformly
+     * wrinkle_energy  1: compare per patch each response's RMS over the patch (how
+     *              strong the folds are there, not where their crests lie) instead
+     *              of the responses texel by texel (default 0) */
     float w_strain_l1, w_wrinkle;
-    int wrinkle_side, wrinkle_patches, wrinkle_patch_side;
+    int wrinkle_side, wrinkle_patches, wrinkle_patch_side, wrinkle_energy;
     /* Eq. 25's schedule: lambda_c (coarse term) starts at lambda_c0 and lambda_w
      * (every fine-garment term) at lambda_w0; every lambda_every epochs each moves
      * lambda_step toward 1 and stops there. The paper: 1.9, 0.1, 0.2, 10. Default

@@ -56,6 +56,9 @@ void help_gdsr(void) {
         "                       the map a step (default 8, the paper's; 0: the whole chart)\n"
         "  --wrinkle-patch-side N  their side in texels (default 32), each around a chart\n"
         "                       texel drawn uniformly\n"
+        "  --wrinkle-energy     compare per patch each response's RMS (how strong the folds\n"
+        "                       are there, not where their crests lie) instead of the\n"
+        "                       responses texel by texel\n"
         "  --lambda-c0 L --lambda-w0 L   Eq. 25's weights of the coarse and the fine terms\n"
         "                       at the start (default 1, 1; the paper's 1.9, 0.1), moved\n"
         "  --lambda-step S --lambda-every N   S toward 1 every N epochs (default 0.2, 10)\n"
@@ -147,6 +150,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_INT("--wrinkle-side", &def.wrinkle_side, 8, 2048),
         CLI_INT("--wrinkle-patches", &def.wrinkle_patches, 0, 1024),
         CLI_INT("--wrinkle-patch-side", &def.wrinkle_patch_side, 1, 2048),
+        CLI_FLAG("--wrinkle-energy", &def.wrinkle_energy),
         CLI_FLOAT("--lambda-c0", &def.lambda_c0, 1e-3, 100),
         CLI_FLOAT("--lambda-w0", &def.lambda_w0, 1e-3, 100),
         CLI_FLOAT("--lambda-step", &def.lambda_step, 0, 100),

@@ -103,9 +103,12 @@ void cr_gdsr_wrinkle_draw_patches(const gdsr_wrinkle *w, int n, int side, cr_rng
 /* Eq. 24's mean over the patches of Eq. 20's feature term: per patch the
  * sum over scales of the mean |R(x) - R(ref)| over the filter responses R at
  * the patch's texels (a patch with none at a scale skips it). patches NULL
- * or npatches 0: the whole chart as one patch. A scalar. */
+ * or npatches 0: the whole chart as one patch. energy 1: per patch and
+ * scale the mean over the 24 responses of |RMS(R(x)) - RMS(R(ref))|, the
+ * RMS over the patch's texels (phase-free). A scalar. */
 cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x,
-                                const float *ref, const gdsr_patch *patches, int npatches);
+                                const float *ref, const gdsr_patch *patches, int npatches,
+                                int energy);
 
 /* The model def as JSON (heap string) and back. */
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *def);

@@ -37,6 +37,7 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .wrinkle_side = 128,
                            .wrinkle_patches = 8,
                            .wrinkle_patch_side = 32,
+                           .wrinkle_energy = 0,
                            .lambda_c0 = 1.0f,
                            .lambda_w0 = 1.0f,
                            .lambda_step = 0.2f,
@@ -374,7 +375,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                         cr_gdsr_wrinkle_draw_patches(&wr, def->wrinkle_patches,
                                                      def->wrinkle_patch_side, &prng, patches);
                     rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht, patches,
-                                                 patches ? def->wrinkle_patches : 0);
+                                                 patches ? def->wrinkle_patches : 0,
+                                                 def->wrinkle_energy);
                 }
                 /* Eq. 13 and 15-18 on C^ against C* */
                 if (def->w_coarse_normal > 0) rt[6] = normal_l1(ctx, chat, Cs, low, lcols);

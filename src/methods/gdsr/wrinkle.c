@@ -7,7 +7,11 @@
  * diagonals at steps of 1, 2 and 4 texels stand for VGG's multi-layer
  * features; as in Eq. 20 they are compared by L1, summed over the scales
  * (layers). Eq. 24: the mean over random square patches of the map (8 a
- * step by default), or the whole chart as one patch (docs/gdsr.md). */
+ * step by default), or the whole chart as one patch (docs/gdsr.md).
+ * Energy mode compares per patch each response's RMS over the patch
+ * instead of the responses texel by texel: how strong the folds of each
+ * orientation and scale are there, not where their crests lie, as VGG's
+ * deeper features tolerate a shift within their receptive field. */
 #include "gdsr_internal.h"
 
 #include "crease/eval.h"
@@ -156,18 +160,33 @@ void cr_gdsr_wrinkle_draw_patches(const gdsr_wrinkle *w, int n, int side, cr_rng
     }
 }
 
+/* Per response channel, the RMS over the rows of r (rows, 24) -> (24). */
+static cr_tensor *channel_rms(cr_nn_ctx *ctx, cr_tensor *r) {
+    return cr_nn_sqrt(
+        ctx, cr_nn_add_scalar(ctx, cr_nn_mean_axis(ctx, cr_nn_square(ctx, r), 0, 0), 1e-8f));
+}
+
+/* Energy mode's term over the rows `rows` (m; NULL: all) of the responses. */
+static cr_tensor *energy_term(cr_nn_ctx *ctx, cr_tensor *rx, cr_tensor *rr, const int32_t *rows,
+                              int64_t m) {
+    if (rows) rx = cr_nn_gather_rows(ctx, rx, rows, m), rr = cr_nn_gather_rows(ctx, rr, rows, m);
+    return cr_nn_mean(ctx,
+                      cr_nn_abs(ctx, cr_nn_sub(ctx, channel_rms(ctx, rx), channel_rms(ctx, rr))));
+}
+
 cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor *x,
-                                const float *ref, const gdsr_patch *patches, int npatches) {
+                                const float *ref, const gdsr_patch *patches, int npatches,
+                                int energy) {
     cr_tensor *tx = cr_gdsr_wrinkle_normals(ctx, w, x);
     cr_tensor *tr = cr_gdsr_wrinkle_normals(ctx, w, cr_nn_from(ctx, 2, (int64_t[]){w->nv, 3}, ref));
     if (!patches) npatches = 0;
     cr_tensor *loss = NULL;
     for (int s = 0; s < CR_GDSR_WRINKLE_SCALES; s++) {
         if (w->nvalid[s] < 1) continue;
-        cr_tensor *e = cr_nn_abs(ctx, cr_nn_sub(ctx, responses(ctx, w, tx, s),
-                                                cr_nn_detach(ctx, responses(ctx, w, tr, s))));
+        cr_tensor *rx = responses(ctx, w, tx, s), *rr = cr_nn_detach(ctx, responses(ctx, w, tr, s));
+        cr_tensor *e = energy ? NULL : cr_nn_abs(ctx, cr_nn_sub(ctx, rx, rr));
         if (npatches == 0) {
-            cr_tensor *l = cr_nn_mean(ctx, e);
+            cr_tensor *l = energy ? energy_term(ctx, rx, rr, NULL, 0) : cr_nn_mean(ctx, e);
             loss = loss ? cr_nn_add(ctx, loss, l) : l;
             continue;
         }
@@ -181,8 +200,11 @@ cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor
                     w->scratch[m++] = (int32_t)v;
             }
             if (m == 0) continue;
-            cr_tensor *l = cr_nn_mul_scalar(
-                ctx, cr_nn_mean(ctx, cr_nn_gather_rows(ctx, e, w->scratch, m)), 1.0f / npatches);
+            cr_tensor *l =
+                cr_nn_mul_scalar(ctx,
+                                 energy ? energy_term(ctx, rx, rr, w->scratch, m)
+                                        : cr_nn_mean(ctx, cr_nn_gather_rows(ctx, e, w->scratch, m)),
+                                 1.0f / npatches);
             loss = loss ? cr_nn_add(ctx, loss, l) : l;
         }
     }
