@@ -635,6 +635,28 @@ static cr_tensor *build_wrinkle(cr_nn_ctx *ctx, cr_tensor *const *in, void *user
         c->scale);
 }
 
+/* x = c->ref plus a small random field (seeded); the loss's largest
+ * gradient entry in (gmin, 50), then its gradient against central
+ * differences on 60 entries. */
+static void wrinkle_gradcheck(const char *name, wrinkle_check *c, float *x, int32_t nv,
+                              uint64_t seed, float gmin) {
+    int64_t n = (int64_t)nv * 3;
+    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, seed);
+    for (int64_t i = 0; i < n; i++)
+        x[i] += c->ref[i];
+    float g = max_grad(build_wrinkle, c, x, nv);
+    CR_CHECK(g > gmin && g < 50.0f);
+    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){nv, 3}, x);
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = name;
+    gd.step = 1e-4;
+    gd.max_elems = 60;
+    gd.arena_bytes = (size_t)32 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, c, &res) == 0);
+    CR_CHECK(res.checked == 60);
+}
+
 /* The wrinkle loss (Eq. 20, filter bank): the flat sheet's map is its
  * normal everywhere; zero at the reference; a ripple the reference has and
  * x lacks costs more than half of it; the gradient against central
@@ -675,21 +697,8 @@ CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
                                       NULL, 0, 0)
                      ->data[0];
     CR_CHECK(flat > 0.01f && half > 0.3f * flat && half < 0.7f * flat);
-    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 12);
-    for (int64_t i = 0; i < n; i++)
-        x[i] += ref[i];
     wrinkle_check c = {.w = &w, .ref = ref, .scale = 5.0f};
-    float g = max_grad(build_wrinkle, &c, x, hi->nv);
-    CR_CHECK(g > 0.5f && g < 50.0f);
-    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
-    nn_gradcheck_def gd = nn_gradcheck_default_def();
-    gd.name = "wrinkle";
-    gd.step = 1e-4;
-    gd.max_elems = 60;
-    gd.arena_bytes = (size_t)32 << 20;
-    nn_gradcheck_result res;
-    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
-    CR_CHECK(res.checked == 60);
+    wrinkle_gradcheck("wrinkle", &c, x, hi->nv, 12, 0.5f);
     cr_nn_ctx_destroy(ctx);
     free(x);
     free(ref);
@@ -732,21 +741,9 @@ CR_TEST(gdsr, wrinkle_energy_ignores_where_the_crests_lie) {
     gdsr_patch p[2];
     cr_rng r = cr_rng_make(3, 0);
     cr_gdsr_wrinkle_draw_patches(&w, 2, 8, &r, p);
-    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 14);
-    for (int64_t i = 0; i < n; i++)
-        x[i] += ref[i];
     wrinkle_check c = {
         .w = &w, .ref = ref, .scale = 5.0f, .patches = p, .npatches = 2, .energy = 1};
-    float g = max_grad(build_wrinkle, &c, x, hi->nv);
-    CR_CHECK(g > 0.05f && g < 50.0f);
-    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
-    nn_gradcheck_def gd = nn_gradcheck_default_def();
-    gd.name = "wrinkle energy";
-    gd.step = 1e-4;
-    gd.max_elems = 60;
-    gd.arena_bytes = (size_t)32 << 20;
-    nn_gradcheck_result res;
-    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
+    wrinkle_gradcheck("wrinkle energy", &c, x, hi->nv, 14, 0.05f);
     cr_nn_ctx_destroy(ctx);
     free(x);
     free(ref);
@@ -1268,20 +1265,8 @@ CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
     CR_CHECK(fmaxf(l[0], l[1]) > 0.01f && fminf(l[0], l[1]) == 0.0f);
     /* gradient through two patches */
     deform(hi, ref, 0.01f);
-    nn_gradcheck_fill(x, n, -0.01f, 0.01f, 0.002f, 13);
-    for (int64_t i = 0; i < n; i++)
-        x[i] += ref[i];
     wrinkle_check c = {.w = &w, .ref = ref, .scale = 5.0f, .patches = p, .npatches = 2};
-    float g = max_grad(build_wrinkle, &c, x, hi->nv);
-    CR_CHECK(g > 0.2f && g < 50.0f);
-    nn_gradcheck_input gin = nn_gradcheck_in(2, (int64_t[]){hi->nv, 3}, x);
-    nn_gradcheck_def gd = nn_gradcheck_default_def();
-    gd.name = "wrinkle patches";
-    gd.step = 1e-4;
-    gd.max_elems = 60;
-    gd.arena_bytes = (size_t)32 << 20;
-    nn_gradcheck_result res;
-    CR_CHECK(nn_gradcheck(&gd, 1, &gin, NULL, build_wrinkle, &c, &res) == 0);
+    wrinkle_gradcheck("wrinkle patches", &c, x, hi->nv, 13, 0.2f);
     cr_nn_ctx_destroy(ctx);
     free(x);
     free(ref);
