@@ -169,7 +169,10 @@ static cr_tensor *channel_rms(cr_nn_ctx *ctx, cr_tensor *r) {
 /* Energy mode's term over the rows `rows` (m; NULL: all) of the responses. */
 static cr_tensor *energy_term(cr_nn_ctx *ctx, cr_tensor *rx, cr_tensor *rr, const int32_t *rows,
                               int64_t m) {
-    if (rows) rx = cr_nn_gather_rows(ctx, rx, rows, m), rr = cr_nn_gather_rows(ctx, rr, rows, m);
+    if (rows) {
+        rx = cr_nn_gather_rows(ctx, rx, rows, m);
+        rr = cr_nn_gather_rows(ctx, rr, rows, m);
+    }
     return cr_nn_mean(ctx,
                       cr_nn_abs(ctx, cr_nn_sub(ctx, channel_rms(ctx, rx), channel_rms(ctx, rr))));
 }
