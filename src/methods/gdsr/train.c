@@ -585,7 +585,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     cr_nn_ctx_set_grad_enabled(ctx, 0);
     if ((st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err)) != CR_OK)
         goto done;
-    double tsum = 0, csum = 0, stage[4] = {0};
+    double csum = 0, stage[4] = {0};
     int tcount = 0;
     for (int32_t t = 0; t < T; t++) {
         const float *ct = cl->low + t * nl3;
@@ -636,12 +636,12 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         /* then the layers (Eq. 27), after the body */
         if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
         double t4 = cr_time_now();
+        const double dt[4] = {t1 - t0 + bp_wall, t2 - t1, t3 - t2, t4 - t3};
         if (t == 2 && T > 3) {
-            out->first_frame_seconds = t4 - t0 + bp_wall;
+            out->first_frame_seconds = dt[0] + dt[1] + dt[2] + dt[3];
         } else {
-            stage[0] += t1 - t0 + bp_wall, stage[1] += t2 - t1, stage[2] += t3 - t2;
-            stage[3] += t4 - t3;
-            tsum += t4 - t0 + bp_wall;
+            for (int k = 0; k < 4; k++)
+                stage[k] += dt[k];
             csum += (double)(clock() - c0) / CLOCKS_PER_SEC + bp_cpu;
             tcount++;
         }
@@ -667,10 +667,11 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
             if (share > *dst) *dst = share;
         }
     }
-    out->seconds_per_frame = tcount ? tsum / tcount : 0;
     out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 4; k++) {
         out->stage_seconds[k] = tcount ? stage[k] / tcount : 0;
+        out->seconds_per_frame += out->stage_seconds[k]; /* out was zeroed on entry */
+    }
     st = CR_OK;
 done:
     free(bp);
