@@ -71,8 +71,8 @@ int main(int argc, char **argv) {
     const int32_t V = g->nv, H = cr_epnet_hinge_count(ep);
     const float *bar = cr_epnet_rest_angles(ep);
     printf("| motion | body | method | BED rad | PE rad | BE rad | MED m | CD | BEN J | COL m | "
-           "folded share at the end, > 0.3 / > 0.1 rad | s/frame |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+           "folded share at the end, > 0.3 / > 0.1 rad | s/frame | RB realised |\n");
+    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int b = 0; b < nb; b++)
         for (int mi = 0; mi < nm; mi++) {
             cr_epnet_seq *s = NULL;
@@ -85,8 +85,9 @@ int main(int argc, char **argv) {
                   *rb = malloc(sizeof(float) * (size_t)T * H);
             float *th = malloc(sizeof(float) * (size_t)T * H),
                   *rth = malloc(sizeof(float) * (size_t)T * H);
-            float *bpos = malloc(sizeof(float) * 3 * (size_t)T * V);
-            if (!ref || !rrest || !pos || !rb || !th || !rth || !bpos) return 1;
+            float *bpos = malloc(sizeof(float) * 3 * (size_t)T * V),
+                  *th0 = malloc(sizeof(float) * (size_t)T * H);
+            if (!ref || !rrest || !pos || !rb || !th || !rth || !bpos || !th0) return 1;
             if (cr_epnet_reference_friction(ep, s, 1, friction, ref, rrest, &err) != CR_OK)
                 return fail(&err);
             absolute(rrest, bar, T, H);
@@ -97,6 +98,17 @@ int main(int argc, char **argv) {
                 if (cr_epnet_rollout(m, s, k == 0, k == 0 ? pos : bpos, th, rb, &err) != CR_OK)
                     return fail(&err);
                 const double spf = (cr_time_now() - t0) / T;
+                /* RB realised: epnet's E-Net against itself with RB held at 0,
+                 * at the last frame (whose E-Net input is RB of the frame
+                 * before), over the hinges past 0.05 rad of RB */
+                double realised = NAN;
+                if (k == 0) {
+                    if (cr_epnet_rollout(ep, s, 0, NULL, th0, NULL, &err) != CR_OK)
+                        return fail(&err);
+                    realised =
+                        cr_epnet_rb_realised(th + (size_t)(T - 1) * H, th0 + (size_t)(T - 1) * H,
+                                             rb + (size_t)(T - 2) * H, H, 0.05);
+                }
                 absolute(rb, bar, T, H);
                 cr_eval_def ed = cr_eval_default_def();
                 cr_epnet_material(&ed.material);
@@ -117,14 +129,18 @@ int main(int argc, char **argv) {
                 printf("| %s | %s | %s |", motions[mi], bodies[b], k == 0 ? "epnet" : "baseline");
                 for (int q = 0; q < NSHOWN; q++)
                     printf(" %.4g |", r.summary[shown[q]].mean);
-                printf(" %.3f / %.3f | %.3f |\n", cr_epnet_fold_share(th, bar, T - 1, H, 0.3),
+                printf(" %.3f / %.3f | %.3f |", cr_epnet_fold_share(th, bar, T - 1, H, 0.3),
                        cr_epnet_fold_share(th, bar, T - 1, H, 0.1), spf);
+                if (k == 0)
+                    printf(" %.3f |\n", realised);
+                else
+                    printf(" |\n");
                 cr_eval_result_free(&r);
             }
             {
                 float *rp = rrest + (size_t)(T - 1) * H;
                 printf("| %s | %s | reference | | | | | | | | %.3f / %.3f (plastic rest past "
-                       "0.3: %.3f) | |\n",
+                       "0.3: %.3f) | | |\n",
                        motions[mi], bodies[b], cr_epnet_fold_share(rth, bar, T - 1, H, 0.3),
                        cr_epnet_fold_share(rth, bar, T - 1, H, 0.1),
                        cr_epnet_fold_share(rp, bar, 0, H, 0.3));
@@ -146,7 +162,7 @@ int main(int argc, char **argv) {
                 snprintf(path, sizeof path, "%s/side_by_side_%s.png", argv[3], motions[mi]);
                 if (cr_image_write_png(&grid, path, &err) != CR_OK) return fail(&err);
             }
-            free(ref), free(rrest), free(pos), free(rb), free(th), free(rth), free(bpos);
+            free(ref), free(rrest), free(pos), free(rb), free(th), free(rth), free(bpos), free(th0);
             cr_epnet_seq_destroy(s);
             fflush(stdout);
         }

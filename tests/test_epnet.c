@@ -220,6 +220,51 @@ CR_TEST(epnet, rb_response_pulls_hinges_toward_their_rb) {
     CR_CHECK(realised[1] > 0.5 && realised[1] < 1.5 && realised[1] > 2 * fabs(realised[0]));
 }
 
+/* RB augmentation: with one RB field held through every step, E-Net can fold
+ * its hinges from the pose alone and ignore its RB input; with the field
+ * scaled by a random factor each step it has to read RB. Measured as E-Net's
+ * angles given RB against the same E-Net's given RB = 0
+ * (cr_epnet_rb_realised), at the middle frame. */
+CR_TEST(epnet, rb_augment_makes_enet_read_rb) {
+    cr_error err;
+    double realised[2] = {0, 0};
+    for (int aug = 0; aug < 2; aug++) {
+        cr_epnet_def d = tiny_def();
+        d.w_rb_response = 2.0;
+        d.rb_augment = aug ? 2.0 : 0.0;
+        cr_epnet *m = NULL;
+        CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+        cr_epnet_seq *s = NULL;
+        CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
+        const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
+        float *rb = calloc((size_t)T * H, sizeof(float));
+        float *th = malloc(sizeof(float) * (size_t)T * H),
+              *th0 = malloc(sizeof(float) * (size_t)T * H);
+        CR_REQUIRE(rb && th && th0);
+        for (int32_t t = 0; t < T; t++)
+            for (int32_t h = 0; h < H; h += 7)
+                rb[(size_t)t * H + h] = (h / 7) % 2 ? 0.25f : -0.25f;
+        cr_epnet_losses l;
+        for (int i = 0; i < CR_TEST_SIZE(40, 40); i++)
+            CR_REQUIRE(cr_epnet_enet_step(m, s, rb, 1, &l, &err) == CR_OK);
+        for (int k = 0; k < 2; k++) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+            cr_tensor *x = cr_epnet_enet_forward_(m, s, k ? rb : NULL);
+            CR_REQUIRE(x != NULL);
+            cr_epnet_angles(m, x->data, T, k ? th : th0);
+        }
+        const size_t mid = (size_t)(T / 2) * H;
+        realised[aug] = cr_epnet_rb_realised(th + mid, th0 + mid, rb + mid, H, 0.05);
+        fprintf(stderr, "  rb_augment %g: RB realised against RB = 0: %.3f\n", d.rb_augment,
+                realised[aug]);
+        free(rb), free(th), free(th0);
+        cr_epnet_seq_destroy(s);
+        cr_epnet_destroy(m);
+    }
+    CR_CHECK(realised[1] > 0.3 && realised[1] > 3 * fabs(realised[0]));
+}
+
 CR_TEST(epnet, pnet_fits_a_known_rb_field) {
     cr_error err;
     cr_epnet_def d = tiny_def();

@@ -80,6 +80,9 @@ typedef struct cr_epnet_def {
                              w sum_h |RB_h| (theta_h - theta_bar_h - RB_h)^2 per frame, rad^3:
                              pulls E-Net's hinges that carry RB toward their rest angle + RB,
                              in proportion to |RB|. 0: off */
+    double rb_augment;    /* each E-Net training step sees its clip's RB scaled by a factor
+                             drawn uniformly from [0, rb_augment], so the pose cannot stand in
+                             for RB and E-Net must read it (ours, docs/epnet.md). 0: off */
     double sharpness;     /* Eq. 5 sigmoid sharpness (default 50) */
     int inertia_detach;   /* 1: the inertia term's frames t-1, t-2 held fixed (implicit Euler
                              per frame); 0: gradients through all three (default 0) */
@@ -152,7 +155,8 @@ const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m
 const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
 
 /* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
- * or only the loss when 0. */
+ * or only the loss when 0. A training step with def.rb_augment > 0 sees rb
+ * scaled by a factor drawn from [0, rb_augment] (the model's RNG). */
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err);
 /* P-Net fit: steps of MSE between P-Net's one-step increment from the
@@ -197,6 +201,7 @@ typedef struct cr_epnet_train_report {
     cr_epnet_losses first, last;
     double pnet_mse; /* last P-Net fit, rad^2 */
     double seconds;
+    size_t arena_peak_bytes; /* the tape's high-water mark, bytes */
 } cr_epnet_train_report;
 
 /* The curriculum (Algorithm 1) into def->out_dir: checkpoint.safetensors
@@ -232,6 +237,13 @@ cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr
  * exceeds thresh (rad). theta (T,H), theta_bar (H). */
 double cr_epnet_fold_share(const float *theta, const float *theta_bar, int32_t t, int32_t nh,
                            double thresh);
+/* How much of its RB input E-Net realises in one frame: sum_h sign(RB_h)
+ * (theta_h - theta0_h) / sum_h |RB_h| over the hinges with |RB_h| > thresh,
+ * where theta (H) are E-Net's angles given RB (H, relative to the rest
+ * angles) and theta0 the same E-Net's given RB = 0. 1: E-Net bends every such
+ * hinge by its RB; 0: RB does not move it. NaN when no hinge passes thresh. */
+double cr_epnet_rb_realised(const float *theta, const float *theta0, const float *rb, int32_t nh,
+                            double thresh);
 /* Dihedral angles theta (T,H), rad, of positions pos (T,V,3), m. */
 void cr_epnet_angles(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 /* The rest mesh's angles theta_bar (H), borrowed. */

@@ -28,6 +28,8 @@ void help_epnet(void) {
            "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
            "  --w-rb-response W    RB response loss weight (default 0: off; docs/epnet.md):\n"
            "                       W sum over hinges of |RB| (theta - theta_bar - RB)^2\n"
+           "  --rb-augment A       each E-Net step sees its clip's RB scaled by a factor drawn\n"
+           "                       from [0, A], so E-Net must read RB (default 0: off)\n"
            "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
            "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
@@ -63,7 +65,7 @@ static int run_train(int argc, char **argv) {
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1, detach = d.inertia_detach;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending, wrr = (float)d.w_rb_response;
+          wb = (float)d.w_bending, wrr = (float)d.w_rb_response, aug = (float)d.rb_augment;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -79,6 +81,7 @@ static int run_train(int argc, char **argv) {
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLOAT("--w-rb-response", &wrr, 0, 1e6),
+        CLI_FLOAT("--rb-augment", &aug, 0, 100),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -103,7 +106,7 @@ static int run_train(int argc, char **argv) {
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb, d.w_rb_response = wrr;
+    d.pin_top = pin_top, d.w_bending = wb, d.w_rb_response = wrr, d.rb_augment = aug;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;
@@ -121,6 +124,7 @@ static int run_train(int argc, char **argv) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddNumberToObject(j, "cycles", r.cycles_done);
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cJSON_AddNumberToObject(j, "arena_peak_mib", (double)r.arena_peak_bytes / (1 << 20));
         cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
         cJSON_AddNumberToObject(j, "last_loss", r.last_loss);
         for (int k = 0; k < CR_EPNET_NTERMS; k++) {

@@ -123,6 +123,9 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
+    if (!(d->rb_augment >= 0 && d->rb_augment <= 100))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_augment %g must be in [0, 100]",
+                       d->rb_augment);
     if (!(d->w_rb_response >= 0) || !isfinite(d->w_rb_response))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: w_rb_response %g must be finite and >= 0",
                        d->w_rb_response);
@@ -154,6 +157,18 @@ static cr_status make_pins(cr_epnet *m, cr_error *err) {
         if (g->pos[3 * v + 1] >= top - (float)m->def.pin_top)
             m->pin_mask[v] = 1.0f, m->pin[m->npin++] = v;
     return CR_OK;
+}
+
+/* The tape's arena: P-Net's step holds a few dozen (E, latent) tensors per
+ * message-passing step (the edge MLPs' inputs, activations and gradients),
+ * so it grows with the hinge graph's E edges; a fixed 512 MiB ran out at the
+ * authors' latent 128 on the 535-vertex t-shirt (40,106 edges). */
+static size_t epnet_arena_bytes(const cr_epnet_def *def, int64_t nedges) {
+    const double per_step =
+        4.0 * (double)nedges * def->pnet_latent * (8.0 + 4.0 * def->pnet_hidden_layers);
+    const double need = per_step * (def->pnet_steps + 3); /* measured: 1,525 MiB of 1,880 */
+    const double floor_bytes = (double)((size_t)512 << 20);
+    return (size_t)(need > floor_bytes ? need : floor_bytes);
 }
 
 cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
@@ -201,7 +216,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     }
     if (st == CR_OK) st = make_pins(m, err);
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = (size_t)512 << 20;
+    cd.arena_bytes = epnet_arena_bytes(def, m->ne);
     if (st == CR_OK) st = cr_nn_ctx_create(&cd, &m->ctx, err);
     if (st == CR_OK) st = cr_nn_params_create(&m->pe, err);
     if (st == CR_OK) st = cr_nn_params_create(&m->pp, err);
@@ -573,6 +588,17 @@ cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb
                              cr_epnet_losses *out, cr_error *err) {
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, train);
+    if (train && rb && m->def.rb_augment > 0) {
+        /* RB scaled by a draw from [0, rb_augment]: the pose cannot stand in
+         * for RB, so the step's losses reward reading it */
+        const int64_t n = (int64_t)s->T * m->nh;
+        float *scaled = cr_nn_scratch(m->ctx, "epnet scaled rb", sizeof(float) * (size_t)n);
+        if (!scaled) return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for scaled RB");
+        const float f = (float)(m->def.rb_augment * cr_rng_uniform(&m->rng));
+        for (int64_t k = 0; k < n; k++)
+            scaled[k] = f * rb[k];
+        rb = scaled;
+    }
     cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
     cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;

@@ -105,3 +105,14 @@ double cr_epnet_fold_share(const float *theta, const float *theta_bar, int32_t t
     }
     return (double)n / nh;
 }
+
+double cr_epnet_rb_realised(const float *theta, const float *theta0, const float *rb, int32_t nh,
+                            double thresh) {
+    double along = 0, total = 0;
+    for (int32_t i = 0; i < nh; i++) {
+        if (!(fabs(rb[i]) > thresh)) continue;
+        along += (rb[i] > 0 ? 1.0 : -1.0) * ((double)theta[i] - theta0[i]);
+        total += fabs(rb[i]);
+    }
+    return total > 0 ? along / total : NAN;
+}
