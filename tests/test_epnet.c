@@ -265,6 +265,55 @@ CR_TEST(epnet, rb_augment_makes_enet_read_rb) {
     CR_CHECK(realised[1] > 0.3 && realised[1] > 3 * fabs(realised[0]));
 }
 
+/* The local fold path (rb_fold): before any training it turns a sparse RB
+ * field's hinges by about their RB (E-Net with RB against E-Net with RB = 0),
+ * the same E-Net without the path not at all; and the path's weights get
+ * gradients from the loss. */
+CR_TEST(epnet, fold_path_realises_rb_from_the_start) {
+    cr_error err;
+    double realised[2] = {0, 0};
+    for (int fold = 0; fold < 2; fold++) {
+        cr_epnet_def d = tiny_def();
+        d.rb_fold = fold;
+        cr_epnet *m = NULL;
+        CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+        cr_epnet_seq *s = NULL;
+        CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
+        const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
+        float *rb = calloc((size_t)T * H, sizeof(float));
+        float *th = malloc(sizeof(float) * (size_t)T * H),
+              *th0 = malloc(sizeof(float) * (size_t)T * H);
+        CR_REQUIRE(rb && th && th0);
+        for (int32_t t = 0; t < T; t++)
+            for (int32_t h = 0; h < H; h += 11)
+                rb[(size_t)t * H + h] = (h / 11) % 2 ? 0.2f : -0.2f;
+        for (int k = 0; k < 2; k++) {
+            cr_nn_ctx_reset(m->ctx);
+            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+            cr_tensor *x = cr_epnet_enet_forward_(m, s, k ? rb : NULL);
+            if (cr_nn_ctx_error(m->ctx, &err) != CR_OK) fprintf(stderr, "  %s\n", err.msg);
+            CR_REQUIRE(x != NULL);
+            cr_epnet_angles(m, x->data, T, k ? th : th0);
+        }
+        const size_t mid = (size_t)(T / 2) * H;
+        realised[fold] = cr_epnet_rb_realised(th + mid, th0 + mid, rb + mid, H, 0.05);
+        fprintf(stderr, "  rb_fold %d: RB realised at the start: %.3f\n", fold, realised[fold]);
+        if (fold) {
+            cr_epnet_losses l;
+            CR_REQUIRE(cr_epnet_enet_step(m, s, rb, 1, &l, &err) == CR_OK);
+            double g = 0;
+            for (int64_t i = 0; i < m->fold_w->numel; i++)
+                g += fabs(m->fold_w->grad[i]);
+            CR_CHECK(isfinite(g) && g > 0);
+        }
+        free(rb), free(th), free(th0);
+        cr_epnet_seq_destroy(s);
+        cr_epnet_destroy(m);
+    }
+    CR_CHECK(realised[1] > 0.7 && realised[1] < 1.3);
+    CR_CHECK(fabs(realised[0]) < 0.1);
+}
+
 CR_TEST(epnet, pnet_fits_a_known_rb_field) {
     cr_error err;
     cr_epnet_def d = tiny_def();

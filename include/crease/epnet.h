@@ -80,6 +80,11 @@ typedef struct cr_epnet_def {
                              w sum_h |RB_h| (theta_h - theta_bar_h - RB_h)^2 per frame, rad^3:
                              pulls E-Net's hinges that carry RB toward their rest angle + RB,
                              in proportion to |RB|. 0: off */
+    int rb_fold;          /* 1: E-Net's offsets also get a local fold path, linear in RB:
+                             each hinge moves its four vertices by RB times learnt weights,
+                             started at the displacement that turns the hinge by RB (ours,
+                             docs/epnet.md); 0: RB reaches the offsets only through the RB
+                             encoder (the paper's) */
     double rb_augment;    /* each E-Net training step sees its clip's RB scaled by a factor
                              drawn uniformly from [0, rb_augment], so the pose cannot stand in
                              for RB and E-Net must read it (ours, docs/epnet.md). 0: off */

@@ -30,6 +30,8 @@ void help_epnet(void) {
            "                       W sum over hinges of |RB| (theta - theta_bar - RB)^2\n"
            "  --rb-augment A       each E-Net step sees its clip's RB scaled by a factor drawn\n"
            "                       from [0, A], so E-Net must read RB (default 0: off)\n"
+           "  --rb-fold            a local fold path from RB to E-Net's offsets besides the RB\n"
+           "                       encoder (docs/epnet.md)\n"
            "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
            "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
@@ -63,7 +65,7 @@ static int run_train(int argc, char **argv) {
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
-    int json = 0, seed = 1, detach = d.inertia_detach;
+    int json = 0, seed = 1, detach = d.inertia_detach, fold = d.rb_fold;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
           wb = (float)d.w_bending, wrr = (float)d.w_rb_response, aug = (float)d.rb_augment;
     const cli_opt opts[] = {
@@ -82,6 +84,7 @@ static int run_train(int argc, char **argv) {
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLOAT("--w-rb-response", &wrr, 0, 1e6),
         CLI_FLOAT("--rb-augment", &aug, 0, 100),
+        CLI_FLAG("--rb-fold", &fold),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -107,6 +110,7 @@ static int run_train(int argc, char **argv) {
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
     d.pin_top = pin_top, d.w_bending = wb, d.w_rb_response = wrr, d.rb_augment = aug;
+    d.rb_fold = fold;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;

@@ -19,6 +19,7 @@
  * three consecutive predicted frames, all through losses.h, per frame. */
 #include "epnet_internal.h"
 
+#include "crease/diffgeo.h"
 #include "crease/motion.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/phys_sim.h"
@@ -123,6 +124,8 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
+    if (d->rb_fold != 0 && d->rb_fold != 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_fold %d must be 0 or 1", d->rb_fold);
     if (!(d->rb_augment >= 0 && d->rb_augment <= 100))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_augment %g must be in [0, 100]",
                        d->rb_augment);
@@ -169,6 +172,34 @@ static size_t epnet_arena_bytes(const cr_epnet_def *def, int64_t nedges) {
     const double need = per_step * (def->pnet_steps + 3); /* measured: 1,525 MiB of 1,880 */
     const double floor_bytes = (double)((size_t)512 << 20);
     return (size_t)(need > floor_bytes ? need : floor_bytes);
+}
+
+/* The local fold path's weights: row 4h+k moves vertex k of hinge h by RB_h
+ * times it. Started at g / |g|^2, g the gradient of the hinge's angle at the
+ * rest mesh (cr_dihedral_angle_grad, the bending energy's own angle): the
+ * smallest displacement of the four vertices that turns the hinge by RB to
+ * first order, so the path realises an isolated hinge's RB before any
+ * training; training corrects it where neighbouring hinges share vertices. */
+static cr_status make_fold_path(cr_epnet *m, cr_error *err) {
+    const int64_t H = m->nh;
+    CR_TRY(cr_nn_params_add(m->pe, "enet.rb_fold", 2, (int64_t[]){4 * H, 3}, &m->fold_w, err));
+    m->fold_hinge = cr_malloc(sizeof(int32_t) * (size_t)(4 * H + 1), err);
+    if (!m->fold_hinge) return CR_ERR_MEMORY;
+    const float *p = m->garment->mesh->pos;
+    const int32_t *hg = m->topo->hinge;
+    for (int64_t h = 0; h < H; h++) {
+        float g[12];
+        cr_dihedral_angle_grad(p + 3 * hg[4 * h], p + 3 * hg[4 * h + 1], p + 3 * hg[4 * h + 2],
+                               p + 3 * hg[4 * h + 3], g);
+        double s = 0;
+        for (int i = 0; i < 12; i++)
+            s += (double)g[i] * g[i];
+        for (int i = 0; i < 12; i++)
+            m->fold_w->data[12 * h + i] = s > 0 ? (float)(g[i] / s) : 0.0f;
+        for (int k = 0; k < 4; k++)
+            m->fold_hinge[4 * h + k] = (int32_t)h;
+    }
+    return CR_OK;
 }
 
 cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
@@ -242,6 +273,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
         rd.input = def->dynamic_width, rd.hidden = def->gru_hidden;
         if (st == CR_OK) st = cr_gru_cell_create(&rd, m->pe, "enet.gru", &m->rng, &m->gru, err);
     }
+    if (st == CR_OK && def->rb_fold) st = make_fold_path(m, err);
     if (st == CR_OK) {
         /* start near the skinned template: the offsets' layer is scaled down */
         cr_tensor *w = m->dec->layer[m->dec->def.nlayers - 1].weight;
@@ -284,6 +316,7 @@ void cr_epnet_destroy(cr_epnet *m) {
     cr_optim_destroy(m->opt_e), cr_optim_destroy(m->opt_p);
     cr_mlp_destroy(m->enc_static), cr_mlp_destroy(m->enc_dyn), cr_mlp_destroy(m->enc_rb);
     cr_mlp_destroy(m->dec);
+    free(m->fold_hinge);
     cr_mpnn_destroy(m->pnet);
     cr_nn_params_destroy(m->pe), cr_nn_params_destroy(m->pp);
     cr_nn_ctx_destroy(m->ctx);
@@ -429,6 +462,31 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
 
 /* ------------------------------------------------------------- E-Net -- */
 
+/* The local fold path's offsets (T,V,1,3), canonical space, of RB (T,H) (NULL:
+ * zero): out[t,v] = sum over the hinges h having v as their vertex k of
+ * RB[t,h] W[4h+k]. Per coordinate: a scatter of (4H,T) rows onto the V
+ * vertices, then (V,T) -> (T,V) by a product with the identity (the tape has
+ * no transpose). */
+static cr_tensor *fold_offsets(cr_epnet *m, const float *rb, int64_t T) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t H = m->nh, V = m->nv;
+    cr_tensor *rt = cr_nn_new(c, 2, (int64_t[]){H, T}), *eye = cr_nn_zeros(c, 2, (int64_t[]){T, T});
+    if (!rt || !eye) return NULL;
+    for (int64_t t = 0; t < T; t++) {
+        eye->data[t * T + t] = 1.0f;
+        for (int64_t h = 0; h < H; h++)
+            rt->data[h * T + t] = rb ? rb[t * H + h] : 0.0f;
+    }
+    cr_tensor *r4 = cr_nn_gather_rows(c, rt, m->fold_hinge, 4 * H); /* (4H,T) */
+    cr_tensor *col[3];
+    for (int k = 0; k < 3; k++) {
+        cr_tensor *w = cr_nn_slice(c, m->fold_w, 1, k, 1); /* (4H,1) */
+        cr_tensor *y = cr_nn_scatter_add_rows(c, cr_nn_mul(c, r4, w), m->topo->hinge, V);
+        col[k] = cr_nn_reshape(c, cr_nn_matmul(c, eye, y, 0, 1), 3, (int64_t[]){T, V, 1});
+    }
+    return cr_nn_reshape(c, cr_nn_concat(c, 3, col, 2), 4, (int64_t[]){T, V, 1, 3});
+}
+
 cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T, V = m->nv, H = m->nh;
@@ -445,6 +503,7 @@ cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const floa
     cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
     cr_tensor *d = cr_mlp_forward(c, m->dec, z); /* (T, 3V) */
     d = cr_nn_reshape(c, d, 4, (int64_t[]){T, V, 1, 3});
+    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, T));
     cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
     cr_tensor *y = cr_nn_add(c, d, p);
     cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){T, V, 3, 3}, s->A);
@@ -748,6 +807,7 @@ static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, cons
     cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
     cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
     cr_tensor *d = cr_nn_reshape(c, cr_mlp_forward(c, m->dec, z), 4, (int64_t[]){1, V, 1, 3});
+    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, 1));
     cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
     cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){1, V, 3, 3}, s->A + (size_t)t * V * 9);
     cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, cr_nn_add(c, d, p)), 3, 0);

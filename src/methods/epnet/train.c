@@ -107,10 +107,10 @@ static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
-        " \"w_rb_response\": %.9g, \"rb_augment\": %.9g, \"static\": [",
+        " \"w_rb_response\": %.9g, \"rb_augment\": %.9g, \"rb_fold\": %d, \"static\": [",
         d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->inertia_detach, d->pin_top,
-        d->w_pin, d->w_bending, d->w_rb_response, d->rb_augment);
+        d->w_pin, d->w_bending, d->w_rb_response, d->rb_augment, d->rb_fold);
     for (int i = 0; i < d->nstatic; i++)
         fprintf(f.fp, "%s%d", i ? ", " : "", d->static_widths[i]);
     fprintf(f.fp, "], \"rb\": [");
@@ -163,6 +163,7 @@ cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
     d.w_bending = jnum(o, "w_bending", d.w_bending);
     d.w_rb_response = jnum(o, "w_rb_response", 0); /* models before the option: off */
     d.rb_augment = jnum(o, "rb_augment", 0);
+    d.rb_fold = jint(o, "rb_fold", 0);
     d.baseline = jint(o, "baseline", 0);
     d.seed = (uint64_t)jnum(o, "seed", 1);
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
