@@ -8,6 +8,7 @@
 
 #include "crease/epnet.h"
 #include "crease/mesh.h"
+#include "crease/npz.h"
 #include "crease/topology.h"
 #include "methods/epnet/epnet_internal.h"
 
@@ -521,6 +522,48 @@ static int files_equal(const char *a, const char *b) {
     if (fa) fclose(fa);
     if (fb) fclose(fb);
     return eq;
+}
+
+/* rb_from_rollout: the RB the next cycle's E-Net trains on is P-Net's
+ * rollout of the clip, exactly what `run` feeds E-Net (the saved rb_train
+ * equals a rollout of the saved model), and not the Eq. 4-5 targets. */
+CR_TEST(epnet, rb_from_rollout_trains_on_what_inference_feeds) {
+    cr_error err;
+    char dir[64], path[128];
+    snprintf(dir, sizeof dir, "/tmp/epnet_test_ro_%d", (int)getpid());
+    const char *motions[1] = {"squat"};
+    cr_epnet_def d = tiny_def();
+    d.material.yield_angle = 0.05; /* so RB is not zero */
+    d.frames = 12, d.pnet_frames = 2;
+    d.motions = motions, d.nmotions = 1;
+    d.cycles = 1, d.enet_epochs = 2, d.pnet_epochs = 1, d.quiet = 1;
+    d.rb_from_rollout = 1, d.rb_fold = 1;
+    d.out_dir = dir;
+    cr_epnet_train_report r;
+    CR_REQUIRE(cr_epnet_train(&d, &r, &err) == CR_OK);
+    cr_epnet *m = NULL;
+    CR_REQUIRE(cr_epnet_open(dir, &m, &err) == CR_OK);
+    cr_epnet_seq *s = NULL;
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, 0, &s, &err) == CR_OK);
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
+    float *rb = malloc(sizeof(float) * (size_t)T * H);
+    CR_REQUIRE(rb && cr_epnet_rollout(m, s, 1, NULL, NULL, rb, &err) == CR_OK);
+    snprintf(path, sizeof path, "%s/rb_train.npy", dir);
+    cr_npy a;
+    CR_REQUIRE(cr_npy_read(path, CR_NPY_AS_F32, &a, &err) == CR_OK);
+    CR_REQUIRE(a.count == (int64_t)T * H);
+    double maxdiff = 0, maxrb = 0;
+    for (int64_t i = 0; i < a.count; i++)
+        maxdiff = fmax(maxdiff, fabs(a.f32[i] - rb[i])), maxrb = fmax(maxrb, fabs(rb[i]));
+    fprintf(stderr, "  max |RB| %.4f rad, max |rb_train - rollout| %.3g\n", maxrb, maxdiff);
+    CR_CHECK(maxrb > 0.01);
+    CR_CHECK(maxdiff == 0.0);
+    cr_npy_free(&a), free(rb);
+    cr_epnet_seq_destroy(s);
+    cr_epnet_destroy(m);
+    char cmd[200];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    CR_CHECK(system(cmd) == 0);
 }
 
 CR_TEST(epnet, resume_is_bit_exact) {

@@ -85,6 +85,9 @@ typedef struct cr_epnet_def {
                              started at the displacement that turns the hinge by RB (ours,
                              docs/epnet.md); 0: RB reaches the offsets only through the RB
                              encoder (the paper's) */
+    int rb_from_rollout;  /* 1: each cycle's E-Net trains on P-Net's rollout RB of the clip (the
+                             RB inference feeds it); 0: on the Eq. 4-5 targets P-Net was
+                             fitted to (default; docs/epnet.md) */
     double rb_augment;    /* each E-Net training step sees its clip's RB scaled by a factor
                              drawn uniformly from [0, rb_augment], so the pose cannot stand in
                              for RB and E-Net must read it (ours, docs/epnet.md). 0: off */

@@ -124,6 +124,9 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
+    if (d->rb_from_rollout != 0 && d->rb_from_rollout != 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_from_rollout %d must be 0 or 1",
+                       d->rb_from_rollout);
     if (d->rb_fold != 0 && d->rb_fold != 1)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_fold %d must be 0 or 1", d->rb_fold);
     if (!(d->rb_augment >= 0 && d->rb_augment <= 100))

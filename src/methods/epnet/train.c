@@ -77,21 +77,16 @@ static cr_status save_rb(const char *dir, float *const *rb, int n, int64_t T, in
 static cr_status load_rb(const char *dir, float **rb, int n, int64_t T, int64_t H, cr_error *err) {
     char path[1024];
     snprintf(path, sizeof path, "%s/rb_train.npy", dir);
-    char *buf = NULL;
-    size_t len = 0;
-    CR_TRY(cr_file_read_all(path, &buf, &len, err));
-    /* header: magic, version, header length (v1: 2 bytes), then the data */
-    const size_t want = sizeof(float) * (size_t)(n * T * H);
-    size_t hl = len >= 10 ? (size_t)(uint8_t)buf[8] | ((size_t)(uint8_t)buf[9] << 8) : 0;
-    if (len < 10 + hl + want) {
-        free(buf);
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: expected (%d,%lld,%lld) float32", path, n,
+    cr_npy a;
+    CR_TRY(cr_npy_read(path, CR_NPY_AS_F32, &a, err));
+    if (a.ndim != 3 || a.shape[0] != n || a.shape[1] != T || a.shape[2] != H) {
+        cr_npy_free(&a);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: expected shape (%d,%lld,%lld)", path, n,
                        (long long)T, (long long)H);
     }
     for (int i = 0; i < n; i++)
-        memcpy(rb[i], buf + 10 + hl + sizeof(float) * (size_t)(i * T * H),
-               sizeof(float) * (size_t)(T * H));
-    free(buf);
+        memcpy(rb[i], a.f32 + i * T * H, sizeof(float) * (size_t)(T * H));
+    cr_npy_free(&a);
     return CR_OK;
 }
 
@@ -107,10 +102,11 @@ static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
-        " \"w_rb_response\": %.9g, \"rb_augment\": %.9g, \"rb_fold\": %d, \"static\": [",
+        " \"w_rb_response\": %.9g, \"rb_augment\": %.9g, \"rb_fold\": %d,"
+        " \"rb_from_rollout\": %d, \"static\": [",
         d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->inertia_detach, d->pin_top,
-        d->w_pin, d->w_bending, d->w_rb_response, d->rb_augment, d->rb_fold);
+        d->w_pin, d->w_bending, d->w_rb_response, d->rb_augment, d->rb_fold, d->rb_from_rollout);
     for (int i = 0; i < d->nstatic; i++)
         fprintf(f.fp, "%s%d", i ? ", " : "", d->static_widths[i]);
     fprintf(f.fp, "], \"rb\": [");
@@ -164,6 +160,7 @@ cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
     d.w_rb_response = jnum(o, "w_rb_response", 0); /* models before the option: off */
     d.rb_augment = jnum(o, "rb_augment", 0);
     d.rb_fold = jint(o, "rb_fold", 0);
+    d.rb_from_rollout = jint(o, "rb_from_rollout", 0);
     d.baseline = jint(o, "baseline", 0);
     d.seed = (uint64_t)jnum(o, "seed", 1);
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
@@ -302,8 +299,13 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
             st = cr_epnet_save(m, def->out_dir, c, 1, e + 1, err);
         }
         if (st != CR_OK) break;
-        for (int i = 0; i < n; i++)
-            memcpy(rb[i], target + i * T * H, sizeof(float) * (size_t)(T * H));
+        for (int i = 0; st == CR_OK && i < n; i++) {
+            if (def->rb_from_rollout)
+                st = cr_epnet_rollout(m, seq[i], 1, NULL, NULL, rb[i], err);
+            else
+                memcpy(rb[i], target + i * T * H, sizeof(float) * (size_t)(T * H));
+        }
+        if (st != CR_OK) break;
         st = cr_epnet_save(m, def->out_dir, c + 1, 0, 0, err);
         if (st == CR_OK) st = save_rb(def->out_dir, rb, n, T, H, err);
         if (st == CR_OK) rep.cycles_done = c + 1;
