@@ -146,6 +146,37 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
     }
 }
 
+/* RB of +-amp rad on every `every`-th hinge, all T frames (caller frees). */
+static float *sparse_rb(int32_t T, int32_t H, int32_t every, float amp) {
+    float *rb = calloc((size_t)T * H, sizeof(float));
+    for (int32_t t = 0; rb && t < T; t++)
+        for (int32_t h = 0; h < H; h += every)
+            rb[(size_t)t * H + h] = (h / every) % 2 ? amp : -amp;
+    return rb;
+}
+
+/* cr_epnet_rb_realised at the middle frame: E-Net's angles given rb against
+ * the same E-Net's given RB = 0. NaN on failure. */
+static double realised_at_mid(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
+    float *th = malloc(sizeof(float) * (size_t)T * H), *th0 = malloc(sizeof(float) * (size_t)T * H);
+    double r = NAN;
+    int ok = th && th0;
+    for (int k = 0; ok && k < 2; k++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *x = cr_epnet_enet_forward_(m, s, k ? rb : NULL);
+        if (!x)
+            ok = 0;
+        else
+            cr_epnet_angles(m, x->data, T, k ? th : th0);
+    }
+    const size_t mid = (size_t)(T / 2) * H;
+    if (ok) r = cr_epnet_rb_realised(th + mid, th0 + mid, rb + mid, H, 0.05);
+    free(th), free(th0);
+    return r;
+}
+
 /* Mean over the hinges with RB of sign(RB) (theta - theta_bar) / |RB| for
  * E-Net's output with rb on s: 1 when E-Net realises RB, 0 when it ignores it. */
 static double rb_realised(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
@@ -182,11 +213,8 @@ CR_TEST(epnet, rb_response_pulls_hinges_toward_their_rb) {
         CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
         const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
         const int32_t V = cr_epnet_garment(m)->nv;
-        /* RB of +-0.25 rad on every seventh hinge, all frames */
-        float *rb = calloc((size_t)T * H, sizeof(float));
-        for (int32_t t = 0; t < T; t++)
-            for (int32_t h = 0; h < H; h += 7)
-                rb[(size_t)t * H + h] = (h / 7) % 2 ? 0.25f : -0.25f;
+        float *rb = sparse_rb(T, H, 7, 0.25f);
+        CR_REQUIRE(rb != NULL);
         if (on) {
             /* the value on the skinned-looking start, by hand */
             float *pos = malloc(sizeof(float) * 3 * (size_t)T * V);
@@ -237,29 +265,15 @@ CR_TEST(epnet, rb_augment_makes_enet_read_rb) {
         CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
         cr_epnet_seq *s = NULL;
         CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
-        const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
-        float *rb = calloc((size_t)T * H, sizeof(float));
-        float *th = malloc(sizeof(float) * (size_t)T * H),
-              *th0 = malloc(sizeof(float) * (size_t)T * H);
-        CR_REQUIRE(rb && th && th0);
-        for (int32_t t = 0; t < T; t++)
-            for (int32_t h = 0; h < H; h += 7)
-                rb[(size_t)t * H + h] = (h / 7) % 2 ? 0.25f : -0.25f;
+        float *rb = sparse_rb(cr_epnet_seq_frames(s), cr_epnet_hinge_count(m), 7, 0.25f);
+        CR_REQUIRE(rb != NULL);
         cr_epnet_losses l;
-        for (int i = 0; i < CR_TEST_SIZE(40, 40); i++)
+        for (int i = 0; i < 40; i++)
             CR_REQUIRE(cr_epnet_enet_step(m, s, rb, 1, &l, &err) == CR_OK);
-        for (int k = 0; k < 2; k++) {
-            cr_nn_ctx_reset(m->ctx);
-            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-            cr_tensor *x = cr_epnet_enet_forward_(m, s, k ? rb : NULL);
-            CR_REQUIRE(x != NULL);
-            cr_epnet_angles(m, x->data, T, k ? th : th0);
-        }
-        const size_t mid = (size_t)(T / 2) * H;
-        realised[aug] = cr_epnet_rb_realised(th + mid, th0 + mid, rb + mid, H, 0.05);
+        realised[aug] = realised_at_mid(m, s, rb);
         fprintf(stderr, "  rb_augment %g: RB realised against RB = 0: %.3f\n", d.rb_augment,
                 realised[aug]);
-        free(rb), free(th), free(th0);
+        free(rb);
         cr_epnet_seq_destroy(s);
         cr_epnet_destroy(m);
     }
@@ -280,24 +294,9 @@ CR_TEST(epnet, fold_path_realises_rb_from_the_start) {
         CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
         cr_epnet_seq *s = NULL;
         CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
-        const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
-        float *rb = calloc((size_t)T * H, sizeof(float));
-        float *th = malloc(sizeof(float) * (size_t)T * H),
-              *th0 = malloc(sizeof(float) * (size_t)T * H);
-        CR_REQUIRE(rb && th && th0);
-        for (int32_t t = 0; t < T; t++)
-            for (int32_t h = 0; h < H; h += 11)
-                rb[(size_t)t * H + h] = (h / 11) % 2 ? 0.2f : -0.2f;
-        for (int k = 0; k < 2; k++) {
-            cr_nn_ctx_reset(m->ctx);
-            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-            cr_tensor *x = cr_epnet_enet_forward_(m, s, k ? rb : NULL);
-            if (cr_nn_ctx_error(m->ctx, &err) != CR_OK) fprintf(stderr, "  %s\n", err.msg);
-            CR_REQUIRE(x != NULL);
-            cr_epnet_angles(m, x->data, T, k ? th : th0);
-        }
-        const size_t mid = (size_t)(T / 2) * H;
-        realised[fold] = cr_epnet_rb_realised(th + mid, th0 + mid, rb + mid, H, 0.05);
+        float *rb = sparse_rb(cr_epnet_seq_frames(s), cr_epnet_hinge_count(m), 11, 0.2f);
+        CR_REQUIRE(rb != NULL);
+        realised[fold] = realised_at_mid(m, s, rb);
         fprintf(stderr, "  rb_fold %d: RB realised at the start: %.3f\n", fold, realised[fold]);
         if (fold) {
             cr_epnet_losses l;
@@ -307,7 +306,7 @@ CR_TEST(epnet, fold_path_realises_rb_from_the_start) {
                 g += fabs(m->fold_w->grad[i]);
             CR_CHECK(isfinite(g) && g > 0);
         }
-        free(rb), free(th), free(th0);
+        free(rb);
         cr_epnet_seq_destroy(s);
         cr_epnet_destroy(m);
     }
