@@ -490,28 +490,38 @@ static cr_tensor *fold_offsets(cr_epnet *m, const float *rb, int64_t T) {
     return cr_nn_reshape(c, cr_nn_concat(c, 3, col, 2), 4, (int64_t[]){T, V, 1, 3});
 }
 
-cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+/* E-Net's decoder and the garment's skinning for frames t0..t0+T-1: the
+ * static code hs (T,.) and the GRU's hg (T,.) with the RB code of rb (T,H)
+ * (NULL: zero) to offsets in canonical space (plus the fold path's), then
+ * x = A (p + d) + b, positions (T,V,3). One copy for the whole-sequence
+ * forward and the rollout's frame. */
+static cr_tensor *enet_decode(cr_epnet *m, const cr_epnet_seq *s, int64_t t0, int64_t T,
+                              cr_tensor *hs, cr_tensor *hg, const float *rb) {
     cr_nn_ctx *c = m->ctx;
-    const int64_t T = s->T, V = m->nv, H = m->nh;
-    cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
-    cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){T, EP_DYN_IN}, s->dyn);
+    const int64_t V = m->nv, H = m->nh;
     cr_tensor *r =
         rb ? cr_nn_from(c, 2, (int64_t[]){T, H}, rb) : cr_nn_zeros(c, 2, (int64_t[]){T, H});
+    cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
+    cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
+    cr_tensor *d = cr_nn_reshape(c, cr_mlp_forward(c, m->dec, z), 4, (int64_t[]){T, V, 1, 3});
+    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, T));
+    cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
+    cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){T, V, 3, 3}, s->A + (size_t)t0 * V * 9);
+    cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, cr_nn_add(c, d, p)), 3, 0); /* (T,V,3) */
+    return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b + (size_t)t0 * V * 3));
+}
+
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+    cr_nn_ctx *c = m->ctx;
+    const int64_t T = s->T;
+    cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
+    cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){T, EP_DYN_IN}, s->dyn);
     cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
     cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
     hd = cr_nn_reshape(c, hd, 3, (int64_t[]){T, 1, m->def.dynamic_width});
     cr_tensor *hg = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
     hg = cr_nn_reshape(c, hg, 2, (int64_t[]){T, m->def.gru_hidden});
-    cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
-    cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
-    cr_tensor *d = cr_mlp_forward(c, m->dec, z); /* (T, 3V) */
-    d = cr_nn_reshape(c, d, 4, (int64_t[]){T, V, 1, 3});
-    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, T));
-    cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
-    cr_tensor *y = cr_nn_add(c, d, p);
-    cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){T, V, 3, 3}, s->A);
-    cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, y), 3, 0); /* (T,V,3) */
-    return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b));
+    return enet_decode(m, s, 0, T, hs, hg, rb);
 }
 
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
@@ -798,23 +808,14 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
 static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
                              cr_tensor *h_prev, cr_tensor **h_out) {
     cr_nn_ctx *c = m->ctx;
-    const int64_t V = m->nv, H = m->nh;
     cr_tensor *st =
         cr_nn_from(c, 2, (int64_t[]){1, EP_STATIC_IN}, s->stat + (size_t)t * EP_STATIC_IN);
     cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){1, EP_DYN_IN}, s->dyn + (size_t)t * EP_DYN_IN);
-    cr_tensor *r = cr_nn_from(c, 2, (int64_t[]){1, H}, rb);
     cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
     cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
     cr_tensor *hg = cr_gru_cell_forward(c, &m->gru, hd, h_prev);
     *h_out = hg;
-    cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
-    cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
-    cr_tensor *d = cr_nn_reshape(c, cr_mlp_forward(c, m->dec, z), 4, (int64_t[]){1, V, 1, 3});
-    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, 1));
-    cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
-    cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){1, V, 3, 3}, s->A + (size_t)t * V * 9);
-    cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, cr_nn_add(c, d, p)), 3, 0);
-    return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){1, V, 3}, s->b + (size_t)t * V * 3));
+    return enet_decode(m, s, t, 1, hs, hg, rb);
 }
 
 cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
