@@ -44,8 +44,9 @@ done
 
 # ---- the module table: header -> layer -------------------------------------------------
 declare -A header_layer
-while IFS=$'\t' read -r line headers files; do
-  mapfile -t dirs < <(grep -o 'src/[a-z_]*/' <<<"$files" | sort -u | sed 's|src/||; s|/||')
+# awk gives each row as: line number, its headers, its distinct src/ layers (spaces between)
+while IFS=$'\t' read -r line headers dirs; do
+  read -r -a dirs <<<"$dirs"
   if ((${#dirs[@]} == 0)); then
     problem "$doc:$line: row for $headers names no src/ path"
     continue
@@ -54,14 +55,27 @@ while IFS=$'\t' read -r line headers files; do
     problem "$doc:$line: row for $headers has files in several layers: ${dirs[*]}"
     continue
   fi
-  for h in $(grep -o '`[a-z0-9_]*\.h`' <<<"$headers" | tr -d '`'); do
+  for h in $headers; do
     header_layer[$h]=${dirs[0]}
     [[ -f $repo/include/crease/$h ]] || echo "check_layers: note: $doc:$line lists $h, which include/crease/ does not have (yet)" >&2
   done
 done < <(awk -F'|' '
   /^## Modules and their headers/ { in_section = 1; next }
   /^## / { in_section = 0 }
-  in_section && /^\| `/ { print NR "\t" $2 "\t" $3 }
+  in_section && /^\| `/ {
+    h = ""; rest = $2
+    while (match(rest, /`[a-z0-9_]*\.h`/)) {
+      h = h (h == "" ? "" : " ") substr(rest, RSTART + 1, RLENGTH - 2)
+      rest = substr(rest, RSTART + RLENGTH)
+    }
+    d = ""; delete seen; rest = $3
+    while (match(rest, /src\/[a-z_]*\//)) {
+      x = substr(rest, RSTART + 4, RLENGTH - 5)
+      if (!(x in seen)) { seen[x] = 1; d = d (d == "" ? "" : " ") x }
+      rest = substr(rest, RSTART + RLENGTH)
+    }
+    print NR "\t" h "\t" d
+  }
 ' "$doc")
 
 for f in "$repo"/include/crease/*.h; do
@@ -70,39 +84,34 @@ for f in "$repo"/include/crease/*.h; do
 done
 
 # ---- the includes ----------------------------------------------------------------------
-# check FILE LAYER: every #include "crease/X.h" and "dir/X.h" of FILE is at LAYER or below.
-check() {
-  local file=$1 layer=$2 rel=${1#"$repo"/}
-  local own=${rank[$layer]:-}
-  [[ -n $own ]] || return 0
-  local lineno inc target
-  while IFS=: read -r lineno inc; do
-    inc=${inc#*\"}
-    inc=${inc%%\"*}
-    if [[ $inc == crease/* ]]; then
-      local h=${inc#crease/}
-      target=${header_layer[$h]:-}
-      [[ -n $target ]] || continue # reported above, or not a public header
-    elif [[ $inc == */* ]]; then
-      target=${inc%%/*}
-      [[ -n ${rank[$target]+x} ]] || continue
-    else
-      continue # same folder
-    fi
-    if ((rank[$target] > own)); then
-      problem "$rel:$lineno: $layer/ includes \"$inc\" of the higher layer $target/"
-    fi
-  done < <(grep -n '^[[:space:]]*#[[:space:]]*include[[:space:]]*"' "$file")
-}
-
-while IFS= read -r f; do
-  rel=${f#"$repo"/src/}
-  check "$f" "${rel%%/*}"
-done < <(find "$repo/src" -name '*.[ch]' | sort)
-for f in "$repo"/include/crease/*.h; do
-  h=$(basename "$f")
-  [[ -n ${header_layer[$h]+x} ]] && check "$f" "${header_layer[$h]}"
-done
+# Every #include "crease/X.h" and "dir/X.h" of a file is at its layer or below. One grep
+# over the whole tree (a process per file made this check take seconds).
+while IFS=: read -r file lineno inc; do
+  rel=${file#"$repo"/}
+  if [[ $rel == src/* ]]; then
+    layer=${rel#src/}
+    layer=${layer%%/*}
+  else
+    layer=${header_layer[${rel##*/}]:-} # a public header: its table row's layer
+  fi
+  own=${rank[$layer]:-}
+  [[ -n $own ]] || continue
+  inc=${inc#*\"}
+  inc=${inc%%\"*}
+  if [[ $inc == crease/* ]]; then
+    target=${header_layer[${inc#crease/}]:-}
+    [[ -n $target ]] || continue # reported above, or not a public header
+  elif [[ $inc == */* ]]; then
+    target=${inc%%/*}
+    [[ -n ${rank[$target]+x} ]] || continue
+  else
+    continue # same folder
+  fi
+  if ((rank[$target] > own)); then
+    problem "$rel:$lineno: $layer/ includes \"$inc\" of the higher layer $target/"
+  fi
+done < <(grep -rn --include='*.[ch]' '^[[:space:]]*#[[:space:]]*include[[:space:]]*"' \
+  "$repo/src" "$repo/include/crease" | sort -t: -k1,1 -k2,2n)
 
 if ((fail)); then
   echo "check_layers: FAILED (docs/ARCHITECTURE.md: ## Layers and ## Modules and their headers)" >&2

@@ -339,3 +339,38 @@ CR_TEST(eval, plot_draws) {
     cr_image_free(&img);
     CR_CHECK(cr_plot_lines(p, 0, NULL, NULL, 640, 480, &img, &err) == CR_ERR_INVALID);
 }
+
+/* The spectrum's power on a known field: a sheet with a 5 cm sine wave of
+ * amplitude a has mean curvature H = z''/2 (small slopes), whose mean square
+ * a^2 k^4 / 8 lies in the 4-8 cm band; twice the amplitude gives four times
+ * the power and the same shares. */
+CR_TEST(eval, spectrum_power_of_a_sine_sheet) {
+    cr_error err = {0};
+    cr_mesh *g = NULL;
+    CR_REQUIRE(cr_prim_plane(161, 161, 0.4f, 0.4f, &g, &err) == CR_OK);
+    const double lambda = 0.05, k = 2.0 * M_PI / lambda;
+    float *flat = malloc(sizeof(float) * 3 * (size_t)g->nv);
+    CR_REQUIRE(flat != NULL);
+    memcpy(flat, g->pos, sizeof(float) * 3 * (size_t)g->nv);
+    double share[2][CR_EVAL_H_BANDS], power[2][CR_EVAL_H_BANDS];
+    for (int s = 0; s < 2; s++) {
+        const double a = 0.0005 * (s + 1);
+        for (int32_t i = 0; i < g->nv; i++)
+            g->pos[3 * i + 1] = (float)(a * sin(k * flat[3 * i]));
+        double rms;
+        CR_REQUIRE(cr_eval_curvature_spectrum(g, &rms, share[s], power[s], &err) == CR_OK);
+        const double expect = a * a * k * k * k * k / 8.0;
+        double total = 0.0;
+        for (int b = 0; b < CR_EVAL_H_BANDS; b++)
+            total += power[s][b];
+        fprintf(stderr, "  a %.1f mm: 4-8 cm power %.4g (1/m)^2, expected %.4g; share %.4f\n",
+                a * 1e3, power[s][2], expect, share[s][2]);
+        CR_CHECK(share[s][2] > 0.9);
+        CR_CHECK(fabs(power[s][2] - expect) < 0.1 * expect);
+        CR_CHECK_NEAR(power[s][2] / total, share[s][2], 1e-9);
+    }
+    CR_CHECK(fabs(power[1][2] / power[0][2] - 4.0) < 0.05);
+    CR_CHECK_NEAR(share[1][2], share[0][2], 0.01);
+    free(flat);
+    cr_mesh_destroy(g);
+}

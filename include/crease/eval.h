@@ -153,11 +153,13 @@ typedef struct cr_eval_result {
                             bending |theta_R - rest| (no rest angles given) */
     double *frames;      /* (T, CR_EVAL_METRIC_COUNT), NAN where undefined; owned */
     cr_eval_summary summary[CR_EVAL_METRIC_COUNT];
-    int32_t worst_frame;                 /* frame of the largest MED */
-    float *vertex_error;                 /* (V) |P_i - R_i| at worst_frame, m; owned */
-    int has_spectrum;                    /* 1 when the garment has UVs: the bands below are set */
-    double h_band_pred[CR_EVAL_H_BANDS]; /* spectrum shares of P at the last frame */
-    double h_band_ref[CR_EVAL_H_BANDS];  /* of R at the last frame */
+    int32_t worst_frame;                  /* frame of the largest MED */
+    float *vertex_error;                  /* (V) |P_i - R_i| at worst_frame, m; owned */
+    int has_spectrum;                     /* 1 when the garment has UVs: the bands below are set */
+    double h_band_pred[CR_EVAL_H_BANDS];  /* spectrum shares of P at the last frame */
+    double h_band_ref[CR_EVAL_H_BANDS];   /* of R at the last frame */
+    double h_power_pred[CR_EVAL_H_BANDS]; /* each band's power of P, (1/m)^2 (below) */
+    double h_power_ref[CR_EVAL_H_BANDS];  /* of R */
 } cr_eval_result;
 
 /* Compute every metric. Refuses (CR_ERR_INVALID / CR_ERR_SHAPE / CR_ERR_NAN,
@@ -223,9 +225,14 @@ float cr_eval_chart_scale(const cr_mesh *m);
 /* The mean-curvature field's area-weighted RMS (1/m) and spectrum: H
  * resampled over the UV chart on a 256x256 grid, mean removed, 2-D DFT
  * power binned by wavelength (UV frequency scaled by cr_eval_chart_scale),
- * as shares of the total. Needs UVs (CR_ERR_INVALID). */
+ * as shares of the total (band). power (may be NULL) gets each band's power
+ * in (1/m)^2: its part of the resampled field's mean square over the chart's
+ * pixels (Parseval), so the bands sum to that mean square. Shares compare
+ * shapes of spectra; powers compare amounts: a surface with half the folds of
+ * another has a lower power in their band but can have a higher share in
+ * every other band. Needs UVs (CR_ERR_INVALID). */
 cr_status cr_eval_curvature_spectrum(const cr_mesh *m, double *h_rms, double band[CR_EVAL_H_BANDS],
-                                     cr_error *err);
+                                     double power[CR_EVAL_H_BANDS], cr_error *err);
 
 /* The pixels of the normal maps SSIM compares: side x side over m's UV
  * bounds, row 0 at the top (highest v); per pixel the triangle under its

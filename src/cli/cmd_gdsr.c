@@ -281,8 +281,11 @@ static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const fl
     if (r.has_spectrum) {
         cJSON_AddNumberToObject(o, "h_band_high_pred", r.h_band_pred[CR_EVAL_H_BANDS - 1]);
         cJSON_AddNumberToObject(o, "h_band_high_ref", r.h_band_ref[CR_EVAL_H_BANDS - 1]);
-        fprintf(stderr, " %11.4g %11.4g", r.h_band_pred[CR_EVAL_H_BANDS - 1],
-                r.h_band_ref[CR_EVAL_H_BANDS - 1]);
+        cJSON_AddNumberToObject(o, "h_power_high_pred", r.h_power_pred[CR_EVAL_H_BANDS - 1]);
+        cJSON_AddNumberToObject(o, "h_power_high_ref", r.h_power_ref[CR_EVAL_H_BANDS - 1]);
+        fprintf(stderr, " %11.4g %11.4g %11.4g %11.4g", r.h_band_pred[CR_EVAL_H_BANDS - 1],
+                r.h_band_ref[CR_EVAL_H_BANDS - 1], r.h_power_pred[CR_EVAL_H_BANDS - 1],
+                r.h_power_ref[CR_EVAL_H_BANDS - 1]);
     }
     fprintf(stderr, "\n");
     cr_eval_result_free(&r);
@@ -512,7 +515,8 @@ static int cmd_run(int argc, char **argv) {
         fprintf(stderr, "  %-10s", "");
         for (int k = 0; k < NSHOWN; k++)
             fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
-        fprintf(stderr, " %11s %11s\n", "hband_pred", "hband_ref");
+        fprintf(stderr, " %11s %11s %11s %11s\n", "hband_pred", "hband_ref", "hpower_pred",
+                "hpower_ref");
         table = cJSON_AddObjectToObject(j, "metrics");
         if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
         if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;

@@ -637,8 +637,9 @@ cr_status cr_eval_run(const cr_eval_def *def, const cr_eval_input *in, cr_eval_r
         double rms;
         memcpy(c.mp->pos, frame_of(in->pred, V, T - 1), (size_t)V * 3 * sizeof(float));
         memcpy(c.mr->pos, frame_of(in->ref, V, T - 1), (size_t)V * 3 * sizeof(float));
-        st = cr_eval_curvature_spectrum(c.mp, &rms, out->h_band_pred, err);
-        if (st == CR_OK) st = cr_eval_curvature_spectrum(c.mr, &rms, out->h_band_ref, err);
+        st = cr_eval_curvature_spectrum(c.mp, &rms, out->h_band_pred, out->h_power_pred, err);
+        if (st == CR_OK)
+            st = cr_eval_curvature_spectrum(c.mr, &rms, out->h_band_ref, out->h_power_ref, err);
         out->has_spectrum = st == CR_OK;
     }
     ctx_free(&c);

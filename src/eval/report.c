@@ -57,6 +57,9 @@ char *cr_eval_summary_json(const cr_eval_result *r) {
         cJSON *sp = cJSON_AddObjectToObject(o, "spectrum");
         cJSON *edges = cJSON_AddArrayToObject(sp, "band_edges_m");
         cJSON *p = cJSON_AddArrayToObject(sp, "pred"), *q = cJSON_AddArrayToObject(sp, "ref");
+        /* the same bands' power in (1/m)^2 (cr_eval_curvature_spectrum) */
+        cJSON *pp = cJSON_AddArrayToObject(sp, "pred_power");
+        cJSON *qp = cJSON_AddArrayToObject(sp, "ref_power");
         for (int b = 0; b <= CR_EVAL_H_BANDS; b++)
             cJSON_AddItemToArray(edges, isfinite(cr_eval_h_band_edges_m[b])
                                             ? cJSON_CreateNumber(cr_eval_h_band_edges_m[b])
@@ -64,6 +67,8 @@ char *cr_eval_summary_json(const cr_eval_result *r) {
         for (int b = 0; b < CR_EVAL_H_BANDS; b++) {
             cJSON_AddItemToArray(p, cJSON_CreateNumber(r->h_band_pred[b]));
             cJSON_AddItemToArray(q, cJSON_CreateNumber(r->h_band_ref[b]));
+            cJSON_AddItemToArray(pp, cJSON_CreateNumber(r->h_power_pred[b]));
+            cJSON_AddItemToArray(qp, cJSON_CreateNumber(r->h_power_ref[b]));
         }
     }
     char *text = cJSON_PrintUnformatted(o);

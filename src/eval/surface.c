@@ -105,8 +105,10 @@ static void dft_range(void *p, int64_t begin, int64_t end) {
     }
 }
 
-/* Power of the mean-removed field per wavelength band, as shares of the total. */
-static cr_status spectrum(const cr_mesh *m, const float *H, double band[], cr_error *err) {
+/* Power of the mean-removed field per wavelength band, as shares of the
+ * total (band) and, when power is not NULL, in the field's units squared. */
+static cr_status spectrum(const cr_mesh *m, const float *H, double band[], double power[],
+                          cr_error *err) {
     const int S = SPECTRUM_SIDE;
     cr_uv_lookup *lk = NULL;
     CR_TRY(cr_uv_lookup_build(m, 0, &lk, err));
@@ -154,6 +156,10 @@ static cr_status spectrum(const cr_mesh *m, const float *H, double band[], cr_er
                         lambda >= cr_eval_h_band_edges_m[b + 1])
                         band[b] += p;
             }
+        /* Parseval: sum_k |F_k|^2 = S^2 sum_x f(x)^2, and f is 0 off the chart */
+        const double per_pixel = count ? 1.0 / ((double)S * S * (double)count) : 0.0;
+        for (int b = 0; power && b < CR_EVAL_H_BANDS; b++)
+            power[b] = band[b] * per_pixel;
         for (int b = 0; total > 0.0 && b < CR_EVAL_H_BANDS; b++)
             band[b] /= total;
     }
@@ -163,7 +169,7 @@ static cr_status spectrum(const cr_mesh *m, const float *H, double band[], cr_er
 }
 
 cr_status cr_eval_curvature_spectrum(const cr_mesh *m, double *h_rms, double band[CR_EVAL_H_BANDS],
-                                     cr_error *err) {
+                                     double power[CR_EVAL_H_BANDS], cr_error *err) {
     if (!cr_mesh_has_uv(m))
         return CR_FAIL(err, CR_ERR_INVALID, "curvature spectrum: the surface needs UVs");
     float *H = cr_malloc((size_t)m->nv * sizeof(float) + 1, err);
@@ -177,7 +183,7 @@ cr_status cr_eval_curvature_spectrum(const cr_mesh *m, double *h_rms, double ban
             s += (double)area[i] * H[i] * H[i], a += area[i];
         *h_rms = a > 0.0 ? sqrt(s / a) : 0.0;
     }
-    if (st == CR_OK) st = spectrum(m, H, band, err);
+    if (st == CR_OK) st = spectrum(m, H, band, power, err);
     free(H), free(area);
     return st;
 }

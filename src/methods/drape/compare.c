@@ -30,7 +30,7 @@ cr_status cr_drape_fidelity_measure(const cr_mesh *surface, const cr_mesh *refer
     out->max_penetration_m = cr_drape_max_penetration(ob, surface);
     cr_bvh_destroy(ob);
     if (reference) CR_TRY(cr_eval_chamfer_surface(surface, reference, &out->chamfer_m, err));
-    return cr_eval_curvature_spectrum(surface, &out->h_rms, out->h_band, err);
+    return cr_eval_curvature_spectrum(surface, &out->h_rms, out->h_band, NULL, err);
 }
 
 /* ---------------------------------------------------------- compare -- */
