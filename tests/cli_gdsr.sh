@@ -92,5 +92,16 @@ check "lambdas logged" grep -q '"lambda_c":1.9,"lambda_w":0.1,' "$tmp/m3/log.jso
 check "strain_l1 above 0 ($(vals "$tmp/t3.json" strain_l1))" positive "$tmp/t3.json" strain_l1
 check "wrinkle above 0 ($(vals "$tmp/t3.json" wrinkle))" positive "$tmp/t3.json" wrinkle
 
+# one model on several garments: a garment the dataset lacks is named; the same garment
+# twice goes through the many-garment path (two data sets, one model) and lists both
+expect_exit 1 "skirt_low.obj" gdsr train --dataset "$tmp/data" --garment tshirt,skirt \
+  --motions walk -o "$tmp/m4"
+check "gdsr train on two garments" bash -c "'$crease' gdsr train ${small[*]} --epochs 1 \
+  --garment tshirt,tshirt -o '$tmp/m5' --json > '$tmp/t5.json'"
+check "two garments listed" grep -q '"garments":\[{"garment":"tshirt",.*},{"garment":"tshirt",' \
+  "$tmp/t5.json"
+expect_exit 2 "1 to 8 garments" gdsr train --dataset "$tmp/data" --motions walk -o "$tmp/m6" \
+  --garment a,b,c,d,e,f,g,h,i
+
 echo "cli_gdsr: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

@@ -329,6 +329,17 @@ typedef struct cr_gdsr_train_result {
 cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                         cr_gdsr_train_result *out, cr_error *err);
 
+enum { CR_GDSR_MAX_GARMENTS = 8 };
+/* One model trained on several garments (the paper's five outfits): each
+ * epoch goes through the garments in order, each one's training clips in
+ * order; the last val_clips clips of every garment are held out, and the
+ * validation distance is over all of them (weighted by vertex-frames). The
+ * garments may differ in mesh, vertex count and layers (layer edges auto:
+ * on when any has two layers). With one garment it is cr_gdsr_train, bit
+ * for bit. */
+cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *const *d,
+                             int ngarments, cr_gdsr_train_result *out, cr_error *err);
+
 /* Load model.safetensors (or a checkpoint) written by cr_gdsr_train. */
 cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *err);
 

@@ -23,7 +23,8 @@ void help_gdsr(void) {
         "common:\n"
         "  --dataset DIR        a `crease dataset` folder with --res low,high\n"
         "  --garment G          garment type (default tshirt; with --simulate also a variant\n"
-        "                       spec, as in `crease dataset`)\n"
+        "                       spec, as in `crease dataset`); train: G1,G2,... trains one\n"
+        "                       model on several garments of the dataset (up to 8)\n"
         "  --body B             body preset (default normal)\n"
         "  --quiet              no progress\n"
         "  --json               end with a JSON summary on stdout\n"
@@ -200,21 +201,41 @@ static int cmd_train(int argc, char **argv) {
         def.val_clips = split(vbuf, ms + nm, CR_GDSR_MAX_CLIPS - nm);
         nm += def.val_clips;
     }
+    /* --garment A,B,...: one model for several garments (cr_gdsr_train_many) */
+    char gbuf[1024];
+    snprintf(gbuf, sizeof gbuf, "%s", garment);
+    const char *gs[CR_GDSR_MAX_GARMENTS + 1];
+    int ng = split(gbuf, gs, CR_GDSR_MAX_GARMENTS + 1);
+    if (ng < 1 || ng > CR_GDSR_MAX_GARMENTS) {
+        fprintf(stderr, "gdsr train: --garment: 1 to %d garments, comma-separated\n",
+                CR_GDSR_MAX_GARMENTS);
+        return CLI_USAGE;
+    }
     cr_error err = {0};
-    cr_gdsr_data d;
-    if (cr_gdsr_data_load(dataset, garment, body, ms, nm, &d, &err) != CR_OK) return cli_fail(&err);
+    cr_gdsr_data ds[CR_GDSR_MAX_GARMENTS];
+    const cr_gdsr_data *dp[CR_GDSR_MAX_GARMENTS];
+    int vl[CR_GDSR_MAX_GARMENTS], vh[CR_GDSR_MAX_GARMENTS];
+    memset(ds, 0, sizeof ds);
+    cr_status st = CR_OK;
+    for (int k = 0; k < ng && st == CR_OK; k++) {
+        st = cr_gdsr_data_load(dataset, gs[k], body, ms, nm, &ds[k], &err);
+        dp[k] = &ds[k];
+    }
     cr_gdsr_train_result r;
-    cr_status st = cr_gdsr_train(&def, &d, &r, &err);
-    int vl = d.low->nv, vh = d.high->nv;
-    cr_gdsr_data_free(&d);
+    if (st == CR_OK) st = cr_gdsr_train_many(&def, dp, ng, &r, &err);
+    for (int k = 0; k < ng; k++) {
+        vl[k] = ds[k].low ? ds[k].low->nv : 0, vh[k] = ds[k].high ? ds[k].high->nv : 0;
+        cr_gdsr_data_free(&ds[k]);
+    }
     if (st != CR_OK) return cli_fail(&err);
     fprintf(stderr,
-            "gdsr train: %lld parameters, %d -> %d vertices, epochs %d..%d, loss %.4g -> %.4g "
-            "(coarse %.3g m, fine %.3g m, normal %.3g, stretch %.3g, shear %.3g, bend %.3g, "
-            "laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
-            (long long)r.params, vl, vh, r.resumed_from, r.epochs, r.first_loss, r.last_loss,
-            r.last_coarse, r.last_fine, r.last_normal, r.last_stretch, r.last_shear, r.last_bend,
-            r.last_laplacian, r.seconds, def.out_dir);
+            "gdsr train: %lld parameters, %d garment%s (%d -> %d vertices%s), epochs %d..%d, "
+            "loss %.4g -> %.4g (coarse %.3g m, fine %.3g m, normal %.3g, stretch %.3g, shear "
+            "%.3g, bend %.3g, laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
+            (long long)r.params, ng, ng > 1 ? "s" : "", vl[0], vh[0], ng > 1 ? " the first" : "",
+            r.resumed_from, r.epochs, r.first_loss, r.last_loss, r.last_coarse, r.last_fine,
+            r.last_normal, r.last_stretch, r.last_shear, r.last_bend, r.last_laplacian, r.seconds,
+            def.out_dir);
     if (def.val_clips > 0)
         fprintf(stderr, "  held-out MED %.5f m, upsampling's %.5f m\n", r.last_val_med,
                 r.val_upsampled_med);
@@ -222,8 +243,16 @@ static int cmd_train(int argc, char **argv) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "gdsr train");
         cJSON_AddNumberToObject(j, "params", (double)r.params);
-        cJSON_AddNumberToObject(j, "low_vertices", vl);
-        cJSON_AddNumberToObject(j, "high_vertices", vh);
+        cJSON_AddNumberToObject(j, "low_vertices", vl[0]); /* the first garment's */
+        cJSON_AddNumberToObject(j, "high_vertices", vh[0]);
+        cJSON *ga = cJSON_AddArrayToObject(j, "garments");
+        for (int k = 0; k < ng; k++) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "garment", gs[k]);
+            cJSON_AddNumberToObject(o, "low_vertices", vl[k]);
+            cJSON_AddNumberToObject(o, "high_vertices", vh[k]);
+            cJSON_AddItemToArray(ga, o);
+        }
         cJSON_AddNumberToObject(j, "epochs", r.epochs);
         cJSON_AddNumberToObject(j, "resumed_from", r.resumed_from);
         cJSON_AddNumberToObject(j, "first_loss", r.first_loss);

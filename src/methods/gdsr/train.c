@@ -168,12 +168,11 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
     return CR_OK;
 }
 
-/* Mean vertex distance (m) of the model's raw output and of upsampling to
- * the reference over clips first.. of d, frames 2.. (the model's). */
-static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *med,
-                          double *med_up, cr_error *err) {
-    double s = 0, su = 0;
-    int64_t n = 0;
+/* Sums of the vertex distances (m) of the model's raw output and of
+ * upsampling to the reference over clips first.. of d, frames 2.. (the
+ * model's), and their count, added to s, su, n. */
+static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *s, double *su,
+                          int64_t *n, cr_error *err) {
     int32_t Vh = d->high->nv;
     for (int c = first; c < d->nclips; c++) {
         cr_gdsr_rollout_result r;
@@ -187,22 +186,110 @@ static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, do
                 for (int k = 0; k < 3; k++)
                     a += (double)(x[k] - h[k]) * (x[k] - h[k]),
                         b += (double)(u[k] - h[k]) * (u[k] - h[k]);
-                s += sqrt(a), su += sqrt(b), n++;
+                *s += sqrt(a), *su += sqrt(b), (*n)++;
             }
         cr_gdsr_rollout_free(&r);
     }
-    *med = n ? s / n : NAN;
-    *med_up = n ? su / n : NAN;
     return CR_OK;
+}
+
+/* What training keeps per garment: its graph, regularisers, scratch, the
+ * roll-out state of the clip under way and the body points of its clips. */
+typedef struct garment_train {
+    const cr_gdsr_data *d;
+    int ntrain; /* clips trained on: all but the last val_clips */
+    cr_gdsr_graph g;
+    gdsr_reg reg, creg; /* on the high mesh (the output), on the low one (C^) */
+    gdsr_wrinkle wr;
+    int32_t *hcols[3], *lcols[3];
+    float *node, *e0, *e1, *cin, *cstar;
+    frame_state fs;
+    float *bp[CR_GDSR_MAX_CLIPS];
+} garment_train;
+
+static void garment_train_free(garment_train *gt) {
+    for (int c = 0; c < CR_GDSR_MAX_CLIPS; c++)
+        free(gt->bp[c]);
+    for (int k = 0; k < 3; k++) {
+        free(gt->hcols[k]);
+        free(gt->lcols[k]);
+    }
+    free(gt->node);
+    free(gt->e0);
+    free(gt->e1);
+    free(gt->cin);
+    free(gt->cstar);
+    free(gt->fs.chat1);
+    free(gt->fs.chat2);
+    free(gt->fs.dprev);
+    free(gt->fs.e2);
+    cr_gdsr_graph_free(&gt->g);
+    cr_gdsr_reg_free(&gt->reg);
+    cr_gdsr_reg_free(&gt->creg);
+    cr_gdsr_wrinkle_free(&gt->wr);
+    memset(gt, 0, sizeof *gt);
+}
+
+static cr_status garment_train_init(garment_train *gt, const cr_gdsr_data *d,
+                                    const cr_gdsr_train_def *def, cr_error *err) {
+    memset(gt, 0, sizeof *gt);
+    gt->d = d;
+    gt->ntrain = d->nclips - def->val_clips;
+    const cr_mesh *low = d->low, *high = d->high;
+    int64_t nl3 = (int64_t)low->nv * 3;
+    cr_status st;
+    if ((st = cr_gdsr_graph_build(low, &gt->g, err)) != CR_OK) goto fail;
+    if ((st = cr_gdsr_reg_create(high, &gt->reg, err)) != CR_OK) goto fail;
+    if ((def->w_coarse_smooth > 0 || def->w_coarse_bend > 0 || def->w_coarse_strain > 0) &&
+        (st = cr_gdsr_reg_create(low, &gt->creg, err)) != CR_OK)
+        goto fail;
+    if (def->w_wrinkle > 0 &&
+        (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &gt->wr, err)) != CR_OK)
+        goto fail;
+    gt->node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
+    gt->e0 = malloc((size_t)gt->g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    gt->e1 = malloc((size_t)(gt->g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    gt->cin = malloc((size_t)nl3 * sizeof(float));
+    gt->cstar = malloc((size_t)nl3 * sizeof(float));
+    gt->fs.chat1 = malloc((size_t)nl3 * sizeof(float));
+    gt->fs.chat2 = malloc((size_t)nl3 * sizeof(float));
+    gt->fs.dprev = malloc((size_t)nl3 * sizeof(float));
+    int ok = gt->node && gt->e0 && gt->e1 && gt->cin && gt->cstar && gt->fs.chat1 && gt->fs.chat2 &&
+             gt->fs.dprev;
+    for (int k = 0; k < 3; k++) {
+        gt->hcols[k] = cr_gdsr_tri_column(high, k);
+        gt->lcols[k] = cr_gdsr_tri_column(low, k);
+        ok = ok && gt->hcols[k] && gt->lcols[k];
+    }
+    for (int c = 0; ok && c < gt->ntrain; c++)
+        ok = (gt->bp[c] = malloc((size_t)d->clip[c].nframes * nl3 * sizeof(float))) != NULL;
+    if (!ok) {
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+        goto fail;
+    }
+    for (int c = 0; c < gt->ntrain; c++)
+        if ((st = body_points(d, &d->clip[c], d->clip[c].low, gt->bp[c], err)) != CR_OK) goto fail;
+    return CR_OK;
+fail:
+    garment_train_free(gt);
+    return st;
 }
 
 cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
                         cr_gdsr_train_result *out, cr_error *err) {
+    return cr_gdsr_train_many(def, &d, 1, out, err);
+}
+
+cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *const *data,
+                             int ngarments, cr_gdsr_train_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     if (def->cookie != CR_GDSR_COOKIE)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: not made by cr_gdsr_train_default_def");
     if (!def->out_dir) return CR_FAIL(err, CR_ERR_INVALID, "gdsr train def: out_dir not set");
+    if (ngarments < 1 || ngarments > CR_GDSR_MAX_GARMENTS)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: %d garments (1..%d)", ngarments,
+                       CR_GDSR_MAX_GARMENTS);
     if (def->epochs < 1 || !(def->lr > 0) || def->lr_halve_every < 1 || !(def->noise_m >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: epochs >= 1, lr > 0, lr_halve_every >= 1, noise_m >= 0");
@@ -225,35 +312,35 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: lambda_c0, lambda_w0 > 0, lambda_step >= 0, "
                        "lambda_every >= 1");
-    if (def->val_clips < 0 || def->val_clips >= d->nclips)
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: val_clips %d with %d clips (one or more must train)",
-                       def->val_clips, d->nclips);
-    for (int c = 0; c < d->nclips; c++)
-        if (!d->clip[c].high)
-            return CR_FAIL(err, CR_ERR_INVALID,
-                           "gdsr train: clip '%s' has no high-resolution reference",
-                           d->clip[c].motion);
-    CR_TRY(cr_mkdir_p(def->out_dir, err));
-    int ntrain = d->nclips - def->val_clips;
     int64_t steps_per_epoch = 0;
-    for (int c = 0; c < ntrain; c++)
-        if (d->clip[c].nframes > 2) steps_per_epoch += d->clip[c].nframes - 2;
+    int any_layers = 0;
+    for (int k = 0; k < ngarments; k++) {
+        const cr_gdsr_data *d = data[k];
+        if (def->val_clips < 0 || def->val_clips >= d->nclips)
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "gdsr train def: val_clips %d with %d clips of garment %d (one or "
+                           "more must train)",
+                           def->val_clips, d->nclips, k + 1);
+        for (int c = 0; c < d->nclips; c++) {
+            if (!d->clip[c].high)
+                return CR_FAIL(err, CR_ERR_INVALID,
+                               "gdsr train: clip '%s' of garment %d has no high-resolution "
+                               "reference",
+                               d->clip[c].motion, k + 1);
+            if (c < d->nclips - def->val_clips && d->clip[c].nframes > 2)
+                steps_per_epoch += d->clip[c].nframes - 2;
+        }
+        any_layers |= d->nlayers > 1;
+    }
     if (steps_per_epoch < 1)
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: no clip has 3 frames or more");
+    CR_TRY(cr_mkdir_p(def->out_dir, err));
 
-    const cr_mesh *low = d->low, *high = d->high;
-    int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)high->nv * 3;
     cr_gdsr_model *m = NULL;
     cr_optim *opt = NULL;
     cr_nn_ctx *ctx = NULL;
-    cr_gdsr_graph g = {0};
-    float *node = NULL, *e0 = NULL, *e1 = NULL, *cin = NULL, *cstar = NULL, *nref = NULL;
-    float *bp[CR_GDSR_MAX_CLIPS] = {0};
-    int32_t *hcols[3] = {0}, *lcols[3] = {0};
-    frame_state fs = {0};
-    gdsr_reg reg = {0}, creg = {0}; /* on the high mesh (the output), on the low one (C^) */
-    gdsr_wrinkle wr = {0};
+    garment_train gts[CR_GDSR_MAX_GARMENTS];
+    memset(gts, 0, sizeof gts);
     gdsr_patch *patches = NULL;
     FILE *log = NULL;
     char ckpt[1100], model_path[1100], log_path[1100];
@@ -263,7 +350,7 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     cr_status st;
     double t0 = cr_time_now();
     cr_gdsr_model_def md = def->model;
-    if (md.layer_edges < 0) md.layer_edges = d->nlayers > 1; /* auto: on for an outfit */
+    if (md.layer_edges < 0) md.layer_edges = any_layers; /* auto: on for an outfit */
     if ((st = cr_gdsr_model_create(&md, &m, err)) != CR_OK) goto done;
     out->params = cr_nn_params_numel(m->params);
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
@@ -276,44 +363,12 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = (size_t)768 << 20;
     if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
-    if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
-    if ((st = cr_gdsr_reg_create(high, &reg, err)) != CR_OK) goto done;
-    const int coarse_reg =
-        def->w_coarse_smooth > 0 || def->w_coarse_bend > 0 || def->w_coarse_strain > 0;
-    if (coarse_reg && (st = cr_gdsr_reg_create(low, &creg, err)) != CR_OK) goto done;
-    if (def->w_wrinkle > 0 &&
-        (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &wr, err)) != CR_OK)
-        goto done;
+    for (int k = 0; k < ngarments; k++)
+        if ((st = garment_train_init(&gts[k], data[k], def, err)) != CR_OK) goto done;
     if (def->w_wrinkle > 0 && def->wrinkle_patches > 0 &&
         !(patches = malloc((size_t)def->wrinkle_patches * sizeof *patches))) {
         st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
         goto done;
-    }
-    node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
-    e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    cin = malloc((size_t)nl3 * sizeof(float));
-    cstar = malloc((size_t)nl3 * sizeof(float));
-    nref = malloc((size_t)high->nf * 3 * sizeof(float));
-    fs.chat1 = malloc((size_t)nl3 * sizeof(float));
-    fs.chat2 = malloc((size_t)nl3 * sizeof(float));
-    fs.dprev = malloc((size_t)nl3 * sizeof(float));
-    for (int k = 0; k < 3; k++) {
-        hcols[k] = cr_gdsr_tri_column(high, k);
-        lcols[k] = cr_gdsr_tri_column(low, k);
-    }
-    if (!node || !e0 || !e1 || !cin || !cstar || !nref || !fs.chat1 || !fs.chat2 || !fs.dprev ||
-        !hcols[0] || !hcols[1] || !hcols[2] || !lcols[0] || !lcols[1] || !lcols[2]) {
-        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-        goto done;
-    }
-    for (int c = 0; c < ntrain; c++) {
-        bp[c] = malloc((size_t)d->clip[c].nframes * nl3 * sizeof(float));
-        if (!bp[c]) {
-            st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-            goto done;
-        }
-        if ((st = body_points(d, &d->clip[c], d->clip[c].low, bp[c], err)) != CR_OK) goto done;
     }
 
     int epoch0 = 0;
@@ -341,77 +396,89 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         int64_t n = 0;
         float lam_c, lam_w;
         cr_gdsr_lambdas(def, ep, &lam_c, &lam_w);
-        for (int c = 0; c < ntrain; c++) {
-            const cr_gdsr_clip *cl = &d->clip[c];
-            fs.have = 0;
-            for (int32_t t = 2; t < cl->nframes; t++) {
-                const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
-                for (int64_t i = 0; i < nl3; i++)
-                    cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
-                cr_gdsr_coarse_target(d, ht, cstar);
-                if ((st = frame_features(d, &m->def, &g, cl->low, t, cin, bp[c] + t * nl3, &fs,
-                                         node, e0, e1, err)) != CR_OK)
-                    goto done;
-                cr_nn_ctx_reset(ctx);
-                cr_tensor *chat = NULL;
-                /* noise_features_only: C^ and S[C^] start from the clean C
-                 * (nothing to denoise) */
-                const float *base = def->noise_features_only ? ct : cin;
-                cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, fs.e2, base, &chat);
-                cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, cstar);
-                cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
-                cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
-                cr_tensor *lf = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
-                cr_tensor *ln = normal_l1(ctx, X, Hs, high, hcols);
-                cr_tensor *rt[10] = {0}; /* the fine garment's six, then C^'s four */
-                cr_gdsr_reg_terms(ctx, &reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
-                if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &reg, X, ht);
-                if (def->w_wrinkle > 0) {
-                    /* Eq. 24's random patches, drawn from their own counter-based stream
-                       per step (a pure function of seed and step: resume stays exact) */
-                    cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
-                                              (uint64_t)(ep * steps_per_epoch + n));
-                    if (patches)
-                        cr_gdsr_wrinkle_draw_patches(&wr, def->wrinkle_patches,
-                                                     def->wrinkle_patch_side, &prng, patches);
-                    rt[5] = cr_gdsr_wrinkle_loss(ctx, &wr, X, ht, patches,
-                                                 patches ? def->wrinkle_patches : 0,
-                                                 def->wrinkle_energy);
+        /* garment by garment, each one's clips in order (one garment: the clips in order) */
+        for (int k = 0; k < ngarments; k++) {
+            garment_train *gt = &gts[k];
+            const cr_gdsr_data *d = gt->d;
+            const cr_mesh *low = d->low, *high = d->high;
+            int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)high->nv * 3;
+            for (int c = 0; c < gt->ntrain; c++) {
+                const cr_gdsr_clip *cl = &d->clip[c];
+                gt->fs.have = 0;
+                for (int32_t t = 2; t < cl->nframes; t++) {
+                    const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
+                    for (int64_t i = 0; i < nl3; i++)
+                        gt->cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
+                    cr_gdsr_coarse_target(d, ht, gt->cstar);
+                    if ((st = frame_features(d, &m->def, &gt->g, cl->low, t, gt->cin,
+                                             gt->bp[c] + t * nl3, &gt->fs, gt->node, gt->e0, gt->e1,
+                                             err)) != CR_OK)
+                        goto done;
+                    cr_nn_ctx_reset(ctx);
+                    cr_tensor *chat = NULL;
+                    /* noise_features_only: C^ and S[C^] start from the clean C
+                     * (nothing to denoise) */
+                    const float *base = def->noise_features_only ? ct : gt->cin;
+                    cr_tensor *X = cr_gdsr_forward(ctx, m, d, &gt->g, gt->node, gt->e0, gt->e1,
+                                                   gt->fs.e2, base, &chat);
+                    cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, gt->cstar);
+                    cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
+                    cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
+                    cr_tensor *lf = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
+                    cr_tensor *ln = normal_l1(ctx, X, Hs, high, gt->hcols);
+                    cr_tensor *rt[10] = {0}; /* the fine garment's six, then C^'s four */
+                    cr_gdsr_reg_terms(ctx, &gt->reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
+                    if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &gt->reg, X, ht);
+                    if (def->w_wrinkle > 0) {
+                        /* Eq. 24's random patches, drawn from their own counter-based
+                           stream per step (a pure function of seed and step: resume
+                           stays exact) */
+                        cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
+                                                  (uint64_t)(ep * steps_per_epoch + n));
+                        if (patches)
+                            cr_gdsr_wrinkle_draw_patches(&gt->wr, def->wrinkle_patches,
+                                                         def->wrinkle_patch_side, &prng, patches);
+                        rt[5] = cr_gdsr_wrinkle_loss(ctx, &gt->wr, X, ht, patches,
+                                                     patches ? def->wrinkle_patches : 0,
+                                                     def->wrinkle_energy);
+                    }
+                    /* Eq. 13 and 15-18 on C^ against C* */
+                    if (def->w_coarse_normal > 0) rt[6] = normal_l1(ctx, chat, Cs, low, gt->lcols);
+                    if (def->w_coarse_smooth > 0) rt[7] = cr_gdsr_reg_smooth(ctx, &gt->creg, chat);
+                    if (def->w_coarse_bend > 0)
+                        rt[8] = cr_gdsr_reg_bend(ctx, &gt->creg, chat, gt->cstar);
+                    if (def->w_coarse_strain > 0)
+                        rt[9] = cr_gdsr_reg_strain_l1(ctx, &gt->creg, chat, gt->cstar);
+                    /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
+                    cr_tensor *all[13] = {lc,    lf,    ln,    rt[0], rt[1], rt[2], rt[3],
+                                          rt[4], rt[5], rt[6], rt[7], rt[8], rt[9]};
+                    const float wall[13] = {
+                        lam_c * def->w_coarse,        lam_w * def->w_fine,
+                        lam_w * def->w_normal,        lam_w * def->w_stretch,
+                        lam_w * def->w_shear,         lam_w * def->w_bend,
+                        lam_w * def->w_laplacian,     lam_w * def->w_strain_l1,
+                        lam_w * def->w_wrinkle,       lam_c * def->w_coarse_normal,
+                        lam_c * def->w_coarse_smooth, lam_c * def->w_coarse_bend,
+                        lam_c * def->w_coarse_strain};
+                    cr_tensor *terms[13];
+                    float w[13];
+                    int nt = 0;
+                    for (int q = 0; q < 13; q++) /* the terms off (weight 0) were not built */
+                        if (all[q]) terms[nt] = all[q], w[nt++] = wall[q];
+                    cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
+                    if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
+                    cr_nn_params_zero_grad(m->params);
+                    if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
+                    if ((st = cr_optim_step(opt, err)) != CR_OK) goto done;
+                    sum += loss->data[0];
+                    sc += lc->data[0];
+                    sf += lf->data[0];
+                    sn += ln->data[0];
+                    for (int q = 0; q < 10; q++)
+                        sr[q] += rt[q] ? rt[q]->data[0] : 0.0;
+                    n++;
+                    state_push(&gt->fs, chat->data, base, nl3);
                 }
-                /* Eq. 13 and 15-18 on C^ against C* */
-                if (def->w_coarse_normal > 0) rt[6] = normal_l1(ctx, chat, Cs, low, lcols);
-                if (def->w_coarse_smooth > 0) rt[7] = cr_gdsr_reg_smooth(ctx, &creg, chat);
-                if (def->w_coarse_bend > 0) rt[8] = cr_gdsr_reg_bend(ctx, &creg, chat, cstar);
-                if (def->w_coarse_strain > 0)
-                    rt[9] = cr_gdsr_reg_strain_l1(ctx, &creg, chat, cstar);
-                /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
-                cr_tensor *all[13] = {lc,    lf,    ln,    rt[0], rt[1], rt[2], rt[3],
-                                      rt[4], rt[5], rt[6], rt[7], rt[8], rt[9]};
-                const float wall[13] = {lam_c * def->w_coarse,        lam_w * def->w_fine,
-                                        lam_w * def->w_normal,        lam_w * def->w_stretch,
-                                        lam_w * def->w_shear,         lam_w * def->w_bend,
-                                        lam_w * def->w_laplacian,     lam_w * def->w_strain_l1,
-                                        lam_w * def->w_wrinkle,       lam_c * def->w_coarse_normal,
-                                        lam_c * def->w_coarse_smooth, lam_c * def->w_coarse_bend,
-                                        lam_c * def->w_coarse_strain};
-                cr_tensor *terms[13];
-                float w[13];
-                int nt = 0;
-                for (int k = 0; k < 13; k++) /* the terms off (weight 0) were not built */
-                    if (all[k]) terms[nt] = all[k], w[nt++] = wall[k];
-                cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
-                if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
-                cr_nn_params_zero_grad(m->params);
-                if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
-                if ((st = cr_optim_step(opt, err)) != CR_OK) goto done;
-                sum += loss->data[0];
-                sc += lc->data[0];
-                sf += lf->data[0];
-                sn += ln->data[0];
-                for (int k = 0; k < 10; k++)
-                    sr[k] += rt[k] ? rt[k]->data[0] : 0.0;
-                n++;
-                state_push(&fs, chat->data, base, nl3);
             }
         }
         out->epochs = ep + 1;
@@ -431,9 +498,14 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
         out->last_coarse_strain = sr[9] / n;
         if (ep == epoch0) out->first_loss = out->last_loss;
         out->last_val_med = out->val_upsampled_med = NAN;
-        if (def->val_clips > 0 && (st = validate(m, d, ntrain, &out->last_val_med,
-                                                 &out->val_upsampled_med, err)) != CR_OK)
-            goto done;
+        if (def->val_clips > 0) { /* over every garment's held-out clips, vertex-frames weighted */
+            double vs = 0, vsu = 0;
+            int64_t vn = 0;
+            for (int k = 0; k < ngarments; k++)
+                if ((st = validate(m, gts[k].d, gts[k].ntrain, &vs, &vsu, &vn, err)) != CR_OK)
+                    goto done;
+            if (vn > 0) out->last_val_med = vs / vn, out->val_upsampled_med = vsu / vn;
+        }
         fprintf(log,
                 "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
                 "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
@@ -476,26 +548,8 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
 done:
     out->seconds = cr_time_now() - t0;
     if (log) fclose(log);
-    for (int c = 0; c < CR_GDSR_MAX_CLIPS; c++)
-        free(bp[c]);
-    for (int k = 0; k < 3; k++) {
-        free(hcols[k]);
-        free(lcols[k]);
-    }
-    free(node);
-    free(e0);
-    free(e1);
-    free(cin);
-    free(cstar);
-    free(nref);
-    free(fs.chat1);
-    free(fs.chat2);
-    free(fs.dprev);
-    free(fs.e2);
-    cr_gdsr_graph_free(&g);
-    cr_gdsr_reg_free(&reg);
-    cr_gdsr_reg_free(&creg);
-    cr_gdsr_wrinkle_free(&wr);
+    for (int k = 0; k < ngarments; k++)
+        garment_train_free(&gts[k]);
     free(patches);
     cr_nn_ctx_destroy(ctx);
     cr_optim_destroy(opt);
