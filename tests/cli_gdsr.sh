@@ -100,6 +100,8 @@ check "gdsr train on two garments" bash -c "'$crease' gdsr train ${small[*]} --e
   --garment tshirt,tshirt -o '$tmp/m5' --json > '$tmp/t5.json'"
 check "two garments listed" grep -q '"garments":\[{"garment":"tshirt",.*},{"garment":"tshirt",' \
   "$tmp/t5.json"
+expect_exit 2 "layer-test" gdsr run --model "$tmp/m/model.safetensors" --dataset "$tmp/data" \
+  --motion dance --layer-test nearest -o "$tmp/x"
 expect_exit 2 "1 to 8 garments" gdsr train --dataset "$tmp/data" --motions walk -o "$tmp/m6" \
   --garment a,b,c,d,e,f,g,h,i
 

@@ -281,7 +281,7 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     CR_CHECK_OK(cr_gdsr_model_load(path, &m, &err), &err);
     if (m) {
         cr_gdsr_rollout_result ro;
-        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, &ro, &err), &err);
+        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, 0, &ro, &err), &err);
         CR_CHECK(ro.inside_after == 0);
         cr_gdsr_rollout_free(&ro);
     }
@@ -337,7 +337,7 @@ CR_TEST(gdsr, untrained_model_is_upsampling) {
     cr_gdsr_model_def def = tiny_def();
     CR_CHECK_OK(cr_gdsr_model_create(&def, &m, &err), &err);
     cr_gdsr_rollout_result r;
-    CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, &r, &err), &err);
+    CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, 0, &r, &err), &err);
     double worst = 0;
     for (int64_t i = 0; i < (int64_t)r.nframes * r.nv_high * 3; i++)
         worst = fmax(worst, fabs((double)r.gdsr_raw[i] - r.upsampled[i]));
@@ -1076,7 +1076,7 @@ static int two_layer_data(cr_gdsr_data *d) {
  * a wrinkle residual) ends sigma above the inner sheet, the
  * inner one does not move; at its rest 1 cm nothing moves; moved 1 m aside
  * (beyond gamma) it is not a collision. */
-CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
+static void layer_collisions_push_the_outer_layer_out_by(int surface) {
     cr_gdsr_data d;
     CR_REQUIRE(two_layer_data(&d));
     const int32_t nl = d.low->nv, nh = d.high->nv;
@@ -1097,9 +1097,9 @@ CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
         for (int32_t v = 0; pass == 0 && v < nh; v += 2)
             if (d.layer[d.low->tri[3 * d.face[v]]] == 1) x[3 * v + 1] -= 0.003f, dipped++;
         int64_t fine = -1;
-        int64_t n = cr_gdsr_layer_push(&d, c, x, sig, gam, &fine, &err);
-        printf("  pass %d: %lld coarse and %lld high vertices pushed\n", pass, (long long)n,
-               (long long)fine);
+        int64_t n = cr_gdsr_layer_push(&d, c, x, sig, gam, surface, &fine, &err);
+        printf("  %s rule, pass %d: %lld coarse and %lld high vertices pushed\n",
+               surface ? "surface" : "vertex", pass, (long long)n, (long long)fine);
         int32_t outer_low = 0, outer_high = 0, inner_moved = 0, low_short = 0, high_short = 0;
         for (int32_t i = 0; i < nl; i++) {
             if (d.layer[i] == 0) {
@@ -1129,9 +1129,57 @@ CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
     /* a single layer: nothing to do */
     int32_t nlay = d.nlayers;
     d.nlayers = 1;
-    CR_CHECK(cr_gdsr_layer_push(&d, c, x, sig, gam, NULL, &err) == 0);
+    CR_CHECK(cr_gdsr_layer_push(&d, c, x, sig, gam, surface, NULL, &err) == 0);
     d.nlayers = nlay;
     free(c), free(x), free(c0);
+    cr_gdsr_data_free(&d);
+}
+
+CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
+    layer_collisions_push_the_outer_layer_out_by(0);
+    layer_collisions_push_the_outer_layer_out_by(1);
+}
+
+/* Where the two rules of Eq. 27 differ: the outer sheet 2 cm aside and 3 mm
+ * above the inner one (closer than sigma). Over the inner sheet both push
+ * its vertices out to sigma; the outer sheet's last column, 2 cm past the
+ * inner sheet's open edge, is within gamma of the inner edge's vertices, so
+ * the nearest-vertex rule pushes it too, and the surface rule, whose closest
+ * point for it lies on that open edge, leaves it. */
+CR_TEST(gdsr, layer_surface_rule_skips_past_the_open_edge) {
+    cr_gdsr_data d;
+    CR_REQUIRE(two_layer_data(&d));
+    const int32_t nl = d.low->nv, nh = d.high->nv;
+    float *c = malloc(sizeof(float) * 3 * (size_t)nl), *x = malloc(sizeof(float) * 3 * (size_t)nh);
+    CR_REQUIRE(c && x);
+    cr_error err = {0};
+    int64_t pushed[2];
+    int32_t outer = 0, past = 0;
+    for (int surface = 0; surface < 2; surface++) {
+        memcpy(c, d.low->pos, sizeof(float) * 3 * (size_t)nl);
+        for (int32_t i = 0; i < nl; i++)
+            if (d.layer[i] == 1) c[3 * i] += 0.02f, c[3 * i + 1] -= 0.007f;
+        cr_gdsr_upsample(&d, c, x);
+        pushed[surface] = cr_gdsr_layer_push(&d, c, x, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA,
+                                             surface, NULL, &err);
+        outer = past = 0;
+        int32_t short_over = 0, moved_past = 0;
+        for (int32_t i = 0; i < nl; i++) {
+            if (d.layer[i] != 1) continue;
+            outer++;
+            const int is_past = c[3 * i] > 0.2f + 1e-4f; /* the inner sheet ends at x = 0.2 */
+            past += is_past;
+            if (!is_past) short_over += c[3 * i + 1] < CR_GDSR_LAYER_SIGMA - 1e-5f;
+            if (is_past) moved_past += fabsf(c[3 * i + 1] - 0.003f) > 1e-6f;
+        }
+        printf("  %s rule: %lld of %d outer vertices pushed, %d of them past the edge\n",
+               surface ? "surface" : "vertex", (long long)pushed[surface], outer, past);
+        CR_CHECK(short_over == 0); /* over the inner sheet: out to sigma either way */
+        if (surface) CR_CHECK(moved_past == 0);
+    }
+    CR_CHECK(past == 5 && outer == 25);
+    CR_CHECK(pushed[0] == outer && pushed[1] == outer - past);
+    free(c), free(x);
     cr_gdsr_data_free(&d);
 }
 
@@ -1202,7 +1250,7 @@ CR_TEST(gdsr, two_layer_outfit_trains_with_layer_edges) {
         free(node), free(e0), free(e1), free(e2), free(far);
         cr_gdsr_graph_free(&g);
         cr_gdsr_rollout_result ro;
-        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, 0, &ro, &err), &err);
+        CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, 0, 0, &ro, &err), &err);
         cr_gdsr_rollout_free(&ro);
     }
     cr_gdsr_model_destroy(m);
@@ -1281,7 +1329,7 @@ static void rollout_distances(cr_gdsr_model *m, const cr_gdsr_data *d, double *m
     cr_error err = {0};
     cr_gdsr_rollout_result r;
     *med = *med_up = NAN;
-    if (cr_gdsr_rollout(m, d, 0, 0.002f, 0, &r, &err) != CR_OK) return;
+    if (cr_gdsr_rollout(m, d, 0, 0.002f, 0, 0, &r, &err) != CR_OK) return;
     int32_t V = d->high->nv;
     double s = 0, su = 0;
     int64_t n = 0;

@@ -390,9 +390,13 @@ enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` 
  * worn over layer k) Eq. 27 follows: outer C^ vertices closer than
  * CR_GDSR_LAYER_SIGMA to the layer under them are pushed out along its
  * normal, the push carried to the high vertices, and the high vertices
- * over a pushed one pushed to the same gap. */
+ * over a pushed one pushed to the same gap. layer_surface chooses what
+ * "the layer under them" is: 0, the nearest inner vertex and its normal
+ * (the paper's Eq. 27); 1, the closest point on the inner layer's triangles
+ * and the normal there, skipping outer vertices whose closest point is on
+ * the inner layer's open edge (past its hem or cuff). */
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
-                          cr_gdsr_rollout_result *out, cr_error *err);
+                          int layer_surface, cr_gdsr_rollout_result *out, cr_error *err);
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
 
 /* ---------------------------------------------------------- outputs -- */

@@ -84,6 +84,9 @@ void help_gdsr(void) {
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
         "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
+        "  --layer-test vertex|surface  Eq. 27 on an outfit: the nearest inner vertex and its\n"
+        "                       normal (default, the paper's) or the closest point on the\n"
+        "                       inner layer's triangles, none past its open edges\n"
         "  --frames N           only the clip's first N frames (with --simulate: frames to\n"
         "                       simulate, default 60)\n"
         "  --png-frame F        the frame of compare.png (default -1: the last)\n"
@@ -420,6 +423,8 @@ static int cmd_run(int argc, char **argv) {
     const char *model = NULL, *baseline = NULL, *out = NULL;
     float eps = 0.002f;
     int quiet = 0, json = 0, frames = 0, relax = CR_GDSR_RELAX_DEFAULT;
+    const char *layer_test = NULL;
+    static const char *const layer_tests[] = {"vertex", "surface", NULL};
     int simulate = 0, reference = 0, lowv = 0, highv = 0, png_frame = -1, png_size = 512;
     int glb_max = CR_GDSR_GLB_MAX_FRAMES;
     float fps = 30.0f;
@@ -433,6 +438,7 @@ static int cmd_run(int argc, char **argv) {
         CLI_STR("--baseline-model", &baseline),
         CLI_FLOAT("--eps", &eps, 0, 0.05),
         CLI_INT("--relax", &relax, 0, 1000),
+        CLI_CHOICE("--layer-test", &layer_test, layer_tests),
         CLI_INT("--frames", &frames, 3, 1000000),
         CLI_FLAG("--simulate", &simulate),
         CLI_FLAG("--reference", &reference),
@@ -491,9 +497,10 @@ static int cmd_run(int argc, char **argv) {
     const cr_gdsr_clip *cl = &d.clip[0];
     if (cr_mkdir_p(out, &err) != CR_OK) goto done;
     if (cr_gdsr_model_load(model, &m, &err) != CR_OK) goto done;
-    if (cr_gdsr_rollout(m, &d, 0, eps, relax, &r, &err) != CR_OK) goto done;
+    const int surface = layer_test && !strcmp(layer_test, "surface");
+    if (cr_gdsr_rollout(m, &d, 0, eps, relax, surface, &r, &err) != CR_OK) goto done;
     if (baseline && (cr_gdsr_model_load(baseline, &mb, &err) != CR_OK ||
-                     cr_gdsr_rollout(mb, &d, 0, eps, relax, &rb, &err) != CR_OK))
+                     cr_gdsr_rollout(mb, &d, 0, eps, relax, surface, &rb, &err) != CR_OK))
         goto done;
     struct {
         const char *name;

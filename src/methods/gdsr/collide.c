@@ -98,51 +98,122 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
     cr_gdsr_push_out(b, x, n, eps, sd, nrm, NULL); /* concave spots: once more */
 }
 
+/* The surface rule's partners: for each outer coarse vertex o, the closest
+ * point of the layers under its own on their triangles at C^ within gamma,
+ * unless that point lies on an open edge of that layer and o is more to the
+ * side of it than above or below it (o is then past the inner garment's hem
+ * or cuff, not over it); pp gets the point and pn the normal there (the
+ * vertex normals blended by its barycentric weights). has[o] = 1 where
+ * found. */
+static cr_status surface_partners(const cr_gdsr_data *d, const float *chat, const float *nrm,
+                                  float gamma, uint8_t *has, float *pp, float *pn, cr_error *err) {
+    const cr_mesh *low = d->low;
+    const int32_t nl = low->nv, nf = low->nf;
+    cr_topology *t = NULL;
+    CR_TRY(cr_topology_build(low, &t, err));
+    int32_t *tri = malloc(sizeof(int32_t) * 3 * (size_t)nf);
+    int32_t *fmap = malloc(sizeof(int32_t) * (size_t)nf); /* layer face -> low face */
+    float *best = malloc(sizeof(float) * (size_t)nl);
+    cr_status st = tri && fmap && best ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    for (int32_t o = 0; o < nl; o++)
+        has[o] = 0, best[o] = INFINITY;
+    for (int32_t k = 0; st == CR_OK && k + 1 < d->nlayers; k++) {
+        int32_t n = 0; /* layer k's triangles */
+        for (int32_t f = 0; f < nf; f++)
+            if (d->layer[low->tri[3 * f]] == k) {
+                memcpy(tri + 3 * n, low->tri + 3 * f, 3 * sizeof(int32_t));
+                fmap[n++] = f;
+            }
+        if (n == 0) continue;
+        cr_bvh *b = NULL;
+        if ((st = cr_bvh_build(chat, nl, tri, n, &b, err)) != CR_OK) break;
+        for (int32_t o = 0; o < nl; o++) {
+            cr_bvh_hit h;
+            if (d->layer[o] <= k || !cr_bvh_closest(b, chat + 3 * o, gamma, &h)) continue;
+            if (!(h.distance < best[o])) continue;
+            const int32_t f = fmap[h.face];
+            const int32_t *c = low->tri + 3 * f;
+            int open = h.feature == CR_BVH_EDGE     ? t->face_face[3 * f + h.local] < 0
+                       : h.feature == CR_BVH_VERTEX ? t->vertex_boundary[c[h.local]]
+                                                    : 0;
+            best[o] = h.distance;
+            float q[3] = {0, 0, 0};
+            for (int j = 0; j < 3; j++)
+                for (int e = 0; e < 3; e++)
+                    q[e] += h.bary[j] * nrm[3 * c[j] + e];
+            float len = sqrtf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+            for (int e = 0; e < 3; e++)
+                pp[3 * o + e] = h.point[e], pn[3 * o + e] = len > 0 ? q[e] / len : 0.0f;
+            /* on the open edge, o is over the layer when the offset is mostly along the
+               normal there (over or under the hem), past it when mostly sideways */
+            float along = 0, off2 = 0;
+            for (int e = 0; e < 3; e++) {
+                float r = chat[3 * o + e] - h.point[e];
+                along += r * pn[3 * o + e], off2 += r * r;
+            }
+            const int past = open && off2 - along * along > along * along;
+            has[o] = len > 0 && !past;
+        }
+        cr_bvh_destroy(b);
+    }
+    free(tri), free(fmap), free(best);
+    cr_topology_destroy(t);
+    return st;
+}
+
 int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float sigma, float gamma,
-                           int64_t *fine_pushed, cr_error *err) {
+                           int surface, int64_t *fine_pushed, cr_error *err) {
     if (fine_pushed) *fine_pushed = 0;
     if (d->nlayers < 2 || !d->layer) return 0;
     const cr_mesh *low = d->low;
     const int32_t nl = low->nv, nh = d->high->nv;
     cr_gdsr_graph g = {0};
     g.nv = nl;
-    int32_t *partner = malloc(sizeof(int32_t) * (size_t)nl);
+    uint8_t *has = malloc((size_t)nl + 1);
+    float *pp = malloc(sizeof(float) * 3 * (size_t)nl); /* each outer vertex's partner point */
+    float *pn = malloc(sizeof(float) * 3 * (size_t)nl); /* and the normal there */
     float *nrm = malloc(sizeof(float) * 3 * (size_t)nl);
     float *lpush = calloc(3 * (size_t)nl, sizeof(float));
     float *hpush = malloc(sizeof(float) * 3 * (size_t)nh);
     float *bestd = malloc(sizeof(float) * (size_t)nl); /* squared distance to partner */
     int64_t pushed = -1;
-    if (!partner || !nrm || !lpush || !hpush || !bestd) {
+    if (!has || !pp || !pn || !nrm || !lpush || !hpush || !bestd) {
         CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (layer collisions)");
         goto done;
     }
-    /* pairs on different layers closer than gamma: the layer edges' grid */
-    if (cr_gdsr_layer_edges(&g, d->layer, chat, gamma, err) != CR_OK) goto done;
     cr_mesh view = *low;
     view.pos = chat;
     cr_mesh_vertex_normals(&view, CR_NORMAL_AREA, nrm);
-    for (int32_t i = 0; i < nl; i++)
-        partner[i] = -1;
-    for (int64_t e = 0; e < g.ne[2]; e++) {
-        int32_t o = g.rcv[2][e], i = g.snd[2][e];
-        if (d->layer[i] >= d->layer[o]) continue; /* i must be under o */
-        float d2 = 0;
-        for (int k = 0; k < 3; k++) {
-            float q = chat[3 * o + k] - chat[3 * i + k];
-            d2 += q * q;
+    if (surface) {
+        if (surface_partners(d, chat, nrm, gamma, has, pp, pn, err) != CR_OK) goto done;
+    } else {
+        /* the paper's: the nearest vertex of a layer under o's within gamma, its normal;
+           pairs on different layers closer than gamma: the layer edges' grid */
+        if (cr_gdsr_layer_edges(&g, d->layer, chat, gamma, err) != CR_OK) goto done;
+        for (int32_t i = 0; i < nl; i++)
+            has[i] = 0;
+        for (int64_t e = 0; e < g.ne[2]; e++) {
+            int32_t o = g.rcv[2][e], i = g.snd[2][e];
+            if (d->layer[i] >= d->layer[o]) continue; /* i must be under o */
+            float d2 = 0;
+            for (int k = 0; k < 3; k++) {
+                float q = chat[3 * o + k] - chat[3 * i + k];
+                d2 += q * q;
+            }
+            if (has[o] && !(d2 < bestd[o])) continue;
+            has[o] = 1, bestd[o] = d2;
+            for (int k = 0; k < 3; k++)
+                pp[3 * o + k] = chat[3 * i + k], pn[3 * o + k] = nrm[3 * i + k];
         }
-        if (partner[o] < 0 || d2 < bestd[o]) partner[o] = i, bestd[o] = d2;
     }
     pushed = 0;
     for (int32_t o = 0; o < nl; o++) {
-        int32_t i = partner[o];
-        if (i < 0) continue;
-        const float *n = nrm + 3 * i;
-        float s = sigma -
-                  ((chat[3 * o] - chat[3 * i]) * n[0] + (chat[3 * o + 1] - chat[3 * i + 1]) * n[1] +
-                   (chat[3 * o + 2] - chat[3 * i + 2]) * n[2]);
+        if (!has[o]) continue;
+        const float *p = pp + 3 * o, *n = pn + 3 * o;
+        float s = sigma - ((chat[3 * o] - p[0]) * n[0] + (chat[3 * o + 1] - p[1]) * n[1] +
+                           (chat[3 * o + 2] - p[2]) * n[2]);
         if (!(s > 0)) {
-            partner[o] = -1; /* no collision: its high vertices are left alone */
+            has[o] = 0; /* no collision: its high vertices are left alone */
             continue;
         }
         for (int k = 0; k < 3; k++) {
@@ -159,12 +230,11 @@ int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float s
         const int32_t *tri = low->tri + 3 * (int64_t)d->face[v];
         const float *b = d->bary + 3 * (int64_t)v;
         int c = b[1] > b[0] ? (b[2] > b[1] ? 2 : 1) : (b[2] > b[0] ? 2 : 0);
-        int32_t i = partner[tri[c]];
-        if (i < 0) continue;
-        const float *n = nrm + 3 * i;
-        float s =
-            sigma - ((x[3 * v] - chat[3 * i]) * n[0] + (x[3 * v + 1] - chat[3 * i + 1]) * n[1] +
-                     (x[3 * v + 2] - chat[3 * i + 2]) * n[2]);
+        int32_t o = tri[c];
+        if (!has[o]) continue;
+        const float *p = pp + 3 * o, *n = pn + 3 * o;
+        float s = sigma - ((x[3 * v] - p[0]) * n[0] + (x[3 * v + 1] - p[1]) * n[1] +
+                           (x[3 * v + 2] - p[2]) * n[2]);
         if (s > 0) {
             for (int k = 0; k < 3; k++)
                 x[3 * v + k] += s * n[k];
@@ -173,7 +243,7 @@ int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float s
     }
     if (fine_pushed) *fine_pushed = fine;
 done:
-    free(partner), free(nrm), free(lpush), free(hpush), free(bestd);
+    free(has), free(pp), free(pn), free(nrm), free(lpush), free(hpush), free(bestd);
     cr_gdsr_graph_free(&g);
     return pushed;
 }

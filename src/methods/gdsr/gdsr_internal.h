@@ -130,13 +130,16 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                         uint8_t *moved);
 
 /* Layer collisions (Eq. 27, collide.c): exterior coarse vertices of C^
- * (Vl,3) within gamma of a vertex of a layer under theirs and closer than
- * sigma along its normal are pushed out along it to sigma (in place), the
- * push carried to x (Vh,3) through Eq. 1, then the high vertices whose
- * nearest coarse vertex was pushed are pushed by Eq. 27. Returns the coarse
- * vertices pushed (fine_pushed, may be NULL: the high ones), -1 with err
- * set on failure; 0 for a single layer. */
+ * (Vl,3) within gamma of their partner on a layer under theirs and closer
+ * than sigma along the normal there are pushed out along it to sigma (in
+ * place), the push carried to x (Vh,3) through Eq. 1, then the high
+ * vertices whose nearest coarse vertex was pushed are pushed by Eq. 27. The
+ * partner: surface 0, the nearest vertex and its normal (the paper's);
+ * surface 1, the closest point on the layer's triangles and the normal
+ * there, none where that point is on the layer's open edge. Returns the
+ * coarse vertices pushed (fine_pushed, may be NULL: the high ones), -1 with
+ * err set on failure; 0 for a single layer. */
 int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float sigma, float gamma,
-                           int64_t *fine_pushed, cr_error *err);
+                           int surface, int64_t *fine_pushed, cr_error *err);
 
 #endif

@@ -176,7 +176,7 @@ static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, do
     int32_t Vh = d->high->nv;
     for (int c = first; c < d->nclips; c++) {
         cr_gdsr_rollout_result r;
-        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, 0, &r, err)); /* val reads gdsr_raw */
+        CR_TRY(cr_gdsr_rollout(m, d, c, 0.002f, 0, 0, &r, err)); /* val reads gdsr_raw */
         for (int32_t t = 2; t < r.nframes; t++)
             for (int32_t i = 0; i < Vh; i++) {
                 const float *x = r.gdsr_raw + ((int64_t)t * Vh + i) * 3,
@@ -570,18 +570,18 @@ void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
 }
 
 /* Eq. 27 on one frame, counted into out. */
-static cr_status layer_push(const cr_gdsr_data *d, float *chat, float *fin,
+static cr_status layer_push(const cr_gdsr_data *d, float *chat, float *fin, int surface,
                             cr_gdsr_rollout_result *out, cr_error *err) {
     int64_t fine = 0;
-    int64_t n =
-        cr_gdsr_layer_push(d, chat, fin, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA, &fine, err);
+    int64_t n = cr_gdsr_layer_push(d, chat, fin, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA, surface,
+                                   &fine, err);
     if (n < 0) return err ? err->status : CR_ERR_MEMORY;
     out->layer_pushed += n, out->layer_pushed_high += fine;
     return CR_OK;
 }
 
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
-                          cr_gdsr_rollout_result *out, cr_error *err) {
+                          int layer_surface, cr_gdsr_rollout_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     if (clip < 0 || clip >= d->nclips)
         return CR_FAIL(err, CR_ERR_RANGE, "gdsr rollout: clip %d of %d", clip, d->nclips);
@@ -658,7 +658,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
             cr_gdsr_relax_push(bv, htopo, up, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
             cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
             memcpy(chat, ct, (size_t)nl3 * sizeof(float));
-            if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
+            if ((st = layer_push(d, chat, fin, layer_surface, out, err)) != CR_OK) goto done;
             continue;
         }
         if ((st = frame_features(d, &m->def, &g, cl->low, t, ct, bp + t * nl3, &fs, node, e0, e1,
@@ -688,7 +688,7 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
          * do not strain (collide.c) */
         cr_gdsr_relax_push(bv, htopo, raw, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
         /* then the layers (Eq. 27), after the body */
-        if ((st = layer_push(d, chat, fin, out, err)) != CR_OK) goto done;
+        if ((st = layer_push(d, chat, fin, layer_surface, out, err)) != CR_OK) goto done;
         double t4 = cr_time_now();
         const double dt[4] = {t1 - t0 + bp_wall, t2 - t1, t3 - t2, t4 - t3};
         if (t == 2 && T > 3) {
