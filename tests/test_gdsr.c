@@ -1179,6 +1179,15 @@ CR_TEST(gdsr, layer_surface_rule_skips_past_the_open_edge) {
     }
     CR_CHECK(past == 5 && outer == 25);
     CR_CHECK(pushed[0] == outer && pushed[1] == outer - past);
+    /* the layers' crossings: none at rest 1 cm apart, every outer edge over the inner
+       sheet's interior when the outer sheet tilts through it */
+    CR_CHECK(cr_gdsr_layer_crossings(&d, d.high->pos, &err) == 0);
+    memcpy(x, d.high->pos, sizeof(float) * 3 * (size_t)nh);
+    for (int32_t v = 0; v < nh; v++)
+        if (d.layer[d.low->tri[3 * d.face[v]]] == 1) x[3 * v + 1] -= 0.01f + 0.1f * x[3 * v];
+    int64_t crossings = cr_gdsr_layer_crossings(&d, x, &err);
+    printf("  tilted through: %lld crossings\n", (long long)crossings);
+    CR_CHECK(crossings > 0);
     free(c), free(x);
     cr_gdsr_data_free(&d);
 }

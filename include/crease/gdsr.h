@@ -374,6 +374,12 @@ typedef struct cr_gdsr_rollout_result {
 /* The names of cr_gdsr_rollout_result's stage_seconds, in order. */
 extern const char *const cr_gdsr_stage_names[4];
 
+/* Edge-face crossings between the layers of d's high garment (its connected
+ * components, cr_gdsr_mesh_layers) at positions x (Vh,3): the sum over
+ * pairs of layers of cr_garment_count_crossings; 0 for one layer, -1 with
+ * err set on failure. */
+int64_t cr_gdsr_layer_crossings(const cr_gdsr_data *d, const float *x, cr_error *err);
+
 enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` */
 /* Eq. 27's constants (the authors' code): the gap kept between layers, m,
  * and how near an inner vertex must be to count (the garment is open). */

@@ -288,6 +288,26 @@ static const cr_eval_metric shown[] = {
     CR_EVAL_E_V, CR_EVAL_E_UV,         CR_EVAL_COLLISION_RATIO};
 enum { NSHOWN = sizeof shown / sizeof shown[0] };
 
+/* On an outfit: edge-face crossings between the layers of frames 2.. of x,
+ * their mean and largest count a frame and the frames with any, into o. */
+static cr_status layer_crossings(const cr_gdsr_data *d, const float *x, int32_t T, cJSON *o,
+                                 const char *name, cr_error *err) {
+    int64_t nh3 = (int64_t)d->high->nv * 3, most = 0, sum = 0;
+    int32_t frames = 0;
+    for (int32_t t = 2; t < T; t++) {
+        int64_t c = cr_gdsr_layer_crossings(d, x + t * nh3, err);
+        if (c < 0) return err ? err->status : CR_ERR_MEMORY;
+        sum += c, most = c > most ? c : most, frames += c > 0;
+    }
+    double mean = T > 2 ? (double)sum / (T - 2) : 0.0;
+    cJSON_AddNumberToObject(o, "layer_crossings_mean", mean);
+    cJSON_AddNumberToObject(o, "layer_crossings_max", (double)most);
+    cJSON_AddNumberToObject(o, "layer_crossing_frames", frames);
+    fprintf(stderr, "  %-10s layer crossings: mean %.2f, most %lld, on %d of %d frames\n", name,
+            mean, (long long)most, frames, T > 2 ? T - 2 : 0);
+    return CR_OK;
+}
+
 static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const float *pred,
                          const char *name, cJSON *table, cr_error *err) {
     cr_eval_def ed = cr_eval_default_def();
@@ -321,7 +341,7 @@ static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const fl
     }
     fprintf(stderr, "\n");
     cr_eval_result_free(&r);
-    return CR_OK;
+    return d->nlayers > 1 ? layer_crossings(d, pred, cl->nframes, o, name, err) : CR_OK;
 }
 
 /* E_u, E_v, E_uv of every frame of gdsr and of upsampling (crease eval's
@@ -558,6 +578,10 @@ static int cmd_run(int argc, char **argv) {
         if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
         if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
         if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+        if (d.nlayers > 1 &&
+            layer_crossings(&d, cl->high, cl->nframes, cJSON_AddObjectToObject(table, "reference"),
+                            "reference", &err) != CR_OK)
+            goto done;
     }
     if (strain_over_frames(&d, cl, &r, out, j, &err) != CR_OK) goto done;
     cJSON_AddStringToObject(j, "command", "gdsr run");

@@ -30,6 +30,7 @@
 #include "gdsr_internal.h"
 
 #include "crease/diffgeo.h"
+#include "crease/garment.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -246,4 +247,36 @@ done:
     free(has), free(pp), free(pn), free(nrm), free(lpush), free(hpush), free(bestd);
     cr_gdsr_graph_free(&g);
     return pushed;
+}
+
+/* The triangles of layer k of m as a mesh over all of m's vertices at x. */
+static cr_mesh *layer_mesh(const cr_mesh *m, const int32_t *layer, int32_t k, const float *x,
+                           cr_error *err) {
+    int32_t nf = 0;
+    for (int32_t f = 0; f < m->nf; f++)
+        nf += layer[m->tri[3 * f]] == k;
+    cr_mesh *s = NULL;
+    if (cr_mesh_create(m->nv, nf, 0, &s, err) != CR_OK) return NULL;
+    memcpy(s->pos, x, sizeof(float) * 3 * (size_t)m->nv);
+    nf = 0;
+    for (int32_t f = 0; f < m->nf; f++)
+        if (layer[m->tri[3 * f]] == k) memcpy(s->tri + 3 * (size_t)nf++, m->tri + 3 * f, 12);
+    return s;
+}
+
+int64_t cr_gdsr_layer_crossings(const cr_gdsr_data *d, const float *x, cr_error *err) {
+    const cr_mesh *m = d->high;
+    int32_t *layer = malloc(sizeof(int32_t) * (size_t)m->nv + 1);
+    if (!layer) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (crossings)"), -1;
+    int32_t n = cr_gdsr_mesh_layers(m, layer);
+    int64_t total = 0;
+    for (int32_t a = 0; a < n && total >= 0; a++)
+        for (int32_t b = a + 1; b < n && total >= 0; b++) {
+            cr_mesh *ma = layer_mesh(m, layer, a, x, err), *mb = layer_mesh(m, layer, b, x, err);
+            int64_t c = ma && mb ? cr_garment_count_crossings(ma, mb, err) : -1;
+            total = c < 0 ? -1 : total + c;
+            cr_mesh_destroy(ma), cr_mesh_destroy(mb);
+        }
+    free(layer);
+    return total;
 }
