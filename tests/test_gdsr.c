@@ -1332,29 +1332,15 @@ CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
 }
 
 /* Mean distance (m) of a roll-out's raw output and of its upsampling to the
- * reference, frames 2.. */
+ * reference, frames 2.., through training's validation sums. */
 static void rollout_distances(cr_gdsr_model *m, const cr_gdsr_data *d, double *med,
                               double *med_up) {
     cr_error err = {0};
-    cr_gdsr_rollout_result r;
-    *med = *med_up = NAN;
-    if (cr_gdsr_rollout(m, d, 0, 0.002f, 0, 0, &r, &err) != CR_OK) return;
-    int32_t V = d->high->nv;
     double s = 0, su = 0;
     int64_t n = 0;
-    for (int32_t t = 2; t < r.nframes; t++)
-        for (int32_t i = 0; i < V; i++) {
-            const float *x = r.gdsr_raw + ((int64_t)t * V + i) * 3,
-                        *u = r.upsampled + ((int64_t)t * V + i) * 3,
-                        *h = d->clip[0].high + ((int64_t)t * V + i) * 3;
-            double a = 0, b = 0;
-            for (int k = 0; k < 3; k++)
-                a += (double)(x[k] - h[k]) * (x[k] - h[k]),
-                    b += (double)(u[k] - h[k]) * (u[k] - h[k]);
-            s += sqrt(a), su += sqrt(b), n++;
-        }
-    *med = s / n, *med_up = su / n;
-    cr_gdsr_rollout_free(&r);
+    *med = *med_up = NAN;
+    if (cr_gdsr_validate(m, d, 0, &s, &su, &n, &err) == CR_OK && n > 0)
+        *med = s / n, *med_up = su / n;
 }
 
 /* One model on two garments of different meshes and layer counts (the

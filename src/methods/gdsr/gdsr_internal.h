@@ -129,6 +129,12 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                         float eps, int iters, float *sd, float *nrm, float *d, float *dn,
                         uint8_t *moved);
 
+/* Validation (train.c): the sums of the vertex distances (m) of the model's
+ * raw roll-out and of upsampling to the reference over clips first.. of d,
+ * frames 2.. (the model's), and their count, added to s, su, n. */
+cr_status cr_gdsr_validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *s,
+                           double *su, int64_t *n, cr_error *err);
+
 /* Layer collisions (Eq. 27, collide.c): exterior coarse vertices of C^
  * (Vl,3) within gamma of their partner on a layer under theirs and closer
  * than sigma along the normal there are pushed out along it to sigma (in

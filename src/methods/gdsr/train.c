@@ -168,11 +168,8 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
     return CR_OK;
 }
 
-/* Sums of the vertex distances (m) of the model's raw output and of
- * upsampling to the reference over clips first.. of d, frames 2.. (the
- * model's), and their count, added to s, su, n. */
-static cr_status validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *s, double *su,
-                          int64_t *n, cr_error *err) {
+cr_status cr_gdsr_validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, double *s,
+                           double *su, int64_t *n, cr_error *err) {
     int32_t Vh = d->high->nv;
     for (int c = first; c < d->nclips; c++) {
         cr_gdsr_rollout_result r;
@@ -502,7 +499,8 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
             double vs = 0, vsu = 0;
             int64_t vn = 0;
             for (int k = 0; k < ngarments; k++)
-                if ((st = validate(m, gts[k].d, gts[k].ntrain, &vs, &vsu, &vn, err)) != CR_OK)
+                if ((st = cr_gdsr_validate(m, gts[k].d, gts[k].ntrain, &vs, &vsu, &vn, err)) !=
+                    CR_OK)
                     goto done;
             if (vn > 0) out->last_val_med = vs / vn, out->val_upsampled_med = vsu / vn;
         }
