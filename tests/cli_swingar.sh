@@ -43,6 +43,13 @@ echo "cli_swingar: E_dist on the training clip: model $model cm, skinned $skinne
 check "E_dist measured" test -n "$model" -a -n "$skinned"
 [[ $quick == 0 ]] && check "model closer to the simulation than skinning" \
   awk -v a="$model" -v b="$skinned" 'BEGIN { exit !(a != "" && b != "" && a < b) }'
+check "descriptor z" bash -c "'$crease' swingar train --dataset '$tmp/data' --size tiny --epochs 1 \
+  --window 4 --batch 2 --test-motions twist --descriptor-z 32 -o '$tmp/z.safetensors' --quiet \
+  --json | grep -q '\"descriptor_z\":32,'"
+check "run at that z" "$crease" swingar run --model "$tmp/z.safetensors" --garment "$g" \
+  --motion walk --frames 3 -o "$tmp/zpred"
+expect_exit 1 "samples = 4000" swingar train --dataset "$tmp/data" --size tiny --epochs 1 \
+  --descriptor-z 4000 -o "$tmp/z2.safetensors" --quiet
 expect_exit 2 "missing --dataset" swingar train -o "$tmp/x.safetensors"
 expect_exit 2 "train or run" swingar fly
 expect_exit 1 "nothere" swingar train --dataset "$tmp/nothere" -o "$tmp/x.safetensors"

@@ -30,10 +30,14 @@ cr_status cr_error_set(cr_error *err, cr_status st, const char *src_file, int sr
     err->status = st;
     err->src_file = src_file;
     err->src_line = src_line;
+    /* through a copy, so a caller may wrap the previous message: CR_FAIL(err, st, "ctx: %s",
+     * err->msg) */
+    char msg[sizeof err->msg];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+    vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    memcpy(err->msg, msg, sizeof msg);
     return st;
 }
 

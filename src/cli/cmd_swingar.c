@@ -37,6 +37,9 @@ void help_swingar(void) {
            "  --test-bodies A,B      is, unused otherwise\n"
            "  --no-descriptor        E_a sees zeros (the ablation without the global descriptor)\n"
            "  --affinity A           geodesic (default, the paper's) or euclidean (ablation)\n"
+           "  --descriptor-z Z       furthest-point samples of the descriptor, and so its length\n"
+           "                         (default: the size's, paper and cpu 256, tiny 16; the\n"
+           "                         paper compares 128, 256 and 512)\n"
            "  --seed N               initialisation and shuffling (default 1)\n"
            "  --quiet                no progress bar\n"
            "  --arena-mb N           per-step memory of train and run (default 1024)\n\n"
@@ -65,7 +68,7 @@ static int cmd_train(int argc, char **argv) {
     cr_swingar_train_def t = cr_swingar_train_default_def();
     const char *dataset = NULL, *out = NULL, *resume = NULL, *size = "paper";
     const char *affinity = "geodesic";
-    int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024;
+    int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024, desc_z = 0;
     const cli_opt opts[] = {
         CLI_STR("--dataset", &dataset),
         CLI_OUTPUT(&out),
@@ -82,6 +85,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1),
         CLI_FLAG("--no-descriptor", &no_desc),
         CLI_CHOICE("--affinity", &affinity, affinities),
+        CLI_INT("--descriptor-z", &desc_z, 2, 4096),
         CLI_INT("--seed", &seed, 0, 2147483647),
         CLI_FLAG("--quiet", &t.quiet),
         CLI_INT("--arena-mb", &arena_mb, 16, 1 << 20),
@@ -95,6 +99,7 @@ static int cmd_train(int argc, char **argv) {
     cr_error serr = {0};
     if (cr_swingar_size_def(size, &t.model, &serr) != CR_OK) return cli_fail(&serr);
     t.model.use_descriptor = !no_desc;
+    if (desc_z) t.model.descriptor_len = desc_z;
     t.seed = (uint64_t)seed;
     t.arena_bytes = (size_t)arena_mb << 20;
     t.checkpoint = out;
@@ -142,6 +147,7 @@ static int cmd_train(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "last_vert_m", r.last_vert_m);
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
         cJSON_AddBoolToObject(j, "descriptor", t.model.use_descriptor);
+        cJSON_AddNumberToObject(j, "descriptor_z", t.model.descriptor_len);
         cJSON_AddStringToObject(j, "affinity", t.model.affinity ? "euclidean" : "geodesic");
         if (r.test_vert_m >= 0) cJSON_AddNumberToObject(j, "test_vert_m", r.test_vert_m);
         cli_json_print(j);

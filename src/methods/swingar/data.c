@@ -211,6 +211,8 @@ static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar
         desc = malloc(sizeof(float) * (size_t)z);
         st = desc ? cr_swingar_compute_descriptor(m, z, affinity, desc, err)
                   : CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
+        if (st != CR_OK && desc)
+            st = CR_FAIL(err, st, "%s/%s: %s", dir, mesh, err ? err->msg : "descriptor failed");
     }
     if (st == CR_OK) st = cr_swingar_garment_create(m, sj.i32, sw.f32, bm, desc, z, out, err);
     free(desc);
