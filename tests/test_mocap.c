@@ -214,11 +214,15 @@ static m3 t_local(int i, int f) {
     }
 }
 
-/* The A-pose rig: rest bones of joint i turned by rest_turn(i) (arms 45
- * degrees down, legs straight); its locals S_p R S_i^T keep every bone's
- * world direction, so it is the same motion. */
-static m3 rest_turn(int i) {
+/* Rigs of one motion (rest: RIG_T, RIG_A, RIG_LYING): rest bones of joint i
+ * turned by rest_turn(i): the A-pose (arms 45 degrees down, legs straight) or
+ * the whole bind skeleton lying along +X, as joint-oriented exports write it;
+ * their locals S_p R S_i^T keep every bone's world direction, so it is the
+ * same motion. */
+enum { RIG_T, RIG_A, RIG_LYING };
+static m3 rest_turn(int rest, int i) {
     if (i < 0) return m3_id();
+    if (rest == RIG_LYING) return m3_axis(2, -M_PI / 2);
     switch (i) {
     case R_LARM:
     case R_LFOREARM:
@@ -239,15 +243,15 @@ static m3 rest_turn(int i) {
     }
 }
 
-static m3 rig_local(int apose, int i, int f) {
+static m3 rig_local(int rest, int i, int f) {
     m3 r = t_local(i, f);
-    if (!apose) return r;
-    return m3_mul(m3_mul(rest_turn(trig[i].parent), r), m3_t(rest_turn(i)));
+    if (rest == RIG_T) return r;
+    return m3_mul(m3_mul(rest_turn(rest, trig[i].parent), r), m3_t(rest_turn(rest, i)));
 }
 
-static void rig_offset(int apose, int i, double off[3]) {
+static void rig_offset(int rest, int i, double off[3]) {
     memcpy(off, trig[i].off, 3 * sizeof(double));
-    if (apose) m3_apply(rest_turn(trig[i].parent), off, off);
+    if (rest != RIG_T) m3_apply(rest_turn(rest, trig[i].parent), off, off);
 }
 
 static void root_pos(int f, double p[3]) {
@@ -273,7 +277,7 @@ static void rig_fk(int f, double pos[RN][3]) {
     }
 }
 
-static char *rig_bvh(int apose, int nframes) {
+static char *rig_bvh(int rest, int nframes) {
     size_t cap = (size_t)(16 + nframes) << 12, n = 0;
     char *s = malloc(cap);
     int stack[RN], sp = 0;
@@ -282,7 +286,7 @@ static char *rig_bvh(int apose, int nframes) {
         while (sp > 0 && stack[sp - 1] != trig[i].parent)
             n += (size_t)snprintf(s + n, cap - n, "}\n"), sp--;
         double o[3];
-        rig_offset(apose, i, o);
+        rig_offset(rest, i, o);
         if (!trig[i].name)
             n += (size_t)snprintf(s + n, cap - n, "End Site\n");
         else
@@ -307,7 +311,7 @@ static char *rig_bvh(int apose, int nframes) {
         for (int i = 0; i < RN; i++) {
             if (!trig[i].name) continue;
             double e[3];
-            m3_euler_zxy(rig_local(apose, i, f), e);
+            m3_euler_zxy(rig_local(rest, i, f), e);
             n += (size_t)snprintf(s + n, cap - n, " %.9g %.9g %.9g", e[0], e[1], e[2]);
         }
         n += (size_t)snprintf(s + n, cap - n, "\n");
@@ -316,8 +320,8 @@ static char *rig_bvh(int apose, int nframes) {
     return s;
 }
 
-static cr_motion *load_rig(int apose, int retarget) {
-    char *text = rig_bvh(apose, NF);
+static cr_motion *load_rig(int rest, int retarget) {
+    char *text = rig_bvh(rest, NF);
     cr_motion_import_def def = cr_motion_import_default_def();
     def.recenter = 0; /* the rig already faces +Z: world directions compare directly */
     def.retarget = retarget;
@@ -384,8 +388,9 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     CR_CHECK_OK(cr_mannequin_create(&md, &body, &err), &err);
     CR_REQUIRE(body);
     const double two_deg = 2 * M_PI / 180;
-    cr_motion *t = load_rig(0, 1), *a = load_rig(1, 1), *old = load_rig(0, 0);
-    CR_REQUIRE(t && a && old);
+    cr_motion *t = load_rig(RIG_T, 1), *a = load_rig(RIG_A, 1), *old = load_rig(RIG_T, 0);
+    cr_motion *lying = load_rig(RIG_LYING, 1);
+    CR_REQUIRE(t && a && old && lying);
     double thigh, worst;
     int crossed;
     worst = bone_error(t, body->joints, &thigh, &crossed);
@@ -402,26 +407,42 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     printf("    T-pose rig, no retargeting: worst bone %.1f deg, crossed %d\n", worst * 180 / M_PI,
            crossed);
     CR_CHECK(worst > 10 * two_deg && crossed);
-    /* The same body poses from either rig: every joint's world rotation. */
-    double pose_diff = 0;
-    for (int f = 0; f < NF; f++) {
-        float rt[CR_NJOINTS * 9], ra[CR_NJOINTS * 9];
-        cr_body_forward_kinematics(body->joints, t->poses + (size_t)f * CR_NJOINTS * 3, NULL, rt,
-                                   NULL);
-        cr_body_forward_kinematics(body->joints, a->poses + (size_t)f * CR_NJOINTS * 3, NULL, ra,
-                                   NULL);
-        for (int j = 0; j < CR_NJOINTS; j++) {
-            m3 x, y;
-            for (int r = 0; r < 9; r++)
-                x.m[r / 3][r % 3] = rt[9 * j + r], y.m[r / 3][r % 3] = ra[9 * j + r];
-            pose_diff = fmax(pose_diff, m3_angle(x, y));
+    /* A bind skeleton lying along +X (the file's up, +Y, is the motion's):
+     * the frames, not the rest pose, say which way is up. */
+    worst = bone_error(lying, body->joints, &thigh, &crossed);
+    printf("    lying rig: worst bone %.3f deg, thigh angle off by %.3f deg, crossed %d\n",
+           worst * 180 / M_PI, thigh * 180 / M_PI, crossed);
+    CR_CHECK(worst < two_deg && thigh < two_deg && !crossed);
+    /* The same body poses from every rig: every joint's world rotation, and
+     * the root's path. */
+    const cr_motion *other[] = {a, lying};
+    for (int o = 0; o < 2; o++) {
+        double pose_diff = 0, trans_diff = 0;
+        for (int f = 0; f < NF; f++) {
+            float rt[CR_NJOINTS * 9], ra[CR_NJOINTS * 9];
+            cr_body_forward_kinematics(body->joints, t->poses + (size_t)f * CR_NJOINTS * 3, NULL,
+                                       rt, NULL);
+            cr_body_forward_kinematics(body->joints, other[o]->poses + (size_t)f * CR_NJOINTS * 3,
+                                       NULL, ra, NULL);
+            for (int j = 0; j < CR_NJOINTS; j++) {
+                m3 x, y;
+                for (int r = 0; r < 9; r++)
+                    x.m[r / 3][r % 3] = rt[9 * j + r], y.m[r / 3][r % 3] = ra[9 * j + r];
+                pose_diff = fmax(pose_diff, m3_angle(x, y));
+            }
+            for (int k = 0; k < 3; k++)
+                trans_diff =
+                    fmax(trans_diff, fabs(t->trans[3 * f + k] - other[o]->trans[3 * f + k]));
         }
+        printf("    T-pose vs %s rig: body joint rotations differ by %.3f deg at most, the root's "
+               "path by %.2g m\n",
+               o ? "lying" : "A-pose", pose_diff * 180 / M_PI, trans_diff);
+        /* the A-pose's straight legs stand its root higher at rest, which moves the path */
+        CR_CHECK(pose_diff < two_deg && (o == 0 || trans_diff < 1e-3));
     }
-    printf("    T-pose vs A-pose rig: body joint rotations differ by %.3f deg at most\n",
-           pose_diff * 180 / M_PI);
-    CR_CHECK(pose_diff < two_deg);
     cr_motion_destroy(t);
     cr_motion_destroy(a);
+    cr_motion_destroy(lying);
     cr_motion_destroy(old);
     cr_body_model_destroy(body);
 }
@@ -494,7 +515,7 @@ CR_TEST(mocap, feet_touch_the_ground_and_a_calibration_start_eases_in) {
     CR_REQUIRE(body);
     /* The rig's walk with frame 0 replaced by its T-pose (all rotations 0),
      * the way the CMU files begin. */
-    char *text = rig_bvh(0, NF);
+    char *text = rig_bvh(RIG_T, NF);
     char *motion = strstr(text, "Frame Time:");
     CR_REQUIRE(motion);
     char *row0 = strchr(motion, '\n') + 1, *row1 = strchr(row0, '\n') + 1;

@@ -462,32 +462,33 @@ static int snap_axis(const double v[3], int skip, int *sign) {
     return a;
 }
 
-/* The turn taking the rig's up to +Y and its left to +X, from rest positions. */
-static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
-                           double q[4], cr_error *err) {
+/* The rig's up and left as signed coordinate axes, from joint positions p:
+ * pelvis to head, right to left hip. 0 when they cannot be told. */
+static int rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up_sign,
+                    int *left_axis, int *left_sign) {
     static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
     static const int lr[][2] = {{CR_JOINT_LEFT_HIP, CR_JOINT_RIGHT_HIP},
                                 {CR_JOINT_LEFT_SHOULDER, CR_JOINT_RIGHT_SHOULDER},
                                 {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
     double up[3] = {0}, left[3] = {0};
-    int up_axis = -1, left_axis = -1, up_sign = 1, left_sign = 1;
-    for (int i = 0; i < 4 && up_axis < 0; i++)
+    *up_axis = -1, *left_axis = -1, *up_sign = 1, *left_sign = 1;
+    for (int i = 0; i < 4 && *up_axis < 0; i++)
         if (map[up_ends[i]] >= 0) {
             for (int k = 0; k < 3; k++)
                 up[k] = p[map[up_ends[i]]][k] - p[map[0]][k];
-            up_axis = snap_axis(up, -1, &up_sign);
+            *up_axis = snap_axis(up, -1, up_sign);
         }
-    for (int i = 0; i < 3 && up_axis >= 0 && left_axis < 0; i++)
+    for (int i = 0; i < 3 && *up_axis >= 0 && *left_axis < 0; i++)
         if (map[lr[i][0]] >= 0 && map[lr[i][1]] >= 0) {
             for (int k = 0; k < 3; k++)
                 left[k] = p[map[lr[i][0]]][k] - p[map[lr[i][1]]][k];
-            left_axis = snap_axis(left, up_axis, &left_sign);
+            *left_axis = snap_axis(left, *up_axis, left_sign);
         }
-    if (up_axis < 0 || left_axis < 0)
-        return CR_FAIL(err, CR_ERR_PARSE,
-                       "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
-                       "to head, right to left hip)",
-                       b->t.source);
+    return *up_axis >= 0 && *left_axis >= 0;
+}
+
+/* The turn taking signed axis `up` to +Y and `left` to +X. */
+static void axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, double q[4]) {
     /* Rows of the turn: left -> x, up -> y, left x up (forward) -> z. */
     double m[3][3] = {{0}};
     m[0][left_axis] = left_sign;
@@ -511,6 +512,18 @@ static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double 
         q[1 + j] = (m[j][i] + m[i][j]) / s;
         q[1 + k] = (m[k][i] + m[i][k]) / s;
     }
+}
+
+/* The turn taking the rig's up to +Y and its left to +X, from rest positions. */
+static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
+                           double q[4], cr_error *err) {
+    int ua, us, la, ls;
+    if (!rig_axes(map, p, &ua, &us, &la, &ls))
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
+                       "to head, right to left hip)",
+                       b->t.source);
+    axes_turn(ua, us, la, ls, q);
     return CR_OK;
 }
 
@@ -569,6 +582,28 @@ static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], doub
     }
 }
 
+/* The world's up as the motion itself stands: pelvis to head in up to 64
+ * frames spread over the clip, snapped to a signed axis, by vote. Where it
+ * differs from the rest pose's (a joint-oriented rig whose bind skeleton lies
+ * along another axis, as Maya and LAFAN1-style exports write them) the
+ * frames are right and the rest pose's turn would lay the body down. Returns
+ * 0 when fewer than half the frames agree on one axis (a clip spent lying or
+ * tumbling: the rest pose is kept). */
+static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4], double (*pos)[3],
+                    int *up_axis, int *up_sign, int *agree, int *sampled) {
+    int votes[6] = {0}, n = b->nframes < 64 ? b->nframes : 64;
+    for (int i = 0; i < n; i++) {
+        int32_t f = (int32_t)((int64_t)i * b->nframes / n), ua, us, la, ls;
+        frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
+        if (rig_axes(map, pos, &ua, &us, &la, &ls)) votes[2 * ua + (us < 0)]++;
+    }
+    int best = 0;
+    for (int k = 1; k < 6; k++)
+        if (votes[k] > votes[best]) best = k;
+    *up_axis = best / 2, *up_sign = best % 2 ? -1 : 1, *agree = votes[best], *sampled = n;
+    return 2 * votes[best] > n;
+}
+
 /* ----------------------------------------------------------- retargeting -- */
 
 /* The bone each SMPL joint turns: towards this child (-1: a leaf, which
@@ -617,20 +652,27 @@ static int unit3(const double v[3], double out[3], double eps) {
     return 1;
 }
 
+/* turn: the file's frame to crease's; rest_turn: the rest pose's own upright
+ * frame to crease's, which differs from turn when the bind skeleton lies
+ * along another axis than the motion stands: each bone is then matched after
+ * standing the rest pose up (D below), so a bone along the axis of that turn
+ * keeps its twist, which a shortest arc alone would lose. */
 static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const double turn[4],
-                           double height, retarget *rt) {
+                           const double rest_turn[4], double height, retarget *rt) {
     float canon[CR_NJOINTS * 3];
     cr_mannequin_def md = cr_mannequin_default_def();
     cr_mannequin_rest_joints(&md, canon);
-    double turn_inv[4];
+    double turn_inv[4], stand[4], stand_inv[4];
     q_conj(turn, turn_inv);
+    q_mul(turn_inv, rest_turn, stand); /* D: the rest pose stood along the motion's up */
+    q_conj(stand, stand_inv);
     for (int j = 0; j < CR_NJOINTS; j++) {
         int p = cr_joint_parent[j];
         rt->child[j] = -1;
         if (p >= 0)
             memcpy(rt->align[j], rt->align[p], sizeof rt->align[j]);
         else
-            q_identity(rt->align[j]);
+            memcpy(rt->align[j], stand_inv, sizeof rt->align[j]);
         if (map[j] < 0) continue;
         for (int c = bone_child[j]; c >= 0; c = bone_child[c]) {
             if (map[c] < 0) continue;
@@ -640,10 +682,13 @@ static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const d
                 e[k] = (double)canon[3 * c + k] - (double)canon[3 * j + k];
             }
             q_rotate(turn_inv, e, e);
+            q_rotate(stand, d, d);
             if (!unit3(d, d, 1e-3 * height) || !unit3(e, e, 1e-6)) continue;
             rt->child[j] = c;
             memcpy(rt->e[j], e, sizeof e);
-            shortest_arc(e, d, rt->align[j]);
+            double arc[4];
+            shortest_arc(e, d, arc);
+            q_mul(stand_inv, arc, rt->align[j]);
             break;
         }
     }
@@ -681,27 +726,50 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     cr_motion *m = NULL;
     cr_status st = rest && w && pos ? CR_OK : CR_ERR_MEMORY;
     motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
+    double rest_turn[4] = {1, 0, 0, 0}; /* the rest pose's own upright frame: its height and feet */
     if (st == CR_OK) {
         rest_positions(b, rest);
-        st = rig_frame(b, map, rest, fix.world, err);
+        st = rig_frame(b, map, rest, rest_turn, err);
+        memcpy(fix.world, rest_turn, sizeof rest_turn);
+    }
+    int up_axis, up_sign, agree, sampled;
+    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled)) {
+        double y[3] = {0, 1, 0}, rest_up[3], rest_inv[4];
+        q_conj(rest_turn, rest_inv);
+        q_rotate(rest_inv, y, rest_up); /* the file axis the rest pose calls up */
+        if (fabs(rest_up[up_axis] - up_sign) > 0.5) {
+            /* left: the first other axis in x, z, y order, so a Y-up file keeps its
+             * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
+            axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
+            cr_log(CR_LOG_WARN,
+                   "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
+                   "frames): the motion's up is used",
+                   b->t.source, rest_up[0] + rest_up[1] + rest_up[2] > 0 ? '+' : '-',
+                   "XYZ"[fabs(rest_up[0]) > 0.5   ? 0
+                         : fabs(rest_up[1]) > 0.5 ? 1
+                                                  : 2],
+                   up_sign > 0 ? '+' : '-', "XYZ"[up_axis], agree, sampled);
+        }
     }
     double fps = 1.0 / b->frame_time;
     if (fabs(fps - round(fps)) < 0.01) fps = round(fps); /* 0.0333333 s is 30 fps */
     if (st == CR_OK) st = cr_motion_create(b->nframes, (float)fps, &m, err);
     if (st == CR_OK) {
-        double s = rig_scale(b, rig, rest, fix.world, def->bvh_scale), lowest = INFINITY,
-               highest = -INFINITY;
+        double s = rig_scale(b, rig, rest, rest_turn, def->bvh_scale), lowest = INFINITY,
+               highest = -INFINITY, root_up[3];
         for (int i = 0; i < b->n; i++) {
             double v[3];
-            q_rotate(fix.world, rest[i], v);
+            q_rotate(rest_turn, rest[i], v);
             lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
         }
         retarget rt;
-        if (def->retarget) retarget_setup(map, rest, fix.world, (highest - lowest) / s, &rt);
+        if (def->retarget)
+            retarget_setup(map, rest, fix.world, rest_turn, (highest - lowest) / s, &rt);
         q_rotate(fix.world, rest[map[0]], fix.origin);
+        q_rotate(rest_turn, rest[map[0]], root_up);
         for (int k = 0; k < 3; k++)
             fix.origin[k] *= s;
-        fix.origin[1] -= lowest;
+        fix.origin[1] = s * root_up[1] - lowest; /* the root's height over the rest pose's feet */
         for (int f = 0; f < b->nframes; f++) {
             double wj[CR_NJOINTS][4];
             frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
