@@ -36,6 +36,13 @@ check "manifest used rate" grep -Eq '"fps":[[:space:]]*30,' "$m60"
 # 13 frames at 60 fps are 7 at 30, after the 1 s ease-in's 30
 check "manifest frames" grep -Eq '"frames":[[:space:]]*37,' "$m60"
 check "manifest ease-in" grep -Eq '"ease_in_frames":[[:space:]]*30' "$m60"
+# two motions with one label (a clip and a file, two files) are refused before any work
+mkdir -p "$tmp/m2" && cp "$tmp/walk60.npz" "$tmp/walk.npz" && cp "$tmp/walk60.npz" "$tmp/m2/"
+expect_exit 1 "motions 'walk' and '.*/walk.npz' have the same label 'walk'.*rename one" dataset \
+  --garments tshirt --motions "walk,$tmp/walk.npz" --frames 2 -o "$tmp/dup" --quiet
+expect_exit 1 "walk60.npz' and '.*m2/walk60.npz' have the same label 'walk60'" dataset \
+  --garments tshirt --motions "$tmp/walk60.npz,$tmp/m2/walk60.npz" --frames 2 -o "$tmp/dup" --quiet
+check "nothing written for clashing labels" test ! -e "$tmp/dup"
 seq="$tmp/data/sequences/tshirt_low_normal_walk/garment.pc2"
 check "render a frame, garment on body" "$crease" render \
   "$tmp/data/garments/normal/tshirt_low.obj" --pc2 "$seq" \

@@ -63,6 +63,24 @@ expect_exit 2 "unknown option '--frobnicate'" drape --frobnicate -o "$tmp/x"
 expect_exit 1 "missing.obj" drape --object "$tmp/missing.obj" --epochs 1 "${small[@]}" -o "$tmp/x"
 printf 'v 0 1 0\nv 1 1 0\nv 0 1 1\nf 1 3 2\n' > "$tmp/nouv.obj"
 expect_exit 1 "nouv.obj.*no UVs" drape --cloth "$tmp/nouv.obj" --epochs 1 "${small[@]}" -o "$tmp/x"
+# a vertex no face uses would size the cloth: refused, naming the file and the vertex
+cp "$tmp/obj.obj" "$tmp/unref.obj" && echo 'v 100 100 100' >> "$tmp/unref.obj"
+nv=$(grep -c '^v ' "$tmp/unref.obj")
+expect_exit 1 "unref.obj: vertex $nv \\(counting from 1\\) is used by no face" drape \
+  --object "$tmp/unref.obj" --epochs 1 "${small[@]}" -o "$tmp/x"
+"$crease" primitive plane --size 1 --res 8 -o "$tmp/cloth.obj" >/dev/null
+cp "$tmp/cloth.obj" "$tmp/cloth_unref.obj" && echo 'v 5 5 5' >> "$tmp/cloth_unref.obj"
+expect_exit 1 "cloth_unref.obj: vertex 65 \\(counting from 1\\)" drape --cloth "$tmp/cloth_unref.obj" \
+  --epochs 1 "${small[@]}" -o "$tmp/x"
+# an object or cloth in centimetres is draped, with a warning naming its size
+"$crease" primitive box --size 50 --subdiv 2 -o "$tmp/box_cm.obj" >/dev/null
+check "drape object in cm warns" bash -c "'$crease' drape --object '$tmp/box_cm.obj' --epochs 1 \
+  ${small[*]} -o '$tmp/cm' 2>&1 >/dev/null | grep -q 'warning: --object .*box_cm.obj: 50 m across.*centimetres it is 0.5 m'"
+"$crease" primitive plane --size 100 --res 8 -o "$tmp/cloth_cm.obj" >/dev/null
+check "drape cloth in cm warns" bash -c "'$crease' drape --cloth '$tmp/cloth_cm.obj' --epochs 1 \
+  ${small[*]} -o '$tmp/cm' 2>&1 >/dev/null | grep -q 'warning: --cloth .*cloth_cm.obj: 100 m across'"
+check "drape object in m does not warn" bash -c "! '$crease' drape --object '$tmp/obj.obj' --cloth '$tmp/cloth.obj' \
+  --epochs 1 ${small[*]} -o '$tmp/m1' 2>&1 | grep -q warning"
 expect_exit 1 "a checkpoint of variant 'inr-adaptive'" drape --scene ball --variant inr-uniform \
   --epochs 31 "${small[@]}" -o "$tmp/a" --resume
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # cli_eval.sh: `crease eval` end to end on a short simulation: a sequence against
 # itself (every error 0), a rigid translation (MED = d), the report's files, a body,
-# and bad input (mismatched counts naming both files, NaN and missing files named;
+# and bad input (mismatched counts or sizes naming both files, NaN and missing files named;
 # exit 1), usage errors (exit 2).
 # Usage: cli_eval.sh PATH_TO_CREASE
 source "$(dirname "$0")/lib_cli.sh" "$1"
@@ -20,7 +20,7 @@ check "eval listed" bash -c "'$crease' --help | grep -q '^  eval'"
 "$crease" simulate --garment "$tmp/cloth.obj" --garment-offset 0,0.35,0 --object sphere \
   --frames 3 -o "$tmp/sim3" --quiet >/dev/null
 
-# pc2 edits: translate by (0.03, 0, -0.04) (|d| = 5 cm); one NaN coordinate
+# pc2 edits: translate by (0.03, 0, -0.04) (|d| = 5 cm); in centimetres; one NaN coordinate
 python3 - "$tmp" <<'PY'
 import struct, sys
 tmp = sys.argv[1]
@@ -30,6 +30,7 @@ n = len(body) // 4
 v = list(struct.unpack(f"<{n}f", body))
 t = [x + (0.03, 0.0, -0.04)[i % 3] for i, x in enumerate(v)]
 open(f"{tmp}/moved.pc2", "wb").write(head + struct.pack(f"<{n}f", *t))
+open(f"{tmp}/cm.pc2", "wb").write(head + struct.pack(f"<{n}f", *[100 * x for x in v]))
 v[3 * 50 + 1] = float("nan")
 open(f"{tmp}/nan.pc2", "wb").write(head + struct.pack(f"<{n}f", *v))
 PY
@@ -124,6 +125,12 @@ expect_exit 1 "sim3/sim.pc2.*4 frames.*sim/sim.pc2.*7" eval --pred "$tmp/sim3/si
   --ref "$tmp/sim/sim.pc2" --garment "$tmp/cloth.obj" -o "$tmp/x"
 expect_exit 1 "cloth10.obj.*100.*144" eval --pred "$tmp/sim/sim.pc2" --ref "$tmp/sim/sim.pc2" \
   --garment "$tmp/cloth10.obj" -o "$tmp/x"
+# a rest garment or a sequence in centimetres: refused, naming both files and sizes
+"$crease" primitive plane --res 12 --size 100 -o "$tmp/cloth_cm.obj" >/dev/null
+expect_exit 1 "cloth_cm.obj is 141.4 m across.*frame 0 of .*sim/sim.pc2 is [0-9.]+ m.*metres" eval \
+  --pred "$tmp/sim/sim.pc2" --ref "$tmp/sim/sim.pc2" --garment "$tmp/cloth_cm.obj" -o "$tmp/x"
+expect_exit 1 "cloth.obj is 1.414 m across.*frame 0 of .*cm.pc2 is [0-9.]+ m, more than 5 times larger" \
+  eval --pred "$tmp/sim/sim.pc2" --ref "$tmp/cm.pc2" --garment "$tmp/cloth.obj" -o "$tmp/x"
 expect_exit 1 "nan.pc2" eval --pred "$tmp/sim/sim.pc2" --ref "$tmp/nan.pc2" --garment "$tmp/cloth.obj" \
   -o "$tmp/x"
 expect_exit 1 "nope.pc2" eval --pred "$tmp/nope.pc2" --ref "$tmp/sim/sim.pc2" --garment "$tmp/cloth.obj" \

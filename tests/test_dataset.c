@@ -138,4 +138,10 @@ CR_TEST(dataset, bad_definitions_are_refused_by_name) {
     d.frames = 0;
     CR_CHECK(cr_dataset_generate(&d, &r, &err) == CR_ERR_INVALID);
     CR_CHECK(strstr(err.msg, "frames") != NULL);
+    /* a clip and a file of one base name would share motions/walk.npz */
+    d.frames = 2;
+    const char *clash[] = {"walk", "mocap/walk.bvh"};
+    d.motions = clash, d.nmotions = 2;
+    CR_CHECK(cr_dataset_generate(&d, &r, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "'walk' and 'mocap/walk.bvh' have the same label 'walk'") != NULL);
 }

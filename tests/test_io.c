@@ -1,6 +1,7 @@
 /* test_io.c: mesh and point-cache file I/O.
  *
- * OBJ index forms and polygons against hand-worked triangle lists; a UV-seam
+ * OBJ index forms and polygons against hand-worked triangle lists, trailing
+ * comments and a byte-order mark; a UV-seam
  * round trip OBJ -> PLY (binary, ascii) -> glb -> OBJ compared bit for bit;
  * a foreign ascii PLY and a big-endian binary PLY built byte by byte; the glb
  * sequence's JSON (morph targets, animation) and target data; PC2 round
@@ -441,6 +442,30 @@ CR_TEST(io, bad_obj_inputs_name_file_and_line) {
     const char *utf8 = "# caf\xc3\xa9\n" TRI3 "f 1 2 3";
     CR_CHECK_OK(read_text(utf8, "utf8.obj", &m, &err), &err);
     cr_mesh_destroy(m);
+}
+
+CR_TEST(io, obj_trailing_comments_and_byte_order_mark) {
+    cr_error err = {0};
+    cr_mesh *m = NULL;
+    const char *text = "\xEF\xBB\xBF# exported\n"
+                       "v 0 0 0 # origin\nv 1 0 0#x\nv 0 1 0\t# y\n"
+                       "vt 0 0 # uv\nvt 1 0\nvt 0 1\n"
+                       "g part # group\n"
+                       "f 1/1 2/2 3/3 # face\n"
+                       "   # indented comment\n";
+    CR_CHECK_OK(read_text(text, "comments.obj", &m, &err), &err);
+    CR_REQUIRE(m);
+    CR_CHECK(m->nv == 3 && m->nf == 1 && m->nuv == 3);
+    CR_CHECK(tri_is(m, 0, 0, 1, 2));
+    CR_CHECK(m->pos[3] == 1.0f && m->pos[7] == 1.0f);
+    cr_mesh_destroy(m);
+    /* the mark is skipped only at the start of the file, and a comment does
+     * not hide a short face */
+    expect_obj_error(TRI3 "\xEF\xBB\xBF# late\nf 1 2 3\n",
+                     strlen(TRI3 "\xEF\xBB\xBF# late\nf 1 2 3\n"), "late_bom.obj", CR_ERR_PARSE,
+                     "late_bom.obj:4: unknown statement");
+    expect_obj_error(TRI3 "f 1 2 # 3\n", strlen(TRI3 "f 1 2 # 3\n"), "short.obj", CR_ERR_PARSE,
+                     "short.obj:4: face has 2 vertices");
 }
 
 static cr_status ply_text(const char *text, const char *name, cr_mesh **m, cr_error *err) {

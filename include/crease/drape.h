@@ -278,7 +278,8 @@ cr_status cr_drape_fidelity_measure(const cr_mesh *surface, const cr_mesh *refer
 /* The scene's object, Y up, finely tessellated for the nearest-vertex
  * collision (about 25,000 vertices, as in Table 4): ball, torus, prism (a
  * subdivided prism), table (a subdivided box); CR_DRAPE_OBJECT reads `path`
- * (CR_ERR_INVALID when NULL). The caller destroys *out. */
+ * (CR_ERR_INVALID when NULL, CR_ERR_TOPOLOGY naming the first vertex no face
+ * uses). The caller destroys *out. */
 cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh **out,
                                 cr_error *err);
 

@@ -8,6 +8,7 @@
 #include "crease/mesh_io.h"
 #include "crease/npz.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -102,6 +103,32 @@ static cr_status rest_angles(const char *path, cr_npy *a, const float **out, int
     return CR_OK;
 }
 
+/* Bounding-box diagonal of the garment's vertices at positions pos (V,3), m. */
+static double diagonal(const cr_mesh *garment, float *pos) {
+    cr_mesh at = *garment;
+    at.pos = pos;
+    float lo[3], hi[3];
+    cr_mesh_bounds(&at, lo, hi);
+    double d2 = 0.0;
+    for (int k = 0; k < 3; k++)
+        d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+    return sqrt(d2);
+}
+
+/* A sequence and its rest mesh in different units (cm against m) would
+ * give energies and distances off by powers of 100, not an error. */
+#define SIZE_RATIO_MAX 5.0
+
+static cr_status check_units(const char *mesh_path, const cr_mesh *garment, const char *pc2_path,
+                             const cr_pc2 *seq, cr_error *err) {
+    double g = diagonal(garment, garment->pos), f = diagonal(garment, seq->frames);
+    if (!(f > SIZE_RATIO_MAX * g || g > SIZE_RATIO_MAX * f)) return CR_OK; /* NaN: cr_eval_run */
+    return CR_FAIL(err, CR_ERR_INVALID,
+                   "%s is %.4g m across (bounding-box diagonal) but frame 0 of %s is %.4g m, "
+                   "more than %g times %s: are both in metres (not centimetres or millimetres)?",
+                   mesh_path, g, pc2_path, f, SIZE_RATIO_MAX, f > g ? "larger" : "smaller");
+}
+
 static cr_status load(const eval_opts *o, eval_inputs *d, cr_eval_input *in, cr_error *err) {
     CR_TRY(cr_pc2_read(o->pred, &d->pred, err));
     CR_TRY(cr_pc2_read(o->ref, &d->ref, err));
@@ -115,6 +142,8 @@ static cr_status load(const eval_opts *o, eval_inputs *d, cr_eval_input *in, cr_
     if (d->garment->nv != d->pred.nv)
         return CR_FAIL(err, CR_ERR_SHAPE, "%s has %d vertices but %s has %d per frame", o->garment,
                        d->garment->nv, o->pred, d->pred.nv);
+    CR_TRY(check_units(o->garment, d->garment, o->pred, &d->pred, err));
+    CR_TRY(check_units(o->garment, d->garment, o->ref, &d->ref, err));
     *in = (cr_eval_input){.garment = d->garment,
                           .nframes = d->pred.nframes,
                           .pred = d->pred.frames,

@@ -6,7 +6,8 @@
  * binary or foreign file is not half-read. One pass, arrays grown by
  * doubling: memory stays within a small multiple of the file size. Indices
  * must refer to elements defined above the face, which lets every range
- * error name its line. '\' line continuation is not supported.
+ * error name its line. '#' starts a comment anywhere on a line; a leading
+ * UTF-8 byte-order mark is skipped. '\' line continuation is not supported.
  *
  * Writes v, vt, vn with %.9g (float round trip is exact) and f v/vt/vn.
  *
@@ -195,7 +196,9 @@ static cr_status parse_face(obj_state *s, cr_error *err) {
 
 static cr_status parse_line(obj_state *s, cr_error *err) {
     const char *b, *e;
-    if (!cr_io_text_token(&s->t, &b, &e) || *b == '#') return CR_OK;
+    const char *hash = memchr(s->t.cur, '#', (size_t)(s->t.le - s->t.cur));
+    if (hash) s->t.le = hash; /* a comment runs from '#' to the end of the line */
+    if (!cr_io_text_token(&s->t, &b, &e)) return CR_OK;
     if (is_keyword(b, e, "v")) {
         if (s->nv >= INT32_MAX)
             return CR_FAIL(err, CR_ERR_RANGE, "%s:%lld: more than %d vertices", s->t.source,

@@ -18,6 +18,8 @@ enum { NUMBER_MAX = 128 };
 
 void cr_io_text_init(io_text *t, const void *data, size_t len, const char *source) {
     t->p = data;
+    /* A UTF-8 byte-order mark (some Windows tools write one) is skipped. */
+    if (len >= 3 && memcmp(t->p, "\xEF\xBB\xBF", 3) == 0) t->p += 3, len -= 3;
     t->end = t->p + len;
     t->source = source;
     t->line = 0;

@@ -24,6 +24,7 @@ typedef struct io_text {
     const char *cur;     /* tokenizer cursor within the current line */
 } io_text;
 
+/* Skips a leading UTF-8 byte-order mark. */
 void cr_io_text_init(io_text *t, const void *data, size_t len, const char *source);
 
 /* Move to the next line; *got = 0 at the end of the input. Fails on bytes

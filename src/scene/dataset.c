@@ -96,6 +96,17 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
                                "dataset: garments '%s' and '%s' have the same label '%s'",
                                d->garments[j], d->garments[i], ds->variant[i].label);
     }
+    /* Labels name the motion's files and sequences, so two motions with one
+     * label would overwrite each other's. */
+    for (int i = 0; i < d->nmotions; i++) {
+        cr_dataset_motion_label(d->motions[i], ds->motion_name[i], sizeof ds->motion_name[i]);
+        for (int j = 0; j < i; j++)
+            if (!strcmp(ds->motion_name[i], ds->motion_name[j]))
+                return CR_FAIL(err, CR_ERR_INVALID,
+                               "dataset: motions '%s' and '%s' have the same label '%s' (their "
+                               "files would overwrite each other's); rename one file",
+                               d->motions[j], d->motions[i], ds->motion_name[i]);
+    }
     for (int i = 0; i < d->nbodies; i++) {
         cr_mannequin_def md = cr_mannequin_default_def();
         CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
@@ -233,7 +244,6 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
     const cr_dataset_def *d = &ds->def;
     int64_t step = 0;
     for (int m = 0; m < d->nmotions; m++) {
-        cr_dataset_motion_label(d->motions[m], ds->motion_name[m], sizeof ds->motion_name[m]);
         cr_motion_prepare_report *rep = &ds->motion_rep[m];
         if (is_clip(d->motions[m])) {
             CR_TRY(cr_motion_clip(d->motions[m], d->frames + 1, d->fps, &ds->motion[m], err));

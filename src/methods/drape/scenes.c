@@ -9,6 +9,9 @@
  * object vertices). The prism is midpoint-subdivided (its primitive has six
  * vertices).
  *
+ * A user's object or cloth with a vertex no face uses is refused (the bounds
+ * size the cloth); one far from metre-sized is used with a warning.
+ *
  * Leaves out: placing a user cloth (it is used where it is), UV islands
  * outside [0,1]^2.
  */
@@ -222,6 +225,40 @@ static cr_status subdivide(cr_mesh **m, cr_error *err) {
     return CR_OK;
 }
 
+/* A vertex no face uses would still size and place the cloth (bounds). */
+static cr_status check_referenced(const cr_mesh *m, const char *flag, const char *path,
+                                  cr_error *err) {
+    cr_topology *t = NULL;
+    CR_TRY(cr_topology_build(m, &t, err));
+    int32_t n = t->n_isolated_vertices, first = t->first_isolated_vertex;
+    cr_topology_destroy(t);
+    if (n > 0)
+        return CR_FAIL(err, CR_ERR_TOPOLOGY,
+                       "%s %s: vertex %d (counting from 1) is used by no face (%d unreferenced "
+                       "vertices); remove them",
+                       flag, path, first + 1, n);
+    return CR_OK;
+}
+
+/* Drape reads metres and takes objects from millimetres of detail to rooms;
+ * a mesh outside this size is more likely in another unit. */
+#define UNIT_WARN_MIN_M 0.01f
+#define UNIT_WARN_MAX_M 20.0f
+
+static void warn_size(const cr_mesh *m, const char *flag, const char *path) {
+    float lo[3], hi[3];
+    cr_mesh_bounds(m, lo, hi);
+    float e = fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2]));
+    if (e > UNIT_WARN_MAX_M)
+        cr_log(CR_LOG_WARN,
+               "%s %s: %.4g m across, read as metres; if it is in centimetres it is %.3g m, in "
+               "millimetres %.3g m: scale it by 0.01 or 0.001",
+               flag, path, (double)e, 0.01 * e, 0.001 * e);
+    else if (e < UNIT_WARN_MIN_M)
+        cr_log(CR_LOG_WARN, "%s %s: only %.3g m across, read as metres; is it in another unit?",
+               flag, path, (double)e);
+}
+
 cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh **out,
                                 cr_error *err) {
     *out = NULL;
@@ -251,7 +288,12 @@ cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh 
             *out = NULL;
             return CR_FAIL(err, CR_ERR_TOPOLOGY, "--object %s: the mesh has no triangles", path);
         }
-        return CR_OK;
+        cr_status st = check_referenced(*out, "--object", path, err);
+        if (st != CR_OK) {
+            cr_mesh_destroy(*out);
+            *out = NULL;
+        }
+        return st;
     default:
         return CR_FAIL(err, CR_ERR_INVALID, "drape: scene %d out of range", (int)scene);
     }
@@ -263,6 +305,7 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     CR_TRY(cr_mesh_read(path, out, err));
     cr_mesh *m = *out;
     cr_status st = cr_mesh_validate(m, path, err);
+    if (st == CR_OK) st = check_referenced(m, "--cloth", path, err);
     if (st == CR_OK && !cr_mesh_has_uv(m))
         st = CR_FAIL(err, CR_ERR_INVALID,
                      "--cloth %s: the cloth has no UVs (the method is defined over a UV chart)",
@@ -298,13 +341,16 @@ void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const 
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
     memset(s, 0, sizeof *s);
     cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
-    if (st == CR_OK && def->scene == CR_DRAPE_OBJECT)
+    if (st == CR_OK && def->scene == CR_DRAPE_OBJECT) {
         st = cr_mesh_validate(s->object, def->object_path, err);
+        if (st == CR_OK) warn_size(s->object, "--object", def->object_path);
+    }
     if (st == CR_OK)
         st = cr_bvh_build(s->object->pos, s->object->nv, s->object->tri, s->object->nf, &s->bvh,
                           err);
     if (st == CR_OK && def->cloth_path) {
         st = read_cloth(def->cloth_path, &s->rest, err);
+        if (st == CR_OK) warn_size(s->rest, "--cloth", def->cloth_path);
     } else if (st == CR_OK) {
         s->square = 1;
         float lo[3], hi[3];
