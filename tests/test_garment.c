@@ -337,8 +337,9 @@ CR_TEST(garment, user_obj) {
                {"cm.obj", "centimetres", CR_ERR_INVALID},
                {"far.obj", "within 0.3 m of the body", CR_ERR_INVALID},
                {"inward.obj", "point into the body", CR_ERR_TOPOLOGY},
-               {"fin.obj", "non-manifold edge", CR_ERR_TOPOLOGY}};
-    for (int i = 0; i < 5; i++) {
+               {"fin.obj", "non-manifold edge", CR_ERR_TOPOLOGY},
+               {"low.obj", "below the body", CR_ERR_INVALID}};
+    for (int i = 0; i < 6; i++) {
         CR_CHECK_OK(cr_mesh_clone(g->mesh, &m, &err), &err);
         if (i == 0) {
             free(m->uv), free(m->tri_uv);
@@ -347,6 +348,8 @@ CR_TEST(garment, user_obj) {
             cr_mesh_transform(m, 100.0f, (float[3]){0, 0, 0});
         } else if (i == 2) {
             cr_mesh_transform(m, 1.0f, (float[3]){3.0f, 0, 0});
+        } else if (i == 5) { /* made on SMPL's pelvis at the origin: on the shins */
+            cr_mesh_transform(m, 1.0f, (float[3]){0, -1.15f, 0});
         } else if (i == 3) {
             for (int32_t f = 0; f < m->nf; f++) {
                 int32_t t = m->tri[3 * f + 1];
@@ -354,7 +357,7 @@ CR_TEST(garment, user_obj) {
                 t = m->tri_uv[3 * f + 1];
                 m->tri_uv[3 * f + 1] = m->tri_uv[3 * f + 2], m->tri_uv[3 * f + 2] = t;
             }
-        } else {
+        } else if (i == 4) {
             /* A third face on the first face's first edge. */
             cr_mesh *fin = NULL;
             CR_CHECK_OK(cr_mesh_create(m->nv, m->nf + 1, m->nuv, &fin, &err), &err);
@@ -385,6 +388,64 @@ CR_TEST(garment, user_obj) {
     CR_CHECK(cr_garment_fit_user(g->mesh, "x.obj", &def, shared_body(), &u, &err) ==
              CR_ERR_INVALID);
     CR_CHECK(strstr(err.msg, "clearance_m") != NULL);
+    cr_garment_destroy(g);
+}
+
+/* Two ways exporters write a garment: one vertex per (position, UV) pair,
+ * so every seam is open, and one `vt` per face corner. Both read as the
+ * garment they draw: the seams welded, the panels by UV value. */
+CR_TEST(garment, user_obj_exporter_quirks) {
+    cr_error err = {0};
+    cr_garment *g = instance(CR_GARMENT_TSHIRT, 2000);
+    CR_REQUIRE(g);
+    const cr_mesh *m = g->mesh;
+    /* (a) a vertex per distinct (vertex, uv) corner */
+    int32_t *key = malloc(sizeof(int32_t) * 3 * (size_t)m->nf * 2), n = 0;
+    cr_mesh *split = NULL;
+    CR_CHECK_OK(cr_mesh_create(3 * m->nf, m->nf, m->nuv, &split, &err), &err);
+    CR_REQUIRE(key && split);
+    for (int32_t c = 0; c < 3 * m->nf; c++) {
+        int32_t found = -1;
+        for (int32_t i = 0; i < n && found < 0; i++)
+            if (key[2 * i] == m->tri[c] && key[2 * i + 1] == m->tri_uv[c]) found = i;
+        if (found < 0) {
+            key[2 * n] = m->tri[c], key[2 * n + 1] = m->tri_uv[c];
+            memcpy(&split->pos[3 * n], &m->pos[3 * (size_t)m->tri[c]], 3 * sizeof(float));
+            found = n++;
+        }
+        split->tri[c] = found, split->tri_uv[c] = m->tri_uv[c];
+    }
+    split->nv = n;
+    memcpy(split->uv, m->uv, sizeof(float) * 2 * (size_t)m->nuv);
+    printf("    t-shirt of %d vertices written as %d, one per UV\n", m->nv, n);
+    CR_CHECK(n > m->nv);
+    cr_garment *u = NULL;
+    CR_CHECK_OK(fit_file("unwelded.obj", split, &u, &err), &err);
+    if (u) {
+        cr_garment_quality q;
+        CR_CHECK_OK(cr_garment_measure(u, shared_body(), &q, &err), &err);
+        CR_CHECK(u->mesh->nv == m->nv && q.manifold && q.boundary_loops == 4 && u->npanels == 6);
+        cr_garment_destroy(u);
+    }
+    cr_mesh_destroy(split);
+    free(key);
+    /* (b) a vt per corner, the values unchanged */
+    cr_mesh *corner = NULL;
+    CR_CHECK_OK(cr_mesh_create(m->nv, m->nf, 3 * m->nf, &corner, &err), &err);
+    CR_REQUIRE(corner);
+    memcpy(corner->pos, m->pos, sizeof(float) * 3 * (size_t)m->nv);
+    memcpy(corner->tri, m->tri, sizeof(int32_t) * 3 * (size_t)m->nf);
+    for (int32_t c = 0; c < 3 * m->nf; c++) {
+        corner->tri_uv[c] = c;
+        memcpy(&corner->uv[2 * c], &m->uv[2 * (size_t)m->tri_uv[c]], 2 * sizeof(float));
+    }
+    CR_CHECK_OK(fit_file("per_corner_vt.obj", corner, &u, &err), &err);
+    if (u) {
+        printf("    one vt per corner: %d panels\n", u->npanels);
+        CR_CHECK(u->npanels == 6);
+        cr_garment_destroy(u);
+    }
+    cr_mesh_destroy(corner);
     cr_garment_destroy(g);
 }
 

@@ -5,7 +5,8 @@
  * 2-manifold (boundaries allowed), UVs on every face and not degenerate
  * (at most 1% of faces with zero UV area), a size that reads as metres
  * (bounding box diagonal 0.1 to 4; a larger one says which unit it may be
- * in), lying on the body (at least half the vertices within 0.3 m of it),
+ * in), lying on the body (at least half the vertices within 0.3 m of it,
+ * and none more than 0.1 m below its soles or above its crown),
  * and normals facing away from the body (area-weighted agreement with the
  * body's outward normal at the closest point).
  *
@@ -21,8 +22,13 @@
  * share UV indices on both sides. uv_scale_m is estimated as
  * sqrt(3-D area / UV area) over the whole garment.
  *
- * Left out: repairing bad input (flipping windings, welding seams), and
- * collisions of the garment with itself.
+ * Seams: vertices at bit-identical positions are welded first (an exporter
+ * that writes one vertex per UV or per panel), unless that makes the mesh
+ * non-manifold. Panels are compared by UV values, not indices, so one `vt`
+ * per face corner reads as the charts it draws.
+ *
+ * Left out: other repairs (flipping windings, welding seams that are near but
+ * not exactly on each other), and collisions of the garment with itself.
  */
 #include "garment_internal.h"
 
@@ -37,6 +43,9 @@
 #define USER_DEF_COOKIE 0x47555352u
 /* A vertex this close to the body counts as on it, m. */
 #define NEAR_BODY_M 0.3f
+/* How far past the body's lowest and highest point a garment may reach, m
+ * (a hem on the floor, a hood over the crown). */
+#define BODY_SPAN_MARGIN_M 0.1f
 
 cr_garment_user_def cr_garment_user_default_def(void) {
     cr_garment_user_def d = {0};
@@ -100,8 +109,14 @@ static cr_status check_uvs_and_size(const cr_mesh *m, const char *src, cr_error 
 
 /* Share near the body and orientation, from distances d (V) and the
  * outward normals at the face centroids. */
-static cr_status check_placement(const cr_mesh *m, const char *src, const cr_bvh *bvh,
+static cr_status check_placement(const cr_mesh *m, const char *src, const gbody *body,
                                  cr_error *err) {
+    const cr_bvh *bvh = body->bvh;
+    const float body_lo_y = body->lo[1], body_hi_y = body->hi[1];
+    float span_lo = INFINITY, span_hi = -INFINITY;
+    for (int32_t v = 0; v < m->nv; v++)
+        span_lo = fminf(span_lo, m->pos[3 * (size_t)v + 1]),
+        span_hi = fmaxf(span_hi, m->pos[3 * (size_t)v + 1]);
     float *d = cr_malloc((size_t)m->nv * sizeof(float), err);
     float *cen = cr_malloc((size_t)m->nf * 3 * sizeof(float), err);
     float *nb = cr_malloc((size_t)m->nf * 3 * sizeof(float), err);
@@ -119,6 +134,27 @@ static cr_status check_placement(const cr_mesh *m, const char *src, const cr_bvh
                          "%s: only %d of %d vertices lie within %g m of the body; place the "
                          "garment on the body's rest pose (+Y up, facing +Z, soles at y = 0)",
                          src, near, m->nv, (double)NEAR_BODY_M);
+    }
+    if (st == CR_OK) {
+        /* Near the body is not enough: a shirt 1.15 m low (SMPL's pelvis at the
+         * origin) lies on the shins and through the floor. */
+        int32_t below = 0, above = 0;
+        for (int32_t v = 0; v < m->nv; v++) {
+            float y = m->pos[3 * (size_t)v + 1];
+            below += y < body_lo_y - BODY_SPAN_MARGIN_M;
+            above += y > body_hi_y + BODY_SPAN_MARGIN_M;
+        }
+        if (below + above > 0)
+            st = CR_FAIL(err, CR_ERR_INVALID,
+                         "%s: %d of %d vertices lie %s the body (it spans y = %.2f to %.2f m; "
+                         "the garment %.2f to %.2f m); place the garment on the body's rest "
+                         "pose (+Y up, soles at y = 0; a garment made on SMPL's pelvis at the "
+                         "origin needs lifting by the pelvis height)",
+                         src, below + above, m->nv,
+                         below && above ? "below and above"
+                         : below        ? "below"
+                                        : "above",
+                         (double)body_lo_y, (double)body_hi_y, (double)span_lo, (double)span_hi);
     }
     if (st == CR_OK) {
         for (int32_t f = 0; f < m->nf; f++)
@@ -143,6 +179,38 @@ static cr_status check_placement(const cr_mesh *m, const char *src, const cr_bvh
     }
     free(d), free(cen), free(nb), free(fd), free(fn), free(area);
     return st;
+}
+
+/* Seams an exporter left open: vertices at bit-identical positions (one per
+ * UV, or one per panel) would let the panels fall apart in the simulator.
+ * Welded into *out (NULL when there is nothing to weld, or when welding would
+ * make the mesh non-manifold: then they are kept apart, with a warning). */
+static cr_status weld_seams(const cr_mesh *mesh, const char *src, cr_mesh **out, cr_error *err) {
+    *out = NULL;
+    cr_mesh *w = NULL;
+    CR_TRY(cr_mesh_clone(mesh, &w, err));
+    cr_status st = cr_mesh_weld(w, err);
+    const int32_t merged = w ? mesh->nv - w->nv : 0;
+    if (st != CR_OK || merged == 0) {
+        cr_mesh_destroy(w);
+        return st;
+    }
+    cr_topology *t = NULL;
+    cr_error why = {0};
+    if (cr_topology_build(w, &t, &why) == CR_OK &&
+        cr_topology_require_manifold(t, src, &why) == CR_OK) {
+        cr_log(CR_LOG_WARN, "%s: welded %d vertices that sat exactly on others (open seams)", src,
+               merged);
+        *out = w;
+    } else {
+        cr_log(CR_LOG_WARN,
+               "%s: %d vertices sit exactly on others (open seams?), left apart: welding them "
+               "would make the mesh non-manifold",
+               src, merged);
+        cr_mesh_destroy(w);
+    }
+    cr_topology_destroy(t);
+    return CR_OK;
 }
 
 /* Push-and-relax rounds, then the last exact push (see the file comment). */
@@ -190,6 +258,13 @@ static cr_status fit(const gbody *body, cr_mesh *m, const cr_garment_user_def *d
     return st;
 }
 
+/* Two UV indices name one point: the same index, or bit-identical values (an
+ * exporter that writes one `vt` per face corner). */
+static int same_uv(const cr_mesh *m, int32_t a, int32_t b) {
+    return a == b || (a >= 0 && b >= 0 && m->uv[2 * (size_t)a] == m->uv[2 * (size_t)b] &&
+                      m->uv[2 * (size_t)a + 1] == m->uv[2 * (size_t)b + 1]);
+}
+
 /* Panels = UV charts (union of faces across edges whose UV corners match). */
 static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *src, int32_t *panel,
                            int32_t *npanels, cr_error *err) {
@@ -211,7 +286,9 @@ static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *s
                 if (m->tri[3 * g + j] == a) ua = m->tri_uv[3 * g + j];
                 if (m->tri[3 * g + j] == b) ub = m->tri_uv[3 * g + j];
             }
-            if (ua != m->tri_uv[3 * f + k] || ub != m->tri_uv[3 * f + (k + 1) % 3]) continue;
+            if (!same_uv(m, ua, m->tri_uv[3 * f + k]) ||
+                !same_uv(m, ub, m->tri_uv[3 * f + (k + 1) % 3]))
+                continue;
             int32_t x = f, y = g;
             while (parent[x] != x)
                 x = parent[x] = parent[parent[x]];
@@ -243,13 +320,20 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
     CR_TRY(check_user_def(def, err));
     CR_TRY(cr_mesh_validate(mesh, source, err));
     if (mesh->nf == 0) return CR_FAIL(err, CR_ERR_TOPOLOGY, "%s: no faces", source);
+    cr_mesh *welded = NULL;
+    CR_TRY(weld_seams(mesh, source, &welded, err));
+    if (welded) mesh = welded;
     cr_topology *t = NULL;
-    CR_TRY(cr_topology_build(mesh, &t, err));
+    cr_status tst = cr_topology_build(mesh, &t, err);
+    if (tst != CR_OK) {
+        cr_mesh_destroy(welded);
+        return tst;
+    }
     cr_status st = cr_topology_require_manifold(t, source, err);
     if (st == CR_OK) st = check_uvs_and_size(mesh, source, err);
     gbody gb = {0};
     if (st == CR_OK) st = cr_gbody_init(&gb, body, err);
-    if (st == CR_OK) st = check_placement(mesh, source, gb.bvh, err);
+    if (st == CR_OK) st = check_placement(mesh, source, &gb, err);
     cr_mesh *m = NULL;
     int32_t *panel = NULL, npanels = 0;
     if (st == CR_OK) st = cr_mesh_clone(mesh, &m, err);
@@ -278,6 +362,7 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
     free(panel);
     cr_gbody_free(&gb);
     cr_topology_destroy(t);
+    cr_mesh_destroy(welded);
     return st;
 }
 

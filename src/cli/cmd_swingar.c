@@ -261,8 +261,10 @@ static int cmd_run(int argc, char **argv) {
         const cr_swingar_def *d = cr_swingar_get_def(m);
         desc = calloc((size_t)d->descriptor_len, sizeof(float));
         if (!desc) st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
-        if (st == CR_OK && d->use_descriptor)
-            st = cr_swingar_compute_descriptor(g->mesh, d->descriptor_len, d->affinity, desc, &err);
+        if (st == CR_OK && d->use_descriptor &&
+            cr_swingar_compute_descriptor(g->mesh, d->descriptor_len, d->affinity, desc, &err) !=
+                CR_OK)
+            st = CR_FAIL(&err, err.status, "%s: %s", o.garment, err.msg);
         if (st == CR_OK)
             st = cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, b, desc,
                                            d->descriptor_len, &sg, &err);
