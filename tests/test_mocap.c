@@ -219,10 +219,34 @@ static m3 t_local(int i, int f) {
  * the whole bind skeleton lying along +X, as joint-oriented exports write it;
  * their locals S_p R S_i^T keep every bone's world direction, so it is the
  * same motion. */
-enum { RIG_T, RIG_A, RIG_LYING };
+enum { RIG_T, RIG_A, RIG_LYING, RIG_ALONG_X };
+
+/* The rotation taking unit a to unit b by the shortest arc (Rodrigues). */
+static m3 m3_arc(const double a[3], const double b[3]) {
+    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    if (d < -1 + 1e-9) return m3_axis(fabs(a[2]) < 0.9 ? 2 : 1, M_PI); /* opposite */
+    m3 k = {{{0, -c[2], c[1]}, {c[2], 0, -c[0]}, {-c[1], c[0], 0}}}, r = m3_id(), k2 = m3_mul(k, k);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r.m[i][j] += k.m[i][j] + k2.m[i][j] / (1 + d);
+    return r;
+}
+
 static m3 rest_turn(int rest, int i) {
     if (i < 0) return m3_id();
     if (rest == RIG_LYING) return m3_axis(2, -M_PI / 2);
+    if (rest == RIG_ALONG_X) { /* joint-oriented: each joint's first bone along +X */
+        for (int c = i + 1; c < RN; c++)
+            if (trig[c].parent == i) {
+                double n = sqrt(trig[c].off[0] * trig[c].off[0] + trig[c].off[1] * trig[c].off[1] +
+                                trig[c].off[2] * trig[c].off[2]);
+                if (n < 1e-9) continue; /* a joint on its parent (CMU's LowerBack) */
+                double a[3] = {trig[c].off[0] / n, trig[c].off[1] / n, trig[c].off[2] / n};
+                return a[0] < 1 - 1e-9 ? m3_arc(a, (double[3]){1, 0, 0}) : m3_id();
+            }
+        return m3_id();
+    }
     switch (i) {
     case R_LARM:
     case R_LFOREARM:
@@ -389,8 +413,8 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     CR_REQUIRE(body);
     const double two_deg = 2 * M_PI / 180;
     cr_motion *t = load_rig(RIG_T, 1), *a = load_rig(RIG_A, 1), *old = load_rig(RIG_T, 0);
-    cr_motion *lying = load_rig(RIG_LYING, 1);
-    CR_REQUIRE(t && a && old && lying);
+    cr_motion *lying = load_rig(RIG_LYING, 1), *along_x = load_rig(RIG_ALONG_X, 1);
+    CR_REQUIRE(t && a && old && lying && along_x);
     double thigh, worst;
     int crossed;
     worst = bone_error(t, body->joints, &thigh, &crossed);
@@ -413,6 +437,20 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     printf("    lying rig: worst bone %.3f deg, thigh angle off by %.3f deg, crossed %d\n",
            worst * 180 / M_PI, thigh * 180 / M_PI, crossed);
     CR_CHECK(worst < two_deg && thigh < two_deg && !crossed);
+    /* Every bind bone along +X (a joint-oriented export whose zero pose is
+     * no pose at all): the bones still follow, the legs do not cross (the
+     * pelvis matched by its hips too), and the height comes from the first
+     * standing frame, so the root's path stays within 10 cm (the T rig's feet
+     * are read from its splayed rest, these from a walking frame's bent knee). */
+    worst = bone_error(along_x, body->joints, &thigh, &crossed);
+    double path = 0;
+    for (int f = 0; f < NF; f++)
+        for (int k = 0; k < 3; k++)
+            path = fmax(path, fabs(t->trans[3 * f + k] - along_x->trans[3 * f + k]));
+    printf("    rig with every bone along +X: worst bone %.3f deg, crossed %d, root path off by "
+           "%.3f m\n",
+           worst * 180 / M_PI, crossed, path);
+    CR_CHECK(worst < two_deg && !crossed && path < 0.1);
     /* The same body poses from every rig: every joint's world rotation, and
      * the root's path. */
     const cr_motion *other[] = {a, lying};
@@ -443,6 +481,7 @@ CR_TEST(mocap, retargeting_follows_the_rig_bones_whatever_its_rest) {
     cr_motion_destroy(t);
     cr_motion_destroy(a);
     cr_motion_destroy(lying);
+    cr_motion_destroy(along_x);
     cr_motion_destroy(old);
     cr_body_model_destroy(body);
 }

@@ -582,25 +582,62 @@ static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], doub
     }
 }
 
+static int unit3(const double v[3], double out[3], double eps) {
+    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
+    for (int k = 0; k < 3; k++)
+        out[k] = v[k] / n;
+    return 1;
+}
+
+/* Whether a skeleton at positions p stands: the legs (pelvis to the ankles,
+ * or the knees) point against the spine (pelvis to head). 1 when a rig lacks
+ * them (nothing to go by). A joint-oriented bind pose with every bone along
+ * one axis does not. */
+static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
+    static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
+    static const int legs[][2] = {{CR_JOINT_LEFT_ANKLE, CR_JOINT_RIGHT_ANKLE},
+                                  {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
+    int top = -1, l = -1;
+    for (int i = 0; i < 4 && top < 0; i++)
+        if (map[up_ends[i]] >= 0) top = map[up_ends[i]];
+    for (int i = 0; i < 2 && l < 0; i++)
+        if (map[legs[i][0]] >= 0 && map[legs[i][1]] >= 0) l = i;
+    if (top < 0 || l < 0) return 1;
+    double up[3], down[3];
+    for (int k = 0; k < 3; k++) {
+        up[k] = p[top][k] - p[map[0]][k];
+        down[k] = 0.5 * (p[map[legs[l][0]]][k] + p[map[legs[l][1]]][k]) - p[map[0]][k];
+    }
+    if (!unit3(up, up, 1e-12) || !unit3(down, down, 1e-12)) return 0;
+    return up[0] * down[0] + up[1] * down[1] + up[2] * down[2] < -0.5;
+}
+
 /* The world's up as the motion itself stands: pelvis to head in up to 64
  * frames spread over the clip, snapped to a signed axis, by vote. Where it
  * differs from the rest pose's (a joint-oriented rig whose bind skeleton lies
  * along another axis, as Maya and LAFAN1-style exports write them) the
  * frames are right and the rest pose's turn would lay the body down. Returns
  * 0 when fewer than half the frames agree on one axis (a clip spent lying or
- * tumbling: the rest pose is kept). */
+ * tumbling: the rest pose is kept). *standing: the first of those frames that
+ * stands along the winning axis (stands()), -1 when none does. */
 static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4], double (*pos)[3],
-                    int *up_axis, int *up_sign, int *agree, int *sampled) {
+                    int *up_axis, int *up_sign, int *agree, int *sampled, int32_t *standing) {
     int votes[6] = {0}, n = b->nframes < 64 ? b->nframes : 64;
+    int32_t first[6] = {-1, -1, -1, -1, -1, -1};
     for (int i = 0; i < n; i++) {
-        int32_t f = (int32_t)((int64_t)i * b->nframes / n), ua, us, la, ls;
+        int32_t f = (int32_t)((int64_t)i * b->nframes / n);
+        int ua, us, la, ls;
         frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-        if (rig_axes(map, pos, &ua, &us, &la, &ls)) votes[2 * ua + (us < 0)]++;
+        if (!rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
+        votes[2 * ua + (us < 0)]++;
+        if (first[2 * ua + (us < 0)] < 0 && stands(map, pos)) first[2 * ua + (us < 0)] = f;
     }
     int best = 0;
     for (int k = 1; k < 6; k++)
         if (votes[k] > votes[best]) best = k;
     *up_axis = best / 2, *up_sign = best % 2 ? -1 : 1, *agree = votes[best], *sampled = n;
+    *standing = first[best];
     return 2 * votes[best] > n;
 }
 
@@ -644,27 +681,30 @@ static void shortest_arc(const double a[3], const double b[3], double q[4]) {
         q[k] /= n;
 }
 
-static int unit3(const double v[3], double out[3], double eps) {
-    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
-    for (int k = 0; k < 3; k++)
-        out[k] = v[k] / n;
-    return 1;
-}
-
 /* turn: the file's frame to crease's; rest_turn: the rest pose's own upright
  * frame to crease's, which differs from turn when the bind skeleton lies
  * along another axis than the motion stands: each bone is then matched after
  * standing the rest pose up (D below), so a bone along the axis of that turn
- * keeps its twist, which a shortest arc alone would lose. */
-static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const double turn[4],
-                           const double rest_turn[4], double height, retarget *rt) {
+ * keeps its twist, which a shortest arc alone would lose.
+ *
+ * ref_w: NULL to match against the rest pose (ref its positions). Otherwise
+ * ref and ref_w are a standing frame's joint positions and world rotations,
+ * for a bind pose that does not stand (stands()): a shortest arc from the
+ * mannequin's bone to such a rest bone twists arbitrarily, so the bones are
+ * matched as they stand in that frame, A_j = W_j^-1 B_j with B_j the arc
+ * from the mannequin's bone to the posed one, and the pelvis by its spine
+ * and its hips both (a frame, not an arc: a half turn about the spine would
+ * swap the legs). */
+static void retarget_setup(const int map[CR_NJOINTS], double (*ref)[3], double (*ref_w)[4],
+                           const double turn[4], const double rest_turn[4], double height,
+                           retarget *rt) {
     float canon[CR_NJOINTS * 3];
     cr_mannequin_def md = cr_mannequin_default_def();
     cr_mannequin_rest_joints(&md, canon);
     double turn_inv[4], stand[4], stand_inv[4];
     q_conj(turn, turn_inv);
     q_mul(turn_inv, rest_turn, stand); /* D: the rest pose stood along the motion's up */
+    if (ref_w) q_identity(stand);
     q_conj(stand, stand_inv);
     for (int j = 0; j < CR_NJOINTS; j++) {
         int p = cr_joint_parent[j];
@@ -678,7 +718,7 @@ static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const d
             if (map[c] < 0) continue;
             double d[3], e[3];
             for (int k = 0; k < 3; k++) {
-                d[k] = rest[map[c]][k] - rest[map[j]][k];
+                d[k] = ref[map[c]][k] - ref[map[j]][k];
                 e[k] = (double)canon[3 * c + k] - (double)canon[3 * j + k];
             }
             q_rotate(turn_inv, e, e);
@@ -688,7 +728,34 @@ static void retarget_setup(const int map[CR_NJOINTS], double (*rest)[3], const d
             memcpy(rt->e[j], e, sizeof e);
             double arc[4];
             shortest_arc(e, d, arc);
-            q_mul(stand_inv, arc, rt->align[j]);
+            if (!ref_w) {
+                q_mul(stand_inv, arc, rt->align[j]);
+                break;
+            }
+            const int lh = map[CR_JOINT_LEFT_HIP], rh = map[CR_JOINT_RIGHT_HIP];
+            if (p < 0 && lh >= 0 && rh >= 0) {
+                /* the twist about the spine that turns the mannequin's hips onto the rig's */
+                double el[3], dl[3], v[3];
+                for (int k = 0; k < 3; k++) {
+                    el[k] = (double)canon[3 * CR_JOINT_LEFT_HIP + k] -
+                            (double)canon[3 * CR_JOINT_RIGHT_HIP + k];
+                    dl[k] = ref[lh][k] - ref[rh][k];
+                }
+                q_rotate(turn_inv, el, el);
+                q_rotate(arc, el, v);
+                double vd = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
+                double ld = dl[0] * d[0] + dl[1] * d[1] + dl[2] * d[2];
+                for (int k = 0; k < 3; k++)
+                    v[k] -= vd * d[k], dl[k] -= ld * d[k];
+                if (unit3(v, v, 1e-9) && unit3(dl, dl, 1e-9)) {
+                    double twist[4];
+                    shortest_arc(v, dl, twist); /* about d: both are perpendicular to it */
+                    q_mul(twist, arc, arc);
+                }
+            }
+            double w_inv[4];
+            q_conj(ref_w[map[j]], w_inv);
+            q_mul(w_inv, arc, rt->align[j]);
             break;
         }
     }
@@ -723,8 +790,10 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     double(*rest)[3] = cr_malloc((size_t)b->n * sizeof *rest, err);
     double(*w)[4] = cr_malloc((size_t)b->n * sizeof *w, err);
     double(*pos)[3] = cr_malloc((size_t)b->n * sizeof *pos, err);
+    double(*stand_pos)[3] = cr_malloc((size_t)b->n * sizeof *stand_pos, err);
+    double(*stand_w)[4] = cr_malloc((size_t)b->n * sizeof *stand_w, err);
     cr_motion *m = NULL;
-    cr_status st = rest && w && pos ? CR_OK : CR_ERR_MEMORY;
+    cr_status st = rest && w && pos && stand_pos && stand_w ? CR_OK : CR_ERR_MEMORY;
     motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
     double rest_turn[4] = {1, 0, 0, 0}; /* the rest pose's own upright frame: its height and feet */
     if (st == CR_OK) {
@@ -733,7 +802,8 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
         memcpy(fix.world, rest_turn, sizeof rest_turn);
     }
     int up_axis, up_sign, agree, sampled;
-    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled)) {
+    int32_t standing = -1;
+    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled, &standing)) {
         double y[3] = {0, 1, 0}, rest_up[3], rest_inv[4];
         q_conj(rest_turn, rest_inv);
         q_rotate(rest_inv, y, rest_up); /* the file axis the rest pose calls up */
@@ -751,25 +821,38 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
                    up_sign > 0 ? '+' : '-', "XYZ"[up_axis], agree, sampled);
         }
     }
+    /* The height that gives the unit and the feet: the rest pose's, or where
+     * it does not stand, the first standing frame's */
+    double(*size_pose)[3] = rest;
+    const double *size_turn = rest_turn;
+    if (st == CR_OK && !stands(map, rest) && standing >= 0) {
+        frame_pose(b, b->values + (size_t)standing * (size_t)b->ncol, stand_w, stand_pos);
+        size_pose = stand_pos, size_turn = fix.world;
+        cr_log(CR_LOG_WARN,
+               "%s: the rest skeleton does not stand (legs along the spine): its height and "
+               "feet are read from frame %d",
+               b->t.source, (int)standing);
+    }
     double fps = 1.0 / b->frame_time;
     if (fabs(fps - round(fps)) < 0.01) fps = round(fps); /* 0.0333333 s is 30 fps */
     if (st == CR_OK) st = cr_motion_create(b->nframes, (float)fps, &m, err);
     if (st == CR_OK) {
-        double s = rig_scale(b, rig, rest, rest_turn, def->bvh_scale), lowest = INFINITY,
+        double s = rig_scale(b, rig, size_pose, size_turn, def->bvh_scale), lowest = INFINITY,
                highest = -INFINITY, root_up[3];
         for (int i = 0; i < b->n; i++) {
             double v[3];
-            q_rotate(rest_turn, rest[i], v);
+            q_rotate(size_turn, size_pose[i], v);
             lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
         }
         retarget rt;
         if (def->retarget)
-            retarget_setup(map, rest, fix.world, rest_turn, (highest - lowest) / s, &rt);
+            retarget_setup(map, size_pose, size_pose == rest ? NULL : stand_w, fix.world, rest_turn,
+                           (highest - lowest) / s, &rt);
         q_rotate(fix.world, rest[map[0]], fix.origin);
-        q_rotate(rest_turn, rest[map[0]], root_up);
+        q_rotate(size_turn, size_pose[map[0]], root_up);
         for (int k = 0; k < 3; k++)
             fix.origin[k] *= s;
-        fix.origin[1] = s * root_up[1] - lowest; /* the root's height over the rest pose's feet */
+        fix.origin[1] = s * root_up[1] - lowest; /* the root's height over the feet */
         for (int f = 0; f < b->nframes; f++) {
             double wj[CR_NJOINTS][4];
             frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
@@ -801,6 +884,8 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     free(rest);
     free(w);
     free(pos);
+    free(stand_pos);
+    free(stand_w);
     if (st != CR_OK) {
         cr_motion_destroy(m);
         return st;
