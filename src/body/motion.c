@@ -43,6 +43,10 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
         cr_npz_close(z);
         return st;
     }
+    if (!ext[0])
+        return CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                       "%s: no file extension, so no motion format (crease reads .bvh and .npz)",
+                       path);
     return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                    "%s: unknown motion format '.%s' (crease reads .bvh and .npz)", path, ext);
 }

@@ -161,6 +161,10 @@ static cr_status load(const eval_opts *o, eval_inputs *d, cr_eval_input *in, cr_
             return CR_FAIL(err, CR_ERR_SHAPE, "%s has %d points per frame but %s has %d vertices",
                            o->body, d->body.nv, o->body_mesh, d->body_mesh->nv);
         in->body = d->body.frames, in->body_nframes = d->body.nframes;
+        if (d->body.nframes > 1 && d->body.nframes < d->pred.nframes)
+            cr_log(CR_LOG_WARN,
+                   "%s has %d frames, %s %d: frames past %d are measured against its last", o->body,
+                   d->body.nframes, o->pred, d->pred.nframes, d->body.nframes);
     }
     if (o->rest)
         CR_TRY(rest_angles(o->rest, &d->rest, &in->ref_rest, &in->ref_rest_nframes,

@@ -354,6 +354,9 @@ cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr
     if (st == CR_OK)
         st = cr_epnet_seq_create(m, def->motion, def->body, def->frames, def->hold, &s, err);
     const int32_t T = s ? s->T : 0, V = m->nv, H = m->nh;
+    if (s && def->frames > 0 && T < def->frames + def->hold)
+        cr_log(CR_LOG_WARN, "epnet run: %s has %d frames, fewer than the %d asked for", def->motion,
+               T - def->hold, def->frames);
     float *pos = NULL, *rb = NULL, *hs = NULL;
     if (st == CR_OK) {
         pos = malloc(sizeof(float) * 3 * (size_t)T * V);
