@@ -81,6 +81,11 @@ check "drape cloth in cm warns" bash -c "'$crease' drape --cloth '$tmp/cloth_cm.
   ${small[*]} -o '$tmp/cm' 2>&1 >/dev/null | grep -q 'warning: --cloth .*cloth_cm.obj: 100 m across'"
 check "drape object in m does not warn" bash -c "! '$crease' drape --object '$tmp/obj.obj' --cloth '$tmp/cloth.obj' \
   --epochs 1 ${small[*]} -o '$tmp/m1' 2>&1 | grep -q warning"
+# an open object (a quad) has no inside: the penetration is not measured (null), with a warning
+printf 'v -0.5 0 -0.5\nv 0.5 0 -0.5\nv 0.5 0 0.5\nv -0.5 0 0.5\nf 1 4 3 2\n' > "$tmp/quad.obj"
+check "open object: warned, no depth" bash -c "'$crease' drape --object '$tmp/quad.obj' --epochs 1 \
+  ${small[*]} --json -o '$tmp/quad' 2>'$tmp/quad.err' | grep -q '\"max_penetration_m\":null' \
+  && grep -q 'quad.obj is open (4 boundary edges)' '$tmp/quad.err'"
 expect_exit 1 "a checkpoint of variant 'inr-adaptive'" drape --scene ball --variant inr-uniform \
   --epochs 31 "${small[@]}" -o "$tmp/a" --resume
 

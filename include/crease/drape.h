@@ -258,7 +258,8 @@ enum { CR_DRAPE_H_BANDS = CR_EVAL_H_BANDS };
 typedef struct cr_drape_fidelity {
     double chamfer_m;         /* symmetric Chamfer distance to the reference (the mean of both
                                  directions' mean closest-point distances), m; NAN without one */
-    double max_penetration_m; /* deepest vertex inside the object (signed distance), m */
+    double max_penetration_m; /* deepest vertex inside the object (signed distance), m; NaN
+                                 for an open object (no inside) */
     double h_rms;             /* area-weighted RMS of the signed mean curvature, 1/m */
     double h_band[CR_DRAPE_H_BANDS]; /* share of the mean curvature's spatial power per band */
 } cr_drape_fidelity;

@@ -140,11 +140,13 @@ static void report(const cr_drape_def *def, const cr_drape_result *r) {
     if (r->converged_epoch >= 0)
         snprintf(conv, sizeof conv, "converged at epoch %d (%.1f s)", r->converged_epoch,
                  r->converged_seconds);
+    char deepest[48] = "deepest not measured (open object)";
+    if (isfinite(r->max_penetration_m))
+        snprintf(deepest, sizeof deepest, "deepest %.3g mm", 1e3 * r->max_penetration_m);
     fprintf(stderr,
-            "drape %s: %lld free variables, %d epochs, %.1f s, %s; energy %.4g -> %.4g, "
-            "deepest %.3g mm\n",
+            "drape %s: %lld free variables, %d epochs, %.1f s, %s; energy %.4g -> %.4g, %s\n",
             cr_drape_variant_name(def->variant), (long long)r->params, r->epochs, r->seconds, conv,
-            r->initial.total, r->terms.total, 1e3 * r->max_penetration_m);
+            r->initial.total, r->terms.total, deepest);
     if (r->glb_path[0])
         fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r->glb_path,
                 def->scene == CR_DRAPE_OBJECT ? "+" : "",

@@ -22,6 +22,7 @@ typedef struct drape_scene {
     float metres_per_uv; /* sqrt(3-D area / UV area) of the rest cloth */
     float cloth_size;    /* square cloth: its side and drop height, m (0 for a user's cloth) */
     float drop_height;
+    int32_t open_edges; /* boundary edges of the object: > 0, it has no inside to measure */
 } drape_scene;
 
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err);

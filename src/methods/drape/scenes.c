@@ -344,6 +344,14 @@ cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_erro
     if (st == CR_OK && def->scene == CR_DRAPE_OBJECT) {
         st = cr_mesh_validate(s->object, def->object_path, err);
         if (st == CR_OK) warn_size(s->object, "--object", def->object_path);
+        cr_topology *t = NULL;
+        if (st == CR_OK) st = cr_topology_build(s->object, &t, err);
+        if (st == CR_OK && (s->open_edges = t->n_boundary_edges) > 0)
+            cr_log(CR_LOG_WARN,
+                   "--object %s is open (%d boundary edges): it has no inside, so the drape's "
+                   "penetration depth is not measured",
+                   def->object_path, s->open_edges);
+        cr_topology_destroy(t);
     }
     if (st == CR_OK)
         st = cr_bvh_build(s->object->pos, s->object->nv, s->object->tri, s->object->nf, &s->bvh,

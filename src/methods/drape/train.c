@@ -700,7 +700,9 @@ cr_status cr_drape_run(const cr_drape_def *def, cr_drape_result *res, cr_mesh **
     if (st == CR_OK && r.nrows > 0) res->initial = r.rows[0].eval;
     cr_mesh *out = NULL;
     if (st == CR_OK) st = cr_drape_surface_mesh(r.ctx, r.model, &r.scene, def->out_res, &out, err);
-    if (st == CR_OK) res->max_penetration_m = cr_drape_max_penetration(r.scene.bvh, out);
+    if (st == CR_OK)
+        res->max_penetration_m =
+            r.scene.open_edges ? NAN : cr_drape_max_penetration(r.scene.bvh, out);
     res->cloth_size_m = r.scene.cloth_size, res->drop_height_m = r.scene.drop_height;
     if (st == CR_OK && def->out_dir) st = save_checkpoint(&r, res, err);
     if (st == CR_OK && def->out_dir) st = write_outputs(&r, res, out, err);
