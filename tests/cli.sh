@@ -45,6 +45,11 @@ check "convert glb->obj" "$crease" convert "$tmp/torus.glb" "$tmp/torus2.obj" --
 check "round trip keeps counts" bash -c \
   "[[ \$('$crease' info '$tmp/torus.obj' --json | grep -o '\"faces\":[0-9]*') == \
      \$('$crease' info '$tmp/torus2.obj' --json | grep -o '\"faces\":[0-9]*') ]]"
+# a vertex at (1, 2, 3), scaled by 0.01 and turned from Z-up: (0.01, 0.03, -0.02)
+printf 'v 1 2 3\nv 2 2 3\nv 1 3 3\nf 1 2 3\n' > "$tmp/zup_cm.obj"
+check "convert --scale --z-up" bash -c "'$crease' convert '$tmp/zup_cm.obj' '$tmp/yup_m.obj' \
+  --scale 0.01 --z-up && grep -q '^v 0.00999999978 0.0299999993 -0.0199999996' '$tmp/yup_m.obj'"
+expect_exit 2 "apply to meshes" convert "$tmp/x.pc2" "$tmp/x.glb" --rest "$tmp/torus.obj" --scale 2
 
 # --- render ---------------------------------------------------------------------------
 check "render" "$crease" render "$tmp/torus.obj" "$tmp/sphere.obj" --wire -o "$tmp/r.png" --size 256

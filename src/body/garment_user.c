@@ -99,7 +99,9 @@ static cr_status check_uvs_and_size(const cr_mesh *m, const char *src, cr_error 
             "%s: the garment is %.4g units across (bounding box %.4g x %.4g x %.4g); "
             "expected metres (0.1 to 4)%s",
             src, diag, (double)(hi[0] - lo[0]), (double)(hi[1] - lo[1]), (double)(hi[2] - lo[2]),
-            diag <= 400.0 ? ": centimetres? scale it by 0.01" : ": millimetres? scale it by 0.001");
+            diag <= 400.0
+                ? ": centimetres? scale it by 0.01 (crease convert IN OUT --scale 0.01)"
+                : ": millimetres? scale it by 0.001 (crease convert IN OUT --scale 0.001)");
     if (diag < 0.1)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "%s: the garment is only %.4g units across; expected metres (0.1 to 4)", src,
@@ -132,7 +134,8 @@ static cr_status check_placement(const cr_mesh *m, const char *src, const gbody 
         if ((int64_t)near * 2 < m->nv)
             st = CR_FAIL(err, CR_ERR_INVALID,
                          "%s: only %d of %d vertices lie within %g m of the body; place the "
-                         "garment on the body's rest pose (+Y up, facing +Z, soles at y = 0)",
+                         "garment on the body's rest pose (+Y up, facing +Z, soles at y = 0; a "
+                         "Z-up file: crease convert IN OUT --z-up)",
                          src, near, m->nv, (double)NEAR_BODY_M);
     }
     if (st == CR_OK) {
