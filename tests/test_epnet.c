@@ -598,3 +598,74 @@ CR_TEST(epnet, resume_is_bit_exact) {
     snprintf(cmd, sizeof cmd, "rm -rf %s %s", a, b);
     CR_CHECK(system(cmd) == 0);
 }
+
+static void copy_file(const char *from, const char *to) {
+    FILE *a = fopen(from, "rb"), *b = fopen(to, "wb");
+    CR_REQUIRE(a && b);
+    for (int c; (c = fgetc(a)) != EOF;)
+        fputc(c, b);
+    fclose(a), fclose(b);
+}
+
+/* The checkpoint (model.json, both networks, the RB) is committed as one set:
+ * a run refused before training, or killed before a set's commit, leaves the
+ * folder as it was; a kill after the commit is finished at the next load; a
+ * resume with other options, or a model.json with a misspelt key, is refused
+ * naming the key. */
+CR_TEST(epnet, checkpoint_set_commits_whole_and_resume_keeps_the_model) {
+    cr_error err = {0};
+    char dir[64], path[128], next[140];
+    snprintf(dir, sizeof dir, "/tmp/epnet_test_set_%d", (int)getpid());
+    const char *motions[1] = {"squat"};
+    cr_epnet_def d = tiny_def();
+    d.frames = 6, d.motions = motions, d.nmotions = 1;
+    d.cycles = 1, d.enet_epochs = 1, d.pnet_epochs = 1, d.pnet_frames = 2, d.quiet = 1;
+    d.out_dir = dir;
+    CR_REQUIRE(cr_epnet_train(&d, NULL, &err) == CR_OK);
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    char keep[140];
+    snprintf(keep, sizeof keep, "%s/model.keep", dir);
+    copy_file(path, keep);
+    /* a fresh run refused on its motion leaves model.json as it was */
+    const char *bad[1] = {"no_such_clip"};
+    cr_epnet_def e = d;
+    e.garment_vertices = 600, e.motions = bad;
+    CR_CHECK(cr_epnet_train(&e, NULL, &err) != CR_OK);
+    CR_CHECK(files_equal(path, keep));
+    /* a resume with another yield angle is refused, naming it */
+    e = d;
+    e.material.yield_angle = 0.3, e.resume = 1;
+    CR_CHECK(cr_epnet_train(&e, NULL, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "yield") != NULL);
+    CR_CHECK(files_equal(path, keep));
+    /* killed before a commit: the half-written set is dropped at the next load */
+    snprintf(next, sizeof next, "%s/enet.safetensors.next", dir);
+    FILE *f = fopen(next, "wb");
+    CR_REQUIRE(f);
+    fputs("half a checkpoint", f), fclose(f);
+    cr_epnet *m = NULL;
+    CR_CHECK_OK(cr_epnet_open(dir, &m, &err), &err);
+    cr_epnet_destroy(m), m = NULL;
+    CR_CHECK(access(next, F_OK) != 0);
+    /* killed after the commit: the renames are finished at the next load */
+    snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
+    snprintf(next, sizeof next, "%s/pnet.safetensors.next", dir);
+    copy_file(path, next);
+    snprintf(path, sizeof path, "%s/commit.json", dir);
+    f = fopen(path, "wb");
+    CR_REQUIRE(f);
+    fputs("{\"position\": 0}\n", f), fclose(f);
+    CR_CHECK_OK(cr_epnet_open(dir, &m, &err), &err);
+    cr_epnet_destroy(m), m = NULL;
+    CR_CHECK(access(next, F_OK) != 0 && access(path, F_OK) != 0);
+    /* a misspelt key in model.json */
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    f = fopen(path, "wb");
+    CR_REQUIRE(f);
+    fputs("{\"garment\": \"tshirt\", \"garment_vertices\": 500, \"yeild\": 0.3}\n", f), fclose(f);
+    CR_CHECK(cr_epnet_open(dir, &m, &err) == CR_ERR_PARSE);
+    CR_CHECK(strstr(err.msg, "unknown key 'yeild'") != NULL && strstr(err.msg, "model.json"));
+    char cmd[100];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    CR_CHECK(system(cmd) == 0);
+}

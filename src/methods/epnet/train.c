@@ -6,9 +6,10 @@
  * target RB by Eq. 4-5 (cr_epnet_plastic_rollout), on which P-Net is fitted
  * (MSE, teacher forcing), and the targets become the next cycle's RB. The
  * baseline (def.baseline) runs phase 0 only, with RB 0.
- * Checkpoints after every epoch: enet.safetensors, pnet.safetensors (weights
- * and Adam state) and state.safetensors (the RB per clip, the position in
- * the curriculum and the RNG), written in that order, each atomically. */
+ * Checkpoints after every epoch: enet.safetensors and pnet.safetensors
+ * (weights, Adam state, the position in the curriculum and the RNG) and
+ * rb_train.npy (the RB per clip), with model.json (the def) at the first one:
+ * a set that must agree, so it is committed as one (save_set). */
 #include "epnet_internal.h"
 
 #include "crease/bvh.h"
@@ -29,21 +30,85 @@ static int64_t pos_code(int cycle, int phase, int epoch) {
     return ((int64_t)cycle * 2 + phase) * 1000000 + epoch;
 }
 
-cr_status cr_epnet_save(cr_epnet *m, const char *dir, int cycle, int phase, int epoch,
-                        cr_error *err) {
-    char path[1024];
+/* The files of one checkpoint. Each is written to NAME.next; then commit.json
+ * is written (atomically) and each NAME.next renamed over NAME, then
+ * commit.json removed. A kill before commit.json leaves the previous set
+ * whole (its .next files are dropped at the next load); a kill after it is
+ * finished at the next load (finish_commit). Each file alone is atomic, so
+ * this only orders them. */
+static const char *const set_files[] = {"model.json", "enet.safetensors", "pnet.safetensors",
+                                        "rb_train.npy"};
+enum { NSET = sizeof set_files / sizeof set_files[0] };
+
+static int file_exists(const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (f) fclose(f);
+    return f != NULL;
+}
+
+static cr_status finish_commit(const char *dir, cr_error *err) {
+    char marker[1024], from[1100], to[1100];
+    snprintf(marker, sizeof marker, "%s/commit.json", dir);
+    const int committed = file_exists(marker);
+    for (int k = 0; k < NSET; k++) {
+        snprintf(from, sizeof from, "%s/%s.next", dir, set_files[k]);
+        snprintf(to, sizeof to, "%s/%s", dir, set_files[k]);
+        if (!file_exists(from)) continue;
+        if (!committed)
+            remove(from);
+        else if (rename(from, to) != 0)
+            return CR_FAIL(err, CR_ERR_IO, "%s: cannot rename %s over %s", dir, from, to);
+    }
+    if (committed && remove(marker) != 0)
+        return CR_FAIL(err, CR_ERR_IO, "%s: cannot remove %s", dir, marker);
+    return CR_OK;
+}
+
+static cr_status save_rb(const char *path, float *const *rb, int n, int64_t T, int64_t H,
+                         cr_error *err) {
+    float *all = malloc(sizeof(float) * (size_t)(n * T * H + 1));
+    if (!all) return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory saving RB");
+    for (int i = 0; i < n; i++)
+        memcpy(all + i * T * H, rb[i], sizeof(float) * (size_t)(T * H));
+    cr_status st = cr_npy_write(path, CR_NPY_F32, 3, (int64_t[]){n, T, H}, all, err);
+    free(all);
+    return st;
+}
+
+/* One checkpoint set: the two networks at (cycle, phase, epoch), and when rb
+ * is given the RB per clip (n clips of T x H). A model.json.next written
+ * before (the first save of a training) goes in with them. */
+static cr_status save_set(cr_epnet *m, const char *dir, int cycle, int phase, int epoch,
+                          float *const *rb, int n, int64_t T, int64_t H, cr_error *err) {
+    char path[1100];
     cr_checkpoint_meta meta = {
         .epoch = pos_code(cycle, phase, epoch), .seed = m->def.seed, .rng = m->rng};
-    snprintf(path, sizeof path, "%s/enet.safetensors", dir);
+    snprintf(path, sizeof path, "%s/enet.safetensors.next", dir);
     CR_TRY(cr_checkpoint_save(path, m->pe, m->opt_e, &meta, err));
-    snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
-    return cr_checkpoint_save(path, m->pp, m->opt_p, &meta, err);
+    snprintf(path, sizeof path, "%s/pnet.safetensors.next", dir);
+    CR_TRY(cr_checkpoint_save(path, m->pp, m->opt_p, &meta, err));
+    if (rb) {
+        snprintf(path, sizeof path, "%s/rb_train.npy.next", dir);
+        CR_TRY(save_rb(path, rb, n, T, H, err));
+    }
+    snprintf(path, sizeof path, "%s/commit.json", dir);
+    cr_atomic_file f;
+    CR_TRY(cr_atomic_open(&f, path, err));
+    fprintf(f.fp, "{\"position\": %lld}\n", (long long)meta.epoch);
+    CR_TRY(cr_atomic_commit(&f, err));
+    return finish_commit(dir, err);
+}
+
+cr_status cr_epnet_save(cr_epnet *m, const char *dir, int cycle, int phase, int epoch,
+                        cr_error *err) {
+    return save_set(m, dir, cycle, phase, epoch, NULL, 0, 0, 0, err);
 }
 
 cr_status cr_epnet_load(cr_epnet *m, const char *dir, int *cycle, int *phase, int *epoch,
                         cr_error *err) {
     char path[1024];
     cr_checkpoint_meta me = {0}, mp = {0};
+    CR_TRY(finish_commit(dir, err));
     snprintf(path, sizeof path, "%s/enet.safetensors", dir);
     CR_TRY(cr_checkpoint_load(path, m->pe, m->opt_e, &me, err));
     free(me.config_json);
@@ -61,19 +126,6 @@ cr_status cr_epnet_load(cr_epnet *m, const char *dir, int *cycle, int *phase, in
 }
 
 /* RB per training clip, (n, T, H) as one .npy. */
-static cr_status save_rb(const char *dir, float *const *rb, int n, int64_t T, int64_t H,
-                         cr_error *err) {
-    char path[1024];
-    snprintf(path, sizeof path, "%s/rb_train.npy", dir);
-    float *all = malloc(sizeof(float) * (size_t)(n * T * H + 1));
-    if (!all) return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory saving RB");
-    for (int i = 0; i < n; i++)
-        memcpy(all + i * T * H, rb[i], sizeof(float) * (size_t)(T * H));
-    cr_status st = cr_npy_write(path, CR_NPY_F32, 3, (int64_t[]){n, T, H}, all, err);
-    free(all);
-    return st;
-}
-
 static cr_status load_rb(const char *dir, float **rb, int n, int64_t T, int64_t H, cr_error *err) {
     char path[1024];
     snprintf(path, sizeof path, "%s/rb_train.npy", dir);
@@ -92,13 +144,9 @@ static cr_status load_rb(const char *dir, float **rb, int n, int64_t T, int64_t 
 
 /* ------------------------------------------------------ model folder -- */
 
-static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *err) {
-    char path[1024];
-    snprintf(path, sizeof path, "%s/model.json", dir);
-    cr_atomic_file f;
-    CR_TRY(cr_atomic_open(&f, path, err));
+static void print_config(const cr_epnet_def *d, FILE *fp) {
     fprintf(
-        f.fp,
+        fp,
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
@@ -108,19 +156,66 @@ static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->inertia_detach, d->pin_top,
         d->w_pin, d->w_bending, d->w_rb_response, d->rb_augment, d->rb_fold, d->rb_from_rollout);
     for (int i = 0; i < d->nstatic; i++)
-        fprintf(f.fp, "%s%d", i ? ", " : "", d->static_widths[i]);
-    fprintf(f.fp, "], \"rb\": [");
+        fprintf(fp, "%s%d", i ? ", " : "", d->static_widths[i]);
+    fprintf(fp, "], \"rb\": [");
     for (int i = 0; i < d->nrb; i++)
-        fprintf(f.fp, "%s%d", i ? ", " : "", d->rb_widths[i]);
-    fprintf(f.fp,
+        fprintf(fp, "%s%d", i ? ", " : "", d->rb_widths[i]);
+    fprintf(fp,
             "], \"dynamic\": %d, \"gru\": %d, \"decoder_width\": %d, \"decoder_layers\": %d,\n"
             " \"pnet_latent\": %d, \"pnet_hidden_layers\": %d, \"pnet_steps\": %d, \"motions\": [",
             d->dynamic_width, d->gru_hidden, d->decoder_width, d->decoder_layers, d->pnet_latent,
             d->pnet_hidden_layers, d->pnet_steps);
     for (int i = 0; i < d->nmotions; i++)
-        fprintf(f.fp, "%s\"%s\"", i ? ", " : "", d->motions[i]);
-    fprintf(f.fp, "]}\n");
+        fprintf(fp, "%s\"%s\"", i ? ", " : "", d->motions[i]);
+    fprintf(fp, "]}\n");
+}
+
+/* model.json.next, committed with the first checkpoint (save_set). */
+static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *err) {
+    char path[1100];
+    snprintf(path, sizeof path, "%s/model.json.next", dir);
+    cr_atomic_file f;
+    CR_TRY(cr_atomic_open(&f, path, err));
+    print_config(d, f.fp);
     return cr_atomic_commit(&f, err);
+}
+
+/* A resume must train the model it finds: the def's model.json against the
+ * folder's, key by key. */
+static cr_status check_config(const cr_epnet_def *d, const char *dir, cr_error *err) {
+    char path[1024], *txt = NULL, *mine = NULL;
+    size_t len = 0;
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    CR_TRY(cr_file_read_all(path, &txt, &len, err));
+    FILE *fp = tmpfile();
+    long n = -1;
+    if (fp) {
+        print_config(d, fp);
+        n = ftell(fp);
+        rewind(fp);
+        mine = n >= 0 ? calloc((size_t)n + 1, 1) : NULL;
+        if (mine && fread(mine, 1, (size_t)n, fp) != (size_t)n) free(mine), mine = NULL;
+        fclose(fp);
+    }
+    cJSON *a = cJSON_Parse(txt), *b = mine ? cJSON_Parse(mine) : NULL;
+    free(txt), free(mine);
+    cr_status st = CR_OK;
+    if (!a)
+        st = CR_FAIL(err, CR_ERR_PARSE, "%s: not JSON", path);
+    else if (!b)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: cannot print the options' model.json");
+    for (const cJSON *e = b ? b->child : NULL; st == CR_OK && e; e = e->next) {
+        const cJSON *f = cJSON_GetObjectItemCaseSensitive(a, e->string);
+        if (f && cJSON_Compare(e, f, 1)) continue;
+        char *want = cJSON_PrintUnformatted(e), *have = f ? cJSON_PrintUnformatted(f) : NULL;
+        st = CR_FAIL(err, CR_ERR_INVALID,
+                     "%s: the model has %s %s but the options give %s: resume with the model's "
+                     "options, or train into another folder",
+                     path, e->string, have ? have : "(none)", want ? want : "?");
+        free(want), free(have);
+    }
+    cJSON_Delete(a), cJSON_Delete(b);
+    return st;
 }
 
 static int jint(const cJSON *o, const char *k, int dflt) {
@@ -141,6 +236,64 @@ cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
     cJSON *o = cJSON_Parse(txt);
     free(txt);
     if (!o) return CR_FAIL(err, CR_ERR_PARSE, "%s: not JSON", path);
+    /* A misspelt key would quietly take its default and change the model:
+     * every key must be one print_config writes, and the sizes must be there
+     * (keys added later, as the RB options, default to off when missing). */
+    static const char *const known[] = {"garment",
+                                        "garment_vertices",
+                                        "body",
+                                        "frames",
+                                        "fps",
+                                        "yield",
+                                        "sharpness",
+                                        "baseline",
+                                        "seed",
+                                        "inertia_detach",
+                                        "pin_top",
+                                        "w_pin",
+                                        "w_bending",
+                                        "w_rb_response",
+                                        "rb_augment",
+                                        "rb_fold",
+                                        "rb_from_rollout",
+                                        "static",
+                                        "rb",
+                                        "dynamic",
+                                        "gru",
+                                        "decoder_width",
+                                        "decoder_layers",
+                                        "pnet_latent",
+                                        "pnet_hidden_layers",
+                                        "pnet_steps",
+                                        "motions"};
+    static const char *const required[] = {"garment",
+                                           "garment_vertices",
+                                           "yield",
+                                           "static",
+                                           "rb",
+                                           "dynamic",
+                                           "gru",
+                                           "decoder_width",
+                                           "decoder_layers",
+                                           "pnet_latent",
+                                           "pnet_hidden_layers",
+                                           "pnet_steps"};
+    for (const cJSON *e = o->child; e; e = e->next) {
+        size_t k = 0;
+        while (k < sizeof known / sizeof known[0] && strcmp(known[k], e->string))
+            k++;
+        if (k == sizeof known / sizeof known[0]) {
+            cr_status st = CR_FAIL(err, CR_ERR_PARSE, "%s: unknown key '%s'", path, e->string);
+            cJSON_Delete(o);
+            return st;
+        }
+    }
+    for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
+        if (!cJSON_GetObjectItemCaseSensitive(o, required[k])) {
+            cr_status st = CR_FAIL(err, CR_ERR_PARSE, "%s: no key '%s'", path, required[k]);
+            cJSON_Delete(o);
+            return st;
+        }
     cr_epnet_def d = cr_epnet_default_def();
     char garment[32] = "tshirt", body[32] = "normal";
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(o, "garment");
@@ -222,7 +375,7 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
     cr_epnet_seq *seq[CR_EPNET_MAX_MOTIONS] = {0};
     float *rb[CR_EPNET_MAX_MOTIONS] = {0}, *theta = NULL, *pos = NULL, *target = NULL;
     double t0 = cr_time_now();
-    cr_status st = write_config(def, def->out_dir, err);
+    cr_status st = CR_OK;
     for (int i = 0; st == CR_OK && i < n; i++) {
         st = cr_epnet_seq_create(m, def->motions[i], NULL, def->frames, 0, &seq[i], err);
         if (st == CR_OK && seq[i]->T != T)
@@ -238,8 +391,12 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
         st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: out of memory");
     int c0 = 0, p0 = 0, e0 = 0;
     if (st == CR_OK && def->resume) {
-        st = cr_epnet_load(m, def->out_dir, &c0, &p0, &e0, err);
+        st = check_config(def, def->out_dir, err);
+        if (st == CR_OK) st = cr_epnet_load(m, def->out_dir, &c0, &p0, &e0, err);
         if (st == CR_OK) st = load_rb(def->out_dir, rb, n, T, H, err);
+    } else if (st == CR_OK) {
+        /* nothing in the folder changes until the first checkpoint commits */
+        st = write_config(def, def->out_dir, err);
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/progress.jsonl", def->out_dir);
@@ -260,8 +417,7 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
             if (first) rep.first = sum, rep.first_loss = sum.total, first = 0;
             rep.last = sum, rep.last_loss = sum.total;
             log_epoch(log, def->quiet, c, "enet", e, &sum, 0);
-            st = cr_epnet_save(m, def->out_dir, c, 0, e + 1, err);
-            if (st == CR_OK) st = save_rb(def->out_dir, rb, n, T, H, err);
+            st = save_set(m, def->out_dir, c, 0, e + 1, rb, n, T, H, err);
         }
         if (st != CR_OK || def->baseline) {
             if (st == CR_OK) rep.cycles_done = c + 1;
@@ -306,8 +462,7 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
                 memcpy(rb[i], target + i * T * H, sizeof(float) * (size_t)(T * H));
         }
         if (st != CR_OK) break;
-        st = cr_epnet_save(m, def->out_dir, c + 1, 0, 0, err);
-        if (st == CR_OK) st = save_rb(def->out_dir, rb, n, T, H, err);
+        st = save_set(m, def->out_dir, c + 1, 0, 0, rb, n, T, H, err);
         if (st == CR_OK) rep.cycles_done = c + 1;
     }
     if (log) fclose(log);
