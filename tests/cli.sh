@@ -69,6 +69,24 @@ check "fit outputs" test -s "$tmp/fit/checkpoint.safetensors" -a -s "$tmp/fit/su
   -a -s "$tmp/fit/log.jsonl"
 check "fit resume" bash -c "'$crease' fit --model grid -o '$tmp/fit' --resume --epochs 4 --train-res 16 --eval-res 16 --batch 64 --quiet --json | grep -q '\"resumed_from_epoch\":2'"
 expect_exit 1 "checkpoint.safetensors: .*not a parameter" fit --model mlp -o "$tmp/fit" --resume "${small_fit[@]}"
+check "fit log: epochs 1-4 after the resume" epochs_are "$tmp/fit/log.jsonl" 4
+# a run killed after logging an epoch it did not checkpoint: the resume logs it once
+echo '{"epoch":5,"loss":1}' >> "$tmp/fit/log.jsonl"
+check "fit resume after a kill" "$crease" fit --model grid -o "$tmp/fit" --resume --epochs 6 \
+  --train-res 16 --eval-res 16 --batch 64 --quiet
+check "fit log: epochs 1-6" epochs_are "$tmp/fit/log.jsonl" 6
+# an edited checkpoint: refused, naming the file and the key
+mkdir -p "$tmp/fit_cfg"
+st_meta_sub "$tmp/fit/checkpoint.safetensors" "$tmp/fit_cfg/checkpoint.safetensors" config \
+  '"seconds"' '"secs"'
+expect_exit 1 "fit_cfg/checkpoint.safetensors: config 'seconds' is missing" fit --model grid \
+  -o "$tmp/fit_cfg" --resume "${small_fit[@]}"
+st_meta_sub "$tmp/fit/checkpoint.safetensors" "$tmp/fit_cfg/checkpoint.safetensors" config \
+  '"eval_seconds":[^,]*' '"eval_seconds":"x"'
+expect_exit 1 "fit_cfg/checkpoint.safetensors: config 'eval_seconds' is not a number" fit \
+  --model grid -o "$tmp/fit_cfg" --resume "${small_fit[@]}"
+check "fit again without --resume: a fresh log" "$crease" fit --model grid -o "$tmp/fit" "${small_fit[@]}"
+check "fit log: epochs 1-2" epochs_are "$tmp/fit/log.jsonl" 2
 expect_exit 2 "unknown model" fit --model siren -o "$tmp/fit2"
 expect_exit 2 "missing -o" fit --model grid
 

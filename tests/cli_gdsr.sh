@@ -38,11 +38,33 @@ check "train fields" json_has "$tmp/t2.json" command params epochs resumed_from 
   coarse_l1_m fine_l1_m normal_l1 stretch shear bend laplacian_l1_m seconds
 check "resumed from $first" grep -q "\"resumed_from\":$first," "$tmp/t2.json"
 check "log: $epochs lines" bash -c "[[ \$(wc -l < '$tmp/m/log.jsonl') -eq $epochs ]]"
+# a run killed after logging an epoch it did not checkpoint: the resume logs it once
+cp -r "$tmp/m" "$tmp/mk"
+echo "{\"epoch\":$((epochs + 1)),\"loss\":1}" >> "$tmp/mk/log.jsonl"
+check "gdsr train resumes after a kill" "$crease" gdsr train "${small[@]}" --epochs $((epochs + 1)) \
+  --resume -o "$tmp/mk"
+check "log: epochs 1-$((epochs + 1))" epochs_are "$tmp/mk/log.jsonl" $((epochs + 1))
+# the model settings are the checkpoint's: another one is refused, naming it and both values
+expect_exit 1 "checkpoint.safetensors: the checkpoint's model has out_scale 0.01, this run asks for 0.02" \
+  gdsr train "${small[@]}" --epochs $((epochs + 2)) --out-scale 0.02 --resume -o "$tmp/mk"
+expect_exit 1 "has latent 32, this run asks for 16" gdsr train "${small[@]}" --latent 16 \
+  --epochs $((epochs + 2)) --resume -o "$tmp/mk"
+# a model file whose stored settings name an unknown field (or lack one) is refused
+st_meta_sub "$tmp/m/model.safetensors" "$tmp/cfgkey.safetensors" gdsr_model '"out_scale"' '"out_scale_x"'
+expect_exit 1 "cfgkey.safetensors: unknown gdsr model field 'out_scale_x'" gdsr run \
+  --dataset "$tmp/data" --motion dance --model "$tmp/cfgkey.safetensors" -o "$tmp/rk" --quiet
+st_meta_sub "$tmp/m/model.safetensors" "$tmp/cfgkey.safetensors" gdsr_model ',"out_scale":[^,}]*' ''
+expect_exit 1 "cfgkey.safetensors: gdsr model definition lacks 'out_scale'" gdsr run \
+  --dataset "$tmp/data" --motion dance --model "$tmp/cfgkey.safetensors" -o "$tmp/rk" --quiet
 check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
 check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
   -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv" \
   -a -s "$tmp/r/gdsr.glb" -a -s "$tmp/r/compare.png" -a -s "$tmp/r/compare_normals.png"
 check "glb animated" grep -q '"glb_animated":true,' "$tmp/r.json"
+# summary.json that cannot be written (a folder stands in its way): exit 1, named
+mkdir -p "$tmp/rs/summary.json/x"
+expect_exit 1 "summary.json" gdsr run --dataset "$tmp/data" --motion dance \
+  --model "$tmp/m/model.safetensors" -o "$tmp/rs" --quiet
 check "the frame time is the sum of its stages" python3 -c "
 import json, sys
 j = json.load(open(sys.argv[1]))

@@ -23,6 +23,11 @@ check "one train, one test sequence" grep -q '"train_sequences":1,"test_sequence
 check "resume" bash -c "'$crease' swingar train --dataset '$tmp/data' --epochs $last --window 4 \
   --batch 2 --lr 1e-2 --test-motions twist --resume '$tmp/m.safetensors' \
   -o '$tmp/m.safetensors' --quiet --json | grep -q '\"epochs\":$last,'"
+# an edited checkpoint, its error history as numbers (strings are written): refused by key
+st_meta_sub "$tmp/m.safetensors" "$tmp/hist.safetensors" config '"([0-9][-0-9.e+]*)"' '\1'
+expect_exit 1 "hist.safetensors: training state 'vert_err_history' entry 0" swingar train \
+  --dataset "$tmp/data" --epochs $((last + 1)) --window 4 --batch 2 --test-motions twist \
+  --resume "$tmp/hist.safetensors" -o "$tmp/hist2.safetensors" --quiet
 g="$tmp/data/garments/normal/dress_low.obj"
 check "run" bash -c "'$crease' swingar run --model '$tmp/m.safetensors' --garment '$g' \
   --motion walk --frames 13 -o '$tmp/pred' --json > '$tmp/r.json'"

@@ -43,3 +43,24 @@ json_below() {
   local v; v=$(tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2)
   [[ -n $v ]] && awk -v v="$v" -v l="$3" 'BEGIN { exit !(v < l) }'
 }
+
+# st_meta_sub IN OUT KEY REGEX REPL: copy safetensors IN to OUT with Python's
+# re.sub(REGEX, REPL) applied to the string at __metadata__[KEY] (an edited checkpoint)
+st_meta_sub() {
+  python3 - "$@" <<'PY'
+import json, re, struct, sys
+src, dst, key, pat, rep = sys.argv[1:6]
+b = open(src, 'rb').read()
+n = struct.unpack('<Q', b[:8])[0]
+h = json.loads(b[8:8 + n])
+h['__metadata__'][key] = re.sub(pat, rep, h['__metadata__'][key])
+s = json.dumps(h, separators=(',', ':')).encode()
+s += b' ' * (-(8 + len(s)) % 8)
+open(dst, 'wb').write(struct.pack('<Q', len(s)) + s + b[8 + n:])
+PY
+}
+
+# epochs_are FILE N: FILE's lines are epochs 1..N, one each, in order
+epochs_are() {
+  [[ $(grep -o '"epoch":[0-9]*' "$1" | cut -d: -f2 | tr '\n' ' ') == "$(seq -s ' ' 1 "$2") " ]]
+}

@@ -124,6 +124,12 @@ CR_TEST(nn_checkpoint, round_trip_is_exact) {
     CR_CHECK_OK(cr_nn_params_create(&q, &err), &err);
     CR_CHECK_OK(cr_nn_params_add(q, "b", 1, (int64_t[]){3}, &b2, &err), &err); /* other order */
     CR_CHECK_OK(cr_nn_params_add(q, "w", 2, (int64_t[]){2, 3}, &w2, &err), &err);
+    /* the file keeps the NaN; a parameter store refuses it */
+    CR_CHECK(cr_safetensors_load_params(path, q, 0, &err) == CR_ERR_NAN);
+    CR_CHECK(strstr(err.msg, path) && strstr(err.msg, "'b'") && strstr(err.msg, "element 0"));
+    CR_CHECK(w2->data[0] == 0.0f); /* nothing written */
+    b->data[0] = -0.0f;
+    CR_CHECK_OK(cr_safetensors_save_params(path, p, meta, 1, &err), &err);
     CR_CHECK_OK(cr_safetensors_load_params(path, q, 0, &err), &err);
     CR_CHECK(memcmp(w2->data, cr_nn_params_find(p, "w")->data, 6 * sizeof(float)) == 0);
     CR_CHECK(memcmp(b2->data, b->data, 3 * sizeof(float)) == 0);
@@ -507,5 +513,50 @@ CR_TEST(nn_checkpoint, checkpoint_mismatches_change_nothing) {
     CR_CHECK(strstr(err.msg, "fc1.weight") && strstr(err.msg, "(16,1)") &&
              strstr(err.msg, "(17,1)"));
     cr_nn_params_destroy(q);
+    run_free(&a);
+}
+
+/* A resume into another width names both shapes, optimiser tensors included;
+ * a non-finite weight or moment is refused by tensor and element, and nothing
+ * is written. */
+CR_TEST(nn_checkpoint, resume_refuses_other_shapes_and_non_finite_values) {
+    cr_error err;
+    char path[512];
+    tmp_path(path, sizeof path, "nonfinite.safetensors");
+    run a, b;
+    run_make(&a, CR_OPTIM_ADAMW, 1);
+    CR_CHECK_OK(cr_checkpoint_save(path, a.p, a.opt, NULL, &err), &err);
+    cr_nn_params *q = NULL;
+    cr_optim *qo = NULL;
+    cr_tensor *t;
+    CR_CHECK_OK(cr_nn_params_create(&q, &err), &err);
+    CR_CHECK_OK(cr_nn_params_add(q, "fc1.weight", 2, (int64_t[]){HID + 1, 1}, &t, &err), &err);
+    CR_CHECK_OK(cr_nn_params_add(q, "fc1.bias", 1, (int64_t[]){HID}, &t, &err), &err);
+    CR_CHECK_OK(cr_nn_params_add(q, "fc2.weight", 2, (int64_t[]){1, HID}, &t, &err), &err);
+    CR_CHECK_OK(cr_nn_params_add(q, "fc2.bias", 1, (int64_t[]){1}, &t, &err), &err);
+    cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
+    CR_CHECK_OK(cr_optim_create(&od, q, &qo, &err), &err);
+    CR_CHECK(cr_checkpoint_load(path, q, qo, NULL, &err) == CR_ERR_SHAPE);
+    CR_CHECK(strstr(err.msg, "fc1.weight") && strstr(err.msg, "(16,1)") &&
+             strstr(err.msg, "(17,1)"));
+    cr_optim_destroy(qo);
+    cr_nn_params_destroy(q);
+
+    a.b1->data[5] = INFINITY;
+    CR_CHECK_OK(cr_checkpoint_save(path, a.p, a.opt, NULL, &err), &err);
+    run_make(&b, CR_OPTIM_ADAMW, 0);
+    CR_CHECK(cr_checkpoint_load(path, b.p, b.opt, NULL, &err) == CR_ERR_NAN);
+    CR_CHECK(strstr(err.msg, path) && strstr(err.msg, "'fc1.bias' element 5"));
+    CR_CHECK(b.w1->data[0] == 0.0f);
+    a.b1->data[5] = 0.5f;
+    const char *buffer;
+    float *v = cr_optim_state(a.opt, 1, &buffer); /* mirrors the parameter block */
+    v[a.b1->data - cr_nn_params_data(a.p, NULL) + 2] = NAN;
+    CR_CHECK_OK(cr_checkpoint_save(path, a.p, a.opt, NULL, &err), &err);
+    CR_CHECK(cr_checkpoint_load(path, b.p, b.opt, NULL, &err) == CR_ERR_NAN);
+    CR_CHECK(strstr(err.msg, "fc1.bias' element 2") && strstr(err.msg, buffer));
+    CR_CHECK(b.w1->data[0] == 0.0f);
+    CR_CHECK_OK(cr_checkpoint_load(path, b.p, NULL, NULL, &err), &err); /* weights alone load */
+    run_free(&b);
     run_free(&a);
 }

@@ -7,6 +7,8 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 static cr_fit_def small_def(cr_fit_model model, int epochs) {
     cr_fit_def d = cr_fit_default_def(model);
@@ -75,6 +77,46 @@ CR_TEST(uv_fit, resume_is_bit_identical) {
     /* A checkpoint of another model is refused by name. */
     d.model = CR_FIT_MLP;
     CR_CHECK(cr_fit_run(&d, &b, &err) != CR_OK);
+}
+
+/* After a resume the log holds each epoch once: lines past the checkpoint (a
+ * killed run), a torn last line and an epoch logged twice (the later line
+ * kept) are cut before the new epochs are appended. */
+CR_TEST(uv_fit, resume_logs_each_epoch_once) {
+    char dir[512], log[600];
+    snprintf(dir, sizeof dir, "%s/fit_log", cr_test_tmpdir());
+    snprintf(log, sizeof log, "%s/log.jsonl", dir);
+    cr_error err = {0};
+    cr_fit_result r;
+    cr_fit_def d = small_def(CR_FIT_MLP, 3);
+    d.train_res = d.eval_res = 8;
+    d.batch = 16;
+    d.out_dir = dir;
+    CR_CHECK_OK(cr_fit_run(&d, &r, &err), &err);
+    FILE *fp = fopen(log, "w");
+    CR_REQUIRE(fp);
+    fputs("{\"epoch\":1}\n{\"epoch\":2,\"old\":1}\n{\"epoch\":2}\n{\"epoch\":3}\n"
+          "{\"epoch\":4}\n{\"epoch\":5,\"torn",
+          fp);
+    fclose(fp);
+    d.epochs = 5;
+    d.resume = 1;
+    CR_CHECK_OK(cr_fit_run(&d, &r, &err), &err);
+    CR_CHECK(r.resumed_from == 3);
+    char *text = NULL;
+    CR_CHECK_OK(cr_file_read_all(log, &text, NULL, &err), &err);
+    CR_REQUIRE(text);
+    CR_CHECK(strncmp(text, "{\"epoch\":1}\n{\"epoch\":2}\n{\"epoch\":3}\n{\"epoch\":4,", 47) == 0);
+    const char *five = strstr(text, "{\"epoch\":5,");
+    CR_CHECK(five && !strstr(text, "old") && !strstr(text, "torn") && strchr(five, '\n')[1] == 0);
+    free(text);
+    /* a fresh run into the folder starts the log over */
+    d.resume = 0;
+    d.epochs = 1;
+    CR_CHECK_OK(cr_fit_run(&d, &r, &err), &err);
+    CR_CHECK_OK(cr_file_read_all(log, &text, NULL, &err), &err);
+    CR_CHECK(text && strncmp(text, "{\"epoch\":1,", 11) == 0 && strchr(text, '\n')[1] == 0);
+    free(text);
 }
 
 CR_TEST(uv_fit, bad_settings_are_refused) {

@@ -121,11 +121,17 @@ cr_status cr_safetensors_write(const char *path, const cr_st_tensor *tensors, in
 cr_status cr_safetensors_save_params(const char *path, cr_nn_params *p, const cr_st_meta *meta,
                                      int nmeta, cr_error *err);
 
-/* Copy tensors into the store by name. Every parameter must be present with
- * the same shape (CR_ERR_SHAPE naming the tensor and both shapes; CR_ERR_PARSE
- * when missing). Tensors the store lacks fail with CR_ERR_INVALID unless
- * allow_extra. Nothing is written to the store unless everything matches.
- * `source` names the file in messages. */
+/* Whether st's tensor `name` can fill x: present (else CR_ERR_PARSE), of x's
+ * shape (CR_ERR_SHAPE naming both shapes), of a float dtype
+ * (CR_ERR_UNSUPPORTED) and finite (CR_ERR_NAN naming the element). Messages
+ * name `source` and the tensor. One pass over the values. */
+cr_status cr_safetensors_check_tensor(const cr_safetensors *st, const char *source,
+                                      const char *name, const cr_tensor *x, cr_error *err);
+
+/* Copy tensors into the store by name. Every parameter must pass
+ * cr_safetensors_check_tensor. Tensors the store lacks fail with
+ * CR_ERR_INVALID unless allow_extra. Nothing is written to the store unless
+ * everything matches. `source` names the file in messages. */
 cr_status cr_safetensors_to_params(const cr_safetensors *st, const char *source, cr_nn_params *p,
                                    int allow_extra, cr_error *err);
 cr_status cr_safetensors_load_params(const char *path, cr_nn_params *p, int allow_extra,
@@ -155,12 +161,25 @@ cr_status cr_checkpoint_save(const char *path, cr_nn_params *model, cr_optim *op
  * made on that store (moments and step count; the hyper-parameters stay those
  * of opt's def, so a run may resume with a changed learning rate). meta (may
  * be NULL) receives the metadata. Fails without changing anything when the
- * file does not match: unknown or missing tensors, other shapes, an
- * optimiser of another kind, or opt given but no optimiser state saved
+ * file does not match: unknown or missing tensors, other shapes, a
+ * non-finite value (CR_ERR_NAN), an optimiser of another kind, or opt given
+ * but no optimiser state saved
  * (model, opt and *meta are then untouched). Tensors named "optim.*" are
  * skipped when opt is NULL, so a checkpoint also loads as plain weights. */
 cr_status cr_checkpoint_load(const char *path, cr_nn_params *model, cr_optim *opt,
                              cr_checkpoint_meta *meta, cr_error *err);
+
+/* ------------------------------------------------------- training log -- */
+
+/* Cut the log at `path` back to the epochs a checkpoint holds, so a run
+ * resumed from epoch `epoch` (0: a fresh run, the log is emptied) appends
+ * exactly one line per epoch: keeps the lines whose "epoch" is at most
+ * `epoch`, in epoch order, the last one of an epoch logged twice, and drops
+ * the rest (epochs logged past the checkpoint by a killed run, a line cut
+ * short, anything unreadable). A missing file is created. Atomic; CR_ERR_IO
+ * names the file. For logs whose rows the checkpoint does not hold (drape's
+ * does, and rewrites its log from them). */
+cr_status cr_train_log_cut(const char *path, int64_t epoch, cr_error *err);
 
 #ifdef __cplusplus
 }

@@ -75,7 +75,9 @@ void help_gdsr(void) {
         "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
         "  --latent N --steps N --wire-width N   model sizes\n"
         "  --seed S             (default 1)\n"
-        "  --resume             continue from OUT/checkpoint.safetensors\n"
+        "  --resume             continue from OUT/checkpoint.safetensors; the model settings\n"
+        "                       (sizes, --out-scale, --seed, ...) must be the ones it was\n"
+        "                       trained with\n"
         "  --checkpoint-every N epochs (default 5)\n"
         "  -o OUT               model.safetensors, checkpoint.safetensors, log.jsonl\n"
         "run:\n"
@@ -612,10 +614,15 @@ static int cmd_run(int argc, char **argv) {
     {
         char *s = cJSON_Print(j);
         snprintf(path, sizeof path, "%s/summary.json", out);
-        FILE *f = fopen(path, "w");
-        if (f && s) fputs(s, f);
-        if (f) fclose(f);
+        cr_atomic_file f;
+        cr_status st = s ? cr_atomic_open(&f, path, &err)
+                         : CR_FAIL(&err, CR_ERR_MEMORY, "%s: out of memory", path);
+        if (st == CR_OK) {
+            fputs(s, f.fp);
+            st = cr_atomic_commit(&f, &err);
+        }
         free(s);
+        if (st != CR_OK) goto done;
     }
     if (json) {
         cli_json_print(j);

@@ -8,8 +8,9 @@
  * from the current block; the block itself is recomputed on load as
  * Philox(seed, stream, counter - 1), which is what the generator held.
  *
- * Loading checks everything (names, shapes, optimiser kind, metadata syntax)
- * before it writes anything, so a mismatched file leaves the run untouched.
+ * Loading checks everything (names, shapes, finite values, optimiser kind,
+ * metadata syntax) before it writes anything, so a mismatched file leaves the
+ * run untouched.
  * Leaves out: several optimisers per file, sharded checkpoints.
  */
 #include "crease/nn_checkpoint.h"
@@ -186,7 +187,8 @@ static cr_status parse_meta(const cr_safetensors *st, const char *path, cr_check
     return CR_OK;
 }
 
-/* Every optimiser buffer of every parameter present with the parameter's shape. */
+/* Every optimiser buffer of every parameter present with the parameter's shape
+ * and finite. */
 static cr_status check_optim(const cr_safetensors *st, const char *path, cr_nn_params *model,
                              cr_optim *opt, int64_t *steps, cr_error *err) {
     const char *kind = cr_safetensors_meta(st, "optim.kind");
@@ -208,15 +210,7 @@ static cr_status check_optim(const cr_safetensors *st, const char *path, cr_nn_p
             const char *name;
             cr_tensor *x = cr_nn_params_at(model, i, &name);
             state_name(nm, buffer, name);
-            const cr_st_tensor *t = cr_safetensors_find(st, nm);
-            if (!t) return CR_FAIL(err, CR_ERR_PARSE, "%s: no tensor '%s'", path, nm);
-            int same = t->ndim == x->ndim && t->data; /* data is NULL for unconverted dtypes */
-            for (int d = 0; same && d < x->ndim; d++)
-                same = t->shape[d] == x->shape[d];
-            if (!same)
-                return CR_FAIL(err, CR_ERR_SHAPE,
-                               "%s: tensor '%s' (%s) does not match parameter '%s'", path, nm,
-                               cr_st_dtype_name(t->dtype), name);
+            CR_TRY(cr_safetensors_check_tensor(st, path, nm, x, err));
         }
     }
     return CR_OK;

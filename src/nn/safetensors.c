@@ -17,6 +17,7 @@
 
 #include <cjson/cJSON.h>
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -684,28 +685,37 @@ static void st_shape_str(const cr_st_tensor *t, char *buf, size_t cap) {
     if (at < cap) snprintf(buf + at, cap - at, ")");
 }
 
+cr_status cr_safetensors_check_tensor(const cr_safetensors *st, const char *source,
+                                      const char *name, const cr_tensor *x, cr_error *err) {
+    const cr_st_tensor *t = cr_safetensors_find(st, name);
+    if (!t) return CR_FAIL(err, CR_ERR_PARSE, "%s: no tensor '%s'", source, name);
+    int same = t->ndim == x->ndim;
+    for (int d = 0; same && d < x->ndim; d++)
+        same = t->shape[d] == x->shape[d];
+    if (!same) {
+        char a[160], b[64];
+        st_shape_str(t, a, sizeof a);
+        return CR_FAIL(err, CR_ERR_SHAPE, "%s: tensor '%s' has shape %s, the model expects %s",
+                       source, name, a, cr_nn_shape_str(x, b, sizeof b));
+    }
+    if (!DTYPES[t->dtype].convert)
+        return CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                       "%s: tensor '%s' has dtype %s; parameters load from F32, F64, F16 or BF16",
+                       source, name, DTYPES[t->dtype].name);
+    for (int64_t k = 0; k < t->numel; k++)
+        if (!isfinite(t->data[k]))
+            return CR_FAIL(err, CR_ERR_NAN, "%s: tensor '%s' element %lld is %g", source, name,
+                           (long long)k, (double)t->data[k]);
+    return CR_OK;
+}
+
 cr_status cr_safetensors_to_params(const cr_safetensors *st, const char *source, cr_nn_params *p,
                                    int allow_extra, cr_error *err) {
     int n = cr_nn_params_count(p);
     for (int i = 0; i < n; i++) {
         const char *name;
         cr_tensor *x = cr_nn_params_at(p, i, &name);
-        const cr_st_tensor *t = cr_safetensors_find(st, name);
-        if (!t) return CR_FAIL(err, CR_ERR_PARSE, "%s: no tensor '%s'", source, name);
-        int same = t->ndim == x->ndim;
-        for (int d = 0; same && d < x->ndim; d++)
-            same = t->shape[d] == x->shape[d];
-        if (!same) {
-            char a[160], b[64];
-            st_shape_str(t, a, sizeof a);
-            return CR_FAIL(err, CR_ERR_SHAPE, "%s: tensor '%s' has shape %s, the model expects %s",
-                           source, name, a, cr_nn_shape_str(x, b, sizeof b));
-        }
-        if (!DTYPES[t->dtype].convert)
-            return CR_FAIL(err, CR_ERR_UNSUPPORTED,
-                           "%s: tensor '%s' has dtype %s; parameters load from F32, F64, F16 or "
-                           "BF16",
-                           source, name, DTYPES[t->dtype].name);
+        CR_TRY(cr_safetensors_check_tensor(st, source, name, x, err));
     }
     for (int i = 0; i < st->ntensors && !allow_extra; i++)
         if (!cr_nn_params_find(p, st->tensors[i].name))

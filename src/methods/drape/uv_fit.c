@@ -288,13 +288,22 @@ static cr_status resume(fit_run *r, cr_fit_result *res, cr_error *err) {
     if (!cJSON_IsString(model) || strcmp(model->valuestring, cr_fit_model_name(r->def->model)))
         st = CR_FAIL(err, CR_ERR_INVALID, "%s: a checkpoint of another model, not '%s'",
                      r->ckpt_path, cr_fit_model_name(r->def->model));
+    const char *keys[4] = {"seconds", "eval_seconds", "epochs_to_target", "seconds_to_target"};
+    double v[4] = {0};
+    for (int k = 0; k < 4 && st == CR_OK; k++) {
+        const cJSON *x = cJSON_GetObjectItemCaseSensitive(j, keys[k]);
+        if (!cJSON_IsNumber(x))
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s: config '%s' is %s", r->ckpt_path, keys[k],
+                         x ? "not a number" : "missing");
+        else
+            v[k] = x->valuedouble;
+    }
     if (st == CR_OK) {
         res->epochs = res->resumed_from = (int)meta.epoch;
-        res->seconds = cJSON_GetObjectItemCaseSensitive(j, "seconds")->valuedouble;
-        res->eval_seconds = cJSON_GetObjectItemCaseSensitive(j, "eval_seconds")->valuedouble;
-        res->epochs_to_target = cJSON_GetObjectItemCaseSensitive(j, "epochs_to_target")->valueint;
-        res->seconds_to_target =
-            cJSON_GetObjectItemCaseSensitive(j, "seconds_to_target")->valuedouble;
+        res->seconds = v[0];
+        res->eval_seconds = v[1];
+        res->epochs_to_target = (int)v[2];
+        res->seconds_to_target = v[3];
         res->final_loss = meta.loss;
         r->rng = meta.rng;
     }
@@ -449,6 +458,8 @@ cr_status cr_fit_run(const cr_fit_def *def, cr_fit_result *res, cr_error *err) {
     cr_status st = run_setup(&r, err);
     if (st == CR_OK) res->params = cr_nn_params_numel(r.model.params);
     if (st == CR_OK && def->resume) st = resume(&r, res, err);
+    if (st == CR_OK && def->out_dir && cr_mpi_rank() == 0)
+        st = cr_train_log_cut(r.log_path, res->resumed_from, err);
     if (st == CR_OK) st = train(&r, res, err);
     if (st == CR_OK && res->epochs == res->resumed_from) {
         /* nothing left to train: report the error of the resumed model */

@@ -110,9 +110,15 @@ cr_tensor *cr_gdsr_wrinkle_loss(cr_nn_ctx *ctx, const gdsr_wrinkle *w, cr_tensor
                                 const float *ref, const gdsr_patch *patches, int npatches,
                                 int energy);
 
-/* The model def as JSON (heap string) and back. */
+/* The model def as JSON (heap string) and back; reading refuses unknown,
+ * ill-typed and missing fields (CR_ERR_PARSE naming `source` and the field). */
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *def);
-cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *def, cr_error *err);
+cr_status cr_gdsr_model_def_from_json(const char *json, const char *source, cr_gdsr_model_def *def,
+                                      cr_error *err);
+/* The first stored field where a and b differ (its values into *va, *vb), or
+ * NULL when they agree. */
+const char *cr_gdsr_model_def_differ(const cr_gdsr_model_def *a, const cr_gdsr_model_def *b,
+                                     double *va, double *vb);
 
 /* collide.c. Push points of x (n,3) with signed distance below eps out
  * along the body's normal; returns how many were inside (sd < 0) before.

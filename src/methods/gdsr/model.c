@@ -4,7 +4,10 @@
 #include "gdsr_internal.h"
 
 #include <cjson/cJSON.h>
+#include <float.h>
+#include <limits.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -360,54 +363,123 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 /* ---------------------------------------------------- def as JSON -- */
 
+typedef enum { FIELD_INT, FIELD_FLOAT, FIELD_U64 } field_type;
+
+/* Every stored field of the def, in the order written. */
+static const struct {
+    const char *name;
+    size_t offset;
+    field_type type;
+} def_fields[] = {
+#define F(name, type)                                                                              \
+    { #name, offsetof(cr_gdsr_model_def, name), type }
+    F(latent, FIELD_INT),         F(steps, FIELD_INT),
+    F(mlp_hidden, FIELD_INT),     F(decoder_features, FIELD_INT),
+    F(hyper_features, FIELD_INT), F(gen_hidden, FIELD_INT),
+    F(wire_layers, FIELD_INT),    F(wire_width, FIELD_INT),
+    F(omega0, FIELD_FLOAT),       F(s0, FIELD_FLOAT),
+    F(use_decoder, FIELD_INT),    F(sigma_b, FIELD_FLOAT),
+    F(layer_edges, FIELD_INT),    F(sigma_l, FIELD_FLOAT),
+    F(out_scale, FIELD_FLOAT),    F(seed, FIELD_U64),
+#undef F
+};
+enum { NDEF_FIELDS = sizeof def_fields / sizeof def_fields[0] };
+
+static int field_index(const char *name) {
+    for (int k = 0; k < NDEF_FIELDS; k++)
+        if (strcmp(def_fields[k].name, name) == 0) return k;
+    return -1;
+}
+
+static const char *const field_kind[] = {"an integer", "a number", "a non-negative integer"};
+
+/* Whether v converts to field k's type without loss or overflow. */
+static int field_fits(int k, double v) {
+    switch (def_fields[k].type) {
+    case FIELD_INT:
+        return v == floor(v) && fabs(v) <= INT_MAX;
+    case FIELD_FLOAT:
+        return fabs(v) <= FLT_MAX;
+    default:
+        return v == floor(v) && v >= 0 && v < 18446744073709551616.0; /* 2^64 */
+    }
+}
+
+static double field_get(const cr_gdsr_model_def *d, int k) {
+    const char *p = (const char *)d + def_fields[k].offset;
+    switch (def_fields[k].type) {
+    case FIELD_INT:
+        return *(const int *)p;
+    case FIELD_FLOAT:
+        return *(const float *)p;
+    default:
+        return (double)*(const uint64_t *)p;
+    }
+}
+
+static void field_set(cr_gdsr_model_def *d, int k, double v) {
+    char *p = (char *)d + def_fields[k].offset;
+    switch (def_fields[k].type) {
+    case FIELD_INT:
+        *(int *)p = (int)v;
+        break;
+    case FIELD_FLOAT:
+        *(float *)p = (float)v;
+        break;
+    default:
+        *(uint64_t *)p = (uint64_t)v;
+        break;
+    }
+}
+
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *d) {
     cJSON *j = cJSON_CreateObject();
-    cJSON_AddNumberToObject(j, "latent", d->latent);
-    cJSON_AddNumberToObject(j, "steps", d->steps);
-    cJSON_AddNumberToObject(j, "mlp_hidden", d->mlp_hidden);
-    cJSON_AddNumberToObject(j, "decoder_features", d->decoder_features);
-    cJSON_AddNumberToObject(j, "hyper_features", d->hyper_features);
-    cJSON_AddNumberToObject(j, "gen_hidden", d->gen_hidden);
-    cJSON_AddNumberToObject(j, "wire_layers", d->wire_layers);
-    cJSON_AddNumberToObject(j, "wire_width", d->wire_width);
-    cJSON_AddNumberToObject(j, "omega0", d->omega0);
-    cJSON_AddNumberToObject(j, "s0", d->s0);
-    cJSON_AddNumberToObject(j, "use_decoder", d->use_decoder);
-    cJSON_AddNumberToObject(j, "sigma_b", d->sigma_b);
-    cJSON_AddNumberToObject(j, "layer_edges", d->layer_edges);
-    cJSON_AddNumberToObject(j, "sigma_l", d->sigma_l);
-    cJSON_AddNumberToObject(j, "out_scale", d->out_scale);
-    cJSON_AddNumberToObject(j, "seed", (double)d->seed);
+    for (int k = 0; k < NDEF_FIELDS; k++)
+        cJSON_AddNumberToObject(j, def_fields[k].name, field_get(d, k));
     char *s = cJSON_PrintUnformatted(j);
     cJSON_Delete(j);
     return s;
 }
 
-cr_status cr_gdsr_model_def_from_json(const char *json, cr_gdsr_model_def *d, cr_error *err) {
+cr_status cr_gdsr_model_def_from_json(const char *json, const char *source, cr_gdsr_model_def *d,
+                                      cr_error *err) {
     *d = cr_gdsr_model_default_def();
     cJSON *j = json ? cJSON_Parse(json) : NULL;
-    if (!j) return CR_FAIL(err, CR_ERR_PARSE, "gdsr model: no or unreadable model definition");
-    const char *ikeys[] = {"latent",           "steps",          "mlp_hidden",
-                           "decoder_features", "hyper_features", "gen_hidden",
-                           "wire_layers",      "wire_width",     "use_decoder"};
-    int *ivals[] = {&d->latent,           &d->steps,          &d->mlp_hidden,
-                    &d->decoder_features, &d->hyper_features, &d->gen_hidden,
-                    &d->wire_layers,      &d->wire_width,     &d->use_decoder};
-    for (int k = 0; k < 9; k++) {
-        cJSON *v = cJSON_GetObjectItem(j, ikeys[k]);
-        if (cJSON_IsNumber(v)) *ivals[k] = v->valueint;
+    if (!cJSON_IsObject(j)) {
+        cJSON_Delete(j);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: no or unreadable gdsr model definition", source);
     }
-    cJSON *v;
-    d->out_scale = 1.0f; /* models written before the field: unscaled outputs */
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "out_scale")))
-        d->out_scale = (float)v->valuedouble;
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "omega0"))) d->omega0 = (float)v->valuedouble;
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "s0"))) d->s0 = (float)v->valuedouble;
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_b"))) d->sigma_b = (float)v->valuedouble;
-    d->layer_edges = 0; /* models written before the field: two edge sets */
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "layer_edges"))) d->layer_edges = v->valueint;
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "sigma_l"))) d->sigma_l = (float)v->valuedouble;
-    if (cJSON_IsNumber(v = cJSON_GetObjectItem(j, "seed"))) d->seed = (uint64_t)v->valuedouble;
+    int seen[NDEF_FIELDS] = {0};
+    cr_status st = CR_OK;
+    for (const cJSON *v = j->child; v && st == CR_OK; v = v->next) {
+        int k = field_index(v->string);
+        if (k < 0)
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s: unknown gdsr model field '%s'", source, v->string);
+        else if (!cJSON_IsNumber(v) || !field_fits(k, v->valuedouble))
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s: gdsr model field '%s' is not %s", source,
+                         v->string, field_kind[def_fields[k].type]);
+        else
+            field_set(d, k, v->valuedouble), seen[k] = 1;
+    }
     cJSON_Delete(j);
+    CR_TRY(st);
+    /* Models written before layer edges lack the pair and have two edge sets
+     * (docs/gdsr.md, "Layer edges"); every other field is required. */
+    int ke = field_index("layer_edges"), ks = field_index("sigma_l");
+    if (!seen[ke] && !seen[ks]) d->layer_edges = 0, seen[ke] = seen[ks] = 1;
+    for (int k = 0; k < NDEF_FIELDS; k++)
+        if (!seen[k])
+            return CR_FAIL(err, CR_ERR_PARSE, "%s: gdsr model definition lacks '%s'", source,
+                           def_fields[k].name);
     return cr_gdsr_model_def_validate(d, err);
+}
+
+const char *cr_gdsr_model_def_differ(const cr_gdsr_model_def *a, const cr_gdsr_model_def *b,
+                                     double *va, double *vb) {
+    for (int k = 0; k < NDEF_FIELDS; k++)
+        if (field_get(a, k) != field_get(b, k)) {
+            *va = field_get(a, k), *vb = field_get(b, k);
+            return def_fields[k].name;
+        }
+    return NULL;
 }

@@ -153,7 +153,7 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
     const char *js = cr_safetensors_meta(&sf, "gdsr_model");
     int ckpt = !js;
     if (ckpt) js = cr_safetensors_meta(&sf, "config");
-    cr_status st = cr_gdsr_model_def_from_json(js, &def, err);
+    cr_status st = cr_gdsr_model_def_from_json(js, path, &def, err);
     cr_gdsr_model *m = NULL;
     if (st == CR_OK) st = cr_gdsr_model_create(&def, &m, err);
     if (st == CR_OK)
@@ -165,6 +165,25 @@ cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *er
         return st;
     }
     *out = m;
+    return CR_OK;
+}
+
+/* A resume continues the model it loads: the checkpoint's def must be this run's. */
+static cr_status check_resumed_def(const char *ckpt, const cr_gdsr_model_def *want, cr_error *err) {
+    cr_safetensors sf = {0};
+    CR_TRY(cr_safetensors_read(ckpt, &sf, err));
+    cr_gdsr_model_def saved;
+    cr_status st =
+        cr_gdsr_model_def_from_json(cr_safetensors_meta(&sf, "config"), ckpt, &saved, err);
+    cr_safetensors_free(&sf);
+    CR_TRY(st);
+    double a, b;
+    const char *field = cr_gdsr_model_def_differ(&saved, want, &a, &b);
+    if (field)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "%s: the checkpoint's model has %s %.7g, this run asks for %.7g (a resume "
+                       "keeps the model settings)",
+                       ckpt, field, a, b);
     return CR_OK;
 }
 
@@ -374,6 +393,7 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
         FILE *f = fopen(ckpt, "rb");
         if (f) {
             fclose(f);
+            if ((st = check_resumed_def(ckpt, &m->def, err)) != CR_OK) goto done;
             cr_checkpoint_meta meta = {0};
             if ((st = cr_checkpoint_load(ckpt, m->params, opt, &meta, err)) != CR_OK) goto done;
             free(meta.config_json);
@@ -383,7 +403,8 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
     }
     out->resumed_from = epoch0;
     out->epochs = epoch0;
-    log = fopen(log_path, epoch0 > 0 ? "a" : "w");
+    if ((st = cr_train_log_cut(log_path, epoch0, err)) != CR_OK) goto done;
+    log = fopen(log_path, "a");
     if (!log) {
         st = CR_FAIL(err, CR_ERR_IO, "%s: cannot open for writing", log_path);
         goto done;

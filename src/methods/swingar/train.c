@@ -231,6 +231,40 @@ static cJSON *train_state(int supervised, int switched, const float *hist, int n
     return t;
 }
 
+/* train_state's object back: the two flags and one history entry per epoch
+ * done, each a decimal string. */
+static cr_status read_train_state(const cJSON *t, const char *path, int epochs, float *hist,
+                                  int *supervised, int *switched, cr_error *err) {
+    if (!cJSON_IsObject(t))
+        return CR_FAIL(err, CR_ERR_PARSE, "%s: config has no training state ('train')", path);
+    const char *keys[2] = {"supervised", "switched_epoch"};
+    int *vals[2] = {supervised, switched};
+    for (int k = 0; k < 2; k++) {
+        const cJSON *x = cJSON_GetObjectItemCaseSensitive(t, keys[k]);
+        if (!cJSON_IsNumber(x))
+            return CR_FAIL(err, CR_ERR_PARSE, "%s: training state '%s' is %s", path, keys[k],
+                           x ? "not a number" : "missing");
+        *vals[k] = x->valueint;
+    }
+    const cJSON *h = cJSON_GetObjectItemCaseSensitive(t, "vert_err_history");
+    if (!cJSON_IsArray(h) || cJSON_GetArraySize(h) != epochs)
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s: training state 'vert_err_history' is not an array of %d entries "
+                       "(one per epoch done)",
+                       path, epochs);
+    for (int i = 0; i < epochs; i++) {
+        const char *v = cJSON_GetStringValue(cJSON_GetArrayItem(h, i));
+        char *end = NULL;
+        if (v) hist[i] = strtof(v, &end);
+        if (!v || end == v || *end)
+            return CR_FAIL(err, CR_ERR_PARSE,
+                           "%s: training state 'vert_err_history' entry %d is not a number "
+                           "string",
+                           path, i);
+    }
+    return CR_OK;
+}
+
 static double seq_error(cr_swingar *m, const cr_swingar_data *d, int32_t si, size_t arena,
                         cr_error *err, cr_status *st) {
     const cr_swingar_sequence *s = &d->sequences[si];
@@ -319,16 +353,12 @@ cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_dat
             epoch0 = (int)meta.epoch;
             rng = meta.rng;
             free(meta.config_json);
-            const cJSON *h = cJSON_GetObjectItemCaseSensitive(tstate, "vert_err_history");
-            supervised =
-                (int)cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(tstate, "supervised"));
-            switched = (int)cJSON_GetNumberValue(
-                cJSON_GetObjectItemCaseSensitive(tstate, "switched_epoch"));
-            if (!tstate || !cJSON_IsArray(h) || epoch0 > def->epochs)
-                st = CR_FAIL(err, CR_ERR_PARSE, "%s: no training state, or past --epochs",
-                             def->resume);
-            for (int i = 0; st == CR_OK && i < epoch0 && i < cJSON_GetArraySize(h); i++)
-                hist[i] = strtof(cJSON_GetStringValue(cJSON_GetArrayItem(h, i)), NULL);
+            if (epoch0 > def->epochs)
+                st = CR_FAIL(err, CR_ERR_INVALID, "%s: epoch %d is past --epochs %d", def->resume,
+                             epoch0, def->epochs);
+            if (st == CR_OK)
+                st = read_train_state(tstate, def->resume, epoch0, hist, &supervised, &switched,
+                                      err);
         }
     }
     cJSON_Delete(tstate);
