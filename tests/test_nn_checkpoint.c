@@ -464,6 +464,16 @@ CR_TEST(nn_checkpoint, resume_is_bit_identical_sgd_nesterov) {
     check_resume(CR_OPTIM_SGD);
 }
 
+/* The run's model with fc1 one row wider: another layer width. */
+static cr_status wider_params(cr_nn_params **q, cr_error *err) {
+    cr_tensor *t;
+    CR_TRY(cr_nn_params_create(q, err));
+    CR_TRY(cr_nn_params_add(*q, "fc1.weight", 2, (int64_t[]){HID + 1, 1}, &t, err));
+    CR_TRY(cr_nn_params_add(*q, "fc1.bias", 1, (int64_t[]){HID}, &t, err));
+    CR_TRY(cr_nn_params_add(*q, "fc2.weight", 2, (int64_t[]){1, HID}, &t, err));
+    return cr_nn_params_add(*q, "fc2.bias", 1, (int64_t[]){1}, &t, err);
+}
+
 CR_TEST(nn_checkpoint, checkpoint_mismatches_change_nothing) {
     cr_error err;
     char path[512];
@@ -503,12 +513,7 @@ CR_TEST(nn_checkpoint, checkpoint_mismatches_change_nothing) {
 
     /* a model with another layer width */
     cr_nn_params *q = NULL;
-    cr_tensor *t;
-    CR_CHECK_OK(cr_nn_params_create(&q, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc1.weight", 2, (int64_t[]){HID + 1, 1}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc1.bias", 1, (int64_t[]){HID}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc2.weight", 2, (int64_t[]){1, HID}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc2.bias", 1, (int64_t[]){1}, &t, &err), &err);
+    CR_CHECK_OK(wider_params(&q, &err), &err);
     CR_CHECK(cr_checkpoint_load(path, q, NULL, NULL, &err) == CR_ERR_SHAPE);
     CR_CHECK(strstr(err.msg, "fc1.weight") && strstr(err.msg, "(16,1)") &&
              strstr(err.msg, "(17,1)"));
@@ -528,12 +533,7 @@ CR_TEST(nn_checkpoint, resume_refuses_other_shapes_and_non_finite_values) {
     CR_CHECK_OK(cr_checkpoint_save(path, a.p, a.opt, NULL, &err), &err);
     cr_nn_params *q = NULL;
     cr_optim *qo = NULL;
-    cr_tensor *t;
-    CR_CHECK_OK(cr_nn_params_create(&q, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc1.weight", 2, (int64_t[]){HID + 1, 1}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc1.bias", 1, (int64_t[]){HID}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc2.weight", 2, (int64_t[]){1, HID}, &t, &err), &err);
-    CR_CHECK_OK(cr_nn_params_add(q, "fc2.bias", 1, (int64_t[]){1}, &t, &err), &err);
+    CR_CHECK_OK(wider_params(&q, &err), &err);
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
     CR_CHECK_OK(cr_optim_create(&od, q, &qo, &err), &err);
     CR_CHECK(cr_checkpoint_load(path, q, qo, NULL, &err) == CR_ERR_SHAPE);

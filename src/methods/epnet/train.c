@@ -239,61 +239,52 @@ cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
     /* A misspelt key would quietly take its default and change the model:
      * every key must be one print_config writes, and the sizes must be there
      * (keys added later, as the RB options, default to off when missing). */
-    static const char *const known[] = {"garment",
-                                        "garment_vertices",
-                                        "body",
-                                        "frames",
-                                        "fps",
-                                        "yield",
-                                        "sharpness",
-                                        "baseline",
-                                        "seed",
-                                        "inertia_detach",
-                                        "pin_top",
-                                        "w_pin",
-                                        "w_bending",
-                                        "w_rb_response",
-                                        "rb_augment",
-                                        "rb_fold",
-                                        "rb_from_rollout",
-                                        "static",
-                                        "rb",
-                                        "dynamic",
-                                        "gru",
-                                        "decoder_width",
-                                        "decoder_layers",
-                                        "pnet_latent",
-                                        "pnet_hidden_layers",
-                                        "pnet_steps",
-                                        "motions"};
-    static const char *const required[] = {"garment",
-                                           "garment_vertices",
-                                           "yield",
-                                           "static",
-                                           "rb",
-                                           "dynamic",
-                                           "gru",
-                                           "decoder_width",
-                                           "decoder_layers",
-                                           "pnet_latent",
-                                           "pnet_hidden_layers",
-                                           "pnet_steps"};
-    for (const cJSON *e = o->child; e; e = e->next) {
-        size_t k = 0;
-        while (k < sizeof known / sizeof known[0] && strcmp(known[k], e->string))
+    static const struct {
+        const char *key;
+        int required;
+    } keys[] = {{"garment", 1},
+                {"garment_vertices", 1},
+                {"body", 0},
+                {"frames", 0},
+                {"fps", 0},
+                {"yield", 1},
+                {"sharpness", 0},
+                {"baseline", 0},
+                {"seed", 0},
+                {"inertia_detach", 0},
+                {"pin_top", 0},
+                {"w_pin", 0},
+                {"w_bending", 0},
+                {"w_rb_response", 0},
+                {"rb_augment", 0},
+                {"rb_fold", 0},
+                {"rb_from_rollout", 0},
+                {"static", 1},
+                {"rb", 1},
+                {"dynamic", 1},
+                {"gru", 1},
+                {"decoder_width", 1},
+                {"decoder_layers", 1},
+                {"pnet_latent", 1},
+                {"pnet_hidden_layers", 1},
+                {"pnet_steps", 1},
+                {"motions", 0}};
+    enum { NKEYS = sizeof keys / sizeof keys[0] };
+    const char *bad = NULL, *why = NULL;
+    for (const cJSON *e = o->child; e && !bad; e = e->next) {
+        int k = 0;
+        while (k < NKEYS && strcmp(keys[k].key, e->string))
             k++;
-        if (k == sizeof known / sizeof known[0]) {
-            cr_status st = CR_FAIL(err, CR_ERR_PARSE, "%s: unknown key '%s'", path, e->string);
-            cJSON_Delete(o);
-            return st;
-        }
+        if (k == NKEYS) bad = e->string, why = "unknown key";
     }
-    for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
-        if (!cJSON_GetObjectItemCaseSensitive(o, required[k])) {
-            cr_status st = CR_FAIL(err, CR_ERR_PARSE, "%s: no key '%s'", path, required[k]);
-            cJSON_Delete(o);
-            return st;
-        }
+    for (int k = 0; k < NKEYS && !bad; k++)
+        if (keys[k].required && !cJSON_GetObjectItemCaseSensitive(o, keys[k].key))
+            bad = keys[k].key, why = "no key";
+    if (bad) {
+        cr_status st = CR_FAIL(err, CR_ERR_PARSE, "%s: %s '%s'", path, why, bad);
+        cJSON_Delete(o);
+        return st;
+    }
     cr_epnet_def d = cr_epnet_default_def();
     char garment[32] = "tshirt", body[32] = "normal";
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(o, "garment");
