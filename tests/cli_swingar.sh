@@ -55,6 +55,8 @@ check "run at that z" "$crease" swingar run --model "$tmp/z.safetensors" --garme
   --motion walk --frames 3 -o "$tmp/zpred"
 expect_exit 1 "samples = 4000" swingar train --dataset "$tmp/data" --size tiny --epochs 1 \
   --descriptor-z 4000 -o "$tmp/z2.safetensors" --quiet
+expect_exit 1 "Is a directory" swingar run --model "$tmp" --garment "$g" --motion walk \
+  -o "$tmp/bad"
 expect_exit 2 "missing --dataset" swingar train -o "$tmp/x.safetensors"
 expect_exit 2 "train or run" swingar fly
 expect_exit 1 "nothere" swingar train --dataset "$tmp/nothere" -o "$tmp/x.safetensors"

@@ -15,6 +15,7 @@ cr_status cr_file_read_all(const char *path, char **out, size_t *out_len, cr_err
     if (!fp) return CR_FAIL(err, CR_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap);
+    errno = 0;
     while (buf) {
         size_t n = fread(buf + len, 1, cap - len - 1, fp);
         len += n;
@@ -28,12 +29,13 @@ cr_status cr_file_read_all(const char *path, char **out, size_t *out_len, cr_err
         buf = grown;
         cap *= 2;
     }
-    int read_error = ferror(fp);
+    int read_error = ferror(fp), why = errno; /* EISDIR: a folder given for a file */
     fclose(fp);
     if (!buf) return CR_FAIL(err, CR_ERR_MEMORY, "%s: out of memory reading file", path);
     if (read_error) {
         free(buf);
-        return CR_FAIL(err, CR_ERR_IO, "%s: read error", path);
+        return CR_FAIL(err, CR_ERR_IO, "%s: read error%s%s", path, why ? ": " : "",
+                       why ? strerror(why) : "");
     }
     buf[len] = 0;
     *out = buf;
@@ -103,6 +105,7 @@ void cr_path_ext(const char *path, char *out, size_t cap) {
     const char *dot = strrchr(path, '.');
     size_t n = 0;
     if (dot && (!slash || dot > slash) && cap > 0)
-        for (const char *c = dot + 1; *c && n + 1 < cap; c++) out[n++] = (char)tolower((unsigned char)*c);
+        for (const char *c = dot + 1; *c && n + 1 < cap; c++)
+            out[n++] = (char)tolower((unsigned char)*c);
     if (cap > 0) out[n] = 0;
 }

@@ -115,9 +115,10 @@ static cr_status source_read(const source *s, uint64_t off, void *dst, size_t le
         memcpy(dst, s->mem + off, len);
         return CR_OK;
     }
+    errno = 0;
     if (fseeko(s->fp, (off_t)off, SEEK_SET) != 0 || fread(dst, 1, len, s->fp) != len)
-        return CR_FAIL(err, CR_ERR_IO, "%s: read error at byte %llu", s->name,
-                       (unsigned long long)off);
+        return CR_FAIL(err, CR_ERR_IO, "%s: read error at byte %llu%s%s", s->name,
+                       (unsigned long long)off, errno ? ": " : "", errno ? strerror(errno) : "");
     return CR_OK;
 }
 
