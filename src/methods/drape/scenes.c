@@ -225,12 +225,14 @@ static cr_status subdivide(cr_mesh **m, cr_error *err) {
     return CR_OK;
 }
 
-/* A vertex no face uses would still size and place the cloth (bounds). */
+/* A vertex no face uses would still size and place the cloth (bounds).
+ * open_edges (may be NULL) receives the mesh's boundary edges. */
 static cr_status check_referenced(const cr_mesh *m, const char *flag, const char *path,
-                                  cr_error *err) {
+                                  int32_t *open_edges, cr_error *err) {
     cr_topology *t = NULL;
     CR_TRY(cr_topology_build(m, &t, err));
     int32_t n = t->n_isolated_vertices, first = t->first_isolated_vertex;
+    if (open_edges) *open_edges = t->n_boundary_edges;
     cr_topology_destroy(t);
     if (n > 0)
         return CR_FAIL(err, CR_ERR_TOPOLOGY,
@@ -259,6 +261,20 @@ static void warn_size(const cr_mesh *m, const char *flag, const char *path) {
                flag, path, (double)e);
 }
 
+/* A user's object; open_edges as check_referenced's. */
+static cr_status read_object(const char *path, cr_mesh **out, int32_t *open_edges, cr_error *err) {
+    if (!path) return CR_FAIL(err, CR_ERR_INVALID, "--object: no file given");
+    CR_TRY(cr_mesh_read(path, out, err));
+    cr_status st = (*out)->nf < 1 ? CR_FAIL(err, CR_ERR_TOPOLOGY,
+                                            "--object %s: the mesh has no triangles", path)
+                                  : check_referenced(*out, "--object", path, open_edges, err);
+    if (st != CR_OK) {
+        cr_mesh_destroy(*out);
+        *out = NULL;
+    }
+    return st;
+}
+
 cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh **out,
                                 cr_error *err) {
     *out = NULL;
@@ -281,19 +297,7 @@ cr_status cr_drape_scene_object(cr_drape_scene scene, const char *path, cr_mesh 
         }
         return CR_OK;
     case CR_DRAPE_OBJECT:
-        if (!path) return CR_FAIL(err, CR_ERR_INVALID, "--object: no file given");
-        CR_TRY(cr_mesh_read(path, out, err));
-        if ((*out)->nf < 1) {
-            cr_mesh_destroy(*out);
-            *out = NULL;
-            return CR_FAIL(err, CR_ERR_TOPOLOGY, "--object %s: the mesh has no triangles", path);
-        }
-        cr_status st = check_referenced(*out, "--object", path, err);
-        if (st != CR_OK) {
-            cr_mesh_destroy(*out);
-            *out = NULL;
-        }
-        return st;
+        return read_object(path, out, NULL, err);
     default:
         return CR_FAIL(err, CR_ERR_INVALID, "drape: scene %d out of range", (int)scene);
     }
@@ -305,7 +309,7 @@ static cr_status read_cloth(const char *path, cr_mesh **out, cr_error *err) {
     CR_TRY(cr_mesh_read(path, out, err));
     cr_mesh *m = *out;
     cr_status st = cr_mesh_validate(m, path, err);
-    if (st == CR_OK) st = check_referenced(m, "--cloth", path, err);
+    if (st == CR_OK) st = check_referenced(m, "--cloth", path, NULL, err);
     if (st == CR_OK && !cr_mesh_has_uv(m))
         st = CR_FAIL(err, CR_ERR_INVALID,
                      "--cloth %s: the cloth has no UVs (the method is defined over a UV chart)",
@@ -340,18 +344,17 @@ void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const 
 
 cr_status cr_drape_scene_create(const cr_drape_def *def, drape_scene *s, cr_error *err) {
     memset(s, 0, sizeof *s);
-    cr_status st = cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
-    if (st == CR_OK && def->scene == CR_DRAPE_OBJECT) {
+    const int user = def->scene == CR_DRAPE_OBJECT;
+    cr_status st = user ? read_object(def->object_path, &s->object, &s->open_edges, err)
+                        : cr_drape_scene_object(def->scene, def->object_path, &s->object, err);
+    if (st == CR_OK && user) {
         st = cr_mesh_validate(s->object, def->object_path, err);
         if (st == CR_OK) warn_size(s->object, "--object", def->object_path);
-        cr_topology *t = NULL;
-        if (st == CR_OK) st = cr_topology_build(s->object, &t, err);
-        if (st == CR_OK && (s->open_edges = t->n_boundary_edges) > 0)
+        if (st == CR_OK && s->open_edges > 0)
             cr_log(CR_LOG_WARN,
                    "--object %s is open (%d boundary edges): it has no inside, so the drape's "
                    "penetration depth is not measured",
                    def->object_path, s->open_edges);
-        cr_topology_destroy(t);
     }
     if (st == CR_OK)
         st = cr_bvh_build(s->object->pos, s->object->nv, s->object->tri, s->object->nf, &s->bvh,
