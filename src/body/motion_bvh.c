@@ -462,11 +462,13 @@ static int snap_axis(const double v[3], int skip, int *sign) {
     return a;
 }
 
+/* The joints "up" runs to from the pelvis, the first the rig has. */
+static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
+
 /* The rig's up and left as signed coordinate axes, from joint positions p:
  * pelvis to head, right to left hip. 0 when they cannot be told. */
 static int rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up_sign,
                     int *left_axis, int *left_sign) {
-    static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
     static const int lr[][2] = {{CR_JOINT_LEFT_HIP, CR_JOINT_RIGHT_HIP},
                                 {CR_JOINT_LEFT_SHOULDER, CR_JOINT_RIGHT_SHOULDER},
                                 {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
@@ -514,16 +516,17 @@ static void axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, do
     }
 }
 
-/* The turn taking the rig's up to +Y and its left to +X, from rest positions. */
+/* The turn taking the rig's up to +Y and its left to +X, from rest positions;
+ * the up it found as a signed axis. */
 static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
-                           double q[4], cr_error *err) {
-    int ua, us, la, ls;
-    if (!rig_axes(map, p, &ua, &us, &la, &ls))
+                           double q[4], int *up_axis, int *up_sign, cr_error *err) {
+    int la, ls;
+    if (!rig_axes(map, p, up_axis, up_sign, &la, &ls))
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
                        "to head, right to left hip)",
                        b->t.source);
-    axes_turn(ua, us, la, ls, q);
+    axes_turn(*up_axis, *up_sign, la, ls, q);
     return CR_OK;
 }
 
@@ -595,7 +598,6 @@ static int unit3(const double v[3], double out[3], double eps) {
  * them (nothing to go by). A joint-oriented bind pose with every bone along
  * one axis does not. */
 static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
-    static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
     static const int legs[][2] = {{CR_JOINT_LEFT_ANKLE, CR_JOINT_RIGHT_ANKLE},
                                   {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
     int top = -1, l = -1;
@@ -796,30 +798,24 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     cr_status st = rest && w && pos && stand_pos && stand_w ? CR_OK : CR_ERR_MEMORY;
     motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
     double rest_turn[4] = {1, 0, 0, 0}; /* the rest pose's own upright frame: its height and feet */
+    int rest_axis = 1, rest_sign = 1;   /* the file axis the rest pose calls up */
     if (st == CR_OK) {
         rest_positions(b, rest);
-        st = rig_frame(b, map, rest, rest_turn, err);
+        st = rig_frame(b, map, rest, rest_turn, &rest_axis, &rest_sign, err);
         memcpy(fix.world, rest_turn, sizeof rest_turn);
     }
     int up_axis, up_sign, agree, sampled;
     int32_t standing = -1;
-    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled, &standing)) {
-        double y[3] = {0, 1, 0}, rest_up[3], rest_inv[4];
-        q_conj(rest_turn, rest_inv);
-        q_rotate(rest_inv, y, rest_up); /* the file axis the rest pose calls up */
-        if (fabs(rest_up[up_axis] - up_sign) > 0.5) {
-            /* left: the first other axis in x, z, y order, so a Y-up file keeps its
-             * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
-            axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
-            cr_log(CR_LOG_WARN,
-                   "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
-                   "frames): the motion's up is used",
-                   b->t.source, rest_up[0] + rest_up[1] + rest_up[2] > 0 ? '+' : '-',
-                   "XYZ"[fabs(rest_up[0]) > 0.5   ? 0
-                         : fabs(rest_up[1]) > 0.5 ? 1
-                                                  : 2],
-                   up_sign > 0 ? '+' : '-', "XYZ"[up_axis], agree, sampled);
-        }
+    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled, &standing) &&
+        (up_axis != rest_axis || up_sign != rest_sign)) {
+        /* left: the first other axis in x, z, y order, so a Y-up file keeps its
+         * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
+        axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
+        cr_log(CR_LOG_WARN,
+               "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
+               "frames): the motion's up is used",
+               b->t.source, rest_sign > 0 ? '+' : '-', "XYZ"[rest_axis], up_sign > 0 ? '+' : '-',
+               "XYZ"[up_axis], agree, sampled);
     }
     /* The height that gives the unit and the feet: the rest pose's, or where
      * it does not stand, the first standing frame's */
