@@ -10,6 +10,7 @@
  * (weights, Adam state, the position in the curriculum and the RNG) and
  * rb_train.npy (the RB per clip), with model.json (the def) at the first one:
  * a set that must agree, so it is committed as one (save_set). */
+#define _POSIX_C_SOURCE 200809L /* open_memstream */
 #include "epnet_internal.h"
 
 #include "crease/bvh.h"
@@ -184,19 +185,11 @@ static cr_status write_config(const cr_epnet_def *d, const char *dir, cr_error *
  * folder's, key by key. */
 static cr_status check_config(const cr_epnet_def *d, const char *dir, cr_error *err) {
     char path[1024], *txt = NULL, *mine = NULL;
-    size_t len = 0;
+    size_t len = 0, n = 0;
     snprintf(path, sizeof path, "%s/model.json", dir);
     CR_TRY(cr_file_read_all(path, &txt, &len, err));
-    FILE *fp = tmpfile();
-    long n = -1;
-    if (fp) {
-        print_config(d, fp);
-        n = ftell(fp);
-        rewind(fp);
-        mine = n >= 0 ? calloc((size_t)n + 1, 1) : NULL;
-        if (mine && fread(mine, 1, (size_t)n, fp) != (size_t)n) free(mine), mine = NULL;
-        fclose(fp);
-    }
+    FILE *fp = open_memstream(&mine, &n);
+    if (fp) print_config(d, fp), fclose(fp);
     cJSON *a = cJSON_Parse(txt), *b = mine ? cJSON_Parse(mine) : NULL;
     free(txt), free(mine);
     cr_status st = CR_OK;
