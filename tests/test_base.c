@@ -1,4 +1,5 @@
 /* test_base.c: status messages, arena, RNG, parallel-for, config, atomic files. */
+#define _POSIX_C_SOURCE 200809L
 #include "base/atan2d.h"
 #include "crease/base.h"
 #include "test.h"
@@ -8,6 +9,8 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 CR_TEST(base, error_message_names_file_and_line) {
     cr_error err = {0};
@@ -167,6 +170,24 @@ CR_TEST(base, atomic_write_commits_or_leaves_nothing) {
     CR_CHECK_OK(cr_file_read_all(path, &text, NULL, &err), &err);
     CR_CHECK(text && strcmp(text, "second") == 0);
     free(text);
+    /* a temporary left by a killed writer goes at the next commit; a live one stays */
+    pid_t child = fork();
+    if (child == 0) _exit(0);
+    CR_CHECK(child > 0);
+    waitpid(child, NULL, 0);
+    char dead[600], live[600];
+    snprintf(dead, sizeof dead, "%s.tmp.%ld", path, (long)child);
+    snprintf(live, sizeof live, "%s.tmp.%ld", path, (long)getppid());
+    FILE *leftover = fopen(dead, "w"), *other = fopen(live, "w");
+    CR_CHECK(leftover && other);
+    if (leftover) fclose(leftover);
+    if (other) fclose(other);
+    CR_CHECK_OK(cr_atomic_open(&f, path, &err), &err);
+    fputs("third", f.fp);
+    CR_CHECK_OK(cr_atomic_commit(&f, &err), &err);
+    CR_CHECK(access(dead, F_OK) != 0);
+    CR_CHECK(access(live, F_OK) == 0);
+    remove(live);
     char ext[8];
     cr_path_ext("a/b.c/Mesh.GLB", ext, sizeof ext);
     CR_CHECK(strcmp(ext, "glb") == 0);

@@ -549,3 +549,13 @@ CR_TEST(bvh, rejects_bad_input) {
     CR_CHECK(cr_bvh_raycast(b, q, zero, INFINITY, &rh) == 0);
     cr_bvh_destroy(b);
 }
+
+CR_TEST(bvh, mesh_diagonal_is_the_bounds_diagonal) {
+    cr_error err = {0};
+    cr_mesh *m = NULL;
+    CR_CHECK_OK(cr_prim_box(1, 2, 2, 4, &m, &err), &err);
+    CR_CHECK_NEAR(cr_mesh_diagonal(m), 3.0, 1e-6);
+    cr_mesh_destroy(m);
+    cr_mesh empty = {0};
+    CR_CHECK(cr_mesh_diagonal(&empty) == 0.0);
+}

@@ -29,16 +29,16 @@ extern "C" {
 
 typedef enum cr_status {
     CR_OK = 0,
-    CR_ERR_IO,        /* file missing, unreadable, unwritable */
-    CR_ERR_PARSE,     /* malformed file contents */
-    CR_ERR_INVALID,   /* bad argument or impossible parameter */
-    CR_ERR_RANGE,     /* index or count out of range */
-    CR_ERR_NAN,       /* non-finite number where a finite one is required */
-    CR_ERR_TOPOLOGY,  /* non-manifold, empty or degenerate mesh where a method needs better */
-    CR_ERR_MEMORY,    /* allocation failed or arena exhausted */
-    CR_ERR_SHAPE,     /* tensor/array shape mismatch */
-    CR_ERR_CONFIG,    /* unknown or mistyped configuration key */
-    CR_ERR_DIVERGED,  /* a solver or training run blew up */
+    CR_ERR_IO,       /* file missing, unreadable, unwritable */
+    CR_ERR_PARSE,    /* malformed file contents */
+    CR_ERR_INVALID,  /* bad argument or impossible parameter */
+    CR_ERR_RANGE,    /* index or count out of range */
+    CR_ERR_NAN,      /* non-finite number where a finite one is required */
+    CR_ERR_TOPOLOGY, /* non-manifold, empty or degenerate mesh where a method needs better */
+    CR_ERR_MEMORY,   /* allocation failed or arena exhausted */
+    CR_ERR_SHAPE,    /* tensor/array shape mismatch */
+    CR_ERR_CONFIG,   /* unknown or mistyped configuration key */
+    CR_ERR_DIVERGED, /* a solver or training run blew up */
     CR_ERR_UNSUPPORTED,
     CR_STATUS_COUNT
 } cr_status;
@@ -118,10 +118,10 @@ cr_rng cr_rng_make(uint64_t seed, uint64_t stream);
 /* The raw counter-based function: four 32-bit words for (seed, stream, counter). */
 void cr_philox4x32(uint64_t seed, uint64_t stream, uint64_t counter, uint32_t out[4]);
 uint32_t cr_rng_u32(cr_rng *r);
-double cr_rng_uniform(cr_rng *r);                   /* [0, 1) with 53 random bits */
-float cr_rng_uniformf(cr_rng *r);                   /* [0, 1) */
-double cr_rng_normal(cr_rng *r);                    /* standard normal (Box-Muller) */
-uint32_t cr_rng_below(cr_rng *r, uint32_t n);       /* uniform in [0, n), unbiased */
+double cr_rng_uniform(cr_rng *r);                          /* [0, 1) with 53 random bits */
+float cr_rng_uniformf(cr_rng *r);                          /* [0, 1) */
+double cr_rng_normal(cr_rng *r);                           /* standard normal (Box-Muller) */
+uint32_t cr_rng_below(cr_rng *r, uint32_t n);              /* uniform in [0, n), unbiased */
 void cr_rng_shuffle_i32(cr_rng *r, int32_t *a, int64_t n); /* Fisher-Yates */
 
 /* ------------------------------------------------------------- parallel -- */
@@ -212,8 +212,8 @@ typedef enum cr_config_type {
 typedef struct cr_config_key {
     const char *name;
     cr_config_type type;
-    size_t offset;  /* offsetof(struct, field) */
-    size_t size;    /* CR_CFG_STRING: capacity of the char array */
+    size_t offset;   /* offsetof(struct, field) */
+    size_t size;     /* CR_CFG_STRING: capacity of the char array */
     double min, max; /* numeric range, inclusive; min > max means unchecked */
     const char *help;
 } cr_config_key;
@@ -230,7 +230,9 @@ cr_status cr_config_load(const char *path, const cr_config_key *keys, int nkeys,
 cr_status cr_file_read_all(const char *path, char **out, size_t *out_len, cr_error *err);
 
 /* Atomic writes: open `path`.tmp.<pid>, write, then commit renames it over
- * `path`; abort removes the temporary. A crash never leaves a half-written file. */
+ * `path`; abort removes the temporary. A crash never leaves a half-written file.
+ * A commit also removes `path`.tmp.<pid> files whose writer no longer runs
+ * (a run killed mid-write), so a resumed run cleans up after the killed one. */
 typedef struct cr_atomic_file {
     FILE *fp;
     char path[1024];

@@ -21,19 +21,19 @@ enum { CR_MESH_ATTR_NAME_MAX = 32 };
 
 typedef struct cr_mesh_attr {
     char name[CR_MESH_ATTR_NAME_MAX];
-    int32_t dim;  /* values per vertex */
-    float *data;  /* (V, dim) */
+    int32_t dim; /* values per vertex */
+    float *data; /* (V, dim) */
 } cr_mesh_attr;
 
 typedef struct cr_mesh {
-    int32_t nv;       /* V: vertex count */
-    int32_t nf;       /* F: triangle count */
-    int32_t nuv;      /* U: UV count; 0 when the mesh has no UVs */
-    float *pos;       /* (V,3) positions, m */
-    int32_t *tri;     /* (F,3) vertex indices, counter-clockwise seen from the front */
-    float *uv;        /* (U,2) texture coordinates, NULL when nuv == 0 */
-    int32_t *tri_uv;  /* (F,3) indices into uv, NULL when nuv == 0 */
-    float *normal;    /* (V,3) unit vertex normals, or NULL */
+    int32_t nv;      /* V: vertex count */
+    int32_t nf;      /* F: triangle count */
+    int32_t nuv;     /* U: UV count; 0 when the mesh has no UVs */
+    float *pos;      /* (V,3) positions, m */
+    int32_t *tri;    /* (F,3) vertex indices, counter-clockwise seen from the front */
+    float *uv;       /* (U,2) texture coordinates, NULL when nuv == 0 */
+    int32_t *tri_uv; /* (F,3) indices into uv, NULL when nuv == 0 */
+    float *normal;   /* (V,3) unit vertex normals, or NULL */
     int32_t nattr;
     cr_mesh_attr *attr; /* (nattr) named per-vertex attributes */
 } cr_mesh;
@@ -58,6 +58,8 @@ cr_status cr_mesh_validate(const cr_mesh *m, const char *source, cr_error *err);
 
 /* Axis-aligned bounds: lo, hi (3 each). An empty mesh gives lo = hi = 0. */
 void cr_mesh_bounds(const cr_mesh *m, float lo[3], float hi[3]);
+/* Length of the bounds' diagonal, in the mesh's unit (0 for an empty mesh). */
+double cr_mesh_diagonal(const cr_mesh *m);
 
 /* Apply x' = s * x + t to every position. */
 void cr_mesh_transform(cr_mesh *m, float scale, const float translate[3]);

@@ -3,7 +3,9 @@
 #include "crease/base.h"
 
 #include <ctype.h>
+#include <dirent.h>
 #include <errno.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -55,6 +57,42 @@ cr_status cr_atomic_open(cr_atomic_file *f, const char *path, cr_error *err) {
     return CR_OK;
 }
 
+/* Remove `path`.tmp.<pid> files left by writers that were killed before their
+ * commit: a pid that no longer runs on this machine. A live writer's (another
+ * process writing the same file now) is kept. Best effort: failures are silent. */
+static void remove_stale_temporaries(const char *path) {
+    char dir[1024], prefix[1100];
+    const char *slash = strrchr(path, '/');
+    if (slash) {
+        size_t n = (size_t)(slash - path);
+        if (n == 0) n = 1; /* "/name": the root */
+        if (n >= sizeof dir) return;
+        memcpy(dir, path, n);
+        dir[n] = 0;
+    } else {
+        snprintf(dir, sizeof dir, ".");
+    }
+    size_t plen = (size_t)snprintf(prefix, sizeof prefix, "%s.tmp.", slash ? slash + 1 : path);
+    if (plen >= sizeof prefix) return;
+    DIR *d = opendir(dir);
+    if (!d) return;
+    const long self = (long)getpid();
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        if (strncmp(e->d_name, prefix, plen) != 0) continue;
+        const char *digits = e->d_name + plen;
+        char *end = NULL;
+        errno = 0;
+        long pid = strtol(digits, &end, 10);
+        if (!isdigit((unsigned char)digits[0]) || *end || errno || pid <= 0 || pid == self)
+            continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue; /* alive, or not ours to ask */
+        char stale[2200];
+        if ((size_t)snprintf(stale, sizeof stale, "%s/%s", dir, e->d_name) < sizeof stale)
+            remove(stale);
+    }
+    closedir(d);
+}
+
 cr_status cr_atomic_commit(cr_atomic_file *f, cr_error *err) {
     int bad = ferror(f->fp);
     bad |= fflush(f->fp) != 0;
@@ -70,6 +108,7 @@ cr_status cr_atomic_commit(cr_atomic_file *f, cr_error *err) {
         remove(f->tmp_path);
         return CR_FAIL(err, CR_ERR_IO, "%s: cannot rename into place: %s", f->path, strerror(e));
     }
+    remove_stale_temporaries(f->path);
     return CR_OK;
 }
 

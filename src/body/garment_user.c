@@ -90,9 +90,7 @@ static cr_status check_uvs_and_size(const cr_mesh *m, const char *src, cr_error 
                        flat, m->nf);
     float lo[3], hi[3];
     cr_mesh_bounds(m, lo, hi);
-    double diag =
-        sqrt((double)(hi[0] - lo[0]) * (hi[0] - lo[0]) + (double)(hi[1] - lo[1]) * (hi[1] - lo[1]) +
-             (double)(hi[2] - lo[2]) * (hi[2] - lo[2]));
+    double diag = cr_mesh_diagonal(m);
     if (diag > 4.0)
         return CR_FAIL(
             err, CR_ERR_INVALID,

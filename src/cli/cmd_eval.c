@@ -107,12 +107,7 @@ static cr_status rest_angles(const char *path, cr_npy *a, const float **out, int
 static double diagonal(const cr_mesh *garment, float *pos) {
     cr_mesh at = *garment;
     at.pos = pos;
-    float lo[3], hi[3];
-    cr_mesh_bounds(&at, lo, hi);
-    double d2 = 0.0;
-    for (int k = 0; k < 3; k++)
-        d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
-    return sqrt(d2);
+    return cr_mesh_diagonal(&at);
 }
 
 /* A sequence and its rest mesh in different units (cm against m) would

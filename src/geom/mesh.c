@@ -33,7 +33,8 @@ void cr_mesh_destroy(cr_mesh *m) {
     free(m->uv);
     free(m->tri_uv);
     free(m->normal);
-    for (int32_t i = 0; i < m->nattr; i++) free(m->attr[i].data);
+    for (int32_t i = 0; i < m->nattr; i++)
+        free(m->attr[i].data);
     free(m->attr);
     free(m);
 }
@@ -65,9 +66,8 @@ cr_status cr_mesh_clone(const cr_mesh *m, cr_mesh **out, cr_error *err) {
         if (!c->attr) failed = 1;
         for (int32_t i = 0; c->attr && i < m->nattr; i++) {
             c->attr[i] = m->attr[i];
-            c->attr[i].data = dup_array(m->attr[i].data,
-                                        (size_t)m->nv * m->attr[i].dim * sizeof(float), err,
-                                        &failed);
+            c->attr[i].data = dup_array(
+                m->attr[i].data, (size_t)m->nv * m->attr[i].dim * sizeof(float), err, &failed);
             c->nattr = i + 1;
         }
     }
@@ -92,8 +92,8 @@ cr_status cr_mesh_add_attr(cr_mesh *m, const char *name, int32_t dim, float **ou
     const cr_mesh_attr *found = cr_mesh_find_attr(m, name);
     if (found) {
         if (found->dim != dim)
-            return CR_FAIL(err, CR_ERR_SHAPE, "mesh attribute '%s': has dim %d, asked for %d",
-                           name, found->dim, dim);
+            return CR_FAIL(err, CR_ERR_SHAPE, "mesh attribute '%s': has dim %d, asked for %d", name,
+                           found->dim, dim);
         *out = found->data;
         return CR_OK;
     }
@@ -118,8 +118,8 @@ cr_status cr_mesh_validate(const cr_mesh *m, const char *source, cr_error *err) 
                            (long long)(i / 3));
     for (int64_t i = 0; i < (int64_t)m->nf * 3; i++)
         if (m->tri[i] < 0 || m->tri[i] >= m->nv)
-            return CR_FAIL(err, CR_ERR_RANGE, "%s: face %lld uses vertex %d, mesh has %d",
-                           source, (long long)(i / 3), m->tri[i], m->nv);
+            return CR_FAIL(err, CR_ERR_RANGE, "%s: face %lld uses vertex %d, mesh has %d", source,
+                           (long long)(i / 3), m->tri[i], m->nv);
     if (cr_mesh_has_uv(m)) {
         for (int64_t i = 0; i < (int64_t)m->nuv * 2; i++)
             if (!isfinite(m->uv[i]))
@@ -134,7 +134,8 @@ cr_status cr_mesh_validate(const cr_mesh *m, const char *source, cr_error *err) 
 }
 
 void cr_mesh_bounds(const cr_mesh *m, float lo[3], float hi[3]) {
-    for (int k = 0; k < 3; k++) lo[k] = hi[k] = m->nv > 0 ? m->pos[k] : 0.0f;
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = m->nv > 0 ? m->pos[k] : 0.0f;
     for (int32_t i = 1; i < m->nv; i++)
         for (int k = 0; k < 3; k++) {
             float x = m->pos[3 * i + k];
@@ -143,9 +144,19 @@ void cr_mesh_bounds(const cr_mesh *m, float lo[3], float hi[3]) {
         }
 }
 
+double cr_mesh_diagonal(const cr_mesh *m) {
+    float lo[3], hi[3];
+    cr_mesh_bounds(m, lo, hi);
+    double d2 = 0.0;
+    for (int k = 0; k < 3; k++)
+        d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+    return sqrt(d2);
+}
+
 void cr_mesh_transform(cr_mesh *m, float scale, const float translate[3]) {
     for (int32_t i = 0; i < m->nv; i++)
-        for (int k = 0; k < 3; k++) m->pos[3 * i + k] = scale * m->pos[3 * i + k] + translate[k];
+        for (int k = 0; k < 3; k++)
+            m->pos[3 * i + k] = scale * m->pos[3 * i + k] + translate[k];
 }
 
 static int grow(void **p, size_t bytes) {
@@ -164,7 +175,8 @@ cr_status cr_mesh_append(cr_mesh *a, const cr_mesh *b, cr_error *err) {
                 !grow((void **)&a->tri_uv, (size_t)nf * 3 * sizeof(int32_t)))))
         return CR_FAIL(err, CR_ERR_MEMORY, "mesh append: out of memory");
     memcpy(a->pos + 3 * (size_t)a->nv, b->pos, (size_t)b->nv * 3 * sizeof(float));
-    for (int64_t i = 0; i < (int64_t)b->nf * 3; i++) a->tri[3 * (int64_t)a->nf + i] = b->tri[i] + a->nv;
+    for (int64_t i = 0; i < (int64_t)b->nf * 3; i++)
+        a->tri[3 * (int64_t)a->nf + i] = b->tri[i] + a->nv;
     if (uv) {
         memcpy(a->uv + 2 * (size_t)a->nuv, b->uv, (size_t)b->nuv * 2 * sizeof(float));
         for (int64_t i = 0; i < (int64_t)b->nf * 3; i++)
@@ -176,7 +188,8 @@ cr_status cr_mesh_append(cr_mesh *a, const cr_mesh *b, cr_error *err) {
     }
     free(a->normal);
     a->normal = NULL;
-    for (int32_t i = 0; i < a->nattr; i++) free(a->attr[i].data);
+    for (int32_t i = 0; i < a->nattr; i++)
+        free(a->attr[i].data);
     free(a->attr);
     a->attr = NULL, a->nattr = 0;
     a->nv = nv, a->nf = nf, a->nuv = nuv;

@@ -506,7 +506,11 @@ static double num_at(const cJSON *a, int i) {
 
 static cr_status resume(drape_run *r, cr_drape_result *res, cr_error *err) {
     struct stat sb;
-    if (stat(r->ckpt_path, &sb) != 0) return CR_OK; /* nothing to resume: a fresh run */
+    if (stat(r->ckpt_path, &sb) != 0) { /* nothing to resume: a fresh run, said */
+        cr_log(CR_LOG_WARN, "drape: --resume: no checkpoint at %s; training from the start",
+               r->ckpt_path);
+        return CR_OK;
+    }
     cr_checkpoint_meta meta = {0};
     CR_TRY(cr_checkpoint_load(r->ckpt_path, cr_drape_model_params(r->model), r->opt, &meta, err));
     cJSON *j = meta.config_json ? cJSON_Parse(meta.config_json) : NULL;

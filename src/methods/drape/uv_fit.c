@@ -279,7 +279,11 @@ static cr_status save_checkpoint(fit_run *r, const cr_fit_result *res, double lo
 
 static cr_status resume(fit_run *r, cr_fit_result *res, cr_error *err) {
     struct stat sb;
-    if (stat(r->ckpt_path, &sb) != 0) return CR_OK; /* nothing to resume: a fresh run */
+    if (stat(r->ckpt_path, &sb) != 0) { /* nothing to resume: a fresh run, said */
+        cr_log(CR_LOG_WARN, "fit: --resume: no checkpoint at %s; training from the start",
+               r->ckpt_path);
+        return CR_OK;
+    }
     cr_checkpoint_meta meta = {0};
     CR_TRY(cr_checkpoint_load(r->ckpt_path, r->model.params, r->opt, &meta, err));
     cJSON *j = meta.config_json ? cJSON_Parse(meta.config_json) : NULL;

@@ -399,6 +399,9 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
             free(meta.config_json);
             epoch0 = (int)meta.epoch;
             rng = meta.rng;
+        } else {
+            cr_log(CR_LOG_WARN,
+                   "gdsr train: --resume: no checkpoint at %s; training from the start", ckpt);
         }
     }
     out->resumed_from = epoch0;
