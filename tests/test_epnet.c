@@ -669,3 +669,101 @@ CR_TEST(epnet, checkpoint_set_commits_whole_and_resume_keeps_the_model) {
     snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
     CR_CHECK(system(cmd) == 0);
 }
+
+/* P-Net replayed on given positions: at initialisation (zero decoder) it is
+ * the plastic rule on their angles; a trained P-Net opened on its own garment
+ * through cr_epnet_open_pnet replays bit for bit as the whole model does, and
+ * on another garment (another hinge graph) it runs, moving RB only where the
+ * angles pass the yield and never past the rule's bound. */
+CR_TEST(epnet, pnet_replay_is_the_rule_and_runs_on_another_garment) {
+    cr_error err = {0};
+    char dir[64];
+    snprintf(dir, sizeof dir, "/tmp/epnet_test_replay_%d", (int)getpid());
+    const char *motions[1] = {"squat"};
+    cr_epnet_def d = tiny_def();
+    d.material.yield_angle = 0.05; /* so the squat's angles pass it */
+    d.frames = 6, d.motions = motions, d.nmotions = 1;
+    d.cycles = 1, d.enet_epochs = 1, d.pnet_epochs = 2, d.pnet_frames = 2, d.quiet = 1;
+    d.pnet_lr = 0.1f;
+    /* fresh: the replay is Eq. 4-5 on the positions' angles */
+    cr_epnet *m = NULL;
+    CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+    cr_epnet_seq *s = NULL;
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, 4, &s, &err) == CR_OK);
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m),
+                  V = cr_epnet_garment(m)->nv;
+    float *pos = malloc(sizeof(float) * 3 * (size_t)T * V), *th = malloc(sizeof(float) * T * H);
+    float *rb = malloc(sizeof(float) * (size_t)T * H), *want = malloc(sizeof(float) * T * H);
+    CR_REQUIRE(pos && th && rb && want);
+    CR_REQUIRE(cr_epnet_rollout(m, s, 0, pos, NULL, NULL, &err) == CR_OK);
+    CR_CHECK_OK(cr_epnet_pnet_replay(m, pos, T, rb, &err), &err);
+    cr_epnet_angles(m, pos, T, th);
+    cr_epnet_plastic_rollout(th, cr_epnet_rest_angles(m), NULL, T, H, 0.05, 1.0, 50.0, want);
+    double diff = 0, most = 0;
+    for (int64_t i = 0; i < (int64_t)T * H; i++)
+        diff = fmax(diff, fabs(rb[i] - want[i])), most = fmax(most, fabs(want[i]));
+    fprintf(stderr, "  fresh P-Net against the rule: max |RB| %.3g, max diff %.3g rad\n", most,
+            diff);
+    CR_CHECK(most > 0.01);
+    CR_CHECK(diff < 1e-4);
+    cr_epnet_destroy(m), m = NULL;
+    /* trained, then opened whole and as a P-Net on the same garment */
+    d.out_dir = dir;
+    CR_REQUIRE(cr_epnet_train(&d, NULL, &err) == CR_OK);
+    cr_epnet *whole = NULL, *alone = NULL;
+    CR_REQUIRE(cr_epnet_open(dir, &whole, &err) == CR_OK);
+    CR_CHECK_OK(cr_epnet_open_pnet(dir, "tshirt", 0, &alone, &err), &err);
+    CR_CHECK_OK(cr_epnet_pnet_replay(whole, pos, T, rb, &err), &err);
+    CR_CHECK_OK(cr_epnet_pnet_replay(alone, pos, T, want, &err), &err);
+    CR_CHECK(memcmp(rb, want, sizeof(float) * (size_t)T * H) == 0);
+    cr_epnet_destroy(whole), cr_epnet_destroy(alone);
+    /* on a dress: another mesh, another hinge graph */
+    cr_epnet *dress = NULL;
+    CR_CHECK_OK(cr_epnet_open_pnet(dir, "dress", 0, &dress, &err), &err);
+    if (dress) {
+        cr_epnet_seq *sd = NULL;
+        CR_REQUIRE(cr_epnet_seq_create(dress, "squat", NULL, 12, 4, &sd, &err) == CR_OK);
+        const int32_t Hd = cr_epnet_hinge_count(dress), Vd = cr_epnet_garment(dress)->nv;
+        CR_CHECK(Hd != H);
+        float *pd = malloc(sizeof(float) * 3 * (size_t)T * Vd),
+              *rd = malloc(sizeof(float) * (size_t)T * Hd),
+              *td = malloc(sizeof(float) * (size_t)T * Hd);
+        CR_REQUIRE(pd && rd && td);
+        CR_REQUIRE(cr_epnet_rollout(dress, sd, 0, pd, td, NULL, &err) == CR_OK);
+        CR_CHECK_OK(cr_epnet_pnet_replay(dress, pd, T, rd, &err), &err);
+        const float *bar = cr_epnet_rest_angles(dress);
+        double moved = 0, worst = 0;
+        for (int32_t t = 0; t < T; t++)
+            for (int32_t h = 0; h < Hd; h++) {
+                const size_t i = (size_t)t * Hd + h;
+                CR_CHECK(isfinite(rd[i]));
+                moved = fmax(moved, fabs(rd[i]));
+                worst = fmax(worst, fabs(td[i] - bar[h] - rd[i]));
+            }
+        fprintf(stderr, "  dress: %d hinges, max |RB| %.3g, max |theta - bar - RB| %.3g rad\n", Hd,
+                moved, worst);
+        CR_CHECK(moved > 0.01);
+        CR_CHECK(worst <= 0.05 + 0.2 + 1e-4);
+        free(pd), free(rd), free(td);
+        cr_epnet_seq_destroy(sd);
+        cr_epnet_destroy(dress);
+    }
+    /* a baseline has no P-Net to lend */
+    char path[128];
+    snprintf(path, sizeof path, "%s/model.json", dir);
+    char *txt = NULL;
+    CR_REQUIRE(cr_file_read_all(path, &txt, NULL, &err) == CR_OK);
+    char *at = strstr(txt, "\"baseline\": 0");
+    CR_REQUIRE(at);
+    at[12] = '1';
+    FILE *f = fopen(path, "wb");
+    CR_REQUIRE(f);
+    fputs(txt, f), fclose(f), free(txt);
+    CR_CHECK(cr_epnet_open_pnet(dir, "dress", 0, &dress, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "baseline") != NULL);
+    free(pos), free(th), free(rb), free(want);
+    cr_epnet_seq_destroy(s);
+    char cmd[100];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    CR_CHECK(system(cmd) == 0);
+}

@@ -140,6 +140,9 @@ const cr_mesh *cr_epnet_garment(const cr_epnet *m);
 const cr_mesh *cr_epnet_body(const cr_epnet *m);
 int32_t cr_epnet_hinge_count(const cr_epnet *m);
 int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
+/* The model's def (garment, sizes, material: yield, gain, sharpness), borrowed;
+ * its motions and out_dir are not kept (NULL). */
+const cr_epnet_def *cr_epnet_def_of(const cr_epnet *m);
 
 /* Loss terms of one forward pass, J per frame. */
 enum { CR_EPNET_NTERMS = 8 };
@@ -182,6 +185,13 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
 cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
                            float *theta, float *rb, cr_error *err);
 
+/* P-Net alone on given positions pos (T,V,3), m (a reference simulation,
+ * say): RB (T,H) rad rolled as in cr_epnet_rollout, frame t's increment from
+ * frame t's angles and RB of frame t - 1, with no E-Net. It separates P-Net's
+ * error from E-Net's: fed the reference's own angles, P-Net should give the
+ * reference's plastic rest. */
+cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *rb, cr_error *err);
+
 /* The plastic reference: the simulator with perfect plasticity (gain 1,
  * the model's yield and material) on the same garment and body motion,
  * started at the garment's skinned rest. pos (T,V,3), rest (T,H) rad. */
@@ -219,6 +229,14 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
 
 /* Load a trained model from its folder. */
 cr_status cr_epnet_open(const char *model_dir, cr_epnet **out, cr_error *err);
+/* A trained model's P-Net on another garment (a type of garment.h, at
+ * `vertices`; 0: the model's count): the model's def with the garment
+ * replaced, P-Net's weights loaded (its graph network reads per-hinge and
+ * per-edge features, so it runs on any hinge graph) and E-Net left at its
+ * initialisation (its decoder is per vertex of the training garment). For
+ * cr_epnet_pnet_replay on a garment P-Net never saw (the paper's Table 3). */
+cr_status cr_epnet_open_pnet(const char *model_dir, const char *garment, int32_t vertices,
+                             cr_epnet **out, cr_error *err);
 
 typedef struct cr_epnet_run_def {
     const char *model_dir; /* required */

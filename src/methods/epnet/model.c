@@ -336,6 +336,9 @@ void cr_epnet_destroy(cr_epnet *m) {
 const cr_mesh *cr_epnet_garment(const cr_epnet *m) {
     return m->garment->mesh;
 }
+const cr_epnet_def *cr_epnet_def_of(const cr_epnet *m) {
+    return &m->def;
+}
 const cr_mesh *cr_epnet_body(const cr_epnet *m) {
     return m->body->rest;
 }
@@ -851,6 +854,30 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         if (rb) memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
     }
     free(x), free(th), free(r), free(hstate);
+    return st;
+}
+
+cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *rb, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh;
+    float *th = malloc(sizeof(float) * (size_t)H), *r = calloc((size_t)H, sizeof(float));
+    if (!th || !r) {
+        free(th), free(r);
+        return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the P-Net replay");
+    }
+    cr_status st = CR_OK;
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        const float *x = pos + (size_t)t * V * 3;
+        cr_epnet_angles_(m, x, 1, th);
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *inc = pnet_forward(m, x, th, r);
+        st = cr_nn_ctx_error(m->ctx, err);
+        if (st != CR_OK) break;
+        for (int32_t h = 0; h < H; h++)
+            r[h] += inc->data[h];
+        memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
+    }
+    free(th), free(r);
     return st;
 }
 

@@ -220,7 +220,10 @@ static double jnum(const cJSON *o, const char *k, double dflt) {
     return cJSON_IsNumber(v) ? v->valuedouble : dflt;
 }
 
-cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
+/* garment NULL: the model's own, every weight loaded; else that garment at
+ * `vertices` (0: the model's count) with P-Net's weights alone. */
+static cr_status open_model(const char *dir, const char *garment_as, int32_t vertices,
+                            cr_epnet **out, cr_error *err) {
     *out = NULL;
     char path[1024], *txt = NULL;
     size_t len = 0;
@@ -316,15 +319,42 @@ cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
     d.pnet_hidden_layers = jint(o, "pnet_hidden_layers", d.pnet_hidden_layers);
     d.pnet_steps = jint(o, "pnet_steps", d.pnet_steps);
     cJSON_Delete(o);
+    if (garment_as) {
+        if (d.baseline)
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "%s: a zero-RB baseline has no trained P-Net to run on %s", dir,
+                           garment_as);
+        snprintf(garment, sizeof garment, "%s", garment_as);
+        if (vertices > 0) d.garment_vertices = vertices;
+    }
     cr_epnet *m = NULL;
     CR_TRY(cr_epnet_create(&d, &m, err));
-    cr_status st = cr_epnet_load(m, dir, NULL, NULL, NULL, err);
+    cr_status st;
+    if (garment_as) {
+        cr_checkpoint_meta mp = {0};
+        st = finish_commit(dir, err);
+        snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
+        if (st == CR_OK) st = cr_checkpoint_load(path, m->pp, m->opt_p, &mp, err);
+        free(mp.config_json);
+    } else {
+        st = cr_epnet_load(m, dir, NULL, NULL, NULL, err);
+    }
     if (st != CR_OK) {
         cr_epnet_destroy(m);
         return st;
     }
     *out = m;
     return CR_OK;
+}
+
+cr_status cr_epnet_open(const char *dir, cr_epnet **out, cr_error *err) {
+    return open_model(dir, NULL, 0, out, err);
+}
+
+cr_status cr_epnet_open_pnet(const char *dir, const char *garment, int32_t vertices, cr_epnet **out,
+                             cr_error *err) {
+    if (!garment || !*garment) return CR_FAIL(err, CR_ERR_INVALID, "epnet: no garment named");
+    return open_model(dir, garment, vertices, out, err);
 }
 
 /* ------------------------------------------------------------ training -- */
