@@ -1070,6 +1070,39 @@ static int two_layer_data(cr_gdsr_data *d) {
     return st == CR_OK;
 }
 
+/* compare.png's panels colour an outfit by layer: the two sheets of
+ * two_layer_data seen from above show the upper one's tan and, where it does
+ * not cover the lower one (they are offset 1 cm in height only, so seen at
+ * an angle the lower sheet's edge shows), blue; a single sheet is all blue. */
+CR_TEST(gdsr, compare_pictures_colour_each_layer) {
+    cr_gdsr_data d;
+    CR_REQUIRE(two_layer_data(&d));
+    cr_error err = {0};
+    cr_render_def rd = cr_render_default_def();
+    rd.width = rd.height = 96;
+    rd.pitch_deg = 10.0f;
+    int counts[2][2] = {{0}}; /* [two layers, one][tan, blue] */
+    for (int one = 0; one < 2; one++) {
+        cr_mesh *m = NULL;
+        CR_REQUIRE(cr_mesh_clone(d.high, &m, &err) == CR_OK);
+        if (one) m->nf /= 2; /* the first sheet's faces only */
+        cr_image img = {0};
+        CR_CHECK_OK(cr_gdsr_render_layers(&rd, m, &img, &err), &err);
+        for (int64_t i = 0; img.rgb && i < (int64_t)img.width * img.height; i++) {
+            const int r = img.rgb[3 * i], b = img.rgb[3 * i + 2];
+            counts[one][0] += r > b + 40;
+            counts[one][1] += b > r + 40;
+        }
+        cr_image_free(&img);
+        cr_mesh_destroy(m);
+    }
+    printf("  two layers: %d tan, %d blue pixels; one: %d tan, %d blue\n", counts[0][0],
+           counts[0][1], counts[1][0], counts[1][1]);
+    CR_CHECK(counts[0][0] > 100 && counts[0][1] > 20);
+    CR_CHECK(counts[1][0] == 0 && counts[1][1] > 100);
+    cr_gdsr_data_free(&d);
+}
+
 /* Eq. 27 on a hand-made configuration: the two sheets' outer one (1 cm
  * above) pushed 1.2 cm down, 2 mm through the inner one: every outer coarse
  * vertex and every outer high vertex (every other one 3 mm lower still, as

@@ -7,6 +7,7 @@
 #include "crease/nn_graph.h"
 #include "crease/nn_layers.h"
 #include "crease/phys_energies.h"
+#include "crease/render.h"
 #include "crease/topology.h"
 
 #define CR_GDSR_COOKIE 0x67647372u
@@ -23,6 +24,12 @@ struct cr_gdsr_model {
 /* Column k of m's triangles: (F) the k-th corner of every face (malloc'd;
  * NULL when out of memory). */
 int32_t *cr_gdsr_tri_column(const cr_mesh *m, int k);
+
+/* m rendered by def into out with each layer (cr_gdsr_mesh_layers) in its own
+ * cloth colour: a single garment blue, an outfit's second layer tan, then
+ * green and mauve (layers past four take the last). compare.png's panels. */
+cr_status cr_gdsr_render_layers(const cr_render_def *def, const cr_mesh *m, cr_image *out,
+                                cr_error *err);
 
 /* The regularisers of regularise.c, built once from a rest mesh (the high
  * one for the output, the low one for C^). */

@@ -82,6 +82,44 @@ static void label(cr_image *img, const char *text) {
                  ink);
 }
 
+/* Cloth colours by layer: the single garment's blue first. */
+static const float layer_color[][3] = {
+    {0.33f, 0.52f, 0.80f}, {0.85f, 0.58f, 0.30f}, {0.42f, 0.68f, 0.42f}, {0.72f, 0.40f, 0.58f}};
+enum { NLAYER_COLORS = sizeof layer_color / sizeof layer_color[0] };
+
+cr_status cr_gdsr_render_layers(const cr_render_def *rd, const cr_mesh *m, cr_image *out,
+                                cr_error *err) {
+    int32_t *layer = cr_malloc(sizeof(int32_t) * (size_t)(m->nv + 1), err);
+    if (!layer) return CR_ERR_MEMORY;
+    const int32_t nl = cr_gdsr_mesh_layers(m, layer);
+    cr_render_object obj[NLAYER_COLORS];
+    cr_mesh *part[NLAYER_COLORS] = {NULL};
+    const int np = nl < 2 ? 1 : nl < NLAYER_COLORS ? (int)nl : NLAYER_COLORS;
+    cr_status st = CR_OK;
+    for (int l = 0; l < np && st == CR_OK; l++) {
+        obj[l] = (cr_render_object){.mesh = m};
+        memcpy(obj[l].color, layer_color[l], sizeof obj[l].color);
+        if (np == 1) break;
+        /* the layer's faces over all of m's vertices (the others, unreferenced, draw nothing) */
+        st = cr_mesh_clone(m, &part[l], err);
+        if (st != CR_OK) break;
+        int32_t nf = 0;
+        for (int32_t f = 0; f < m->nf; f++) {
+            const int32_t want = layer[m->tri[3 * f]];
+            if (want == l || (l == NLAYER_COLORS - 1 && want > l))
+                memcpy(part[l]->tri + 3 * (size_t)nf++, m->tri + 3 * (size_t)f,
+                       3 * sizeof(int32_t));
+        }
+        part[l]->nf = nf;
+        obj[l].mesh = part[l];
+    }
+    if (st == CR_OK) st = cr_render_scene(rd, obj, np, out, err);
+    for (int l = 0; l < np; l++)
+        cr_mesh_destroy(part[l]);
+    free(layer);
+    return st;
+}
+
 cr_status cr_gdsr_render_compare(const cr_gdsr_data *d, int clip, const cr_gdsr_rollout_result *r,
                                  int32_t frame, int size, const char *png_path,
                                  const char *normals_path, cr_error *err) {
@@ -110,11 +148,11 @@ cr_status cr_gdsr_render_compare(const cr_gdsr_data *d, int clip, const cr_gdsr_
         st = cr_mesh_clone(panel[k].rest, &m[k], err);
         if (st != CR_OK) break;
         memcpy(m[k]->pos, panel[k].x, (size_t)panel[k].rest->nv * 3 * sizeof(float));
-        /* the garment alone, cloth blue, framed on itself as `crease render` does (the low
-           and high garments have nearly the same bounds, so the panels line up); with the
-           body in the frame the folds would be a third as large */
-        cr_render_object obj = {.mesh = m[k], .color = {0.33f, 0.52f, 0.80f}};
-        st = cr_render_scene(&rd, &obj, 1, &shaded[k], err);
+        /* the garment alone, framed on itself as `crease render` does (the low and high
+           garments have nearly the same bounds, so the panels line up); with the body in
+           the frame the folds would be a third as large. An outfit's layers get their
+           own colours, or a vest could not be told from the shirt under it. */
+        st = cr_gdsr_render_layers(&rd, m[k], &shaded[k], err);
         if (st == CR_OK) label(&shaded[k], panel[k].name);
         if (st == CR_OK && normals_path) st = normal_map(m[k], size, &maps[k], err);
         if (st == CR_OK && normals_path) label(&maps[k], panel[k].name);
