@@ -105,17 +105,24 @@ cr_status cr_epnet_save(cr_epnet *m, const char *dir, int cycle, int phase, int 
     return save_set(m, dir, cycle, phase, epoch, NULL, 0, 0, 0, err);
 }
 
+/* One network's file of a committed set, dir/<net>.safetensors, into p and o
+ * (meta without its config string). */
+static cr_status load_net(const char *dir, const char *net, cr_nn_params *p, cr_optim *o,
+                          cr_checkpoint_meta *meta, cr_error *err) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s.safetensors", dir, net);
+    cr_status st = cr_checkpoint_load(path, p, o, meta, err);
+    free(meta->config_json);
+    meta->config_json = NULL;
+    return st;
+}
+
 cr_status cr_epnet_load(cr_epnet *m, const char *dir, int *cycle, int *phase, int *epoch,
                         cr_error *err) {
-    char path[1024];
     cr_checkpoint_meta me = {0}, mp = {0};
     CR_TRY(finish_commit(dir, err));
-    snprintf(path, sizeof path, "%s/enet.safetensors", dir);
-    CR_TRY(cr_checkpoint_load(path, m->pe, m->opt_e, &me, err));
-    free(me.config_json);
-    snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
-    CR_TRY(cr_checkpoint_load(path, m->pp, m->opt_p, &mp, err));
-    free(mp.config_json);
+    CR_TRY(load_net(dir, "enet", m->pe, m->opt_e, &me, err));
+    CR_TRY(load_net(dir, "pnet", m->pp, m->opt_p, &mp, err));
     if (mp.epoch != me.epoch)
         return CR_FAIL(err, CR_ERR_INVALID, "%s: the E-Net and P-Net checkpoints disagree", dir);
     m->rng = mp.rng;
@@ -330,12 +337,10 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
     cr_epnet *m = NULL;
     CR_TRY(cr_epnet_create(&d, &m, err));
     cr_status st;
-    if (garment_as) {
+    if (garment_as) { /* P-Net's weights alone */
         cr_checkpoint_meta mp = {0};
         st = finish_commit(dir, err);
-        snprintf(path, sizeof path, "%s/pnet.safetensors", dir);
-        if (st == CR_OK) st = cr_checkpoint_load(path, m->pp, m->opt_p, &mp, err);
-        free(mp.config_json);
+        if (st == CR_OK) st = load_net(dir, "pnet", m->pp, m->opt_p, &mp, err);
     } else {
         st = cr_epnet_load(m, dir, NULL, NULL, NULL, err);
     }
