@@ -92,30 +92,35 @@ cr_status cr_gdsr_render_layers(const cr_render_def *rd, const cr_mesh *m, cr_im
     int32_t *layer = cr_malloc(sizeof(int32_t) * (size_t)(m->nv + 1), err);
     if (!layer) return CR_ERR_MEMORY;
     const int32_t nl = cr_gdsr_mesh_layers(m, layer);
-    cr_render_object obj[NLAYER_COLORS];
-    cr_mesh *part[NLAYER_COLORS] = {NULL};
     const int np = nl < 2 ? 1 : nl < NLAYER_COLORS ? (int)nl : NLAYER_COLORS;
-    cr_status st = CR_OK;
-    for (int l = 0; l < np && st == CR_OK; l++) {
-        obj[l] = (cr_render_object){.mesh = m};
-        memcpy(obj[l].color, layer_color[l], sizeof obj[l].color);
-        if (np == 1) break;
-        /* the layer's faces over all of m's vertices (the others, unreferenced, draw nothing) */
-        st = cr_mesh_clone(m, &part[l], err);
-        if (st != CR_OK) break;
-        int32_t nf = 0;
-        for (int32_t f = 0; f < m->nf; f++) {
-            const int32_t want = layer[m->tri[3 * f]];
-            if (want == l || (l == NLAYER_COLORS - 1 && want > l))
-                memcpy(part[l]->tri + 3 * (size_t)nf++, m->tri + 3 * (size_t)f,
-                       3 * sizeof(int32_t));
-        }
-        part[l]->nf = nf;
-        obj[l].mesh = part[l];
+    /* each layer a view of m (its positions) with that layer's faces, one
+     * buffer of faces grouped by layer; the other vertices draw nothing */
+    int32_t *tri = np > 1 ? cr_malloc(sizeof(int32_t) * 3 * (size_t)(m->nf + 1), err) : NULL;
+    if (np > 1 && !tri) {
+        free(layer);
+        return CR_ERR_MEMORY;
     }
-    if (st == CR_OK) st = cr_render_scene(rd, obj, np, out, err);
-    for (int l = 0; l < np; l++)
-        cr_mesh_destroy(part[l]);
+    cr_mesh part[NLAYER_COLORS];
+    cr_render_object obj[NLAYER_COLORS];
+    int32_t used = 0;
+    for (int l = 0; l < np; l++) {
+        part[l] = *m;
+        if (np > 1) {
+            part[l].tri = tri + 3 * (size_t)used;
+            part[l].nf = 0;
+            for (int32_t f = 0; f < m->nf; f++) {
+                const int32_t want = layer[m->tri[3 * f]];
+                if (want == l || (l == NLAYER_COLORS - 1 && want > l))
+                    memcpy(part[l].tri + 3 * (size_t)part[l].nf++, m->tri + 3 * (size_t)f,
+                           3 * sizeof(int32_t));
+            }
+            used += part[l].nf;
+        }
+        obj[l] = (cr_render_object){.mesh = &part[l]};
+        memcpy(obj[l].color, layer_color[l], sizeof obj[l].color);
+    }
+    cr_status st = cr_render_scene(rd, obj, np, out, err);
+    free(tri);
     free(layer);
     return st;
 }
