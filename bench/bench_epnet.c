@@ -1,14 +1,23 @@
-/* bench_epnet.c: epnet's Table 1 on our data (docs/epnet.md): a trained
- * epnet and a zero-RB baseline against the plastic reference simulator on
- * held-out motions and bodies, through crease eval's library (cr_eval_run),
- * plus persistence (the share of hinges folded past a threshold at the last
- * frame of a motion that returns to rest and holds), inference speed, and
- * a side-by-side picture.
+/* bench_epnet.c: epnet's Table 1 on our data (docs/epnet.md): trained
+ * epnets and zero-RB baselines (one per seed) against the plastic reference
+ * simulator on held-out motions and bodies, through crease eval's library
+ * (cr_eval_run, cr_eval_table), with the twin row: the reference re-simulated
+ * with its friction changed by a tiny amount, the floor any prediction is
+ * judged against (docs/eval.md). Every paper metric and the tolerant,
+ * location-free and retention measures; mean and spread over the seeds; the
+ * admission of each case (enough plasticity, and a twin that meets it);
+ * persistence (the share of hinges folded past a threshold at the last
+ * frame of a motion that returns to rest and holds), RB realised, inference
+ * speed, and a side-by-side picture (reference, twin, epnet, baseline at the
+ * last frame of the first case). Each table also goes to
+ * OUT_DIR/table_{epnet,baseline}_<motion>_<body>.json (cr_eval_table_json).
  *
- *   bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motion,motion,...] [body,body,...] [hold]
- *               [friction]
- * friction: the reference's Coulomb friction against the body (default 0,
- * the training loss's physics; cotton's is 0.3).
+ *   bench_epnet EPNET_DIR[,DIR,..] BASELINE_DIR[,DIR,..] OUT_DIR [motion,motion,...]
+ *               [body,body,...] [hold] [friction] [twin_friction_delta]
+ * Several model folders (comma-separated) are seeds of one recipe: the table
+ * gives their mean and spread. friction: the reference's Coulomb friction
+ * against the body (default 0, the training loss's physics; cotton's is
+ * 0.3); twin_friction_delta: the twin's change of it (default 0.001).
  */
 #include "crease/epnet.h"
 #include "crease/eval.h"
@@ -19,9 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const cr_eval_metric shown[] = {CR_EVAL_BED, CR_EVAL_PE,  CR_EVAL_BE, CR_EVAL_MED,
-                                       CR_EVAL_CD,  CR_EVAL_BEN, CR_EVAL_COL};
-enum { NSHOWN = sizeof shown / sizeof shown[0] };
+enum { MAX_SEEDS = 8 };
 
 static int fail(const cr_error *e) {
     fprintf(stderr, "bench_epnet: %s\n", e->msg);
@@ -45,127 +52,193 @@ static int render(const cr_mesh *g, const float *pos, const cr_mesh *b, const fl
     return cr_render_scene(&rd, o, 2, img, err) != CR_OK;
 }
 
+/* Split a comma list in place into items (at most max). */
+static int split(char *list, const char **items, int max) {
+    int n = 0;
+    for (char *save = NULL, *t = strtok_r(list, ",", &save); t && n < max;
+         t = strtok_r(NULL, ",", &save))
+        items[n++] = t;
+    return n;
+}
+
+/* One case's sequences: the reference, its twin, and a prediction's buffers. */
+typedef struct buffers {
+    float *ref, *rrest, *twin, *trest, *pos, *rb, *th, *rth, *th0;
+} buffers;
+
+static int buffers_alloc(buffers *b, int32_t T, int32_t V, int32_t H) {
+    const size_t tv3 = (size_t)T * V * 3, th = (size_t)T * H;
+    b->ref = malloc(sizeof(float) * tv3), b->twin = malloc(sizeof(float) * tv3);
+    b->pos = malloc(sizeof(float) * tv3);
+    b->rrest = malloc(sizeof(float) * th), b->trest = malloc(sizeof(float) * th);
+    b->rb = malloc(sizeof(float) * th), b->th = malloc(sizeof(float) * th);
+    b->rth = malloc(sizeof(float) * th), b->th0 = malloc(sizeof(float) * th);
+    return b->ref && b->twin && b->pos && b->rrest && b->trest && b->rb && b->th && b->rth &&
+           b->th0;
+}
+
+static void buffers_free(buffers *b) {
+    free(b->ref), free(b->rrest), free(b->twin), free(b->trest), free(b->pos), free(b->rb);
+    free(b->th), free(b->rth), free(b->th0);
+}
+
+/* Score positions pos with rest angles rest (absolute, (T,H); NULL: the rest mesh's)
+ * against the case's reference. */
+static cr_status score(const cr_epnet *ep, const cr_epnet_seq *s, const buffers *b,
+                       const float *pos, const float *rest, cr_eval_result *r, cr_error *err) {
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(ep);
+    cr_eval_def ed = cr_eval_default_def();
+    cr_epnet_material(&ed.material);
+    cr_eval_input in = {.garment = cr_epnet_garment(ep),
+                        .nframes = T,
+                        .pred = pos,
+                        .ref = b->ref,
+                        .body_mesh = cr_epnet_seq_body_mesh(s),
+                        .body = cr_epnet_seq_body(s),
+                        .body_nframes = T,
+                        .ref_rest = b->rrest,
+                        .ref_rest_nframes = T,
+                        .pred_rest = rest,
+                        .pred_rest_nframes = rest ? T : 0,
+                        .rest_nhinges = H};
+    return cr_eval_run(&ed, &in, r, err);
+}
+
+/* The table on stdout, and as JSON in dir/table_<name>_<motion>_<body>.json. */
+static void print_table(const char *dir, const char *name, const char *motion, const char *body,
+                        const char *what, const cr_eval_table *t) {
+    char *md = cr_eval_table_text(t), *json = cr_eval_table_json(t), path[1200];
+    printf("\n%s on %s, %s:\n\n%s", motion, body, what, md ? md : "(out of memory)\n");
+    snprintf(path, sizeof path, "%s/table_%s_%s_%s.json", dir, name, motion, body);
+    FILE *f = json ? fopen(path, "w") : NULL;
+    if (f) fprintf(f, "%s\n", json), fclose(f);
+    free(md), free(json);
+}
+
 int main(int argc, char **argv) {
     if (argc < 4) {
-        fprintf(stderr,
-                "usage: bench_epnet EPNET_DIR BASELINE_DIR OUT_DIR [motions] [bodies] [hold] "
-                "[friction]\n");
+        fprintf(stderr, "usage: bench_epnet EPNET_DIR[,DIR,..] BASELINE_DIR[,DIR,..] OUT_DIR "
+                        "[motions] [bodies] [hold] [friction] [twin_friction_delta]\n");
         return 2;
     }
-    char mbuf[512], bbuf[256];
+    char ebuf[2048], lbuf[2048], mbuf[512], bbuf[256];
+    snprintf(ebuf, sizeof ebuf, "%s", argv[1]);
+    snprintf(lbuf, sizeof lbuf, "%s", argv[2]);
     snprintf(mbuf, sizeof mbuf, "%s", argc > 4 ? argv[4] : "bend,raise_arms,dodge");
     snprintf(bbuf, sizeof bbuf, "%s", argc > 5 ? argv[5] : "normal,slim,heavy");
     const int hold = argc > 6 ? atoi(argv[6]) : 30;
     const double friction = argc > 7 ? atof(argv[7]) : 0.0;
-    const char *motions[16], *bodies[8];
-    int nm = 0, nb = 0;
-    for (char *t = strtok(mbuf, ","); t && nm < 16; t = strtok(NULL, ","))
-        motions[nm++] = t;
-    for (char *t = strtok(bbuf, ","); t && nb < 8; t = strtok(NULL, ","))
-        bodies[nb++] = t;
+    const double twin_delta = argc > 8 ? atof(argv[8]) : 0.001;
+    const char *edirs[MAX_SEEDS], *ldirs[MAX_SEEDS], *motions[16], *bodies[8];
+    const int ns = split(ebuf, edirs, MAX_SEEDS), nl = split(lbuf, ldirs, MAX_SEEDS);
+    const int nm = split(mbuf, motions, 16), nb = split(bbuf, bodies, 8);
     cr_error err;
-    cr_epnet *ep = NULL, *bl = NULL;
-    if (cr_epnet_open(argv[1], &ep, &err) != CR_OK) return fail(&err);
-    if (cr_epnet_open(argv[2], &bl, &err) != CR_OK) return fail(&err);
-    const cr_mesh *g = cr_epnet_garment(ep);
-    const int32_t V = g->nv, H = cr_epnet_hinge_count(ep);
-    const float *bar = cr_epnet_rest_angles(ep);
-    printf("| motion | body | method | BED rad | PE rad | BE rad | MED m | CD | BEN J | COL m | "
-           "folded share at the end, > 0.3 / > 0.1 rad | s/frame | RB realised |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    cr_epnet *ep[MAX_SEEDS] = {0}, *bl[MAX_SEEDS] = {0};
+    for (int k = 0; k < ns; k++)
+        if (cr_epnet_open(edirs[k], &ep[k], &err) != CR_OK) return fail(&err);
+    for (int k = 0; k < nl; k++)
+        if (cr_epnet_open(ldirs[k], &bl[k], &err) != CR_OK) return fail(&err);
+    const cr_mesh *g = cr_epnet_garment(ep[0]);
+    const int32_t V = g->nv, H = cr_epnet_hinge_count(ep[0]);
+    const float *bar = cr_epnet_rest_angles(ep[0]);
+    float *last_ep = malloc(sizeof(float) * 3 * (size_t)V);
+    if (!last_ep) return 1;
+    printf("epnet: %d seed%s, baseline: %d; reference friction %g, twin %+g\n", ns,
+           ns == 1 ? "" : "s", nl, friction, twin_delta);
     for (int b = 0; b < nb; b++)
         for (int mi = 0; mi < nm; mi++) {
             cr_epnet_seq *s = NULL;
-            if (cr_epnet_seq_create(ep, motions[mi], bodies[b], 0, hold, &s, &err) != CR_OK)
+            if (cr_epnet_seq_create(ep[0], motions[mi], bodies[b], 0, hold, &s, &err) != CR_OK)
                 return fail(&err);
             const int32_t T = cr_epnet_seq_frames(s);
-            float *ref = malloc(sizeof(float) * 3 * (size_t)T * V),
-                  *rrest = malloc(sizeof(float) * (size_t)T * H);
-            float *pos = malloc(sizeof(float) * 3 * (size_t)T * V),
-                  *rb = malloc(sizeof(float) * (size_t)T * H);
-            float *th = malloc(sizeof(float) * (size_t)T * H),
-                  *rth = malloc(sizeof(float) * (size_t)T * H);
-            float *bpos = malloc(sizeof(float) * 3 * (size_t)T * V),
-                  *th0 = malloc(sizeof(float) * (size_t)T * H);
-            if (!ref || !rrest || !pos || !rb || !th || !rth || !bpos || !th0) return 1;
-            if (cr_epnet_reference_friction(ep, s, 1, friction, ref, rrest, &err) != CR_OK)
+            buffers buf = {0};
+            if (!buffers_alloc(&buf, T, V, H)) return 1;
+            if (cr_epnet_reference_friction(ep[0], s, 1, friction, buf.ref, buf.rrest, &err) !=
+                    CR_OK ||
+                cr_epnet_reference_friction(ep[0], s, 1, friction + twin_delta, buf.twin, buf.trest,
+                                            &err) != CR_OK)
                 return fail(&err);
-            absolute(rrest, bar, T, H);
-            cr_epnet_angles(ep, ref, T, rth);
-            for (int k = 0; k < 2; k++) {
-                cr_epnet *m = k == 0 ? ep : bl;
+            absolute(buf.rrest, bar, T, H), absolute(buf.trest, bar, T, H);
+            cr_epnet_angles(ep[0], buf.ref, T, buf.rth);
+            cr_eval_result er[MAX_SEEDS] = {0}, br[MAX_SEEDS] = {0}, twin = {0};
+            if (score(ep[0], s, &buf, buf.twin, buf.trest, &twin, &err) != CR_OK) return fail(&err);
+            /* the predictions: persistence, RB realised and speed per seed */
+            printf(
+                "\n| %s | %s | model | folded share at the end, > 0.3 / > 0.1 rad | s/frame | RB "
+                "realised |\n|---|---|---|---|---|---|\n",
+                motions[mi], bodies[b]);
+            for (int k = 0; k < ns + nl; k++) {
+                const int is_ep = k < ns;
+                cr_epnet *m = is_ep ? ep[k] : bl[k - ns];
                 double t0 = cr_time_now();
-                if (cr_epnet_rollout(m, s, k == 0, k == 0 ? pos : bpos, th, rb, &err) != CR_OK)
+                if (cr_epnet_rollout(m, s, is_ep, buf.pos, buf.th, buf.rb, &err) != CR_OK)
                     return fail(&err);
                 const double spf = (cr_time_now() - t0) / T;
-                /* RB realised: epnet's E-Net against itself with RB held at 0,
-                 * at the last frame (whose E-Net input is RB of the frame
-                 * before), over the hinges past 0.05 rad of RB */
+                /* RB realised: epnet's E-Net against itself with RB held at 0, at the
+                 * last frame (whose E-Net input is RB of the frame before), over the
+                 * hinges past 0.05 rad of RB */
                 double realised = NAN;
-                if (k == 0) {
-                    if (cr_epnet_rollout(ep, s, 0, NULL, th0, NULL, &err) != CR_OK)
+                if (is_ep) {
+                    if (cr_epnet_rollout(m, s, 0, NULL, buf.th0, NULL, &err) != CR_OK)
                         return fail(&err);
-                    realised =
-                        cr_epnet_rb_realised(th + (size_t)(T - 1) * H, th0 + (size_t)(T - 1) * H,
-                                             rb + (size_t)(T - 2) * H, H, 0.05);
+                    realised = cr_epnet_rb_realised(buf.th + (size_t)(T - 1) * H,
+                                                    buf.th0 + (size_t)(T - 1) * H,
+                                                    buf.rb + (size_t)(T - 2) * H, H, 0.05);
                 }
-                absolute(rb, bar, T, H);
-                cr_eval_def ed = cr_eval_default_def();
-                cr_epnet_material(&ed.material);
-                cr_eval_input in = {.garment = g,
-                                    .nframes = T,
-                                    .pred = k == 0 ? pos : bpos,
-                                    .ref = ref,
-                                    .body_mesh = cr_epnet_seq_body_mesh(s),
-                                    .body = cr_epnet_seq_body(s),
-                                    .body_nframes = T,
-                                    .ref_rest = rrest,
-                                    .ref_rest_nframes = T,
-                                    .pred_rest = rb,
-                                    .pred_rest_nframes = T,
-                                    .rest_nhinges = H};
-                cr_eval_result r;
-                if (cr_eval_run(&ed, &in, &r, &err) != CR_OK) return fail(&err);
-                printf("| %s | %s | %s |", motions[mi], bodies[b], k == 0 ? "epnet" : "baseline");
-                for (int q = 0; q < NSHOWN; q++)
-                    printf(" %.4g |", r.summary[shown[q]].mean);
-                printf(" %.3f / %.3f | %.3f |", cr_epnet_fold_share(th, bar, T - 1, H, 0.3),
-                       cr_epnet_fold_share(th, bar, T - 1, H, 0.1), spf);
-                if (k == 0)
-                    printf(" %.3f |\n", realised);
-                else
-                    printf(" |\n");
-                cr_eval_result_free(&r);
-            }
-            {
-                float *rp = rrest + (size_t)(T - 1) * H;
-                printf("| %s | %s | reference | | | | | | | | %.3f / %.3f (plastic rest past "
-                       "0.3: %.3f) | | |\n",
-                       motions[mi], bodies[b], cr_epnet_fold_share(rth, bar, T - 1, H, 0.3),
-                       cr_epnet_fold_share(rth, bar, T - 1, H, 0.1),
-                       cr_epnet_fold_share(rp, bar, 0, H, 0.3));
-            }
-            if (b == 0 && mi == 0) {
-                cr_image im[3];
-                const float *body =
-                    cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_seq_body_mesh(s)->nv * 3;
-                const float *frames[3] = {ref + (size_t)(T - 1) * V * 3,
-                                          pos + (size_t)(T - 1) * V * 3,
-                                          bpos + (size_t)(T - 1) * V * 3};
-                for (int k = 0; k < 3; k++)
-                    if (render(g, frames[k], cr_epnet_seq_body_mesh(s), body, &im[k], &err))
-                        return fail(&err);
-                cr_image grid;
-                if (cr_image_grid(im, 3, 3, 8, (float[]){1, 1, 1}, &grid, &err) != CR_OK)
+                absolute(buf.rb, bar, T, H);
+                if (score(m, s, &buf, buf.pos, buf.rb, is_ep ? &er[k] : &br[k - ns], &err) != CR_OK)
                     return fail(&err);
-                char path[1024];
-                snprintf(path, sizeof path, "%s/side_by_side_%s.png", argv[3], motions[mi]);
-                if (cr_image_write_png(&grid, path, &err) != CR_OK) return fail(&err);
+                printf("| | | %s %d | %.3f / %.3f | %.3f | %.3f |\n", is_ep ? "epnet" : "baseline",
+                       is_ep ? k + 1 : k - ns + 1, cr_epnet_fold_share(buf.th, bar, T - 1, H, 0.3),
+                       cr_epnet_fold_share(buf.th, bar, T - 1, H, 0.1), spf, realised);
+                if (b == 0 && mi == 0 && k == 0) /* epnet's last frame, for the picture */
+                    memcpy(last_ep, buf.pos + (size_t)(T - 1) * V * 3, sizeof(float) * 3 * V);
+                if (b == 0 && mi == 0 && k == ns) {
+                    /* reference, twin, epnet, baseline at the last frame */
+                    cr_image im[4];
+                    const float *body =
+                        cr_epnet_seq_body(s) + (size_t)(T - 1) * cr_epnet_seq_body_mesh(s)->nv * 3;
+                    const float *frames[4] = {buf.ref + (size_t)(T - 1) * V * 3,
+                                              buf.twin + (size_t)(T - 1) * V * 3, last_ep,
+                                              buf.pos + (size_t)(T - 1) * V * 3};
+                    for (int q = 0; q < 4; q++)
+                        if (render(g, frames[q], cr_epnet_seq_body_mesh(s), body, &im[q], &err))
+                            return fail(&err);
+                    cr_image grid;
+                    if (cr_image_grid(im, 4, 4, 8, (float[]){1, 1, 1}, &grid, &err) != CR_OK)
+                        return fail(&err);
+                    char path[1024];
+                    snprintf(path, sizeof path, "%s/side_by_side_%s.png", argv[3], motions[mi]);
+                    if (cr_image_write_png(&grid, path, &err) != CR_OK) return fail(&err);
+                    for (int q = 0; q < 4; q++)
+                        cr_image_free(&im[q]);
+                    cr_image_free(&grid);
+                }
             }
-            free(ref), free(rrest), free(pos), free(rb), free(th), free(rth), free(bpos), free(th0);
+            printf("| | | reference | %.3f / %.3f (plastic rest past 0.3: %.3f) | | |\n",
+                   cr_epnet_fold_share(buf.rth, bar, T - 1, H, 0.3),
+                   cr_epnet_fold_share(buf.rth, bar, T - 1, H, 0.1),
+                   cr_epnet_fold_share(buf.rrest + (size_t)(T - 1) * H, bar, 0, H, 0.3));
+            cr_eval_def ed = cr_eval_default_def();
+            cr_eval_admission adm;
+            cr_eval_admit(&ed, &twin, 1, &adm);
+            cr_eval_table t = {
+                .preds = er, .npreds = ns, .twin = &twin, .baseline = &br[0], .admission = &adm};
+            print_table(argv[3], "epnet", motions[mi], bodies[b],
+                        "epnet (baseline: the first zero-RB seed)", &t);
+            cr_eval_table tb = {.preds = br, .npreds = nl};
+            print_table(argv[3], "baseline", motions[mi], bodies[b], "the zero-RB baselines", &tb);
+            for (int k = 0; k < MAX_SEEDS; k++)
+                cr_eval_result_free(&er[k]), cr_eval_result_free(&br[k]);
+            cr_eval_result_free(&twin);
+            buffers_free(&buf);
             cr_epnet_seq_destroy(s);
             fflush(stdout);
         }
-    cr_epnet_destroy(ep), cr_epnet_destroy(bl);
+    for (int k = 0; k < ns; k++)
+        cr_epnet_destroy(ep[k]);
+    for (int k = 0; k < nl; k++)
+        cr_epnet_destroy(bl[k]);
+    free(last_ep);
     return 0;
 }

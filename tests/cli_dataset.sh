@@ -18,6 +18,21 @@ check "dataset layout" test -s "$tmp/data/manifest.json" -a -s "$tmp/data/bodies
   -a -s "$tmp/data/sequences/tshirt_low_normal_walk/result.json"
 check "dataset resumes" bash -c "'$crease' dataset --garments tshirt --motions walk \
   --low-vertices 600 --frames 4 -o '$tmp/data' --quiet --json | grep -q '\"skipped\":1,'"
+# a twin dataset: the same def re-run from a start moved 0.1 mm, recorded in the manifest
+check "dataset --twin" bash -c "'$crease' dataset --garments tshirt --motions walk --low-vertices 600 \
+  --frames 4 --twin -o '$tmp/twin' --quiet --json | grep -q '\"twin\":{\"offset_m\":\[0,0,0.0001\]'"
+check "twin: the manifest says so, the start moved 0.1 mm" python3 -c "
+import json, struct
+m = json.load(open('$tmp/twin/manifest.json'))
+assert m['def']['twin'] == {'offset_m': [0, 0, 0.0001], 'friction_delta': 0}, m['def']
+assert 'twin' not in json.load(open('$tmp/data/manifest.json'))['def']
+s = 'sequences/tshirt_low_normal_walk/garment.pc2'
+a = open('$tmp/data/' + s, 'rb').read()[32:]; b = open('$tmp/twin/' + s, 'rb').read()[32:]
+n = len(a) // 4
+a = struct.unpack('<%df' % n, a); b = struct.unpack('<%df' % n, b)
+v = n // 5 // 3   # five samples: check the first
+assert max(abs(b[i] - a[i] - (1e-4 if i % 3 == 2 else 0)) for i in range(3 * v)) < 1e-6
+"
 # garment variants: a spec and --garment-variants, named by their labels, specs in the manifest
 check "dataset variants" "$crease" dataset --garments skirt:flare=25 --garment-variants 2 --seed 4 \
   --motions walk --low-vertices 800 --frames 1 -o "$tmp/datav" --quiet

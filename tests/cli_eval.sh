@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # cli_eval.sh: `crease eval` end to end on a short simulation: a sequence against
 # itself (every error 0), a rigid translation (MED = d), the report's files, a body,
-# and bad input (mismatched counts or sizes naming both files, NaN and missing files named;
-# exit 1), usage errors (exit 2).
+# the twin (simulate --twin, --friction-delta) and the table of seeds, twin and baseline with
+# the fold measures, and bad input (mismatched counts or sizes naming both files, NaN and
+# missing files named; exit 1), usage errors (exit 2).
 # Usage: cli_eval.sh PATH_TO_CREASE
 source "$(dirname "$0")/lib_cli.sh" "$1"
 
@@ -117,6 +118,55 @@ check "eval --rest-angles from simulate" bash -c "'$crease' eval --pred '$tmp/pl
   --ref '$tmp/plastic/sim.pc2' --garment '$tmp/cloth.obj' --rest-angles '$tmp/plastic/rest_angles.npy' \
   --pred-rest-angles '$tmp/plastic/rest_angles.npy' -o '$tmp/plastic_eval' --json 2>/dev/null \
   | python3 -c \"import json, sys; d = json.load(sys.stdin); assert d['bed_from_rest'] and d['metrics']['pe_rad']['max'] == 0, d['metrics']['pe_rad']\""
+
+# --- the twin, seeds, a baseline: the table ---------------------------------------------------
+check "simulate --twin" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' --garment-offset 0,0.35,0 \
+  --object sphere --frames 6 --twin -o '$tmp/twin' --quiet --json > '$tmp/twin.json' 2>/dev/null"
+check "simulate --twin: the start moved 0.1 mm" python3 -c "
+import json, struct
+d = json.load(open('$tmp/twin.json'))
+assert d['twin']['offset_m'][2] > 0.99e-4 and d['twin']['friction_delta'] == 0, d['twin']
+r = open('$tmp/sim/sim.pc2', 'rb').read()[32:]; t = open('$tmp/twin/sim.pc2', 'rb').read()[32:]
+n = 144 * 3
+a = struct.unpack('<%df' % n, r[:4 * n]); b = struct.unpack('<%df' % n, t[:4 * n])
+assert all(abs(b[i] - a[i] - (1e-4 if i % 3 == 2 else 0)) < 1e-6 for i in range(n))
+"
+check "simulate --friction-delta" bash -c "'$crease' simulate --garment '$tmp/cloth.obj' \
+  --garment-offset 0,0.35,0 --object sphere --frames 2 --friction-delta 0.01 -o '$tmp/twin_f' \
+  --quiet --json | grep -q '\"friction_delta\":0.01'"
+check "eval --twin --baseline, two seeds" bash -c "'$crease' eval --pred '$tmp/twin/sim.pc2,$tmp/sim/sim.pc2' \
+  --ref '$tmp/sim/sim.pc2' --twin '$tmp/twin/sim.pc2' --baseline '$tmp/moved.pc2' \
+  --garment '$tmp/cloth.obj' --body-mesh '$tmp/sphere.obj' -o '$tmp/table' --json \
+  > '$tmp/table.json' 2> '$tmp/table.err'"
+check "eval fold measures" json_has "$tmp/table.json" bed_ring_rad pe_ring_rad bed_sorted_rad \
+  pe_sorted_rad pe_rb0_rad pe_ring_rb0_rad fold_share fold_share_ref band_power resolved \
+  mean_edge_m folds retention_pred retention_ref hem amplitude_pred_m frequency_ref_hz table seeds \
+  twin baseline removed twin_removed
+check "eval table: rows and files" bash -c "grep -q '| prediction (2 seeds) |' '$tmp/table.err' && \
+  grep -q '^| twin |' '$tmp/table/table.md' && grep -q '^| baseline |' '$tmp/table/table.md' && \
+  test -s '$tmp/table/twin/summary.json' -a -s '$tmp/table/baseline/summary.json' \
+  -a -s '$tmp/table/seed2/summary.json' -a -s '$tmp/table/table.json'"
+check "eval table: the figures" python3 -c "
+import json
+d = json.load(open('$tmp/table.json'))
+t = d['table']
+assert t['seeds']['n'] == 2
+med = t['seeds']['metrics']['med_m']
+assert 0 < med['mean'] < 0.01 and med['spread'] > 0, med        # the twin's and 0
+assert abs(t['baseline']['med_m'] - 0.05) < 1e-6                  # the 5 cm translation
+assert t['removed']['med_m']['mean'] > 0.95 and t['twin_removed']['med_m'] > 0.95
+assert d['metrics']['bed_ring_rad']['max'] <= d['metrics']['bed_rad']['max'] + 1e-12
+"
+check "eval --help lists every fold option" bash -c "'$crease' eval --help | grep -q -- --twin-rest-angles \
+  && '$crease' eval --help | grep -q -- --resolve-edges && '$crease' eval --help | grep -q -- --ring"
+check "docs/cli.md lists every eval option" bash -c "for o in \$('$crease' eval --help | grep -o -- \
+  '--[a-z][a-z-]*' | sort -u); do grep -q -- \"\$o\" '$(dirname "$0")/../docs/cli.md' || \
+  { echo \"docs/cli.md misses eval \$o\"; exit 1; }; done"
+expect_exit 2 "one per prediction" eval --pred "$tmp/sim/sim.pc2,$tmp/twin/sim.pc2" \
+  --pred-rest-angles "$tmp/plastic/rest_angles.npy,$tmp/plastic/rest_angles.npy,$tmp/plastic/rest_angles.npy" \
+  --ref "$tmp/sim/sim.pc2" --garment "$tmp/cloth.obj" -o "$tmp/x"
+expect_exit 2 "--twin-rest-angles needs --twin" eval --pred "$tmp/sim/sim.pc2" --ref "$tmp/sim/sim.pc2" \
+  --twin-rest-angles "$tmp/plastic/rest_angles.npy" --garment "$tmp/cloth.obj" -o "$tmp/x"
 
 # --- bad input: exit 1 naming the files; usage: exit 2 --------------------------------------
 expect_exit 1 "sim10/sim.pc2.*sim/sim.pc2|sim/sim.pc2.*sim10/sim.pc2" eval --pred "$tmp/sim10/sim.pc2" \

@@ -57,6 +57,10 @@ st_meta_sub "$tmp/m/model.safetensors" "$tmp/cfgkey.safetensors" gdsr_model ',"o
 expect_exit 1 "cfgkey.safetensors: gdsr model definition lacks 'out_scale'" gdsr run \
   --dataset "$tmp/data" --motion dance --model "$tmp/cfgkey.safetensors" -o "$tmp/rk" --quiet
 check "gdsr run held-out" bash -c "'$crease' gdsr run --dataset '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' -o '$tmp/r' --quiet --json > '$tmp/r.json'"
+check "gdsr run --twin: the dataset as its own twin scores 0" bash -c "'$crease' gdsr run \
+  --dataset '$tmp/data' --twin '$tmp/data' --motion dance --model '$tmp/m/model.safetensors' \
+  -o '$tmp/rt' --quiet --json | python3 -c \"import json, sys; t = json.load(sys.stdin)['metrics']['twin']; \
+assert t['med_m'] == 0 and t['band_power_pred'] == t['band_power_ref'], t\""
 check "run outputs" test -s "$tmp/r/gdsr.pc2" -a -s "$tmp/r/upsampled.pc2" -a -s "$tmp/r/high.obj" \
   -a -s "$tmp/r/summary.json" -a -s "$tmp/r/strain.png" -a -s "$tmp/r/strain.csv" \
   -a -s "$tmp/r/gdsr.glb" -a -s "$tmp/r/compare.png" -a -s "$tmp/r/compare_normals.png"

@@ -8,6 +8,7 @@
 #include "crease/scene.h"
 #include "test.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -225,4 +226,61 @@ CR_TEST(scene, drape_static_settles_onto_the_ball) {
     CR_CHECK(cr_scene_drape_static(&bad, &r, &err) == CR_ERR_INVALID && strstr(err.msg, "coarse"));
     bad = d, bad.object = NULL;
     CR_CHECK(cr_scene_drape_static(&bad, &r, &err) == CR_ERR_INVALID);
+}
+
+/* The twin of a scene that is not chaotic: a cloth pinned along one edge,
+ * swinging down under gravity with nothing to touch, moves exactly as its
+ * reference shifted by the twin's 0.1 mm, and never further from it than
+ * that; a friction change with nothing to rub against changes no bit. */
+CR_TEST(scene, twin_of_a_cloth_hanging_free_stays_within_its_offset) {
+    cr_error err = {0};
+    char dir[3][600], garment[700];
+    snprintf(garment, sizeof garment, "%s/scene_twin_cloth.obj", cr_test_tmpdir());
+    cr_mesh *cloth = NULL;
+    CR_REQUIRE(cr_prim_plane(8, 8, 0.5f, 0.5f, &cloth, &err) == CR_OK);
+    CR_REQUIRE(cr_mesh_write(garment, cloth, &err) == CR_OK);
+    int32_t pins[8], npins = 0;
+    for (int32_t i = 0; i < cloth->nv; i++)
+        if (cloth->pos[3 * i + 2] < -0.249f) pins[npins++] = i;
+    CR_REQUIRE(npins == 8);
+    cr_pc2 seq[3] = {{0}};
+    for (int k = 0; k < 3; k++) {
+        snprintf(dir[k], sizeof dir[k], "%s/scene_twin_%d", cr_test_tmpdir(), k);
+        cr_scene_sim_def d = cr_scene_sim_default_def();
+        d.garment = garment, d.frames = 6, d.out_dir = dir[k], d.quiet = 1, d.render_size = 64;
+        d.pins = pins, d.npins = npins;
+        if (k == 1) d.twin = cr_scene_twin_default();
+        if (k == 2) d.twin.friction_delta = 0.01;
+        cr_scene_sim_result r;
+        CR_CHECK_OK(cr_scene_simulate(&d, &r, &err), &err);
+        CR_REQUIRE(cr_pc2_read(r.pc2, &seq[k], &err) == CR_OK);
+    }
+    const int64_t n = (int64_t)seq[0].nframes * seq[0].nv;
+    double worst = 0.0, off_by = 0.0, swing = 0.0;
+    for (int64_t i = 0; i < n; i++) {
+        const float *a = &seq[0].frames[3 * i], *b = &seq[1].frames[3 * i];
+        double dz = (double)b[2] - a[2] - CR_SCENE_TWIN_OFFSET_M;
+        double d = sqrt(((double)b[0] - a[0]) * ((double)b[0] - a[0]) +
+                        ((double)b[1] - a[1]) * ((double)b[1] - a[1]) +
+                        ((double)b[2] - a[2]) * ((double)b[2] - a[2]));
+        worst = fmax(worst, d), off_by = fmax(off_by, fabs(dz));
+        swing =
+            fmax(swing, fabs(seq[0].frames[3 * i + 1] - seq[0].frames[3 * (i % seq[0].nv) + 1]));
+    }
+    fprintf(stderr,
+            "  the cloth fell %.3f m; its twin at most %.3g mm away, %.2g mm off the offset\n",
+            swing, 1e3 * worst, 1e3 * off_by);
+    CR_CHECK(swing > 0.05);                             /* it moved */
+    CR_CHECK(worst <= 1e-4 * 1.01 && worst >= 0.99e-4); /* the offset, not more */
+    CR_CHECK(off_by < 2e-6);
+    CR_CHECK(memcmp(seq[0].frames, seq[2].frames, sizeof(float) * 3 * (size_t)n) == 0);
+    /* a friction change that drives friction below 0 is refused by name */
+    cr_scene_sim_def bad = cr_scene_sim_default_def();
+    bad.garment = garment, bad.frames = 1, bad.out_dir = dir[2], bad.quiet = 1;
+    bad.twin.friction_delta = -5.0;
+    cr_scene_sim_result r;
+    CR_CHECK(cr_scene_simulate(&bad, &r, &err) == CR_ERR_INVALID && strstr(err.msg, "friction"));
+    for (int k = 0; k < 3; k++)
+        cr_pc2_free(&seq[k]);
+    cr_mesh_destroy(cloth);
 }

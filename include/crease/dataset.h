@@ -42,6 +42,7 @@
 
 #include "crease/base.h"
 #include "crease/motion.h"
+#include "crease/scene.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -75,6 +76,8 @@ typedef struct cr_dataset_def {
     int self_contact;         /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
     float self_thickness;     /* its thickness, m; 0 (default): cr_sim_def's */
     uint64_t seed;            /* recorded in the manifest (the simulator has no randomness) */
+    cr_scene_twin twin;       /* a twin dataset: every sequence re-run with this tiny
+                                 perturbation (recorded in the manifest; default none) */
     uint32_t mesh_only_res;   /* bit r set: res[r]'s garments (and the low/high correspondence)
                                  are made but its sequences are not simulated (gdsr run's
                                  low-only input with its high pair); default 0 */

@@ -38,6 +38,28 @@
  *   jitter_m, jitter_ref_m  -      mean_i |X_t - 2X_{t-1} + X_{t-2}| of P (of R), m
  *   h_rms               drape      area-weighted RMS of P's signed mean curvature, 1/m
  *
+ * Fold measures that do not care where exactly each fold lies (a fold one
+ * hinge away from the reference's is not an error), with b_h = theta_h -
+ * theta0_h a hinge's bending from the rest mesh and RB_h = rest_h - theta0_h
+ * its plastic bending, N(h) the hinges within `ring` rings of h (h itself
+ * included; ring 1: the hinges sharing a vertex with h, a hinge's vertices
+ * being its edge's ends and the two opposite ones; each further ring grows h's
+ * vertices by a ring):
+ *   bed_ring_rad        crease     BED with each selected hinge's best match in N(h),
+ *                                  symmetrised: the mean of mean_{h in S} min_{h' in N(h)}
+ *                                  |b_h'(P) - b_h(R)| and the same with P and R swapped
+ *                                  and S the prediction's own top share
+ *   pe_ring_rad         crease     PE the same way, symmetrised: the mean of P matched
+ *                                  to R and R matched to P
+ *   bed_sorted_rad      crease     location-free: the top share (bed_fraction) of |b(P)|
+ *                                  sorted, against the same of |b(R)|: mean |difference|
+ *   pe_sorted_rad       crease     the same of |RB|
+ *   pe_rb0_rad          crease     PE of RB = 0 (mean |RB(R)|: the reference's plastic
+ *                                  bending), the zero-plasticity floor PE is judged by
+ *   pe_ring_rb0_rad     crease     pe_ring_rad of RB = 0
+ *   fold_share          crease     share of P's hinges with |b| > fold_threshold
+ *   fold_share_ref      crease     the same of R
+ *
  * Formulas, their sources and the reconstructions of equations the papers
  * lost: docs/eval.md. Energies come from phys/ kernels (phys_energies.h) on
  * the material in the def, never from copies.
@@ -86,6 +108,15 @@ typedef enum cr_eval_metric {
     CR_EVAL_JITTER,
     CR_EVAL_JITTER_REF,
     CR_EVAL_H_RMS,
+    /* fold measures a chaotic reference can be held to (docs/eval.md, "Folds") */
+    CR_EVAL_BED_RING,
+    CR_EVAL_PE_RING,
+    CR_EVAL_BED_SORTED,
+    CR_EVAL_PE_SORTED,
+    CR_EVAL_PE_RB0,
+    CR_EVAL_PE_RING_RB0,
+    CR_EVAL_FOLD_SHARE,
+    CR_EVAL_FOLD_SHARE_REF,
     CR_EVAL_METRIC_COUNT
 } cr_eval_metric;
 
@@ -96,20 +127,31 @@ const char *cr_eval_metric_source(cr_eval_metric m);
 int cr_eval_metric_higher_is_better(cr_eval_metric m);
 
 typedef struct cr_eval_def {
-    float fps;                  /* frames per second of both sequences, for IE (default 30) */
-    double gravity[3];          /* m/s^2, for GE (default 0, -9.81, 0: Y up) */
-    cr_material material;       /* for BEN, STE, SHE, GE, IE (default the "cotton" preset,
-                                   crease simulate's default) */
-    int membrane_rest_from_uv;  /* 1: rest shape of the membrane and of w_u, w_v from the
-                                   garment's UVs times uv_scale; 0 (default): the rest mesh's
-                                   triangles laid flat, u along each triangle's first edge */
-    float uv_scale;             /* m per UV unit (default 1) */
-    int bending_rest_from_mesh; /* 1 (default, as crease simulate): BEN's and BED's rest angles
-                                   are the rest mesh's dihedral angles when none are given */
-    float bed_fraction;         /* share of hinges BED keeps, (0, 1] (default 0.1) */
-    int ssim_side;              /* normal maps are ssim_side^2 pixels over the UV bounds,
-                                   16..2048 (default 256) */
-    uint32_t cookie;            /* set by cr_eval_default_def */
+    float fps;                   /* frames per second of both sequences, for IE (default 30) */
+    double gravity[3];           /* m/s^2, for GE (default 0, -9.81, 0: Y up) */
+    cr_material material;        /* for BEN, STE, SHE, GE, IE (default the "cotton" preset,
+                                    crease simulate's default) */
+    int membrane_rest_from_uv;   /* 1: rest shape of the membrane and of w_u, w_v from the
+                                    garment's UVs times uv_scale; 0 (default): the rest mesh's
+                                    triangles laid flat, u along each triangle's first edge */
+    float uv_scale;              /* m per UV unit (default 1) */
+    int bending_rest_from_mesh;  /* 1 (default, as crease simulate): BEN's and BED's rest angles
+                                    are the rest mesh's dihedral angles when none are given */
+    float bed_fraction;          /* share of hinges BED keeps, (0, 1] (default 0.1) */
+    int ssim_side;               /* normal maps are ssim_side^2 pixels over the UV bounds,
+                                    16..2048 (default 256) */
+    int ring;                    /* rings of the tolerant measures' neighbourhood, 1..8
+                                    (default 1) */
+    float fold_threshold;        /* rad: a hinge bent past it counts as folded (fold share,
+                                    retention; default 0.1) */
+    float resolve_edges;         /* a curvature band is resolved when its central wavelength
+                                    spans at least this many mean rest edges (default 3) */
+    int band_every;              /* band power over frames: every n-th frame (default 1) */
+    float admit_plastic_bending; /* admission: the reference's mean |RB| at the last frame
+                                    must reach this, rad (default 0.02) */
+    float admit_twin_ratio;      /* and the twin's pe_ring_rad be at most this times that of
+                                    RB = 0 (default 0.7) */
+    uint32_t cookie;             /* set by cr_eval_default_def */
 } cr_eval_def;
 
 cr_eval_def cr_eval_default_def(void);
@@ -160,6 +202,29 @@ typedef struct cr_eval_result {
     double h_band_ref[CR_EVAL_H_BANDS];   /* of R at the last frame */
     double h_power_pred[CR_EVAL_H_BANDS]; /* each band's power of P, (1/m)^2 (below) */
     double h_power_ref[CR_EVAL_H_BANDS];  /* of R */
+    /* Fold retention (fold_share at the last frame over its peak over the run): 1 for
+     * folds that stay, 0 for folds that spring back; NAN when no hinge ever folded. */
+    double retention_pred, retention_ref;
+    int32_t ring;              /* def.ring */
+    double fold_threshold_rad; /* def.fold_threshold */
+    /* Curvature band power averaged over frames (every def.band_every-th), with UVs: */
+    int has_band_power;
+    double mean_edge_m;                      /* the rest mesh's mean edge length */
+    int band_resolved[CR_EVAL_H_BANDS];      /* 1: the band's central wavelength spans at
+                                                least def.resolve_edges mean edges */
+    double band_power_pred[CR_EVAL_H_BANDS]; /* (1/m)^2, mean over the frames */
+    double band_power_ref[CR_EVAL_H_BANDS];
+    int32_t band_frames; /* frames averaged */
+    /* Hem swing: the hem (the boundary loop lowest at rest) in the body's frame (its
+     * best rigid fit to its first frame; the world frame without a body): RMS of each hem
+     * vertex's displacement about its own mean over the frames, m, and the dominant
+     * frequency of that motion, Hz. has_hem 0 when the garment has no boundary or there
+     * are fewer than 4 frames. */
+    int has_hem;
+    int hem_in_body_frame;
+    int32_t hem_vertices;
+    double hem_amplitude_pred_m, hem_amplitude_ref_m;
+    double hem_frequency_pred_hz, hem_frequency_ref_hz;
 } cr_eval_result;
 
 /* Compute every metric. Refuses (CR_ERR_INVALID / CR_ERR_SHAPE / CR_ERR_NAN,
@@ -175,6 +240,37 @@ static inline double cr_eval_value(const cr_eval_result *r, int32_t t, cr_eval_m
     return r->frames[(int64_t)t * CR_EVAL_METRIC_COUNT + m];
 }
 
+/* 1 when the metric is an error against the reference (lower is better, 0 for the
+ * reference itself; SSIM's error is 1 - SSIM): the metrics a baseline's share removed
+ * is defined for. Energies, jitter, curvature RMS and fold shares are not. */
+int cr_eval_metric_is_error(cr_eval_metric m);
+
+/* The share of a baseline's error that a prediction removes, both scored against
+ * the same reference: 1 - err(pred) / err(base), with err the metric's mean (1 -
+ * SSIM for SSIM). 1: all of it; 0: none; negative: worse than the baseline. NAN
+ * where the metric is not an error (cr_eval_metric_is_error), undefined in
+ * either, or the baseline's error is 0. */
+double cr_eval_removed(const cr_eval_result *pred, const cr_eval_result *base, cr_eval_metric m);
+
+/* Admission of a plasticity case (docs/eval.md, "The twin"): the reference's mean
+ * |plastic bending| at the last frame is at least def.admit_plastic_bending, and the
+ * twin (the reference re-simulated with a tiny perturbation, scored as a prediction
+ * with its own rest angles) has a tolerant PE at most def.admit_twin_ratio times that
+ * of RB = 0. `twin` is the twin's result (or any result against the reference when no
+ * twin was run: then only the first condition is tested and `reason` says so). */
+typedef struct cr_eval_admission {
+    int defined;                /* 0: the reference has no rest angles (no plasticity) */
+    int admitted;               /* 1: the case counts for the plasticity metrics */
+    int twin_tested;            /* 1: the second condition was tested */
+    double plastic_bending_rad; /* the reference's mean |RB| at the last frame */
+    double twin_pe_ring_rad;    /* the twin's tolerant PE, mean over frames */
+    double rb0_pe_ring_rad;     /* tolerant PE of RB = 0, mean over frames */
+    char reason[200];           /* why not, or "admitted" */
+} cr_eval_admission;
+
+void cr_eval_admit(const cr_eval_def *def, const cr_eval_result *twin, int twin_tested,
+                   cr_eval_admission *out);
+
 /* ------------------------------------------------------------- reports -- */
 
 /* What cr_eval_write_report wrote. */
@@ -189,9 +285,41 @@ typedef struct cr_eval_report {
 
 /* The summary as one JSON object (text, caller frees with free()): frames,
  * vertices, hinges, bed_hinges, bed_from_rest, worst_frame, "metrics": {key:
- * {mean, max, min, worst_frame, count, source}} (null where undefined) and,
- * with UVs, "spectrum": {band_edges_m, pred, ref}. NULL when out of memory. */
+ * {mean, max, min, worst_frame, count, source}} (null where undefined),
+ * with UVs "spectrum": {band_edges_m, pred, ref} (the last frame) and
+ * "band_power": {band_edges_m, mean_edge_m, resolved, pred, ref, ratio, frames}
+ * (over frames), "folds": {ring, threshold_rad, retention_pred, retention_ref}
+ * and, when defined, "hem": {vertices, frame, amplitude_pred_m, amplitude_ref_m,
+ * amplitude_ratio, frequency_pred_hz, frequency_ref_hz}. NULL when out of memory. */
 char *cr_eval_summary_json(const cr_eval_result *r);
+
+/* One case scored several ways against one reference, side by side: the
+ * prediction of each seed (models trained alike but for their seed), the twin
+ * (the reference re-simulated with a tiny perturbation: the floor), a
+ * baseline (the skinned garment, the upsampled low simulation, the zero-RB
+ * network), and the admission of a plasticity case. */
+typedef struct cr_eval_table {
+    const cr_eval_result *preds; /* (npreds) >= 1 */
+    int npreds;
+    const cr_eval_result *twin;         /* may be NULL */
+    const cr_eval_result *baseline;     /* may be NULL */
+    const cr_eval_admission *admission; /* may be NULL */
+} cr_eval_table;
+
+/* The table as JSON (text, caller frees with free()): "seeds": {n, "metrics":
+ * {key: {mean, spread, min, max}}} over the predictions (spread: the sample
+ * standard deviation, null for one seed), "retention" and "hem_amplitude_m" and
+ * "band_power" the same way; "twin" and "baseline": {key: mean}; "removed":
+ * {key: {mean, spread}} the share of the baseline's error each seed removes
+ * (cr_eval_removed) and "twin_removed": {key: value} the twin's; "admission".
+ * Objects whose row is missing are left out. NULL when out of memory. */
+char *cr_eval_table_json(const cr_eval_table *t);
+
+/* The same as a Markdown table (text, caller frees with free()): a row per
+ * prediction mean (with its spread over seeds), the twin and the baseline, a
+ * row of the share of the baseline's error removed, for the metrics defined
+ * in the first prediction. */
+char *cr_eval_table_text(const cr_eval_table *t);
 
 /* Write the report of r into dir (created): the per-frame JSON lines, the
  * summary, a plot of each metric defined somewhere, the per-vertex error of

@@ -109,6 +109,28 @@ cr_status cr_scene_render(const char *png_path, const cr_mesh *garment, const fl
                           const cr_mesh *collider, const float *collider_pos, int size,
                           cr_error *err);
 
+/* ---------------------------------------------------------------- twin -- */
+
+/* A twin: the same simulation re-run with a tiny perturbation of its input.
+ * The simulator is deterministic, but a garment's folds are chosen
+ * chaotically in its first frames, so the twin is as close as the reference
+ * can come to itself: the floor a prediction is judged against
+ * (docs/eval.md, "The twin"). A twin within 0.1 mm of its reference
+ * everywhere says the scene is not chaotic. */
+typedef struct cr_scene_twin {
+    float offset[3];       /* m: the garment's start moved by this */
+    double friction_delta; /* added to the material's Coulomb friction */
+} cr_scene_twin;
+
+/* The default perturbation: the start moved 0.1 mm along +Z. */
+#define CR_SCENE_TWIN_OFFSET_M 1e-4f
+cr_scene_twin cr_scene_twin_default(void);
+/* 1 when the twin perturbs anything. */
+int cr_scene_twin_is_set(const cr_scene_twin *t);
+/* Apply the friction change to a material: CR_ERR_INVALID when the friction
+ * would fall below 0 or the change is not finite. */
+cr_status cr_scene_twin_material(const cr_scene_twin *t, cr_material *m, cr_error *err);
+
 /* ---------------------------------------------------------- recording -- */
 
 /* A run's record: garment positions per frame (sample 0 the initial state)
@@ -204,6 +226,7 @@ cr_status cr_scene_run(cr_sim *sim, int frames, cr_scene_record *rec, cr_scene_f
 typedef struct cr_scene_sim_def {
     const char *garment;         /* garment mesh (.obj, .ply, .glb): the initial state; required */
     const float *garment_offset; /* NULL, or (3) m: the garment is moved by it first */
+    cr_scene_twin twin;          /* a twin's perturbation (default none: all zero), on top */
     const char *object;          /* collider: a named object or a mesh (cr_scene_object_create) */
     const char *body_mesh;       /* or a body mesh as the collider (not with object) */
     const char *body;            /* PC2 animating the collider (frame f moves from sample f to

@@ -205,6 +205,36 @@ cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf,
  * last_frame, calibration_dropped, ease_in_frames, ground_shift_m. */
 void cli_motion_file_json(cJSON *j, const struct cr_motion_prepare_report *rep);
 
+/* "X,Y,Z" into float[3] (a CLI_OPT_CUSTOM parser; dst is the float[3]). */
+int cli_parse_vec3(const char *cmd, const char *opt, const char *const *v, void *dst);
+
+/* A twin's options (crease simulate, crease dataset): the same simulation re-run with a
+ * tiny perturbation, the floor a prediction is judged against (cr_scene_twin). */
+typedef struct cli_twin {
+    int twin;             /* --twin: the default perturbation, the start moved 0.1 mm */
+    int has_offset;       /* --twin-offset given */
+    float offset[3];      /* m */
+    float friction_delta; /* --friction-delta */
+} cli_twin;
+#define CLI_TWIN_OPTS(t_)                                                                          \
+    CLI_FLAG("--twin", &(t_)->twin),                                                               \
+        {.name = "--twin-offset",                                                                  \
+         .kind = CLI_OPT_CUSTOM,                                                                   \
+         .fn = cli_parse_vec3,                                                                     \
+         .dst = (t_)->offset,                                                                      \
+         .seen = &(t_)->has_offset},                                                               \
+        CLI_FLOAT("--friction-delta", &(t_)->friction_delta, -10, 10)
+#define CLI_TWIN_HELP                                                                              \
+    "  --twin               a twin of the run: the garment's start moved 0.1 mm along +Z\n"        \
+    "                       (docs/eval.md: the floor a prediction is judged against)\n"            \
+    "  --twin-offset X,Y,Z  a twin with the start moved by this vector instead, m\n"               \
+    "  --friction-delta D   a twin with the friction against the body changed by D\n"
+struct cr_scene_twin;
+/* The perturbation the options ask for (all zero: none). */
+void cli_twin_get(const cli_twin *t, struct cr_scene_twin *out);
+/* "twin": {offset_m, friction_delta} into a --json summary when the twin is set. */
+void cli_twin_json(cJSON *j, const struct cr_scene_twin *t);
+
 /* Commands */
 int cmd_info(int argc, char **argv);
 void help_info(void);

@@ -1,6 +1,7 @@
 /* cli_common.c: the option parser (cli.h), error reporting and JSON output shared by the commands.
  */
 #include "cli.h"
+#include "crease/scene.h"
 
 #include <errno.h>
 #include <math.h>
@@ -188,4 +189,37 @@ int cli_parse_list(const char *cmd, const char *opt, const char *const *v, void 
     }
     if (l->n == 0) return cli_usage(cmd, "%s: empty list", opt);
     return CLI_OK;
+}
+
+int cli_parse_vec3(const char *cmd, const char *opt, const char *const *v, void *dst) {
+    float *out = dst;
+    char buf[128], *save = NULL;
+    snprintf(buf, sizeof buf, "%s", v[0]);
+    int k = 0;
+    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
+        if (k >= 3 || !cli_parse_float(cmd, opt, tok, -1e6, 1e6, &out[k])) return CLI_USAGE;
+    if (k != 3) return cli_usage(cmd, "%s expects X,Y,Z, got '%s'", opt, v[0]);
+    return CLI_OK;
+}
+
+/* A float option's value as the decimal the user typed (0.01, not 0.0099999998). */
+static double typed(float v) {
+    char b[32];
+    snprintf(b, sizeof b, "%.7g", (double)v);
+    return strtod(b, NULL);
+}
+
+void cli_twin_get(const cli_twin *t, cr_scene_twin *out) {
+    *out = t->twin && !t->has_offset ? cr_scene_twin_default() : (cr_scene_twin){0};
+    if (t->has_offset) memcpy(out->offset, t->offset, sizeof out->offset);
+    out->friction_delta = typed(t->friction_delta);
+}
+
+void cli_twin_json(cJSON *j, const cr_scene_twin *t) {
+    if (!cr_scene_twin_is_set(t)) return;
+    cJSON *o = cJSON_AddObjectToObject(j, "twin");
+    cJSON *off = cJSON_AddArrayToObject(o, "offset_m");
+    for (int k = 0; k < 3; k++)
+        cJSON_AddItemToArray(off, cJSON_CreateNumber(typed(t->offset[k])));
+    cJSON_AddNumberToObject(o, "friction_delta", t->friction_delta);
 }

@@ -47,7 +47,9 @@ void help_dataset(void) {
            "  --ground MODE        clip (default), frame or none: motion files grounded on the\n"
            "                       mannequin's feet\n"
            "  --material M         cotton (default), silk, denim or knit\n"
-           "  --plastic            plastic bending (epnet's ground truth)\n"
+           "  --plastic            plastic bending (epnet's ground truth)\n" CLI_TWIN_HELP
+           "                       (a twin dataset: every sequence of the same def re-run so;\n"
+           "                       crease eval scores it against the original as a prediction)\n"
            "  --solver S           newton (default: Newton + CHOLMOD, the converged reference)\n"
            "                       or vbd (vertex block descent, no "
            "factorisation)\n" CLI_SELF_CONTACT_HELP
@@ -73,6 +75,7 @@ int cmd_dataset(int argc, char **argv) {
     float max_step = 0.0f; /* parsed as a float, as the option always was */
     const char *solver = NULL, *self_contact = NULL;
     float self_contact_thickness = 0.0f;
+    cli_twin twin = {0};
     const cli_opt opts[] = {
         CLI_CUSTOM("--garments", cli_parse_list, &lists[0], 1),
         CLI_CUSTOM("--motions", cli_parse_list, &lists[1], 1),
@@ -95,6 +98,7 @@ int cmd_dataset(int argc, char **argv) {
         CLI_CHOICE("--solver", &solver, cli_solvers),
         CLI_SELF_CONTACT_OPTS(&self_contact, &self_contact_thickness),
         CLI_FLAG("--plastic", &def.plastic),
+        CLI_TWIN_OPTS(&twin),
         CLI_FLAG("--quiet", &def.quiet),
         CLI_FLAG("--json", &json),
         CLI_MOTION_FILE_OPTS(&mf),
@@ -103,6 +107,7 @@ int cmd_dataset(int argc, char **argv) {
     int rc = cli_parse("dataset", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     def.seed = (uint64_t)seed;
+    cli_twin_get(&twin, &def.twin);
     cli_motion_file_defs(&mf, &def.motion_import, &def.motion_prepare);
     if (step_given) def.max_collider_step = max_step;
     def.solver = cr_sim_solver_parse(solver ? solver : "newton");
@@ -167,6 +172,7 @@ int cmd_dataset(int argc, char **argv) {
         cJSON_AddNumberToObject(j, "skipped", r.skipped);
         cJSON_AddNumberToObject(j, "failed", r.failed);
         cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cli_twin_json(j, &def.twin);
         cJSON *share = cJSON_AddObjectToObject(j, "max_inside_share");
         cJSON *solver = cJSON_AddObjectToObject(j, "max_inside_share_solver");
         cJSON *cross = cJSON_AddObjectToObject(j, "max_crossings");

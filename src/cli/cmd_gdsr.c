@@ -83,6 +83,8 @@ void help_gdsr(void) {
         "run:\n"
         "  --model F            a model.safetensors from gdsr train\n"
         "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
+        "  --twin DIR           a twin dataset (crease dataset --twin, the same def): its high\n"
+        "                       clip measured in the same table, the floor\n"
         "  --motion M           the clip to super-resolve\n"
         "  --eps E              collision margin, m (default 0.002)\n"
         "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
@@ -289,6 +291,8 @@ static const cr_eval_metric shown[] = {
     CR_EVAL_MED, CR_EVAL_NORMAL_ANGLE, CR_EVAL_SSIM,           CR_EVAL_E_U,
     CR_EVAL_E_V, CR_EVAL_E_UV,         CR_EVAL_COLLISION_RATIO};
 enum { NSHOWN = sizeof shown / sizeof shown[0] };
+/* crease eval's curvature bands the table shows (cr_eval_h_band_edges_m) */
+enum { BAND_4_8CM = 2, BAND_2_4CM = 3 };
 
 /* On an outfit: edge-face crossings between the layers of frames 2.. of x,
  * their mean and largest count a frame and the frames with any, into o. */
@@ -332,14 +336,21 @@ static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const fl
         cJSON_AddNumberToObject(o, cr_eval_metric_name(shown[k]), v);
         fprintf(stderr, " %11.4g", v);
     }
-    if (r.has_spectrum) {
-        cJSON_AddNumberToObject(o, "h_band_high_pred", r.h_band_pred[CR_EVAL_H_BANDS - 1]);
-        cJSON_AddNumberToObject(o, "h_band_high_ref", r.h_band_ref[CR_EVAL_H_BANDS - 1]);
-        cJSON_AddNumberToObject(o, "h_power_high_pred", r.h_power_pred[CR_EVAL_H_BANDS - 1]);
-        cJSON_AddNumberToObject(o, "h_power_high_ref", r.h_power_ref[CR_EVAL_H_BANDS - 1]);
-        fprintf(stderr, " %11.4g %11.4g %11.4g %11.4g", r.h_band_pred[CR_EVAL_H_BANDS - 1],
-                r.h_band_ref[CR_EVAL_H_BANDS - 1], r.h_power_pred[CR_EVAL_H_BANDS - 1],
-                r.h_power_ref[CR_EVAL_H_BANDS - 1]);
+    if (r.has_band_power) {
+        /* the curvature power of the 4-8 and 2-4 cm bands over the frames (crease eval's
+           band_power), against the reference's; '*' marks a band the high mesh resolves */
+        cJSON *bp = cJSON_AddArrayToObject(o, "band_power_pred");
+        cJSON *br = cJSON_AddArrayToObject(o, "band_power_ref");
+        cJSON *res = cJSON_AddArrayToObject(o, "band_resolved");
+        for (int b = 0; b < CR_EVAL_H_BANDS; b++) {
+            cJSON_AddItemToArray(bp, cJSON_CreateNumber(r.band_power_pred[b]));
+            cJSON_AddItemToArray(br, cJSON_CreateNumber(r.band_power_ref[b]));
+            cJSON_AddItemToArray(res, cJSON_CreateBool(r.band_resolved[b]));
+        }
+        for (int b = BAND_4_8CM; b <= BAND_2_4CM; b++)
+            fprintf(stderr, " %10.4g%c %10.4g%c", r.band_power_pred[b],
+                    r.band_resolved[b] ? '*' : ' ', r.band_power_ref[b],
+                    r.band_resolved[b] ? '*' : ' ');
     }
     fprintf(stderr, "\n");
     cr_eval_result_free(&r);
@@ -442,7 +453,7 @@ static cr_status strain_over_frames(const cr_gdsr_data *d, const cr_gdsr_clip *c
 
 static int cmd_run(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motion = NULL;
-    const char *model = NULL, *baseline = NULL, *out = NULL;
+    const char *model = NULL, *baseline = NULL, *out = NULL, *twin = NULL;
     float eps = 0.002f;
     int quiet = 0, json = 0, frames = 0, relax = CR_GDSR_RELAX_DEFAULT;
     const char *layer_test = NULL;
@@ -458,6 +469,7 @@ static int cmd_run(int argc, char **argv) {
         CLI_STR("--motion", &motion),
         CLI_STR("--model", &model),
         CLI_STR("--baseline-model", &baseline),
+        CLI_STR("--twin", &twin),
         CLI_FLOAT("--eps", &eps, 0, 0.05),
         CLI_INT("--relax", &relax, 0, 1000),
         CLI_CHOICE("--layer-test", &layer_test, layer_tests),
@@ -481,6 +493,8 @@ static int cmd_run(int argc, char **argv) {
     if (rc != CLI_OK) return rc;
     if (!motion || !model || !out || (!dataset && !simulate))
         return cli_usage("gdsr run", "needs --motion, --model, -o and --dataset or --simulate");
+    if (twin && simulate)
+        return cli_usage("gdsr run", "--twin measures a dataset's clip, not --simulate");
     if (!simulate && (reference || lowv || highv))
         return cli_usage("gdsr run", "--reference, --low-vertices and --high-vertices need "
                                      "--simulate");
@@ -509,6 +523,19 @@ static int cmd_run(int argc, char **argv) {
         frames = 0;
     } else if (cr_gdsr_data_load(dataset, garment, body, &motion, 1, &d, &err) != CR_OK)
         return cli_fail(&err);
+    cr_gdsr_data dt = {0}; /* the twin dataset's clip */
+    if (twin && cr_gdsr_data_load(twin, garment, body, &motion, 1, &dt, &err) != CR_OK) {
+        cr_gdsr_data_free(&d);
+        if (twin) cr_gdsr_data_free(&dt);
+        return cli_fail(&err);
+    }
+    if (twin && (dt.high->nv != d.high->nv || dt.clip[0].nframes < d.clip[0].nframes)) {
+        cr_gdsr_data_free(&d), cr_gdsr_data_free(&dt);
+        CR_FAIL(&err, CR_ERR_SHAPE,
+                "gdsr run: %s's high %s clip has %d vertices and %d frames, %s's %d and %d", twin,
+                motion, dt.high->nv, dt.clip[0].nframes, dataset, d.high->nv, d.clip[0].nframes);
+        return cli_fail(&err);
+    }
     cr_gdsr_model *m = NULL, *mb = NULL;
     cr_gdsr_rollout_result r = {0}, rb = {0};
     cJSON *j = cJSON_CreateObject();
@@ -573,13 +600,13 @@ static int cmd_run(int argc, char **argv) {
         fprintf(stderr, "  %-10s", "");
         for (int k = 0; k < NSHOWN; k++)
             fprintf(stderr, " %11.11s", cr_eval_metric_name(shown[k]));
-        fprintf(stderr, " %11s %11s %11s %11s\n", "hband_pred", "hband_ref", "hpower_pred",
-                "hpower_ref");
+        fprintf(stderr, " %11s %11s %11s %11s\n", "p4-8cm", "p4-8cm_ref", "p2-4cm", "p2-4cm_ref");
         table = cJSON_AddObjectToObject(j, "metrics");
         if (measure(&d, cl, r.upsampled, "upsampled", table, &err) != CR_OK) goto done;
         if (measure(&d, cl, r.gdsr, "gdsr", table, &err) != CR_OK) goto done;
         if (measure(&d, cl, r.gdsr_raw, "gdsr_raw", table, &err) != CR_OK) goto done;
         if (rb.gdsr && measure(&d, cl, rb.gdsr, "gdsr_nodec", table, &err) != CR_OK) goto done;
+        if (twin && measure(&d, cl, dt.clip[0].high, "twin", table, &err) != CR_OK) goto done;
         if (d.nlayers > 1 &&
             layer_crossings(&d, cl->high, cl->nframes, cJSON_AddObjectToObject(table, "reference"),
                             "reference", &err) != CR_OK)
@@ -637,6 +664,7 @@ done:
     cr_gdsr_model_destroy(m);
     cr_gdsr_model_destroy(mb);
     cr_gdsr_data_free(&d);
+    if (twin) cr_gdsr_data_free(&dt);
     return status;
 }
 

@@ -59,7 +59,8 @@ void help_simulate(void) {
         "  --vbd-coarse-refresh K  the coarse matrix again every K corrections (and at each\n"
         "                       substep's first); between, the last one with a new gradient\n"
         "  --fps F              frames per second (default 30)\n"
-        "  --garment-offset X,Y,Z  move the garment by this vector, m, before simulating\n"
+        "  --garment-offset X,Y,Z  move the garment by this vector, m, before "
+        "simulating\n" CLI_TWIN_HELP
         "  -o DIR               outputs: sim.pc2 and sim.glb (sample 0 is the initial state),\n"
         "                       frames.jsonl (one line per frame), last.png\n"
         "  --quiet              no progress bar\n"
@@ -73,6 +74,7 @@ typedef struct {
     const char *solver, *self_contact;
     float self_contact_thickness;
     cli_motion_file mf; /* --motion's options */
+    cli_twin twin;
     int frames, substeps, newton_iterations, vbd_iterations, plastic, json, quiet, has_offset;
     int vbd_coarse_every, vbd_coarse_rings, vbd_coarse_refresh;
     float fps, offset[3], max_collider_step, vbd_tol;
@@ -105,18 +107,6 @@ static int parse_pins(const char *cmd, const char *opt, const char *const *v, vo
     return CLI_OK;
 }
 
-/* --garment-offset X,Y,Z */
-static int parse_vec3(const char *cmd, const char *opt, const char *const *v, void *dst) {
-    float *out = dst;
-    char buf[128], *save = NULL;
-    snprintf(buf, sizeof buf, "%s", v[0]);
-    int k = 0;
-    for (char *tok = strtok_r(buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save), k++)
-        if (k >= 3 || !cli_parse_float(cmd, opt, tok, -1e6, 1e6, &out[k])) return CLI_USAGE;
-    if (k != 3) return cli_usage(cmd, "%s expects X,Y,Z, got '%s'", opt, v[0]);
-    return CLI_OK;
-}
-
 static int parse(int argc, char **argv, sim_opts *o) {
     int npos = 0;
     const cli_opt opts[] = {
@@ -142,12 +132,13 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_CUSTOM("--pin", parse_pins, o, 1),
         {.name = "--garment-offset",
          .kind = CLI_OPT_CUSTOM,
-         .fn = parse_vec3,
+         .fn = cli_parse_vec3,
          .dst = o->offset,
          .seen = &o->has_offset},
         CLI_CHOICE("--solver", &o->solver, cli_solvers),
         CLI_SELF_CONTACT_OPTS(&o->self_contact, &o->self_contact_thickness),
         CLI_FLAG("--plastic", &o->plastic),
+        CLI_TWIN_OPTS(&o->twin),
         CLI_FLAG("--quiet", &o->quiet),
         CLI_FLAG("--json", &o->json),
         CLI_END,
@@ -221,6 +212,7 @@ int cmd_simulate(int argc, char **argv) {
     def.self_contact = cli_self_contact(o.self_contact);
     def.self_thickness = o.self_contact_thickness;
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
+    cli_twin_get(&o.twin, &def.twin);
     char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;
     if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &err);
@@ -259,6 +251,7 @@ int cmd_simulate(int argc, char **argv) {
         }
         cJSON_AddNumberToObject(j, "vertices", r.vertices);
         cJSON_AddStringToObject(j, "material", r.material);
+        cli_twin_json(j, &def.twin);
         cJSON_AddNumberToObject(j, "max_penetration_m", run->max_penetration_m);
         cJSON_AddNumberToObject(j, "seconds_per_frame", per_frame);
         cJSON_AddNumberToObject(j, "seconds_assembly", run->seconds_assembly);

@@ -16,6 +16,7 @@
  * animate the same mesh).
  */
 #include "crease/eval.h"
+#include "eval_internal.h"
 
 #include "crease/bvh.h"
 #include "crease/diffgeo.h"
@@ -60,6 +61,14 @@ static const struct {
     [CR_EVAL_JITTER] = {"jitter_m", "crease"},
     [CR_EVAL_JITTER_REF] = {"jitter_ref_m", "crease"},
     [CR_EVAL_H_RMS] = {"h_rms", "drape"},
+    [CR_EVAL_BED_RING] = {"bed_ring_rad", "crease"},
+    [CR_EVAL_PE_RING] = {"pe_ring_rad", "crease"},
+    [CR_EVAL_BED_SORTED] = {"bed_sorted_rad", "crease"},
+    [CR_EVAL_PE_SORTED] = {"pe_sorted_rad", "crease"},
+    [CR_EVAL_PE_RB0] = {"pe_rb0_rad", "crease"},
+    [CR_EVAL_PE_RING_RB0] = {"pe_ring_rb0_rad", "crease"},
+    [CR_EVAL_FOLD_SHARE] = {"fold_share", "crease"},
+    [CR_EVAL_FOLD_SHARE_REF] = {"fold_share_ref", "crease"},
 };
 
 const char *cr_eval_metric_name(cr_eval_metric m) {
@@ -74,6 +83,73 @@ int cr_eval_metric_higher_is_better(cr_eval_metric m) {
     return m == CR_EVAL_SSIM;
 }
 
+int cr_eval_metric_is_error(cr_eval_metric m) {
+    switch (m) {
+    case CR_EVAL_MED:
+    case CR_EVAL_E_DIST_CM:
+    case CR_EVAL_CD:
+    case CR_EVAL_CHAMFER:
+    case CR_EVAL_BE:
+    case CR_EVAL_BED:
+    case CR_EVAL_PE:
+    case CR_EVAL_SSIM:
+    case CR_EVAL_NORMAL_ANGLE:
+    case CR_EVAL_E_NORM:
+    case CR_EVAL_BED_RING:
+    case CR_EVAL_PE_RING:
+    case CR_EVAL_BED_SORTED:
+    case CR_EVAL_PE_SORTED:
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+double cr_eval_removed(const cr_eval_result *pred, const cr_eval_result *base, cr_eval_metric m) {
+    if (!cr_eval_metric_is_error(m) || m < 0 || m >= CR_EVAL_METRIC_COUNT) return NAN;
+    double p = pred->summary[m].mean, b = base->summary[m].mean;
+    if (m == CR_EVAL_SSIM) p = 1.0 - p, b = 1.0 - b;
+    if (!isfinite(p) || !isfinite(b) || b == 0.0) return NAN;
+    return 1.0 - p / b;
+}
+
+void cr_eval_admit(const cr_eval_def *def, const cr_eval_result *twin, int twin_tested,
+                   cr_eval_admission *out) {
+    memset(out, 0, sizeof *out);
+    out->twin_pe_ring_rad = twin->summary[CR_EVAL_PE_RING].mean;
+    out->rb0_pe_ring_rad = twin->summary[CR_EVAL_PE_RING_RB0].mean;
+    out->plastic_bending_rad = twin->nframes > 0 && twin->frames
+                                   ? cr_eval_value(twin, twin->nframes - 1, CR_EVAL_PE_RB0)
+                                   : NAN;
+    out->defined = isfinite(out->plastic_bending_rad);
+    out->twin_tested = twin_tested && out->defined;
+    if (!out->defined) {
+        snprintf(out->reason, sizeof out->reason,
+                 "no plastic rest angles for the reference: plasticity is not measured");
+        return;
+    }
+    if (out->plastic_bending_rad < def->admit_plastic_bending) {
+        snprintf(out->reason, sizeof out->reason,
+                 "the reference's mean |plastic bending| at the last frame is %.4g rad, below "
+                 "%.4g: too little plasticity to measure",
+                 out->plastic_bending_rad, (double)def->admit_plastic_bending);
+        return;
+    }
+    if (out->twin_tested &&
+        !(out->twin_pe_ring_rad <= def->admit_twin_ratio * out->rb0_pe_ring_rad)) {
+        snprintf(out->reason, sizeof out->reason,
+                 "the twin's tolerant PE %.4g rad is above %.2f x that of RB = 0 (%.4g): the "
+                 "reference's plasticity is chaotic here",
+                 out->twin_pe_ring_rad, (double)def->admit_twin_ratio, out->rb0_pe_ring_rad);
+        return;
+    }
+    out->admitted = 1;
+    snprintf(out->reason, sizeof out->reason,
+             out->twin_tested ? "admitted"
+                              : "admitted on plastic bending alone (no twin: its tolerant PE "
+                                "was not tested)");
+}
+
 cr_eval_def cr_eval_default_def(void) {
     cr_eval_def d;
     memset(&d, 0, sizeof d);
@@ -86,6 +162,12 @@ cr_eval_def cr_eval_default_def(void) {
     d.bending_rest_from_mesh = 1;
     d.bed_fraction = 0.1f;
     d.ssim_side = 256;
+    d.ring = 1;
+    d.fold_threshold = 0.1f;
+    d.resolve_edges = 3.0f;
+    d.band_every = 1;
+    d.admit_plastic_bending = 0.02f;
+    d.admit_twin_ratio = 0.7f;
     d.cookie = EVAL_DEF_COOKIE;
     return d;
 }
@@ -165,7 +247,12 @@ typedef struct eval_ctx {
     double *theta_p, *theta_r; /* (H) rad */
     double *rest_mesh;         /* (H) rest angles without plasticity, rad */
     int32_t *bed;              /* (nbed) hinges */
+    int32_t *bed_pred;         /* (nbed) the prediction's own, for the tolerant BED */
     int32_t nbed;
+    int32_t *ring_off, *ring_idx;       /* each hinge's neighbourhood (cr_eval_hinge_rings) */
+    double *bend_p, *bend_r;            /* (H) theta - theta0 of P, R */
+    double *rb_p, *rb_r, *zero;         /* (H) rest - theta0 of P, R; zeros */
+    double *sort_scratch;               /* (2H) */
     double *dminv;                      /* (F,2,2) inverse rest edge matrix of each triangle */
     float *np, *nr, *fnp, *fnr, *farea; /* (V,3), (V,3), (F,3), (F,3), (F) */
     float *dist, *dist2;                /* (V) scratch */
@@ -186,7 +273,10 @@ static void ctx_free(eval_ctx *c) {
     cr_mesh_destroy(c->mp), cr_mesh_destroy(c->mr);
     cr_bvh_destroy(c->bp), cr_bvh_destroy(c->br), cr_bvh_destroy(c->body);
     free(c->xp), free(c->xpred), free(c->theta_p), free(c->theta_r), free(c->rest_mesh);
-    free(c->bed), free(c->dminv), free(c->np), free(c->nr), free(c->fnp), free(c->fnr);
+    free(c->bed), free(c->bed_pred), free(c->ring_off), free(c->ring_idx), free(c->bend_p),
+        free(c->bend_r);
+    free(c->rb_p), free(c->rb_r), free(c->zero), free(c->sort_scratch);
+    free(c->dminv), free(c->np), free(c->nr), free(c->fnp), free(c->fnr);
     free(c->farea), free(c->dist), free(c->dist2), free(c->pix_face), free(c->pix_bary);
     free(c->mask), free(c->img_p), free(c->img_r);
 }
@@ -336,6 +426,17 @@ static cr_status ctx_create(eval_ctx *c, cr_error *err) {
     c->theta_r = cr_malloc(h * sizeof(double), err);
     c->rest_mesh = cr_malloc(h * sizeof(double), err);
     c->bed = cr_malloc(h * sizeof(int32_t), err);
+    c->bed_pred = cr_malloc(h * sizeof(int32_t), err);
+    c->bend_p = cr_malloc(h * sizeof(double), err);
+    c->bend_r = cr_malloc(h * sizeof(double), err);
+    c->rb_p = cr_malloc(h * sizeof(double), err);
+    c->rb_r = cr_malloc(h * sizeof(double), err);
+    c->zero = cr_calloc(h, sizeof(double), err);
+    c->sort_scratch = cr_malloc(2 * h * sizeof(double), err);
+    if (!c->bend_p || !c->bend_r || !c->rb_p || !c->rb_r || !c->zero || !c->sort_scratch ||
+        !c->bed_pred)
+        return CR_ERR_MEMORY;
+    CR_TRY(cr_eval_hinge_rings(c->topo, c->def->ring, &c->ring_off, &c->ring_idx, err));
     c->np = cr_malloc(v3 * sizeof(float), err);
     c->nr = cr_malloc(v3 * sizeof(float), err);
     c->fnp = cr_malloc((size_t)c->F * 3 * sizeof(float), err);
@@ -366,28 +467,42 @@ static const float *rest_at(const float *rest, int32_t nframes, int32_t H, int32
     return rest + (int64_t)(nframes == 1 ? 0 : t) * H;
 }
 
-/* BED's hinges: top share by peak |rest_R - rest_mesh| (plastic bending) when the
- * reference's rest angles are given, else by peak |theta_R - rest_mesh|. */
-static cr_status select_bed(eval_ctx *c, cr_eval_result *out, cr_error *err) {
-    double *score = cr_calloc((size_t)c->H + 1, sizeof(double), err);
-    if (!score) return CR_ERR_MEMORY;
-    const cr_eval_input *in = c->in;
-    out->bed_from_rest = in->ref_rest != NULL;
+/* The top share of hinges of one sequence (seq, (T,V,3)) by peak |rest -
+ * rest_mesh| (plastic bending) when its rest angles are given, else by peak
+ * |theta - rest_mesh| over the frames, into sel; returns how many. */
+static int32_t top_hinges_of(eval_ctx *c, const float *seq, const float *rest, int32_t rest_nframes,
+                             double *score, int32_t *sel) {
+    memset(score, 0, (size_t)c->H * sizeof(double));
     for (int32_t t = 0; t < c->T; t++) {
-        const float *rr = rest_at(in->ref_rest, in->ref_rest_nframes, c->H, t);
+        const float *rr = rest_at(rest, rest_nframes, c->H, t);
         if (!rr) {
-            const float *R = frame_of(in->ref, c->V, t);
+            const float *X = frame_of(seq, c->V, t);
             for (int64_t k = 0; k < 3 * (int64_t)c->V; k++)
-                c->xp[k] = R[k];
+                c->xp[k] = X[k];
             cr_bending_angles(c->bending, c->xp, c->theta_r);
         }
         for (int32_t h = 0; h < c->H; h++) {
             double b = fabs(angle_diff(rr ? rr[h] : c->theta_r[h], c->rest_mesh[h]));
             if (b > score[h]) score[h] = b;
         }
-        if (rr && in->ref_rest_nframes == 1) break;
+        if (rr && rest_nframes == 1) break;
     }
-    c->nbed = out->nbed_hinges = cr_eval_top_hinges(score, c->H, c->def->bed_fraction, c->bed);
+    return cr_eval_top_hinges(score, c->H, c->def->bed_fraction, sel);
+}
+
+/* BED's hinges, chosen by the reference (by its plastic bending when its rest
+ * angles are given), and the prediction's own for the tolerant BED's other
+ * half (by its plastic bending when both have rest angles). */
+static cr_status select_bed(eval_ctx *c, cr_eval_result *out, cr_error *err) {
+    double *score = cr_calloc((size_t)c->H + 1, sizeof(double), err);
+    if (!score) return CR_ERR_MEMORY;
+    const cr_eval_input *in = c->in;
+    out->bed_from_rest = in->ref_rest != NULL;
+    c->nbed = out->nbed_hinges =
+        top_hinges_of(c, in->ref, in->ref_rest, in->ref_rest_nframes, score, c->bed);
+    const int by_rest = in->ref_rest && in->pred_rest;
+    top_hinges_of(c, in->pred, by_rest ? in->pred_rest : NULL, in->pred_rest_nframes, score,
+                  c->bed_pred);
     free(score);
     return CR_OK;
 }
@@ -441,13 +556,41 @@ static cr_status eval_frame(eval_ctx *c, int32_t t, double *m, cr_error *err) {
             bed += fabs(angle_diff(c->theta_p[c->bed[j]], c->theta_r[c->bed[j]]));
         m[CR_EVAL_BE] = be / H;
         m[CR_EVAL_BED] = bed / c->nbed;
+        for (int32_t h = 0; h < H; h++) {
+            c->bend_p[h] = angle_diff(c->theta_p[h], c->rest_mesh[h]);
+            c->bend_r[h] = angle_diff(c->theta_r[h], c->rest_mesh[h]);
+        }
+        /* symmetrised: the reference's folds found in the prediction, and the prediction's
+           in the reference (one-sided, folding everywhere would score best) */
+        m[CR_EVAL_BED_RING] = 0.5 * (cr_eval_ring_match(c->bend_p, c->bend_r, c->bed, c->nbed,
+                                                        c->ring_off, c->ring_idx) +
+                                     cr_eval_ring_match(c->bend_r, c->bend_p, c->bed_pred, c->nbed,
+                                                        c->ring_off, c->ring_idx));
+        m[CR_EVAL_BED_SORTED] =
+            cr_eval_sorted_top(c->bend_p, c->bend_r, H, c->nbed, c->sort_scratch);
+        m[CR_EVAL_FOLD_SHARE] = cr_eval_fold_share(c->bend_p, H, c->def->fold_threshold);
+        m[CR_EVAL_FOLD_SHARE_REF] = cr_eval_fold_share(c->bend_r, H, c->def->fold_threshold);
         const float *rp = rest_at(in->pred_rest, in->pred_rest_nframes, H, t);
         const float *rr = rest_at(in->ref_rest, in->ref_rest_nframes, H, t);
         if (rr) {
             double pe = 0.0;
-            for (int32_t h = 0; h < H; h++)
+            for (int32_t h = 0; h < H; h++) {
                 pe += fabs(angle_diff(rp ? rp[h] : c->rest_mesh[h], rr[h]));
+                c->rb_p[h] = rp ? angle_diff(rp[h], c->rest_mesh[h]) : 0.0;
+                c->rb_r[h] = angle_diff(rr[h], c->rest_mesh[h]);
+            }
             m[CR_EVAL_PE] = pe / H;
+            const int32_t *o = c->ring_off, *q = c->ring_idx;
+            m[CR_EVAL_PE_RING] = 0.5 * (cr_eval_ring_match(c->rb_p, c->rb_r, NULL, H, o, q) +
+                                        cr_eval_ring_match(c->rb_r, c->rb_p, NULL, H, o, q));
+            m[CR_EVAL_PE_SORTED] =
+                cr_eval_sorted_top(c->rb_p, c->rb_r, H, c->nbed, c->sort_scratch);
+            m[CR_EVAL_PE_RING_RB0] = 0.5 * (cr_eval_ring_match(c->zero, c->rb_r, NULL, H, o, q) +
+                                            cr_eval_ring_match(c->rb_r, c->zero, NULL, H, o, q));
+            double rb0 = 0.0;
+            for (int32_t h = 0; h < H; h++)
+                rb0 += fabs(c->rb_r[h]);
+            m[CR_EVAL_PE_RB0] = rb0 / H;
         }
         double *rest = cr_bending_rest_angles(c->bending);
         for (int32_t h = 0; h < H; h++)
@@ -565,6 +708,22 @@ static cr_status validate(const cr_eval_def *def, const cr_eval_input *in, cr_er
     if (def->ssim_side < 16 || def->ssim_side > 2048)
         return CR_FAIL(err, CR_ERR_INVALID, "eval: ssim_side must be in 16..2048, got %d",
                        def->ssim_side);
+    if (def->ring < 1 || def->ring > 8)
+        return CR_FAIL(err, CR_ERR_INVALID, "eval: ring must be in 1..8, got %d", def->ring);
+    if (!(def->fold_threshold > 0.0f && def->fold_threshold < (float)M_PI))
+        return CR_FAIL(err, CR_ERR_INVALID, "eval: fold_threshold must be in (0, pi) rad, got %g",
+                       (double)def->fold_threshold);
+    if (!(def->resolve_edges > 0.0f) || !isfinite(def->resolve_edges))
+        return CR_FAIL(err, CR_ERR_INVALID, "eval: resolve_edges must be positive, got %g",
+                       (double)def->resolve_edges);
+    if (def->band_every < 1)
+        return CR_FAIL(err, CR_ERR_INVALID, "eval: band_every must be >= 1, got %d",
+                       def->band_every);
+    if (!(def->admit_plastic_bending >= 0.0f) || !(def->admit_twin_ratio > 0.0f))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "eval: admit_plastic_bending must be >= 0 and admit_twin_ratio > 0, got "
+                       "%g and %g",
+                       (double)def->admit_plastic_bending, (double)def->admit_twin_ratio);
     CR_TRY(cr_material_validate(&def->material, err));
     if (!in->garment || in->garment->nv < 1 || in->garment->nf < 1)
         return CR_FAIL(err, CR_ERR_INVALID, "eval: the garment mesh is missing or empty");
@@ -589,6 +748,54 @@ static cr_status validate(const cr_eval_def *def, const cr_eval_input *in, cr_er
     return CR_OK;
 }
 
+/* fold_share at the last frame over its peak over the run. */
+static void retention(cr_eval_result *out) {
+    const cr_eval_metric key[2] = {CR_EVAL_FOLD_SHARE, CR_EVAL_FOLD_SHARE_REF};
+    double *dst[2] = {&out->retention_pred, &out->retention_ref};
+    for (int s = 0; s < 2; s++) {
+        double peak = out->summary[key[s]].max;
+        double last = cr_eval_value(out, out->nframes - 1, key[s]);
+        *dst[s] = peak > 0.0 && isfinite(last) ? last / peak : NAN;
+    }
+}
+
+/* The wavelength a band stands for: the geometric mean of its edges, the open
+ * ends taken at twice the longest edge (> 16 cm: 32 cm) and half the
+ * shortest (< 2 cm: 1 cm). */
+static double band_wavelength(int b) {
+    double hi = cr_eval_h_band_edges_m[b], lo = cr_eval_h_band_edges_m[b + 1];
+    if (!isfinite(hi)) hi = 2.0 * lo;
+    if (!(lo > 0.0)) lo = 0.5 * hi;
+    return sqrt(hi * lo);
+}
+
+/* Curvature band power of P and R averaged over every band_every-th frame. */
+static cr_status band_power(eval_ctx *c, cr_eval_result *out, cr_error *err) {
+    const int32_t V = c->V;
+    double band[CR_EVAL_H_BANDS], power[CR_EVAL_H_BANDS], rms;
+    memset(out->band_power_pred, 0, sizeof out->band_power_pred);
+    memset(out->band_power_ref, 0, sizeof out->band_power_ref);
+    int32_t n = 0;
+    for (int32_t t = 0; t < c->T; t += c->def->band_every, n++)
+        for (int s = 0; s < 2; s++) {
+            memcpy(c->mp->pos, frame_of(s ? c->in->ref : c->in->pred, V, t),
+                   (size_t)V * 3 * sizeof(float));
+            CR_TRY(cr_eval_curvature_spectrum(c->mp, &rms, band, power, err));
+            double *acc = s ? out->band_power_ref : out->band_power_pred;
+            for (int b = 0; b < CR_EVAL_H_BANDS; b++)
+                acc[b] += power[b];
+        }
+    out->band_frames = n;
+    out->mean_edge_m = cr_eval_mean_edge(c->in->garment, c->topo);
+    for (int b = 0; b < CR_EVAL_H_BANDS; b++) {
+        out->band_power_pred[b] /= n, out->band_power_ref[b] /= n;
+        out->band_resolved[b] =
+            band_wavelength(b) >= (double)c->def->resolve_edges * out->mean_edge_m;
+    }
+    out->has_band_power = 1;
+    return CR_OK;
+}
+
 cr_status cr_eval_run(const cr_eval_def *def, const cr_eval_input *in, cr_eval_result *out,
                       cr_error *err) {
     memset(out, 0, sizeof *out);
@@ -597,6 +804,7 @@ cr_status cr_eval_run(const cr_eval_def *def, const cr_eval_input *in, cr_eval_r
     cr_status st = ctx_create(&c, err);
     const int32_t T = in->nframes, V = in->garment->nv;
     out->nframes = T, out->nv = V, out->nhinges = c.H;
+    out->ring = def->ring, out->fold_threshold_rad = def->fold_threshold;
     out->frames =
         st == CR_OK ? cr_malloc((size_t)T * CR_EVAL_METRIC_COUNT * sizeof(double), err) : NULL;
     out->vertex_error = st == CR_OK ? cr_malloc((size_t)V * sizeof(float), err) : NULL;
@@ -642,6 +850,9 @@ cr_status cr_eval_run(const cr_eval_def *def, const cr_eval_input *in, cr_eval_r
             st = cr_eval_curvature_spectrum(c.mr, &rms, out->h_band_ref, out->h_power_ref, err);
         out->has_spectrum = st == CR_OK;
     }
+    if (st == CR_OK) retention(out);
+    if (st == CR_OK && cr_mesh_has_uv(in->garment)) st = band_power(&c, out, err);
+    if (st == CR_OK) st = cr_eval_hem_swing(def, in, c.topo, out, err);
     ctx_free(&c);
     if (st != CR_OK) cr_eval_result_free(out);
     return st;

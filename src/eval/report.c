@@ -8,6 +8,7 @@
  */
 #include "crease/eval.h"
 #include "crease/npz.h"
+#include "eval_internal.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -25,11 +26,21 @@ enum {
 
 static const uint8_t SERIES_RGB[2][3] = {{31, 119, 180}, {255, 127, 14}};
 
-static void add_number(cJSON *o, const char *key, double v) {
+void cr_eval_json_number(cJSON *o, const char *key, double v) {
     if (isfinite(v))
         cJSON_AddNumberToObject(o, key, v);
     else
         cJSON_AddNullToObject(o, key);
+}
+
+char *cr_eval_json_text(cJSON *o) {
+    char *text = o ? cJSON_PrintUnformatted(o) : NULL;
+    cJSON_Delete(o);
+    if (!text) return NULL;
+    char *copy = malloc(strlen(text) + 1); /* cJSON's allocator need not be free()'s */
+    if (copy) strcpy(copy, text);
+    cJSON_free(text);
+    return copy;
 }
 
 char *cr_eval_summary_json(const cr_eval_result *r) {
@@ -46,9 +57,9 @@ char *cr_eval_summary_json(const cr_eval_result *r) {
         const cr_eval_summary *s = &r->summary[k];
         cJSON *e = cJSON_AddObjectToObject(m, cr_eval_metric_name((cr_eval_metric)k));
         if (!e) continue;
-        add_number(e, "mean", s->mean);
-        add_number(e, "max", s->max);
-        add_number(e, "min", s->min);
+        cr_eval_json_number(e, "mean", s->mean);
+        cr_eval_json_number(e, "max", s->max);
+        cr_eval_json_number(e, "min", s->min);
         cJSON_AddNumberToObject(e, "worst_frame", s->worst_frame);
         cJSON_AddNumberToObject(e, "count", s->count);
         cJSON_AddStringToObject(e, "source", cr_eval_metric_source((cr_eval_metric)k));
@@ -71,13 +82,45 @@ char *cr_eval_summary_json(const cr_eval_result *r) {
             cJSON_AddItemToArray(qp, cJSON_CreateNumber(r->h_power_ref[b]));
         }
     }
-    char *text = cJSON_PrintUnformatted(o);
-    cJSON_Delete(o);
-    if (!text) return NULL;
-    char *copy = malloc(strlen(text) + 1); /* cJSON's allocator need not be free()'s */
-    if (copy) strcpy(copy, text);
-    cJSON_free(text);
-    return copy;
+    if (r->has_band_power) {
+        cJSON *bp = cJSON_AddObjectToObject(o, "band_power");
+        cJSON *edges = cJSON_AddArrayToObject(bp, "band_edges_m");
+        cr_eval_json_number(bp, "mean_edge_m", r->mean_edge_m);
+        cJSON_AddNumberToObject(bp, "frames", r->band_frames);
+        cJSON *res = cJSON_AddArrayToObject(bp, "resolved");
+        cJSON *p = cJSON_AddArrayToObject(bp, "pred"), *q = cJSON_AddArrayToObject(bp, "ref");
+        cJSON *ratio = cJSON_AddArrayToObject(bp, "ratio");
+        for (int b = 0; b <= CR_EVAL_H_BANDS; b++)
+            cJSON_AddItemToArray(edges, isfinite(cr_eval_h_band_edges_m[b])
+                                            ? cJSON_CreateNumber(cr_eval_h_band_edges_m[b])
+                                            : cJSON_CreateNull());
+        for (int b = 0; b < CR_EVAL_H_BANDS; b++) {
+            double rt =
+                r->band_power_ref[b] > 0.0 ? r->band_power_pred[b] / r->band_power_ref[b] : NAN;
+            cJSON_AddItemToArray(res, cJSON_CreateBool(r->band_resolved[b]));
+            cJSON_AddItemToArray(p, cJSON_CreateNumber(r->band_power_pred[b]));
+            cJSON_AddItemToArray(q, cJSON_CreateNumber(r->band_power_ref[b]));
+            cJSON_AddItemToArray(ratio, isfinite(rt) ? cJSON_CreateNumber(rt) : cJSON_CreateNull());
+        }
+    }
+    cJSON *folds = cJSON_AddObjectToObject(o, "folds");
+    cJSON_AddNumberToObject(folds, "ring", r->ring);
+    cr_eval_json_number(folds, "threshold_rad", r->fold_threshold_rad);
+    cr_eval_json_number(folds, "retention_pred", r->retention_pred);
+    cr_eval_json_number(folds, "retention_ref", r->retention_ref);
+    if (r->has_hem) {
+        cJSON *h = cJSON_AddObjectToObject(o, "hem");
+        cJSON_AddNumberToObject(h, "vertices", r->hem_vertices);
+        cJSON_AddStringToObject(h, "frame", r->hem_in_body_frame ? "body" : "world");
+        cr_eval_json_number(h, "amplitude_pred_m", r->hem_amplitude_pred_m);
+        cr_eval_json_number(h, "amplitude_ref_m", r->hem_amplitude_ref_m);
+        cr_eval_json_number(
+            h, "amplitude_ratio",
+            r->hem_amplitude_ref_m > 0.0 ? r->hem_amplitude_pred_m / r->hem_amplitude_ref_m : NAN);
+        cr_eval_json_number(h, "frequency_pred_hz", r->hem_frequency_pred_hz);
+        cr_eval_json_number(h, "frequency_ref_hz", r->hem_frequency_ref_hz);
+    }
+    return cr_eval_json_text(o);
 }
 
 /* Write `text` lines to path atomically. */
@@ -103,8 +146,8 @@ static cr_status write_frames(const cr_eval_result *r, const char *path, cr_erro
         }
         cJSON_AddNumberToObject(o, "frame", t);
         for (int k = 0; k < CR_EVAL_METRIC_COUNT; k++)
-            add_number(o, cr_eval_metric_name((cr_eval_metric)k),
-                       cr_eval_value(r, t, (cr_eval_metric)k));
+            cr_eval_json_number(o, cr_eval_metric_name((cr_eval_metric)k),
+                                cr_eval_value(r, t, (cr_eval_metric)k));
         char *line = cJSON_PrintUnformatted(o);
         cJSON_Delete(o);
         if (!line) st = CR_FAIL(err, CR_ERR_MEMORY, "out of memory writing %s", path);

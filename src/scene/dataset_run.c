@@ -252,6 +252,7 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
     globfree(&stale);
     cr_sim_def sd = cr_sim_default_def();
     CR_TRY(cr_material_preset(d->material, &sd.material, err));
+    CR_TRY(cr_scene_twin_material(&d->twin, &sd.material, err));
     sd.dt = 1.0 / d->fps;
     sd.plasticity = d->plastic;
     sd.solver = (cr_sim_solver)d->solver;
@@ -283,7 +284,13 @@ static cr_status simulate(const dataset *ds, dataset_seq *q, cr_error *err) {
         sd.pinned = pins, sd.npinned = npins;
         sd.pin_frames = pin_frames, sd.pin_nframes = mo->nframes;
     }
-    if (st == CR_OK) st = cr_sim_create(&sd, g->mesh, &sim, err);
+    cr_mesh *start = NULL; /* a twin's moved start */
+    if (st == CR_OK && cr_scene_twin_is_set(&d->twin)) {
+        st = cr_mesh_clone(g->mesh, &start, err);
+        if (st == CR_OK) cr_mesh_transform(start, 1.0f, d->twin.offset);
+    }
+    if (st == CR_OK) st = cr_sim_create(&sd, start ? start : g->mesh, &sim, err);
+    cr_mesh_destroy(start);
     cr_bvh *bvh = NULL;
     const int32_t nv = g->mesh->nv;
     float *xf = cr_malloc(sizeof(float) * 3 * (size_t)nv, err);
@@ -444,6 +451,16 @@ static cJSON *manifest(const dataset *ds) {
     cJSON_AddBoolToObject(def, "plastic", d->plastic);
     cJSON_AddNumberToObject(def, "seed", (double)d->seed);
     if (d->mesh_only_res) cJSON_AddNumberToObject(def, "mesh_only_res", d->mesh_only_res);
+    if (cr_scene_twin_is_set(&d->twin)) {
+        cJSON *tw = cJSON_AddObjectToObject(def, "twin");
+        cJSON *off = cJSON_AddArrayToObject(tw, "offset_m");
+        char num[32]; /* the float as typed: 1e-4, not 9.99999974737875e-05 */
+        for (int k = 0; k < 3; k++) {
+            snprintf(num, sizeof num, "%.7g", (double)d->twin.offset[k]);
+            cJSON_AddItemToArray(off, cJSON_CreateNumber(strtod(num, NULL)));
+        }
+        cJSON_AddNumberToObject(tw, "friction_delta", d->twin.friction_delta);
+    }
     cJSON *bodies = cJSON_AddArrayToObject(j, "bodies");
     for (int b = 0; b < d->nbodies; b++) {
         cJSON *o = cJSON_CreateObject();

@@ -10,6 +10,29 @@
 
 enum { DEFAULT_RENDER_SIZE = 800 };
 
+/* --------------------------------------------------------------- twin -- */
+
+cr_scene_twin cr_scene_twin_default(void) {
+    return (cr_scene_twin){.offset = {0.0f, 0.0f, CR_SCENE_TWIN_OFFSET_M}};
+}
+
+int cr_scene_twin_is_set(const cr_scene_twin *t) {
+    return t->offset[0] != 0.0f || t->offset[1] != 0.0f || t->offset[2] != 0.0f ||
+           t->friction_delta != 0.0;
+}
+
+cr_status cr_scene_twin_material(const cr_scene_twin *t, cr_material *m, cr_error *err) {
+    if (!isfinite(t->friction_delta) || !isfinite(t->offset[0]) || !isfinite(t->offset[1]) ||
+        !isfinite(t->offset[2]))
+        return CR_FAIL(err, CR_ERR_INVALID, "twin: the perturbation must be finite");
+    if (m->friction + t->friction_delta < 0.0)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "twin: friction %g + change %g is below 0 (material %s)", m->friction,
+                       t->friction_delta, m->name);
+    m->friction += t->friction_delta;
+    return CR_OK;
+}
+
 /* ----------------------------------------------------------- simulate -- */
 
 cr_scene_sim_def cr_scene_sim_default_def(void) {
@@ -60,8 +83,10 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
                            cr_scene_sim_result *out, cr_error *err) {
     CR_TRY(cr_material_preset(o->material, &def->material, err));
     if (o->material_json) CR_TRY(cr_material_load_json(o->material_json, &def->material, err));
+    CR_TRY(cr_scene_twin_material(&o->twin, &def->material, err));
     CR_TRY(cr_mesh_read(o->garment, &r->garment, err));
     if (o->garment_offset) cr_mesh_transform(r->garment, 1.0f, o->garment_offset);
+    if (cr_scene_twin_is_set(&o->twin)) cr_mesh_transform(r->garment, 1.0f, o->twin.offset);
     const char *cname = o->object ? o->object : o->body_mesh;
     if (cname) {
         CR_TRY(o->object ? cr_scene_object_create(o->object, &r->collider, err)
