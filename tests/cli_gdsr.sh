@@ -19,7 +19,7 @@ check "gdsr --help" bash -c "'$crease' gdsr --help | grep -q usage"
 check "gdsr listed" bash -c "'$crease' --help | grep -q 'gdsr '"
 expect_exit 2 "subcommand" gdsr
 expect_exit 2 "missing --dataset" gdsr train --motions walk -o "$tmp/m"
-expect_exit 1 "tshirt_low.obj" gdsr train --dataset "$tmp/none" --motions walk -o "$tmp/m"
+expect_exit 1 "none/manifest.json" gdsr train --dataset "$tmp/none" --motions walk -o "$tmp/m"
 
 check "dataset" "$crease" dataset --garments tshirt --motions walk,dance --res low,high \
   --low-vertices 500 --high-vertices 1000 --frames 16 --quiet -o "$tmp/data"
@@ -120,8 +120,12 @@ check "wrinkle above 0 ($(vals "$tmp/t3.json" wrinkle))" positive "$tmp/t3.json"
 
 # one model on several garments: a garment the dataset lacks is named; the same garment
 # twice goes through the many-garment path (two data sets, one model) and lists both
-expect_exit 1 "skirt_low.obj" gdsr train --dataset "$tmp/data" --garment tshirt,skirt \
-  --motions walk -o "$tmp/m4"
+expect_exit 1 "manifest.json: no low and high skirt on body normal" gdsr train \
+  --dataset "$tmp/data" --garment tshirt,skirt --motions walk -o "$tmp/m4"
+# without --motions: the dataset's motions (walk, dance), the validation clip left out
+check "gdsr train: the dataset's motions by default" bash -c "'$crease' gdsr train \
+  --dataset '$tmp/data' --val-motions dance --latent 16 --steps 1 --wire-width 8 --epochs 1 \
+  --quiet -o '$tmp/m6' 2>&1 | grep -q \"the dataset's motions: walk\$\""
 check "gdsr train on two garments" bash -c "'$crease' gdsr train ${small[*]} --epochs 1 \
   --garment tshirt,tshirt -o '$tmp/m5' --json > '$tmp/t5.json'"
 check "two garments listed" grep -q '"garments":\[{"garment":"tshirt",.*},{"garment":"tshirt",' \

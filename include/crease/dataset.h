@@ -136,6 +136,67 @@ void cr_dataset_motion_label(const char *spec, char *out, size_t size);
  * by '+'). CR_ERR_INVALID naming a bad spec. */
 cr_status cr_dataset_garment_label(const char *spec, char *out, size_t size, cr_error *err);
 
+/* ------------------------------------------------------------ reading -- */
+
+/* A dataset as its manifest.json describes it: the one reader of what
+ * cr_dataset_generate writes, for every command that reads a dataset. Paths
+ * are relative to the dataset folder (cr_dataset_path joins them); strings
+ * are owned by the manifest and live until cr_dataset_manifest_free. */
+typedef struct cr_dataset_body_entry {
+    const char *name, *rest, *skin; /* preset; its rest mesh and skin.npz */
+} cr_dataset_body_entry;
+
+typedef struct cr_dataset_garment_entry {
+    const char *type, *label, *body, *res; /* label: the variant's ("dress_seed3"), or the type */
+    const char *mesh, *skin;
+    const char *high_from_low; /* NULL unless the dataset has both resolutions */
+} cr_dataset_garment_entry;
+
+typedef struct cr_dataset_motion_entry {
+    const char *name, *path; /* the motion .npz */
+    int32_t frames;
+} cr_dataset_motion_entry;
+
+typedef struct cr_dataset_sequence_entry {
+    const char *id, *garment, *res, *body, *motion; /* garment: the label */
+    const char *garment_pc2, *body_pc2, *status;
+    int done; /* status "done" */
+} cr_dataset_sequence_entry;
+
+typedef struct cr_dataset_manifest {
+    char dir[CR_SCENE_PATH]; /* the dataset folder */
+    int32_t frames, low_vertices, high_vertices;
+    float fps;
+    int plastic;
+    const char *material;
+    cr_dataset_body_entry *bodies;
+    cr_dataset_garment_entry *garments;
+    cr_dataset_motion_entry *motions;
+    cr_dataset_sequence_entry *sequences;
+    int32_t nbodies, ngarments, nmotions, nsequences;
+    void *json; /* the parsed manifest the strings point into (owned) */
+} cr_dataset_manifest;
+
+/* Read dir/manifest.json. CR_ERR_IO naming it when missing, CR_ERR_PARSE
+ * naming it and the entry when it is not a crease dataset's. */
+cr_status cr_dataset_read(const char *dir, cr_dataset_manifest *out, cr_error *err);
+/* Free and zero; a zeroed manifest is a no-op. */
+void cr_dataset_manifest_free(cr_dataset_manifest *m);
+/* m->dir / rel into out (size bytes); CR_ERR_RANGE when it does not fit. */
+cr_status cr_dataset_path(const cr_dataset_manifest *m, const char *rel, char *out, size_t size,
+                          cr_error *err);
+/* The entries by name; NULL when absent. A garment by its label (or type), body
+ * and resolution; a sequence by its garment label, resolution, body and motion,
+ * whatever its status; by id (NULL: the first done one). */
+const cr_dataset_body_entry *cr_dataset_find_body(const cr_dataset_manifest *m, const char *name);
+const cr_dataset_garment_entry *cr_dataset_find_garment(const cr_dataset_manifest *m,
+                                                        const char *label, const char *body,
+                                                        const char *res);
+const cr_dataset_sequence_entry *cr_dataset_find_sequence(const cr_dataset_manifest *m,
+                                                          const char *garment, const char *res,
+                                                          const char *body, const char *motion);
+const cr_dataset_sequence_entry *cr_dataset_find_id(const cr_dataset_manifest *m, const char *id);
+
 #ifdef __cplusplus
 }
 #endif

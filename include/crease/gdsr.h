@@ -59,12 +59,21 @@ typedef struct cr_gdsr_data {
     cr_gdsr_clip clip[CR_GDSR_MAX_CLIPS];
 } cr_gdsr_data;
 
-/* Read garments/<body>/<garment>_{low,high}.obj, the _high_from_low.npz
- * correspondence, bodies/<body>/rest.obj and, per motion,
- * bodies/<body>/<motion>.pc2 and sequences/<garment>_{low,high}_<body>_<motion>/garment.pc2
- * from a `crease dataset` folder. CR_ERR_IO / CR_ERR_SHAPE naming the file. */
+/* Read, as the dataset's manifest.json lists them (cr_dataset_read), the low
+ * and high garment of the label `garment` on `body`, their correspondence
+ * (high_from_low), the body's rest mesh and, per motion, the low sequence,
+ * the high one when it is finished (else clip.high is NULL: a low-only
+ * input) and the posed body. CR_ERR_IO naming the manifest and what it
+ * lacks; the readers' errors naming a file. */
 cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *body,
                             const char *const *motions, int nmotions, cr_gdsr_data *out,
+                            cr_error *err);
+/* The dataset's motions with a finished low and high sequence of `garment`
+ * on `body`, in the manifest's order, leaving out those in skip (nskip): what
+ * `gdsr train` trains on when no --motions are given. Returns how many were
+ * written to names (at most max), or -1 with err set (none, or more than max). */
+int cr_gdsr_dataset_motions(const char *dir, const char *garment, const char *body,
+                            const char *const *skip, int nskip, char (*names)[64], int max,
                             cr_error *err);
 /* Build data from meshes and arrays in memory (tests): copies everything;
  * the correspondence is computed through UVs (cr_garment_correspondence). */

@@ -14,7 +14,7 @@
 
 void help_gdsr(void) {
     printf(
-        "usage: crease gdsr train --dataset DIR --motions M1,M2 -o OUT [options]\n"
+        "usage: crease gdsr train --dataset DIR [--motions M1,M2] -o OUT [options]\n"
         "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n"
         "       crease gdsr run --model F --simulate --motion CLIP|FILE.bvh|FILE.npz [--body B]\n"
         "                       [--garment G] [--dataset DIR] [--frames N] -o DIR\n\n"
@@ -29,7 +29,9 @@ void help_gdsr(void) {
         "  --quiet              no progress\n"
         "  --json               end with a JSON summary on stdout\n"
         "train:\n"
-        "  --motions LIST       training clips\n"
+        "  --motions LIST       training clips (default: every motion of the dataset with a\n"
+        "                       finished low and high sequence of the garment, but\n"
+        "                       --val-motions)\n"
         "  --epochs N           (default 20)\n"
         "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
         "  --halve-every N      N epochs (default 50)\n"
@@ -184,7 +186,6 @@ static int cmd_train(int argc, char **argv) {
     int rc = cli_parse("gdsr train", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!dataset) return cli_usage("gdsr train", "missing --dataset DIR");
-    if (!motions) return cli_usage("gdsr train", "missing --motions LIST");
     if (!def.out_dir) return cli_usage("gdsr train", "missing -o OUT");
     if (paper) def.model = cr_gdsr_model_paper_def();
     if (latent) def.model.latent = latent;
@@ -199,15 +200,6 @@ static int cmd_train(int argc, char **argv) {
     def.model.seed = (uint64_t)seed;
     if (out_scale > 0) def.model.out_scale = out_scale;
     def.quiet = quiet;
-    char buf[1024], vbuf[1024];
-    snprintf(buf, sizeof buf, "%s", motions);
-    const char *ms[CR_GDSR_MAX_CLIPS];
-    int nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
-    if (val) { /* validation clips go last: cr_gdsr_train leaves them out of training */
-        snprintf(vbuf, sizeof vbuf, "%s", val);
-        def.val_clips = split(vbuf, ms + nm, CR_GDSR_MAX_CLIPS - nm);
-        nm += def.val_clips;
-    }
     /* --garment A,B,...: one model for several garments (cr_gdsr_train_many) */
     char gbuf[1024];
     snprintf(gbuf, sizeof gbuf, "%s", garment);
@@ -219,6 +211,31 @@ static int cmd_train(int argc, char **argv) {
         return CLI_USAGE;
     }
     cr_error err = {0};
+    char buf[1024], vbuf[1024], found[CR_GDSR_MAX_CLIPS][64];
+    const char *ms[CR_GDSR_MAX_CLIPS], *vs[CR_GDSR_MAX_CLIPS];
+    int nv = 0, nm = 0;
+    if (val) {
+        snprintf(vbuf, sizeof vbuf, "%s", val);
+        nv = split(vbuf, vs, CR_GDSR_MAX_CLIPS);
+    }
+    if (motions) {
+        snprintf(buf, sizeof buf, "%s", motions);
+        nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
+    } else { /* the dataset's motions of the (first) garment, but the validation clips */
+        nm = cr_gdsr_dataset_motions(dataset, gs[0], body, vs, nv, found, CR_GDSR_MAX_CLIPS - nv,
+                                     &err);
+        if (nm < 0) return cli_fail(&err);
+        for (int k = 0; k < nm; k++)
+            ms[k] = found[k];
+        fprintf(stderr, "gdsr train: the dataset's motions:");
+        for (int k = 0; k < nm; k++)
+            fprintf(stderr, " %s", ms[k]);
+        fprintf(stderr, "\n");
+    }
+    /* validation clips go last: cr_gdsr_train leaves them out of training */
+    def.val_clips = 0;
+    for (int k = 0; k < nv && nm < CR_GDSR_MAX_CLIPS; k++)
+        ms[nm++] = vs[k], def.val_clips++;
     cr_gdsr_data ds[CR_GDSR_MAX_GARMENTS];
     const cr_gdsr_data *dp[CR_GDSR_MAX_GARMENTS];
     int vl[CR_GDSR_MAX_GARMENTS], vh[CR_GDSR_MAX_GARMENTS];

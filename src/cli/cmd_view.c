@@ -16,6 +16,7 @@
  * Left out: textures and UVs, normals from the file (the page recomputes
  * them per frame), more than one scalar per panel. */
 #include "cli.h"
+#include "crease/dataset.h"
 #include "crease/mesh_io.h"
 #include "crease/npz.h"
 #include "crease/scene.h"
@@ -168,60 +169,40 @@ static cr_status read_part(const char *spec, view_part *p, cr_error *err) {
     return CR_OK;
 }
 
-/* A sequence of a dataset (crease/dataset.h): its entry in ROOT/manifest.json. */
-static const cJSON *manifest_sequence(const cJSON *man, const char *id) {
-    const cJSON *q;
-    cJSON_ArrayForEach(q, cJSON_GetObjectItemCaseSensitive(man, "sequences")) {
-        const char *qid = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "id"));
-        const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "status"));
-        if (qid && state && strcmp(state, "done") == 0 && (!id || strcmp(qid, id) == 0)) return q;
-    }
-    return NULL;
-}
-
 /* DIR/sequences/ID, or a dataset's root DIR (its first finished sequence), as the
- * two parts "garment.pc2@garment mesh+body.pc2@body rest"; 0 when spec is no
- * dataset directory. */
+ * two parts "garment.pc2@garment mesh+body.pc2@body rest" (the manifest's paths,
+ * cr_dataset_read); 0 when spec is no dataset directory. */
 static cr_status dataset_spec(const char *spec, char *out, size_t size, char *label,
                               size_t label_size, int *is_dataset, cr_error *err) {
     *is_dataset = 0;
     struct stat sb;
     if (stat(spec, &sb) != 0 || !S_ISDIR(sb.st_mode)) return CR_OK;
-    char root[1100], path[1200];
+    char root[1100], path[1200], idbuf[256];
     const char *id = NULL, *seq = strstr(spec, "/sequences/");
     snprintf(root, sizeof root, "%.*s", seq ? (int)(seq - spec) : (int)strlen(spec), spec);
-    if (seq) id = seq + strlen("/sequences/");
-    snprintf(path, sizeof path, "%s/manifest.json", root);
-    char *text;
-    size_t len;
-    if (cr_file_read_all(path, &text, &len, err) != CR_OK)
-        return CR_FAIL(err, CR_ERR_IO, "%s: a directory, but no dataset (%s missing)", spec, path);
-    cJSON *man = cJSON_ParseWithLength(text, len);
-    free(text);
-    char idbuf[256];
-    if (id) {
-        snprintf(idbuf, sizeof idbuf, "%s", id);
+    if (seq) {
+        snprintf(idbuf, sizeof idbuf, "%s", seq + strlen("/sequences/"));
         idbuf[strcspn(idbuf, "/")] = 0;
         id = idbuf;
     }
-    const cJSON *q = manifest_sequence(man, id);
-    const char *g = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "garment"));
-    const char *r = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "res"));
-    const char *b = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "body"));
-    const char *gp = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "garment_pc2"));
-    const char *bp = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "body_pc2"));
+    snprintf(path, sizeof path, "%s/manifest.json", root);
+    cr_dataset_manifest man;
+    if (cr_dataset_read(root, &man, err) != CR_OK)
+        return CR_FAIL(err, CR_ERR_IO, "%s: a directory, but no dataset (%s: %s)", spec, path,
+                       err ? err->msg : "unreadable");
+    const cr_dataset_sequence_entry *q = cr_dataset_find_id(&man, id);
+    const cr_dataset_garment_entry *g =
+        q && q->done ? cr_dataset_find_garment(&man, q->garment, q->body, q->res) : NULL;
+    const cr_dataset_body_entry *b = q ? cr_dataset_find_body(&man, q->body) : NULL;
     cr_status st = CR_OK;
-    if (!g || !r || !b || !gp || !bp)
+    if (!g || !b)
         st = CR_FAIL(err, CR_ERR_PARSE, "%s: no finished sequence%s%s", path, id ? " " : "",
                      id ? id : "");
-    else if ((size_t)snprintf(out, size,
-                              "%s/%s@%s/garments/%s/%s_%s.obj+%s/%s@%s/bodies/%s/rest.obj", root,
-                              gp, root, b, g, r, root, bp, root, b) >= size)
+    else if ((size_t)snprintf(out, size, "%s/%s@%s/%s+%s/%s@%s/%s", root, q->garment_pc2, root,
+                              g->mesh, root, q->body_pc2, root, b->rest) >= size)
         st = CR_FAIL(err, CR_ERR_RANGE, "%s: paths too long", spec);
-    if (st == CR_OK)
-        snprintf(label, label_size, "%s",
-                 cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(q, "id")));
-    cJSON_Delete(man);
+    if (st == CR_OK) snprintf(label, label_size, "%s", q->id);
+    cr_dataset_manifest_free(&man);
     *is_dataset = st == CR_OK;
     return st;
 }

@@ -3,6 +3,8 @@
  * the node and edge features of Eq. 2-5. */
 #include "gdsr_internal.h"
 
+#include "crease/dataset.h"
+
 #include "crease/garment.h"
 #include "crease/mesh_io.h"
 #include "crease/npz.h"
@@ -83,6 +85,55 @@ static cr_status read_pc2(const char *path, int32_t nv, int32_t want_frames, flo
     return CR_OK;
 }
 
+/* The dataset's low and high garment entries of garment on body, and its body. */
+static cr_status find_pair(const cr_dataset_manifest *man, const char *garment, const char *body,
+                           const cr_dataset_garment_entry **low,
+                           const cr_dataset_garment_entry **high, const cr_dataset_body_entry **b,
+                           cr_error *err) {
+    *b = cr_dataset_find_body(man, body);
+    *low = cr_dataset_find_garment(man, garment, body, "low");
+    *high = cr_dataset_find_garment(man, garment, body, "high");
+    if (!*b) return CR_FAIL(err, CR_ERR_IO, "%s/manifest.json: no body %s", man->dir, body);
+    if (!*low || !*high || !(*low)->high_from_low)
+        return CR_FAIL(err, CR_ERR_IO,
+                       "%s/manifest.json: no low and high %s on body %s (gdsr needs `crease "
+                       "dataset --res low,high`)",
+                       man->dir, garment, body);
+    return CR_OK;
+}
+
+int cr_gdsr_dataset_motions(const char *dir, const char *garment, const char *body,
+                            const char *const *skip, int nskip, char (*names)[64], int max,
+                            cr_error *err) {
+    cr_dataset_manifest man;
+    if (cr_dataset_read(dir, &man, err) != CR_OK) return -1;
+    int n = 0;
+    for (int32_t i = 0; i < man.nmotions; i++) {
+        const char *m = man.motions[i].name;
+        const cr_dataset_sequence_entry *lo =
+            cr_dataset_find_sequence(&man, garment, "low", body, m);
+        const cr_dataset_sequence_entry *hi =
+            cr_dataset_find_sequence(&man, garment, "high", body, m);
+        int skipped = 0;
+        for (int k = 0; k < nskip; k++)
+            skipped |= strcmp(skip[k], m) == 0;
+        if (skipped || !lo || !hi || !lo->done || !hi->done) continue;
+        if (n == max) {
+            cr_dataset_manifest_free(&man);
+            CR_FAIL(err, CR_ERR_RANGE, "%s: more than %d motions of %s on %s", dir, max, garment,
+                    body);
+            return -1;
+        }
+        snprintf(names[n++], 64, "%s", m);
+    }
+    cr_dataset_manifest_free(&man);
+    if (n == 0)
+        CR_FAIL(err, CR_ERR_INVALID,
+                "%s/manifest.json: no motion with a done low and high %s on %s", dir, garment,
+                body);
+    return n ? n : -1;
+}
+
 cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *body,
                             const char *const *motions, int nmotions, cr_gdsr_data *out,
                             cr_error *err) {
@@ -90,15 +141,23 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
     if (nmotions < 1 || nmotions > CR_GDSR_MAX_CLIPS)
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr: %d motions, need 1..%d", nmotions,
                        CR_GDSR_MAX_CLIPS);
-    char path[2048];
-    cr_status st;
-    snprintf(path, sizeof path, "%s/garments/%s/%s_low.obj", dir, body, garment);
-    if ((st = cr_mesh_read(path, &out->low, err)) != CR_OK) goto fail;
-    snprintf(path, sizeof path, "%s/garments/%s/%s_high.obj", dir, body, garment);
-    if ((st = cr_mesh_read(path, &out->high, err)) != CR_OK) goto fail;
-    snprintf(path, sizeof path, "%s/bodies/%s/rest.obj", dir, body);
-    if ((st = cr_mesh_read(path, &out->body, err)) != CR_OK) goto fail;
-    snprintf(path, sizeof path, "%s/garments/%s/%s_high_from_low.npz", dir, body, garment);
+    cr_dataset_manifest man;
+    CR_TRY(cr_dataset_read(dir, &man, err));
+    const cr_dataset_garment_entry *lo = NULL, *hi = NULL;
+    const cr_dataset_body_entry *be = NULL;
+    char path[CR_SCENE_PATH + 64];
+    cr_status st = find_pair(&man, garment, body, &lo, &hi, &be, err);
+    if (st != CR_OK) goto fail;
+    if ((st = cr_dataset_path(&man, lo->mesh, path, sizeof path, err)) != CR_OK ||
+        (st = cr_mesh_read(path, &out->low, err)) != CR_OK)
+        goto fail;
+    if ((st = cr_dataset_path(&man, hi->mesh, path, sizeof path, err)) != CR_OK ||
+        (st = cr_mesh_read(path, &out->high, err)) != CR_OK)
+        goto fail;
+    if ((st = cr_dataset_path(&man, be->rest, path, sizeof path, err)) != CR_OK ||
+        (st = cr_mesh_read(path, &out->body, err)) != CR_OK)
+        goto fail;
+    if ((st = cr_dataset_path(&man, lo->high_from_low, path, sizeof path, err)) != CR_OK) goto fail;
     {
         cr_npz *z = NULL;
         if ((st = cr_npz_open(path, &z, err)) != CR_OK) goto fail;
@@ -129,21 +188,32 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
         out->nclips = i + 1;
         snprintf(c->motion, sizeof c->motion, "%s", motions[i]);
         int32_t T = 0, T2 = 0;
-        snprintf(path, sizeof path, "%s/sequences/%s_low_%s_%s/garment.pc2", dir, garment, body,
-                 motions[i]);
-        if ((st = read_pc2(path, out->low->nv, 0, &c->low, &T, err)) != CR_OK) goto fail;
-        snprintf(path, sizeof path, "%s/sequences/%s_high_%s_%s/garment.pc2", dir, garment, body,
-                 motions[i]);
-        /* no high sequence (a low-only roll-out input): clip.high stays NULL */
-        FILE *hf = fopen(path, "rb");
-        if (hf) fclose(hf);
-        if (hf && (st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK) goto fail;
-        snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", dir, body, motions[i]);
-        if ((st = read_pc2(path, out->body->nv, -T, &c->body, &T2, err)) != CR_OK) goto fail;
+        const cr_dataset_sequence_entry *ql =
+            cr_dataset_find_sequence(&man, garment, "low", body, motions[i]);
+        const cr_dataset_sequence_entry *qh =
+            cr_dataset_find_sequence(&man, garment, "high", body, motions[i]);
+        if (!ql || !ql->done) {
+            st = CR_FAIL(err, CR_ERR_IO, "%s/manifest.json: no finished low %s on %s doing %s", dir,
+                         garment, body, motions[i]);
+            goto fail;
+        }
+        if ((st = cr_dataset_path(&man, ql->garment_pc2, path, sizeof path, err)) != CR_OK ||
+            (st = read_pc2(path, out->low->nv, 0, &c->low, &T, err)) != CR_OK)
+            goto fail;
+        /* no finished high sequence (a low-only roll-out input): clip.high stays NULL */
+        if (qh && qh->done &&
+            ((st = cr_dataset_path(&man, qh->garment_pc2, path, sizeof path, err)) != CR_OK ||
+             (st = read_pc2(path, out->high->nv, T, &c->high, &T2, err)) != CR_OK))
+            goto fail;
+        if ((st = cr_dataset_path(&man, ql->body_pc2, path, sizeof path, err)) != CR_OK ||
+            (st = read_pc2(path, out->body->nv, -T, &c->body, &T2, err)) != CR_OK)
+            goto fail;
         c->nframes = T;
     }
+    cr_dataset_manifest_free(&man);
     return CR_OK;
 fail:
+    cr_dataset_manifest_free(&man);
     cr_gdsr_data_free(out);
     return st;
 }

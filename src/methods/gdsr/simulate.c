@@ -8,7 +8,6 @@
 #include "crease/dataset.h"
 #include "crease/garment.h"
 
-#include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,33 +24,24 @@ cr_gdsr_sim_def cr_gdsr_sim_default_def(void) {
 /* like's manifest.json: the def fields not set in *dd. */
 static cr_status read_like(const char *dir, cr_dataset_def *dd, int set_low, int set_high,
                            int set_fps, int set_mat, char *mat, size_t matsize, cr_error *err) {
-    char path[2048], *text = NULL;
-    size_t len = 0;
-    snprintf(path, sizeof path, "%s/manifest.json", dir);
-    CR_TRY(cr_file_read_all(path, &text, &len, err));
-    cJSON *j = cJSON_Parse(text);
-    free(text);
-    const cJSON *def = cJSON_GetObjectItemCaseSensitive(j, "def");
-    const cJSON *lo = cJSON_GetObjectItemCaseSensitive(def, "low_vertices");
-    const cJSON *hi = cJSON_GetObjectItemCaseSensitive(def, "high_vertices");
-    const cJSON *fps = cJSON_GetObjectItemCaseSensitive(def, "fps");
-    const cJSON *m = cJSON_GetObjectItemCaseSensitive(def, "material");
+    cr_dataset_manifest man;
+    CR_TRY(cr_dataset_read(dir, &man, err));
     cr_status st = CR_OK;
-    if (!cJSON_IsNumber(lo) || !cJSON_IsNumber(hi) || !cJSON_IsNumber(fps) || !cJSON_IsString(m))
+    if (man.low_vertices <= 0 || man.high_vertices <= 0 || !(man.fps > 0.0f) || !man.material)
         st = CR_FAIL(err, CR_ERR_PARSE,
-                     "%s: not a crease dataset manifest (def.low_vertices, def.high_vertices, "
-                     "def.fps, def.material)",
-                     path);
+                     "%s/manifest.json: not a crease dataset manifest (def.low_vertices, "
+                     "def.high_vertices, def.fps, def.material)",
+                     dir);
     if (st == CR_OK) {
-        if (!set_low) dd->low_vertices = lo->valueint;
-        if (!set_high) dd->high_vertices = hi->valueint;
-        if (!set_fps) dd->fps = (float)fps->valuedouble;
+        if (!set_low) dd->low_vertices = man.low_vertices;
+        if (!set_high) dd->high_vertices = man.high_vertices;
+        if (!set_fps) dd->fps = man.fps;
         if (!set_mat) {
-            snprintf(mat, matsize, "%s", m->valuestring);
+            snprintf(mat, matsize, "%s", man.material);
             dd->material = mat;
         }
     }
-    cJSON_Delete(j);
+    cr_dataset_manifest_free(&man);
     return st;
 }
 

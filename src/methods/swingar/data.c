@@ -8,6 +8,7 @@
 
 #include "crease/body.h"
 #include "crease/bvh.h"
+#include "crease/dataset.h"
 #include "crease/diffgeo.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
@@ -16,7 +17,6 @@
 #include "crease/phys_material.h"
 #include "crease/topology.h"
 
-#include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -124,21 +124,6 @@ cr_status cr_swingar_compute_descriptor(const cr_mesh *mesh, int32_t z, int affi
 
 /* ------------------------------------------------------------ dataset -- */
 
-static const char *jstr(const cJSON *o, const char *key) {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    return cJSON_IsString(v) ? v->valuestring : NULL;
-}
-
-static cr_status read_json(const char *path, cJSON **out, cr_error *err) {
-    char *text = NULL;
-    size_t len = 0;
-    CR_TRY(cr_file_read_all(path, &text, &len, err));
-    *out = cJSON_ParseWithLength(text, len);
-    free(text);
-    if (!*out) return CR_FAIL(err, CR_ERR_PARSE, "%s: not valid JSON", path);
-    return CR_OK;
-}
-
 static cr_status npz_get(cr_npz *z, const char *path, const char *name, cr_npy_as as, int64_t n,
                          int32_t cols, cr_npy *out, cr_error *err) {
     CR_TRY(cr_npz_get(z, name, as, out, err));
@@ -150,17 +135,15 @@ static cr_status npz_get(cr_npz *z, const char *path, const char *name, cr_npy_a
     return CR_OK;
 }
 
-static cr_status load_body(const char *dir, const cJSON *jb, cr_swingar_body *b, cr_error *err) {
-    const char *name = jstr(jb, "name"), *rest = jstr(jb, "rest"), *skin = jstr(jb, "skin");
-    if (!name || !rest || !skin)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: a body lacks name, rest or skin", dir);
-    snprintf(b->name, sizeof b->name, "%s", name);
-    char path[1200];
+static cr_status load_body(const cr_dataset_manifest *man, const cr_dataset_body_entry *e,
+                           cr_swingar_body *b, cr_error *err) {
+    snprintf(b->name, sizeof b->name, "%s", e->name);
+    char path[CR_SCENE_PATH + 64];
     b->model = calloc(1, sizeof *b->model);
     if (!b->model) return CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
-    snprintf(path, sizeof path, "%s/%s", dir, rest);
+    CR_TRY(cr_dataset_path(man, e->rest, path, sizeof path, err));
     CR_TRY(cr_mesh_read(path, &b->model->rest, err));
-    snprintf(path, sizeof path, "%s/%s", dir, skin);
+    CR_TRY(cr_dataset_path(man, e->skin, path, sizeof path, err));
     cr_npz *z = NULL;
     CR_TRY(cr_npz_open(path, &z, err));
     cr_npy j = {0}, sj = {0}, sw = {0};
@@ -180,31 +163,27 @@ static cr_status load_body(const char *dir, const cJSON *jb, cr_swingar_body *b,
     return st;
 }
 
-static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar_data *d, int32_t z,
-                              int with_descriptor, int affinity, cr_swingar_garment **out,
-                              char key[160], cr_error *err) {
-    const char *type = jstr(jg, "type"), *body = jstr(jg, "body"), *res = jstr(jg, "res");
-    const char *mesh = jstr(jg, "mesh"), *skin = jstr(jg, "skin");
-    if (!type || !body || !res || !mesh || !skin)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: a garment lacks a field", dir);
+static cr_status load_garment(const cr_dataset_manifest *man, const cr_dataset_garment_entry *e,
+                              const cr_swingar_data *d, int32_t z, int with_descriptor,
+                              int affinity, cr_swingar_garment **out, char key[160],
+                              cr_error *err) {
     /* a variant (dress:seed=3) is named by its label, which sequences refer to */
-    const char *label = jstr(jg, "label");
-    snprintf(key, 160, "%s/%s_%s", body, label ? label : type, res);
+    snprintf(key, 160, "%s/%s_%s", e->body, e->label, e->res);
     const cr_body_model *bm = NULL;
     for (int32_t b = 0; b < d->nbodies; b++)
-        if (strcmp(d->bodies[b].name, body) == 0) bm = d->bodies[b].model;
+        if (strcmp(d->bodies[b].name, e->body) == 0) bm = d->bodies[b].model;
     if (!bm)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: garment %s on unknown body %s", dir,
-                       type, body);
-    char path[1200];
-    snprintf(path, sizeof path, "%s/%s", dir, mesh);
+        return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: garment %s on unknown body %s",
+                       man->dir, e->label, e->body);
+    char path[CR_SCENE_PATH + 64];
+    CR_TRY(cr_dataset_path(man, e->mesh, path, sizeof path, err));
     cr_mesh *m = NULL;
     CR_TRY(cr_mesh_read(path, &m, err));
-    snprintf(path, sizeof path, "%s/%s", dir, skin);
     cr_npz *zf = NULL;
     cr_npy sj = {0}, sw = {0};
     float *desc = NULL;
-    cr_status st = cr_npz_open(path, &zf, err);
+    cr_status st = cr_dataset_path(man, e->skin, path, sizeof path, err);
+    if (st == CR_OK) st = cr_npz_open(path, &zf, err);
     if (st == CR_OK) st = npz_get(zf, path, "skin_joint", CR_NPY_AS_I32, m->nv, 4, &sj, err);
     if (st == CR_OK) st = npz_get(zf, path, "skin_weight", CR_NPY_AS_F32, m->nv, 4, &sw, err);
     if (st == CR_OK && with_descriptor) {
@@ -212,7 +191,8 @@ static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar
         st = desc ? cr_swingar_compute_descriptor(m, z, affinity, desc, err)
                   : CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
         if (st != CR_OK && desc)
-            st = CR_FAIL(err, st, "%s/%s: %s", dir, mesh, err ? err->msg : "descriptor failed");
+            st = CR_FAIL(err, st, "%s/%s: %s", man->dir, e->mesh,
+                         err ? err->msg : "descriptor failed");
     }
     if (st == CR_OK) st = cr_swingar_garment_create(m, sj.i32, sw.f32, bm, desc, z, out, err);
     free(desc);
@@ -223,13 +203,11 @@ static cr_status load_garment(const char *dir, const cJSON *jg, const cr_swingar
     return st;
 }
 
-static cr_status load_sequence(const char *dir, const cJSON *js, cr_swingar_data *d,
-                               cr_swingar_sequence *s, cr_error *err) {
-    const char *id = jstr(js, "id"), *garment = jstr(js, "garment"), *res = jstr(js, "res");
-    const char *body = jstr(js, "body"), *motion = jstr(js, "motion");
-    const char *gpc2 = jstr(js, "garment_pc2"), *bpc2 = jstr(js, "body_pc2");
-    if (!id || !garment || !res || !body || !motion || !gpc2 || !bpc2)
-        return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: a sequence lacks a field", dir);
+static cr_status load_sequence(const cr_dataset_manifest *man, const cr_dataset_sequence_entry *e,
+                               cr_swingar_data *d, cr_swingar_sequence *s, cr_error *err) {
+    const char *id = e->id, *garment = e->garment, *res = e->res, *body = e->body;
+    const char *motion = e->motion, *gpc2 = e->garment_pc2, *bpc2 = e->body_pc2;
+    const char *dir = man->dir;
     snprintf(s->id, sizeof s->id, "%s", id);
     snprintf(s->garment, sizeof s->garment, "%s", garment);
     snprintf(s->body, sizeof s->body, "%s", body);
@@ -244,14 +222,17 @@ static cr_status load_sequence(const char *dir, const cJSON *js, cr_swingar_data
     if (s->garment_index < 0 || s->body_index < 0)
         return CR_FAIL(err, CR_ERR_PARSE, "%s/manifest.json: sequence %s: no garment %s", dir, id,
                        key);
-    char path[1200];
+    char path[CR_SCENE_PATH + 64];
     cr_pc2 gp = {0}, bp = {0};
     cr_motion *mo = NULL;
-    snprintf(path, sizeof path, "%s/%s", dir, gpc2);
-    cr_status st = cr_pc2_read(path, &gp, err);
-    snprintf(path, sizeof path, "%s/%s", dir, bpc2);
+    cr_status st = cr_dataset_path(man, gpc2, path, sizeof path, err);
+    if (st == CR_OK) st = cr_pc2_read(path, &gp, err);
+    if (st == CR_OK) st = cr_dataset_path(man, bpc2, path, sizeof path, err);
     if (st == CR_OK) st = cr_pc2_read(path, &bp, err);
     snprintf(path, sizeof path, "%s/motions/%s.npz", dir, motion);
+    for (int32_t i = 0; i < man->nmotions; i++)
+        if (strcmp(man->motions[i].name, motion) == 0)
+            cr_dataset_path(man, man->motions[i].path, path, sizeof path, NULL);
     if (st == CR_OK) st = cr_motion_load(path, &mo, err);
     const cr_swingar_garment *g = d->garments[s->garment_index];
     const cr_body_model *bm = d->bodies[s->body_index].model;
@@ -299,47 +280,34 @@ cr_status cr_swingar_data_load(const char *dir, int32_t z, int with_descriptor, 
                                cr_swingar_data *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     snprintf(out->dir, sizeof out->dir, "%s", dir);
-    char path[1200];
-    snprintf(path, sizeof path, "%s/manifest.json", dir);
-    cJSON *j = NULL;
-    CR_TRY(read_json(path, &j, err));
-    const cJSON *jb = cJSON_GetObjectItemCaseSensitive(j, "bodies");
-    const cJSON *jg = cJSON_GetObjectItemCaseSensitive(j, "garments");
-    const cJSON *js = cJSON_GetObjectItemCaseSensitive(j, "sequences");
+    cr_dataset_manifest man;
+    CR_TRY(cr_dataset_read(dir, &man, err));
+    const int32_t nb = man.nbodies, ng = man.ngarments, ns = man.nsequences;
     cr_status st = CR_OK;
-    if (!cJSON_IsArray(jb) || !cJSON_IsArray(jg) || !cJSON_IsArray(js))
-        st = CR_FAIL(err, CR_ERR_PARSE, "%s: bodies, garments or sequences missing", path);
-    int nb = st == CR_OK ? cJSON_GetArraySize(jb) : 0,
-        ng = st == CR_OK ? cJSON_GetArraySize(jg) : 0;
-    int ns = st == CR_OK ? cJSON_GetArraySize(js) : 0;
-    if (st == CR_OK) {
-        out->bodies = calloc((size_t)(nb > 0 ? nb : 1), sizeof *out->bodies);
-        out->garments = calloc((size_t)(ng > 0 ? ng : 1), sizeof *out->garments);
-        out->garment_key = calloc((size_t)(ng > 0 ? ng : 1), sizeof *out->garment_key);
-        out->sequences = calloc((size_t)(ns > 0 ? ns : 1), sizeof *out->sequences);
-        if (!out->bodies || !out->garments || !out->garment_key || !out->sequences)
-            st = CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
-    }
-    for (int i = 0; i < nb && st == CR_OK; i++) {
-        st = load_body(dir, cJSON_GetArrayItem(jb, i), &out->bodies[i], err);
+    out->bodies = calloc((size_t)(nb > 0 ? nb : 1), sizeof *out->bodies);
+    out->garments = calloc((size_t)(ng > 0 ? ng : 1), sizeof *out->garments);
+    out->garment_key = calloc((size_t)(ng > 0 ? ng : 1), sizeof *out->garment_key);
+    out->sequences = calloc((size_t)(ns > 0 ? ns : 1), sizeof *out->sequences);
+    if (!out->bodies || !out->garments || !out->garment_key || !out->sequences)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "swingar data: out of memory");
+    for (int32_t i = 0; i < nb && st == CR_OK; i++) {
+        st = load_body(&man, &man.bodies[i], &out->bodies[i], err);
         out->nbodies = i + 1;
     }
-    for (int i = 0; i < ng && st == CR_OK; i++) {
-        st = load_garment(dir, cJSON_GetArrayItem(jg, i), out, z, with_descriptor, affinity,
+    for (int32_t i = 0; i < ng && st == CR_OK; i++) {
+        st = load_garment(&man, &man.garments[i], out, z, with_descriptor, affinity,
                           &out->garments[i], out->garment_key[i], err);
         if (st == CR_OK) out->ngarments = i + 1;
     }
-    for (int i = 0; i < ns && st == CR_OK; i++) {
-        const cJSON *q = cJSON_GetArrayItem(js, i);
-        const char *status = jstr(q, "status");
-        if (!status || strcmp(status, "done") != 0) continue;
+    for (int32_t i = 0; i < ns && st == CR_OK; i++) {
+        if (!man.sequences[i].done) continue;
         cr_swingar_sequence *s = &out->sequences[out->nsequences];
-        st = load_sequence(dir, q, out, s, err);
+        st = load_sequence(&man, &man.sequences[i], out, s, err);
         out->nsequences++;
     }
     if (st == CR_OK && out->nsequences == 0)
-        st = CR_FAIL(err, CR_ERR_INVALID, "%s: no sequence is done", path);
-    cJSON_Delete(j);
+        st = CR_FAIL(err, CR_ERR_INVALID, "%s/manifest.json: no sequence is done", dir);
+    cr_dataset_manifest_free(&man);
     if (st != CR_OK) cr_swingar_data_free(out);
     return st;
 }
