@@ -222,9 +222,10 @@ typedef struct cr_epnet_train_report {
     size_t arena_peak_bytes; /* the tape's high-water mark, bytes */
 } cr_epnet_train_report;
 
-/* The curriculum (Algorithm 1) into def->out_dir: checkpoint.safetensors
- * after every epoch (resumable, bit-exact), model.json (the def), and
- * progress.jsonl (a line per epoch with its loss terms). */
+/* The curriculum (Algorithm 1) into def->out_dir: enet.safetensors and
+ * pnet.safetensors (weights, optimisers and the curriculum's position) and
+ * rb_train.npy after every epoch (resumable, bit-exact), model.json (the def),
+ * and progress.jsonl (a line per epoch with its loss terms). */
 cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr_error *err);
 
 /* Load a trained model from its folder. */

@@ -12,8 +12,9 @@
  * node features [rb_prev, d, |d|, |d| - yield, yield] with d the elastic
  * strain theta - theta_bar - rb_prev, edge features the offsets of the two
  * hinges' midpoints, deformed and rest, and [dt, k_b, yield]. The decoder's
- * last layer starts at zero (the authors'), and its output is 0.1 x the RB
- * increment.
+ * last layer starts at zero (the authors'), and its output is a strain
+ * correction c bounded by PNET_CORR: the increment is Eq. 4-5's rule applied to
+ * d + c (its loss compares 10 x the increment, PNET_OUT_SCALE).
  * Losses (Eq. 1-2, 6): Baraff-Witkin stretch and shear, bending with rest
  * theta_bar + RB, gravity, collision, and the implicit-Euler inertia over
  * three consecutive predicted frames, all through losses.h, per frame. */
