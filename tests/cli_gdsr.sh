@@ -8,7 +8,7 @@
 # handling under 0.1 % of its vertices are inside the body on any frame,
 # where the upsampling leaves some inside; the same on the training clip.
 # The mean vertex distance is NOT better than upsampling's yet, on either
-# clip (docs/gdsr.md), so it is not checked. Exit codes: 2 for usage, 1 for a missing dataset.
+# clip of this small case, so it is not checked. Exit codes: 2 for usage, 1 for a missing dataset.
 # In a quick run (CREASE_TEST_QUICK: clang, sanitizers) it trains 2 epochs and checks
 # the code paths and the collision handling, not the comparisons that need training.
 # Usage: cli_gdsr.sh PATH_TO_CREASE
