@@ -835,3 +835,40 @@ CR_TEST(motion, smpl_model_shapes_regresses_and_merges_weights) {
     CR_CHECK(strstr(err.msg, "joint 4 (left_knee) has parent 2"));
     CR_CHECK(body.rest == NULL);
 }
+
+/* "A clip name or a file", resolved one way for every command: a clip is
+ * cr_motion_clip's, a file is cr_motion_import then cr_motion_prepare's,
+ * cut to max_frames; anything else is refused naming the clips. */
+CR_TEST(motion, resolve_takes_a_clip_or_a_file) {
+    cr_error err = {0};
+    cr_motion *a = NULL, *b = NULL, *raw = NULL, *c = NULL;
+    cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+    rd.clip_frames = 40, rd.fps = 24.0f;
+    cr_motion_prepare_report rep;
+    CR_CHECK(cr_motion_is_clip("walk") && !cr_motion_is_clip("walk.npz"));
+    CR_CHECK_OK(cr_motion_resolve("walk", &rd, &a, &rep, &err), &err);
+    CR_CHECK_OK(cr_motion_clip("walk", 40, 24.0f, &b, &err), &err);
+    CR_REQUIRE(a && b && a->nframes == 40 && b->nframes == 40);
+    CR_CHECK(memcmp(a->poses, b->poses, sizeof(float) * 40 * CR_NJOINTS * 3) == 0);
+    CR_CHECK(rep.source_frames == 40 && rep.last_frame == 39 && rep.source_fps == 24.0f);
+    char path[600];
+    snprintf(path, sizeof path, "%s/resolve.npz", cr_test_tmpdir());
+    CR_CHECK_OK(cr_motion_save(path, a, &err), &err);
+    rd.fps = 30.0f, rd.max_frames = 20;
+    CR_CHECK_OK(cr_motion_resolve(path, &rd, &c, NULL, &err), &err);
+    CR_CHECK_OK(cr_motion_load(path, &raw, &err), &err);
+    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
+    pd.fps = 30.0f;
+    cr_motion *prepared = NULL;
+    CR_CHECK_OK(cr_motion_prepare(raw, &pd, NULL, &prepared, NULL, &err), &err);
+    CR_REQUIRE(c && prepared && prepared->nframes > 20);
+    CR_CHECK(c->nframes == 20 && c->fps == 30.0f);
+    CR_CHECK(memcmp(c->poses, prepared->poses, sizeof(float) * 20 * CR_NJOINTS * 3) == 0);
+    cr_motion *bad = NULL;
+    CR_CHECK(cr_motion_resolve("strut", &rd, &bad, NULL, &err) == CR_ERR_INVALID &&
+             strstr(err.msg, "strut") && strstr(err.msg, "walk"));
+    CR_CHECK(cr_motion_resolve("nope/strut.bvh", &rd, &bad, NULL, &err) != CR_OK &&
+             strstr(err.msg, "strut.bvh") && bad == NULL);
+    cr_motion_destroy(a), cr_motion_destroy(b), cr_motion_destroy(c);
+    cr_motion_destroy(raw), cr_motion_destroy(prepared);
+}

@@ -205,6 +205,32 @@ cr_status cr_motion_prepare(const cr_motion *m, const cr_motion_prepare_def *def
                             const cr_body_model *b, cr_motion **out, cr_motion_prepare_report *rep,
                             cr_error *err);
 
+/* 1 when spec names a procedural clip (cr_motion_clip_names), 0 otherwise (a file). */
+int cr_motion_is_clip(const char *spec);
+
+/* How a motion is taken "as a clip name or a file" (cr_motion_resolve). */
+typedef struct cr_motion_resolve_def {
+    int32_t clip_frames;           /* a clip's frames (default 120) */
+    int32_t max_frames;            /* a file's motion cut to its first max_frames frames after
+                                      its preparation (default 0: all of it) */
+    float fps;                     /* a clip's rate, and a file's after preparation (default
+                                      30; 0: a file keeps its own, a clip gets 30) */
+    cr_motion_import_def import;   /* how a file is read (default: its defaults) */
+    cr_motion_prepare_def prepare; /* how a file is made ready; its fps is replaced by fps */
+    const cr_body_model *body;     /* the body a file is grounded on (NULL: the mannequin) */
+    uint32_t cookie;               /* set by cr_motion_resolve_default_def */
+} cr_motion_resolve_def;
+
+cr_motion_resolve_def cr_motion_resolve_default_def(void);
+
+/* A motion as every command takes it: a procedural clip (cr_motion_clip) or
+ * a motion file (.bvh, .npz) imported and made ready by cr_motion_prepare.
+ * rep (may be NULL) gets the preparation's report; a clip's gives its rate,
+ * frames and last frame. Fails naming the file, or naming the spec and the
+ * clips when it is neither a clip nor an existing file. */
+cr_status cr_motion_resolve(const char *spec, const cr_motion_resolve_def *def, cr_motion **out,
+                            cr_motion_prepare_report *rep, cr_error *err);
+
 /* ---------------------------------------------------------- SMPL bodies -- */
 
 /* Load an SMPL-style body model .npz (v_template (V,3), shapedirs (V,3,B),

@@ -15,6 +15,7 @@
 #include "crease/body.h"
 #include "crease/mesh.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -346,4 +347,61 @@ cr_status cr_motion_prepare(const cr_motion *m, const cr_motion_prepare_def *def
     if (rep) *rep = r;
     *out = cur;
     return CR_OK;
+}
+
+/* ------------------------------------------------------------- resolve -- */
+
+#define RESOLVE_DEF_COOKIE 0x4d525356u /* "MRSV" */
+
+int cr_motion_is_clip(const char *spec) {
+    return spec && cr_motion_clip_summary(spec) != NULL;
+}
+
+cr_motion_resolve_def cr_motion_resolve_default_def(void) {
+    cr_motion_resolve_def d;
+    memset(&d, 0, sizeof d);
+    d.clip_frames = 120;
+    d.fps = 30.0f;
+    d.import = cr_motion_import_default_def();
+    d.prepare = cr_motion_prepare_default_def();
+    d.cookie = RESOLVE_DEF_COOKIE;
+    return d;
+}
+
+cr_status cr_motion_resolve(const char *spec, const cr_motion_resolve_def *def, cr_motion **out,
+                            cr_motion_prepare_report *rep, cr_error *err) {
+    CR_ASSERT(def && def->cookie == RESOLVE_DEF_COOKIE);
+    *out = NULL;
+    if (!spec || !*spec) return CR_FAIL(err, CR_ERR_INVALID, "motion: no clip name or file given");
+    if (cr_motion_is_clip(spec)) {
+        float fps = def->fps > 0.0f ? def->fps : 30.0f;
+        int32_t n = def->clip_frames > 0 ? def->clip_frames : 120;
+        CR_TRY(cr_motion_clip(spec, n, fps, out, err));
+        if (rep) {
+            memset(rep, 0, sizeof *rep);
+            rep->source_fps = fps, rep->source_frames = (*out)->nframes;
+            rep->last_frame = (*out)->nframes - 1;
+        }
+        return CR_OK;
+    }
+    if (!strchr(spec, '.') && !strchr(spec, '/')) {
+        int n = 0;
+        const char *const *names = cr_motion_clip_names(&n);
+        char list[512] = "";
+        for (int i = 0; i < n; i++)
+            snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "",
+                     names[i]);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "motion '%s': neither a clip (%s) nor a motion file (.bvh, .npz)", spec,
+                       list);
+    }
+    cr_motion_prepare_def pd = def->prepare;
+    pd.fps = def->fps;
+    cr_motion *raw = NULL;
+    CR_TRY(cr_motion_import(spec, &def->import, &raw, err));
+    cr_status st = cr_motion_prepare(raw, &pd, def->body, out, rep, err);
+    cr_motion_destroy(raw);
+    if (st == CR_OK && def->max_frames > 0 && (*out)->nframes > def->max_frames)
+        (*out)->nframes = def->max_frames;
+    return st;
 }

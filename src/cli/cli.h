@@ -197,7 +197,13 @@ struct cr_motion_prepare_def;
 /* The library's defs for these options (what cli_motion_file_load uses). */
 void cli_motion_file_defs(const cli_motion_file *mf, struct cr_motion_import_def *imp,
                           struct cr_motion_prepare_def *pd);
-/* b: the body grounded on (NULL: the default mannequin); rep may be NULL. */
+struct cr_motion_resolve_def;
+/* The library's resolve def for these options, grounded on b (NULL: the mannequin). */
+struct cr_motion_resolve_def cli_motion_resolve_def(const cli_motion_file *mf,
+                                                    const struct cr_body_model *b);
+/* A clip name or a motion file by cr_motion_resolve with these options (a clip at --fps,
+ * default 30, of 120 frames); b: the body grounded on (NULL: the default mannequin); rep
+ * may be NULL. */
 cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf,
                                const struct cr_body_model *b, struct cr_motion **out,
                                struct cr_motion_prepare_report *rep, cr_error *err);

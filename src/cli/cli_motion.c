@@ -1,5 +1,6 @@
 /* cli_motion.c: the options every command that reads a motion file shares
- * (cli.h, cli_motion_file), and the one path they all load it by. */
+ * (cli.h, cli_motion_file), turned into the library's cr_motion_resolve_def:
+ * every command takes a motion by cr_motion_resolve, a clip name or a file. */
 #include "cli.h"
 #include "crease/motion.h"
 
@@ -32,17 +33,17 @@ void cli_motion_file_defs(const cli_motion_file *mf, cr_motion_import_def *imp,
                                                 : CR_MOTION_GROUND_NONE;
 }
 
+cr_motion_resolve_def cli_motion_resolve_def(const cli_motion_file *mf, const cr_body_model *b) {
+    cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+    cli_motion_file_defs(mf, &rd.import, &rd.prepare);
+    rd.fps = mf->fps, rd.body = b;
+    return rd;
+}
+
 cr_status cli_motion_file_load(const char *path, const cli_motion_file *mf, const cr_body_model *b,
                                cr_motion **out, cr_motion_prepare_report *rep, cr_error *err) {
-    *out = NULL;
-    cr_motion_import_def imp;
-    cr_motion_prepare_def pd;
-    cli_motion_file_defs(mf, &imp, &pd);
-    cr_motion *m = NULL;
-    CR_TRY(cr_motion_import(path, &imp, &m, err));
-    cr_status st = cr_motion_prepare(m, &pd, b, out, rep, err);
-    cr_motion_destroy(m);
-    return st;
+    cr_motion_resolve_def rd = cli_motion_resolve_def(mf, b);
+    return cr_motion_resolve(path, &rd, out, rep, err);
 }
 
 void cli_motion_file_json(cJSON *j, const cr_motion_prepare_report *rep) {

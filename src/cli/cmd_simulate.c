@@ -17,7 +17,7 @@ enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 void help_simulate(void) {
     printf(
         "usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
-        "                       --motion FILE)\n"
+        "                       --motion CLIP|FILE)\n"
         "                       --frames N -o DIR [options]\n\n"
         "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
         "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
@@ -29,7 +29,8 @@ void help_simulate(void) {
         "  --body-mesh B        body mesh: the collider's faces\n"
         "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
         "                       f+1, held at the last); vertex count must match the collider\n"
-        "  --motion FILE        collider: the mannequin posed by a .bvh or .npz motion,\n"
+        "  --motion CLIP|FILE   collider: the mannequin posed by a clip (crease motion --list)\n"
+        "                       or a .bvh or .npz motion,\n"
         "                       resampled to --fps, starting at the rest pose (where\n"
         "                       garments are fitted) and easing in, written as DIR/body.obj\n"
         "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"

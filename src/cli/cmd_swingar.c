@@ -167,11 +167,11 @@ typedef struct run_opts {
 
 static cr_status load_motion(const run_opts *o, const cr_body_model *b, cr_motion **m,
                              cr_error *err) {
-    if (cr_motion_clip_summary(o->motion))
-        return cr_motion_clip(o->motion, o->frames, o->fps, m, err);
     cli_motion_file mf = o->mf;
     mf.fps = o->fps;
-    return cli_motion_file_load(o->motion, &mf, b, m, NULL, err);
+    cr_motion_resolve_def rd = cli_motion_resolve_def(&mf, b);
+    rd.clip_frames = o->frames;
+    return cr_motion_resolve(o->motion, &rd, m, NULL, err);
 }
 
 static cr_status write_outputs(const run_opts *o, const cr_garment *g, const cr_body_model *b,

@@ -139,14 +139,6 @@ void cr_dataset_motion_label(const char *spec, char *out, size_t size) {
     if (dot && dot != out) *dot = '\0';
 }
 
-static int is_clip(const char *spec) {
-    int n = 0;
-    const char *const *names = cr_motion_clip_names(&n);
-    for (int i = 0; i < n; i++)
-        if (!strcmp(names[i], spec)) return 1;
-    return 0;
-}
-
 static cr_status write_body(const dataset *ds, const char *name, const cr_body_model *b,
                             cr_error *err) {
     char path[CR_DATASET_PATH];
@@ -245,19 +237,10 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
     int64_t step = 0;
     for (int m = 0; m < d->nmotions; m++) {
         cr_motion_prepare_report *rep = &ds->motion_rep[m];
-        if (is_clip(d->motions[m])) {
-            CR_TRY(cr_motion_clip(d->motions[m], d->frames + 1, d->fps, &ds->motion[m], err));
-            rep->source_fps = d->fps, rep->source_frames = ds->motion[m]->nframes;
-            rep->last_frame = ds->motion[m]->nframes - 1;
-        } else {
-            cr_motion *raw = NULL;
-            cr_motion_prepare_def pd = d->motion_prepare;
-            pd.fps = d->fps;
-            CR_TRY(cr_motion_import(d->motions[m], &d->motion_import, &raw, err));
-            cr_status st = cr_motion_prepare(raw, &pd, NULL, &ds->motion[m], rep, err);
-            cr_motion_destroy(raw);
-            CR_TRY(st);
-        }
+        cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+        rd.clip_frames = d->frames + 1, rd.fps = d->fps;
+        rd.import = d->motion_import, rd.prepare = d->motion_prepare;
+        CR_TRY(cr_motion_resolve(d->motions[m], &rd, &ds->motion[m], rep, err));
         char path[CR_DATASET_PATH];
         snprintf(path, sizeof path, "%s/motions/%s.npz", d->out_dir, ds->motion_name[m]);
         CR_TRY(cr_motion_save(path, ds->motion[m], err));

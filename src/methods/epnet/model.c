@@ -357,20 +357,9 @@ int64_t cr_epnet_param_count(const cr_epnet *m, int pnet) {
 
 static cr_status load_motion(const char *name, int32_t frames, float fps, cr_motion **out,
                              cr_error *err) {
-    int n = 0;
-    const char *const *names = cr_motion_clip_names(&n);
-    for (int i = 0; i < n; i++)
-        if (!strcmp(names[i], name))
-            return cr_motion_clip(name, frames > 0 ? frames : 120, fps, out, err);
-    cr_motion *raw = NULL;
-    CR_TRY(cr_motion_load(name, &raw, err));
-    cr_motion_prepare_def pd = cr_motion_prepare_default_def();
-    pd.fps = fps;
-    if (frames > 0) pd.end_frame = -1;
-    cr_status st = cr_motion_prepare(raw, &pd, NULL, out, NULL, err);
-    cr_motion_destroy(raw);
-    if (st == CR_OK && frames > 0 && (*out)->nframes > frames) (*out)->nframes = frames;
-    return st;
+    cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+    rd.clip_frames = frames > 0 ? frames : 120, rd.max_frames = frames, rd.fps = fps;
+    return cr_motion_resolve(name, &rd, out, NULL, err);
 }
 
 void cr_epnet_seq_destroy(cr_epnet_seq *s) {

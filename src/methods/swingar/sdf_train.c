@@ -98,10 +98,11 @@ cr_status cr_swingar_sdf_motions_load(const char *list, int32_t clip_frames, cr_
     cr_motion **m = calloc((size_t)n, sizeof *m);
     if (!m) return CR_FAIL(err, CR_ERR_MEMORY, "swingar sdf: motions");
     cr_status st = CR_OK;
-    for (int i = 0; st == CR_OK && i < n; i++)
-        st = strchr(names[i], '.') || strchr(names[i], '/')
-                 ? cr_motion_load(names[i], &m[i], err)
-                 : cr_motion_clip(names[i], clip_frames, 30.0f, &m[i], err);
+    for (int i = 0; st == CR_OK && i < n; i++) {
+        cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+        rd.clip_frames = clip_frames;
+        st = cr_motion_resolve(names[i], &rd, &m[i], NULL, err);
+    }
     if (st != CR_OK) {
         cr_swingar_sdf_motions_free(m, n);
         return st;
