@@ -41,6 +41,14 @@ check "baseline run: RB 0" bash -c "'$crease' epnet run --model '$tmp/m' --motio
 expect_exit 2 "-o DIR is required" epnet train
 expect_exit 2 "expected train or run" epnet fly
 expect_exit 1 "model.json" epnet run --model "$tmp/none" --motion squat -o "$tmp/x"
+# a model folder from before the RB paths were pruned: off, it loads; on, it is refused
+cp -r "$tmp/m" "$tmp/old"
+sed -i 's/"w_bending": \([^,]*\),/"w_bending": \1, "rb_fold": 0, "rb_augment": 0,/' "$tmp/old/model.json"
+check "an old model with the pruned options off runs" bash -c "'$crease' epnet run --model '$tmp/old' \
+  --motion squat --frames 4 -o '$tmp/old_run' > /dev/null 2>&1"
+sed -i 's/"rb_fold": 0/"rb_fold": 1/' "$tmp/old/model.json"
+expect_exit 1 "model.json: the model was trained with an option since removed.*rb_fold" epnet run \
+  --model "$tmp/old" --motion squat --frames 4 -o "$tmp/x"
 
 echo "cli_epnet: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

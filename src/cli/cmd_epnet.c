@@ -6,53 +6,43 @@
 #include <string.h>
 
 void help_epnet(void) {
-    printf(
-        "usage: crease epnet train -o DIR [options]\n"
-        "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
-        "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
-        "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
-        "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
-        "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
-        "train:\n"
-        "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
-        "  --vertices N         garment vertex count (default 600)\n"
-        "  --body B             slim, normal (default) or heavy\n"
-        "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
-        "                       reach,lean,stretch)\n"
-        "  --frames N           frames per clip (default 60)\n"
-        "  --yield Y            yield angle, rad (default 0.52)\n"
-        "  --cycles N           curriculum cycles (default 4)\n"
-        "  --epochs N           E-Net epochs per cycle (default 40)\n"
-        "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
-        "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
-        "  --detach-inertia     inertia with frames t-1, t-2 held fixed (implicit Euler)\n"
-        "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
-        "  --w-rb-response W    RB response loss weight (default 0: off; docs/epnet.md):\n"
-        "                       W sum over hinges of |RB| (theta - theta_bar - RB)^2\n"
-        "  --rb-augment A       each E-Net step sees its clip's RB scaled by a factor drawn\n"
-        "                       from [0, A], so E-Net must read RB (default 0: off)\n"
-        "  --rb-fold            a local fold path from RB to E-Net's offsets besides the RB\n"
-        "                       encoder (docs/epnet.md)\n"
-        "  --rb-from-rollout    each cycle's E-Net trains on P-Net's rollout RB (what inference\n"
-        "                       feeds it) instead of the Eq. 4-5 targets\n"
-        "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
-        "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
-        "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
-        "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
-        "  --lr R               E-Net Adam learning rate (default 0.001)\n"
-        "  --seed S             (default 1)\n"
-        "  --resume             continue from DIR's checkpoints\n"
-        "  --json               a summary on stdout\n"
-        "run:\n"
-        "  --model DIR          a trained model\n"
-        "  --motion M           clip name or motion file\n"
-        "  --body B             another body preset (default the model's)\n"
-        "  --frames N           frames of the motion (default its own)\n"
-        "  --hold N             frames of its last pose after it (default 0)\n"
-        "  --baseline           RB held at zero\n"
-        "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
-        "rb.npy\n"
-        "  --json               a summary on stdout\n");
+    printf("usage: crease epnet train -o DIR [options]\n"
+           "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
+           "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
+           "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
+           "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
+           "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
+           "train:\n"
+           "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
+           "  --vertices N         garment vertex count (default 600)\n"
+           "  --body B             slim, normal (default) or heavy\n"
+           "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
+           "                       reach,lean,stretch)\n"
+           "  --frames N           frames per clip (default 60)\n"
+           "  --yield Y            yield angle, rad (default 0.52)\n"
+           "  --cycles N           curriculum cycles (default 4)\n"
+           "  --epochs N           E-Net epochs per cycle (default 40)\n"
+           "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
+           "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
+           "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+           "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
+           "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
+           "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
+           "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
+           "  --lr R               E-Net Adam learning rate (default 0.001)\n"
+           "  --seed S             (default 1)\n"
+           "  --resume             continue from DIR's checkpoints\n"
+           "  --json               a summary on stdout\n"
+           "run:\n"
+           "  --model DIR          a trained model\n"
+           "  --motion M           clip name or motion file\n"
+           "  --body B             another body preset (default the model's)\n"
+           "  --frames N           frames of the motion (default its own)\n"
+           "  --hold N             frames of its last pose after it (default 0)\n"
+           "  --baseline           RB held at zero\n"
+           "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
+           "rb.npy\n"
+           "  --json               a summary on stdout\n");
 }
 
 static int split_motions(const char *s, char *buf, size_t cap, const char **out, int max) {
@@ -68,10 +58,9 @@ static int run_train(int argc, char **argv) {
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
-    int json = 0, seed = 1, detach = d.inertia_detach, fold = d.rb_fold,
-        from_rollout = d.rb_from_rollout;
+    int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending, wrr = (float)d.w_rb_response, aug = (float)d.rb_augment;
+          wb = (float)d.w_bending;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -83,13 +72,8 @@ static int run_train(int argc, char **argv) {
         CLI_INT("--epochs", &epochs, 0, 100000),
         CLI_INT("--pnet-epochs", &pepochs, 0, 100000),
         CLI_FLAG("--baseline", &baseline),
-        CLI_FLAG("--detach-inertia", &detach),
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
-        CLI_FLOAT("--w-rb-response", &wrr, 0, 1e6),
-        CLI_FLOAT("--rb-augment", &aug, 0, 100),
-        CLI_FLAG("--rb-fold", &fold),
-        CLI_FLAG("--rb-from-rollout", &from_rollout),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -110,12 +94,11 @@ static int run_train(int argc, char **argv) {
     d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
     d.material.yield_angle = yield, d.cycles = cycles, d.enet_epochs = epochs;
     d.pnet_epochs = pepochs, d.baseline = baseline, d.seed = (uint64_t)seed, d.resume = resume;
-    d.out_dir = out, d.enet_lr = lr, d.inertia_detach = detach;
+    d.out_dir = out, d.enet_lr = lr;
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb, d.w_rb_response = wrr, d.rb_augment = aug;
-    d.rb_fold = fold, d.rb_from_rollout = from_rollout;
+    d.pin_top = pin_top, d.w_bending = wb;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;

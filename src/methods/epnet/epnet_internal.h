@@ -37,8 +37,6 @@ struct cr_epnet {
     cr_mlp *enc_static, *enc_dyn, *enc_rb, *dec;
     cr_rnn_cell gru;
     cr_mpnn *pnet;
-    cr_tensor *fold_w;   /* (4H,3) the local fold path's weights (def.rb_fold), or NULL */
-    int32_t *fold_hinge; /* (4H) h of row 4h+k */
     cr_optim *opt_e, *opt_p;
     cr_rng rng;
 };

@@ -35,7 +35,7 @@
 #define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
 
 const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
-    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning", "rb_response"};
+    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
 
 /* The training clips: the first five of the earlier rounds, plus reach, lean
  * and stretch, which cover the held-out raise_arms' and bend's range of arm
@@ -74,7 +74,6 @@ cr_epnet_def cr_epnet_default_def(void) {
     cr_epnet_material(&d.material);
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
     d.w_pin = 100.0;
-    d.w_rb_response = 0; /* off: at 1 and 0.1 it raised BED and PE on the held-out motions */
     d.sharpness = 50;
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
@@ -125,17 +124,6 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);
-    if (d->rb_from_rollout != 0 && d->rb_from_rollout != 1)
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_from_rollout %d must be 0 or 1",
-                       d->rb_from_rollout);
-    if (d->rb_fold != 0 && d->rb_fold != 1)
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_fold %d must be 0 or 1", d->rb_fold);
-    if (!(d->rb_augment >= 0 && d->rb_augment <= 100))
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet: rb_augment %g must be in [0, 100]",
-                       d->rb_augment);
-    if (!(d->w_rb_response >= 0) || !isfinite(d->w_rb_response))
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet: w_rb_response %g must be finite and >= 0",
-                       d->w_rb_response);
     if (!(d->pin_top >= 0) || !(d->w_pin >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: pin_top %g and w_pin %g must be >= 0",
                        d->pin_top, d->w_pin);
@@ -176,34 +164,6 @@ static size_t epnet_arena_bytes(const cr_epnet_def *def, int64_t nedges) {
     const double need = per_step * (def->pnet_steps + 3); /* measured: 1,525 MiB of 1,880 */
     const double floor_bytes = (double)((size_t)512 << 20);
     return (size_t)(need > floor_bytes ? need : floor_bytes);
-}
-
-/* The local fold path's weights: row 4h+k moves vertex k of hinge h by RB_h
- * times it. Started at g / |g|^2, g the gradient of the hinge's angle at the
- * rest mesh (cr_dihedral_angle_grad, the bending energy's own angle): the
- * smallest displacement of the four vertices that turns the hinge by RB to
- * first order, so the path realises an isolated hinge's RB before any
- * training; training corrects it where neighbouring hinges share vertices. */
-static cr_status make_fold_path(cr_epnet *m, cr_error *err) {
-    const int64_t H = m->nh;
-    CR_TRY(cr_nn_params_add(m->pe, "enet.rb_fold", 2, (int64_t[]){4 * H, 3}, &m->fold_w, err));
-    m->fold_hinge = cr_malloc(sizeof(int32_t) * (size_t)(4 * H + 1), err);
-    if (!m->fold_hinge) return CR_ERR_MEMORY;
-    const float *p = m->garment->mesh->pos;
-    const int32_t *hg = m->topo->hinge;
-    for (int64_t h = 0; h < H; h++) {
-        float g[12];
-        cr_dihedral_angle_grad(p + 3 * hg[4 * h], p + 3 * hg[4 * h + 1], p + 3 * hg[4 * h + 2],
-                               p + 3 * hg[4 * h + 3], g);
-        double s = 0;
-        for (int i = 0; i < 12; i++)
-            s += (double)g[i] * g[i];
-        for (int i = 0; i < 12; i++)
-            m->fold_w->data[12 * h + i] = s > 0 ? (float)(g[i] / s) : 0.0f;
-        for (int k = 0; k < 4; k++)
-            m->fold_hinge[4 * h + k] = (int32_t)h;
-    }
-    return CR_OK;
 }
 
 cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
@@ -277,7 +237,6 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
         rd.input = def->dynamic_width, rd.hidden = def->gru_hidden;
         if (st == CR_OK) st = cr_gru_cell_create(&rd, m->pe, "enet.gru", &m->rng, &m->gru, err);
     }
-    if (st == CR_OK && def->rb_fold) st = make_fold_path(m, err);
     if (st == CR_OK) {
         /* start near the skinned template: the offsets' layer is scaled down */
         cr_tensor *w = m->dec->layer[m->dec->def.nlayers - 1].weight;
@@ -320,7 +279,6 @@ void cr_epnet_destroy(cr_epnet *m) {
     cr_optim_destroy(m->opt_e), cr_optim_destroy(m->opt_p);
     cr_mlp_destroy(m->enc_static), cr_mlp_destroy(m->enc_dyn), cr_mlp_destroy(m->enc_rb);
     cr_mlp_destroy(m->dec);
-    free(m->fold_hinge);
     cr_mpnn_destroy(m->pnet);
     cr_nn_params_destroy(m->pe), cr_nn_params_destroy(m->pp);
     cr_nn_ctx_destroy(m->ctx);
@@ -458,34 +416,9 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
 
 /* ------------------------------------------------------------- E-Net -- */
 
-/* The local fold path's offsets (T,V,1,3), canonical space, of RB (T,H) (NULL:
- * zero): out[t,v] = sum over the hinges h having v as their vertex k of
- * RB[t,h] W[4h+k]. Per coordinate: a scatter of (4H,T) rows onto the V
- * vertices, then (V,T) -> (T,V) by a product with the identity (the tape has
- * no transpose). */
-static cr_tensor *fold_offsets(cr_epnet *m, const float *rb, int64_t T) {
-    cr_nn_ctx *c = m->ctx;
-    const int64_t H = m->nh, V = m->nv;
-    cr_tensor *rt = cr_nn_new(c, 2, (int64_t[]){H, T}), *eye = cr_nn_zeros(c, 2, (int64_t[]){T, T});
-    if (!rt || !eye) return NULL;
-    for (int64_t t = 0; t < T; t++) {
-        eye->data[t * T + t] = 1.0f;
-        for (int64_t h = 0; h < H; h++)
-            rt->data[h * T + t] = rb ? rb[t * H + h] : 0.0f;
-    }
-    cr_tensor *r4 = cr_nn_gather_rows(c, rt, m->fold_hinge, 4 * H); /* (4H,T) */
-    cr_tensor *col[3];
-    for (int k = 0; k < 3; k++) {
-        cr_tensor *w = cr_nn_slice(c, m->fold_w, 1, k, 1); /* (4H,1) */
-        cr_tensor *y = cr_nn_scatter_add_rows(c, cr_nn_mul(c, r4, w), m->topo->hinge, V);
-        col[k] = cr_nn_reshape(c, cr_nn_matmul(c, eye, y, 0, 1), 3, (int64_t[]){T, V, 1});
-    }
-    return cr_nn_reshape(c, cr_nn_concat(c, 3, col, 2), 4, (int64_t[]){T, V, 1, 3});
-}
-
 /* E-Net's decoder and the garment's skinning for frames t0..t0+T-1: the
  * static code hs (T,.) and the GRU's hg (T,.) with the RB code of rb (T,H)
- * (NULL: zero) to offsets in canonical space (plus the fold path's), then
+ * (NULL: zero) to offsets in canonical space, then
  * x = A (p + d) + b, positions (T,V,3). One copy for the whole-sequence
  * forward and the rollout's frame. */
 static cr_tensor *enet_decode(cr_epnet *m, const cr_epnet_seq *s, int64_t t0, int64_t T,
@@ -497,7 +430,6 @@ static cr_tensor *enet_decode(cr_epnet *m, const cr_epnet_seq *s, int64_t t0, in
     cr_tensor *hr = cr_mlp_forward(c, m->enc_rb, r);
     cr_tensor *z = cr_nn_concat(c, 3, (cr_tensor *[]){hs, hg, hr}, 1);
     cr_tensor *d = cr_nn_reshape(c, cr_mlp_forward(c, m->dec, z), 4, (int64_t[]){T, V, 1, 3});
-    if (m->fold_w) d = cr_nn_add(c, d, fold_offsets(m, rb, T));
     cr_tensor *p = cr_nn_from(c, 4, (int64_t[]){1, V, 1, 3}, m->garment->mesh->pos);
     cr_tensor *A = cr_nn_wrap(c, 4, (int64_t[]){T, V, 3, 3}, s->A + (size_t)t0 * V * 9);
     cr_tensor *x = cr_nn_sum_axis(c, cr_nn_mul(c, A, cr_nn_add(c, d, p)), 3, 0); /* (T,V,3) */
@@ -573,29 +505,6 @@ static cr_tensor *pin_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x) {
     return cr_nn_sum(c, cr_nn_mul(c, cr_nn_square(c, cr_nn_sub(c, x, target)), mask));
 }
 
-/* RB response: sum over frames and hinges of |RB| r^2, r = theta - theta_bar
- * - RB the hinge's residual (rest: the (T,H) angles theta_bar + RB). A
- * bending-like pull toward the rest angle + RB on the hinges that carry RB,
- * in proportion to RB and in rad^2, not scaled by the bending stiffness, so
- * hinges without RB are free. Why: with the bending term alone E-Net realised
- * a tenth of RB, and a stiffer bending term stiffened the whole garment
- * instead (docs/epnet.md). Two-sided, not a one-sided reward for reaching RB:
- * a one-sided pull overshot RB (a tiny E-Net bent its hinges 1.7 x RB in 15
- * steps), and since each cycle's RB comes from E-Net's angles by Eq. 4-5, an
- * overshoot past the yield would grow RB from cycle to cycle. */
-static cr_tensor *rb_response_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x,
-                                   cr_tensor *rest, const float *rb) {
-    cr_nn_ctx *c = m->ctx;
-    const int64_t T = s->T, H = m->nh;
-    if (!rb || m->def.w_rb_response == 0) return cr_nn_zeros(c, 1, (int64_t[]){1});
-    cr_tensor *w = cr_nn_new(c, 2, (int64_t[]){T, H});
-    if (!w) return NULL;
-    for (int64_t i = 0; i < T * H; i++)
-        w->data[i] = fabsf(rb[i]);
-    cr_tensor *r = cr_loss_hinge_residual(c, m->bending, 1.0, x, rest);
-    return cr_nn_sum(c, cr_nn_mul(c, w, cr_nn_square(c, r)));
-}
-
 static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
                             cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
@@ -618,15 +527,15 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
         cr_loss_energy(c, &tg, x),
         cr_loss_collision(c, m->collider, &d->material, 1.0, x, body),
         cr_loss_inertia(c, cr_gravity_masses(m->gravity), (int32_t)V, 1.0 / d->fps, 1.0,
-                        cr_nn_slice(c, x, 0, 2, T - 2), past(c, x, 1, T - 2, d->inertia_detach),
-                        past(c, x, 0, T - 2, d->inertia_detach)),
+                        cr_nn_slice(c, x, 0, 2, T - 2),
+                        past(c, x, 1, T - 2, d->experimental.inertia_detach),
+                        past(c, x, 0, T - 2, d->experimental.inertia_detach)),
         pin_term(m, s, x),
-        rb_response_term(m, s, x, rest, rb),
     };
     const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
                                       (float)(d->w_bending / T),   (float)(d->w_gravity / T),
                                       (float)(d->w_collision / T), (float)(d->w_inertia / T),
-                                      (float)(d->w_pin / T),       (float)(d->w_rb_response / T)};
+                                      (float)(d->w_pin / T)};
     return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
 }
 
@@ -653,17 +562,6 @@ cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb
                              cr_epnet_losses *out, cr_error *err) {
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, train);
-    if (train && rb && m->def.rb_augment > 0) {
-        /* RB scaled by a draw from [0, rb_augment]: the pose cannot stand in
-         * for RB, so the step's losses reward reading it */
-        const int64_t n = (int64_t)s->T * m->nh;
-        float *scaled = cr_nn_scratch(m->ctx, "epnet scaled rb", sizeof(float) * (size_t)n);
-        if (!scaled) return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for scaled RB");
-        const float f = (float)(m->def.rb_augment * cr_rng_uniform(&m->rng));
-        for (int64_t k = 0; k < n; k++)
-            scaled[k] = f * rb[k];
-        rb = scaled;
-    }
     cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
     cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
