@@ -63,7 +63,8 @@ typedef struct cr_energy_term {
 void cr_energy_term_vertices(const cr_energy_term *t, int32_t e, int32_t *idx);
 
 /* Project a symmetric n x n matrix (row-major, n <= 12) onto the PSD cone by
- * clamping negative eigenvalues to zero (LAPACK dsyev). In place. */
+ * clamping negative eigenvalues to zero (cyclic Jacobi up to 6 x 6, LAPACK
+ * dsyev above). In place. */
 void cr_psd_project(double *H, int n);
 
 #ifdef __cplusplus

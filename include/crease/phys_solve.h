@@ -8,7 +8,7 @@
  *     CR_TRY(cr_cholesky_solve(c, rhs, dx, err));      (H + shift I) dx = rhs on the free DOFs
  *
  * The pattern of the cr_hessian given at creation is analysed once (CHOLMOD
- * picks the fill-reducing ordering: AMD, and METIS when AMD fills badly) and
+ * tries AMD, METIS and NESDIS and keeps the ordering of least fill) and
  * reused by every factorisation. Pinned vertices are removed from the system:
  * their three DOFs have no row or column, and their entries of the solution
  * are zero. A matrix that is not positive definite (a quasi-static solve with

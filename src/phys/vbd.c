@@ -11,7 +11,8 @@
  * re-derived here), plus the one-vertex terms (inertia, drag, gravity,
  * collision, friction); then dx = -H_i^-1 g_i (a Cholesky of the 3x3 block,
  * shifted when it is singular, as a static solve's can be). The vertices of
- * one colour step in parallel (cr_parallel_for); each reads only vertices of
+ * one colour step in parallel (one OpenMP region per sweep, a static `omp
+ * for` per colour); each reads only vertices of
  * other colours, which do not move meanwhile, so a sweep is the same bit for
  * bit at any thread count. Colours run one after the other (Gauss-Seidel).
  *
