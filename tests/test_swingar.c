@@ -273,6 +273,7 @@ CR_TEST(swingar, size_defs_are_valid) {
 CR_TEST(swingar, def_round_trips_through_json) {
     cr_swingar_def a = tiny_def();
     a.alpha = 1.5f, a.norm = CR_GAT_NORM_RECEIVER, a.use_descriptor = 0;
+    a.affinity = 1; /* Euclidean: saved, so run computes the same descriptor */
     char *s = cr_swingar_def_to_json(&a);
     CR_REQUIRE(s);
     cr_swingar_def b = cr_swingar_default_def();

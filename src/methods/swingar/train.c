@@ -56,6 +56,9 @@ static const def_field def_fields[] = {
     DF_I(use_descriptor, "use_descriptor"),
     DF_I(zero_last, "zero_last"),
     DF_F(corr_scale),
+    /* the descriptor the model was trained on: run and --resume compute the same one
+       (a model written before the field has none and is geodesic, the default) */
+    DF_I(affinity, "affinity"),
 };
 enum { NDEF_FIELDS = sizeof def_fields / sizeof def_fields[0] };
 
