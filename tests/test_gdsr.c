@@ -263,8 +263,8 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     def.noise_m = 0.0005f;
     def.quiet = 1;
     /* the paper's coarse terms (off by default), so they are met in training */
-    def.w_coarse_normal = 0.01f, def.w_coarse_bend = 0.001f, def.w_coarse_strain = 0.01f;
-    def.w_coarse_smooth = 100.0f;
+    def.experimental.w_coarse_normal = 0.01f, def.experimental.w_coarse_bend = 0.001f;
+    def.experimental.w_coarse_strain = 0.01f, def.experimental.w_coarse_smooth = 100.0f;
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/gdsr_tiny", cr_test_tmpdir());
     def.out_dir = dir;

@@ -36,15 +36,7 @@ void help_gdsr(void) {
         "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
         "  --halve-every N      N epochs (default 50)\n"
         "  --noise M            input noise on C, m (default 0.003)\n"
-        "  --noise-features-only  not on the C that C^ and the upsampling start from\n"
         "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
-        "  --w-coarse-normal W  L1 of C^'s face normals against C*'s (Eq. 13: 0.01)\n"
-        "  --w-coarse-smooth W  mean squared uniform Laplacian of C^, m^2 (Eq. 15 x 19: 100)\n"
-        "  --w-coarse-bend W    C^'s dihedral angles toward C*'s, mean k_e/2 dtheta^2\n"
-        "                       (Eq. 15 x 19: 0.001)\n"
-        "  --w-coarse-strain W  Eq. 16-18 on C^ against C* (Eq. 19: 0.01); the paper's\n"
-        "                       weights in brackets, scaled by lambda_c; all four default\n"
-        "                       to 0 (off, measured: docs/gdsr.md)\n"
         "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
         "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 30, 30)\n"
         "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
@@ -59,9 +51,6 @@ void help_gdsr(void) {
         "                       the map a step (default 8, the paper's; 0: the whole chart)\n"
         "  --wrinkle-patch-side N  their side in texels (default 32), each around a chart\n"
         "                       texel drawn uniformly\n"
-        "  --wrinkle-energy     compare per patch each response's RMS (how strong the folds\n"
-        "                       are there, not where their crests lie) instead of the\n"
-        "                       responses texel by texel\n"
         "  --lambda-c0 L --lambda-w0 L   Eq. 25's weights of the coarse and the fine terms\n"
         "                       at the start (default 1, 1; the paper's 1.9, 0.1), moved\n"
         "  --lambda-step S --lambda-every N   S toward 1 every N epochs (default 0.2, 10)\n"
@@ -143,14 +132,9 @@ static int cmd_train(int argc, char **argv) {
         CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
         CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
         CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
-        CLI_FLAG("--noise-features-only", &def.noise_features_only),
         CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
         CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
         CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
-        CLI_FLOAT("--w-coarse-normal", &def.w_coarse_normal, 0, 1e6),
-        CLI_FLOAT("--w-coarse-smooth", &def.w_coarse_smooth, 0, 1e8),
-        CLI_FLOAT("--w-coarse-bend", &def.w_coarse_bend, 0, 1e6),
-        CLI_FLOAT("--w-coarse-strain", &def.w_coarse_strain, 0, 1e6),
         CLI_FLOAT("--w-stretch", &def.w_stretch, 0, 1e6),
         CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
         CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
@@ -160,7 +144,6 @@ static int cmd_train(int argc, char **argv) {
         CLI_INT("--wrinkle-side", &def.wrinkle_side, 8, 2048),
         CLI_INT("--wrinkle-patches", &def.wrinkle_patches, 0, 1024),
         CLI_INT("--wrinkle-patch-side", &def.wrinkle_patch_side, 1, 2048),
-        CLI_FLAG("--wrinkle-energy", &def.wrinkle_energy),
         CLI_FLOAT("--lambda-c0", &def.lambda_c0, 1e-3, 100),
         CLI_FLOAT("--lambda-w0", &def.lambda_w0, 1e-3, 100),
         CLI_FLOAT("--lambda-step", &def.lambda_step, 0, 100),

@@ -37,7 +37,6 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .wrinkle_side = 128,
                            .wrinkle_patches = 8,
                            .wrinkle_patch_side = 32,
-                           .wrinkle_energy = 0,
                            .lambda_c0 = 1.0f,
                            .lambda_w0 = 1.0f,
                            .lambda_step = 0.2f,
@@ -256,7 +255,8 @@ static cr_status garment_train_init(garment_train *gt, const cr_gdsr_data *d,
     cr_status st;
     if ((st = cr_gdsr_graph_build(low, &gt->g, err)) != CR_OK) goto fail;
     if ((st = cr_gdsr_reg_create(high, &gt->reg, err)) != CR_OK) goto fail;
-    if ((def->w_coarse_smooth > 0 || def->w_coarse_bend > 0 || def->w_coarse_strain > 0) &&
+    if ((def->experimental.w_coarse_smooth > 0 || def->experimental.w_coarse_bend > 0 ||
+         def->experimental.w_coarse_strain > 0) &&
         (st = cr_gdsr_reg_create(low, &gt->creg, err)) != CR_OK)
         goto fail;
     if (def->w_wrinkle > 0 &&
@@ -314,8 +314,8 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian, w_strain_l1, "
                        "w_wrinkle must be >= 0");
-    if (!(def->w_coarse_normal >= 0 && def->w_coarse_smooth >= 0 && def->w_coarse_bend >= 0 &&
-          def->w_coarse_strain >= 0))
+    if (!(def->experimental.w_coarse_normal >= 0 && def->experimental.w_coarse_smooth >= 0 &&
+          def->experimental.w_coarse_bend >= 0 && def->experimental.w_coarse_strain >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: w_coarse_normal, w_coarse_smooth, w_coarse_bend, "
                        "w_coarse_strain must be >= 0");
@@ -437,9 +437,7 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
                         goto done;
                     cr_nn_ctx_reset(ctx);
                     cr_tensor *chat = NULL;
-                    /* noise_features_only: C^ and S[C^] start from the clean C
-                     * (nothing to denoise) */
-                    const float *base = def->noise_features_only ? ct : gt->cin;
+                    const float *base = gt->cin; /* noisy: the model learns to denoise */
                     cr_tensor *X = cr_gdsr_forward(ctx, m, d, &gt->g, gt->node, gt->e0, gt->e1,
                                                    gt->fs.e2, base, &chat);
                     cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, gt->cstar);
@@ -461,26 +459,33 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
                                                          def->wrinkle_patch_side, &prng, patches);
                         rt[5] = cr_gdsr_wrinkle_loss(ctx, &gt->wr, X, ht, patches,
                                                      patches ? def->wrinkle_patches : 0,
-                                                     def->wrinkle_energy);
+                                                     def->experimental.wrinkle_energy);
                     }
                     /* Eq. 13 and 15-18 on C^ against C* */
-                    if (def->w_coarse_normal > 0) rt[6] = normal_l1(ctx, chat, Cs, low, gt->lcols);
-                    if (def->w_coarse_smooth > 0) rt[7] = cr_gdsr_reg_smooth(ctx, &gt->creg, chat);
-                    if (def->w_coarse_bend > 0)
+                    if (def->experimental.w_coarse_normal > 0)
+                        rt[6] = normal_l1(ctx, chat, Cs, low, gt->lcols);
+                    if (def->experimental.w_coarse_smooth > 0)
+                        rt[7] = cr_gdsr_reg_smooth(ctx, &gt->creg, chat);
+                    if (def->experimental.w_coarse_bend > 0)
                         rt[8] = cr_gdsr_reg_bend(ctx, &gt->creg, chat, gt->cstar);
-                    if (def->w_coarse_strain > 0)
+                    if (def->experimental.w_coarse_strain > 0)
                         rt[9] = cr_gdsr_reg_strain_l1(ctx, &gt->creg, chat, gt->cstar);
                     /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
                     cr_tensor *all[13] = {lc,    lf,    ln,    rt[0], rt[1], rt[2], rt[3],
                                           rt[4], rt[5], rt[6], rt[7], rt[8], rt[9]};
-                    const float wall[13] = {
-                        lam_c * def->w_coarse,        lam_w * def->w_fine,
-                        lam_w * def->w_normal,        lam_w * def->w_stretch,
-                        lam_w * def->w_shear,         lam_w * def->w_bend,
-                        lam_w * def->w_laplacian,     lam_w * def->w_strain_l1,
-                        lam_w * def->w_wrinkle,       lam_c * def->w_coarse_normal,
-                        lam_c * def->w_coarse_smooth, lam_c * def->w_coarse_bend,
-                        lam_c * def->w_coarse_strain};
+                    const float wall[13] = {lam_c * def->w_coarse,
+                                            lam_w * def->w_fine,
+                                            lam_w * def->w_normal,
+                                            lam_w * def->w_stretch,
+                                            lam_w * def->w_shear,
+                                            lam_w * def->w_bend,
+                                            lam_w * def->w_laplacian,
+                                            lam_w * def->w_strain_l1,
+                                            lam_w * def->w_wrinkle,
+                                            lam_c * def->experimental.w_coarse_normal,
+                                            lam_c * def->experimental.w_coarse_smooth,
+                                            lam_c * def->experimental.w_coarse_bend,
+                                            lam_c * def->experimental.w_coarse_strain};
                     cr_tensor *terms[13];
                     float w[13];
                     int nt = 0;
