@@ -89,7 +89,7 @@ int main(int argc, char **argv) {
         if (gi == 0 ? cr_epnet_open(argv[1], &m, &err)
                     : cr_epnet_open_pnet(argv[1], garments[gi], 0, &m, &err))
             return fail(&err);
-        const cr_epnet_def *d = cr_epnet_def_of(m);
+        const cr_epnet_def *d = cr_epnet_get_def(m);
         const int32_t V = cr_epnet_garment(m)->nv, H = cr_epnet_hinge_count(m);
         const float *bar = cr_epnet_rest_angles(m);
         for (int mi = 0; mi < nm; mi++) {

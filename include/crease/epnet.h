@@ -132,7 +132,7 @@ int32_t cr_epnet_hinge_count(const cr_epnet *m);
 int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
 /* The model's def (garment, sizes, material: yield, gain, sharpness), borrowed;
  * its motions and out_dir are not kept (NULL). */
-const cr_epnet_def *cr_epnet_def_of(const cr_epnet *m);
+const cr_epnet_def *cr_epnet_get_def(const cr_epnet *m);
 
 /* Loss terms of one forward pass, J per frame. */
 enum { CR_EPNET_NTERMS = 7 };

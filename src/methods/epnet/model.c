@@ -295,7 +295,7 @@ void cr_epnet_destroy(cr_epnet *m) {
 const cr_mesh *cr_epnet_garment(const cr_epnet *m) {
     return m->garment->mesh;
 }
-const cr_epnet_def *cr_epnet_def_of(const cr_epnet *m) {
+const cr_epnet_def *cr_epnet_get_def(const cr_epnet *m) {
     return &m->def;
 }
 const cr_mesh *cr_epnet_body(const cr_epnet *m) {
