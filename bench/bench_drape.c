@@ -42,13 +42,16 @@ static const char *const USAGE =
     "usage: bench_drape [--only throughput|table2|fidelity] [--scenes ball,torus,prism]\n"
     "                   [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]\n"
     "                   [--ref-res N] [--seed S] [--seeds N] [--pdf-collision W]\n"
+    "                   [--grid-interp I] [--variants V,...]\n"
     "  throughput  epochs/s and structures/s of the default model on the ball\n"
     "  table2      epochs to convergence, uniform vs adaptive sampling (the paper's Table 2),\n"
     "              each run to the cap: the stopping criterion's epoch, the epochs to 2 % and\n"
     "              1 % of the shared smoothed final energy, strain + bend at the cap;\n"
     "              --seeds N: seeds S .. S + N - 1, with means, spread and wins;\n"
     "              --pdf-collision W: the adaptive PDF's collision weight (default 1)\n"
-    "  fidelity    each variant against the physics reference's quasi-static drape\n"
+    "  fidelity    each variant against the physics reference's quasi-static drape, and\n"
+    "              the output's grid facets (cr_drape_facet_ratio); --variants: only these\n"
+    "--grid-interp I: the grid encoding's interpolation in every run (default: drape's)\n"
     "defaults: all parts, cap 6000, 1024 structures, 2500 fidelity epochs,\n"
     "refs drape_references, ref-res 256, seed 1, 1 seed\n";
 #define COARSE_RES 128 /* vertices per side that settle dynamically */
@@ -59,9 +62,30 @@ typedef struct bench_opts {
     int cap, samples, fidelity_epochs, ref_res;
     const char *refs;
     uint64_t seed;
-    int seeds;            /* table2: seeds seed .. seed + seeds - 1 */
-    double pdf_collision; /* table2: cr_drape_def.pdf_collision */
+    int seeds;               /* table2: seeds seed .. seed + seeds - 1 */
+    double pdf_collision;    /* table2: cr_drape_def.pdf_collision */
+    const char *grid_interp; /* every run's cr_drape_def.grid_interp by name; NULL: default */
+    const char *variants;    /* fidelity: comma-separated variant names; NULL: all four */
 } bench_opts;
+
+/* Is `name` one of the comma-separated items of `list`? */
+static int in_list(const char *list, const char *name) {
+    size_t n = strlen(name);
+    for (const char *p = list; p && *p; p = strchr(p, ',') ? strchr(p, ',') + 1 : NULL)
+        if (strncmp(p, name, n) == 0 && (p[n] == ',' || p[n] == '\0')) return 1;
+    return 0;
+}
+
+/* The options every run shares on top of the scene's defaults. */
+static cr_drape_def bench_def(const bench_opts *o, cr_drape_scene scene) {
+    cr_drape_def d = cr_drape_default_def(scene);
+    cr_error err = {0};
+    if (o->grid_interp && cr_grid_interp_parse(o->grid_interp, &d.grid_interp, &err) != CR_OK) {
+        fprintf(stderr, "bench_drape: %s\n", err.msg);
+        exit(2);
+    }
+    return d;
+}
 
 static const char *object_of(cr_drape_scene s) {
     return s == CR_DRAPE_BALL ? "sphere" : s == CR_DRAPE_TORUS ? "torus" : "prism";
@@ -87,7 +111,7 @@ static void throughput(const bench_opts *o) {
            cr_thread_count());
     const cr_drape_variant vs[2] = {CR_DRAPE_INR_ADAPTIVE, CR_DRAPE_INR_UNIFORM};
     for (int k = 0; k < 2; k++) {
-        cr_drape_def d = cr_drape_default_def(CR_DRAPE_BALL);
+        cr_drape_def d = bench_def(o, CR_DRAPE_BALL);
         d.variant = vs[k];
         d.samples = o->samples;
         d.epochs = 100;
@@ -163,7 +187,7 @@ typedef struct t2_run {
 static void table2_run(const bench_opts *o, cr_drape_scene scene, cr_drape_variant v, uint64_t seed,
                        t2_run *out) {
     memset(out, 0, sizeof *out);
-    cr_drape_def d = cr_drape_default_def(scene);
+    cr_drape_def d = bench_def(o, scene);
     d.variant = v;
     d.samples = o->samples;
     d.pdf_collision = (float)o->pdf_collision;
@@ -351,7 +375,9 @@ static void fidelity(const bench_opts *o) {
         if (cr_drape_fidelity_measure(ref, NULL, object, &f, &err) != CR_OK) fail(&err);
         print_fidelity("reference", &f);
         for (int v = 0; v < CR_DRAPE_VARIANT_COUNT; v++) {
-            cr_drape_def d = cr_drape_default_def(scenes[s]);
+            const char *vn = cr_drape_variant_name((cr_drape_variant)v);
+            if (o->variants && !in_list(o->variants, vn)) continue;
+            cr_drape_def d = bench_def(o, scenes[s]);
             d.variant = (cr_drape_variant)v;
             d.samples = o->samples;
             d.epochs = o->fidelity_epochs;
@@ -363,6 +389,8 @@ static void fidelity(const bench_opts *o) {
             if (cr_drape_run(&d, &r, &surface, &err) != CR_OK) fail(&err);
             if (cr_drape_fidelity_measure(surface, ref, object, &f, &err) != CR_OK) fail(&err);
             print_fidelity(cr_drape_variant_name(d.variant), &f);
+            printf("%-13s facets %.2f, strain + bend %.3e\n", "", r.facet_ratio,
+                   r.terms.strain + r.terms.bend);
             fflush(stdout);
             cr_mesh_destroy(surface);
         }
@@ -412,6 +440,10 @@ int main(int argc, char **argv) {
             o.seeds = atoi(v);
         else if (strcmp(a, "--pdf-collision") == 0)
             o.pdf_collision = atof(v);
+        else if (strcmp(a, "--grid-interp") == 0)
+            o.grid_interp = v;
+        else if (strcmp(a, "--variants") == 0)
+            o.variants = v;
         else {
             fprintf(stderr, "bench_drape: unknown option %s\n", a);
             return 2;

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # `make run`: the main job on built-in defaults. The drape method (paper 000)
 # drapes a 1 m cloth over a ball with an implicit neural surface trained on
-# physics losses until it converges (epoch 10,500; 6-9 minutes on the shared
-# 2-core machine, docs/drape.md "Drape that finishes"), then renders it again from
+# physics losses until it converges (epoch 8,150; 3-4 minutes on the shared
+# 2-core machine, docs/drape.md "Smooth cloth"), then renders it again from
 # the side, and says where everything is.
 # Usage: run_demo.sh CREASE_BINARY OUT_DIR
 set -euo pipefail

@@ -16,9 +16,10 @@ check "drape listed" bash -c "'$crease' --help | grep -q 'drape '"
 # --- one run ---------------------------------------------------------------------------
 check "drape ball" bash -c "'$crease' drape --scene ball --epochs 30 ${small[*]} -o '$tmp/a' --json > '$tmp/a.json'"
 check "drape fields" json_has "$tmp/a.json" command scene variant params epochs seconds \
-  converged_epoch strain bend gravity collision total max_penetration_m outputs obj glb png \
-  loss_png log sampler_png checkpoint
+  converged_epoch strain bend gravity collision total max_penetration_m facet_ratio grid_interp \
+  outputs obj glb png loss_png log sampler_png checkpoint
 check "drape variant" grep -q '"variant":"inr-adaptive"' "$tmp/a.json"
+check "drape grid interpolation" grep -q '"grid_interp":"bspline"' "$tmp/a.json"
 check "drape epochs" grep -q '"epochs":30,' "$tmp/a.json"
 check "drape penetration < 1 mm" json_below "$tmp/a.json" max_penetration_m 1e-3
 check "drape outputs" test -s "$tmp/a/drape.obj" -a -s "$tmp/a/drape.glb" -a -s "$tmp/a/drape.png" \
@@ -88,6 +89,9 @@ check "open object: warned, no depth" bash -c "'$crease' drape --object '$tmp/qu
   && grep -q 'quad.obj is open (4 boundary edges)' '$tmp/quad.err'"
 expect_exit 1 "a checkpoint of variant 'inr-adaptive'" drape --scene ball --variant inr-uniform \
   --epochs 31 "${small[@]}" -o "$tmp/a" --resume
+expect_exit 1 "a checkpoint of the bspline grid encoding, not bilinear" drape --scene ball \
+  --grid-interp bilinear --epochs 61 "${small[@]}" -o "$tmp/a" --resume
+expect_exit 2 "--grid-interp" drape --grid-interp cubic -o "$tmp/x"
 
 echo "cli_drape: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

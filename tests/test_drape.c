@@ -639,6 +639,52 @@ CR_TEST(drape, outputs_are_written) {
 
 /* --------------------------------------------------------- fidelity -- */
 
+/* The facet measure on hand-made surfaces sampled like the output (256 x
+ * 256 over 100 cells): a smooth height field gives about 1, the same field
+ * plus a bilinear interpolant of random node heights (creases of the slope
+ * at every cell boundary, linear along each row inside a cell) much more,
+ * a plane no ratio at all. */
+CR_TEST(drape, facet_ratio_sees_creases_at_cell_boundaries) {
+    enum { N = 256, CELLS = 100 };
+    float *smooth = malloc((size_t)N * N * 3 * sizeof(float));
+    float *kinked = malloc((size_t)N * N * 3 * sizeof(float));
+    float *plane = malloc((size_t)N * N * 3 * sizeof(float));
+    double *node = malloc((size_t)(CELLS + 1) * (CELLS + 1) * sizeof(double));
+    CR_REQUIRE(smooth && kinked && plane && node);
+    cr_rng rng = cr_rng_make(54, 0);
+    for (int k = 0; k < (CELLS + 1) * (CELLS + 1); k++)
+        node[k] = 1e-3 * (2.0 * cr_rng_uniformf(&rng) - 1.0); /* m */
+    for (int iv = 0; iv < N; iv++)
+        for (int iu = 0; iu < N; iu++) {
+            double u = (double)iu / (N - 1), v = (double)iv / (N - 1);
+            double h = 0.05 * sin(2 * M_PI * 1.3 * u) * cos(2 * M_PI * 0.7 * v) + 0.1 * u * u;
+            double x = u * CELLS, y = v * CELLS;
+            int i = (int)fmin(floor(x), CELLS - 1), j = (int)fmin(floor(y), CELLS - 1);
+            double fx = x - i, fy = y - j, *g = node + (int64_t)j * (CELLS + 1) + i;
+            double b = (1 - fx) * (1 - fy) * g[0] + fx * (1 - fy) * g[1] +
+                       (1 - fx) * fy * g[CELLS + 1] + fx * fy * g[CELLS + 2];
+            float *ps = smooth + 3 * ((int64_t)iv * N + iu),
+                  *pk = kinked + 3 * ((int64_t)iv * N + iu),
+                  *pp = plane + 3 * ((int64_t)iv * N + iu);
+            ps[0] = pk[0] = (float)(u - 0.5);
+            pp[0] = (float)iu / 256.0f; /* exact, so the plane's second differences are 0 */
+            ps[2] = pk[2] = (float)(v - 0.5);
+            pp[2] = (float)iv / 256.0f;
+            ps[1] = (float)h;
+            pk[1] = (float)(h + b);
+            pp[1] = 0.3f;
+        }
+    double rs = cr_drape_facet_ratio(smooth, N, N, CELLS);
+    double rk = cr_drape_facet_ratio(kinked, N, N, CELLS);
+    printf("    facet ratio: smooth %.3f, creased %.3f\n", rs, rk);
+    CR_CHECK(rs > 0.9 && rs < 1.1);
+    CR_CHECK(rk > 3.0);
+    CR_CHECK(isnan(cr_drape_facet_ratio(plane, N, N, CELLS)));
+    /* no span inside a cell when every span holds a boundary (cells finer than the samples) */
+    CR_CHECK(isnan(cr_drape_facet_ratio(smooth, N, N, 4 * N)));
+    free(smooth), free(kinked), free(plane), free(node);
+}
+
 CR_TEST(drape, fidelity_measures_match_closed_forms) {
     cr_error err = {0};
     cr_mesh *a = NULL, *b = NULL, *obj = NULL;

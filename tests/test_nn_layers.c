@@ -449,9 +449,10 @@ static void grid_ref(const cr_grid_encoding *g, double u, double v, double *out)
     }
 }
 
-static cr_grid_encoding *make_grid(int res, int levels, int F, const char *prefix, cr_nn_params *P,
-                                   cr_rng *rng) {
+static cr_grid_encoding *make_grid_interp(int res, int levels, int F, cr_grid_interp interp,
+                                          const char *prefix, cr_nn_params *P, cr_rng *rng) {
     cr_grid_encoding_def d = cr_grid_encoding_default_def();
+    d.interp = interp;
     d.resolution = res;
     d.levels = levels;
     d.features = F;
@@ -460,6 +461,62 @@ static cr_grid_encoding *make_grid(int res, int levels, int F, const char *prefi
     cr_error err = {0};
     CR_CHECK_OK(cr_grid_encoding_create(&d, P, prefix, rng, &g, &err), &err);
     return g;
+}
+
+static cr_grid_encoding *make_grid(int res, int levels, int F, const char *prefix, cr_nn_params *P,
+                                   cr_rng *rng) {
+    return make_grid_interp(res, levels, F, CR_GRID_BILINEAR, prefix, P, rng);
+}
+
+/* One axis's weights at fraction f in double, from the textbook forms rather
+ * than the kernel's coefficients: the B-spline by its blending functions and
+ * the partition of unity. Returns the stencil size (its first node is cell - 1
+ * for 4). */
+static int ref_axis(cr_grid_interp m, double f, double *w) {
+    if (m == CR_GRID_BILINEAR) {
+        w[0] = 1 - f, w[1] = f;
+        return 2;
+    }
+    w[0] = (1 - f) * (1 - f) * (1 - f) / 6, w[3] = f * f * f / 6;
+    w[1] = (3 * f * f * f - 6 * f * f + 4) / 6, w[2] = 1 - w[0] - w[1] - w[3];
+    return 4;
+}
+
+/* A point's stencil on level l in double: n x n nodes (clamped) and weights. */
+static int ref_stencil(const cr_grid_encoding *g, int l, double u, double v, int64_t *node,
+                       double *w) {
+    int r = g->cells[l], s = r + 1;
+    double x = fmin(fmax(u, 0), 1) * r, y = fmin(fmax(v, 0), 1) * r;
+    int i = (int)fmin(floor(x), r - 1), j = (int)fmin(floor(y), r - 1);
+    double wx[4], wy[4];
+    int n = ref_axis(g->def.interp, x - i, wx);
+    ref_axis(g->def.interp, y - j, wy);
+    int off = n == 4 ? -1 : 0;
+    for (int b = 0; b < n; b++)
+        for (int a = 0; a < n; a++) {
+            int ia = i + off + a, jb = j + off + b;
+            ia = ia < 0 ? 0 : ia > r ? r : ia;
+            jb = jb < 0 ? 0 : jb > r ? r : jb;
+            node[b * n + a] = (int64_t)jb * s + ia;
+            w[b * n + a] = wx[a] * wy[b];
+        }
+    return n * n;
+}
+
+/* Any interpolation's features in double from ref_stencil. */
+static void grid_ref_interp(const cr_grid_encoding *g, double u, double v, double *out) {
+    int F = g->def.features;
+    for (int l = 0; l < g->def.levels; l++) {
+        int64_t node[16];
+        double w[16];
+        int k = ref_stencil(g, l, u, v, node, w);
+        for (int f = 0; f < F; f++) {
+            double sum = 0;
+            for (int c = 0; c < k; c++)
+                sum += w[c] * g->level[l]->data[node[c] * F + f];
+            out[l * F + f] = sum;
+        }
+    }
 }
 
 CR_TEST(nn_layers, grid_encoding_values) {
@@ -562,64 +619,192 @@ CR_TEST(nn_layers, grid_encoding_gradients) {
     /* Many points: the sorted gather equals the naive serial scatter, and is
      * bitwise the same on one thread and on all; so does a batch of 8,000
      * (scattered on the 101 x 101 level, gathered on the 51 x 51 one) and one
-     * of 4,096 (scattered on both). */
-    CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
-    g = make_grid(100, 2, 3, "g", P, &rng);
-    CR_REQUIRE(g);
-    const int sizes[3] = {20000, 8000, 4096};
-    for (int si = 0; si < 3; si++) {
-        const int M = sizes[si];
-        float *pts = malloc((size_t)M * 2 * sizeof(float)),
-              *wts = malloc((size_t)M * 6 * sizeof(float));
-        fill_rand(pts, M * 2, &rng, 0, 1);
-        fill_rand(wts, M * 6, &rng, -1, 1);
-        int64_t np;
-        float *grads[2];
-        for (int pass = 0; pass < 2; pass++) {
-            int threads = cr_thread_count();
-            if (pass == 1) cr_set_thread_count(1);
-            cr_nn_ctx *ctx = make_ctx();
-            cr_nn_params_zero_grad(P);
-            cr_tensor *y =
-                cr_grid_encoding_forward(ctx, g, cr_nn_from(ctx, 2, (int64_t[]){M, 2}, pts));
-            cr_tensor *L =
-                cr_nn_sum(ctx, cr_nn_mul(ctx, y, cr_nn_from(ctx, 2, (int64_t[]){M, 6}, wts)));
-            CR_CHECK_OK(cr_nn_backward(ctx, L, &err), &err);
-            float *gr = cr_nn_params_grad(P, &np);
-            grads[pass] = malloc((size_t)np * sizeof(float));
-            memcpy(grads[pass], gr, (size_t)np * sizeof(float));
-            cr_nn_ctx_destroy(ctx);
-            if (pass == 1) cr_set_thread_count(threads);
-        }
-        CR_CHECK(memcmp(grads[0], grads[1], (size_t)np * sizeof(float)) == 0);
-        double maxerr = 0.0;
-        for (int l = 0; l < 2; l++) {
-            int r = g->cells[l], s = r + 1;
-            double *ref = calloc((size_t)s * s * 3, sizeof(double));
-            for (int n = 0; n < M; n++) {
-                double x = pts[2 * n] * (double)r, yy = pts[2 * n + 1] * (double)r;
-                int i = (int)fmin(floor(x), r - 1), j = (int)fmin(floor(yy), r - 1);
-                double fx = x - i, fy = yy - j;
-                double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-                int64_t nodes[4] = {j * s + i, j * s + i + 1, (j + 1) * s + i,
-                                    (j + 1) * s + i + 1};
-                for (int c = 0; c < 4; c++)
-                    for (int f = 0; f < 3; f++)
-                        ref[nodes[c] * 3 + f] += w[c] * wts[n * 6 + l * 3 + f];
+     * of 4,096 (scattered on both); for every interpolation, the cubics
+     * (which gather only above twice 4 points per node) on 90,000, 30,000
+     * and 4,096. */
+    for (int m = 0; m < CR_GRID_INTERP_COUNT; m++) {
+        CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
+        g = make_grid_interp(100, 2, 3, (cr_grid_interp)m, "g", P, &rng);
+        CR_REQUIRE(g);
+        const int cubic = m == CR_GRID_BSPLINE;
+        const int sizes[2][3] = {{20000, 8000, 4096}, {90000, 30000, 4096}};
+        for (int si = 0; si < 3; si++) {
+            const int M = sizes[cubic][si];
+            float *pts = malloc((size_t)M * 2 * sizeof(float)),
+                  *wts = malloc((size_t)M * 6 * sizeof(float));
+            fill_rand(pts, M * 2, &rng, 0, 1);
+            fill_rand(wts, M * 6, &rng, -1, 1);
+            int64_t np;
+            float *grads[2];
+            for (int pass = 0; pass < 2; pass++) {
+                int threads = cr_thread_count();
+                if (pass == 1) cr_set_thread_count(1);
+                cr_nn_ctx *ctx = make_ctx();
+                cr_nn_params_zero_grad(P);
+                cr_tensor *y =
+                    cr_grid_encoding_forward(ctx, g, cr_nn_from(ctx, 2, (int64_t[]){M, 2}, pts));
+                cr_tensor *L =
+                    cr_nn_sum(ctx, cr_nn_mul(ctx, y, cr_nn_from(ctx, 2, (int64_t[]){M, 6}, wts)));
+                CR_CHECK_OK(cr_nn_backward(ctx, L, &err), &err);
+                float *gr = cr_nn_params_grad(P, &np);
+                grads[pass] = malloc((size_t)np * sizeof(float));
+                memcpy(grads[pass], gr, (size_t)np * sizeof(float));
+                cr_nn_ctx_destroy(ctx);
+                if (pass == 1) cr_set_thread_count(threads);
             }
-            const float *got = grads[0] + (g->level[l]->data - cr_nn_params_data(P, NULL));
-            for (int64_t k = 0; k < (int64_t)s * s * 3; k++)
-                maxerr = fmax(maxerr, fabs(got[k] - ref[k]) / fmax(1.0, fabs(ref[k])));
-            free(ref);
+            CR_CHECK(memcmp(grads[0], grads[1], (size_t)np * sizeof(float)) == 0);
+            double maxerr = 0.0;
+            for (int l = 0; l < 2; l++) {
+                int s = g->cells[l] + 1;
+                double *ref = calloc((size_t)s * s * 3, sizeof(double));
+                for (int n = 0; n < M; n++) {
+                    int64_t nodes[16];
+                    double w[16];
+                    int k = ref_stencil(g, l, pts[2 * n], pts[2 * n + 1], nodes, w);
+                    for (int c = 0; c < k; c++)
+                        for (int f = 0; f < 3; f++)
+                            ref[nodes[c] * 3 + f] += w[c] * wts[n * 6 + l * 3 + f];
+                }
+                const float *got = grads[0] + (g->level[l]->data - cr_nn_params_data(P, NULL));
+                for (int64_t k = 0; k < (int64_t)s * s * 3; k++)
+                    maxerr = fmax(maxerr, fabs(got[k] - ref[k]) / fmax(1.0, fabs(ref[k])));
+                free(ref);
+            }
+            if (maxerr >= 1e-5)
+                printf("    %s, %d points: max error %g\n", cr_grid_interp_name((cr_grid_interp)m),
+                       M, maxerr);
+            CR_CHECK(maxerr < 1e-5);
+            free(grads[0]);
+            free(grads[1]);
+            free(pts);
+            free(wts);
+        }
+        cr_grid_encoding_destroy(g);
+        cr_nn_params_destroy(P);
+    }
+}
+
+/* The B-spline against its textbook form (it averages (G[i-1] + 4 G[i] +
+ * G[i+1]) / 6 per axis at the nodes, which the reference covers). */
+CR_TEST(nn_layers, grid_encoding_interpolation_values) {
+    cr_error err = {0};
+    cr_rng rng = cr_rng_make(23, 0);
+    CR_CHECK(strcmp(cr_grid_interp_name(CR_GRID_BSPLINE), "bspline") == 0);
+    cr_grid_interp parsed;
+    CR_CHECK(cr_grid_interp_parse("bspline", &parsed, &err) == CR_OK && parsed == CR_GRID_BSPLINE);
+    CR_CHECK(cr_grid_interp_parse("cubic", &parsed, &err) == CR_ERR_INVALID);
+    enum { NR = 3000 };
+    float uv[NR * 2];
+    fill_rand(uv, NR * 2, &rng, -0.05f, 1.05f);
+    for (int m = CR_GRID_BSPLINE; m < CR_GRID_INTERP_COUNT; m++) {
+        cr_nn_params *P = NULL;
+        CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
+        cr_grid_encoding *g = make_grid_interp(64, 3, 3, (cr_grid_interp)m, "a", P, &rng);
+        CR_REQUIRE(g);
+        cr_nn_ctx *ctx = make_ctx();
+        cr_tensor *y = cr_grid_encoding_forward(ctx, g, cr_nn_from(ctx, 2, (int64_t[]){NR, 2}, uv));
+        CR_REQUIRE(y);
+        double maxerr = 0, ref[9];
+        for (int n = 0; n < NR; n++) {
+            grid_ref_interp(g, uv[2 * n], uv[2 * n + 1], ref);
+            for (int j = 0; j < 9; j++)
+                maxerr = fmax(maxerr, fabs(y->data[n * 9 + j] - ref[j]));
         }
         CR_CHECK(maxerr < 1e-5);
-        free(grads[0]);
-        free(grads[1]);
-        free(pts);
-        free(wts);
+        cr_nn_ctx_destroy(ctx);
+        cr_grid_encoding_destroy(g);
+        cr_nn_params_destroy(P);
     }
-    cr_grid_encoding_destroy(g);
-    cr_nn_params_destroy(P);
+}
+
+/* Central differences for every interpolation on both backward paths: a
+ * few points (every level scatters) and enough that every level sorts and
+ * gathers. Border cells are among the
+ * points, so the cubics' clamped node indices are checked too. */
+CR_TEST(nn_layers, grid_encoding_interpolation_gradients) {
+    cr_error err = {0};
+    cr_rng rng = cr_rng_make(24, 0);
+    /* the finest level has 9 x 9 nodes: bilinear gathers above 162 points,
+     * the 4 x 4 stencils above 648 */
+    const int counts[2] = {12, 700};
+    for (int m = 0; m < CR_GRID_INTERP_COUNT; m++)
+        for (int c = 0; c < 2; c++) {
+            cr_nn_params *P = NULL;
+            CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
+            cr_grid_encoding *g = make_grid_interp(8, 3, 2, (cr_grid_interp)m, "g", P, &rng);
+            CR_REQUIRE(g);
+            int N = counts[c];
+            float *uv = malloc((size_t)N * 2 * sizeof(float));
+            /* away from the finest cell borders (bilinear's uv gradient
+             * jumps there; the cubics' second derivatives), one point
+             * clamped per axis */
+            for (int k = 0; k < 2 * N; k++)
+                uv[k] = ((float)cr_rng_below(&rng, 8) + 0.3f + 0.4f * cr_rng_uniformf(&rng)) / 8.0f;
+            uv[0] = -0.2f;
+            uv[3] = 1.3f;
+            nn_gradcheck_input in[1] = {{2, {N, 2}, uv, 1}};
+            nn_gradcheck_def gd = nn_gradcheck_default_def();
+            char name[64];
+            snprintf(name, sizeof name, "grid_encoding %s, %d points",
+                     cr_grid_interp_name((cr_grid_interp)m), N);
+            gd.name = name;
+            nn_gradcheck_result res;
+            CR_CHECK(nn_gradcheck(&gd, 1, in, P, build_grid, g, &res) == 0);
+            CR_CHECK(res.checked == 2 * N + cr_grid_encoding_param_count(&g->def));
+            free(uv);
+            cr_grid_encoding_destroy(g);
+            cr_nn_params_destroy(P);
+        }
+}
+
+/* Across a cell boundary the smooth interpolations are continuous in value
+ * and in their uv derivative (the tape's, a random mix of the features);
+ * bilinear's derivative jumps there, which is what makes the facets. The
+ * boundary 3/8 is one of the finest level only (cells 8, 4, 2), 1/2 one of
+ * every level. */
+CR_TEST(nn_layers, grid_encoding_continuity) {
+    cr_error err = {0};
+    cr_rng rng = cr_rng_make(25, 0);
+    const float d = 1e-5f; /* either side of the boundary, UV */
+    for (int m = 0; m < CR_GRID_INTERP_COUNT; m++)
+        for (int c = 0; c < 4; c++) {
+            int axis = c & 1;
+            float at = c < 2 ? 0.375f : 0.5f;
+            cr_nn_params *P = NULL;
+            CR_CHECK_OK(cr_nn_params_create(&P, &err), &err);
+            cr_grid_encoding *g = make_grid_interp(8, 3, 3, (cr_grid_interp)m, "g", P, &rng);
+            CR_REQUIRE(g);
+            float uv[4] = {at - d, 0.3f, at + d, 0.3f}; /* (2,2) */
+            if (axis == 1) uv[0] = uv[2] = 0.7f, uv[1] = at - d, uv[3] = at + d;
+            float mix[18];
+            fill_rand(mix, 9, &rng, -1, 1);
+            memcpy(mix + 9, mix, 9 * sizeof(float));
+            cr_nn_ctx *ctx = make_ctx();
+            cr_tensor *u = cr_nn_from(ctx, 2, (int64_t[]){2, 2}, uv);
+            u->requires_grad = 1;
+            cr_tensor *y = cr_grid_encoding_forward(ctx, g, u);
+            cr_tensor *L =
+                cr_nn_sum(ctx, cr_nn_mul(ctx, y, cr_nn_from(ctx, 2, (int64_t[]){2, 9}, mix)));
+            CR_CHECK_OK(cr_nn_backward(ctx, L, &err), &err);
+            /* the mixed value on either side, and its uv derivative */
+            double v0 = 0, v1 = 0;
+            for (int j = 0; j < 9; j++)
+                v0 += mix[j] * y->data[j], v1 += mix[j] * y->data[9 + j];
+            double d0 = u->grad[axis], d1 = u->grad[2 + axis];
+            double scale = fmax(1.0, fmax(fabs(d0), fabs(d1)));
+            double value_jump = fabs(v1 - v0), slope_jump = fabs(d1 - d0);
+            if (getenv("CREASE_TEST_VERBOSE"))
+                printf("    %s at %g along axis %d: value jump %.3g, slope %.4g | %.4g\n",
+                       cr_grid_interp_name((cr_grid_interp)m), at, axis, value_jump, d0, d1);
+            CR_CHECK(value_jump < 3 * d * scale + 1e-5); /* the slope times 2d, no step */
+            if (m == CR_GRID_BILINEAR)
+                CR_CHECK(slope_jump > 0.1 * scale); /* the kink the others remove */
+            else /* C1: what is left is the second derivative (~ r^2) times 2d */
+                CR_CHECK(slope_jump < 1e-2 * scale);
+            cr_nn_ctx_destroy(ctx);
+            cr_grid_encoding_destroy(g);
+            cr_nn_params_destroy(P);
+        }
 }
 
 /* --------------------------------------------------------------- WIRE -- */

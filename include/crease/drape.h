@@ -9,7 +9,8 @@
  *
  * p0 the rest position under (u,v) through the UV lookup of the rest mesh
  * (eq. 15-17), GE the multi-resolution grid encoding (levels 101x101x3 and
- * 51x51x3 by default), MLP 6-64-64-64-3 with softplus units (47,369
+ * 51x51x3 by default, cubic B-spline between nodes where the paper has
+ * bilinear cells), MLP 6-64-64-64-3 with softplus units (47,369
  * parameters in all). Training minimises, with Adam (gradient norm clipped
  * against contact spikes), the weighted sum of four terms evaluated on
  * "local structures" (sec. 3.3): around a sample point, an equilateral
@@ -64,6 +65,7 @@
 #include "crease/eval.h"
 #include "crease/mesh.h"
 #include "crease/nn.h"
+#include "crease/nn_layers.h"
 #include "crease/phys_energies.h"
 #include "crease/uvlookup.h"
 
@@ -147,9 +149,11 @@ typedef struct cr_drape_def {
     int grid_levels;     /* default 2 */
     int grid_resolution; /* cells per side of the finest level (default 100: 101x101 nodes) */
     int grid_features;   /* default 3 */
-    int mlp_hidden;      /* hidden width (default 64) */
-    int mlp_layers;      /* linear layers (default 4: 6-64-64-64-3) */
-    float softplus_beta; /* hidden activation softplus(beta z)/beta (default 10); 0: ReLU */
+    cr_grid_interp grid_interp; /* between the grid's nodes (nn_layers.h; default
+                                   CR_GRID_BSPLINE, docs/drape.md "Smooth cloth") */
+    int mlp_hidden;             /* hidden width (default 64) */
+    int mlp_layers;             /* linear layers (default 4: 6-64-64-64-3) */
+    float softplus_beta;        /* hidden activation softplus(beta z)/beta (default 10); 0: ReLU */
 
     /* training */
     float lr;          /* Adam learning rate at the first epoch (default 0.0005) */
@@ -217,6 +221,9 @@ typedef struct cr_drape_result {
     cr_drape_terms terms;     /* last evaluation on the fixed structures */
     cr_drape_terms initial;   /* first evaluation (the flat start of a fresh run) */
     double max_penetration_m; /* deepest output vertex inside the object (signed distance) */
+    double facet_ratio;       /* cr_drape_facet_ratio of the output surface against the finest
+                                 grid level's cells (the mesh variants: the vertex grid's);
+                                 NaN on a user's cloth (no output grid) */
     double cloth_size_m;      /* side of the square cloth used, m (0: a user's cloth) */
     double drop_height_m;     /* its height above the object's top at the start, m */
     char obj_path[1024], glb_path[1024], png_path[1024], loss_png[1024], log_path[1024],
@@ -273,6 +280,19 @@ typedef struct cr_drape_fidelity {
  * meshes need UVs (CR_ERR_INVALID otherwise). */
 cr_status cr_drape_fidelity_measure(const cr_mesh *surface, const cr_mesh *reference,
                                     const cr_mesh *object, cr_drape_fidelity *out, cr_error *err);
+
+/* Grid facets of a surface sampled on a regular grid: pos (NV,NU,3), row iv
+ * at v = iv / (NV-1), column iu at u = iu / (NU-1), over a UV chart cut
+ * into `cells` x `cells` cells (the grid encoding's finest level). Along
+ * every row and every column, each span of three vertices gives the norm
+ * of its second difference |p[k-1] - 2 p[k] + p[k+1]|; the result is the
+ * mean over the spans whose open UV interval holds a cell boundary divided
+ * by the mean over those that hold none. About 1 on a smooth surface; a
+ * surface with creases of its slope at the cell boundaries (bilinear
+ * cells) gives more, as each crease adds to the second difference of the
+ * spans across it only. NaN when either set of spans is empty or the
+ * non-crossing mean is 0 (a plane). */
+double cr_drape_facet_ratio(const float *pos, int nu, int nv, int cells);
 
 /* ------------------------------------------------------------ scenes -- */
 

@@ -181,16 +181,39 @@ int64_t cr_fourier_encoding_dim(int64_t in_dim, int nfreq);
 
 enum { CR_GRID_MAX_LEVELS = 8, CR_GRID_MAX_FEATURES = 64 };
 
+/* How a level's features are interpolated between its nodes, per axis (the
+ * 2-D weight of a node is the product of its u and v weights; f is the
+ * point's fraction of its cell, i its cell):
+ *   BILINEAR     nodes i, i+1, weights 1-f, f: C0, the derivative jumps at
+ *                every cell boundary (the paper's eq. 4)
+ *   BSPLINE      nodes i-1..i+2, the uniform cubic B-spline (approximates
+ *                the nodes: (G[i-1] + 4 G[i] + G[i+1]) / 6 at node i): C2
+ * (Smoothstep, Instant-NGP's, and Catmull-Rom were measured on the drape and
+ * not adopted: docs/drape.md, "Grid interpolation".)
+ * The 4 x 4 stencils clamp node indices to the grid (node -1 reads node 0,
+ * node r+1 node r), so the border cells extrapolate a constant node. */
+typedef enum cr_grid_interp {
+    CR_GRID_BILINEAR = 0,
+    CR_GRID_BSPLINE,
+    CR_GRID_INTERP_COUNT
+} cr_grid_interp;
+
+/* "bilinear", "bspline"; "?" out of range. */
+const char *cr_grid_interp_name(cr_grid_interp interp);
+/* CR_ERR_INVALID listing the names for anything else. */
+cr_status cr_grid_interp_parse(const char *name, cr_grid_interp *out, cr_error *err);
+
 /* Multi-resolution grid encoding over UV (drape paper, sec. 3.1, eq. 4-5).
  * Level l has r_l = floor(resolution / 2^l) cells per side, so (r_l + 1)^2
  * nodes of F features: resolution 100 with 2 levels gives the paper's
  * 101x101x3 and 51x51x3 grids (38,406 floats). */
 typedef struct cr_grid_encoding_def {
     int levels; /* L, 1..CR_GRID_MAX_LEVELS, with floor(resolution / 2^(L-1)) >= 1 (default 2) */
-    int resolution;   /* cells per side of the finest level (default 100) */
-    int features;     /* F per node, 1..CR_GRID_MAX_FEATURES (default 3) */
-    float init_range; /* nodes start U(-r, r) (default 1e-4, Instant-NGP's) */
-    uint32_t cookie;  /* set by cr_grid_encoding_default_def */
+    int resolution;        /* cells per side of the finest level (default 100) */
+    int features;          /* F per node, 1..CR_GRID_MAX_FEATURES (default 3) */
+    float init_range;      /* nodes start U(-r, r) (default 1e-4, Instant-NGP's) */
+    cr_grid_interp interp; /* default CR_GRID_BILINEAR (the paper's) */
+    uint32_t cookie;       /* set by cr_grid_encoding_default_def */
 } cr_grid_encoding_def;
 
 typedef struct cr_grid_encoding {
@@ -206,13 +229,14 @@ cr_status cr_grid_encoding_create(const cr_grid_encoding_def *def, cr_nn_params 
                                   cr_error *err);
 void cr_grid_encoding_destroy(cr_grid_encoding *g); /* NULL is a no-op */
 /* uv (N,2) in [0,1]^2 -> (N, L F): level 0 (finest) first, F features each,
- * bilinear in the cell holding (u,v) (node (iu,iv) sits at (iu/r, iv/r)).
- * One fused node; backward adds into the level grids (a deterministic
- * gather per node after a counting sort of the points by cell, so it is
- * race-free and independent of the thread count) and into uv (the bilinear
- * derivative, piecewise linear across cells). u and v are clamped to [0,1]
- * (their gradient is zero where clamping acted); non-finite uv fail with
- * CR_ERR_NAN. */
+ * interpolated by def.interp from the nodes around the cell holding (u,v)
+ * (node (iu,iv) sits at (iu/r, iv/r)). One fused node; backward adds into
+ * the level grids (a deterministic gather per node after a counting sort of
+ * the points by cell, so it is race-free and independent of the thread
+ * count) and into uv (the interpolant's derivative: for bilinear piecewise
+ * linear and discontinuous across cells, continuous for the others). u and
+ * v are clamped to [0,1] (their gradient is zero where clamping acted);
+ * non-finite uv fail with CR_ERR_NAN. */
 cr_tensor *cr_grid_encoding_forward(cr_nn_ctx *ctx, const cr_grid_encoding *g, cr_tensor *uv);
 int64_t cr_grid_encoding_param_count(const cr_grid_encoding_def *def);
 int cr_grid_encoding_out_dim(const cr_grid_encoding_def *def); /* L F */

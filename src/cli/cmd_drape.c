@@ -53,6 +53,9 @@ void help_drape(void) {
         "model:\n"
         "  --grid-levels L --grid-res R --grid-features F\n"
         "                       grid encoding (default 2 levels, 100 cells, 3 features)\n"
+        "  --grid-interp I      between the grid's nodes: bspline (default; C2, no grid\n"
+        "                       facets) or bilinear (the paper's, C0: its cells show as\n"
+        "                       facets)\n"
         "  --hidden W --layers N   MLP width and linear layers (default 64, 4)\n"
         "  --softplus B         hidden activation softplus with beta B (default 10); 0: ReLU\n"
         "  --mesh-res N         vertices per side of the mesh variants' grid (default 128)\n"
@@ -78,9 +81,9 @@ void help_drape(void) {
         "  --render-size N      PNG side in pixels (default 1024)\n"
         "  --quiet              no progress bar\n"
         "  --json               end with a JSON summary on stdout\n\n"
-        "The default ball run stops at convergence (epoch 10,500 of seed 1): about 4.5 "
+        "The default ball run stops at convergence (epoch 8,150 of seed 1): about 1.5 "
         "CPU-minutes,\n"
-        "9 minutes on a loaded 2-core machine (docs/drape.md).\n");
+        "3-4 minutes on a loaded 2-core machine (docs/drape.md).\n");
 }
 
 static cJSON *terms_object(const cr_drape_terms *t) {
@@ -103,6 +106,7 @@ static cJSON *result_json(const cr_drape_def *def, const cr_drape_result *r) {
                             def->scene == CR_DRAPE_OBJECT ? def->object_path
                                                           : cr_drape_scene_name(def->scene));
     cJSON_AddStringToObject(j, "variant", cr_drape_variant_name(def->variant));
+    cJSON_AddStringToObject(j, "grid_interp", cr_grid_interp_name(def->grid_interp));
     cJSON_AddNumberToObject(j, "params", (double)r->params);
     cJSON_AddNumberToObject(j, "epochs", r->epochs);
     cJSON_AddNumberToObject(j, "seconds", r->seconds);
@@ -121,6 +125,10 @@ static cJSON *result_json(const cr_drape_def *def, const cr_drape_result *r) {
     cJSON_AddNumberToObject(j, "total", r->terms.total);
     cJSON_AddItemToObject(j, "initial", terms_object(&r->initial));
     cJSON_AddNumberToObject(j, "max_penetration_m", r->max_penetration_m);
+    if (isfinite(r->facet_ratio))
+        cJSON_AddNumberToObject(j, "facet_ratio", r->facet_ratio);
+    else
+        cJSON_AddNullToObject(j, "facet_ratio");
     cJSON_AddNumberToObject(j, "cloth_size_m", r->cloth_size_m);
     cJSON_AddNumberToObject(j, "drop_height_m", r->drop_height_m);
     cJSON_AddNumberToObject(j, "resumed_from_epoch", r->resumed_from);
@@ -143,10 +151,12 @@ static void report(const cr_drape_def *def, const cr_drape_result *r) {
     char deepest[48] = "deepest not measured (open object)";
     if (isfinite(r->max_penetration_m))
         snprintf(deepest, sizeof deepest, "deepest %.3g mm", 1e3 * r->max_penetration_m);
+    char facets[40] = "";
+    if (isfinite(r->facet_ratio)) snprintf(facets, sizeof facets, ", facets %.2f", r->facet_ratio);
     fprintf(stderr,
-            "drape %s: %lld free variables, %d epochs, %.1f s, %s; energy %.4g -> %.4g, %s\n",
+            "drape %s: %lld free variables, %d epochs, %.1f s, %s; energy %.4g -> %.4g, %s%s\n",
             cr_drape_variant_name(def->variant), (long long)r->params, r->epochs, r->seconds, conv,
-            r->initial.total, r->terms.total, deepest);
+            r->initial.total, r->terms.total, deepest, facets);
     if (r->glb_path[0])
         fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r->glb_path,
                 def->scene == CR_DRAPE_OBJECT ? "+" : "",
@@ -158,8 +168,9 @@ static void report(const cr_drape_def *def, const cr_drape_result *r) {
 
 int cmd_drape(int argc, char **argv) {
     static const char *const collisions[] = {"vertex", "sdf", NULL};
+    static const char *const interps[] = {"bilinear", "bspline", NULL};
     cr_drape_def def = cr_drape_default_def(CR_DRAPE_BALL);
-    const char *scene = NULL, *variant = NULL, *collision = NULL;
+    const char *scene = NULL, *variant = NULL, *collision = NULL, *interp = NULL;
     int json = 0, compare = 0, seed = 1, npos = 0, no_stop = 0;
     float w[4] = {NAN, NAN, NAN, NAN}; /* NAN: the scene's Table 4 value */
     const cli_opt opts[] = {
@@ -168,6 +179,7 @@ int cmd_drape(int argc, char **argv) {
         CLI_STR("--cloth", &def.cloth_path),
         CLI_STR("--variant", &variant),
         CLI_CHOICE("--collision", &collision, collisions),
+        CLI_CHOICE("--grid-interp", &interp, interps),
         CLI_OUTPUT(&def.out_dir),
         CLI_FLAG("--compare", &compare),
         CLI_FLAG("--stop", &def.stop_at_converged),
@@ -229,6 +241,8 @@ int cmd_drape(int argc, char **argv) {
     if (scene && cr_drape_scene_parse(scene, &sc, &err) != CR_OK)
         return cli_usage("drape", "%s", err.msg);
     if (variant && cr_drape_variant_parse(variant, &def.variant, &err) != CR_OK)
+        return cli_usage("drape", "%s", err.msg);
+    if (interp && cr_grid_interp_parse(interp, &def.grid_interp, &err) != CR_OK)
         return cli_usage("drape", "%s", err.msg);
     if (collision)
         def.collision =

@@ -1,7 +1,9 @@
 /* model.c: the drape method's surface representations.
  *
  *   INR (inr-mesh, inr-uniform, inr-adaptive): p = p0(u,v) + MLP(GE(u,v))
- *       (eq. 2, 6, 14), GE the multi-resolution grid encoding, p0 the rest
+ *       (eq. 2, 6, 14), GE the multi-resolution grid encoding (interpolated
+ *       by def->grid_interp: the cubic B-spline by default, since the
+ *       paper's bilinear cells show as facets in the surface), p0 the rest
  *       position under (u,v) by barycentric interpolation over the rest
  *       cloth's UV triangles (eq. 15-17). Random initialisation as the paper
  *       has it (grid nodes U(+-1e-4), Instant-NGP's range; the MLP's layers
@@ -96,6 +98,7 @@ cr_status cr_drape_model_create(const cr_drape_def *def, const cr_mesh *rest, cr
         g.levels = def->grid_levels;
         g.resolution = def->grid_resolution;
         g.features = def->grid_features;
+        g.interp = def->grid_interp;
         st = cr_grid_encoding_create(&g, m->params, "grid", &rng, &m->grid, err);
         cr_mlp_def md = cr_mlp_default_def();
         md.act = def->softplus_beta > 0.0f ? CR_ACT_SOFTPLUS : CR_ACT_RELU;

@@ -1,6 +1,8 @@
 /* outputs.c: the drape method's surface as a mesh at any resolution (the
- * representation is continuous), its penetration into the object, and the
- * picture of cloth over object.
+ * representation is continuous), its penetration into the object, its grid
+ * facets (the second differences across the grid encoding's cell
+ * boundaries against those inside cells, docs/drape.md "Smooth cloth"), and
+ * the picture of cloth over object.
  *
  * Leaves out: writing the object (`crease primitive` makes it), turntables
  * (`crease render --turntable` on drape.obj).
@@ -61,6 +63,46 @@ double cr_drape_max_penetration(const cr_bvh *object, const cr_mesh *surface) {
         deepest = fmax(deepest, -(double)d[i]);
     free(d);
     return deepest;
+}
+
+/* Does the open interval ((k-1)/(n-1), (k+1)/(n-1)) hold a boundary
+ * c/cells, 0 < c < cells? In integers: (k-1) cells < c (n-1) < (k+1) cells. */
+static int span_crosses(int k, int n, int cells) {
+    int64_t lo = (int64_t)(k - 1) * cells, hi = (int64_t)(k + 1) * cells, m = n - 1;
+    int64_t c = lo / m + 1; /* the first boundary index above lo / m */
+    return c < cells && c * m < hi;
+}
+
+/* Second-difference norm of pos at vertices a, b, c (index of the vertex). */
+static double second_difference(const float *pos, int64_t a, int64_t b, int64_t c) {
+    double s = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double d = (double)pos[3 * a + k] - 2.0 * pos[3 * b + k] + pos[3 * c + k];
+        s += d * d;
+    }
+    return sqrt(s);
+}
+
+double cr_drape_facet_ratio(const float *pos, int nu, int nv, int cells) {
+    CR_ASSERT(pos && nu >= 1 && nv >= 1 && cells >= 1);
+    double sum[2] = {0.0, 0.0}; /* [crossing] */
+    int64_t count[2] = {0, 0};
+    for (int iv = 0; iv < nv; iv++) /* along rows: spans in u */
+        for (int iu = 1; iu + 1 < nu; iu++) {
+            int x = span_crosses(iu, nu, cells);
+            int64_t b = (int64_t)iv * nu + iu;
+            sum[x] += second_difference(pos, b - 1, b, b + 1);
+            count[x]++;
+        }
+    for (int iu = 0; iu < nu; iu++) /* along columns: spans in v */
+        for (int iv = 1; iv + 1 < nv; iv++) {
+            int x = span_crosses(iv, nv, cells);
+            int64_t b = (int64_t)iv * nu + iu;
+            sum[x] += second_difference(pos, b - nu, b, b + nu);
+            count[x]++;
+        }
+    if (count[0] == 0 || count[1] == 0 || !(sum[0] > 0.0)) return NAN;
+    return (sum[1] / (double)count[1]) / (sum[0] / (double)count[0]);
 }
 
 cr_status cr_drape_render(const cr_mesh *surface, const cr_mesh *object, int size, cr_image *img,

@@ -92,6 +92,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
         .grid_levels = 2,
         .grid_resolution = 100,
         .grid_features = 3,
+        .grid_interp = CR_GRID_BSPLINE, /* C2: no grid facets (docs/drape.md) */
         .mlp_hidden = 64,
         .mlp_layers = 4,
         .softplus_beta = 10.0f,
@@ -163,6 +164,7 @@ cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
     CR_TRY(check_i("grid_levels", d->grid_levels, 1, 8, err));
     CR_TRY(check_i("grid_resolution", d->grid_resolution, 1 << (d->grid_levels - 1), 4096, err));
     CR_TRY(check_i("grid_features", d->grid_features, 1, 64, err));
+    CR_TRY(check_i("grid_interp", d->grid_interp, 0, CR_GRID_INTERP_COUNT - 1, err));
     CR_TRY(check_i("mlp_hidden", d->mlp_hidden, 1, 4096, err));
     CR_TRY(check_i("mlp_layers", d->mlp_layers, 1, 16, err));
     CR_TRY(check_f("softplus_beta", d->softplus_beta, 0.0, 1e3, err));

@@ -441,6 +441,7 @@ static char *state_json(const drape_run *r, const cr_drape_result *res) {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "variant", cr_drape_variant_name(r->def->variant));
     cJSON_AddStringToObject(j, "scene", cr_drape_scene_name(r->def->scene));
+    cJSON_AddStringToObject(j, "grid_interp", cr_grid_interp_name(r->def->grid_interp));
     cJSON_AddNumberToObject(j, "seconds", res->seconds);
     cJSON_AddNumberToObject(j, "eval_seconds", res->eval_seconds);
     cJSON_AddNumberToObject(j, "converged_epoch", res->converged_epoch);
@@ -526,6 +527,16 @@ static cr_status resume(drape_run *r, cr_drape_result *res, cr_error *err) {
                      "%s: a checkpoint of variant '%s' on scene '%s', not '%s' on '%s'",
                      r->ckpt_path, variant->valuestring, scene->valuestring,
                      cr_drape_variant_name(r->def->variant), cr_drape_scene_name(r->def->scene));
+    /* the same grid of floats means another surface under another
+     * interpolation; a checkpoint from before the option is bilinear */
+    const cJSON *interp = cJSON_GetObjectItemCaseSensitive(j, "grid_interp");
+    const char *saved = cJSON_IsString(interp) ? interp->valuestring : "bilinear";
+    if (st == CR_OK && r->def->variant != CR_DRAPE_MESH &&
+        strcmp(saved, cr_grid_interp_name(r->def->grid_interp)) != 0)
+        st = CR_FAIL(
+            err, CR_ERR_INVALID,
+            "%s: a checkpoint of the %s grid encoding, not %s (--grid-interp %s resumes it)",
+            r->ckpt_path, saved, cr_grid_interp_name(r->def->grid_interp), saved);
     if (st == CR_OK) {
         res->epochs = res->resumed_from = (int)meta.epoch;
         r->rng = meta.rng;
@@ -707,6 +718,12 @@ cr_status cr_drape_run(const cr_drape_def *def, cr_drape_result *res, cr_mesh **
     if (st == CR_OK)
         res->max_penetration_m =
             r.scene.open_edges ? NAN : cr_drape_max_penetration(r.scene.bvh, out);
+    /* the square cloth's output is cr_prim_plane's grid, rows of out_res vertices along u */
+    res->facet_ratio = NAN;
+    if (st == CR_OK && r.scene.square)
+        res->facet_ratio = cr_drape_facet_ratio(
+            out->pos, def->out_res, def->out_res,
+            def->variant == CR_DRAPE_MESH ? def->mesh_res - 1 : def->grid_resolution);
     res->cloth_size_m = r.scene.cloth_size, res->drop_height_m = r.scene.drop_height;
     if (st == CR_OK && def->out_dir) st = save_checkpoint(&r, res, err);
     if (st == CR_OK && def->out_dir) st = write_outputs(&r, res, out, err);
