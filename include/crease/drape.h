@@ -240,11 +240,11 @@ void cr_drape_cloth_placement(const cr_drape_def *def, const float lo[3], const 
                               float *size, float *drop_height);
 
 /* Train, evaluate and (with out_dir) write: drape.obj and drape.glb (the
- * surface at out_res, the object alongside in object.obj), drape.png (cloth
- * over object), loss.jsonl (one line per evaluation: epoch, seconds, each
- * weighted term on the fixed structures, and the last training batch's),
- * loss.png (those terms over epochs), sampler.png (inr-adaptive: the PDF and
- * the last sample points) and checkpoint.safetensors (resumable). When
+ * surface at out_res), drape.png (cloth over object), loss.jsonl (one line
+ * per evaluation: epoch, seconds, each weighted term on the fixed structures,
+ * and the last training batch's), loss.png (those terms over epochs),
+ * sampler.png (the INR variants: the PDF and the last sample points) and
+ * checkpoint.safetensors (resumable). When
  * `surface` is not NULL it receives the output surface (caller destroys). */
 cr_status cr_drape_run(const cr_drape_def *def, cr_drape_result *out, cr_mesh **surface,
                        cr_error *err);

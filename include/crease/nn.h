@@ -62,11 +62,12 @@
  *
  * Threads: a context is used by one thread at a time. Kernels run on the
  * OpenMP pool (cr_parallel_for) when a tensor has about 16k elements or more;
- * matmuls use OpenBLAS. Reductions are blocked in a fixed order, so results
- * do not depend on the thread count (except inside the BLAS). OpenMP's idle
- * threads spin after each parallel region and then compete with OpenBLAS's
- * own threads: run with OMP_WAIT_POLICY=passive (bench_nn_gemm measured a
- * width-64 linear step 8x faster with it on a busy 2-core machine).
+ * matmuls use the engine's own GEMM or OpenBLAS, chosen by shape
+ * (CREASE_NN_GEMM, docs/nn.md). Reductions are blocked in a fixed order, so
+ * results do not depend on the thread count (except inside the BLAS). OpenMP's
+ * idle threads spin after each parallel region and then compete with
+ * OpenBLAS's own threads: the tool and the test runner ask for passive waiting
+ * (cr_parallel_prefer_passive_wait); a program of your own should too.
  *
  * Shapes in comments: N rows, C columns (features), B batch, E edges (rows of
  * a message-passing layer), H heads, G groups.

@@ -29,7 +29,7 @@
  * serial scatter is what the tests compare against.
  * A level with at least half as many nodes as the batch has points (crease
  * fit's 4,096 points on 101 x 101 and 51 x 51 nodes; for the 4 x 4 stencils
- * twice as many nodes as points) takes that plain scatter instead, in point
+ * an eighth as many) takes that plain scatter instead, in point
  * order, a thread per level: the gather's cost is in the nodes and their
  * stencil's cells, the scatter's in the points.
  * d/d(u,v) is the interpolant's derivative, per point and so trivially

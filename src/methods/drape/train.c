@@ -23,8 +23,8 @@
  * Checkpoints hold the parameters, Adam's moments, the generator, the
  * evaluation history and the sampler's PDF. A resumed run is bit-identical
  * to one that never stopped for mesh, inr-mesh and inr-uniform; inr-adaptive
- * restores the PDF by repeated eq. 7 blends towards the saved one (the
- * sampler has no setter), exact to float rounding.
+ * restores the PDF by repeated eq. 7 blends towards the saved one, exact to
+ * float rounding (cr_drape_sampler_set_pdf would set it outright).
  */
 #include "drape_internal.h"
 
