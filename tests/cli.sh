@@ -107,5 +107,14 @@ expect_exit 1 "garbage.obj:2" info "$tmp/garbage.obj"
 expect_exit 1 "missing.obj" info "$tmp/missing.obj"
 expect_exit 1 "xyz" convert "$tmp/sphere.obj" "$tmp/sphere.xyz"
 
+# docs/cli.md is the reference of every command: every option a command's --help lists is in it
+check "docs/cli.md lists every option of every command" bash -c '
+  c="$1"; doc="$2"; bad=0
+  for cmd in $("$c" --help | awk "/^commands:/{f=1;next} f && /^  [a-z]/{print \$1}"); do
+    for o in $("$c" "$cmd" --help 2>&1 | grep -o -- "--[a-z][a-z0-9-]*" | sort -u); do
+      grep -q -- "$o" "$doc" || { echo "docs/cli.md misses $cmd $o"; bad=1; }
+    done
+  done
+  exit $bad' _ "$crease" "$(dirname "$0")/../docs/cli.md"
 echo "cli: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]
