@@ -4,6 +4,7 @@
 #include "crease/base.h"
 #include "test.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
 
 #include <stddef.h>
@@ -227,4 +228,40 @@ CR_TEST(base, atan2d_within_3_ulp_of_libm) {
             CR_CHECK(ulp_distance(a, b) <= 3.0 && signbit(a) == signbit(b));
         }
     CR_CHECK(isnan(cr_atan2d(NAN, 1.0)) && isnan(cr_atan2d(1.0, NAN)));
+}
+
+/* One table per struct: JSON out and back in the table's order, and the
+ * first key two structs differ in (what a resume names). */
+CR_TEST(base, config_table_writes_reads_and_diffs) {
+    typedef struct {
+        int n;
+        float x;
+        double y;
+        int flag;
+        char name[8];
+    } s_t;
+    static const cr_config_key keys[] = {
+        {"n", CR_CFG_INT, offsetof(s_t, n), 0, 0, 10, NULL},
+        {"x", CR_CFG_FLOAT, offsetof(s_t, x), 0, 1, 0, NULL},
+        {"y", CR_CFG_DOUBLE, offsetof(s_t, y), 0, 1, 0, NULL},
+        {"flag", CR_CFG_BOOL, offsetof(s_t, flag), 0, 1, 0, NULL},
+        {"name", CR_CFG_STRING, offsetof(s_t, name), 8, 1, 0, NULL},
+    };
+    s_t a = {3, 0.5f, -2.25, 1, "abc"}, b = {0, 0, 0, 0, ""};
+    cJSON *o = cr_config_to_object(keys, 5, &a);
+    CR_REQUIRE(o != NULL);
+    char *text = cJSON_PrintUnformatted(o);
+    CR_CHECK(strcmp(text, "{\"n\":3,\"x\":0.5,\"y\":-2.25,\"flag\":true,\"name\":\"abc\"}") == 0);
+    cr_error err = {0};
+    CR_CHECK_OK(cr_config_parse_object(o, "t", keys, 5, &b, &err), &err);
+    CR_CHECK(cr_config_diff(keys, 5, &a, &b) == NULL);
+    b.y = 1.0;
+    CR_CHECK(strcmp(cr_config_diff(keys, 5, &a, &b), "y") == 0);
+    b.n = 4;
+    CR_CHECK(strcmp(cr_config_diff(keys, 5, &a, &b), "n") == 0);
+    cJSON_AddNumberToObject(o, "n2", 1);
+    CR_CHECK(cr_config_parse_object(o, "t", keys, 5, &b, &err) == CR_ERR_CONFIG &&
+             strstr(err.msg, "n2"));
+    cJSON_free(text);
+    cJSON_Delete(o);
 }

@@ -223,6 +223,17 @@ cr_status cr_config_parse(const char *json_text, const char *source, const cr_co
                           int nkeys, void *out, cr_error *err);
 cr_status cr_config_load(const char *path, const cr_config_key *keys, int nkeys, void *out,
                          cr_error *err);
+struct cJSON;
+/* The same from a parsed JSON object (a part of a larger document). */
+cr_status cr_config_parse_object(const struct cJSON *obj, const char *source,
+                                 const cr_config_key *keys, int nkeys, void *out, cr_error *err);
+/* The struct's keys as a new JSON object, in the table's order (the caller
+ * deletes it); NULL when out of memory. What cr_config_parse_object reads back. */
+struct cJSON *cr_config_to_object(const cr_config_key *keys, int nkeys, const void *in);
+/* The first key whose value differs between a and b (two structs the table
+ * describes), or NULL when they agree on every key: what a resume names when
+ * its options are not the checkpoint's. */
+const char *cr_config_diff(const cr_config_key *keys, int nkeys, const void *a, const void *b);
 
 /* ------------------------------------------------------------ file utils -- */
 

@@ -19,95 +19,61 @@
 
 /* ------------------------------------------------------------ def JSON -- */
 
-typedef struct def_field {
-    const char *name;
-    size_t offset;
-    int is_float; /* else int (the norm enum is stored as its int value) */
-} def_field;
-
-#define DF_I(f, n)                                                                                 \
-    { n, offsetof(cr_swingar_def, f), 0 }
-#define DF_F(f)                                                                                    \
-    { #f, offsetof(cr_swingar_def, f), 1 }
-static const def_field def_fields[] = {
-    DF_I(descriptor_len, "descriptor_len"),
-    DF_I(garment_width[0], "garment_width0"),
-    DF_I(garment_width[1], "garment_width1"),
-    DF_I(garment_heads, "garment_heads"),
-    DF_I(shape_width[0], "shape_width0"),
-    DF_I(shape_width[1], "shape_width1"),
-    DF_I(shape_width[2], "shape_width2"),
-    DF_I(motion_window, "motion_window"),
-    DF_I(motion_hidden, "motion_hidden"),
-    DF_I(body_width[0], "body_width0"),
-    DF_I(body_width[1], "body_width1"),
-    DF_I(body_width[2], "body_width2"),
-    DF_I(state_width, "state_width"),
-    DF_I(state_heads, "state_heads"),
-    DF_I(blend_width[0], "blend_width0"),
-    DF_I(blend_width[1], "blend_width1"),
-    DF_I(blend_heads, "blend_heads"),
-    DF_I(corr_hidden, "corr_hidden"),
-    DF_I(corr_heads, "corr_heads"),
-    DF_I(corr_width, "corr_width"),
-    DF_F(alpha),
-    DF_I(norm, "norm"),
-    DF_I(skin_prior, "skin_prior"),
-    DF_I(use_descriptor, "use_descriptor"),
-    DF_I(zero_last, "zero_last"),
-    DF_F(corr_scale),
+/* The model def's keys (crease/base.h's config table): what a model file's
+ * config holds, read back with unknown keys refused by name; ranges are
+ * cr_swingar_def_validate's. The norm enum is stored as its int value. */
+#define DK_I(f, n)                                                                                 \
+    { n, CR_CFG_INT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL }
+#define DK_F(f)                                                                                    \
+    { #f, CR_CFG_FLOAT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL }
+static const cr_config_key def_keys[] = {
+    DK_I(descriptor_len, "descriptor_len"),
+    DK_I(garment_width[0], "garment_width0"),
+    DK_I(garment_width[1], "garment_width1"),
+    DK_I(garment_heads, "garment_heads"),
+    DK_I(shape_width[0], "shape_width0"),
+    DK_I(shape_width[1], "shape_width1"),
+    DK_I(shape_width[2], "shape_width2"),
+    DK_I(motion_window, "motion_window"),
+    DK_I(motion_hidden, "motion_hidden"),
+    DK_I(body_width[0], "body_width0"),
+    DK_I(body_width[1], "body_width1"),
+    DK_I(body_width[2], "body_width2"),
+    DK_I(state_width, "state_width"),
+    DK_I(state_heads, "state_heads"),
+    DK_I(blend_width[0], "blend_width0"),
+    DK_I(blend_width[1], "blend_width1"),
+    DK_I(blend_heads, "blend_heads"),
+    DK_I(corr_hidden, "corr_hidden"),
+    DK_I(corr_heads, "corr_heads"),
+    DK_I(corr_width, "corr_width"),
+    DK_F(alpha),
+    DK_I(norm, "norm"),
+    DK_I(skin_prior, "skin_prior"),
+    DK_I(use_descriptor, "use_descriptor"),
+    DK_I(zero_last, "zero_last"),
+    DK_F(corr_scale),
     /* the descriptor the model was trained on: run and --resume compute the same one
        (a model written before the field has none and is geodesic, the default) */
-    DF_I(affinity, "affinity"),
+    DK_I(affinity, "affinity"),
 };
-enum { NDEF_FIELDS = sizeof def_fields / sizeof def_fields[0] };
+enum { NDEF_KEYS = sizeof def_keys / sizeof def_keys[0] };
+_Static_assert(sizeof(cr_gat_norm) == sizeof(int), "the norm enum is read and written as an int");
 
 static cJSON *def_json(const cr_swingar_def *d) {
-    cJSON *o = cJSON_CreateObject();
-    for (int i = 0; i < NDEF_FIELDS; i++) {
-        const char *p = (const char *)d + def_fields[i].offset;
-        int iv;
-        float fv;
-        if (def_fields[i].is_float) {
-            memcpy(&fv, p, sizeof fv);
-            cJSON_AddNumberToObject(o, def_fields[i].name, (double)fv);
-        } else {
-            memcpy(&iv, p, sizeof iv);
-            cJSON_AddNumberToObject(o, def_fields[i].name, iv);
-        }
-    }
-    return o;
+    return cr_config_to_object(def_keys, NDEF_KEYS, d);
 }
 
 char *cr_swingar_def_to_json(const cr_swingar_def *def) {
     cJSON *o = def_json(def);
-    char *s = cJSON_PrintUnformatted(o);
+    char *s = o ? cJSON_PrintUnformatted(o) : NULL;
     cJSON_Delete(o);
     return s;
 }
 
 static cr_status def_parse(const cJSON *o, const char *source, cr_swingar_def *def, cr_error *err) {
-    if (!cJSON_IsObject(o))
-        return CR_FAIL(err, CR_ERR_PARSE, "%s: model def is not an object", source);
     cr_swingar_def d = *def;
-    for (const cJSON *it = o->child; it; it = it->next) {
-        int k = 0;
-        while (k < NDEF_FIELDS && strcmp(def_fields[k].name, it->string) != 0)
-            k++;
-        if (k == NDEF_FIELDS)
-            return CR_FAIL(err, CR_ERR_PARSE, "%s: unknown model field '%s'", source, it->string);
-        if (!cJSON_IsNumber(it))
-            return CR_FAIL(err, CR_ERR_PARSE, "%s: model field '%s' is not a number", source,
-                           it->string);
-        char *p = (char *)&d + def_fields[k].offset;
-        if (def_fields[k].is_float) {
-            float fv = (float)it->valuedouble;
-            memcpy(p, &fv, sizeof fv);
-        } else {
-            int iv = (int)it->valuedouble;
-            memcpy(p, &iv, sizeof iv);
-        }
-    }
+    CR_TRY(cr_config_parse_object(o, source, def_keys, NDEF_KEYS, &d, err));
     CR_TRY(cr_swingar_def_validate(&d, err));
     *def = d;
     return CR_OK;
