@@ -180,6 +180,11 @@ typedef struct cr_dataset_manifest {
 /* Read dir/manifest.json. CR_ERR_IO naming it when missing, CR_ERR_PARSE
  * naming it and the entry when it is not a crease dataset's. */
 cr_status cr_dataset_read(const char *dir, cr_dataset_manifest *out, cr_error *err);
+/* The same from a manifest's text (len bytes) for the folder dir; what
+ * cr_dataset_read parses after reading the file (and what its fuzz target
+ * drives). */
+cr_status cr_dataset_parse(const char *text, size_t len, const char *dir, cr_dataset_manifest *out,
+                           cr_error *err);
 /* Free and zero; a zeroed manifest is a no-op. */
 void cr_dataset_manifest_free(cr_dataset_manifest *m);
 /* m->dir / rel into out (size bytes); CR_ERR_RANGE when it does not fit. */

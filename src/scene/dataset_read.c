@@ -39,15 +39,24 @@ static void *entries(const cJSON *j, const char *key, size_t size, int32_t *n, c
 
 cr_status cr_dataset_read(const char *dir, cr_dataset_manifest *out, cr_error *err) {
     memset(out, 0, sizeof *out);
-    if ((size_t)snprintf(out->dir, sizeof out->dir, "%s", dir) >= sizeof out->dir)
-        return CR_FAIL(err, CR_ERR_RANGE, "dataset %s: path too long", dir);
     char path[CR_SCENE_PATH + 16];
     snprintf(path, sizeof path, "%s/manifest.json", dir);
     char *text = NULL;
     size_t len = 0;
     CR_TRY(cr_file_read_all(path, &text, &len, err));
-    cJSON *j = cJSON_ParseWithLength(text, len);
+    cr_status st = cr_dataset_parse(text, len, dir, out, err);
     free(text);
+    return st;
+}
+
+cr_status cr_dataset_parse(const char *text, size_t len, const char *dir, cr_dataset_manifest *out,
+                           cr_error *err) {
+    memset(out, 0, sizeof *out);
+    if ((size_t)snprintf(out->dir, sizeof out->dir, "%s", dir) >= sizeof out->dir)
+        return CR_FAIL(err, CR_ERR_RANGE, "dataset %s: path too long", dir);
+    char path[CR_SCENE_PATH + 16];
+    snprintf(path, sizeof path, "%s/manifest.json", dir);
+    cJSON *j = cJSON_ParseWithLength(text, len);
     if (!j) return CR_FAIL(err, CR_ERR_PARSE, "%s: not valid JSON", path);
     out->json = j;
     cr_status st = CR_OK;
