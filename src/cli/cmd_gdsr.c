@@ -525,8 +525,7 @@ static int cmd_run(int argc, char **argv) {
         return cli_fail(&err);
     cr_gdsr_data dt = {0}; /* the twin dataset's clip */
     if (twin && cr_gdsr_data_load(twin, garment, body, &motion, 1, &dt, &err) != CR_OK) {
-        cr_gdsr_data_free(&d);
-        if (twin) cr_gdsr_data_free(&dt);
+        cr_gdsr_data_free(&d); /* dt: the failed load freed it */
         return cli_fail(&err);
     }
     if (twin && (dt.high->nv != d.high->nv || dt.clip[0].nframes < d.clip[0].nframes)) {

@@ -585,12 +585,13 @@ static cr_status eval_frame(eval_ctx *c, int32_t t, double *m, cr_error *err) {
                                         cr_eval_ring_match(c->rb_r, c->rb_p, NULL, H, o, q));
             m[CR_EVAL_PE_SORTED] =
                 cr_eval_sorted_top(c->rb_p, c->rb_r, H, c->nbed, c->sort_scratch);
-            m[CR_EVAL_PE_RING_RB0] = 0.5 * (cr_eval_ring_match(c->zero, c->rb_r, NULL, H, o, q) +
-                                            cr_eval_ring_match(c->rb_r, c->zero, NULL, H, o, q));
             double rb0 = 0.0;
             for (int32_t h = 0; h < H; h++)
                 rb0 += fabs(c->rb_r[h]);
             m[CR_EVAL_PE_RB0] = rb0 / H;
+            /* RB = 0 matched to R within the rings is PE_RB0 itself (every |0 - RB_R(h)|) */
+            m[CR_EVAL_PE_RING_RB0] =
+                0.5 * (m[CR_EVAL_PE_RB0] + cr_eval_ring_match(c->rb_r, c->zero, NULL, H, o, q));
         }
         double *rest = cr_bending_rest_angles(c->bending);
         for (int32_t h = 0; h < H; h++)
