@@ -67,16 +67,13 @@ static cr_status progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep
     return CR_OK;
 }
 
-static int solver_mode = 0;                /* 0 newton, 1 vbd, 2 compare, 3 qn */
-static int self_contact = 0;               /* --self-contact on */
-static int vbd_sweeps = 0;                 /* --vbd-iterations N; 0: the simulator's default */
-static double vbd_collision_scale = 0;     /* --vbd-collision-scale S; 0: the default */
-static double vbd_tol = 0;                 /* --vbd-tolerance T (m/s); 0: the default */
+static int solver_mode = 0;  /* 0 newton, 1 vbd, 2 compare */
+static int self_contact = 0; /* --self-contact on */
+static int vbd_sweeps = 0;   /* --vbd-iterations N; 0: the simulator's default */
+static double vbd_collision_scale = 0; /* --vbd-collision-scale S; 0: the default */
+static double vbd_tol = 0;             /* --vbd-tolerance T (m/s); 0: the default */
 static const char *reference_cache = NULL; /* --reference FILE: compare's reference */
 static int coarse_every = 2, coarse_refresh = 3; /* compare's VBD + coarse run */
-static int qn_history = 0, qn_iterations = 0;    /* --qn-history, --qn-iterations; 0: default */
-static int qn_refresh = 0;                       /* --qn-refresh N; 0: the default */
-static double qn_tol = 0;                        /* --qn-tolerance T (m/s); 0: the default */
 
 /* After a run: its final positions (V,3), for compare; owned here. */
 static double *last_positions = NULL;
@@ -115,8 +112,8 @@ static int run(const char *name, const cr_mesh *garment, const cr_sim_def *def, 
            "re-queries; %lld capped substeps, %lld VBD retries, %lld backoffs, max penetration "
            "before projection %.2f mm, %s\n",
            name, st.newton_iterations / n, st.factorisations / n, st.vbd_requeries / n,
-           st.newton_capped, st.vbd_retries, st.backoffs, 1e3 * st.max_penetration_m,
-           stopped ? "DIVERGED" : "no divergence");
+           st.newton_capped, st.vbd_retries,
+           st.backoffs, 1e3 * st.max_penetration_m, stopped ? "DIVERGED" : "no divergence");
     fflush(stdout);
     free(last_positions);
     last_positions = malloc(sizeof(double) * 3 * (size_t)garment->nv);
@@ -134,15 +131,6 @@ static void vbd_options(cr_sim_def *d) {
     if (vbd_tol > 0) d->vbd_tol = vbd_tol;
 }
 
-/* The command line's quasi-Newton options, on a def whose solver is qn. */
-static void qn_options(cr_sim_def *d) {
-    if (d->solver != CR_SIM_SOLVER_QN) return;
-    if (qn_history > 0) d->qn_history = qn_history;
-    if (qn_iterations > 0) d->qn_iterations = qn_iterations;
-    if (qn_tol > 0) d->qn_tol = qn_tol;
-    if (qn_refresh > 0) d->qn_refresh = qn_refresh;
-}
-
 /* compare's reference positions from --reference's file, when it holds nv
  * vertices (*cached set), else NULL. The file is raw doubles: the caller
  * keeps it to one scene, thread count and frame count. */
@@ -151,7 +139,8 @@ static double *load_reference(int32_t nv, int *cached) {
     FILE *f = fopen(reference_cache, "rb");
     if (!f) return NULL;
     double *ref = malloc(sizeof(double) * 3 * (size_t)nv);
-    if (ref && fread(ref, sizeof(double), 3 * (size_t)nv, f) == 3 * (size_t)nv && fgetc(f) == EOF) {
+    if (ref && fread(ref, sizeof(double), 3 * (size_t)nv, f) == 3 * (size_t)nv &&
+        fgetc(f) == EOF) {
         *cached = 1;
         printf("bench_sim: the converged reference read from %s\n", reference_cache);
     } else {
@@ -209,23 +198,10 @@ static void distance(const double *pos, const double *ref, int32_t nv, const dou
 static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *base, int frames) {
     cr_sim_def d = *base;
     d.self_contact = self_contact;
-    if (solver_mode != 2) {
-        d.solver = solver_mode == 1   ? CR_SIM_SOLVER_VBD
-                   : solver_mode == 3 ? CR_SIM_SOLVER_QN
-                                      : CR_SIM_SOLVER_NEWTON;
+    if (solver_mode < 2) {
+        d.solver = solver_mode == 1 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_NEWTON;
         vbd_options(&d);
-        qn_options(&d);
-        int rc = run(name, garment, &d, frames), cached = 0;
-        double *ref = reference_cache ? load_reference(garment->nv, &cached) : NULL;
-        if (ref && last_positions) {
-            double mean, worst, shift[3] = {0, 0, 0};
-            distance(last_positions, ref, garment->nv, shift, &mean, &worst);
-            printf("sim %s accuracy %s after %d frames: mean %.2f mm, largest %.2f mm from "
-                   "converged Newton\n",
-                   name, cr_sim_solver_name(d.solver), frames, 1e3 * mean, 1e3 * worst);
-        }
-        free(ref);
-        return rc;
+        return run(name, garment, &d, frames);
     }
     int rc = 0, cached = 0;
     double *ref = reference_cache ? load_reference(garment->nv, &cached) : NULL;
@@ -251,25 +227,24 @@ static int run_mode(const char *name, const cr_mesh *garment, const cr_sim_def *
             moved->pos[3 * v] += (float)nudge;
     }
     char coarse_name[64];
-    snprintf(coarse_name, sizeof coarse_name, "vbd with coarse every %d, refresh %d,", coarse_every,
-             coarse_refresh);
-    const char *variant[] = {"newton (converged, start moved 10 um)", "newton (capped at 8)", "vbd",
-                             coarse_name, "qn"};
-    for (int k = moved ? 0 : 1; k < 5; k++) {
+    snprintf(coarse_name, sizeof coarse_name, "vbd with coarse every %d, refresh %d,",
+             coarse_every, coarse_refresh);
+    const char *variant[] = {"newton (converged, start moved 10 um)", "newton (capped at 8)",
+                             "vbd", coarse_name};
+    for (int k = moved ? 0 : 1; k < 4; k++) {
         d = *base;
         d.self_contact = self_contact;
         double shift[3] = {0, 0, 0};
-        d.solver = k < 2 ? CR_SIM_SOLVER_NEWTON : k < 4 ? CR_SIM_SOLVER_VBD : CR_SIM_SOLVER_QN;
+        d.solver = k < 2 ? CR_SIM_SOLVER_NEWTON : CR_SIM_SOLVER_VBD;
         if (k == 0) converge(&d), shift[0] = nudge;
         if (k == 3) d.vbd_coarse_every = coarse_every, d.vbd_coarse_refresh = coarse_refresh;
         vbd_options(&d);
-        qn_options(&d);
         rc |= run(name, k == 0 ? moved : garment, &d, frames);
         if (!last_positions) continue;
         double mean, worst;
         distance(last_positions, ref, garment->nv, shift, &mean, &worst);
         char sweeps[32] = "";
-        if (k == 2 || k == 3) snprintf(sweeps, sizeof sweeps, " (%d sweeps)", d.vbd_iterations);
+        if (k >= 2) snprintf(sweeps, sizeof sweeps, " (%d sweeps)", d.vbd_iterations);
         printf("sim %s accuracy %s%s after %d frames: mean %.2f mm, largest %.2f mm from "
                "converged Newton\n",
                name, variant[k], sweeps, frames, 1e3 * mean, 1e3 * worst);
@@ -406,9 +381,9 @@ int main(int argc, char **argv) {
         }
     }
     if ((v = take_option(&argc, argv, "--solver"))) {
-        solver_mode = !strcmp(v, "vbd") ? 1 : !strcmp(v, "compare") ? 2 : !strcmp(v, "qn") ? 3 : 0;
+        solver_mode = !strcmp(v, "vbd") ? 1 : !strcmp(v, "compare") ? 2 : 0;
         if (solver_mode == 0 && strcmp(v, "newton")) {
-            fprintf(stderr, "bench_sim: --solver newton|vbd|qn|compare, got %s\n", v);
+            fprintf(stderr, "bench_sim: --solver newton|vbd|compare, got %s\n", v);
             return 2;
         }
     }
@@ -432,22 +407,6 @@ int main(int argc, char **argv) {
     if ((v = take_option(&argc, argv, "--vbd-collision-scale")) &&
         !((vbd_collision_scale = atof(v)) >= 1.0)) {
         fprintf(stderr, "bench_sim: --vbd-collision-scale wants a number >= 1, got %s\n", v);
-        return 2;
-    }
-    if ((v = take_option(&argc, argv, "--qn-history")) && (qn_history = atoi(v)) < 1) {
-        fprintf(stderr, "bench_sim: --qn-history wants a count >= 1, got %s\n", v);
-        return 2;
-    }
-    if ((v = take_option(&argc, argv, "--qn-iterations")) && (qn_iterations = atoi(v)) < 1) {
-        fprintf(stderr, "bench_sim: --qn-iterations wants a count >= 1, got %s\n", v);
-        return 2;
-    }
-    if ((v = take_option(&argc, argv, "--qn-tolerance")) && !((qn_tol = atof(v)) > 0.0)) {
-        fprintf(stderr, "bench_sim: --qn-tolerance wants a speed > 0 (m/s), got %s\n", v);
-        return 2;
-    }
-    if ((v = take_option(&argc, argv, "--qn-refresh")) && (qn_refresh = atoi(v)) < 1) {
-        fprintf(stderr, "bench_sim: --qn-refresh wants a count >= 1, got %s\n", v);
         return 2;
     }
     const char *which = argc > 1 ? argv[1] : "all";

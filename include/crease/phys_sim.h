@@ -106,13 +106,11 @@ typedef void (*cr_sim_iteration_fn)(void *ctx, int iteration, double energy, dou
 /* The solver of each substep's incremental potential. */
 typedef enum cr_sim_solver {
     CR_SIM_SOLVER_NEWTON = 0, /* Newton + CHOLMOD with a line search: the converged reference */
-    CR_SIM_SOLVER_VBD,        /* vertex block descent (Chen et al. 2024): per-vertex 3x3 Newton
+    CR_SIM_SOLVER_VBD         /* vertex block descent (Chen et al. 2024): per-vertex 3x3 Newton
                                  steps, Gauss-Seidel over a vertex colouring; no factorisation */
-    CR_SIM_SOLVER_QN          /* quasi-Newton: L-BFGS on a Newton Hessian factorised once a frame
-                                 and when it stalls (after Liu et al. 2017; src/phys/qn.c) */
 } cr_sim_solver;
 
-/* Name "newton", "vbd" or "qn" to a solver; -1 for anything else. */
+/* Name "newton" or "vbd" to a solver; -1 for anything else. */
 int cr_sim_solver_parse(const char *name);
 const char *cr_sim_solver_name(cr_sim_solver s);
 
@@ -174,9 +172,8 @@ typedef struct cr_sim_def {
     double max_speed;           /* m/s: a faster vertex means the substep diverged (default 50) */
     double max_penetration;     /* m: a vertex deeper inside the collider means the substep
                                    diverged (default 0.05) */
-    cr_sim_solver solver;       /* default CR_SIM_SOLVER_NEWTON; VBD and quasi-Newton step dynamic
-                                   substeps, static solves (cr_sim_solve_static, quasi_static)
-                                   use Newton always */
+    cr_sim_solver solver;       /* default CR_SIM_SOLVER_NEWTON; VBD steps dynamic substeps, static
+                                   solves (cr_sim_solve_static, quasi_static) use Newton always */
     int vbd_iterations;         /* VBD sweeps per substep at most (default 30); stops earlier when
                                    a sweep's largest vertex move is below vbd_tol h */
     double vbd_tol;             /* m/s: VBD's stopping tolerance (default 0: newton_tol's). A
@@ -212,14 +209,6 @@ typedef struct cr_sim_def {
                                    many corrections, and at each substep's first (default 1);
                                    the others reuse it with a fresh gradient, which saves the
                                    Hessian's evaluation */
-    int qn_iterations;          /* quasi-Newton iterations per substep at most (default 50) */
-    int qn_history;             /* L-BFGS pairs kept, 1..64 (default 8) */
-    int qn_refresh;             /* the Hessian is factorised again after this many iterations
-                                   without convergence (default 8); and at each frame's start */
-    double qn_tol;              /* m/s: quasi-Newton is converged when the residual force would
-                                   change no vertex's velocity by more than this over the substep,
-                                   h |g_i| / m_i (default 0.1; src/phys/qn.c says why not a step
-                                   length) */
     int self_contact;           /* 1: cloth self-contact, vertex-triangle and edge-edge pairs
                                    (self_contact.c; docs/physics.md, "Self-contact";
                                    default 0) */

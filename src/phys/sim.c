@@ -95,10 +95,6 @@ cr_sim_def cr_sim_default_def(void) {
     d.vbd_coarse_every = 0;
     d.vbd_coarse_rings = 2;
     d.vbd_coarse_refresh = 1;
-    d.qn_iterations = 50;
-    d.qn_history = 8;
-    d.qn_refresh = 8;
-    d.qn_tol = 1e-3;
     d.self_contact = 0;
     d.self_contact_thickness = 4e-3;
     d.cookie = CR_SIM_DEF_COOKIE;
@@ -109,12 +105,11 @@ int cr_sim_solver_parse(const char *name) {
     if (!name) return -1;
     if (strcmp(name, "newton") == 0) return CR_SIM_SOLVER_NEWTON;
     if (strcmp(name, "vbd") == 0) return CR_SIM_SOLVER_VBD;
-    if (strcmp(name, "qn") == 0) return CR_SIM_SOLVER_QN;
     return -1;
 }
 
 const char *cr_sim_solver_name(cr_sim_solver s) {
-    return s == CR_SIM_SOLVER_VBD ? "vbd" : s == CR_SIM_SOLVER_QN ? "qn" : "newton";
+    return s == CR_SIM_SOLVER_VBD ? "vbd" : "newton";
 }
 
 /* ---------------------------------------------------------------- drag -- */
@@ -224,8 +219,8 @@ void cr_sim_query_collider(cr_sim *s, const double *x, double radius) {
     s->rep->seconds_collision += cr_time_now() - t;
 }
 
-int32_t cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol) {
-    if (!s->bvh) return 0;
+void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol) {
+    if (!s->bvh) return;
     double t = cr_time_now();
     const double band = s->def.material.collision_thickness;
     int32_t m = 0;
@@ -254,7 +249,6 @@ int32_t cr_sim_requery_collider(cr_sim *s, const double *x, double radius, doubl
     cr_collision_update_vertices(s->collision, x, s->dist, s->normal, s->qsel, m);
     s->rep->vbd_requeries += m;
     s->rep->seconds_collision += cr_time_now() - t;
-    return m;
 }
 
 /* (b - a) x (c - a) of face f at positions pos, normalised (zero when degenerate). */
@@ -594,19 +588,15 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
      * Gauss-Seidel sweep has no mass term to bound its blocks, and 4000
      * sweeps left a 16 x 16 drape unconverged. */
     const int vbd = d->solver == CR_SIM_SOLVER_VBD && dynamic;
-    const int qn = d->solver == CR_SIM_SOLVER_QN && dynamic;
-    if (!vbd && !qn && !s->chol)
+    if (!vbd && !s->chol)
         CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
     newton_opts o;
     if (vbd)
         o.max_iterations = d->vbd_iterations;
-    else if (qn)
-        o.max_iterations = d->qn_iterations;
     else
         o.max_iterations = dynamic ? d->newton_max_iterations : d->static_max_iterations;
     o.h = dynamic ? h : 0.0;
-    o.first = t0 == (double)s->frame;
-    const double tol = vbd && d->vbd_tol > 0.0 ? d->vbd_tol : qn ? d->qn_tol : d->newton_tol;
+    const double tol = vbd && d->vbd_tol > 0.0 ? d->vbd_tol : d->newton_tol;
     o.tol = dynamic ? tol * h : d->static_tol;
     o.rtol = dynamic ? d->newton_rtol : 0.0;
     o.max_step = dynamic ? INFINITY : d->static_max_step;
@@ -628,7 +618,7 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
         cr_sim_query_collider(s, s->x_start, o.base_radius);
         update_friction(s, s->x_start);
     }
-    CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd && !qn, err));
+    CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
     if (dynamic) {
         if (vbd) {
             /* The clamp before the walk within the self-contact bound: after
@@ -645,8 +635,6 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     move_pins(s, t1);
     if (vbd)
         CR_TRY(cr_vbd_solve(s, &o, err));
-    else if (qn)
-        CR_TRY(cr_qn_solve(s, &o, err));
     else
         CR_TRY(newton(s, &o, err));
 

@@ -26,7 +26,6 @@ typedef struct newton_opts {
     double base_radius; /* m: query radius before the iterate's own motion */
     double max_step;    /* m: longest vertex move of one Newton step */
     double h;           /* s, the substep (0: a static solve) */
-    int first;          /* 1: the frame's first substep */
 } newton_opts;
 
 /* Vertex block descent (vbd.c): colouring and vertex-element incidences,
@@ -42,14 +41,6 @@ void cr_vbd_initial_guess(cr_sim *s, double h);
 /* With self-contact, the guess in s->x within the step bound (vbd.c). */
 cr_status cr_vbd_bound_guess(cr_sim *s, cr_error *err);
 
-/* Quasi-Newton (qn.c): the L-BFGS history and scratch; the factorisation is
- * s->chol's. */
-typedef struct cr_qn cr_qn;
-cr_status cr_qn_create(cr_sim *s, cr_qn **out, cr_error *err);
-void cr_qn_destroy(cr_qn *q);
-/* Minimise the substep's objective from s->x in place, like sim.c's newton. */
-cr_status cr_qn_solve(cr_sim *s, const newton_opts *o, cr_error *err);
-
 /* Self-contact pairs at x (sim.c): detection, the term's elements, and the
  * assembly (and Newton's Cholesky analysis when `newton`) rebuilt when the
  * pairs changed. No-op without self-contact. */
@@ -62,8 +53,7 @@ void cr_sim_query_collider(cr_sim *s, const double *x, double radius);
  * stale: moved more than move_tol since their last query and possibly within
  * the collision band now. The others keep theirs, which for a vertex outside
  * the band gives the same zero penalty as a new query. */
-int32_t cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol);
-/* (returns the vertices queried) */
+void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol);
 
 struct cr_sim {
     cr_sim_def def; /* a copy; def.pinned and def.collider are not used after create */
@@ -85,9 +75,8 @@ struct cr_sim {
     sim_drag drag;
     double term_values[CR_SIM_MAX_TERMS]; /* J, of the last evaluation */
     cr_assembly *assembly;
-    cr_cholesky *chol; /* Newton's and quasi-Newton's; VBD's makes it for static solves */
-    cr_vbd *vbd;       /* NULL unless the VBD solver */
-    cr_qn *qn;         /* NULL unless the quasi-Newton solver */
+    cr_cholesky *chol;                /* NULL with the VBD solver */
+    cr_vbd *vbd;                      /* NULL with the Newton solver */
     struct cr_vbd_coarse *vbd_coarse; /* VBD's coarse correction, NULL when off */
     int64_t assembly_builds;          /* times s->assembly was made (the coarse map follows) */
 

@@ -37,7 +37,6 @@ void cr_sim_destroy(cr_sim *s) {
     cr_cholesky_destroy(s->chol);
     cr_vbd_destroy(s->vbd);
     cr_vbd_coarse_destroy(s->vbd_coarse);
-    cr_qn_destroy(s->qn);
     cr_assembly_destroy(s->assembly);
     cr_friction_destroy(s->friction);
     cr_collision_destroy(s->collision);
@@ -114,14 +113,8 @@ static cr_status check_def(const cr_sim_def *d, cr_error *err) {
     CHECK_DEF(!d->collider_frames || (d->collider && d->collider_nframes >= 1),
               "collider_frames needs a collider mesh and collider_nframes >= 1 (got %d)",
               d->collider_nframes);
-    CHECK_DEF(d->solver == CR_SIM_SOLVER_NEWTON || d->solver == CR_SIM_SOLVER_VBD ||
-                  d->solver == CR_SIM_SOLVER_QN,
+    CHECK_DEF(d->solver == CR_SIM_SOLVER_NEWTON || d->solver == CR_SIM_SOLVER_VBD,
               "unknown solver %d", (int)d->solver);
-    CHECK_DEF(d->qn_iterations >= 1, "qn_iterations must be >= 1, got %d", d->qn_iterations);
-    CHECK_DEF(d->qn_history >= 1 && d->qn_history <= 64, "qn_history must be in 1..64, got %d",
-              d->qn_history);
-    CHECK_DEF(isfinite(d->qn_tol) && d->qn_tol > 0.0, "qn_tol must be > 0 m/s, got %g", d->qn_tol);
-    CHECK_DEF(d->qn_refresh >= 1, "qn_refresh must be >= 1, got %d", d->qn_refresh);
     CHECK_DEF(d->vbd_hessian_every >= 1, "vbd_hessian_every must be >= 1, got %d",
               d->vbd_hessian_every);
     CHECK_DEF(d->vbd_iterations >= 1, "vbd_iterations must be >= 1, got %d", d->vbd_iterations);
@@ -263,7 +256,6 @@ static cr_status setup(cr_sim *s, const cr_mesh *garment, cr_error *err) {
         if (d->vbd_coarse_every > 0)
             CR_TRY(cr_vbd_coarse_create(s, d->vbd_coarse_rings, &s->vbd_coarse, err));
     } else {
-        if (d->solver == CR_SIM_SOLVER_QN) CR_TRY(cr_qn_create(s, &s->qn, err));
         CR_TRY(cr_cholesky_create(cr_assembly_hessian(s->assembly), s->pinned, &s->chol, err));
     }
 
