@@ -65,7 +65,13 @@ check "user clearance" json_between "$tmp/u.json" min_clearance_m 0.0119 0.1
 check "user type" grep -q '"type":"user"' "$tmp/u.json"
 awk '$1 == "vt" { next } $1 == "f" { for (i = 2; i <= NF; i++) { split($i, p, "/"); $i = p[1] } } { print }' \
   "$tmp/t.obj" > "$tmp/nouv.obj"
-expect_exit 1 "nouv.obj: no UVs" garment --user "$tmp/nouv.obj" --body-res 48 -o "$tmp/x.obj"
+# without UVs (as research garments come): fitted all the same, one piece, uv_scale_m 0
+check "user without UVs" bash -c "'$crease' garment --user '$tmp/nouv.obj' --body-res 72 \
+  -o '$tmp/nouv_fit.obj' --json > '$tmp/nouv.json'"
+check "no UVs: one piece" grep -q '"panels":1,' "$tmp/nouv.json"
+check "no UVs: clearance" json_between "$tmp/nouv.json" min_clearance_m 0.0099 0.1
+check "no UVs: simulated" "$crease" simulate --garment "$tmp/nouv_fit.obj" \
+  --motion walk --frames 3 -o "$tmp/nouv_sim" --quiet
 expect_exit 1 "missing.obj" garment --user "$tmp/missing.obj" --body-res 48 -o "$tmp/x.obj"
 
 # --- usage ----------------------------------------------------------------------------------

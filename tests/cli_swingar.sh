@@ -37,6 +37,11 @@ check "run outputs" test -s "$tmp/pred/garment.pc2" -a -s "$tmp/pred/garment.glb
 check "run png" bash -c "head -c 4 '$tmp/pred/last.png' | grep -q PNG"
 check "skinned" "$crease" swingar run --skinned --garment "$g" --motion walk --frames 13 \
   -o "$tmp/skin"
+# a garment without UVs (swingar needs none)
+awk '$1 == "vt" { next } $1 == "f" { for (i = 2; i <= NF; i++) { split($i, p, "/"); $i = p[1] } } { print }' \
+  "$g" > "$tmp/nouv.obj"
+check "run without UVs" "$crease" swingar run --model "$tmp/m.safetensors" --garment "$tmp/nouv.obj" \
+  --motion walk --frames 5 -o "$tmp/pred_nouv"
 ref="$tmp/data/sequences/dress_low_normal_walk/garment.pc2"
 edist() { # mean E_dist (cm) of a prediction against the simulation
   "$crease" eval --pred "$1/garment.pc2" --ref "$ref" --garment "$g" -o "$1/eval" --json \

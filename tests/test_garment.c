@@ -329,11 +329,28 @@ CR_TEST(garment, user_obj) {
     }
     cr_mesh_destroy(m);
 
+    /* Without UVs (as research garments come): accepted, one piece, the
+     * same fit and skinning; uv_scale_m 0 says there is no chart. */
+    CR_CHECK_OK(cr_mesh_clone(g->mesh, &m, &err), &err);
+    free(m->uv), free(m->tri_uv);
+    m->uv = NULL, m->tri_uv = NULL, m->nuv = 0;
+    CR_CHECK_OK(fit_file("nouv.obj", m, &u, &err), &err);
+    if (u) {
+        cr_garment_quality q;
+        CR_CHECK_OK(cr_garment_measure(u, shared_body(), &q, &err), &err);
+        CR_CHECK(!cr_mesh_has_uv(u->mesh) && u->uv_scale_m == 0.0f);
+        CR_CHECK(u->npanels == 1 && strcmp(u->panel_name[0], "piece_0") == 0);
+        CR_CHECK(q.min_clearance_m >= 0.0099f && q.max_weight_sum_error < 1e-5f);
+        CR_CHECK(u->mesh->nv == g->mesh->nv);
+        cr_garment_destroy(u);
+    }
+    cr_mesh_destroy(m);
+
     /* Bad files: each message names the file and the problem. */
     struct {
         const char *name, *expect;
         cr_status st;
-    } bad[] = {{"nouv.obj", "no UVs", CR_ERR_INVALID},
+    } bad[] = {{"flatuv.obj", "zero UV area", CR_ERR_INVALID},
                {"cm.obj", "centimetres", CR_ERR_INVALID},
                {"far.obj", "within 0.3 m of the body", CR_ERR_INVALID},
                {"inward.obj", "point into the body", CR_ERR_TOPOLOGY},
@@ -342,8 +359,8 @@ CR_TEST(garment, user_obj) {
     for (int i = 0; i < 6; i++) {
         CR_CHECK_OK(cr_mesh_clone(g->mesh, &m, &err), &err);
         if (i == 0) {
-            free(m->uv), free(m->tri_uv);
-            m->uv = NULL, m->tri_uv = NULL, m->nuv = 0;
+            for (int32_t k = 0; k < 2 * m->nuv; k++)
+                m->uv[k] = 0.5f;
         } else if (i == 1) {
             cr_mesh_transform(m, 100.0f, (float[3]){0, 0, 0});
         } else if (i == 2) {

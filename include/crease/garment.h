@@ -209,14 +209,17 @@ void cr_garment_def_spec(const cr_garment_def *def, char *out, size_t cap);
 
 typedef struct cr_garment {
     cr_garment_type type;
-    cr_mesh *mesh;       /* rest mesh with UVs (per-corner, tri_uv) and vertex normals, m */
+    cr_mesh *mesh;       /* rest mesh with vertex normals, m, and UVs (per-corner, tri_uv);
+                            a user garment may have none (cr_garment_fit_user) */
     int32_t *skin_joint; /* (V,4) joint indices into the body's skeleton */
     float *skin_weight;  /* (V,4) weights, sum 1, largest first */
     int32_t *panel;      /* (F) panel of each face, in [0, npanels) */
     int32_t npanels;
     char panel_name[CR_GARMENT_MAX_PANELS][24]; /* "front", "back", "left_sleeve_front", ...
-                                                   ("chart_0", ... for user garments) */
-    float uv_scale_m;  /* metres per UV unit (the same for every resolution of a template) */
+                                                   ("chart_0", ... for user garments;
+                                                   "piece_0", ... for one without UVs) */
+    float uv_scale_m;  /* metres per UV unit (the same for every resolution of a template);
+                          0 without UVs */
     float clearance_m; /* the clearance it was built with, m */
 } cr_garment;
 
@@ -352,7 +355,7 @@ cr_garment_user_def cr_garment_user_default_def(void);
 /* Check a garment mesh and fit it to the body's rest pose. `source` names it
  * in messages (the file name). Checks, each failing with CR_ERR_TOPOLOGY or
  * CR_ERR_INVALID and a message starting with `source`: an oriented 2-manifold
- * (cr_topology_require_manifold), UVs present and not degenerate, plausible
+ * (cr_topology_require_manifold), UVs not degenerate where present, plausible
  * size in metres (bounding box diagonal 0.1 to 4 m; a diagonal of 10 to 400
  * suggests centimetres and says so), near the body (most vertices within
  * 0.3 m of it), and normals pointing away from the body. Fitting: vertices
@@ -360,12 +363,14 @@ cr_garment_user_def cr_garment_user_default_def(void);
  * gradient, the displacement is relaxed over the mesh (Laplacian smoothing
  * of what moved), repeated, then a last push guarantees the clearance at
  * every vertex. Panels are the UV charts (faces connected through shared UV
- * corners); skin weights come from the body as for procedural garments. */
+ * corners), or without UVs the connected pieces (uv_scale_m 0: the membrane
+ * rests on the 3-D mesh; drape and gdsr refuse such a garment); skin weights
+ * come from the body's nearest surface as for procedural garments. */
 cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
                               const cr_garment_user_def *def, const cr_body_model *body,
                               cr_garment **out, cr_error *err);
 
-/* Read an OBJ (or PLY/glb with UVs, by extension) and cr_garment_fit_user it. */
+/* Read an OBJ, PLY or glb (by extension) and cr_garment_fit_user it. */
 cr_status cr_garment_load_user(const char *path, const cr_garment_user_def *def,
                                const cr_body_model *body, cr_garment **out, cr_error *err);
 

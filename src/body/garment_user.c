@@ -2,7 +2,7 @@
  * checked like the procedural ones and fitted to the body's rest pose.
  *
  * Checks, in order, each naming the file: a valid mesh, an oriented
- * 2-manifold (boundaries allowed), UVs on every face and not degenerate
+ * 2-manifold (boundaries allowed), UVs not degenerate where there are any
  * (at most 1% of faces with zero UV area), a size that reads as metres
  * (bounding box diagonal 0.1 to 4; a larger one says which unit it may be
  * in), lying on the body (at least half the vertices within 0.3 m of it,
@@ -21,6 +21,13 @@
  * Panels are the UV charts: faces joined through edges whose two corners
  * share UV indices on both sides. uv_scale_m is estimated as
  * sqrt(3-D area / UV area) over the whole garment.
+ *
+ * Without UVs (research garments often have none) the garment is accepted
+ * for what needs none: the simulator's membrane takes its rest shape from
+ * the 3-D rest triangles (as every garment's does in `simulate`, `dataset`,
+ * epnet and swingar); panels are then the mesh's connected pieces
+ * ("piece_0", ...) and uv_scale_m is 0. What needs UVs (drape's chart,
+ * gdsr's normal maps) refuses it, naming itself.
  *
  * Seams: vertices at bit-identical positions are welded first (an exporter
  * that writes one vertex per UV or per panel), unless that makes the mesh
@@ -78,11 +85,8 @@ static double uv_area2(const cr_mesh *m, int32_t f) {
 }
 
 static cr_status check_uvs_and_size(const cr_mesh *m, const char *src, cr_error *err) {
-    if (!cr_mesh_has_uv(m))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "%s: no UVs (vt); a garment needs a UV layout of its panels", src);
     int32_t flat = 0;
-    for (int32_t f = 0; f < m->nf; f++)
+    for (int32_t f = 0; f < m->nf && cr_mesh_has_uv(m); f++)
         flat += uv_area2(m, f) == 0.0;
     if ((int64_t)flat * 100 > m->nf)
         return CR_FAIL(err, CR_ERR_INVALID,
@@ -266,7 +270,8 @@ static int same_uv(const cr_mesh *m, int32_t a, int32_t b) {
                       m->uv[2 * (size_t)a + 1] == m->uv[2 * (size_t)b + 1]);
 }
 
-/* Panels = UV charts (union of faces across edges whose UV corners match). */
+/* Panels = UV charts (union of faces across edges whose UV corners match),
+ * or without UVs the connected pieces (faces joined through shared edges). */
 static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *src, int32_t *panel,
                            int32_t *npanels, cr_error *err) {
     int32_t *parent = cr_malloc((size_t)m->nf * sizeof(int32_t), err);
@@ -283,12 +288,12 @@ static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *s
             if (g < 0) continue;
             /* The corners of the shared edge in g, matched by vertex. */
             int32_t a = m->tri[3 * f + k], b = m->tri[3 * f + (k + 1) % 3], ua = -1, ub = -1;
-            for (int j = 0; j < 3; j++) {
+            for (int j = 0; j < 3 && cr_mesh_has_uv(m); j++) {
                 if (m->tri[3 * g + j] == a) ua = m->tri_uv[3 * g + j];
                 if (m->tri[3 * g + j] == b) ub = m->tri_uv[3 * g + j];
             }
-            if (!same_uv(m, ua, m->tri_uv[3 * f + k]) ||
-                !same_uv(m, ub, m->tri_uv[3 * f + (k + 1) % 3]))
+            if (cr_mesh_has_uv(m) && (!same_uv(m, ua, m->tri_uv[3 * f + k]) ||
+                                      !same_uv(m, ub, m->tri_uv[3 * f + (k + 1) % 3])))
                 continue;
             int32_t x = f, y = g;
             while (parent[x] != x)
@@ -306,8 +311,9 @@ static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *s
         if (id[r] < 0) id[r] = n++;
         panel[f] = id[r];
         if (n > CR_GARMENT_MAX_PANELS)
-            st = CR_FAIL(err, CR_ERR_INVALID, "%s: more than %d UV charts (panels)", src,
-                         CR_GARMENT_MAX_PANELS);
+            st = CR_FAIL(err, CR_ERR_INVALID, "%s: more than %d %s (panels)", src,
+                         CR_GARMENT_MAX_PANELS,
+                         cr_mesh_has_uv(m) ? "UV charts" : "separate pieces (no UVs)");
     }
     *npanels = n;
     free(parent), free(id);
@@ -344,19 +350,26 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
     }
     if (st == CR_OK) st = fit(&gb, m, def, err);
     if (st == CR_OK) {
+        const int has_uv = cr_mesh_has_uv(m);
         double a3 = 0.0, a2 = 0.0;
-        for (int32_t f = 0; f < m->nf; f++) {
+        for (int32_t f = 0; f < m->nf && has_uv; f++) {
             float n[3];
             a3 += 0.5 * cr_triangle_normal(&m->pos[3 * (size_t)m->tri[3 * f]],
                                            &m->pos[3 * (size_t)m->tri[3 * f + 1]],
                                            &m->pos[3 * (size_t)m->tri[3 * f + 2]], n);
             a2 += 0.5 * fabs(uv_area2(m, f));
         }
+        if (!has_uv)
+            cr_log(CR_LOG_INFO,
+                   "%s: no UVs: the membrane's rest shape is the fitted 3-D mesh (StVK is "
+                   "isotropic; Baraff-Witkin's warp runs along each triangle's first edge); %d "
+                   "piece(s); drape and gdsr, which work in UV space, refuse it",
+                   source, npanels);
         char names[CR_GARMENT_MAX_PANELS][24];
         for (int32_t p = 0; p < npanels; p++)
-            snprintf(names[p], sizeof names[p], "chart_%d", p);
-        st = cr_garment_finish(&gb, CR_GARMENT_USER, m, panel, npanels, names, (float)sqrt(a3 / a2),
-                               def->clearance_m, 0, out, err);
+            snprintf(names[p], sizeof names[p], has_uv ? "chart_%d" : "piece_%d", p);
+        st = cr_garment_finish(&gb, CR_GARMENT_USER, m, panel, npanels, names,
+                               has_uv ? (float)sqrt(a3 / a2) : 0.0f, def->clearance_m, 0, out, err);
         m = NULL, panel = NULL; /* taken over */
     }
     cr_mesh_destroy(m);

@@ -26,7 +26,7 @@ void help_garment(void) {
         "  --type TYPE      tshirt, longsleeve, skirt, dress, trousers, vest or jumpsuit; a list\n"
         "                   builds layers worn over each other, innermost first (e.g.\n"
         "                   tshirt,vest), written as FILE with _TYPE before the extension\n"
-        "  --user FILE      check a garment mesh with UVs (manifold, orientation, UVs, size\n"
+        "  --user FILE      check a garment mesh (manifold, orientation, UVs if any, size\n"
         "                   in metres, placed on the body) and push it out of the body\n"
         "  --res N          target vertex count, 500 to 100000 (default 8000); met within\n"
         "                   15%% from 2k to 40k\n"

@@ -1,5 +1,5 @@
 /* cmd_swingar.c: `crease swingar train|run`: train SwinGar's estimator on a
- * dataset written by `crease dataset`, and animate any garment OBJ with UVs
+ * dataset written by `crease dataset`, and animate any garment OBJ
  * on a motion with a trained model (PC2 + glb + PNG). */
 #include "cli.h"
 
@@ -45,7 +45,7 @@ void help_swingar(void) {
            "  --arena-mb N           per-step memory, MiB (default 1024)\n\n"
            "run:\n"
            "  --model MODEL          a model written by `swingar train`\n"
-           "  --garment G.obj        any garment mesh with UVs, fitted to the body first\n"
+           "  --garment G.obj        any garment mesh (UVs not needed), fitted to the body first\n"
            "  --motion M             a clip name (crease motion --list) or a .bvh / .npz file\n"
            "  --body B               slim, normal (default) or heavy\n"
            "  --frames N             frames of a clip (default 120)\n"
