@@ -52,6 +52,8 @@ check "pose-body glb" bash -c "'$crease' pose-body --shape heavy --clip squat --
   --res 64 -o '$tmp/squat.glb' --json > '$tmp/squat.json'"
 check "glb fps" grep -q '"fps":24,' "$tmp/squat.json"
 check "glb magic" bash -c "head -c 4 '$tmp/squat.glb' | grep -q glTF"
+check "glb skinned" bash -c "head -c 4000 '$tmp/squat.glb' | grep -aq '\"skins\":\[{\"inverseBindMatrices\"'"
+check "glb plays back" bash -c "'$crease' info '$tmp/squat.glb' > /dev/null"
 # a motion file written by `crease motion`, cut to its first 3 frames
 "$crease" motion --clip jump --frames 8 -o "$tmp/jump.npz" >/dev/null 2>&1
 check "pose-body --motion" bash -c "'$crease' pose-body --motion '$tmp/jump.npz' --frames 3 --res 64 \

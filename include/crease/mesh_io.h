@@ -133,7 +133,11 @@ cr_status cr_glb_write_sequence(const char *path, const cr_mesh *rest, const flo
 /* Read such a sequence back: `rest` is the base mesh as cr_glb_read gives it
  * (welded at seams), frames (T,V,3) positions, m, over its V vertices (base
  * plus morph target i; a seam copy lands on its welded vertex), T the number
- * of morph targets, or 1 (the base) for a file without them; *fps is
+ * of morph targets, or 1 (the base) for a file without them. A skinned mesh
+ * (JOINTS_0, WEIGHTS_0 and a node with a skin; any skeleton) is posed by
+ * animations[0] instead, sampled at its key spacing over its time range
+ * (cr_glb_write_skinned's files, or a rigged character from another tool;
+ * LINEAR and STEP keys). *fps is
  * 1 / (t1 - t0) of the first animation sampler, or 0 when the file has no
  * animation of two keys or more. Targets must not share bytes: the frames
  * never take more memory than the file's BIN chunk. The caller frees *frames
@@ -142,6 +146,36 @@ cr_status cr_glb_read_sequence(const char *path, cr_mesh **rest, float **frames,
                                float *fps, cr_error *err);
 cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *source, cr_mesh **rest,
                                    float **frames, int32_t *nframes, float *fps, cr_error *err);
+
+/* A skinned, animated character (src/geom/io_glb_skin.c), as game engines
+ * and Blender import it: a skeleton of J joint nodes, the mesh's linear blend
+ * skin over them and one animation. */
+enum { CR_GLB_MAX_JOINTS = 1024 };
+
+typedef struct cr_glb_skin {
+    int32_t njoints;               /* J, 1..CR_GLB_MAX_JOINTS */
+    const char *const *joint_name; /* (J) node names */
+    const int32_t *parent;         /* (J) parent joint, earlier in the list, or -1 for a root */
+    const float *rest_joint;       /* (J,3) joint positions in the rest (bind) pose, m */
+    const int32_t *skin_joint;     /* (V,4) joints of each vertex */
+    const float *skin_weight;      /* (V,4) their weights, >= 0 (renormalised when written) */
+} cr_glb_skin;
+
+typedef struct cr_glb_skin_motion {
+    int32_t nframes;          /* T >= 1 */
+    float fps;                /* > 0 */
+    const float *rotation;    /* (T,J,4) each joint's rotation relative to its parent's frame
+                                 in the rest pose, unit quaternion x, y, z, w */
+    const float *translation; /* (T,3) the root's displacement from its rest position, m */
+} cr_glb_skin_motion;
+
+/* Write `rest` skinned to the skeleton, posed by `motion`: joint nodes with
+ * their rest offsets, inverse bind matrices (the rest pose is the bind pose),
+ * JOINTS_0 / WEIGHTS_0, one LINEAR animation of the joints' rotations and the
+ * root's translation with keys at i / fps. cr_glb_read_sequence reads it back
+ * as frames. Atomic. */
+cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_glb_skin *skin,
+                               const cr_glb_skin_motion *motion, cr_error *err);
 
 /* ------------------------------------------------------------------ PC2 -- */
 

@@ -16,6 +16,7 @@
  * al. 2015, SMPL, eq. 2-4.
  */
 #include "crease/body.h"
+#include "crease/mesh_io.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -102,6 +103,33 @@ cr_status cr_body_pose_motion(const cr_body_model *b, const cr_motion *m, float 
     cr_parallel_for(m->nframes, 1, pose_frames, &c);
     *out = seq;
     return CR_OK;
+}
+
+cr_status cr_body_write_glb(const char *path, const cr_body_model *b, const cr_motion *m,
+                            cr_error *err) {
+    for (int32_t t = 0; t < m->nframes; t++)
+        CR_TRY(check_pose(&m->poses[(int64_t)t * CR_NJOINTS * 3], &m->trans[3 * (int64_t)t],
+                          "motion", t, err));
+    float *q = cr_malloc((size_t)m->nframes * CR_NJOINTS * 4 * sizeof(float), err);
+    if (!q) return CR_ERR_MEMORY;
+    /* Axis-angle a to the unit quaternion (sin(|a|/2) a/|a|, cos(|a|/2)). */
+    for (int64_t i = 0; i < (int64_t)m->nframes * CR_NJOINTS; i++) {
+        const float *a = &m->poses[3 * i];
+        double th = sqrt((double)a[0] * a[0] + (double)a[1] * a[1] + (double)a[2] * a[2]);
+        double s = th > 1e-12 ? sin(0.5 * th) / th : 0.5;
+        for (int k = 0; k < 3; k++)
+            q[4 * i + k] = (float)(s * a[k]);
+        q[4 * i + 3] = (float)cos(0.5 * th);
+    }
+    int32_t parent[CR_NJOINTS];
+    for (int j = 0; j < CR_NJOINTS; j++)
+        parent[j] = cr_joint_parent[j];
+    const cr_glb_skin skin = {CR_NJOINTS, cr_joint_name, parent,
+                              b->joints,  b->skin_joint, b->skin_weight};
+    const cr_glb_skin_motion motion = {m->nframes, m->fps, q, m->trans};
+    cr_status st = cr_glb_write_skinned(path, b->rest, &skin, &motion, err);
+    free(q);
+    return st;
 }
 
 cr_status cr_body_model_validate(const cr_body_model *b, const char *source, cr_error *err) {

@@ -1,6 +1,6 @@
 /* cmd_pose_body.c: `crease pose-body`: skin the procedural mannequin through
  * a procedural clip or a motion file and write the posed sequence as a PC2
- * point cache (with the rest mesh beside it as OBJ) or an animated .glb. */
+ * point cache (with the rest mesh beside it as OBJ) or a skinned, animated .glb. */
 #include "cli.h"
 #include "crease/body.h"
 #include "crease/mesh_io.h"
@@ -12,9 +12,10 @@
 void help_pose_body(void) {
     printf("usage: crease pose-body (--clip NAME | --motion FILE) [options] -o OUT.pc2|OUT.glb\n\n"
            "Pose the procedural mannequin with every frame of a motion (linear blend skinning)\n"
-           "and write the vertex positions: OUT.pc2 is a point cache, written with the rest\n"
-           "mesh as OUT.obj beside it (the cache holds no faces); OUT.glb is one file with\n"
-           "morph-target animation that Blender and three.js play.\n\n"
+           "and write it: OUT.pc2 is a point cache of the vertex positions, written with the\n"
+           "rest mesh as OUT.obj beside it (the cache holds no faces); OUT.glb is a skinned,\n"
+           "animated character (SMPL's 22 joints by name, the A-pose as bind pose, one\n"
+           "animation) that game engines, Blender and three.js play.\n\n"
            "options:\n"
            "  --shape NAME     body preset: slim, normal (default) or heavy\n"
            "  --height M       body height, m, 1 to 2.5 (default 1.75)\n"
@@ -125,13 +126,14 @@ int cmd_pose_body(int argc, char **argv) {
     cr_motion_prepare_report rep;
     cr_status st = cr_mannequin_create(&def, &b, &err);
     if (st == CR_OK) st = load_motion(&o, b, def.arm_angle_deg, &m, &rep, &err);
-    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, &err);
     char ext[16];
     cr_path_ext(o.out, ext, sizeof ext);
     if (st == CR_OK && strcmp(ext, "glb") == 0) {
-        st = cr_glb_write_sequence(o.out, b->rest, frames, m->nframes, m->fps, &err);
+        st = cr_body_write_glb(o.out, b, m, &err);
     } else if (st == CR_OK) {
-        st = cr_pc2_write(o.out, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, &err);
+        st = cr_body_pose_motion(b, m, &frames, &err);
+        if (st == CR_OK)
+            st = cr_pc2_write(o.out, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, &err);
         sibling_obj(o.out, obj_path, sizeof obj_path);
         if (st == CR_OK) st = cr_mesh_write(obj_path, b->rest, &err);
     }

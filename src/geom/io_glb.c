@@ -34,6 +34,7 @@
  */
 #include "crease/diffgeo.h"
 #include "crease/mesh_io.h"
+#include "geom/glb_internal.h"
 #include "geom/io_text.h"
 
 #include <cjson/cJSON.h>
@@ -42,40 +43,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum {
-    GLB_MAGIC = 0x46546c67,      /* "glTF" */
-    GLB_CHUNK_JSON = 0x4e4f534a, /* "JSON" */
-    GLB_CHUNK_BIN = 0x004e4942,  /* "BIN\0" */
-    CT_I8 = 5120,
-    CT_U8 = 5121,
-    CT_I16 = 5122,
-    CT_U16 = 5123,
-    CT_U32 = 5125,
-    CT_F32 = 5126,
-    TARGET_ARRAY = 34962,
-    TARGET_ELEMENTS = 34963,
-    MODE_TRIANGLES = 4
-};
-
-/* ================================================================ reader == */
-
-typedef struct glb_in {
-    const char *source;
-    cJSON *root;
-    const unsigned char *bin; /* BIN chunk payload, NULL when absent */
-    uint64_t bin_len;
-    uint64_t buf_len; /* buffers[0].byteLength, <= bin_len */
-} glb_in;
-
-/* A checked accessor: element i is at base + i * stride. */
-typedef struct glb_acc {
-    int64_t count;
-    int ctype, ncomp;
-    const unsigned char *base;
-    uint64_t stride;
-} glb_acc;
-
-static const cJSON *json_at(const cJSON *arr, uint64_t i) {
+const cJSON *cr_glb_json_at(const cJSON *arr, uint64_t i) {
     return cJSON_IsArray(arr) && i < (uint64_t)cJSON_GetArraySize(arr)
                ? cJSON_GetArrayItem(arr, (int)i)
                : NULL;
@@ -83,7 +51,7 @@ static const cJSON *json_at(const cJSON *arr, uint64_t i) {
 
 /* obj[key] as an integer in [0, max]; `dflt` when absent and not `required`.
  * *out is 0 on failure, so no caller ever holds an unset value. */
-static cr_status json_uint(const glb_in *g, const cJSON *obj, const char *where, const char *key,
+cr_status cr_glb_json_uint(const glb_in *g, const cJSON *obj, const char *where, const char *key,
                            int required, uint64_t dflt, uint64_t max, uint64_t *out,
                            cr_error *err) {
     *out = 0;
@@ -127,10 +95,11 @@ static int ctype_size(int ctype) {
     }
 }
 
-static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_error *err) {
+cr_status cr_glb_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_error *err) {
     char where[64], vwhere[64];
     snprintf(where, sizeof where, "accessors[%llu]", (unsigned long long)index);
-    const cJSON *acc = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "accessors"), index);
+    const cJSON *acc =
+        cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "accessors"), index);
     if (!cJSON_IsObject(acc))
         return CR_FAIL(err, CR_ERR_RANGE, "%s: %s does not exist", g->source, where);
     if (cJSON_GetObjectItemCaseSensitive(acc, "sparse"))
@@ -140,10 +109,10 @@ static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_
     if (!cJSON_GetObjectItemCaseSensitive(acc, "bufferView"))
         return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: %s has no bufferView (not supported)",
                        g->source, where);
-    CR_TRY(json_uint(g, acc, where, "bufferView", 1, 0, INT32_MAX, &view_i, err));
-    CR_TRY(json_uint(g, acc, where, "byteOffset", 0, 0, UINT32_MAX, &off, err));
-    CR_TRY(json_uint(g, acc, where, "count", 1, 0, UINT32_MAX, &count, err));
-    CR_TRY(json_uint(g, acc, where, "componentType", 1, 0, 65535, &ctype, err));
+    CR_TRY(cr_glb_json_uint(g, acc, where, "bufferView", 1, 0, INT32_MAX, &view_i, err));
+    CR_TRY(cr_glb_json_uint(g, acc, where, "byteOffset", 0, 0, UINT32_MAX, &off, err));
+    CR_TRY(cr_glb_json_uint(g, acc, where, "count", 1, 0, UINT32_MAX, &count, err));
+    CR_TRY(cr_glb_json_uint(g, acc, where, "componentType", 1, 0, 65535, &ctype, err));
     const cJSON *type = cJSON_GetObjectItemCaseSensitive(acc, "type");
     int ncomp = type_components(cJSON_GetStringValue(type));
     int csize = ctype_size((int)ctype);
@@ -152,15 +121,16 @@ static cr_status get_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_
                        "%s: %s: expected a known type and componentType and count >= 1", g->source,
                        where);
     snprintf(vwhere, sizeof vwhere, "bufferViews[%llu]", (unsigned long long)view_i);
-    const cJSON *view = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "bufferViews"), view_i);
+    const cJSON *view =
+        cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "bufferViews"), view_i);
     if (!cJSON_IsObject(view))
         return CR_FAIL(err, CR_ERR_RANGE, "%s: %s refers to %s, which does not exist", g->source,
                        where, vwhere);
     uint64_t buf, voff, vlen, vstride;
-    CR_TRY(json_uint(g, view, vwhere, "buffer", 1, 0, INT32_MAX, &buf, err));
-    CR_TRY(json_uint(g, view, vwhere, "byteOffset", 0, 0, UINT32_MAX, &voff, err));
-    CR_TRY(json_uint(g, view, vwhere, "byteLength", 1, 0, UINT32_MAX, &vlen, err));
-    CR_TRY(json_uint(g, view, vwhere, "byteStride", 0, 0, 252, &vstride, err));
+    CR_TRY(cr_glb_json_uint(g, view, vwhere, "buffer", 1, 0, INT32_MAX, &buf, err));
+    CR_TRY(cr_glb_json_uint(g, view, vwhere, "byteOffset", 0, 0, UINT32_MAX, &voff, err));
+    CR_TRY(cr_glb_json_uint(g, view, vwhere, "byteLength", 1, 0, UINT32_MAX, &vlen, err));
+    CR_TRY(cr_glb_json_uint(g, view, vwhere, "byteStride", 0, 0, 252, &vstride, err));
     if (buf != 0 || !g->bin)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: %s: expected buffer 0 stored in the GLB BIN chunk", g->source, vwhere);
@@ -198,8 +168,8 @@ static cr_status get_attribute(const glb_in *g, const cJSON *attrs, const char *
     char where[64];
     snprintf(where, sizeof where, "meshes[0].primitives[0].attributes");
     uint64_t i;
-    CR_TRY(json_uint(g, attrs, where, name, 1, 0, INT32_MAX, &i, err));
-    CR_TRY(get_accessor(g, i, out, err));
+    CR_TRY(cr_glb_json_uint(g, attrs, where, name, 1, 0, INT32_MAX, &i, err));
+    CR_TRY(cr_glb_accessor(g, i, out, err));
     *found = 1;
     return CR_OK;
 }
@@ -216,7 +186,7 @@ static cr_status expect_float(const glb_in *g, const glb_acc *a, const char *nam
 }
 
 /* Float components of a float accessor into out (count, ncomp), refusing non-finite. */
-static cr_status read_floats(const glb_in *g, const glb_acc *a, const char *name, float *out,
+cr_status cr_glb_read_floats(const glb_in *g, const glb_acc *a, const char *name, float *out,
                              cr_error *err) {
     for (int64_t i = 0; i < a->count; i++)
         for (int k = 0; k < a->ncomp; k++) {
@@ -238,7 +208,7 @@ static cr_status read_texcoord(const glb_in *g, const glb_acc *a, int64_t nv, fl
     if (a->count != nv)
         return CR_FAIL(err, CR_ERR_PARSE, "%s: TEXCOORD_0 has %lld elements, POSITION has %lld",
                        g->source, (long long)a->count, (long long)nv);
-    if (a->ctype == CT_F32) return read_floats(g, a, "TEXCOORD_0", uv, err);
+    if (a->ctype == CT_F32) return cr_glb_read_floats(g, a, "TEXCOORD_0", uv, err);
     int size = ctype_size(a->ctype);
     double scale = a->ctype == CT_U8 ? 255.0 : 65535.0;
     for (int64_t i = 0; i < nv; i++)
@@ -256,8 +226,9 @@ static cr_status read_indices(const glb_in *g, const cJSON *prim, int64_t nv, in
     int indexed = cJSON_GetObjectItemCaseSensitive(prim, "indices") != NULL;
     if (indexed) {
         uint64_t i;
-        CR_TRY(json_uint(g, prim, "meshes[0].primitives[0]", "indices", 1, 0, INT32_MAX, &i, err));
-        CR_TRY(get_accessor(g, i, &a, err));
+        CR_TRY(cr_glb_json_uint(g, prim, "meshes[0].primitives[0]", "indices", 1, 0, INT32_MAX, &i,
+                                err));
+        CR_TRY(cr_glb_accessor(g, i, &a, err));
         if (a.ncomp != 1 || !(a.ctype == CT_U8 || a.ctype == CT_U16 || a.ctype == CT_U32))
             return CR_FAIL(err, CR_ERR_PARSE,
                            "%s: indices: expected SCALAR unsigned byte, short or int", g->source);
@@ -304,7 +275,7 @@ static void unflip_uvs(float *uv, const float *exact, int64_t nv) {
 }
 
 /* Split the container into the parsed JSON and the BIN chunk. */
-static cr_status open_container(glb_in *g, const unsigned char *d, size_t len, cr_error *err) {
+cr_status cr_glb_open_container(glb_in *g, const unsigned char *d, size_t len, cr_error *err) {
     if (len < 20)
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s: %zu bytes, expected a 12-byte GLB header and a "
@@ -340,15 +311,15 @@ static cr_status open_container(glb_in *g, const unsigned char *d, size_t len, c
         g->bin = d + at + 8;
         g->bin_len = blen;
     }
-    const cJSON *buffer = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "buffers"), 0);
+    const cJSON *buffer = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "buffers"), 0);
     if (buffer) {
         if (cJSON_GetObjectItemCaseSensitive(buffer, "uri"))
             return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                            "%s: buffers[0] is external (uri); expected "
                            "the GLB BIN chunk",
                            g->source);
-        CR_TRY(
-            json_uint(g, buffer, "buffers[0]", "byteLength", 1, 0, g->bin_len, &g->buf_len, err));
+        CR_TRY(cr_glb_json_uint(g, buffer, "buffers[0]", "byteLength", 1, 0, g->bin_len,
+                                &g->buf_len, err));
     }
     return CR_OK;
 }
@@ -363,13 +334,14 @@ static cr_status get_primitive(const glb_in *g, const cJSON **out, cr_error *err
     if (!cJSON_IsArray(meshes) || cJSON_GetArraySize(meshes) != 1)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED, "%s: meshes: expected exactly one mesh, got %d",
                        g->source, cJSON_IsArray(meshes) ? cJSON_GetArraySize(meshes) : 0);
-    const cJSON *prims = cJSON_GetObjectItemCaseSensitive(json_at(meshes, 0), "primitives");
+    const cJSON *prims = cJSON_GetObjectItemCaseSensitive(cr_glb_json_at(meshes, 0), "primitives");
     if (!cJSON_IsArray(prims) || cJSON_GetArraySize(prims) != 1)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: meshes[0].primitives: expected exactly one primitive", g->source);
-    const cJSON *prim = json_at(prims, 0);
+    const cJSON *prim = cr_glb_json_at(prims, 0);
     uint64_t mode;
-    CR_TRY(json_uint(g, prim, "meshes[0].primitives[0]", "mode", 0, MODE_TRIANGLES, 6, &mode, err));
+    CR_TRY(cr_glb_json_uint(g, prim, "meshes[0].primitives[0]", "mode", 0, MODE_TRIANGLES, 6, &mode,
+                            err));
     if (mode != MODE_TRIANGLES)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: meshes[0].primitives[0].mode is %llu, expected 4 (triangles)",
@@ -418,16 +390,16 @@ static cr_status read_mesh(const glb_in *g, cr_mesh **out, cr_error *err) {
         else
             memcpy(m->tri_uv, tri, (size_t)ntri * 3 * sizeof(int32_t));
     }
-    if (st == CR_OK) st = read_floats(g, &pa, "POSITION", m->pos, err);
+    if (st == CR_OK) st = cr_glb_read_floats(g, &pa, "POSITION", m->pos, err);
     if (st == CR_OK && has_n) {
         m->normal = cr_malloc((size_t)nv * 3 * sizeof(float), err);
-        st = m->normal ? read_floats(g, &na, "NORMAL", m->normal, err) : CR_ERR_MEMORY;
+        st = m->normal ? cr_glb_read_floats(g, &na, "NORMAL", m->normal, err) : CR_ERR_MEMORY;
     }
     if (st == CR_OK && has_t) st = read_texcoord(g, &ta, nv, m->uv, err);
     if (st == CR_OK && has_t) {
         float *exact = has_x ? cr_malloc((size_t)nv * 2 * sizeof(float), err) : NULL;
         if (has_x && !exact) st = CR_ERR_MEMORY;
-        if (st == CR_OK && has_x) st = read_floats(g, &xa, "_CREASE_UV", exact, err);
+        if (st == CR_OK && has_x) st = cr_glb_read_floats(g, &xa, "_CREASE_UV", exact, err);
         if (st == CR_OK) unflip_uvs(m->uv, exact, nv);
         free(exact);
     }
@@ -445,7 +417,7 @@ cr_status cr_glb_read_mem(const void *data, size_t len, const char *source, cr_m
                           cr_error *err) {
     *out = NULL;
     glb_in g = {.source = source};
-    cr_status st = open_container(&g, data, len, err);
+    cr_status st = cr_glb_open_container(&g, data, len, err);
     if (st == CR_OK) st = read_mesh(&g, out, err);
     cJSON_Delete(g.root);
     return st;
@@ -463,16 +435,7 @@ cr_status cr_glb_read(const char *path, cr_mesh **out, cr_error *err) {
 
 /* ================================================================ writer == */
 
-/* The JSON under construction and the running BIN length. Every cJSON call
- * can fail on memory; `oom` collects that so the code reads straight. */
-typedef struct glb_out {
-    cJSON *root, *views, *accessors;
-    int nviews, naccessors;
-    uint64_t bin_len;
-    int oom;
-} glb_out;
-
-static cJSON *add(glb_out *g, cJSON *parent, const char *key, cJSON *item) {
+cJSON *cr_glb_add(glb_out *g, cJSON *parent, const char *key, cJSON *item) {
     int ok = item &&
              (key ? cJSON_AddItemToObject(parent, key, item) : cJSON_AddItemToArray(parent, item));
     if (!ok) {
@@ -483,14 +446,14 @@ static cJSON *add(glb_out *g, cJSON *parent, const char *key, cJSON *item) {
     return item;
 }
 
-static void add_num(glb_out *g, cJSON *obj, const char *key, double v) {
-    add(g, obj, key, cJSON_CreateNumber(v));
+void cr_glb_add_num(glb_out *g, cJSON *obj, const char *key, double v) {
+    cr_glb_add(g, obj, key, cJSON_CreateNumber(v));
 }
 
 /* A float as a JSON number that parses back to exactly this float's double
  * value: validators compare accessor min/max with the data that way, and
  * cJSON's own printing accepts 15 digits that only come close. */
-static cJSON *float_array(const float *x, int n) {
+cJSON *cr_glb_float_array(const float *x, int n) {
     cJSON *arr = cJSON_CreateArray();
     for (int i = 0; arr && i < n; i++) {
         char buf[32];
@@ -534,18 +497,18 @@ static int piece(glb_job *j, const void *data, int64_t n, int ncomp, int u32, in
         return -1;
     }
     glb_out *g = j->g;
-    cJSON *view = add(g, g->views, NULL, cJSON_CreateObject());
-    add_num(g, view, "buffer", 0);
-    add_num(g, view, "byteOffset", (double)g->bin_len);
-    add_num(g, view, "byteLength", (double)bytes);
-    if (target) add_num(g, view, "target", target);
+    cJSON *view = cr_glb_add(g, g->views, NULL, cJSON_CreateObject());
+    cr_glb_add_num(g, view, "buffer", 0);
+    cr_glb_add_num(g, view, "byteOffset", (double)g->bin_len);
+    cr_glb_add_num(g, view, "byteLength", (double)bytes);
+    if (target) cr_glb_add_num(g, view, "target", target);
     g->bin_len += bytes;
-    cJSON *acc = add(g, g->accessors, NULL, cJSON_CreateObject());
-    add_num(g, acc, "bufferView", g->nviews++);
-    add_num(g, acc, "componentType", u32 ? CT_U32 : CT_F32);
-    add_num(g, acc, "count", (double)n);
+    cJSON *acc = cr_glb_add(g, g->accessors, NULL, cJSON_CreateObject());
+    cr_glb_add_num(g, acc, "bufferView", g->nviews++);
+    cr_glb_add_num(g, acc, "componentType", u32 ? CT_U32 : CT_F32);
+    cr_glb_add_num(g, acc, "count", (double)n);
     static const char *const types[] = {"", "SCALAR", "VEC2", "VEC3"};
-    add(g, acc, "type", cJSON_CreateString(types[ncomp]));
+    cr_glb_add(g, acc, "type", cJSON_CreateString(types[ncomp]));
     if (minmax && data) {
         const float *x = data;
         float lo[3], hi[3];
@@ -556,8 +519,8 @@ static int piece(glb_job *j, const void *data, int64_t n, int ncomp, int u32, in
                 lo[k] = fminf(lo[k], x[i * ncomp + k]);
                 hi[k] = fmaxf(hi[k], x[i * ncomp + k]);
             }
-        add(g, acc, "min", float_array(lo, ncomp));
-        add(g, acc, "max", float_array(hi, ncomp));
+        cr_glb_add(g, acc, "min", cr_glb_float_array(lo, ncomp));
+        cr_glb_add(g, acc, "max", cr_glb_float_array(hi, ncomp));
     }
     return g->naccessors++;
 }
@@ -586,17 +549,17 @@ static cr_status emit_targets(glb_job *j, cr_error *err) {
     cr_status st = CR_OK;
     for (int32_t t = 0; t < j->nframes && st == CR_OK; t++) {
         const float *frame = j->frames + (size_t)t * (size_t)m->nv * 3;
-        cJSON *target = j->fp ? NULL : add(j->g, j->targets, NULL, cJSON_CreateObject());
+        cJSON *target = j->fp ? NULL : cr_glb_add(j->g, j->targets, NULL, cJSON_CreateObject());
         CR_TRY(gather3(j, frame, m->pos, j->buf, err));
         int a = piece(j, j->buf, nv, 3, 0, 1, TARGET_ARRAY, &st, err);
-        if (target) add_num(j->g, target, "POSITION", a);
+        if (target) cr_glb_add_num(j->g, target, "POSITION", a);
         if (!m->normal || st != CR_OK) continue;
         cr_mesh view = *m;
         view.pos = (float *)frame;
         cr_mesh_vertex_normals(&view, CR_NORMAL_AREA, j->nrm);
         CR_TRY(gather3(j, j->nrm, m->normal, j->buf, err));
         a = piece(j, j->buf, nv, 3, 0, 0, TARGET_ARRAY, &st, err);
-        if (target) add_num(j->g, target, "NORMAL", a);
+        if (target) cr_glb_add_num(j->g, target, "NORMAL", a);
     }
     if (st != CR_OK) return st;
     /* Animation: key i at t = i / fps with weights one-hot on target i. */
@@ -651,59 +614,62 @@ static cr_status emit_all(glb_job *j, cr_error *err) {
 static void build_document(glb_job *j) {
     glb_out *g = j->g;
     cJSON *root = g->root;
-    cJSON *asset = add(g, root, "asset", cJSON_CreateObject());
-    add(g, asset, "version", cJSON_CreateString("2.0"));
-    add(g, asset, "generator", cJSON_CreateString("crease"));
-    add_num(g, root, "scene", 0);
-    cJSON *scene = add(g, add(g, root, "scenes", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    add_num(g, add(g, scene, "nodes", cJSON_CreateArray()), NULL, 0);
-    cJSON *node = add(g, add(g, root, "nodes", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    add(g, node, "name", cJSON_CreateString("crease"));
-    add_num(g, node, "mesh", 0);
-    cJSON *mesh = add(g, add(g, root, "meshes", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    cJSON *prim =
-        add(g, add(g, mesh, "primitives", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    cJSON *attrs = add(g, prim, "attributes", cJSON_CreateObject());
-    add_num(g, attrs, "POSITION", j->acc_pos);
-    if (j->m->normal) add_num(g, attrs, "NORMAL", j->acc_nrm);
+    cJSON *asset = cr_glb_add(g, root, "asset", cJSON_CreateObject());
+    cr_glb_add(g, asset, "version", cJSON_CreateString("2.0"));
+    cr_glb_add(g, asset, "generator", cJSON_CreateString("crease"));
+    cr_glb_add_num(g, root, "scene", 0);
+    cJSON *scene = cr_glb_add(g, cr_glb_add(g, root, "scenes", cJSON_CreateArray()), NULL,
+                              cJSON_CreateObject());
+    cr_glb_add_num(g, cr_glb_add(g, scene, "nodes", cJSON_CreateArray()), NULL, 0);
+    cJSON *node = cr_glb_add(g, cr_glb_add(g, root, "nodes", cJSON_CreateArray()), NULL,
+                             cJSON_CreateObject());
+    cr_glb_add(g, node, "name", cJSON_CreateString("crease"));
+    cr_glb_add_num(g, node, "mesh", 0);
+    cJSON *mesh = cr_glb_add(g, cr_glb_add(g, root, "meshes", cJSON_CreateArray()), NULL,
+                             cJSON_CreateObject());
+    cJSON *prim = cr_glb_add(g, cr_glb_add(g, mesh, "primitives", cJSON_CreateArray()), NULL,
+                             cJSON_CreateObject());
+    cJSON *attrs = cr_glb_add(g, prim, "attributes", cJSON_CreateObject());
+    cr_glb_add_num(g, attrs, "POSITION", j->acc_pos);
+    if (j->m->normal) cr_glb_add_num(g, attrs, "NORMAL", j->acc_nrm);
     if (j->s->uv) {
-        add_num(g, attrs, "TEXCOORD_0", j->acc_tex);
-        add_num(g, attrs, "_CREASE_UV", j->acc_xuv);
+        cr_glb_add_num(g, attrs, "TEXCOORD_0", j->acc_tex);
+        cr_glb_add_num(g, attrs, "_CREASE_UV", j->acc_xuv);
     }
-    add_num(g, prim, "indices", j->acc_idx);
-    add_num(g, prim, "mode", MODE_TRIANGLES);
+    cr_glb_add_num(g, prim, "indices", j->acc_idx);
+    cr_glb_add_num(g, prim, "mode", MODE_TRIANGLES);
     if (j->frames) {
-        add(g, prim, "targets", j->targets);
+        cr_glb_add(g, prim, "targets", j->targets);
         /* Static viewers show frame 0; Blender names shape keys from targetNames. */
-        cJSON *weights = add(g, mesh, "weights", cJSON_CreateArray());
-        cJSON *names = add(g, add(g, mesh, "extras", cJSON_CreateObject()), "targetNames",
-                           cJSON_CreateArray());
+        cJSON *weights = cr_glb_add(g, mesh, "weights", cJSON_CreateArray());
+        cJSON *names = cr_glb_add(g, cr_glb_add(g, mesh, "extras", cJSON_CreateObject()),
+                                  "targetNames", cJSON_CreateArray());
         for (int32_t t = 0; t < j->nframes; t++) {
             char name[32];
             snprintf(name, sizeof name, "frame_%04d", t);
-            add_num(g, weights, NULL, t == 0);
-            add(g, names, NULL, cJSON_CreateString(name));
+            cr_glb_add_num(g, weights, NULL, t == 0);
+            cr_glb_add(g, names, NULL, cJSON_CreateString(name));
         }
-        cJSON *anim =
-            add(g, add(g, root, "animations", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-        add(g, anim, "name", cJSON_CreateString("sequence"));
-        cJSON *sampler =
-            add(g, add(g, anim, "samplers", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-        add_num(g, sampler, "input", j->acc_time);
-        add_num(g, sampler, "output", j->acc_weight);
-        add(g, sampler, "interpolation", cJSON_CreateString("LINEAR"));
-        cJSON *channel =
-            add(g, add(g, anim, "channels", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-        add_num(g, channel, "sampler", 0);
-        cJSON *target = add(g, channel, "target", cJSON_CreateObject());
-        add_num(g, target, "node", 0);
-        add(g, target, "path", cJSON_CreateString("weights"));
+        cJSON *anim = cr_glb_add(g, cr_glb_add(g, root, "animations", cJSON_CreateArray()), NULL,
+                                 cJSON_CreateObject());
+        cr_glb_add(g, anim, "name", cJSON_CreateString("sequence"));
+        cJSON *sampler = cr_glb_add(g, cr_glb_add(g, anim, "samplers", cJSON_CreateArray()), NULL,
+                                    cJSON_CreateObject());
+        cr_glb_add_num(g, sampler, "input", j->acc_time);
+        cr_glb_add_num(g, sampler, "output", j->acc_weight);
+        cr_glb_add(g, sampler, "interpolation", cJSON_CreateString("LINEAR"));
+        cJSON *channel = cr_glb_add(g, cr_glb_add(g, anim, "channels", cJSON_CreateArray()), NULL,
+                                    cJSON_CreateObject());
+        cr_glb_add_num(g, channel, "sampler", 0);
+        cJSON *target = cr_glb_add(g, channel, "target", cJSON_CreateObject());
+        cr_glb_add_num(g, target, "node", 0);
+        cr_glb_add(g, target, "path", cJSON_CreateString("weights"));
     }
-    cJSON *buffer =
-        add(g, add(g, root, "buffers", cJSON_CreateArray()), NULL, cJSON_CreateObject());
-    add_num(g, buffer, "byteLength", (double)g->bin_len);
-    add(g, root, "bufferViews", g->views);
-    add(g, root, "accessors", g->accessors);
+    cJSON *buffer = cr_glb_add(g, cr_glb_add(g, root, "buffers", cJSON_CreateArray()), NULL,
+                               cJSON_CreateObject());
+    cr_glb_add_num(g, buffer, "byteLength", (double)g->bin_len);
+    cr_glb_add(g, root, "bufferViews", g->views);
+    cr_glb_add(g, root, "accessors", g->accessors);
 }
 
 static cr_status write_container(const char *path, glb_job *j, const char *json, cr_error *err) {
@@ -838,13 +804,13 @@ static cr_status weld_map(const float *raw, int64_t nraw, const cr_mesh *m, int3
 
 /* The frame rate of animations[0]: 1 / (t1 - t0) of its first sampler's input. */
 static float read_fps(const glb_in *g) {
-    const cJSON *anim = json_at(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
-    const cJSON *smp = json_at(cJSON_GetObjectItemCaseSensitive(anim, "samplers"), 0);
+    const cJSON *anim = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
+    const cJSON *smp = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(anim, "samplers"), 0);
     const cJSON *in = cJSON_GetObjectItemCaseSensitive(smp, "input");
     glb_acc a;
     cr_error ignored = {0};
     if (!cJSON_IsNumber(in) || in->valuedouble < 0 ||
-        get_accessor(g, (uint64_t)in->valuedouble, &a, &ignored) != CR_OK || a.ctype != CT_F32 ||
+        cr_glb_accessor(g, (uint64_t)in->valuedouble, &a, &ignored) != CR_OK || a.ctype != CT_F32 ||
         a.ncomp != 1 || a.count < 2)
         return 0.0f;
     float t0 = io_f32(io_le32(a.base)), t1 = io_f32(io_le32(a.base + a.stride));
@@ -855,7 +821,7 @@ static float read_fps(const glb_in *g) {
 }
 
 static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int32_t *nframes,
-                               cr_error *err) {
+                               float *skin_fps_out, cr_error *err) {
     const cJSON *prim = NULL;
     CR_TRY(get_primitive(g, &prim, err));
     glb_acc pa;
@@ -874,28 +840,41 @@ static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int3
     float *raw = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
     float *dis = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
     int32_t *map = cr_malloc((size_t)nraw * sizeof(int32_t), err);
-    float *out = cr_malloc((size_t)(nt > 0 ? nt : 1) * (size_t)nv * 3 * sizeof(float), err);
-    cr_status st = raw && dis && map && out ? CR_OK : CR_ERR_MEMORY;
-    if (st == CR_OK) st = read_floats(g, &pa, "POSITION", raw, err);
+    cr_status st = raw && dis && map ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) st = cr_glb_read_floats(g, &pa, "POSITION", raw, err);
     if (st == CR_OK) st = weld_map(raw, nraw, m, map, g->source, err);
-    for (int64_t t = 0; st == CR_OK && t < (nt > 0 ? nt : 1); t++) {
+    /* A skinned mesh without morph targets: posed by its animation. */
+    const cJSON *attrs = cJSON_GetObjectItemCaseSensitive(prim, "attributes");
+    float *posed = NULL, skin_fps = 0.0f;
+    int32_t nposed = 0;
+    if (st == CR_OK && nt == 0 && cJSON_GetObjectItemCaseSensitive(attrs, "JOINTS_0") &&
+        cJSON_GetObjectItemCaseSensitive(g->root, "skins"))
+        st = cr_glb_skin_frames(g, prim, raw, nraw, &posed, &nposed, &skin_fps, err);
+    const int64_t T = posed ? nposed : nt > 0 ? nt : 1;
+    float *out = st == CR_OK ? cr_malloc((size_t)T * (size_t)nv * 3 * sizeof(float), err) : NULL;
+    if (st == CR_OK && !out) st = CR_ERR_MEMORY;
+    for (int64_t t = 0; st == CR_OK && t < T; t++) {
         char name[64];
         snprintf(name, sizeof name, "targets[%lld].POSITION", (long long)t);
         memset(dis, 0, (size_t)nraw * 3 * sizeof(float));
         if (nt > 0) {
             glb_acc ta;
             int has_t;
-            st = get_attribute(g, json_at(targets, (uint64_t)t), "POSITION", &ta, &has_t, err);
+            st = get_attribute(g, cr_glb_json_at(targets, (uint64_t)t), "POSITION", &ta, &has_t,
+                               err);
             if (st == CR_OK && !has_t)
                 st = CR_FAIL(err, CR_ERR_PARSE, "%s: %s is missing", g->source, name);
             if (st == CR_OK) st = expect_float(g, &ta, name, 3, nraw, err);
-            if (st == CR_OK) st = read_floats(g, &ta, name, dis, err);
+            if (st == CR_OK) st = cr_glb_read_floats(g, &ta, name, dis, err);
         }
         /* Seam copies land on their welded vertex with the same value as the original. */
+        const float *base = posed ? posed + t * nraw * 3 : raw;
         for (int64_t j = 0; st == CR_OK && j < nraw; j++)
             for (int k = 0; k < 3; k++)
-                out[(t * nv + map[j]) * 3 + k] = raw[3 * j + k] + dis[3 * j + k];
+                out[(t * nv + map[j]) * 3 + k] = base[3 * j + k] + dis[3 * j + k];
     }
+    if (posed) *skin_fps_out = skin_fps;
+    free(posed);
     free(raw);
     free(dis);
     free(map);
@@ -904,7 +883,7 @@ static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int3
         return st;
     }
     *frames = out;
-    *nframes = (int32_t)(nt > 0 ? nt : 1);
+    *nframes = (int32_t)T;
     return CR_OK;
 }
 
@@ -929,10 +908,11 @@ cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *sou
     *nframes = 0;
     *fps = 0.0f;
     glb_in g = {.source = source};
-    cr_status st = open_container(&g, data, len, err);
+    cr_status st = cr_glb_open_container(&g, data, len, err);
     if (st == CR_OK) st = read_mesh(&g, rest, err);
-    if (st == CR_OK) st = read_sequence(&g, *rest, frames, nframes, err);
-    if (st == CR_OK) *fps = read_fps(&g);
+    float skin_fps = 0.0f;
+    if (st == CR_OK) st = read_sequence(&g, *rest, frames, nframes, &skin_fps, err);
+    if (st == CR_OK) *fps = skin_fps > 0.0f ? skin_fps : read_fps(&g);
     if (st != CR_OK) {
         cr_mesh_destroy(*rest);
         *rest = NULL;
