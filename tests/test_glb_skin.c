@@ -49,7 +49,7 @@ CR_TEST(glb_skin, mannequin_round_trip) {
         m->trans[3 * t] = 0.05f * t; /* the root moves too */
     float *want = NULL;
     CR_CHECK_OK(cr_body_pose_motion(b, m, &want, &err), &err);
-    CR_CHECK_OK(cr_body_write_glb(tmp("walk.glb"), b, m, &err), &err);
+    CR_CHECK_OK(cr_body_write_glb(tmp("walk.glb"), b, m, NULL, NULL, &err), &err);
     cr_mesh *rest = NULL;
     float *got = NULL, fps = 0.0f;
     int32_t nt = 0;
@@ -120,7 +120,7 @@ CR_TEST(glb_skin, other_skeleton) {
     rot[4 * (3 + 1) + 2] = (float)sin(M_PI / 4), rot[4 * (3 + 1) + 3] = (float)cos(M_PI / 4);
     cr_glb_skin skin = {3, names, parent, joints, sj, sw};
     cr_glb_skin_motion mo = {2, 10.0f, rot, trans};
-    CR_CHECK_OK(cr_glb_write_skinned(tmp("tube.glb"), tube, &skin, &mo, &err), &err);
+    CR_CHECK_OK(cr_glb_write_skinned(tmp("tube.glb"), tube, &skin, &mo, NULL, &err), &err);
     cr_mesh *rest = NULL;
     float *got = NULL, fps = 0.0f;
     int32_t nt = 0;
@@ -141,14 +141,36 @@ CR_TEST(glb_skin, other_skeleton) {
     }
     printf("    frame 0 off the rest by %.2e m, frame 1 off the bend by %.2e m\n", worst0, worst1);
     CR_CHECK(worst0 < 1e-6 && worst1 < 1e-5);
+    /* A garment beside the body on the same timeline: a second mesh, one
+     * morph target a frame, a weights channel in the same animation. */
+    float *cf = malloc(sizeof(float) * 2 * 3 * (size_t)tube->nv);
+    for (int64_t i = 0; i < 3 * (int64_t)tube->nv; i++)
+        cf[i] = tube->pos[i], cf[3 * (int64_t)tube->nv + i] = tube->pos[i] + 0.01f;
+    cr_glb_cloth cloth = {tube, cf};
+    CR_CHECK_OK(cr_glb_write_skinned(tmp("both.glb"), tube, &skin, &mo, &cloth, &err), &err);
+    cJSON *j = file_json(tmp("both.glb"));
+    CR_REQUIRE(j);
+    const cJSON *meshes = cJSON_GetObjectItem(j, "meshes");
+    const cJSON *tg = cJSON_GetObjectItem(
+        cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetArrayItem(meshes, 1), "primitives"), 0),
+        "targets");
+    const cJSON *chs = cJSON_GetObjectItem(
+        cJSON_GetArrayItem(cJSON_GetObjectItem(j, "animations"), 0), "channels");
+    const cJSON *last = cJSON_GetArrayItem(chs, cJSON_GetArraySize(chs) - 1);
+    CR_CHECK(cJSON_GetArraySize(meshes) == 2 && cJSON_GetArraySize(tg) == 2);
+    CR_CHECK(strcmp(cJSON_GetStringValue(
+                        cJSON_GetObjectItem(cJSON_GetObjectItem(last, "target"), "path")),
+                    "weights") == 0);
+    cJSON_Delete(j);
+    free(cf);
     /* Refusals name the file and what is wrong. */
     const int32_t late[3] = {-1, 2, 1};
     skin.parent = late;
-    CR_CHECK(cr_glb_write_skinned(tmp("bad.glb"), tube, &skin, &mo, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_glb_write_skinned(tmp("bad.glb"), tube, &skin, &mo, NULL, &err) == CR_ERR_INVALID);
     CR_CHECK(strstr(err.msg, "bad.glb") && strstr(err.msg, "mixamorig:Spine"));
     skin.parent = parent;
     sj[5] = 7;
-    CR_CHECK(cr_glb_write_skinned(tmp("bad.glb"), tube, &skin, &mo, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_glb_write_skinned(tmp("bad.glb"), tube, &skin, &mo, NULL, &err) == CR_ERR_INVALID);
     CR_CHECK(strstr(err.msg, "vertex 1") != NULL);
     free(sj), free(sw), free(got);
     cr_mesh_destroy(rest);

@@ -75,11 +75,12 @@ cr_status cr_body_pose_motion(const cr_body_model *b, const cr_motion *m, float 
 /* Write body b animated by motion m as a skinned glTF character (.glb):
  * SMPL's 22 joints by name, the rest (A-)pose as the bind pose, one
  * animation of m's rotations and root translation at m->fps
- * (cr_glb_write_skinned). Blender and three.js play it; cr_glb_read_sequence
- * reads it back posed as cr_body_pose_motion poses it. CR_ERR_NAN naming a
- * non-finite frame. */
+ * (cr_glb_write_skinned); with `garment` (may be NULL), its frames (T,Vg,3)
+ * beside the body on the same timeline. Blender and three.js play it;
+ * without a garment cr_glb_read_sequence reads it back posed as
+ * cr_body_pose_motion poses it. CR_ERR_NAN naming a non-finite frame. */
 cr_status cr_body_write_glb(const char *path, const cr_body_model *b, const cr_motion *m,
-                            cr_error *err);
+                            const cr_mesh *garment, const float *garment_frames, cr_error *err);
 
 /* ------------------------------------------------------------ the model -- */
 

@@ -169,13 +169,22 @@ typedef struct cr_glb_skin_motion {
     const float *translation; /* (T,3) the root's displacement from its rest position, m */
 } cr_glb_skin_motion;
 
+/* A garment's frames on the character's timeline. */
+typedef struct cr_glb_cloth {
+    const cr_mesh *rest; /* its mesh (faces, UVs, rest positions) */
+    const float *frames; /* (T,Vg,3) positions, m, T = the motion's frames */
+} cr_glb_cloth;
+
 /* Write `rest` skinned to the skeleton, posed by `motion`: joint nodes with
  * their rest offsets, inverse bind matrices (the rest pose is the bind pose),
  * JOINTS_0 / WEIGHTS_0, one LINEAR animation of the joints' rotations and the
- * root's translation with keys at i / fps. cr_glb_read_sequence reads it back
- * as frames. Atomic. */
+ * root's translation with keys at i / fps. With `cloth` (may be NULL), the
+ * garment too, as a second mesh with one morph target a frame driven by the
+ * same animation: one file that plays body and garment together. Without it,
+ * cr_glb_read_sequence reads the file back as frames. Atomic. */
 cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_glb_skin *skin,
-                               const cr_glb_skin_motion *motion, cr_error *err);
+                               const cr_glb_skin_motion *motion, const cr_glb_cloth *cloth,
+                               cr_error *err);
 
 /* ------------------------------------------------------------------ PC2 -- */
 

@@ -158,6 +158,9 @@ cr_status cr_scene_record_frame(cr_scene_record *r, const cr_sim *sim, const cr_
 int32_t cr_scene_record_samples(const cr_scene_record *r);
 /* (V,3) positions of the last sample, m; owned by the record. */
 const float *cr_scene_record_last(const cr_scene_record *r);
+/* (T,V,3) positions of every sample so far, m, T = cr_scene_record_samples;
+ * owned by the record. */
+const float *cr_scene_record_all(const cr_scene_record *r);
 
 /* Also keep the simulator's rest angles (plasticity's) with every sample
  * from now on, sample 0 included: call right after create. Hinges in
@@ -253,6 +256,12 @@ typedef struct cr_scene_sim_def {
     const char *out_dir; /* created when missing; required */
     int render_size;     /* last.png's side, pixels (default 800) */
     int quiet;           /* 1: no progress bar */
+    /* Optional: the skinned body and motion behind `body` (its frame f is
+     * sample f of the PC2): then out_dir/scene.glb holds both, the body as a
+     * skinned, animated character and the garment beside it on the same
+     * timeline (cr_body_write_glb). Borrowed. */
+    const struct cr_body_model *character;
+    const struct cr_motion *character_motion;
 } cr_scene_sim_def;
 
 cr_scene_sim_def cr_scene_sim_default_def(void);
@@ -266,6 +275,7 @@ typedef struct cr_scene_sim_result {
        with plasticity, rest_angles.npy ((T,H) float32 rad per sample; else rest_angles[0] 0) */
     char pc2[CR_SCENE_PATH], glb[CR_SCENE_PATH], log[CR_SCENE_PATH], png[CR_SCENE_PATH];
     char rest_angles[CR_SCENE_PATH];
+    char scene[CR_SCENE_PATH]; /* scene.glb with a character, else "" */
 } cr_scene_sim_result;
 
 /* Read, set up, simulate (cr_scene_run), write the outputs. A run that

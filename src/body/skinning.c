@@ -106,7 +106,7 @@ cr_status cr_body_pose_motion(const cr_body_model *b, const cr_motion *m, float 
 }
 
 cr_status cr_body_write_glb(const char *path, const cr_body_model *b, const cr_motion *m,
-                            cr_error *err) {
+                            const cr_mesh *garment, const float *garment_frames, cr_error *err) {
     for (int32_t t = 0; t < m->nframes; t++)
         CR_TRY(check_pose(&m->poses[(int64_t)t * CR_NJOINTS * 3], &m->trans[3 * (int64_t)t],
                           "motion", t, err));
@@ -127,7 +127,9 @@ cr_status cr_body_write_glb(const char *path, const cr_body_model *b, const cr_m
     const cr_glb_skin skin = {CR_NJOINTS, cr_joint_name, parent,
                               b->joints,  b->skin_joint, b->skin_weight};
     const cr_glb_skin_motion motion = {m->nframes, m->fps, q, m->trans};
-    cr_status st = cr_glb_write_skinned(path, b->rest, &skin, &motion, err);
+    const cr_glb_cloth cloth = {garment, garment_frames};
+    cr_status st =
+        cr_glb_write_skinned(path, b->rest, &skin, &motion, garment ? &cloth : NULL, err);
     free(q);
     return st;
 }

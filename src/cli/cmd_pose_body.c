@@ -129,7 +129,7 @@ int cmd_pose_body(int argc, char **argv) {
     char ext[16];
     cr_path_ext(o.out, ext, sizeof ext);
     if (st == CR_OK && strcmp(ext, "glb") == 0) {
-        st = cr_body_write_glb(o.out, b, m, &err);
+        st = cr_body_write_glb(o.out, b, m, NULL, NULL, &err);
     } else if (st == CR_OK) {
         st = cr_body_pose_motion(b, m, &frames, &err);
         if (st == CR_OK)

@@ -33,7 +33,8 @@ void help_simulate(void) {
         "                       or a .bvh or .npz motion,\n"
         "                       resampled to --fps, starting at the rest pose (where\n"
         "                       garments are fitted) and easing in, written as DIR/body.obj\n"
-        "                       and DIR/body.pc2; with --scale, --start-frame, --end-frame,\n"
+        "                       and DIR/body.pc2, and with the garment as DIR/scene.glb (a\n"
+        "                       skinned character); with --scale, --start-frame, --end-frame,\n"
         "                       --ease-in S (default 1) and --ground as in pose-body\n"
         "  --frames N           frames to simulate (required, >= 1)\n"
         "  --material M         cotton (default), silk, denim or knit\n"
@@ -163,8 +164,10 @@ static int parse(int argc, char **argv, sim_opts *o) {
 
 /* --motion: the mannequin the garments are fitted on, posed by the prepared file (at --fps,
  * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
- * collider, and the body beside the garment for rendering. */
-static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap, cr_error *err) {
+ * collider, and the body beside the garment for rendering; *b and *m (the caller's) go into
+ * DIR/scene.glb with the garment. */
+static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap,
+                             cr_body_model **b_out, cr_motion **m_out, cr_error *err) {
     cr_mannequin_def md = cr_mannequin_default_def();
     cli_motion_file mf = o->mf;
     mf.fps = o->fps;
@@ -180,8 +183,7 @@ static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t ca
     if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
     if (st == CR_OK) st = cr_pc2_write(pc2, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, err);
     free(frames);
-    cr_motion_destroy(m);
-    cr_body_model_destroy(b);
+    *b_out = b, *m_out = m;
     return st;
 }
 
@@ -216,11 +218,16 @@ int cmd_simulate(int argc, char **argv) {
     cli_twin_get(&o.twin, &def.twin);
     char body_mesh[1200], body_pc2[1200];
     cr_status st = CR_OK;
-    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &err);
+    cr_body_model *body = NULL;
+    cr_motion *motion = NULL;
+    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &body, &motion, &err);
     if (o.motion) def.body_mesh = body_mesh, def.body = body_pc2;
+    def.character = body, def.character_motion = motion;
     cr_scene_sim_result r;
     if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);
     free(o.pins);
+    cr_motion_destroy(motion);
+    cr_body_model_destroy(body);
     if (st != CR_OK) return cli_fail(&err);
 
     const cr_scene_run_stats *run = &r.run;
@@ -269,6 +276,7 @@ int cmd_simulate(int argc, char **argv) {
         cJSON_AddStringToObject(out, "glb", r.glb);
         cJSON_AddStringToObject(out, "log", r.log);
         if (r.rest_angles[0]) cJSON_AddStringToObject(out, "rest_angles", r.rest_angles);
+        if (r.scene[0]) cJSON_AddStringToObject(out, "scene", r.scene);
         cJSON_AddStringToObject(out, "png", r.png);
         cli_json_print(j);
     }

@@ -10,8 +10,10 @@
  * matrix is a translation by minus the joint's rest position. Keys at
  * t = i / fps, LINEAR (glTF slerps rotations). JOINTS_0 as unsigned short,
  * WEIGHTS_0 renormalised in float (validators check the sum), vertices split
- * at UV seams like every crease glb. The BIN chunk is built in memory: a
- * character is megabytes, not the gigabytes a morph-target sequence can be.
+ * at UV seams like every crease glb. A garment may go beside the body, on
+ * the same timeline: its own node and mesh, one morph target a frame and a
+ * weights channel one-hot at each frame's time (as cr_glb_write_sequence
+ * writes one). The BIN chunk is built in memory.
  *
  * Evaluation (cr_glb_skin_frames, for cr_glb_read_sequence): the node that
  * draws meshes[0] with a skin; animations[0]'s translation, rotation and
@@ -164,7 +166,7 @@ static cr_status put_mesh(glb_out *g, bin_buf *b, const cr_mesh *m, const cr_mes
         cr_glb_add_num(g, attrs, "TEXCOORD_0",
                        put_accessor(g, b, f, n, "VEC2", 2, CT_F32, TARGET_ARRAY, 0));
     }
-    for (int64_t i = 0; i < n; i++) {
+    for (int64_t i = 0; sk && i < n; i++) {
         const int64_t v = s->src[i];
         double sum = 0.0;
         for (int k = 0; k < 4; k++)
@@ -175,10 +177,12 @@ static cr_status put_mesh(glb_out *g, bin_buf *b, const cr_mesh *m, const cr_mes
             jt[4 * i + k] = w > 0.0f ? (uint16_t)sk->skin_joint[4 * v + k] : 0;
         }
     }
-    cr_glb_add_num(g, attrs, "JOINTS_0",
-                   put_accessor(g, b, jt, n, "VEC4", 4, CT_U16, TARGET_ARRAY, 0));
-    cr_glb_add_num(g, attrs, "WEIGHTS_0",
-                   put_accessor(g, b, f, n, "VEC4", 4, CT_F32, TARGET_ARRAY, 0));
+    if (sk) {
+        cr_glb_add_num(g, attrs, "JOINTS_0",
+                       put_accessor(g, b, jt, n, "VEC4", 4, CT_U16, TARGET_ARRAY, 0));
+        cr_glb_add_num(g, attrs, "WEIGHTS_0",
+                       put_accessor(g, b, f, n, "VEC4", 4, CT_F32, TARGET_ARRAY, 0));
+    }
     cr_glb_add_num(
         g, prim, "indices",
         put_accessor(g, b, s->tri, 3 * (int64_t)m->nf, "SCALAR", 1, CT_U32, TARGET_ELEMENTS, 0));
@@ -189,7 +193,8 @@ static cr_status put_mesh(glb_out *g, bin_buf *b, const cr_mesh *m, const cr_mes
 
 /* Joint nodes 1..J, the skin and the animation. */
 static cr_status put_skeleton(glb_out *g, bin_buf *b, const cr_glb_skin *s,
-                              const cr_glb_skin_motion *a, cJSON *nodes, cr_error *err) {
+                              const cr_glb_skin_motion *a, cJSON *nodes, int *times_out,
+                              cr_error *err) {
     const int32_t J = s->njoints, T = a->nframes;
     float *buf = cr_malloc((size_t)(16 * J > 4 * T ? 16 * J : 4 * T) * sizeof(float), err);
     if (!buf) return CR_ERR_MEMORY;
@@ -233,6 +238,7 @@ static cr_status put_skeleton(glb_out *g, bin_buf *b, const cr_glb_skin *s,
     for (int32_t i = 0; i < T; i++)
         buf[i] = (float)((double)i / a->fps);
     const int times = put_accessor(g, b, buf, T, "SCALAR", 1, CT_F32, 0, 1);
+    *times_out = times;
     int nsamplers = 0;
     for (int32_t j = -1; j < J; j++) { /* -1: the root's translation */
         if (j < 0) {
@@ -264,6 +270,66 @@ static cr_status put_skeleton(glb_out *g, bin_buf *b, const cr_glb_skin *s,
     return CR_OK;
 }
 
+/* The cloth beside the body: mesh 1 on node 1 + J, one morph target a frame
+ * (displacements from its rest, split at seams), and a weights channel in
+ * the body's animation, one-hot at each frame's time (accessor `times`). */
+static cr_status put_cloth(glb_out *g, bin_buf *b, const cr_glb_cloth *c, int32_t T, int times,
+                           int32_t node, cJSON *nodes, cr_error *err) {
+    cr_mesh_seams s;
+    CR_TRY(cr_mesh_split_seams(c->rest, &s, err));
+    float *d = cr_malloc((size_t)s.nv * 3 * sizeof(float), err);
+    float *w = cr_calloc((size_t)T * (size_t)T, sizeof(float), err);
+    cr_status st = d && w ? CR_OK : CR_ERR_MEMORY;
+    cJSON *mesh = cr_glb_add(g, cJSON_GetObjectItemCaseSensitive(g->root, "meshes"), NULL,
+                             cJSON_CreateObject());
+    cr_glb_add(g, mesh, "name", cJSON_CreateString("garment"));
+    cJSON *prim = cr_glb_add(g, cr_glb_add(g, mesh, "primitives", cJSON_CreateArray()), NULL,
+                             cJSON_CreateObject());
+    if (st == CR_OK) st = put_mesh(g, b, c->rest, &s, NULL, prim, err);
+    cJSON *targets = cr_glb_add(g, prim, "targets", cJSON_CreateArray());
+    cJSON *weights = cr_glb_add(g, mesh, "weights", cJSON_CreateArray());
+    cJSON *names = cr_glb_add(g, cr_glb_add(g, mesh, "extras", cJSON_CreateObject()), "targetNames",
+                              cJSON_CreateArray());
+    const int64_t nv = c->rest->nv;
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        const float *x = c->frames + (int64_t)t * nv * 3;
+        for (int64_t i = 0; i < s.nv; i++)
+            for (int k = 0; k < 3; k++)
+                d[3 * i + k] =
+                    x[3 * (int64_t)s.src[i] + k] - c->rest->pos[3 * (int64_t)s.src[i] + k];
+        cJSON *target = cr_glb_add(g, targets, NULL, cJSON_CreateObject());
+        cr_glb_add_num(g, target, "POSITION",
+                       put_accessor(g, b, d, s.nv, "VEC3", 3, CT_F32, TARGET_ARRAY, 1));
+        char name[32];
+        snprintf(name, sizeof name, "frame_%04d", t);
+        cr_glb_add_num(g, weights, NULL, t == 0);
+        cr_glb_add(g, names, NULL, cJSON_CreateString(name));
+        w[(int64_t)t * T + t] = 1.0f;
+    }
+    if (st == CR_OK) {
+        cJSON *gn = cr_glb_add(g, nodes, NULL, cJSON_CreateObject());
+        cr_glb_add(g, gn, "name", cJSON_CreateString("garment"));
+        cr_glb_add_num(g, gn, "mesh", 1);
+        cJSON *anim =
+            cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
+        cJSON *samplers = cJSON_GetObjectItemCaseSensitive(anim, "samplers");
+        cJSON *smp = cr_glb_add(g, samplers, NULL, cJSON_CreateObject());
+        cr_glb_add_num(g, smp, "input", times);
+        cr_glb_add_num(g, smp, "output",
+                       put_accessor(g, b, w, (int64_t)T * T, "SCALAR", 1, CT_F32, 0, 0));
+        cr_glb_add(g, smp, "interpolation", cJSON_CreateString("LINEAR"));
+        cJSON *ch = cr_glb_add(g, cJSON_GetObjectItemCaseSensitive(anim, "channels"), NULL,
+                               cJSON_CreateObject());
+        cr_glb_add_num(g, ch, "sampler", cJSON_GetArraySize(samplers) - 1);
+        cJSON *target = cr_glb_add(g, ch, "target", cJSON_CreateObject());
+        cr_glb_add_num(g, target, "node", node);
+        cr_glb_add(g, target, "path", cJSON_CreateString("weights"));
+    }
+    free(d), free(w);
+    cr_mesh_seams_free(&s);
+    return st;
+}
+
 static cr_status write_file(const char *path, const char *json, const bin_buf *b, cr_error *err) {
     uint64_t jlen = strlen(json), jpad = (jlen + 3) & ~(uint64_t)3;
     uint64_t total = 12 + 8 + jpad + 8 + b->len;
@@ -292,8 +358,17 @@ static cr_status write_file(const char *path, const char *json, const bin_buf *b
 }
 
 cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_glb_skin *skin,
-                               const cr_glb_skin_motion *motion, cr_error *err) {
+                               const cr_glb_skin_motion *motion, const cr_glb_cloth *cloth,
+                               cr_error *err) {
     CR_TRY(check_skin(path, rest, skin, motion, err));
+    if (cloth) {
+        CR_TRY(cr_mesh_validate(cloth->rest, path, err));
+        for (int64_t i = 0; i < (int64_t)motion->nframes * cloth->rest->nv * 3; i++)
+            if (!isfinite(cloth->frames[i]))
+                return CR_FAIL(err, CR_ERR_NAN, "%s: garment frame %lld vertex %lld is not finite",
+                               path, (long long)(i / (3 * (int64_t)cloth->rest->nv)),
+                               (long long)(i / 3 % cloth->rest->nv));
+    }
     cr_mesh_seams s;
     CR_TRY(cr_mesh_split_seams(rest, &s, err));
     glb_out g = {0};
@@ -313,6 +388,7 @@ cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_g
         cr_glb_add_num(&g, roots, NULL, 0);
         for (int32_t j = 0; j < skin->njoints; j++)
             if (skin->parent[j] < 0) cr_glb_add_num(&g, roots, NULL, 1 + j);
+        if (cloth) cr_glb_add_num(&g, roots, NULL, 1 + skin->njoints);
         cJSON *nodes = cr_glb_add(&g, g.root, "nodes", cJSON_CreateArray());
         cJSON *node = cr_glb_add(&g, nodes, NULL, cJSON_CreateObject());
         cr_glb_add(&g, node, "name", cJSON_CreateString("body"));
@@ -324,7 +400,10 @@ cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_g
         cJSON *prim = cr_glb_add(&g, cr_glb_add(&g, mesh, "primitives", cJSON_CreateArray()), NULL,
                                  cJSON_CreateObject());
         st = put_mesh(&g, &b, rest, &s, skin, prim, err);
-        if (st == CR_OK) st = put_skeleton(&g, &b, skin, motion, nodes, err);
+        int times = 0;
+        if (st == CR_OK) st = put_skeleton(&g, &b, skin, motion, nodes, &times, err);
+        if (st == CR_OK && cloth)
+            st = put_cloth(&g, &b, cloth, motion->nframes, times, 1 + skin->njoints, nodes, err);
     }
     char *json = NULL;
     if (st == CR_OK) {

@@ -284,6 +284,10 @@ int32_t cr_scene_record_samples(const cr_scene_record *r) {
     return r->nsamples;
 }
 
+const float *cr_scene_record_all(const cr_scene_record *r) {
+    return r->samples;
+}
+
 const float *cr_scene_record_last(const cr_scene_record *r) {
     return r->samples + (size_t)(r->nsamples - 1) * (size_t)r->garment->nv * 3;
 }

@@ -4,6 +4,8 @@
  * outputs. The tool parses, calls one of these, and reports. */
 #include "crease/scene.h"
 
+#include "crease/body.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -155,6 +157,15 @@ cr_status cr_scene_simulate(const cr_scene_sim_def *o, cr_scene_sim_result *out,
     if (st == CR_OK) st = cr_scene_record_write(r.rec, out->pc2, out->glb, o->fps, err);
     if (st == CR_OK && out->rest_angles[0])
         st = cr_scene_record_write_rest_angles(r.rec, out->rest_angles, err);
+    if (st == CR_OK && o->character && o->character_motion) {
+        /* The body's frames and the garment's samples, as many as both have. */
+        cr_motion m = *o->character_motion;
+        int32_t n = cr_scene_record_samples(r.rec);
+        if (n < m.nframes) m.nframes = n;
+        snprintf(out->scene, sizeof out->scene, "%s/scene.glb", o->out_dir);
+        st = cr_body_write_glb(out->scene, o->character, &m, r.garment, cr_scene_record_all(r.rec),
+                               err);
+    }
     if (st == CR_OK) {
         const float *cpos = NULL;
         if (r.anim.frames) {
