@@ -72,6 +72,11 @@ check "no UVs: one piece" grep -q '"panels":1,' "$tmp/nouv.json"
 check "no UVs: clearance" json_between "$tmp/nouv.json" min_clearance_m 0.0099 0.1
 check "no UVs: simulated" "$crease" simulate --garment "$tmp/nouv_fit.obj" \
   --motion walk --frames 3 -o "$tmp/nouv_sim" --quiet
+# a skinned glb character moves the collider by its own animation
+check "character glb" "$crease" pose-body --clip walk --frames 4 --res 72 -o "$tmp/char.glb"
+check "simulated on the character" bash -c "'$crease' simulate --garment '$tmp/nouv_fit.obj' \
+  --body-mesh '$tmp/char.glb' --frames 3 -o '$tmp/char_sim' --quiet --json | \
+  grep -q '\"max_penetration_m\":0,'"
 check "scene.glb: body and garment" bash -c "head -c 3000 '$tmp/nouv_sim/scene.glb' | \
   grep -aq '\"name\":\"garment\"'"
 expect_exit 1 "missing.obj" garment --user "$tmp/missing.obj" --body-res 48 -o "$tmp/x.obj"

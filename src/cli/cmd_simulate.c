@@ -26,7 +26,8 @@ void help_simulate(void) {
         "  --garment G          garment mesh (.obj, .ply, .glb), required\n"
         "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
         "                       box (0.4) or a mesh file; static unless --body animates it\n"
-        "  --body-mesh B        body mesh: the collider's faces\n"
+        "  --body-mesh B        body mesh: the collider's faces; a .glb character (skinned,\n"
+        "                       any skeleton) or sequence moves by its own animation\n"
         "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
         "                       f+1, held at the last); vertex count must match the collider\n"
         "  --motion CLIP|FILE   collider: the mannequin posed by a clip (crease motion --list)\n"
@@ -157,8 +158,10 @@ static int parse(int argc, char **argv, sim_opts *o) {
         return cli_usage("simulate", "give --object or --body-mesh, not both");
     if (o->body && !o->object && !o->body_mesh)
         return cli_usage("simulate", "--body needs --body-mesh (or --object) for its faces");
-    if (o->body_mesh && !o->body)
-        return cli_usage("simulate", "--body-mesh needs --body B.pc2 (its animation)");
+    char ext[16] = "";
+    if (o->body_mesh) cr_path_ext(o->body_mesh, ext, sizeof ext);
+    if (o->body_mesh && !o->body && strcmp(ext, "glb") != 0)
+        return cli_usage("simulate", "--body-mesh needs --body B.pc2 (its animation), or a .glb");
     return CLI_OK;
 }
 

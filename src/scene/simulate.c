@@ -5,6 +5,7 @@
 #include "crease/scene.h"
 
 #include "crease/body.h"
+#include "crease/mesh_io.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -45,6 +46,13 @@ cr_scene_sim_def cr_scene_sim_default_def(void) {
                               .vbd_coarse_every = -1};
 }
 
+/* A .glb body carries its own animation (a skinned character or a morph-target sequence). */
+static int is_glb(const char *path) {
+    char ext[16];
+    cr_path_ext(path, ext, sizeof ext);
+    return strcmp(ext, "glb") == 0;
+}
+
 static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
     if (!d->garment) return CR_FAIL(err, CR_ERR_INVALID, "simulate: no garment");
     if (!d->out_dir) return CR_FAIL(err, CR_ERR_INVALID, "simulate: no output folder");
@@ -56,7 +64,7 @@ static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: an object or a body mesh, not both");
     if (d->body && !d->object && !d->body_mesh)
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: %s animates no collider", d->body);
-    if (d->body_mesh && !d->body)
+    if (d->body_mesh && !d->body && !is_glb(d->body_mesh))
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: body mesh %s without its animation",
                        d->body_mesh);
     if (d->render_size < 16)
@@ -90,6 +98,20 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->garment_offset) cr_mesh_transform(r->garment, 1.0f, o->garment_offset);
     if (cr_scene_twin_is_set(&o->twin)) cr_mesh_transform(r->garment, 1.0f, o->twin.offset);
     const char *cname = o->object ? o->object : o->body_mesh;
+    if (o->body_mesh && !o->body && is_glb(o->body_mesh)) {
+        /* Posed by the file's own animation: frame f of the run at its key f. */
+        float fps = 0.0f;
+        CR_TRY(cr_glb_read_sequence(o->body_mesh, &r->collider, &r->anim.frames, &r->anim.nframes,
+                                    &fps, err));
+        r->anim.nv = r->collider->nv;
+        def->collider = r->collider;
+        def->collider_frames = r->anim.frames;
+        def->collider_nframes = r->anim.nframes;
+        if (fps > 0.0f && fabsf(fps - o->fps) > 1e-3f * o->fps)
+            cr_log(CR_LOG_WARN, "%s: animated at %g fps, simulated at %g: one key a frame",
+                   o->body_mesh, (double)fps, (double)o->fps);
+        cname = NULL;
+    }
     if (cname) {
         CR_TRY(o->object ? cr_scene_object_create(o->object, &r->collider, err)
                          : cr_mesh_read(o->body_mesh, &r->collider, err));
