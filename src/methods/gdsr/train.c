@@ -296,9 +296,11 @@ cr_status cr_gdsr_train(const cr_gdsr_train_def *def, const cr_gdsr_data *d,
     return cr_gdsr_train_many(def, &d, 1, out, err);
 }
 
-cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *const *data,
-                             int ngarments, cr_gdsr_train_result *out, cr_error *err) {
-    memset(out, 0, sizeof *out);
+/* The def's ranges, and the steps of an epoch over every garment's training
+ * clips; *any_layers when a garment is an outfit of layers. */
+static cr_status check_train(const cr_gdsr_train_def *def, const cr_gdsr_data *const *data,
+                             int ngarments, int64_t *steps_per_epoch, int *any_layers,
+                             cr_error *err) {
     if (def->cookie != CR_GDSR_COOKIE)
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: not made by cr_gdsr_train_default_def");
@@ -328,8 +330,7 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr train def: lambda_c0, lambda_w0 > 0, lambda_step >= 0, "
                        "lambda_every >= 1");
-    int64_t steps_per_epoch = 0;
-    int any_layers = 0;
+    *steps_per_epoch = 0, *any_layers = 0;
     for (int k = 0; k < ngarments; k++) {
         const cr_gdsr_data *d = data[k];
         if (def->val_clips < 0 || def->val_clips >= d->nclips)
@@ -344,211 +345,249 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
                                "reference",
                                d->clip[c].motion, k + 1);
             if (c < d->nclips - def->val_clips && d->clip[c].nframes > 2)
-                steps_per_epoch += d->clip[c].nframes - 2;
+                *steps_per_epoch += d->clip[c].nframes - 2;
         }
-        any_layers |= d->nlayers > 1;
+        *any_layers |= d->nlayers > 1;
     }
-    if (steps_per_epoch < 1)
+    if (*steps_per_epoch < 1)
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: no clip has 3 frames or more");
-    CR_TRY(cr_mkdir_p(def->out_dir, err));
+    return CR_OK;
+}
 
-    cr_gdsr_model *m = NULL;
-    cr_optim *opt = NULL;
-    cr_nn_ctx *ctx = NULL;
+/* The loss terms, in the order of the log and the result: the coarse L1,
+ * the fine L1, the normal term, the fine garment's six regularisers, C^'s
+ * four. */
+enum { NTERMS = 13 };
+
+/* What a training run holds, released together. */
+typedef struct train_run {
+    const cr_gdsr_train_def *def;
+    cr_gdsr_model *m;
+    cr_optim *opt;
+    cr_nn_ctx *ctx;
     garment_train gts[CR_GDSR_MAX_GARMENTS];
-    memset(gts, 0, sizeof gts);
-    gdsr_patch *patches = NULL;
-    FILE *log = NULL;
-    char ckpt[1100], model_path[1100], log_path[1100];
-    snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
-    snprintf(model_path, sizeof model_path, "%s/model.safetensors", def->out_dir);
-    snprintf(log_path, sizeof log_path, "%s/log.jsonl", def->out_dir);
-    cr_status st;
-    double t0 = cr_time_now();
+    gdsr_patch *patches; /* Eq. 24's, or NULL */
+    cr_rng rng;          /* the input noise's */
+    int64_t steps_per_epoch;
+    double sum[NTERMS + 1]; /* the epoch's sums: the weighted loss, then each term */
+    int64_t n;              /* steps this epoch */
+} train_run;
+
+/* One step: frame t of training clip c of garment gt, on the state the
+ * clip's earlier frames left (noisy input, Eq. 13-25, AdamW). */
+static cr_status train_frame(train_run *r, garment_train *gt, int c, int32_t t, int ep, float lam_c,
+                             float lam_w, cr_error *err) {
+    const cr_gdsr_train_def *def = r->def;
+    cr_nn_ctx *ctx = r->ctx;
+    const cr_gdsr_data *d = gt->d;
+    const cr_mesh *low = d->low, *high = d->high;
+    const cr_gdsr_clip *cl = &d->clip[c];
+    const int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)high->nv * 3;
+    const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
+    for (int64_t i = 0; i < nl3; i++)
+        gt->cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&r->rng);
+    cr_gdsr_coarse_target(d, ht, gt->cstar);
+    CR_TRY(frame_features(d, &r->m->def, &gt->g, cl->low, t, gt->cin, gt->bp[c] + t * nl3, &gt->fs,
+                          gt->node, gt->e0, gt->e1, err));
+    cr_nn_ctx_reset(ctx);
+    cr_tensor *chat = NULL;
+    const float *base = gt->cin; /* noisy: the model learns to denoise */
+    cr_tensor *X =
+        cr_gdsr_forward(ctx, r->m, d, &gt->g, gt->node, gt->e0, gt->e1, gt->fs.e2, base, &chat);
+    cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, gt->cstar);
+    cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
+    cr_tensor *all[NTERMS] = {0};
+    all[0] = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
+    all[1] = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
+    all[2] = normal_l1(ctx, X, Hs, high, gt->hcols);
+    cr_gdsr_reg_terms(ctx, &gt->reg, X, ht, &all[3], &all[4], &all[5], &all[6]);
+    if (def->w_strain_l1 > 0) all[7] = cr_gdsr_reg_strain_l1(ctx, &gt->reg, X, ht);
+    if (def->w_wrinkle > 0) {
+        /* Eq. 24's random patches, drawn from their own counter-based stream
+           per step (a pure function of seed and step: resume stays exact) */
+        cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
+                                  (uint64_t)(ep * r->steps_per_epoch + r->n));
+        if (r->patches)
+            cr_gdsr_wrinkle_draw_patches(&gt->wr, def->wrinkle_patches, def->wrinkle_patch_side,
+                                         &prng, r->patches);
+        all[8] = cr_gdsr_wrinkle_loss(ctx, &gt->wr, X, ht, r->patches,
+                                      r->patches ? def->wrinkle_patches : 0,
+                                      def->experimental.wrinkle_energy);
+    }
+    /* Eq. 13 and 15-18 on C^ against C* */
+    if (def->experimental.w_coarse_normal > 0) all[9] = normal_l1(ctx, chat, Cs, low, gt->lcols);
+    if (def->experimental.w_coarse_smooth > 0) all[10] = cr_gdsr_reg_smooth(ctx, &gt->creg, chat);
+    if (def->experimental.w_coarse_bend > 0)
+        all[11] = cr_gdsr_reg_bend(ctx, &gt->creg, chat, gt->cstar);
+    if (def->experimental.w_coarse_strain > 0)
+        all[12] = cr_gdsr_reg_strain_l1(ctx, &gt->creg, chat, gt->cstar);
+    /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
+    const float wall[NTERMS] = {lam_c * def->w_coarse,
+                                lam_w * def->w_fine,
+                                lam_w * def->w_normal,
+                                lam_w * def->w_stretch,
+                                lam_w * def->w_shear,
+                                lam_w * def->w_bend,
+                                lam_w * def->w_laplacian,
+                                lam_w * def->w_strain_l1,
+                                lam_w * def->w_wrinkle,
+                                lam_c * def->experimental.w_coarse_normal,
+                                lam_c * def->experimental.w_coarse_smooth,
+                                lam_c * def->experimental.w_coarse_bend,
+                                lam_c * def->experimental.w_coarse_strain};
+    cr_tensor *terms[NTERMS];
+    float w[NTERMS];
+    int nt = 0;
+    for (int q = 0; q < NTERMS; q++) /* the terms off (weight 0) were not built */
+        if (all[q]) terms[nt] = all[q], w[nt++] = wall[q];
+    cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
+    CR_TRY(cr_nn_ctx_error(ctx, err));
+    cr_nn_params_zero_grad(r->m->params);
+    CR_TRY(cr_nn_backward(ctx, loss, err));
+    CR_TRY(cr_optim_step(r->opt, err));
+    r->sum[0] += loss->data[0];
+    for (int q = 0; q < NTERMS; q++)
+        r->sum[1 + q] += all[q] ? all[q]->data[0] : 0.0;
+    r->n++;
+    state_push(&gt->fs, chat->data, base, nl3);
+    return CR_OK;
+}
+
+/* The epoch's means into the result, and its line of log.jsonl. */
+static void end_epoch(const train_run *r, int ep, float lam_c, float lam_w, double seconds,
+                      FILE *log, cr_gdsr_train_result *out) {
+    const double n = (double)r->n;
+    out->epochs = ep + 1;
+    out->last_loss = r->sum[0] / n;
+    double *last[NTERMS] = {
+        &out->last_coarse,        &out->last_fine,          &out->last_normal,
+        &out->last_stretch,       &out->last_shear,         &out->last_bend,
+        &out->last_laplacian,     &out->last_strain_l1,     &out->last_wrinkle,
+        &out->last_coarse_normal, &out->last_coarse_smooth, &out->last_coarse_bend,
+        &out->last_coarse_strain};
+    for (int q = 0; q < NTERMS; q++)
+        *last[q] = r->sum[1 + q] / n;
+    fprintf(log,
+            "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
+            "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
+            "\"laplacian_l1_m\":%.9g,\"strain_l1\":%.9g,\"wrinkle\":%.9g,"
+            "\"coarse_normal_l1\":%.9g,\"coarse_smooth\":%.9g,\"coarse_bend\":%.9g,"
+            "\"coarse_strain_l1\":%.9g,"
+            "\"lambda_c\":%.3g,\"lambda_w\":%.3g,\"val_med_m\":%.9g,"
+            "\"val_upsampled_med_m\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
+            ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
+            out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
+            out->last_strain_l1, out->last_wrinkle, out->last_coarse_normal,
+            out->last_coarse_smooth, out->last_coarse_bend, out->last_coarse_strain, (double)lam_c,
+            (double)lam_w, isnan(out->last_val_med) ? -1.0 : out->last_val_med,
+            isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
+            (double)cr_optim_lr(r->opt), seconds);
+    fflush(log);
+}
+
+/* The model, optimiser, context and per-garment state; resumed from the
+ * checkpoint with def->resume; *epoch0 the epoch to start at. */
+static cr_status start_run(train_run *r, const cr_gdsr_data *const *data, int ngarments,
+                           int any_layers, const char *ckpt, int *epoch0, cr_error *err) {
+    const cr_gdsr_train_def *def = r->def;
     cr_gdsr_model_def md = def->model;
     if (md.layer_edges < 0) md.layer_edges = any_layers; /* auto: on for an outfit */
-    if ((st = cr_gdsr_model_create(&md, &m, err)) != CR_OK) goto done;
-    out->params = cr_nn_params_numel(m->params);
+    CR_TRY(cr_gdsr_model_create(&md, &r->m, err));
     cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAMW);
     od.lr.kind = CR_LR_STEP;
     od.lr.base = def->lr;
     od.lr.gamma = 0.5f;
-    od.lr.step_every = (int64_t)def->lr_halve_every * steps_per_epoch;
+    od.lr.step_every = (int64_t)def->lr_halve_every * r->steps_per_epoch;
     od.weight_decay = def->weight_decay;
-    if ((st = cr_optim_create(&od, m->params, &opt, err)) != CR_OK) goto done;
+    CR_TRY(cr_optim_create(&od, r->m->params, &r->opt, err));
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = (size_t)768 << 20;
-    if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
+    CR_TRY(cr_nn_ctx_create(&cd, &r->ctx, err));
     for (int k = 0; k < ngarments; k++)
-        if ((st = garment_train_init(&gts[k], data[k], def, err)) != CR_OK) goto done;
+        CR_TRY(garment_train_init(&r->gts[k], data[k], def, err));
     if (def->w_wrinkle > 0 && def->wrinkle_patches > 0 &&
-        !(patches = malloc((size_t)def->wrinkle_patches * sizeof *patches))) {
-        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-        goto done;
+        !(r->patches = malloc((size_t)def->wrinkle_patches * sizeof *r->patches)))
+        return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    *epoch0 = 0;
+    r->rng = cr_rng_make(def->model.seed, 7);
+    if (!def->resume) return CR_OK;
+    FILE *f = fopen(ckpt, "rb");
+    if (!f) {
+        cr_log(CR_LOG_WARN, "gdsr train: --resume: no checkpoint at %s; training from the start",
+               ckpt);
+        return CR_OK;
     }
+    fclose(f);
+    CR_TRY(check_resumed_def(ckpt, &r->m->def, err));
+    cr_checkpoint_meta meta = {0};
+    CR_TRY(cr_checkpoint_load(ckpt, r->m->params, r->opt, &meta, err));
+    free(meta.config_json);
+    *epoch0 = (int)meta.epoch;
+    r->rng = meta.rng;
+    return CR_OK;
+}
 
+static cr_status save_checkpoint(const train_run *r, const char *ckpt, int epochs, float loss,
+                                 cr_error *err) {
+    char *js = cr_gdsr_model_def_json(&r->m->def);
+    cr_checkpoint_meta meta = {.epoch = epochs,
+                               .step = cr_optim_step_count(r->opt),
+                               .seed = r->def->model.seed,
+                               .rng = r->rng,
+                               .loss = loss,
+                               .config_json = js};
+    cr_status st = cr_checkpoint_save(ckpt, r->m->params, r->opt, &meta, err);
+    free(js);
+    return st;
+}
+
+cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *const *data,
+                             int ngarments, cr_gdsr_train_result *out, cr_error *err) {
+    memset(out, 0, sizeof *out);
+    int any_layers = 0;
+    train_run r = {.def = def};
+    CR_TRY(check_train(def, data, ngarments, &r.steps_per_epoch, &any_layers, err));
+    CR_TRY(cr_mkdir_p(def->out_dir, err));
+    char ckpt[1100], model_path[1100], log_path[1100];
+    snprintf(ckpt, sizeof ckpt, "%s/checkpoint.safetensors", def->out_dir);
+    snprintf(model_path, sizeof model_path, "%s/model.safetensors", def->out_dir);
+    snprintf(log_path, sizeof log_path, "%s/log.jsonl", def->out_dir);
+    double t0 = cr_time_now();
+    FILE *log = NULL;
     int epoch0 = 0;
-    cr_rng rng = cr_rng_make(def->model.seed, 7);
-    if (def->resume) {
-        FILE *f = fopen(ckpt, "rb");
-        if (f) {
-            fclose(f);
-            if ((st = check_resumed_def(ckpt, &m->def, err)) != CR_OK) goto done;
-            cr_checkpoint_meta meta = {0};
-            if ((st = cr_checkpoint_load(ckpt, m->params, opt, &meta, err)) != CR_OK) goto done;
-            free(meta.config_json);
-            epoch0 = (int)meta.epoch;
-            rng = meta.rng;
-        } else {
-            cr_log(CR_LOG_WARN,
-                   "gdsr train: --resume: no checkpoint at %s; training from the start", ckpt);
-        }
-    }
+    cr_status st = start_run(&r, data, ngarments, any_layers, ckpt, &epoch0, err);
+    if (r.m) out->params = cr_nn_params_numel(r.m->params);
     out->resumed_from = epoch0;
     out->epochs = epoch0;
-    if ((st = cr_train_log_cut(log_path, epoch0, err)) != CR_OK) goto done;
-    log = fopen(log_path, "a");
-    if (!log) {
+    if (st == CR_OK) st = cr_train_log_cut(log_path, epoch0, err);
+    if (st == CR_OK && !(log = fopen(log_path, "a")))
         st = CR_FAIL(err, CR_ERR_IO, "%s: cannot open for writing", log_path);
-        goto done;
-    }
-    for (int ep = epoch0; ep < def->epochs; ep++) {
-        double sum = 0, sc = 0, sf = 0, sn = 0, sr[10] = {0};
-        int64_t n = 0;
+    for (int ep = epoch0; st == CR_OK && ep < def->epochs; ep++) {
         float lam_c, lam_w;
         cr_gdsr_lambdas(def, ep, &lam_c, &lam_w);
+        memset(r.sum, 0, sizeof r.sum);
+        r.n = 0;
         /* garment by garment, each one's clips in order (one garment: the clips in order) */
-        for (int k = 0; k < ngarments; k++) {
-            garment_train *gt = &gts[k];
-            const cr_gdsr_data *d = gt->d;
-            const cr_mesh *low = d->low, *high = d->high;
-            int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)high->nv * 3;
-            for (int c = 0; c < gt->ntrain; c++) {
-                const cr_gdsr_clip *cl = &d->clip[c];
+        for (int k = 0; k < ngarments && st == CR_OK; k++) {
+            garment_train *gt = &r.gts[k];
+            for (int c = 0; c < gt->ntrain && st == CR_OK; c++) {
                 gt->fs.have = 0;
-                for (int32_t t = 2; t < cl->nframes; t++) {
-                    const float *ct = cl->low + t * nl3, *ht = cl->high + t * nh3;
-                    for (int64_t i = 0; i < nl3; i++)
-                        gt->cin[i] = ct[i] + def->noise_m * (float)cr_rng_normal(&rng);
-                    cr_gdsr_coarse_target(d, ht, gt->cstar);
-                    if ((st = frame_features(d, &m->def, &gt->g, cl->low, t, gt->cin,
-                                             gt->bp[c] + t * nl3, &gt->fs, gt->node, gt->e0, gt->e1,
-                                             err)) != CR_OK)
-                        goto done;
-                    cr_nn_ctx_reset(ctx);
-                    cr_tensor *chat = NULL;
-                    const float *base = gt->cin; /* noisy: the model learns to denoise */
-                    cr_tensor *X = cr_gdsr_forward(ctx, m, d, &gt->g, gt->node, gt->e0, gt->e1,
-                                                   gt->fs.e2, base, &chat);
-                    cr_tensor *Cs = cr_nn_from(ctx, 2, (int64_t[]){low->nv, 3}, gt->cstar);
-                    cr_tensor *Hs = cr_nn_from(ctx, 2, (int64_t[]){high->nv, 3}, ht);
-                    cr_tensor *lc = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, chat, Cs)));
-                    cr_tensor *lf = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
-                    cr_tensor *ln = normal_l1(ctx, X, Hs, high, gt->hcols);
-                    cr_tensor *rt[10] = {0}; /* the fine garment's six, then C^'s four */
-                    cr_gdsr_reg_terms(ctx, &gt->reg, X, ht, &rt[0], &rt[1], &rt[2], &rt[3]);
-                    if (def->w_strain_l1 > 0) rt[4] = cr_gdsr_reg_strain_l1(ctx, &gt->reg, X, ht);
-                    if (def->w_wrinkle > 0) {
-                        /* Eq. 24's random patches, drawn from their own counter-based
-                           stream per step (a pure function of seed and step: resume
-                           stays exact) */
-                        cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
-                                                  (uint64_t)(ep * steps_per_epoch + n));
-                        if (patches)
-                            cr_gdsr_wrinkle_draw_patches(&gt->wr, def->wrinkle_patches,
-                                                         def->wrinkle_patch_side, &prng, patches);
-                        rt[5] = cr_gdsr_wrinkle_loss(ctx, &gt->wr, X, ht, patches,
-                                                     patches ? def->wrinkle_patches : 0,
-                                                     def->experimental.wrinkle_energy);
-                    }
-                    /* Eq. 13 and 15-18 on C^ against C* */
-                    if (def->experimental.w_coarse_normal > 0)
-                        rt[6] = normal_l1(ctx, chat, Cs, low, gt->lcols);
-                    if (def->experimental.w_coarse_smooth > 0)
-                        rt[7] = cr_gdsr_reg_smooth(ctx, &gt->creg, chat);
-                    if (def->experimental.w_coarse_bend > 0)
-                        rt[8] = cr_gdsr_reg_bend(ctx, &gt->creg, chat, gt->cstar);
-                    if (def->experimental.w_coarse_strain > 0)
-                        rt[9] = cr_gdsr_reg_strain_l1(ctx, &gt->creg, chat, gt->cstar);
-                    /* Eq. 25: lambda_c on the coarse terms, lambda_w on the fine garment's */
-                    cr_tensor *all[13] = {lc,    lf,    ln,    rt[0], rt[1], rt[2], rt[3],
-                                          rt[4], rt[5], rt[6], rt[7], rt[8], rt[9]};
-                    const float wall[13] = {lam_c * def->w_coarse,
-                                            lam_w * def->w_fine,
-                                            lam_w * def->w_normal,
-                                            lam_w * def->w_stretch,
-                                            lam_w * def->w_shear,
-                                            lam_w * def->w_bend,
-                                            lam_w * def->w_laplacian,
-                                            lam_w * def->w_strain_l1,
-                                            lam_w * def->w_wrinkle,
-                                            lam_c * def->experimental.w_coarse_normal,
-                                            lam_c * def->experimental.w_coarse_smooth,
-                                            lam_c * def->experimental.w_coarse_bend,
-                                            lam_c * def->experimental.w_coarse_strain};
-                    cr_tensor *terms[13];
-                    float w[13];
-                    int nt = 0;
-                    for (int q = 0; q < 13; q++) /* the terms off (weight 0) were not built */
-                        if (all[q]) terms[nt] = all[q], w[nt++] = wall[q];
-                    cr_tensor *loss = cr_loss_weighted_sum(ctx, terms, w, nt, NULL);
-                    if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
-                    cr_nn_params_zero_grad(m->params);
-                    if ((st = cr_nn_backward(ctx, loss, err)) != CR_OK) goto done;
-                    if ((st = cr_optim_step(opt, err)) != CR_OK) goto done;
-                    sum += loss->data[0];
-                    sc += lc->data[0];
-                    sf += lf->data[0];
-                    sn += ln->data[0];
-                    for (int q = 0; q < 10; q++)
-                        sr[q] += rt[q] ? rt[q]->data[0] : 0.0;
-                    n++;
-                    state_push(&gt->fs, chat->data, base, nl3);
-                }
+                for (int32_t t = 2; t < gt->d->clip[c].nframes && st == CR_OK; t++)
+                    st = train_frame(&r, gt, c, t, ep, lam_c, lam_w, err);
             }
         }
-        out->epochs = ep + 1;
-        out->last_loss = sum / n;
-        out->last_coarse = sc / n;
-        out->last_fine = sf / n;
-        out->last_normal = sn / n;
-        out->last_stretch = sr[0] / n;
-        out->last_shear = sr[1] / n;
-        out->last_bend = sr[2] / n;
-        out->last_laplacian = sr[3] / n;
-        out->last_strain_l1 = sr[4] / n;
-        out->last_wrinkle = sr[5] / n;
-        out->last_coarse_normal = sr[6] / n;
-        out->last_coarse_smooth = sr[7] / n;
-        out->last_coarse_bend = sr[8] / n;
-        out->last_coarse_strain = sr[9] / n;
-        if (ep == epoch0) out->first_loss = out->last_loss;
+        if (st != CR_OK) break;
         out->last_val_med = out->val_upsampled_med = NAN;
         if (def->val_clips > 0) { /* over every garment's held-out clips, vertex-frames weighted */
             double vs = 0, vsu = 0;
             int64_t vn = 0;
-            for (int k = 0; k < ngarments; k++)
-                if ((st = cr_gdsr_validate(m, gts[k].d, gts[k].ntrain, &vs, &vsu, &vn, err)) !=
-                    CR_OK)
-                    goto done;
+            for (int k = 0; k < ngarments && st == CR_OK; k++)
+                st = cr_gdsr_validate(r.m, r.gts[k].d, r.gts[k].ntrain, &vs, &vsu, &vn, err);
+            if (st != CR_OK) break;
             if (vn > 0) out->last_val_med = vs / vn, out->val_upsampled_med = vsu / vn;
         }
-        fprintf(log,
-                "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
-                "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
-                "\"laplacian_l1_m\":%.9g,\"strain_l1\":%.9g,\"wrinkle\":%.9g,"
-                "\"coarse_normal_l1\":%.9g,\"coarse_smooth\":%.9g,\"coarse_bend\":%.9g,"
-                "\"coarse_strain_l1\":%.9g,"
-                "\"lambda_c\":%.3g,\"lambda_w\":%.3g,\"val_med_m\":%.9g,"
-                "\"val_upsampled_med_m\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
-                ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
-                out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
-                out->last_strain_l1, out->last_wrinkle, out->last_coarse_normal,
-                out->last_coarse_smooth, out->last_coarse_bend, out->last_coarse_strain,
-                (double)lam_c, (double)lam_w, isnan(out->last_val_med) ? -1.0 : out->last_val_med,
-                isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
-                (double)cr_optim_lr(opt), cr_time_now() - t0);
-        fflush(log);
+        end_epoch(&r, ep, lam_c, lam_w, cr_time_now() - t0, log, out);
+        if (ep == epoch0) out->first_loss = out->last_loss;
         if (!def->quiet)
             fprintf(
                 stderr,
@@ -557,30 +596,19 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
                 ep + 1, def->epochs, out->last_loss, out->last_coarse, out->last_fine,
                 out->last_val_med, out->val_upsampled_med);
         int every = def->checkpoint_every;
-        if ((every > 0 && (ep + 1) % every == 0) || ep + 1 == def->epochs) {
-            char *js = cr_gdsr_model_def_json(&m->def);
-            cr_checkpoint_meta meta = {.epoch = ep + 1,
-                                       .step = cr_optim_step_count(opt),
-                                       .seed = def->model.seed,
-                                       .rng = rng,
-                                       .loss = (float)out->last_loss,
-                                       .config_json = js};
-            st = cr_checkpoint_save(ckpt, m->params, opt, &meta, err);
-            free(js);
-            if (st != CR_OK) goto done;
-        }
+        if ((every > 0 && (ep + 1) % every == 0) || ep + 1 == def->epochs)
+            st = save_checkpoint(&r, ckpt, ep + 1, (float)out->last_loss, err);
     }
-    if (!def->quiet) fprintf(stderr, "\n");
-    st = save_model(model_path, m, err);
-done:
+    if (st == CR_OK && !def->quiet) fprintf(stderr, "\n");
+    if (st == CR_OK) st = save_model(model_path, r.m, err);
     out->seconds = cr_time_now() - t0;
     if (log) fclose(log);
     for (int k = 0; k < ngarments; k++)
-        garment_train_free(&gts[k]);
-    free(patches);
-    cr_nn_ctx_destroy(ctx);
-    cr_optim_destroy(opt);
-    cr_gdsr_model_destroy(m);
+        garment_train_free(&r.gts[k]);
+    free(r.patches);
+    cr_nn_ctx_destroy(r.ctx);
+    cr_optim_destroy(r.opt);
+    cr_gdsr_model_destroy(r.m);
     return st;
 }
 
@@ -607,6 +635,125 @@ static cr_status layer_push(const cr_gdsr_data *d, float *chat, float *fin, int 
     return CR_OK;
 }
 
+/* A roll-out's buffers and tools, released together. */
+typedef struct rollout_run {
+    cr_gdsr_graph g;
+    cr_nn_ctx *ctx;
+    cr_bvh *bv; /* the body, refitted to each frame */
+    cr_topology *htopo;
+    frame_state fs;
+    float *bp, *node, *e0, *e1;             /* (T,Vl,3) body points; features */
+    float *chat, *lpush, *hpush, *sd, *nrm; /* C^ and the handling's scratch */
+    float *rd;                              /* (2,Vh,3) relax scratch: d, dn */
+    uint8_t *moved;
+} rollout_run;
+
+static void rollout_run_free(rollout_run *r) {
+    free(r->bp), free(r->node), free(r->e0), free(r->e1);
+    free(r->fs.chat1), free(r->fs.chat2), free(r->fs.dprev), free(r->fs.e2);
+    free(r->chat), free(r->lpush), free(r->hpush), free(r->sd), free(r->nrm), free(r->rd);
+    free(r->moved);
+    cr_topology_destroy(r->htopo);
+    cr_bvh_destroy(r->bv);
+    cr_nn_ctx_destroy(r->ctx);
+    cr_gdsr_graph_free(&r->g);
+}
+
+static cr_status rollout_run_init(rollout_run *r, const cr_gdsr_data *d, int32_t T, cr_error *err) {
+    const cr_mesh *low = d->low;
+    const int32_t Vh = d->high->nv, Vmax = Vh > low->nv ? Vh : low->nv;
+    const int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
+    r->bp = malloc((size_t)T * nl3 * sizeof(float));
+    r->node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
+    r->fs.chat1 = malloc((size_t)nl3 * sizeof(float));
+    r->fs.chat2 = malloc((size_t)nl3 * sizeof(float));
+    r->fs.dprev = malloc((size_t)nl3 * sizeof(float));
+    r->chat = malloc((size_t)nl3 * sizeof(float));
+    r->lpush = malloc((size_t)nl3 * sizeof(float));
+    r->hpush = malloc((size_t)nh3 * sizeof(float));
+    r->sd = malloc((size_t)Vmax * sizeof(float));
+    r->nrm = malloc((size_t)Vmax * 3 * sizeof(float));
+    r->rd = malloc((size_t)nh3 * 2 * sizeof(float));
+    r->moved = malloc((size_t)Vh + 1);
+    if (!r->bp || !r->node || !r->fs.chat1 || !r->fs.chat2 || !r->fs.dprev || !r->chat ||
+        !r->lpush || !r->hpush || !r->sd || !r->nrm || !r->rd || !r->moved)
+        return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    CR_TRY(cr_gdsr_graph_build(low, &r->g, err));
+    CR_TRY(cr_topology_build(d->high, &r->htopo, err));
+    r->e0 = malloc((size_t)r->g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    r->e1 = malloc((size_t)(r->g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
+    if (!r->e0 || !r->e1) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    return CR_OK;
+}
+
+/* Frame t >= 2 of clip cl: features, the networks, then the handling
+ * (Eq. 26-27); dt[4] the stages' wall seconds (the body's refit left to the
+ * caller). raw, fin (Vh,3) out. */
+static cr_status rollout_frame(rollout_run *r, cr_gdsr_model *m, const cr_gdsr_data *d,
+                               const cr_gdsr_clip *cl, int32_t t, float eps, int relax,
+                               int layer_surface, float *raw, float *fin,
+                               cr_gdsr_rollout_result *out, double *dt, cr_error *err) {
+    const cr_mesh *low = d->low;
+    const int32_t Vh = d->high->nv;
+    const int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
+    const float *ct = cl->low + t * nl3;
+    double t1 = cr_time_now();
+    CR_TRY(frame_features(d, &m->def, &r->g, cl->low, t, ct, r->bp + t * nl3, &r->fs, r->node,
+                          r->e0, r->e1, err));
+    double t2 = cr_time_now();
+    cr_nn_ctx_reset(r->ctx);
+    cr_tensor *ch = NULL;
+    cr_tensor *X = cr_gdsr_forward(r->ctx, m, d, &r->g, r->node, r->e0, r->e1, r->fs.e2, ct, &ch);
+    CR_TRY(cr_nn_ctx_error(r->ctx, err));
+    if (!X || !ch)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr rollout: forward failed at frame %d", t);
+    memcpy(raw, X->data, (size_t)nh3 * sizeof(float));
+    memcpy(r->chat, ch->data, (size_t)nl3 * sizeof(float));
+    state_push(&r->fs, r->chat, ct, nl3);
+    double t3 = cr_time_now();
+    /* Eq. 26-27: push C^ out of the body, carry the push to the high
+     * vertices through Eq. 1, then any high vertex still inside */
+    memcpy(fin, raw, (size_t)nh3 * sizeof(float));
+    cr_gdsr_push_out(r->bv, r->chat, low->nv, eps, r->sd, r->nrm, r->lpush);
+    cr_gdsr_upsample(d, r->lpush, r->hpush);
+    for (int64_t i = 0; i < nh3; i++)
+        fin[i] += r->hpush[i];
+    /* the high vertices still inside, the pushes spread so that they
+     * do not strain (collide.c) */
+    cr_gdsr_relax_push(r->bv, r->htopo, raw, fin, 0.5f * eps, relax, r->sd, r->nrm, r->rd,
+                       r->rd + nh3, r->moved);
+    /* then the layers (Eq. 27), after the body */
+    CR_TRY(layer_push(d, r->chat, fin, layer_surface, out, err));
+    double t4 = cr_time_now();
+    dt[1] = t2 - t1, dt[2] = t3 - t2, dt[3] = t4 - t3;
+    for (int64_t i = 0; i < nh3; i++)
+        if (!isfinite(fin[i]))
+            return CR_FAIL(err, CR_ERR_DIVERGED, "gdsr rollout: non-finite output at frame %d", t);
+    return CR_OK;
+}
+
+/* The largest share of high vertices inside the body over the clip, before
+ * and after the handling. */
+static cr_status inside_shares(rollout_run *r, const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+                               cr_gdsr_rollout_result *out, cr_error *err) {
+    const int32_t Vh = d->high->nv;
+    const int64_t nh3 = (int64_t)Vh * 3;
+    for (int32_t t = 0; t < cl->nframes; t++) {
+        CR_TRY(cr_bvh_refit(r->bv, cl->body + (int64_t)t * d->body->nv * 3, err));
+        for (int pass = 0; pass < 2; pass++) {
+            const float *x = (pass ? out->gdsr : out->gdsr_raw) + t * nh3;
+            cr_bvh_signed_distance_batch(r->bv, x, Vh, 0.2f, r->sd, NULL, NULL);
+            int64_t in = 0;
+            for (int32_t i = 0; i < Vh; i++)
+                in += r->sd[i] < 0;
+            double share = (double)in / Vh;
+            double *dst = pass ? &out->inside_after : &out->inside_before;
+            if (share > *dst) *dst = share;
+        }
+    }
+    return CR_OK;
+}
+
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           int layer_surface, cr_gdsr_rollout_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
@@ -621,103 +768,47 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     out->gdsr = malloc((size_t)T * nh3 * sizeof(float));
     out->gdsr_raw = malloc((size_t)T * nh3 * sizeof(float));
     out->upsampled = malloc((size_t)T * nh3 * sizeof(float));
-    float *bp = malloc((size_t)T * nl3 * sizeof(float));
-    float *node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
-    cr_gdsr_graph g = {0};
-    cr_nn_ctx *ctx = NULL;
-    cr_bvh *bv = NULL;
-    frame_state fs = {0};
-    fs.chat1 = malloc((size_t)nl3 * sizeof(float));
-    fs.chat2 = malloc((size_t)nl3 * sizeof(float));
-    fs.dprev = malloc((size_t)nl3 * sizeof(float));
-    float *chat = malloc((size_t)nl3 * sizeof(float));
-    float *lpush = malloc((size_t)nl3 * sizeof(float));
-    float *hpush = malloc((size_t)nh3 * sizeof(float));
-    float *sd = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * sizeof(float));
-    float *nrm = malloc((size_t)(Vh > low->nv ? Vh : low->nv) * 3 * sizeof(float));
-    float *rd = malloc((size_t)nh3 * 2 * sizeof(float)); /* relax scratch: d, dn */
-    uint8_t *moved = malloc((size_t)Vh + 1);
-    cr_topology *htopo = NULL;
-    float *e0 = NULL, *e1 = NULL;
-    cr_status st;
-    if (!out->gdsr || !out->gdsr_raw || !out->upsampled || !bp || !node || !fs.chat1 || !fs.chat2 ||
-        !fs.dprev || !chat || !lpush || !hpush || !sd || !nrm || !rd || !moved) {
-        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-        goto done;
-    }
-    if ((st = cr_gdsr_graph_build(low, &g, err)) != CR_OK) goto done;
-    if ((st = cr_topology_build(d->high, &htopo, err)) != CR_OK) goto done;
-    e0 = malloc((size_t)g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    e1 = malloc((size_t)(g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    if (!e0 || !e1) {
-        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-        goto done;
-    }
+    rollout_run r = {0};
+    cr_status st = out->gdsr && out->gdsr_raw && out->upsampled
+                       ? rollout_run_init(&r, d, T, err)
+                       : CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
     /* the node features' closest body points, all frames at once: their
      * time is shared out over the frames in the per-frame figure below */
     double bp_t0 = cr_time_now();
     clock_t bp_c0 = clock();
-    if ((st = body_points(d, cl, cl->low, bp, err)) != CR_OK) goto done;
+    if (st == CR_OK) st = body_points(d, cl, cl->low, r.bp, err);
     const double bp_wall = (cr_time_now() - bp_t0) / T;
     const double bp_cpu = (double)(clock() - bp_c0) / CLOCKS_PER_SEC / T;
     cr_nn_ctx_def cd = cr_nn_ctx_default_def();
     cd.arena_bytes = (size_t)512 << 20;
-    if ((st = cr_nn_ctx_create(&cd, &ctx, err)) != CR_OK) goto done;
-    cr_nn_ctx_set_grad_enabled(ctx, 0);
-    if ((st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err)) != CR_OK)
-        goto done;
+    if (st == CR_OK) st = cr_nn_ctx_create(&cd, &r.ctx, err);
+    if (st == CR_OK) cr_nn_ctx_set_grad_enabled(r.ctx, 0);
+    if (st == CR_OK)
+        st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &r.bv, err);
     double csum = 0, stage[4] = {0};
     int tcount = 0;
-    for (int32_t t = 0; t < T; t++) {
+    for (int32_t t = 0; t < T && st == CR_OK; t++) {
         const float *ct = cl->low + t * nl3;
         float *up = out->upsampled + t * nh3, *raw = out->gdsr_raw + t * nh3,
               *fin = out->gdsr + t * nh3;
         cr_gdsr_upsample(d, ct, up);
         double t0 = cr_time_now();
         clock_t c0 = clock();
-        if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK)
-            goto done;
-        double t1 = cr_time_now();
+        if ((st = cr_bvh_refit(r.bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK) break;
+        double dt[4] = {cr_time_now() - t0 + bp_wall, 0, 0, 0};
         if (t < 2) { /* no history yet: the upsampled input */
             memcpy(raw, up, (size_t)nh3 * sizeof(float));
             memcpy(fin, up, (size_t)nh3 * sizeof(float));
-            cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
-            cr_gdsr_relax_push(bv, htopo, up, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
-            cr_gdsr_push_out(bv, fin, Vh, 0.5f * eps, sd, nrm, NULL);
-            memcpy(chat, ct, (size_t)nl3 * sizeof(float));
-            if ((st = layer_push(d, chat, fin, layer_surface, out, err)) != CR_OK) goto done;
+            cr_gdsr_push_out(r.bv, fin, Vh, 0.5f * eps, r.sd, r.nrm, NULL);
+            cr_gdsr_relax_push(r.bv, r.htopo, up, fin, 0.5f * eps, relax, r.sd, r.nrm, r.rd,
+                               r.rd + nh3, r.moved);
+            cr_gdsr_push_out(r.bv, fin, Vh, 0.5f * eps, r.sd, r.nrm, NULL);
+            memcpy(r.chat, ct, (size_t)nl3 * sizeof(float));
+            st = layer_push(d, r.chat, fin, layer_surface, out, err);
             continue;
         }
-        if ((st = frame_features(d, &m->def, &g, cl->low, t, ct, bp + t * nl3, &fs, node, e0, e1,
-                                 err)) != CR_OK)
-            goto done;
-        double t2 = cr_time_now();
-        cr_nn_ctx_reset(ctx);
-        cr_tensor *ch = NULL;
-        cr_tensor *X = cr_gdsr_forward(ctx, m, d, &g, node, e0, e1, fs.e2, ct, &ch);
-        if ((st = cr_nn_ctx_error(ctx, err)) != CR_OK) goto done;
-        if (!X || !ch) {
-            st = CR_FAIL(err, CR_ERR_INVALID, "gdsr rollout: forward failed at frame %d", t);
-            goto done;
-        }
-        memcpy(raw, X->data, (size_t)nh3 * sizeof(float));
-        memcpy(chat, ch->data, (size_t)nl3 * sizeof(float));
-        state_push(&fs, chat, ct, nl3);
-        double t3 = cr_time_now();
-        /* Eq. 26-27: push C^ out of the body, carry the push to the high
-         * vertices through Eq. 1, then any high vertex still inside */
-        memcpy(fin, raw, (size_t)nh3 * sizeof(float));
-        cr_gdsr_push_out(bv, chat, low->nv, eps, sd, nrm, lpush);
-        cr_gdsr_upsample(d, lpush, hpush);
-        for (int64_t i = 0; i < nh3; i++)
-            fin[i] += hpush[i];
-        /* the high vertices still inside, the pushes spread so that they
-         * do not strain (collide.c) */
-        cr_gdsr_relax_push(bv, htopo, raw, fin, 0.5f * eps, relax, sd, nrm, rd, rd + nh3, moved);
-        /* then the layers (Eq. 27), after the body */
-        if ((st = layer_push(d, chat, fin, layer_surface, out, err)) != CR_OK) goto done;
-        double t4 = cr_time_now();
-        const double dt[4] = {t1 - t0 + bp_wall, t2 - t1, t3 - t2, t4 - t3};
+        st = rollout_frame(&r, m, d, cl, t, eps, relax, layer_surface, raw, fin, out, dt, err);
+        if (st != CR_OK) break;
         if (t == 2 && T > 3) {
             out->first_frame_seconds = dt[0] + dt[1] + dt[2] + dt[3];
         } else {
@@ -726,54 +817,14 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
             csum += (double)(clock() - c0) / CLOCKS_PER_SEC + bp_cpu;
             tcount++;
         }
-        for (int64_t i = 0; i < nh3; i++)
-            if (!isfinite(fin[i])) {
-                st =
-                    CR_FAIL(err, CR_ERR_DIVERGED, "gdsr rollout: non-finite output at frame %d", t);
-                goto done;
-            }
     }
-    /* inside shares, before and after handling */
-    for (int32_t t = 0; t < T; t++) {
-        if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK)
-            goto done;
-        for (int pass = 0; pass < 2; pass++) {
-            const float *x = (pass ? out->gdsr : out->gdsr_raw) + t * nh3;
-            cr_bvh_signed_distance_batch(bv, x, Vh, 0.2f, sd, NULL, NULL);
-            int64_t in = 0;
-            for (int32_t i = 0; i < Vh; i++)
-                in += sd[i] < 0;
-            double share = (double)in / Vh;
-            double *dst = pass ? &out->inside_after : &out->inside_before;
-            if (share > *dst) *dst = share;
-        }
-    }
+    if (st == CR_OK) st = inside_shares(&r, d, cl, out, err);
     out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
     for (int k = 0; k < 4; k++) {
         out->stage_seconds[k] = tcount ? stage[k] / tcount : 0;
         out->seconds_per_frame += out->stage_seconds[k]; /* out was zeroed on entry */
     }
-    st = CR_OK;
-done:
-    free(bp);
-    free(node);
-    free(e0);
-    free(e1);
-    free(fs.chat1);
-    free(fs.chat2);
-    free(fs.dprev);
-    free(fs.e2);
-    free(chat);
-    free(lpush);
-    free(hpush);
-    free(sd);
-    free(nrm);
-    free(rd);
-    free(moved);
-    cr_topology_destroy(htopo);
-    cr_bvh_destroy(bv);
-    cr_nn_ctx_destroy(ctx);
-    cr_gdsr_graph_free(&g);
+    rollout_run_free(&r);
     if (st != CR_OK) cr_gdsr_rollout_free(out);
     return st;
 }
