@@ -256,6 +256,177 @@ static double seq_error(cr_swingar *m, const cr_swingar_data *d, int32_t si, siz
     return sum / (double)(s->nframes * V);
 }
 
+/* What a training run holds, released together. */
+typedef struct train_run {
+    const cr_swingar_train_def *def;
+    const cr_swingar_data *d;
+    window *win;    /* (nw) the training sequences cut into windows */
+    int32_t *order; /* (nw) this epoch's shuffle */
+    int32_t nw;
+    float *hist;             /* (epochs) each epoch's mean vertex error, m */
+    cr_loss_collider **coll; /* (bodies) */
+    cr_swingar *m;
+    cr_optim *opt;
+    cr_nn_ctx *ctx;
+    cr_rng rng;
+    int supervised, switched; /* the data term alone; the epoch that switched, or -1 */
+} train_run;
+
+static void train_run_free(train_run *r) {
+    cr_nn_ctx_destroy(r->ctx);
+    for (int32_t b = 0; b < r->d->nbodies && r->coll; b++)
+        cr_loss_collider_destroy(r->coll[b]);
+    free(r->coll);
+    cr_optim_destroy(r->opt);
+    free(r->win), free(r->order), free(r->hist);
+}
+
+/* Windows of def->window frames over the training sequences. */
+static cr_status make_windows(train_run *r, cr_error *err) {
+    const cr_swingar_train_def *def = r->def;
+    const cr_swingar_data *d = r->d;
+    int32_t nw = 0;
+    for (int32_t i = 0; i < d->nsequences; i++)
+        if (!def->is_test || def->is_test[i] == 0)
+            nw += (d->sequences[i].nframes + def->window - 1) / def->window;
+    r->win = malloc(sizeof(window) * (size_t)(nw > 0 ? nw : 1));
+    r->order = malloc(sizeof(int32_t) * (size_t)(nw > 0 ? nw : 1));
+    r->hist = calloc((size_t)def->epochs, sizeof(float));
+    r->coll = calloc((size_t)(d->nbodies > 0 ? d->nbodies : 1), sizeof *r->coll);
+    if (!r->win || !r->order || !r->hist || !r->coll)
+        return CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
+    if (nw == 0) return CR_FAIL(err, CR_ERR_INVALID, "swingar train: no training sequence");
+    r->nw = 0;
+    for (int32_t i = 0; i < d->nsequences; i++) {
+        if (def->is_test && def->is_test[i] != 0) continue;
+        int32_t T = d->sequences[i].nframes;
+        for (int32_t t0 = 0; t0 < T; t0 += def->window) {
+            r->win[r->nw] = (window){i, t0, T - t0 < def->window ? T - t0 : def->window};
+            r->order[r->nw] = r->nw;
+            r->nw++;
+        }
+    }
+    return CR_OK;
+}
+
+/* The model and optimiser, resumed from def->resume's checkpoint (*epoch0
+ * the epoch to start at), the bodies' colliders and the context. */
+static cr_status start_run(train_run *r, const cr_swingar_def *mdef, const cJSON *tstate,
+                           int *epoch0, cr_error *err) {
+    const cr_swingar_train_def *def = r->def;
+    const int64_t steps_per_epoch = (r->nw + def->batch - 1) / def->batch;
+    CR_TRY(cr_swingar_create(mdef, def->seed, &r->m, err));
+    cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
+    od.lr.base = def->lr;
+    od.lr.kind = CR_LR_COSINE;
+    od.lr.final = def->lr_final;
+    od.lr.total_steps = steps_per_epoch * def->epochs;
+    CR_TRY(cr_optim_create(&od, r->m->P, &r->opt, err));
+    r->rng = cr_rng_make(def->seed, 21);
+    *epoch0 = 0, r->supervised = 1, r->switched = -1;
+    if (def->resume) {
+        cr_checkpoint_meta meta;
+        memset(&meta, 0, sizeof meta);
+        CR_TRY(cr_checkpoint_load(def->resume, r->m->P, r->opt, &meta, err));
+        *epoch0 = (int)meta.epoch;
+        r->rng = meta.rng;
+        free(meta.config_json);
+        if (*epoch0 > def->epochs)
+            return CR_FAIL(err, CR_ERR_INVALID, "%s: epoch %d is past --epochs %d", def->resume,
+                           *epoch0, def->epochs);
+        CR_TRY(read_train_state(tstate, def->resume, *epoch0, r->hist, &r->supervised, &r->switched,
+                                err));
+    }
+    for (int32_t b = 0; b < r->d->nbodies; b++) {
+        const cr_mesh *rest = r->d->bodies[b].model->rest;
+        CR_TRY(cr_loss_collider_create(rest->pos, rest->nv, rest->tri, rest->nf, &r->coll[b], err));
+    }
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = def->arena_bytes;
+    return cr_nn_ctx_create(&cd, &r->ctx, err);
+}
+
+/* One epoch over the shuffled windows, def->batch a step: the sums of the
+ * loss and of the vertex error over the windows. */
+static cr_status train_epoch(train_run *r, int e, double *loss_sum, double *vert_sum,
+                             cr_error *err) {
+    const cr_swingar_train_def *def = r->def;
+    const cr_swingar_data *d = r->d;
+    for (int32_t i = 0; i < r->nw; i++) /* from the identity: resumable from the rng alone */
+        r->order[i] = i;
+    cr_rng_shuffle_i32(&r->rng, r->order, r->nw);
+    cr_swingar_loss_def ld = def->loss;
+    ld.supervised_only = r->supervised;
+    *loss_sum = 0, *vert_sum = 0;
+    cr_progress bar;
+    char label[64];
+    snprintf(label, sizeof label, "epoch %d/%d", e + 1, def->epochs);
+    cr_progress_begin(&bar, label, r->nw, def->quiet);
+    cr_status st = CR_OK;
+    for (int32_t b0 = 0; st == CR_OK && b0 < r->nw; b0 += def->batch) {
+        int32_t nb = r->nw - b0 < def->batch ? r->nw - b0 : def->batch;
+        cr_nn_params_zero_grad(r->m->P);
+        for (int32_t k = 0; st == CR_OK && k < nb; k++) {
+            const window *w = &r->win[r->order[b0 + k]];
+            const cr_swingar_sequence *s = &d->sequences[w->seq];
+            const cr_swingar_garment *g = d->garments[s->garment_index];
+            const cr_body_model *bm = d->bodies[s->body_index].model;
+            cr_swingar_motion mo = {s->nframes, bm->joints, s->poses, s->trans};
+            const int64_t V = g->rest->nv, Vb = bm->rest->nv;
+            cr_nn_ctx_reset(r->ctx);
+            cr_tensor *y = cr_swingar_forward(r->ctx, r->m, g, &mo, w->t0, w->K, NULL);
+            cr_swingar_loss_terms terms;
+            cr_tensor *loss = cr_swingar_loss(
+                r->ctx, &ld, g, y, s->garment_pos + (size_t)w->t0 * V * 3, r->coll[s->body_index],
+                s->body_pos + (size_t)w->t0 * Vb * 3, (int32_t)Vb, &terms);
+            cr_tensor *scaled = cr_nn_mul_scalar(r->ctx, loss, 1.0f / (float)nb);
+            st = cr_nn_backward(r->ctx, scaled, err);
+            if (st == CR_OK) {
+                *loss_sum += loss->data[0];
+                *vert_sum += terms.vert_err_m;
+            }
+        }
+        if (st == CR_OK && def->clip_norm > 0)
+            st = cr_clip_grad_norm(r->m->P, def->clip_norm, NULL, err);
+        if (st == CR_OK) st = cr_optim_step(r->opt, err);
+        cr_progress_update(&bar, b0 + nb, "loss %.4g  vertex %.2f cm", *loss_sum / (b0 + nb),
+                           100.0 * *vert_sum / (b0 + nb));
+    }
+    cr_progress_end(&bar);
+    return st;
+}
+
+/* Epoch e's means into the result and the history, the supervised switch,
+ * and the checkpoint. */
+static cr_status end_epoch(train_run *r, int e, int epoch0, double loss_sum, double vert_sum,
+                           cr_swingar_train_result *res, cr_error *err) {
+    const cr_swingar_train_def *def = r->def;
+    r->hist[e] = (float)(vert_sum / r->nw);
+    if (e == epoch0 && epoch0 == 0) {
+        res->first_loss = (float)(loss_sum / r->nw);
+        res->first_vert_m = r->hist[e];
+    }
+    res->last_loss = (float)(loss_sum / r->nw);
+    res->last_vert_m = r->hist[e];
+    if (r->supervised && stalled(r->hist, e, def->stall_epochs, def->stall_rel)) {
+        r->supervised = 0;
+        r->switched = e + 1;
+    }
+    if (!def->checkpoint) return CR_OK;
+    cr_checkpoint_meta meta;
+    memset(&meta, 0, sizeof meta);
+    meta.epoch = e + 1;
+    meta.step = cr_optim_step_count(r->opt);
+    meta.seed = def->seed;
+    meta.rng = r->rng;
+    meta.loss = res->last_loss;
+    meta.config_json =
+        config_text(&r->m->def, train_state(r->supervised, r->switched, r->hist, e + 1));
+    cr_status st = cr_checkpoint_save(def->checkpoint, r->m->P, r->opt, &meta, err);
+    free(meta.config_json);
+    return st;
+}
+
 cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_data *d,
                            cr_swingar **model, cr_swingar_train_result *res, cr_error *err) {
     *model = NULL;
@@ -274,168 +445,40 @@ cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_dat
     cr_swingar_def mdef = def->model;
     cJSON *tstate = NULL;
     if (def->resume) CR_TRY(read_config(def->resume, &mdef, &tstate, err));
-
-    /* windows over the training sequences */
-    int32_t nw = 0;
-    for (int32_t i = 0; i < d->nsequences; i++)
-        if (!def->is_test || def->is_test[i] == 0)
-            nw += (d->sequences[i].nframes + def->window - 1) / def->window;
-    window *win = malloc(sizeof(window) * (size_t)(nw > 0 ? nw : 1));
-    int32_t *order = malloc(sizeof(int32_t) * (size_t)(nw > 0 ? nw : 1));
-    float *hist = calloc((size_t)def->epochs, sizeof(float));
-    cr_loss_collider **coll = calloc((size_t)(d->nbodies > 0 ? d->nbodies : 1), sizeof *coll);
-    cr_swingar *m = NULL;
-    cr_optim *opt = NULL;
-    cr_nn_ctx *ctx = NULL;
-    cr_status st = CR_OK;
-    if (!win || !order || !hist || !coll)
-        st = CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
-    if (st == CR_OK && nw == 0)
-        st = CR_FAIL(err, CR_ERR_INVALID, "swingar train: no training sequence");
-    nw = 0;
-    for (int32_t i = 0; st == CR_OK && i < d->nsequences; i++) {
-        if (def->is_test && def->is_test[i] != 0) continue;
-        int32_t T = d->sequences[i].nframes;
-        for (int32_t t0 = 0; t0 < T; t0 += def->window) {
-            win[nw] = (window){i, t0, T - t0 < def->window ? T - t0 : def->window};
-            order[nw] = nw;
-            nw++;
-        }
-    }
-    const int64_t steps_per_epoch = (nw + def->batch - 1) / def->batch;
-    if (st == CR_OK) st = cr_swingar_create(&mdef, def->seed, &m, err);
-    if (st == CR_OK) {
-        cr_optim_def od = cr_optim_default_def(CR_OPTIM_ADAM);
-        od.lr.base = def->lr;
-        od.lr.kind = CR_LR_COSINE;
-        od.lr.final = def->lr_final;
-        od.lr.total_steps = steps_per_epoch * def->epochs;
-        st = cr_optim_create(&od, m->P, &opt, err);
-    }
-    cr_rng rng = cr_rng_make(def->seed, 21);
-    int epoch0 = 0, supervised = 1, switched = -1;
-    if (st == CR_OK && def->resume) {
-        cr_checkpoint_meta meta;
-        memset(&meta, 0, sizeof meta);
-        st = cr_checkpoint_load(def->resume, m->P, opt, &meta, err);
-        if (st == CR_OK) {
-            epoch0 = (int)meta.epoch;
-            rng = meta.rng;
-            free(meta.config_json);
-            if (epoch0 > def->epochs)
-                st = CR_FAIL(err, CR_ERR_INVALID, "%s: epoch %d is past --epochs %d", def->resume,
-                             epoch0, def->epochs);
-            if (st == CR_OK)
-                st = read_train_state(tstate, def->resume, epoch0, hist, &supervised, &switched,
-                                      err);
-        }
-    }
+    train_run r = {.def = def, .d = d};
+    int epoch0 = 0;
+    cr_status st = make_windows(&r, err);
+    if (st == CR_OK) st = start_run(&r, &mdef, tstate, &epoch0, err);
     cJSON_Delete(tstate);
-    for (int32_t b = 0; st == CR_OK && b < d->nbodies; b++) {
-        const cr_mesh *r = d->bodies[b].model->rest;
-        st = cr_loss_collider_create(r->pos, r->nv, r->tri, r->nf, &coll[b], err);
-    }
-    if (st == CR_OK) {
-        cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-        cd.arena_bytes = def->arena_bytes;
-        st = cr_nn_ctx_create(&cd, &ctx, err);
-    }
-    res->params = m ? cr_nn_params_numel(m->P) : 0;
+    res->params = r.m ? cr_nn_params_numel(r.m->P) : 0;
     int epochs_this_call = 0;
     for (int e = epoch0; st == CR_OK && e < def->epochs; e++) {
-        for (int32_t i = 0; i < nw; i++) /* from the identity: resumable from the rng alone */
-            order[i] = i;
-        cr_rng_shuffle_i32(&rng, order, nw);
-        cr_swingar_loss_def ld = def->loss;
-        ld.supervised_only = supervised;
-        double loss_sum = 0, vert_sum = 0;
-        cr_progress bar;
-        char label[64];
-        snprintf(label, sizeof label, "epoch %d/%d", e + 1, def->epochs);
-        cr_progress_begin(&bar, label, nw, def->quiet);
-        for (int32_t b0 = 0; st == CR_OK && b0 < nw; b0 += def->batch) {
-            int32_t nb = nw - b0 < def->batch ? nw - b0 : def->batch;
-            cr_nn_params_zero_grad(m->P);
-            for (int32_t k = 0; st == CR_OK && k < nb; k++) {
-                const window *w = &win[order[b0 + k]];
-                const cr_swingar_sequence *s = &d->sequences[w->seq];
-                const cr_swingar_garment *g = d->garments[s->garment_index];
-                const cr_body_model *bm = d->bodies[s->body_index].model;
-                cr_swingar_motion mo = {s->nframes, bm->joints, s->poses, s->trans};
-                const int64_t V = g->rest->nv, Vb = bm->rest->nv;
-                cr_nn_ctx_reset(ctx);
-                cr_tensor *y = cr_swingar_forward(ctx, m, g, &mo, w->t0, w->K, NULL);
-                cr_swingar_loss_terms terms;
-                cr_tensor *loss = cr_swingar_loss(
-                    ctx, &ld, g, y, s->garment_pos + (size_t)w->t0 * V * 3, coll[s->body_index],
-                    s->body_pos + (size_t)w->t0 * Vb * 3, (int32_t)Vb, &terms);
-                cr_tensor *scaled = cr_nn_mul_scalar(ctx, loss, 1.0f / (float)nb);
-                st = cr_nn_backward(ctx, scaled, err);
-                if (st == CR_OK) {
-                    loss_sum += loss->data[0];
-                    vert_sum += terms.vert_err_m;
-                }
-            }
-            if (st == CR_OK && def->clip_norm > 0)
-                st = cr_clip_grad_norm(m->P, def->clip_norm, NULL, err);
-            if (st == CR_OK) st = cr_optim_step(opt, err);
-            cr_progress_update(&bar, b0 + nb, "loss %.4g  vertex %.2f cm", loss_sum / (b0 + nb),
-                               100.0 * vert_sum / (b0 + nb));
-        }
-        cr_progress_end(&bar);
+        double loss_sum, vert_sum;
+        st = train_epoch(&r, e, &loss_sum, &vert_sum, err);
         if (st != CR_OK) break;
-        hist[e] = (float)(vert_sum / nw);
-        if (e == epoch0 && epoch0 == 0) {
-            res->first_loss = (float)(loss_sum / nw);
-            res->first_vert_m = hist[e];
-        }
-        res->last_loss = (float)(loss_sum / nw);
-        res->last_vert_m = hist[e];
-        if (supervised && stalled(hist, e, def->stall_epochs, def->stall_rel)) {
-            supervised = 0;
-            switched = e + 1;
-        }
         epochs_this_call++;
-        if (def->checkpoint) {
-            cr_checkpoint_meta meta;
-            memset(&meta, 0, sizeof meta);
-            meta.epoch = e + 1;
-            meta.step = cr_optim_step_count(opt);
-            meta.seed = def->seed;
-            meta.rng = rng;
-            meta.loss = res->last_loss;
-            meta.config_json = config_text(&m->def, train_state(supervised, switched, hist, e + 1));
-            st = cr_checkpoint_save(def->checkpoint, m->P, opt, &meta, err);
-            free(meta.config_json);
-        }
+        st = end_epoch(&r, e, epoch0, loss_sum, vert_sum, res, err);
         res->epochs_done = e + 1;
         if (def->stop_after > 0 && epochs_this_call >= def->stop_after) break;
     }
-    res->switched_epoch = switched;
+    res->switched_epoch = r.switched;
     /* held-out error */
     if (st == CR_OK && def->is_test) {
         double sum = 0;
         int n = 0;
         for (int32_t i = 0; st == CR_OK && i < d->nsequences; i++)
             if (def->is_test[i] == 1) {
-                sum += seq_error(m, d, i, def->arena_bytes, err, &st);
+                sum += seq_error(r.m, d, i, def->arena_bytes, err, &st);
                 n++;
             }
         if (n > 0) res->test_vert_m = (float)(sum / n);
     }
     res->seconds = cr_time_now() - t_start;
-    cr_nn_ctx_destroy(ctx);
-    for (int32_t b = 0; b < d->nbodies && coll; b++)
-        cr_loss_collider_destroy(coll[b]);
-    free(coll);
-    cr_optim_destroy(opt);
-    free(win);
-    free(order);
-    free(hist);
+    train_run_free(&r);
     if (st != CR_OK) {
-        cr_swingar_destroy(m);
+        cr_swingar_destroy(r.m);
         return st;
     }
-    *model = m;
+    *model = r.m;
     return CR_OK;
 }
