@@ -32,6 +32,8 @@
 #include "crease/nn_graph.h"
 #include "crease/skeleton.h"
 
+struct cr_garment;
+
 struct cr_loss_collider;
 struct cr_gravity;
 
@@ -267,6 +269,14 @@ cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *e
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
                              const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
                              float *out, cr_error *err);
+
+/* A fitted garment (cr_garment_load_user, cr_garment_create) on body b
+ * animated by motion mo: its descriptor when the model uses one (an error
+ * names `source`), its swingar garment, cr_swingar_predict. out (T,V,3)
+ * caller-allocated. */
+cr_status cr_swingar_animate(cr_swingar *m, const struct cr_garment *garment, const char *source,
+                             const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
+                             int32_t chunk, float *out, cr_error *err);
 
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {

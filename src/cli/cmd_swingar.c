@@ -240,8 +240,7 @@ static int cmd_run(int argc, char **argv) {
     cr_body_model *b = NULL;
     cr_garment *g = NULL;
     cr_motion *mo = NULL;
-    cr_swingar_garment *sg = NULL;
-    float *pred = NULL, *body = NULL, *desc = NULL;
+    float *pred = NULL, *body = NULL;
     cr_mannequin_def md = cr_mannequin_default_def();
     cr_status st = o.model ? cr_swingar_load(o.model, &m, &err) : CR_OK;
     if (st == CR_OK) st = cr_mannequin_preset(o.body, &md, &err);
@@ -261,19 +260,8 @@ static int cmd_run(int argc, char **argv) {
             st = cr_garment_pose(g, b, mo->poses + (size_t)t * CR_NJOINTS * 3, mo->trans + 3 * t,
                                  pred + (size_t)t * V * 3, &err);
     } else if (st == CR_OK) {
-        const cr_swingar_def *d = cr_swingar_get_def(m);
-        desc = calloc((size_t)d->descriptor_len, sizeof(float));
-        if (!desc) st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
-        if (st == CR_OK && d->use_descriptor &&
-            cr_swingar_compute_descriptor(g->mesh, d->descriptor_len, d->affinity, desc, &err) !=
-                CR_OK)
-            st = CR_FAIL(&err, err.status, "%s: %s", o.garment, err.msg);
-        if (st == CR_OK)
-            st = cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, b, desc,
-                                           d->descriptor_len, &sg, &err);
-        cr_swingar_motion sm = {T, b->joints, mo ? mo->poses : NULL, mo ? mo->trans : NULL};
-        if (st == CR_OK)
-            st = cr_swingar_predict(m, sg, &sm, (size_t)o.arena_mb << 20, o.chunk, pred, &err);
+        st = cr_swingar_animate(m, g, o.garment, b, mo, (size_t)o.arena_mb << 20, o.chunk, pred,
+                                &err);
     }
     double seconds = cr_time_now() - t0;
     if (st == CR_OK) st = write_outputs(&o, g, b, pred, body, T, &err);
@@ -290,8 +278,6 @@ static int cmd_run(int argc, char **argv) {
     }
     free(pred);
     free(body);
-    free(desc);
-    cr_swingar_garment_destroy(sg);
     cr_motion_destroy(mo);
     cr_garment_destroy(g);
     cr_body_model_destroy(b);

@@ -6,6 +6,7 @@
 #include "swingar_internal.h"
 
 #include "crease/body.h"
+#include "crease/garment.h"
 #include "crease/nn_layers.h"
 
 #include <math.h>
@@ -413,6 +414,28 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
     swg_genc e;
     if (!encode_garment(ctx, m, g, &e)) return NULL;
     return forward_frames(ctx, m, g, &e, mo, t0, K, NULL, NULL, parts);
+}
+
+cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const char *source,
+                             const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
+                             int32_t chunk, float *out, cr_error *err) {
+    const cr_swingar_def *d = cr_swingar_get_def(m);
+    float *desc = calloc((size_t)d->descriptor_len, sizeof(float));
+    if (!desc) return CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
+    cr_swingar_garment *sg = NULL;
+    cr_status st = CR_OK;
+    if (d->use_descriptor && cr_swingar_compute_descriptor(garment->mesh, d->descriptor_len,
+                                                           d->affinity, desc, err) != CR_OK)
+        st = CR_FAIL(err, err ? err->status : CR_ERR_INVALID, "%s: %s", source,
+                     err ? err->msg : "descriptor");
+    if (st == CR_OK)
+        st = cr_swingar_garment_create(garment->mesh, garment->skin_joint, garment->skin_weight, b,
+                                       desc, d->descriptor_len, &sg, err);
+    cr_swingar_motion sm = {mo->nframes, b->joints, mo->poses, mo->trans};
+    if (st == CR_OK) st = cr_swingar_predict(m, sg, &sm, arena_bytes, chunk, out, err);
+    cr_swingar_garment_destroy(sg);
+    free(desc);
+    return st;
 }
 
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
