@@ -33,6 +33,7 @@ check "body info: manifold" bash -c "'$crease' info '$tmp/body.obj' --json | gre
 check "heavy ply" bash -c "'$crease' body --shape heavy --res 64 --json -o '$tmp/heavy.ply' > '$tmp/heavy.json'"
 check "heavy ply magic" bash -c "head -c 3 '$tmp/heavy.ply' | grep -q ply"
 check "slim glb 1.6 m" bash -c "'$crease' body --shape slim --height 1.6 --res 64 --json -o '$tmp/slim.glb' > '$tmp/slim.json'"
+check "body glb skinned" bash -c "head -c 4000 '$tmp/slim.glb' | grep -aq '\"joints\":\[1,2,3'"
 check "slim height" json_between "$tmp/slim.json" height_m 1.595 1.605
 check "slim glb magic" bash -c "head -c 4 '$tmp/slim.glb' | grep -q glTF"
 check "override after preset" bash -c "'$crease' body --girth 1.3 --shape slim --chest 1.2 --hips 0.9 \

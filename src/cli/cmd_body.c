@@ -11,7 +11,8 @@ void help_body(void) {
     printf("usage: crease body [--shape slim|normal|heavy] [options] -o FILE\n\n"
            "Build the procedural mannequin: a watertight, smooth body in an A-pose on SMPL's\n"
            "22-joint skeleton, +Y up, soles on y = 0, facing +Z, with skinning weights.\n"
-           "FILE is .obj, .ply or .glb (the rest mesh with normals).\n\n"
+           "FILE is .obj or .ply (the rest mesh with normals), or .glb: the mannequin as a\n"
+           "skinned character (named joints, skin, a one-frame animation at the rest pose).\n\n"
            "options:\n"
            "  --shape NAME     preset: slim, normal (default) or heavy; the options below\n"
            "                   override it\n"
@@ -109,7 +110,16 @@ int cmd_body(int argc, char **argv) {
     int watertight = st == CR_OK && t->n_boundary_edges == 0 &&
                      cr_topology_require_manifold(t, "body", NULL) == CR_OK;
     cr_topology_destroy(t);
-    if (st == CR_OK) st = cr_mesh_write(out_path, b->rest, &err);
+    char ext[16];
+    cr_path_ext(out_path, ext, sizeof ext);
+    if (st == CR_OK && strcmp(ext, "glb") == 0) {
+        cr_motion *rest = NULL; /* one frame, every rotation zero: the rest pose */
+        st = cr_motion_create(1, 30.0f, &rest, &err);
+        if (st == CR_OK) st = cr_body_write_glb(out_path, b, rest, NULL, NULL, &err);
+        cr_motion_destroy(rest);
+    } else if (st == CR_OK) {
+        st = cr_mesh_write(out_path, b->rest, &err);
+    }
     if (st != CR_OK) {
         cr_body_model_destroy(b);
         return cli_fail(&err);
