@@ -5,7 +5,10 @@
  * waistband, bit-exact resume, the checkpoint set and P-Net's replay. */
 #include "test.h"
 
+#include "nn_gradcheck.h"
+
 #include "crease/epnet.h"
+#include "crease/losses.h"
 #include "crease/mesh.h"
 #include "crease/npz.h"
 #include "crease/topology.h"
@@ -142,6 +145,218 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
         }
         cr_epnet_seq_destroy(s);
         cr_epnet_destroy(m);
+    }
+}
+
+/* ------------------------------------------------ the paired terms -- */
+
+typedef struct paired_job {
+    cr_epnet *m;
+    double scale;    /* the check's output scale (gradients of order 10) */
+    const float *rb; /* (T,H) for the whole-step check */
+    const cr_epnet_seq *s;
+} paired_job;
+
+/* The paired terms of given positions: in[0] x_RB (1,V,3), in[1] x_0 (1,V,3), in[2] RB (1,H). */
+static cr_tensor *build_paired(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    const paired_job *j = user;
+    cr_tensor *z = NULL, *r = NULL;
+    cr_epnet_paired_terms_(ctx, j->m->bending, in[0], in[1], in[2], &z, &r);
+    return cr_nn_mul_scalar(
+        ctx, cr_nn_add(ctx, cr_nn_mul_scalar(ctx, z, 2.0f), cr_nn_mul_scalar(ctx, r, 5.0f)),
+        (float)j->scale);
+}
+
+/* The whole E-Net loss of the step on the checker's tape (E-Net's parameters
+ * are checked): the model's context swapped for the checker's while it runs. */
+static cr_tensor *build_step_loss(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {
+    (void)in;
+    const paired_job *j = user;
+    cr_nn_ctx *own = j->m->ctx;
+    j->m->ctx = ctx;
+    cr_tensor *loss = cr_epnet_enet_loss_(j->m, j->s, j->rb, NULL);
+    j->m->ctx = own;
+    return cr_nn_mul_scalar(ctx, loss, (float)j->scale);
+}
+
+/* The largest |dL/d(input or parameter)| of a build at scale 1, to scale the check by. */
+static double grad_max(nn_gradcheck_fn fn, paired_job *j, int nin, nn_gradcheck_input *in,
+                       cr_nn_params *params, size_t arena) {
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(arena);
+    cr_error err;
+    cr_tensor *w[4];
+    j->scale = 1.0;
+    for (int i = 0; i < nin; i++) {
+        w[i] = cr_nn_wrap(ctx, in[i].ndim, in[i].shape, in[i].data);
+        w[i]->requires_grad = (uint8_t)in[i].requires_grad;
+    }
+    if (params) cr_nn_params_zero_grad(params);
+    cr_tensor *y = fn(ctx, w, j);
+    double g = 0;
+    if (y && cr_nn_backward(ctx, y, &err) == CR_OK) {
+        for (int i = 0; i < nin; i++)
+            for (int64_t k = 0; in[i].requires_grad && k < w[i]->numel; k++)
+                g = fmax(g, fabs(w[i]->grad[k]));
+        for (int k = 0; params && k < cr_nn_params_count(params); k++) {
+            const cr_tensor *p = cr_nn_params_at(params, k, NULL);
+            for (int64_t e = 0; p->grad && e < p->numel; e++)
+                g = fmax(g, fabs(p->grad[e]));
+        }
+    }
+    cr_nn_ctx_destroy(ctx);
+    return g;
+}
+
+/* The paired terms (the authors' zero-rest consistency and rest response):
+ * their values against angles measured by hand, and their gradients to both
+ * passes' positions and, through a tiny E-Net's whole training loss with
+ * only these terms on, to every E-Net parameter, against central
+ * differences (step 3e-4 m on positions, 1e-3 on weights; tolerance 1e-2 of
+ * the larger of 1 and the difference, on gradients scaled to about 10). */
+CR_TEST(epnet, paired_terms_gradients_match_central_differences) {
+    cr_error err;
+    cr_epnet_def d = tiny_def();
+    cr_epnet *m = NULL;
+    CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+    const int32_t V = cr_epnet_garment(m)->nv, H = cr_epnet_hinge_count(m);
+    const float *bar = cr_epnet_rest_angles(m);
+    float *xr = malloc(sizeof(float) * 3 * (size_t)V), *x0 = malloc(sizeof(float) * 3 * (size_t)V);
+    float *rb = malloc(sizeof(float) * (size_t)H), *th = malloc(sizeof(float) * (size_t)H),
+          *th0 = malloc(sizeof(float) * (size_t)H);
+    CR_REQUIRE(xr && x0 && rb && th && th0);
+    /* the rest garment moved by up to 4 mm (edges about 4 cm: angles of 0.1-0.3 rad) */
+    nn_gradcheck_fill(xr, 3 * (int64_t)V, -0.004f, 0.004f, 0.0f, 11);
+    nn_gradcheck_fill(x0, 3 * (int64_t)V, -0.004f, 0.004f, 0.0f, 12);
+    nn_gradcheck_fill(rb, H, -0.3f, 0.3f, 0.0f, 13);
+    for (int32_t i = 0; i < 3 * V; i++)
+        xr[i] += cr_epnet_garment(m)->pos[i], x0[i] += cr_epnet_garment(m)->pos[i];
+    cr_epnet_angles(m, xr, 1, th), cr_epnet_angles(m, x0, 1, th0);
+    double zero = 0, resp = 0;
+    for (int32_t h = 0; h < H; h++) {
+        const double r0 = remainder((double)th0[h] - bar[h], 2 * M_PI);
+        const double rr = remainder((double)th[h] - bar[h], 2 * M_PI);
+        zero += r0 * r0 / H, resp += (rr - r0 - rb[h]) * (rr - r0 - rb[h]) / H;
+    }
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    cr_tensor *z = NULL, *r = NULL;
+    cr_epnet_paired_terms_(ctx, m->bending, cr_nn_wrap(ctx, 3, (int64_t[]){1, V, 3}, xr),
+                           cr_nn_wrap(ctx, 3, (int64_t[]){1, V, 3}, x0),
+                           cr_nn_wrap(ctx, 2, (int64_t[]){1, H}, rb), &z, &r);
+    CR_REQUIRE(z && r);
+    fprintf(stderr, "  paired terms: zero rest %.5g (by hand %.5g), rest response %.5g (%.5g)\n",
+            z->data[0], zero, r->data[0], resp);
+    CR_CHECK(zero > 1e-3 && resp > 1e-3);
+    CR_CHECK_NEAR(z->data[0], zero, 1e-5 * zero + 1e-7);
+    CR_CHECK_NEAR(r->data[0], resp, 1e-5 * resp + 1e-7);
+    cr_nn_ctx_destroy(ctx);
+    paired_job j = {.m = m};
+    nn_gradcheck_input in[3] = {nn_gradcheck_in(3, (int64_t[]){1, V, 3}, xr),
+                                nn_gradcheck_in(3, (int64_t[]){1, V, 3}, x0),
+                                nn_gradcheck_in(2, (int64_t[]){1, H}, rb)};
+    in[2].requires_grad = 0;
+    for (int which = 0; which < 2; which++) {
+        in[0].requires_grad = which == 0, in[1].requires_grad = which == 1;
+        const double g = grad_max(build_paired, &j, 3, in, NULL, (size_t)16 << 20);
+        CR_CHECK(g > 0);
+        j.scale = 10.0 / g;
+        nn_gradcheck_def gd = nn_gradcheck_default_def();
+        gd.name = which ? "paired d/d(x_0)" : "paired d/d(x_RB)";
+        gd.max_elems = CR_TEST_SIZE(300, 40);
+        gd.step = 3e-4; /* m */
+        nn_gradcheck_result res;
+        CR_CHECK(nn_gradcheck(&gd, 3, in, NULL, build_paired, &j, &res) == 0);
+        fprintf(stderr, "  %s: %lld checked, max err %.3g\n", gd.name, (long long)res.checked,
+                res.max_err);
+    }
+    /* through the network: only the paired terms weighted, an RB that moves */
+    cr_epnet_destroy(m);
+    d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 0;
+    d.w_pin = 0;
+    CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+    cr_epnet_seq *s = NULL;
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 6, 0, &s, &err) == CR_OK);
+    const int32_t T = cr_epnet_seq_frames(s);
+    float *rbt = malloc(sizeof(float) * (size_t)T * H);
+    CR_REQUIRE(rbt);
+    nn_gradcheck_fill(rbt, (int64_t)T * H, -0.3f, 0.3f, 0.0f, 14);
+    /* biases start at zero and frame 0's velocities are zero, so some ReLUs sit on
+     * their kink exactly: move every bias off zero first */
+    for (int k = 0; k < cr_nn_params_count(m->pe); k++) {
+        const char *name = NULL;
+        cr_tensor *p = cr_nn_params_at(m->pe, k, &name);
+        if (strstr(name, "bias")) nn_gradcheck_fill(p->data, p->numel, -0.1f, 0.1f, 0.02f, 20 + k);
+    }
+    j = (paired_job){.m = m, .rb = rbt, .s = s};
+    const double g = grad_max(build_step_loss, &j, 0, NULL, m->pe, (size_t)64 << 20);
+    CR_CHECK(g > 0);
+    j.scale = 10.0 / g;
+    nn_gradcheck_def gd = nn_gradcheck_default_def();
+    gd.name = "paired terms d/d(E-Net parameters)";
+    gd.max_elems = CR_TEST_SIZE(12, 3);
+    gd.arena_bytes = (size_t)64 << 20;
+    nn_gradcheck_result res;
+    CR_CHECK(nn_gradcheck(&gd, 0, NULL, m->pe, build_step_loss, &j, &res) == 0);
+    fprintf(stderr, "  %s: %lld checked, max err %.3g\n", gd.name, (long long)res.checked,
+            res.max_err);
+    cr_epnet_losses l;
+    CR_REQUIRE(cr_epnet_enet_step(m, s, rbt, 0, &l, &err) == CR_OK);
+    CR_CHECK(l.term[7] > 0 && l.term[8] > 0);
+    CR_CHECK_NEAR(l.total, l.term[7] + l.term[8], 1e-6 * l.total);
+    free(rbt);
+    cr_epnet_seq_destroy(s);
+    free(xr), free(x0), free(rb), free(th), free(th0);
+    cr_epnet_destroy(m);
+}
+
+/* The paired terms make E-Net read RB: a tiny E-Net trained on the squat
+ * with a fixed RB field (0.3 rad of either sign on every fifth hinge) for 60
+ * steps, once with the authors' paired weights (2, 5) and once without,
+ * then the RB it realises at the last frame (cr_epnet_rb_realised: its
+ * angles given that RB against its own at RB = 0, along RB). */
+CR_TEST(epnet, paired_terms_make_enet_realise_more_rb) {
+    cr_error err;
+    double realised[2] = {0, 0};
+    const int steps = CR_TEST_SIZE(60, 4);
+    for (int paired = 0; paired < 2; paired++) {
+        cr_epnet_def d = tiny_def();
+        if (!paired) d.w_zero_rest = d.w_rest_response = 0;
+        cr_epnet *m = NULL;
+        CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+        cr_epnet_seq *s = NULL;
+        CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, 0, &s, &err) == CR_OK);
+        const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m);
+        float *rb = malloc(sizeof(float) * (size_t)T * H), *th = malloc(sizeof(float) * T * H),
+              *th0 = malloc(sizeof(float) * (size_t)T * H);
+        CR_REQUIRE(rb && th && th0);
+        for (int32_t t = 0; t < T; t++)
+            for (int32_t h = 0; h < H; h++)
+                rb[(size_t)t * H + h] = h % 5 ? 0.0f : (h % 10 ? 0.3f : -0.3f);
+        cr_epnet_losses l0, l;
+        CR_REQUIRE(cr_epnet_enet_step(m, s, rb, 0, &l0, &err) == CR_OK);
+        for (int i = 0; i < steps; i++)
+            CR_REQUIRE(cr_epnet_enet_step(m, s, rb, 1, &l, &err) == CR_OK);
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
+        CR_REQUIRE(x);
+        cr_epnet_angles(m, x->data, T, th);
+        cr_nn_ctx_reset(m->ctx);
+        x = cr_epnet_enet_forward_(m, s, NULL);
+        CR_REQUIRE(x);
+        cr_epnet_angles(m, x->data, T, th0);
+        realised[paired] = cr_epnet_rb_realised(th + (size_t)(T - 1) * H, th0 + (size_t)(T - 1) * H,
+                                                rb + (size_t)(T - 2) * H, H, 0.05);
+        fprintf(stderr,
+                "  paired %d: RB realised %.3f; zero rest %.4g -> %.4g, rest response %.4g -> "
+                "%.4g\n",
+                paired, realised[paired], l0.term[7], l.term[7], l0.term[8], l.term[8]);
+        free(rb), free(th), free(th0);
+        cr_epnet_seq_destroy(s);
+        cr_epnet_destroy(m);
+    }
+    if (!cr_test_quick()) {
+        CR_CHECK(realised[1] > 0.3);
+        CR_CHECK(realised[1] > 3.0 * fabs(realised[0]));
     }
 }
 

@@ -77,6 +77,15 @@ typedef struct cr_epnet_def {
                          Default 0 (none); train's default for a skirt or trousers 0.01 */
     double w_pin;     /* pinning weight, J/m^2 per vertex (default 100, the authors') */
     double sharpness; /* Eq. 5 sigmoid sharpness (default 50) */
+    /* The authors' paired E-Net terms (model/ncs.py, paired_rest_consistency_loss): E-Net
+     * runs a second time at RB = 0 and, on the clip's last frame, with r(x) = theta(x) -
+     * theta_bar per hinge (rad, wrapped) and means over all H hinges,
+     *     zero rest      w_zero_rest     mean_h r(x_0)^2
+     *     rest response  w_rest_response mean_h (r(x_RB) - r(x_0) - RB)^2
+     * (RB the input E-Net was given at that frame): the RB-free drape stays smooth and
+     * the folds RB asks for appear, relative to it. Defaults 2 and 5 (the authors'
+     * configs/epnet_demo.json); 0 turns a term off. Not applied to a baseline. */
+    double w_zero_rest, w_rest_response;
     /* Kept without a CLI flag (measured with no effect, docs/notes/epnet_rounds.md), for
      * the authors' recipe: */
     struct {
@@ -134,13 +143,14 @@ int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
  * its motions and out_dir are not kept (NULL). */
 const cr_epnet_def *cr_epnet_get_def(const cr_epnet *m);
 
-/* Loss terms of one forward pass, J per frame. */
-enum { CR_EPNET_NTERMS = 7 };
+/* Loss terms of one forward pass: the physics terms in J per frame, the paired
+ * terms (unitless, rad^2 weighted) of the clip's last frame. */
+enum { CR_EPNET_NTERMS = 9 };
 extern const char *const cr_epnet_term_names[CR_EPNET_NTERMS];
 typedef struct cr_epnet_losses {
     double total;
     double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia,
-                                     pinning (each weighted) */
+                                     pinning, zero_rest, rest_response (each weighted) */
 } cr_epnet_losses;
 
 /* A sequence the model runs on: a motion (clip name or file) on a body
@@ -156,7 +166,10 @@ const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m
 const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
 
 /* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
- * or only the loss when 0. */
+ * or only the loss when 0. rb[t] is the RB after frame t's update; frame t
+ * is given rb[t-1] (frame 0: zero), as at inference, and its bending term's
+ * rest is theta_bar + rb[t-1]. With RB, the paired terms take a second
+ * decoder pass of the last frame at RB = 0. */
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err);
 /* P-Net fit: steps of MSE between P-Net's one-step increment from the

@@ -25,6 +25,10 @@ void help_epnet(void) {
            "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
            "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
            "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+           "  --zero-rest-weight W the paired zero-rest consistency term (default 2, the\n"
+           "                       authors'; 0: off)\n"
+           "  --rest-response-weight W  the paired rest-response term (default 5, the authors';\n"
+           "                       0: off)\n"
            "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
            "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
            "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
@@ -60,7 +64,7 @@ static int run_train(int argc, char **argv) {
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending;
+          wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -74,6 +78,8 @@ static int run_train(int argc, char **argv) {
         CLI_FLAG("--baseline", &baseline),
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
+        CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
+        CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -98,7 +104,7 @@ static int run_train(int argc, char **argv) {
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb;
+    d.pin_top = pin_top, d.w_bending = wb, d.w_zero_rest = wz, d.w_rest_response = wr;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;

@@ -34,8 +34,9 @@
 #define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
 #define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
 
-const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
-    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
+const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
+                                                          "gravity", "collision", "inertia",
+                                                          "pinning", "zero_rest", "rest_response"};
 
 /* The training clips: the first five of the earlier rounds, plus reach, lean
  * and stretch, which cover the held-out raise_arms' and bend's range of arm
@@ -75,6 +76,8 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
     d.w_pin = 100.0;
     d.sharpness = 50;
+    d.w_zero_rest = 2.0;     /* the authors' zero_rest_consistency weight */
+    d.w_rest_response = 5.0; /* the authors' rest_response weight */
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
     d.gru_hidden = 64;
@@ -127,6 +130,9 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (!(d->pin_top >= 0) || !(d->w_pin >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: pin_top %g and w_pin %g must be >= 0",
                        d->pin_top, d->w_pin);
+    if (!(d->w_zero_rest >= 0) || !(d->w_rest_response >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: paired weights %g and %g must be >= 0",
+                       d->w_zero_rest, d->w_rest_response);
     if (!(d->material.yield_angle >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: yield angle %g < 0", d->material.yield_angle);
     return CR_OK;
@@ -436,17 +442,57 @@ static cr_tensor *enet_decode(cr_epnet *m, const cr_epnet_seq *s, int64_t t0, in
     return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b + (size_t)t0 * V * 3));
 }
 
-cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+/* E-Net's RB input per frame, (T,H) in step memory: frame t is given rb[t-1]
+ * (the RB after the frame before) and frame 0 zero, the lag inference has.
+ * NULL when rb is NULL or that input is zero throughout (the first cycle), so
+ * the paired terms skip their second pass. */
+static const float *rb_input(cr_epnet *m, int64_t T, const float *rb) {
+    const int64_t H = m->nh;
+    if (!rb) return NULL;
+    int any = 0;
+    for (int64_t i = 0; i < (T - 1) * H && !any; i++)
+        any = rb[i] != 0.0f;
+    if (!any) return NULL;
+    float *in = cr_nn_scratch(m->ctx, "epnet RB input", sizeof(float) * (size_t)(T * H));
+    if (!in) return NULL;
+    memset(in, 0, sizeof(float) * (size_t)H);
+    memcpy(in + H, rb, sizeof(float) * (size_t)((T - 1) * H));
+    return in;
+}
+
+/* E-Net on the whole sequence with the RB input rb_in (T,H) (NULL: zero), as
+ * given (no lag added); the pose codes hs (T,.) and hg (T,.) out, which do
+ * not depend on RB. */
+static cr_tensor *enet_full(cr_epnet *m, const cr_epnet_seq *s, const float *rb_in, cr_tensor **hs,
+                            cr_tensor **hg) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T;
     cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
     cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){T, EP_DYN_IN}, s->dyn);
-    cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
+    *hs = cr_mlp_forward(c, m->enc_static, st);
     cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
     hd = cr_nn_reshape(c, hd, 3, (int64_t[]){T, 1, m->def.dynamic_width});
-    cr_tensor *hg = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
-    hg = cr_nn_reshape(c, hg, 2, (int64_t[]){T, m->def.gru_hidden});
-    return enet_decode(m, s, 0, T, hs, hg, rb);
+    cr_tensor *g = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
+    *hg = cr_nn_reshape(c, g, 2, (int64_t[]){T, m->def.gru_hidden});
+    return enet_decode(m, s, 0, T, *hs, *hg, rb_in);
+}
+
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+    cr_tensor *hs = NULL, *hg = NULL;
+    return enet_full(m, s, rb_input(m, s->T, rb), &hs, &hg);
+}
+
+void cr_epnet_paired_terms_(cr_nn_ctx *c, const cr_bending *b, cr_tensor *x_rb, cr_tensor *x0,
+                            cr_tensor *rb, cr_tensor **zero, cr_tensor **resp) {
+    cr_tensor *r0 = cr_loss_hinge_residual(c, b, 1.0, x0, NULL); /* (B,H) theta - theta_bar */
+    *zero = cr_nn_mean(c, cr_nn_square(c, r0));
+    if (!x_rb) {
+        *resp = cr_nn_zeros(c, 1, (int64_t[]){1});
+        return;
+    }
+    cr_tensor *rr = cr_loss_hinge_residual(c, b, 1.0, x_rb, NULL);
+    cr_tensor *e = cr_nn_sub(c, cr_nn_sub(c, rr, r0), rb);
+    *resp = cr_nn_mean(c, cr_nn_square(c, e));
 }
 
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
@@ -505,8 +551,11 @@ static cr_tensor *pin_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x) {
     return cr_nn_sum(c, cr_nn_mul(c, cr_nn_square(c, cr_nn_sub(c, x, target)), mask));
 }
 
-static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
-                            cr_tensor **parts) {
+/* The loss of positions x (T,V,3) given the RB input rb_in (T,H) (NULL: zero;
+ * the bending rest of frame t is theta_bar + rb_in[t]) and the paired terms
+ * (unweighted means, each NULL: zero). */
+static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb_in,
+                            cr_tensor *zero_rest, cr_tensor *rest_response, cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T, H = m->nh, V = m->nv;
     const cr_epnet_def *d = &m->def;
@@ -514,7 +563,7 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
     if (rest)
         for (int64_t t = 0; t < T; t++)
             for (int64_t h = 0; h < H; h++)
-                rest->data[t * H + h] = m->theta_bar[h] + (rb ? rb[t * H + h] : 0.0f);
+                rest->data[t * H + h] = m->theta_bar[h] + (rb_in ? rb_in[t * H + h] : 0.0f);
     cr_energy_term ts, tsh, tg;
     cr_membrane_term_part(m->membrane, CR_MEMBRANE_STRETCH, &ts);
     cr_membrane_term_part(m->membrane, CR_MEMBRANE_SHEAR, &tsh);
@@ -531,11 +580,13 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
                         past(c, x, 1, T - 2, d->experimental.inertia_detach),
                         past(c, x, 0, T - 2, d->experimental.inertia_detach)),
         pin_term(m, s, x),
+        zero_rest ? zero_rest : cr_nn_zeros(c, 1, (int64_t[]){1}),
+        rest_response ? rest_response : cr_nn_zeros(c, 1, (int64_t[]){1}),
     };
-    const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
-                                      (float)(d->w_bending / T),   (float)(d->w_gravity / T),
-                                      (float)(d->w_collision / T), (float)(d->w_inertia / T),
-                                      (float)(d->w_pin / T)};
+    const float w[CR_EPNET_NTERMS] = {
+        (float)(d->w_stretch / T), (float)(d->w_shear / T),     (float)(d->w_bending / T),
+        (float)(d->w_gravity / T), (float)(d->w_collision / T), (float)(d->w_inertia / T),
+        (float)(d->w_pin / T),     (float)d->w_zero_rest,       (float)d->w_rest_response};
     return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
 }
 
@@ -552,19 +603,42 @@ cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *p
     cr_nn_ctx_set_grad_enabled(m->ctx, 0);
     cr_tensor *x = cr_nn_from(m->ctx, 3, (int64_t[]){s->T, m->nv, 3}, pos);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
-    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    cr_tensor *loss = x ? enet_loss(m, s, x, rb_input(m, s->T, rb), NULL, NULL, parts) : NULL;
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
     read_parts(loss, parts, out);
     return CR_OK;
+}
+
+cr_tensor *cr_epnet_enet_loss_(cr_epnet *m, const cr_epnet_seq *s, const float *rb,
+                               cr_tensor **parts) {
+    cr_nn_ctx *c = m->ctx;
+    const cr_epnet_def *d = &m->def;
+    const int64_t T = s->T, H = m->nh;
+    const float *rin = rb_input(m, T, rb);
+    cr_tensor *hs = NULL, *hg = NULL, *zero = NULL, *resp = NULL;
+    cr_tensor *x = enet_full(m, s, rin, &hs, &hg);
+    if (!x) return NULL;
+    if (!d->baseline && (d->w_zero_rest > 0 || d->w_rest_response > 0)) {
+        /* the paired terms on the last frame; the pose codes do not depend on
+         * RB, so the pass at RB = 0 is the decoder's alone */
+        cr_tensor *xl = cr_nn_slice(c, x, 0, T - 1, 1);
+        cr_tensor *x0 = xl, *r = NULL;
+        if (rin) {
+            x0 = enet_decode(m, s, T - 1, 1, cr_nn_slice(c, hs, 0, T - 1, 1),
+                             cr_nn_slice(c, hg, 0, T - 1, 1), NULL);
+            r = cr_nn_from(c, 2, (int64_t[]){1, H}, rin + (T - 1) * H);
+        }
+        cr_epnet_paired_terms_(c, m->bending, rin ? xl : NULL, x0, r, &zero, &resp);
+    }
+    return enet_loss(m, s, x, rin, zero, resp, parts);
 }
 
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err) {
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, train);
-    cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
-    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    cr_tensor *loss = cr_epnet_enet_loss_(m, s, rb, parts);
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
     read_parts(loss, parts, out);
     if (!train) return CR_OK;

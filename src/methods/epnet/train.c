@@ -158,10 +158,10 @@ static void print_config(const cr_epnet_def *d, FILE *fp) {
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
-        " \"static\": [",
+        " \"w_zero_rest\": %.9g, \"w_rest_response\": %.9g,\n \"static\": [",
         d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->experimental.inertia_detach,
-        d->pin_top, d->w_pin, d->w_bending);
+        d->pin_top, d->w_pin, d->w_bending, d->w_zero_rest, d->w_rest_response);
     for (int i = 0; i < d->nstatic; i++)
         fprintf(fp, "%s%d", i ? ", " : "", d->static_widths[i]);
     fprintf(fp, "], \"rb\": [");
@@ -259,6 +259,8 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
                 {"pin_top", 0},
                 {"w_pin", 0},
                 {"w_bending", 0},
+                {"w_zero_rest", 0},
+                {"w_rest_response", 0},
                 {"static", 1},
                 {"rb", 1},
                 {"dynamic", 1},
@@ -309,6 +311,9 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
     d.pin_top = jnum(o, "pin_top", d.pin_top);
     d.w_pin = jnum(o, "w_pin", d.w_pin);
     d.w_bending = jnum(o, "w_bending", d.w_bending);
+    /* added 2026-12: a folder without them was trained without the paired terms */
+    d.w_zero_rest = jnum(o, "w_zero_rest", 0.0);
+    d.w_rest_response = jnum(o, "w_rest_response", 0.0);
     d.baseline = jint(o, "baseline", 0);
     d.seed = (uint64_t)jnum(o, "seed", 1);
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
