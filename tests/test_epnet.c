@@ -455,6 +455,149 @@ CR_TEST(epnet, pnet_rb_follows_the_rule_and_stays_bounded) {
     cr_epnet_destroy(m);
 }
 
+/* The proxy's ratchet, one frame at a time (cr_epnet_ratchet_step): hand
+ * cases of the drive rule and the cut-off, then 400 frames of random strains
+ * and increments on 64 hinges against a direct reading of the rule (each
+ * frame's drive kept in an array, the last five counted): the same RB bit
+ * for bit, and no hinge's |RB| ever shrinks. */
+CR_TEST(epnet, ratchet_never_shrinks_and_gates_on_the_drive_rule) {
+    cr_epnet_ratchet_def d = cr_epnet_ratchet_default_def();
+    cr_error err;
+    CR_CHECK_OK(cr_epnet_ratchet_check(&d, &err), &err);
+    cr_epnet_ratchet_def bad = d;
+    bad.drive_frames = 6;
+    CR_CHECK(cr_epnet_ratchet_check(&bad, &err) == CR_ERR_INVALID);
+    /* one hinge, strain 0.2 rad, increment 0.01: driven from the first frame, so it
+     * moves on the third (3 of the last 5) and not before */
+    float rb[1] = {0}, strain[1] = {0.2f}, delta[1] = {0.01f};
+    uint32_t hist[1] = {0};
+    CR_CHECK(cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb) == 0 && rb[0] == 0);
+    CR_CHECK(cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb) == 0 && rb[0] == 0);
+    CR_CHECK(cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb) == 1);
+    CR_CHECK_NEAR(rb[0], 0.01, 1e-7);
+    /* an increment under 0.005 rad is dropped */
+    delta[0] = 0.004f;
+    CR_CHECK(cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb) == 0);
+    CR_CHECK_NEAR(rb[0], 0.01, 1e-7);
+    /* not driven now (strain within 0.05 of RB): nothing, even with 4 of 5 driven */
+    strain[0] = 0.03f, delta[0] = 0.1f;
+    CR_CHECK(cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb) == 0);
+    /* the ratchet: an increment back towards zero keeps |RB|, one past zero flips
+     * the sign at the larger size, and c = 0 keeps RB */
+    rb[0] = 0.3f, hist[0] = 0x1f, strain[0] = -0.5f;
+    delta[0] = -0.1f;
+    cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb);
+    CR_CHECK_NEAR(rb[0], 0.3, 1e-7);
+    delta[0] = -0.3f;
+    cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb);
+    CR_CHECK_NEAR(rb[0], 0.3, 1e-7);
+    delta[0] = -0.7f;
+    cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb);
+    CR_CHECK_NEAR(rb[0], -0.4, 1e-6);
+    delta[0] = 0.2f;
+    cr_epnet_ratchet_step(&d, strain, delta, 1, hist, rb);
+    CR_CHECK_NEAR(rb[0], -0.4, 1e-6);
+    /* random frames against the rule read directly */
+    enum { NH = 64, NT = 400 };
+    static uint8_t driven[NT][NH];
+    float r[NH] = {0}, want[NH] = {0}, st[NH], dl[NH];
+    uint32_t h2[NH] = {0};
+    cr_rng g = cr_rng_make(7, 3);
+    int moved = 0, gated = 0, shrunk = 0, differ = 0;
+    for (int t = 0; t < NT; t++) {
+        for (int h = 0; h < NH; h++) {
+            st[h] = (float)(0.4 * (2 * cr_rng_uniform(&g) - 1)) * (h % 4 == 0 ? 0.1f : 1.0f);
+            dl[h] = (float)(0.05 * (2 * cr_rng_uniform(&g) - 1));
+        }
+        for (int h = 0; h < NH; h++) {
+            driven[t][h] = fabs(remainder((double)st[h] - want[h], 2 * M_PI)) > 0.05;
+            int n = 0;
+            for (int k = t; k >= 0 && k > t - 5; k--)
+                n += driven[k][h];
+            const float before = want[h];
+            if (driven[t][h] && n >= 3 && fabs(dl[h]) >= 0.005) {
+                const double c = (double)want[h] + dl[h];
+                const double sg = c > 0 ? 1 : c < 0 ? -1 : (want[h] >= 0 ? 1 : -1);
+                want[h] = (float)(sg * fmax(fabs((double)want[h]), fabs(c)));
+            } else if (fabs(dl[h]) >= 0.005) {
+                gated++;
+            }
+            moved += want[h] != before;
+        }
+        float prev[NH];
+        memcpy(prev, r, sizeof r);
+        cr_epnet_ratchet_step(&d, st, dl, NH, h2, r);
+        for (int h = 0; h < NH; h++) {
+            shrunk += fabsf(r[h]) < fabsf(prev[h]);
+            differ += r[h] != want[h];
+        }
+    }
+    fprintf(stderr, "  ratchet: %d moves, %d increments gated off, %d shrunk, %d differ\n", moved,
+            gated, shrunk, differ);
+    CR_CHECK(moved > 100 && gated > 100);
+    CR_CHECK(shrunk == 0 && differ == 0);
+}
+
+/* The proxy inference cannot run away: an untrained model (P-Net is then
+ * Eq. 4-5 on the proxy's angles) at a yield of 0.05 rad, a 12-frame squat
+ * and a long hold. |RB| stays below the rule's bound, the largest
+ * |theta_proxy - theta_bar| + 0.2 rad per hinge (untrained, without P-Net's
+ * correction: that strain less the yield), never shrinks, and stops moving
+ * once the hold has settled (150 frames; the closed loop's fold path grew
+ * without end there). */
+CR_TEST(epnet, proxy_inference_cannot_run_away) {
+    cr_error err;
+    cr_epnet_def d = tiny_def();
+    d.material.yield_angle = 0.05;
+    cr_epnet *m = NULL;
+    CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+    const int hold = CR_TEST_SIZE(150, 30);
+    cr_epnet_seq *s = NULL;
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, 12, hold, &s, &err) == CR_OK);
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m),
+                  V = cr_epnet_garment(m)->nv;
+    float *th0 = malloc(sizeof(float) * (size_t)T * H), *th = malloc(sizeof(float) * T * H);
+    float *rb = malloc(sizeof(float) * (size_t)T * H), *pos = malloc(sizeof(float) * 3 * T * V);
+    CR_REQUIRE(th0 && th && rb && pos);
+    cr_epnet_infer_def zero = cr_epnet_infer_default_def();
+    zero.mode = CR_EPNET_ZERO_RB;
+    CR_REQUIRE(cr_epnet_infer(m, s, &zero, NULL, th0, NULL, &err) == CR_OK);
+    cr_epnet_infer_def pd = cr_epnet_infer_default_def();
+    CR_CHECK(pd.mode == CR_EPNET_PROXY);
+    CR_REQUIRE(cr_epnet_infer(m, s, &pd, pos, th, rb, &err) == CR_OK);
+    const float *bar = cr_epnet_rest_angles(m);
+    double worst = -INFINITY, tight = -INFINITY, maxrb = 0, late = 0;
+    int finite = 1;
+    for (int32_t h = 0; h < H; h++) {
+        double bound = 0, strain = 0, prev = 0;
+        for (int32_t t = 0; t < T; t++) {
+            const size_t i = (size_t)t * H + h;
+            strain = fmax(strain, fabs((double)th0[i] - bar[h]));
+            bound = strain + 0.2;
+            worst = fmax(worst, fabs(rb[i]) - bound);
+            tight = fmax(tight, fabs(rb[i]) - fmax(strain - 0.05, 0)); /* untrained */
+            CR_CHECK(fabs(rb[i]) >= prev);                             /* the ratchet */
+            prev = fabs(rb[i]);
+            maxrb = fmax(maxrb, fabs(rb[i]));
+            finite &= isfinite(th[i]);
+            if (t >= 12 + 20) late = fmax(late, fabs(rb[i] - rb[(size_t)(12 + 20) * H + h]));
+        }
+    }
+    fprintf(stderr,
+            "  proxy, %d frames: max |RB| %.3g rad, largest |RB| - bound %.3g (- strain + yield "
+            "%.3g), RB moved %.3g after frame 32\n",
+            T, maxrb, worst, tight, late);
+    CR_CHECK(finite);
+    CR_CHECK(maxrb > 0.01);
+    CR_CHECK(worst <= 1e-5 && tight <= 1e-5);
+    CR_CHECK(late < 1e-6);
+    /* frame t's E-Net is given RB of frame t-1: frame 0's is the proxy's own */
+    CR_CHECK(memcmp(th, th0, sizeof(float) * (size_t)H) == 0);
+    free(th0), free(th), free(rb), free(pos);
+    cr_epnet_seq_destroy(s);
+    cr_epnet_destroy(m);
+}
+
 /* Persistence on the simulator side: raise the arms and lower them (4 s at
  * 10 fps), hold 1 s; count the hinges whose angle stays more than 0.3 rad
  * off the rest mesh's after the return. Run without friction, as the

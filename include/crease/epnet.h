@@ -52,6 +52,32 @@ int64_t cr_epnet_plastic_rollout(const float *theta, const float *theta_bar, con
 cr_status cr_epnet_hinge_graph(const cr_topology *t, int32_t **senders, int32_t **receivers,
                                int64_t *nedges, cr_error *err);
 
+/* The ratchet and drive gating of the proxy inference (cr_epnet_infer), one
+ * frame over nh hinges (after the authors' predict_pnet_tf.py). With s the
+ * proxy's strain theta - theta_bar (E-Net at RB = 0), a hinge is driven in a
+ * frame when |wrap(s - RB)| > drive; P-Net's increment delta is applied only
+ * at a hinge driven now and in at least drive_frames of the last drive_window
+ * frames (this one included), and only when |delta| >= min_delta; then
+ *     c = RB + delta,   RB' = sign(c) max(|RB|, |c|)
+ * (sign(0) read as RB's), so |RB| never shrinks and RB' lies between RB and
+ * c or keeps RB's size: a rollout's |RB| stays below max(|RB_0|, max |c|). */
+typedef struct cr_epnet_ratchet_def {
+    double drive;     /* rad (default 0.05) */
+    int drive_frames; /* default 3 */
+    int drive_window; /* frames, drive_frames..32 (default 5) */
+    double min_delta; /* rad: smaller increments are dropped (default 0.005) */
+    uint32_t cookie;
+} cr_epnet_ratchet_def;
+cr_epnet_ratchet_def cr_epnet_ratchet_default_def(void);
+/* CR_ERR_INVALID naming the field when d is out of range. */
+cr_status cr_epnet_ratchet_check(const cr_epnet_ratchet_def *d, cr_error *err);
+/* One frame: strain (H) the proxy's theta - theta_bar, rad; delta (H) P-Net's
+ * increments, rad; history (H) each hinge's drive over the last frames as
+ * bits (bit 0 this frame; zero before the first frame), updated; rb (H) rad,
+ * updated. Returns the number of hinges whose RB changed. O(H), no memory. */
+int32_t cr_epnet_ratchet_step(const cr_epnet_ratchet_def *d, const float *strain,
+                              const float *delta, int32_t nh, uint32_t *history, float *rb);
+
 /* ------------------------------------------------------------- options -- */
 
 enum { CR_EPNET_MAX_LAYERS = 8, CR_EPNET_MAX_MOTIONS = 16 };
@@ -187,6 +213,34 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
 cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
                            float *theta, float *rb, cr_error *err);
 
+/* How a trained model runs over a sequence (cr_epnet_infer). */
+typedef enum cr_epnet_inference {
+    CR_EPNET_PROXY = 0,   /* the authors' open loop (default): E-Net at RB = 0 (the proxy),
+                             P-Net over the proxy's angles through the ratchet, then E-Net
+                             with that RB; RB never reads angles that RB made */
+    CR_EPNET_CLOSED_LOOP, /* cr_epnet_rollout with P-Net: frame t's E-Net with RB_{t-1},
+                             P-Net on its angles (the earlier rounds'; for comparison) */
+    CR_EPNET_ZERO_RB,     /* E-Net with RB held at 0 (the baseline) */
+} cr_epnet_inference;
+
+typedef struct cr_epnet_infer_def {
+    cr_epnet_inference mode;      /* default CR_EPNET_PROXY */
+    int32_t warmup;               /* frames of E-Net's recurrent state before frame 0, blending the
+                                     joints from the rest pose to frame 0's (root held), outputs
+                                     dropped; every mode (default 0: see docs/epnet.md) */
+    cr_epnet_ratchet_def ratchet; /* the proxy's gating (cr_epnet_ratchet_default_def) */
+    uint32_t cookie;
+} cr_epnet_infer_def;
+cr_epnet_infer_def cr_epnet_infer_default_def(void);
+
+/* The model over s by d's mode: pos (T,V,3) m, theta (T,H) and rb (T,H) rad,
+ * each caller-allocated or NULL. rb[t] is the RB after frame t; frame t's
+ * E-Net is given rb[t-1] (frame 0: zero) in every mode. Proxy: |rb| never
+ * shrinks and stays below the largest |theta_proxy - theta_bar| + 0.2 rad
+ * (P-Net's bounded correction) per hinge, however long s is. */
+cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                         float *pos, float *theta, float *rb, cr_error *err);
+
 /* P-Net alone on given positions pos (T,V,3), m (a reference simulation,
  * say): RB (T,H) rad rolled as in cr_epnet_rollout, frame t's increment from
  * frame t's angles and RB of frame t - 1, with no E-Net. It separates P-Net's
@@ -242,13 +296,14 @@ cr_status cr_epnet_open_pnet(const char *model_dir, const char *garment, int32_t
                              cr_epnet **out, cr_error *err);
 
 typedef struct cr_epnet_run_def {
-    const char *model_dir; /* required */
-    const char *motion;    /* clip name or file; required */
-    const char *body;      /* preset; NULL: the model's */
-    int32_t frames;        /* 0: the motion's own length */
-    int32_t hold;          /* frames of its last pose after it (default 0) */
-    int baseline;          /* 1: RB held at 0 */
-    const char *out_dir;   /* garment.pc2, garment.glb, garment.png, rb.png, rb.npy */
+    const char *model_dir;    /* required */
+    const char *motion;       /* clip name or file; required */
+    const char *body;         /* preset; NULL: the model's */
+    int32_t frames;           /* 0: the motion's own length */
+    int32_t hold;             /* frames of its last pose after it (default 0) */
+    int baseline;             /* 1: RB held at 0 (infer.mode CR_EPNET_ZERO_RB) */
+    cr_epnet_infer_def infer; /* the inference (default: the proxy) */
+    const char *out_dir;      /* garment.pc2, garment.glb, garment.png, rb.png, rb.npy */
     uint32_t cookie;
 } cr_epnet_run_def;
 cr_epnet_run_def cr_epnet_run_default_def(void);

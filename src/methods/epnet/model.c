@@ -783,8 +783,37 @@ static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, cons
     return enet_decode(m, s, t, 1, hs, hg, rb);
 }
 
-cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
-                           float *theta, float *rb, cr_error *err) {
+/* The GRU state (G) after `warmup` frames that blend the joints from the rest
+ * pose to frame 0's with the root held: each frame's joint velocities are
+ * frame 0's joint angles / warmup, in the dynamic input's units (seq_create:
+ * x 0.1 fps), the root's zero. The decoder does not run: the warm-up only
+ * starts the recurrent state (the authors' 20-frame warm-up from the rest pose). */
+static cr_status warm_up(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, float *hstate,
+                         cr_error *err) {
+    const int32_t G = m->def.gru_hidden;
+    float dyn[EP_DYN_IN] = {0};
+    for (int i = 0; i < 63; i++) /* joints 1..21: the static input's first 63 */
+        dyn[3 + i] = s->stat[i] / (float)warmup * 0.1f * m->def.fps;
+    for (int32_t k = 0; k < warmup; k++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *h0 = k > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL;
+        cr_tensor *dy = cr_nn_from(m->ctx, 2, (int64_t[]){1, EP_DYN_IN}, dyn);
+        cr_tensor *h1 =
+            cr_gru_cell_forward(m->ctx, &m->gru, cr_mlp_forward(m->ctx, m->enc_dyn, dy), h0);
+        CR_TRY(cr_nn_ctx_error(m->ctx, err));
+        memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
+    }
+    return CR_OK;
+}
+
+/* E-Net frame by frame over s (the GRU state carried), after `warmup` frames.
+ * Frame t's RB input: rb_given[t-1] (frame 0 zero) when rb_given is set; else
+ * the closed loop's RB when use_pnet (P-Net on frame t's angles then gives
+ * RB_t); else zero. Outputs (T,...) each may be NULL; rb gets rb_given or the
+ * closed loop's RB. */
+static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, const float *rb_given,
+                         int use_pnet, float *pos, float *theta, float *rb, cr_error *err) {
     const int32_t V = m->nv, H = m->nh, T = s->T, G = m->def.gru_hidden;
     float *x = malloc(sizeof(float) * 3 * (size_t)V), *th = malloc(sizeof(float) * (size_t)H);
     float *r = calloc((size_t)H, sizeof(float)), *hstate = calloc((size_t)G, sizeof(float));
@@ -792,18 +821,21 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         free(x), free(th), free(r), free(hstate);
         return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the rollout");
     }
-    cr_status st = CR_OK;
+    cr_status st = warmup > 0 ? warm_up(m, s, warmup, hstate, err) : CR_OK;
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
         cr_nn_ctx_reset(m->ctx);
         cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-        cr_tensor *h0 = t > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL, *h1 = NULL;
-        cr_tensor *xt = enet_frame(m, s, t, r, h0, &h1);
+        cr_tensor *h0 =
+                      t > 0 || warmup > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL,
+                  *h1 = NULL;
+        const float *rin = !rb_given ? r : t > 0 ? rb_given + (size_t)(t - 1) * H : NULL;
+        cr_tensor *xt = enet_frame(m, s, t, rin, h0, &h1);
         st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
         memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
         cr_epnet_angles_(m, x, 1, th);
-        if (use_pnet) {
+        if (use_pnet && !rb_given) {
             cr_nn_ctx_reset(m->ctx);
             cr_tensor *inc = pnet_forward(m, x, th, r);
             st = cr_nn_ctx_error(m->ctx, err);
@@ -813,10 +845,81 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         }
         if (pos) memcpy(pos + (size_t)t * V * 3, x, sizeof(float) * 3 * (size_t)V);
         if (theta) memcpy(theta + (size_t)t * H, th, sizeof(float) * (size_t)H);
-        if (rb) memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
+        if (rb)
+            memcpy(rb + (size_t)t * H, rb_given ? rb_given + (size_t)t * H : r,
+                   sizeof(float) * (size_t)H);
     }
     free(x), free(th), free(r), free(hstate);
     return st;
+}
+
+cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
+                           float *theta, float *rb, cr_error *err) {
+    return rollout(m, s, 0, NULL, use_pnet, pos, theta, rb, err);
+}
+
+/* The proxy inference: (1) E-Net at RB = 0, the proxy; (2) P-Net over the
+ * proxy's positions and angles, frame by frame, each increment through the
+ * ratchet and its drive gating (ratchet.c); (3) E-Net with that RB. */
+static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                               float *pos, float *theta, float *rb, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh, T = s->T;
+    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V);
+    float *pth = malloc(sizeof(float) * (size_t)T * H), *R = malloc(sizeof(float) * (size_t)T * H);
+    float *r = calloc((size_t)H, sizeof(float)), *strain = malloc(sizeof(float) * (size_t)H);
+    uint32_t *hist = calloc((size_t)H, sizeof(uint32_t));
+    cr_status st = CR_OK;
+    if (!ppos || !pth || !R || !r || !strain || !hist)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the proxy inference");
+    if (st == CR_OK) st = rollout(m, s, d->warmup, NULL, 0, ppos, pth, NULL, err);
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        const float *th = pth + (size_t)t * H;
+        cr_tensor *inc = pnet_forward(m, ppos + (size_t)t * V * 3, th, r);
+        st = cr_nn_ctx_error(m->ctx, err);
+        if (st != CR_OK) break;
+        for (int32_t h = 0; h < H; h++)
+            strain[h] = th[h] - m->theta_bar[h];
+        cr_epnet_ratchet_step(&d->ratchet, strain, inc->data, H, hist, r);
+        memcpy(R + (size_t)t * H, r, sizeof(float) * (size_t)H);
+    }
+    if (st == CR_OK) st = rollout(m, s, d->warmup, R, 0, pos, theta, NULL, err);
+    if (st == CR_OK && rb) memcpy(rb, R, sizeof(float) * (size_t)T * H);
+    free(ppos), free(pth), free(R), free(r), free(strain), free(hist);
+    return st;
+}
+
+#define INFER_COOKIE 0x45504931u
+
+cr_epnet_infer_def cr_epnet_infer_default_def(void) {
+    cr_epnet_infer_def d;
+    memset(&d, 0, sizeof d);
+    d.mode = CR_EPNET_PROXY;
+    d.warmup = 0;
+    d.ratchet = cr_epnet_ratchet_default_def();
+    d.cookie = INFER_COOKIE;
+    return d;
+}
+
+cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                         float *pos, float *theta, float *rb, cr_error *err) {
+    if (d->cookie != INFER_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: def not made by its default");
+    if (d->warmup < 0 || d->warmup > 100000)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: warm-up %d frames not in 0..100000",
+                       d->warmup);
+    switch (d->mode) {
+    case CR_EPNET_PROXY:
+        CR_TRY(cr_epnet_ratchet_check(&d->ratchet, err));
+        return proxy_rollout(m, s, d, pos, theta, rb, err);
+    case CR_EPNET_CLOSED_LOOP:
+        return rollout(m, s, d->warmup, NULL, 1, pos, theta, rb, err);
+    case CR_EPNET_ZERO_RB:
+        return rollout(m, s, d->warmup, NULL, 0, pos, theta, rb, err);
+    default:
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: unknown mode %d", (int)d->mode);
+    }
 }
 
 cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *rb, cr_error *err) {

@@ -503,6 +503,7 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
 cr_epnet_run_def cr_epnet_run_default_def(void) {
     cr_epnet_run_def d;
     memset(&d, 0, sizeof d);
+    d.infer = cr_epnet_infer_default_def();
     d.cookie = 0x45505232u;
     return d;
 }
@@ -542,8 +543,9 @@ cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr
         if (!pos || !rb || !hs) st = CR_FAIL(err, CR_ERR_MEMORY, "epnet run: out of memory");
     }
     double t0 = cr_time_now();
-    if (st == CR_OK)
-        st = cr_epnet_rollout(m, s, !(def->baseline || m->def.baseline), pos, NULL, rb, err);
+    cr_epnet_infer_def inf = def->infer;
+    if (def->baseline || m->def.baseline) inf.mode = CR_EPNET_ZERO_RB;
+    if (st == CR_OK) st = cr_epnet_infer(m, s, &inf, pos, NULL, rb, err);
     cr_epnet_run_report rep = {.frames = T, .vertices = V, .hinges = H};
     rep.seconds_per_frame = T > 0 ? (cr_time_now() - t0) / T : 0;
     char path[1100];
