@@ -16,7 +16,7 @@ check "epnet --help" bash -c "'$crease' epnet --help | grep -q usage"
 check "epnet listed" bash -c "'$crease' --help | grep -q 'epnet '"
 
 check "epnet train" bash -c "'$crease' epnet train ${small[*]} --cycles 2 -o '$tmp/m' --json > '$tmp/t.json'"
-check "train fields" json_has "$tmp/t.json" cycles first_loss last_loss first_stretch last_stretch pnet_mse
+check "train fields" json_has "$tmp/t.json" cycles first_loss last_loss first_stretch last_stretch pnet_loss pnet_val_loss
 check "train: 2 cycles" grep -q '"cycles":2' "$tmp/t.json"
 # stretch + shear + bending of the skinned template fall at least threefold
 [[ $quick == 0 ]] && check "elastic terms fall 3x" python3 -c "

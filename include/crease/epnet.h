@@ -134,14 +134,24 @@ typedef struct cr_epnet_def {
     int pnet_hidden_layers; /* default 1 */
     int pnet_steps;         /* default 3 */
     /* curriculum (authors: 4 cycles, E-Net 100 epochs lr 1e-4, P-Net 50-80 epochs lr 2e-5) */
-    int cycles;          /* default 4 */
-    int enet_epochs;     /* per cycle, default 40 */
-    int pnet_epochs;     /* per cycle, default 20 */
-    int pnet_frames;     /* frames drawn per P-Net step (default 4) */
-    float enet_lr;       /* default 1e-3 */
-    float pnet_lr;       /* default 1e-3 */
-    int baseline;        /* 1: RB fixed at zero, no P-Net (PBNS/SNUG/NCS) */
-    uint64_t seed;       /* default 1 */
+    int cycles;      /* default 4 */
+    int enet_epochs; /* per cycle, default 40 */
+    int pnet_epochs; /* per cycle, default 20 */
+    int pnet_frames; /* frames drawn per P-Net step (default 4) */
+    float enet_lr;   /* default 1e-3 */
+    float pnet_lr;   /* default 1e-3 */
+    /* P-Net's fit, the authors' (train_pnet_tf.py): inputs the proxy's (E-Net at RB =
+     * 0) positions and angles, targets the cycle's RB (Eq. 4-5 on E-Net's angles given
+     * its RB), teacher-forced with the target's RB of the frame before plus Gaussian
+     * noise, L1, hinges with no target RB weighted pnet_inactive_weight */
+    double pnet_rb_noise;        /* rad, standard deviation (default 0.05) */
+    double pnet_inactive_weight; /* default 0.03 */
+    const char *pnet_val_motion; /* validation clip for early stopping, neither a training
+                                    nor an evaluation clip (default "run"; NULL: none) */
+    int pnet_patience;           /* P-Net epochs without a better validation loss before
+                                    the phase stops, its best weights kept (default 5) */
+    int baseline;                /* 1: RB fixed at zero, no P-Net (PBNS/SNUG/NCS) */
+    uint64_t seed;               /* default 1 */
     const char *out_dir; /* model folder (checkpoint, config); required for cr_epnet_train */
     int resume;          /* 1: continue from out_dir's checkpoint */
     int quiet;           /* 1: no progress lines */
@@ -198,12 +208,15 @@ const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
  * decoder pass of the last frame at RB = 0. */
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err);
-/* P-Net fit: steps of MSE between P-Net's one-step increment from the
- * target's previous frame and the target's own (teacher forcing), over
- * frames drawn from s. pos (T,V,3) and theta (T,H) the E-Net output the targets came from,
- * rb_target (T,H). Returns the mean MSE of the last step in *mse. */
+/* P-Net fit: steps of L1 between the RB P-Net gives from the target's RB of
+ * the frame before (plus def.pnet_rb_noise rad of Gaussian noise: teacher
+ * forcing) and the target's own, hinges with no target RB weighted
+ * def.pnet_inactive_weight, over def.pnet_frames frames drawn from s. pos
+ * (T,V,3) and theta (T,H) P-Net's inputs (in training the proxy's: E-Net at
+ * RB = 0), rb_target (T,H). Returns the last step's weighted mean L1 per
+ * hinge, rad, in *loss. */
 cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
-                            const float *theta, const float *rb_target, int steps, double *mse,
+                            const float *theta, const float *rb_target, int steps, double *loss,
                             cr_error *err);
 
 /* Inference over s: pos (T,V,3) m, theta (T,H) and rb (T,H) rad (each may
@@ -273,7 +286,8 @@ typedef struct cr_epnet_train_report {
     int cycles_done;
     double first_loss, last_loss; /* E-Net loss per frame, J: first and last epoch */
     cr_epnet_losses first, last;
-    double pnet_mse; /* last P-Net fit, rad^2 */
+    double pnet_loss;     /* last P-Net epoch's mean fit loss (weighted L1 per hinge), rad */
+    double pnet_val_loss; /* and on the validation clip (NaN: none), rad */
     double seconds;
     size_t arena_peak_bytes; /* the tape's high-water mark, bytes */
 } cr_epnet_train_report;

@@ -3,6 +3,7 @@
 #include "cli.h"
 #include "crease/epnet.h"
 
+#include <math.h>
 #include <string.h>
 
 void help_epnet(void) {
@@ -32,6 +33,9 @@ void help_epnet(void) {
         "                       0: off)\n"
         "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
         "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
+        "  --pnet-noise R       P-Net's teacher-forced RB noise, rad (default 0.05)\n"
+        "  --pnet-val M         P-Net's validation clip for early stopping (default run;\n"
+        "                       none: all --pnet-epochs)\n"
         "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
         "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
         "  --lr R               E-Net Adam learning rate (default 0.001)\n"
@@ -68,11 +72,13 @@ static int split_motions(const char *s, char *buf, size_t cap, const char **out,
 static int run_train(int argc, char **argv) {
     cr_epnet_def d = cr_epnet_default_def();
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
+    const char *pval = d.pnet_val_motion;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response;
+          wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response,
+          pnoise = (float)d.pnet_rb_noise;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -88,6 +94,8 @@ static int run_train(int argc, char **argv) {
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
         CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
+        CLI_FLOAT("--pnet-noise", &pnoise, 0, 3.2),
+        CLI_STR("--pnet-val", &pval),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -113,6 +121,8 @@ static int run_train(int argc, char **argv) {
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
     d.pin_top = pin_top, d.w_bending = wb, d.w_zero_rest = wz, d.w_rest_response = wr;
+    d.pnet_rb_noise = pnoise;
+    d.pnet_val_motion = pval && strcmp(pval, "none") ? pval : NULL;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;
@@ -124,8 +134,9 @@ static int run_train(int argc, char **argv) {
     cr_epnet_train_report r;
     cr_error err;
     if (cr_epnet_train(&d, &r, &err) != CR_OK) return cli_fail(&err);
-    fprintf(stderr, "epnet: %d cycles in %.1f s, E-Net loss %.5g -> %.5g J/frame, P-Net mse %.3g\n",
-            r.cycles_done, r.seconds, r.first_loss, r.last_loss, r.pnet_mse);
+    fprintf(stderr,
+            "epnet: %d cycles in %.1f s, E-Net loss %.5g -> %.5g J/frame, P-Net L1 %.3g rad\n",
+            r.cycles_done, r.seconds, r.first_loss, r.last_loss, r.pnet_loss);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddNumberToObject(j, "cycles", r.cycles_done);
@@ -140,7 +151,11 @@ static int run_train(int argc, char **argv) {
             snprintf(key, sizeof key, "last_%s", cr_epnet_term_names[k]);
             cJSON_AddNumberToObject(j, key, r.last.term[k]);
         }
-        cJSON_AddNumberToObject(j, "pnet_mse", r.pnet_mse);
+        cJSON_AddNumberToObject(j, "pnet_loss", r.pnet_loss);
+        if (isnan(r.pnet_val_loss))
+            cJSON_AddNullToObject(j, "pnet_val_loss");
+        else
+            cJSON_AddNumberToObject(j, "pnet_val_loss", r.pnet_val_loss);
         cli_json_print(j);
     }
     return CLI_OK;

@@ -68,6 +68,10 @@ void cr_epnet_paired_terms_(cr_nn_ctx *c, const cr_bending *b, cr_tensor *x_rb, 
 /* The training loss's terms of given positions pos (T,V,3) with RB rb (T,H) or NULL. */
 cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *pos, const float *rb,
                               cr_epnet_losses *out, cr_error *err);
+/* P-Net over the proxy's positions ppos (T,V,3) and angles pth (T,H), each
+ * increment through the ratchet d: RB (T,H) out (cr_epnet_infer's step 2). */
+cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth, int32_t T,
+                               const cr_epnet_ratchet_def *d, float *R, cr_error *err);
 /* Angles (T,H) of positions (T,V,3). */
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 

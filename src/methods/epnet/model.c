@@ -14,7 +14,8 @@
  * hinges' midpoints, deformed and rest, and [dt, k_b, yield]. The decoder's
  * last layer starts at zero (the authors'), and its output is a strain
  * correction c bounded by PNET_CORR: the increment is Eq. 4-5's rule applied to
- * d + c (its loss compares 10 x the increment, PNET_OUT_SCALE).
+ * d + c. It is fitted as the authors' is: L1 on the RB it gives from the
+ * target's RB of the frame before plus noise, inactive hinges down-weighted.
  * Losses (Eq. 1-2, 6): Baraff-Witkin stretch and shear, bending with rest
  * theta_bar + RB, gravity, collision, and the implicit-Euler inertia over
  * three consecutive predicted frames, all through losses.h, per frame. */
@@ -31,8 +32,10 @@
 #include <string.h>
 
 #define EPNET_COOKIE 0x45504e31u
-#define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
-#define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
+#define PNET_ACTIVE                                                                                \
+    1e-4f              /* rad: a hinge whose target RB is past this is active in P-Net's           \
+                          loss (the authors' active_threshold) */
+#define PNET_CORR 0.2f /* bound of P-Net's strain correction, rad */
 
 const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
                                                           "gravity", "collision", "inertia",
@@ -93,6 +96,10 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.pnet_frames = 4;
     d.enet_lr = 1e-3f;
     d.pnet_lr = 1e-3f;
+    d.pnet_rb_noise = 0.05;        /* rad, the authors' */
+    d.pnet_inactive_weight = 0.03; /* the authors' */
+    d.pnet_val_motion = "run";     /* neither trained on nor evaluated */
+    d.pnet_patience = 5;
     d.seed = 1;
     d.cookie = EPNET_COOKIE;
     return d;
@@ -133,6 +140,11 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (!(d->w_zero_rest >= 0) || !(d->w_rest_response >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: paired weights %g and %g must be >= 0",
                        d->w_zero_rest, d->w_rest_response);
+    if (!(d->pnet_rb_noise >= 0) || !(d->pnet_inactive_weight >= 0) || d->pnet_patience < 1)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "epnet: P-Net noise %g and inactive weight %g must be >= 0, patience %d "
+                       ">= 1",
+                       d->pnet_rb_noise, d->pnet_inactive_weight, d->pnet_patience);
     if (!(d->material.yield_angle >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: yield angle %g < 0", d->material.yield_angle);
     return CR_OK;
@@ -183,6 +195,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     m->def.garment = m->garment_name, m->def.body = m->body_name;
     m->def.out_dir = NULL;
     m->def.motions = NULL, m->def.nmotions = 0; /* the training set is train.c's */
+    m->def.pnet_val_motion = NULL;
     cr_status st = make_body(def->body, &m->body, err);
     cr_garment_def gd;
     cr_garment_type gt;
@@ -720,47 +733,53 @@ static cr_tensor *pnet_forward(cr_epnet *m, const float *pos, const float *theta
 }
 
 cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
-                            const float *theta, const float *rb_target, int steps, double *mse,
+                            const float *theta, const float *rb_target, int steps, double *loss,
                             cr_error *err) {
     const int32_t H = m->nh, V = m->nv, T = s->T;
-    float *zero = calloc((size_t)H, sizeof *zero), *inc = malloc(sizeof(float) * (size_t)H);
-    if (!zero || !inc) {
-        free(zero), free(inc);
+    const cr_epnet_def *d = &m->def;
+    float *prev = malloc(sizeof(float) * (size_t)H), *inc = malloc(sizeof(float) * (size_t)H);
+    float *w = malloc(sizeof(float) * (size_t)H);
+    if (!prev || !inc || !w) {
+        free(prev), free(inc), free(w);
         return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net targets");
     }
     cr_status st = CR_OK;
     double last = NAN;
     /* one frame on the tape at a time (a frame's graph of E edges holds a
      * few (E, 3L) tensors per step), the gradients summed over the frames */
-    const float wf = 1.0f / (float)m->def.pnet_frames;
+    const float wf = 1.0f / (float)(d->pnet_frames * (int64_t)H);
     for (int it = 0; st == CR_OK && it < steps; it++) {
         double sum = 0;
         cr_nn_params_zero_grad(m->pp);
-        for (int k = 0; st == CR_OK && k < m->def.pnet_frames; k++) {
+        for (int k = 0; st == CR_OK && k < d->pnet_frames; k++) {
             cr_nn_ctx_reset(m->ctx);
             cr_nn_ctx_set_grad_enabled(m->ctx, 1);
             const int32_t t = (int32_t)cr_rng_below(&m->rng, (uint32_t)T);
-            const float *prev = t > 0 ? rb_target + (size_t)(t - 1) * H : zero;
-            for (int32_t h = 0; h < H; h++)
-                inc[h] = (rb_target[(size_t)t * H + h] - prev[h]) / PNET_OUT_SCALE;
+            /* teacher forcing: the target's RB of the frame before, with noise */
+            for (int32_t h = 0; h < H; h++) {
+                const float tg = rb_target[(size_t)t * H + h];
+                float p = t > 0 ? rb_target[(size_t)(t - 1) * H + h] : 0.0f;
+                if (d->pnet_rb_noise > 0) p += (float)(d->pnet_rb_noise * cr_rng_normal(&m->rng));
+                prev[h] = p, inc[h] = tg - p;
+                w[h] = fabsf(tg) > PNET_ACTIVE ? 1.0f : (float)d->pnet_inactive_weight;
+            }
             cr_tensor *y = pnet_forward(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
-            cr_tensor *dlt = cr_nn_sub(m->ctx, cr_nn_mul_scalar(m->ctx, y, 1.0f / PNET_OUT_SCALE),
-                                       cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc));
-            cr_tensor *l =
-                cr_nn_mul_scalar(m->ctx, cr_nn_mean(m->ctx, cr_nn_square(m->ctx, dlt)), wf);
+            cr_tensor *e =
+                cr_nn_mul(m->ctx, cr_nn_sub(m->ctx, y, cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc)),
+                          cr_nn_from(m->ctx, 1, (int64_t[]){H}, w));
+            cr_tensor *l = cr_nn_mul_scalar(m->ctx, cr_nn_sum(m->ctx, cr_nn_abs(m->ctx, e)), wf);
             st = cr_nn_ctx_error(m->ctx, err);
             if (st != CR_OK) break;
             sum += l->data[0];
             st = cr_nn_backward(m->ctx, l, err);
         }
         if (st != CR_OK) break;
-        /* report in rad^2: the loss is on 10x the increment */
-        last = sum * PNET_OUT_SCALE * PNET_OUT_SCALE;
+        last = sum;
         st = cr_clip_grad_norm(m->pp, 10.0f, NULL, err);
         if (st == CR_OK) st = cr_optim_step(m->opt_p, err);
     }
-    free(zero), free(inc);
-    if (mse) *mse = last;
+    free(prev), free(inc), free(w);
+    if (loss) *loss = last;
     return st;
 }
 
@@ -861,17 +880,14 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
 /* The proxy inference: (1) E-Net at RB = 0, the proxy; (2) P-Net over the
  * proxy's positions and angles, frame by frame, each increment through the
  * ratchet and its drive gating (ratchet.c); (3) E-Net with that RB. */
-static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
-                               float *pos, float *theta, float *rb, cr_error *err) {
-    const int32_t V = m->nv, H = m->nh, T = s->T;
-    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V);
-    float *pth = malloc(sizeof(float) * (size_t)T * H), *R = malloc(sizeof(float) * (size_t)T * H);
+cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth, int32_t T,
+                               const cr_epnet_ratchet_def *d, float *R, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh;
     float *r = calloc((size_t)H, sizeof(float)), *strain = malloc(sizeof(float) * (size_t)H);
     uint32_t *hist = calloc((size_t)H, sizeof(uint32_t));
     cr_status st = CR_OK;
-    if (!ppos || !pth || !R || !r || !strain || !hist)
-        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the proxy inference");
-    if (st == CR_OK) st = rollout(m, s, d->warmup, NULL, 0, ppos, pth, NULL, err);
+    if (!r || !strain || !hist)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net over the proxy");
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
         cr_nn_ctx_reset(m->ctx);
         cr_nn_ctx_set_grad_enabled(m->ctx, 0);
@@ -881,12 +897,26 @@ static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epne
         if (st != CR_OK) break;
         for (int32_t h = 0; h < H; h++)
             strain[h] = th[h] - m->theta_bar[h];
-        cr_epnet_ratchet_step(&d->ratchet, strain, inc->data, H, hist, r);
+        cr_epnet_ratchet_step(d, strain, inc->data, H, hist, r);
         memcpy(R + (size_t)t * H, r, sizeof(float) * (size_t)H);
     }
+    free(r), free(strain), free(hist);
+    return st;
+}
+
+static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                               float *pos, float *theta, float *rb, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh, T = s->T;
+    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V);
+    float *pth = malloc(sizeof(float) * (size_t)T * H), *R = malloc(sizeof(float) * (size_t)T * H);
+    cr_status st = CR_OK;
+    if (!ppos || !pth || !R)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the proxy inference");
+    if (st == CR_OK) st = rollout(m, s, d->warmup, NULL, 0, ppos, pth, NULL, err);
+    if (st == CR_OK) st = cr_epnet_pnet_proxy_(m, ppos, pth, T, &d->ratchet, R, err);
     if (st == CR_OK) st = rollout(m, s, d->warmup, R, 0, pos, theta, NULL, err);
     if (st == CR_OK && rb) memcpy(rb, R, sizeof(float) * (size_t)T * H);
-    free(ppos), free(pth), free(R), free(r), free(strain), free(hist);
+    free(ppos), free(pth), free(R);
     return st;
 }
 
