@@ -310,18 +310,16 @@ CR_TEST(epnet, paired_terms_gradients_match_central_differences) {
 
 /* The paired terms make E-Net read RB: a tiny E-Net trained on the squat
  * with a fixed RB field (0.3 rad of either sign on every fifth hinge) for 60
- * steps without the paired terms, with the authors' weights (2, 5) on the
- * last frame, and on every frame; then the RB it realises at the last frame
- * (cr_epnet_rb_realised: its angles given that RB against its own at RB = 0,
- * along RB). */
+ * steps, once with the authors' paired weights (2, 5) and once without,
+ * then the RB it realises at the last frame (cr_epnet_rb_realised: its
+ * angles given that RB against its own at RB = 0, along RB). */
 CR_TEST(epnet, paired_terms_make_enet_realise_more_rb) {
     cr_error err;
-    double realised[3] = {0, 0, 0};
+    double realised[2] = {0, 0};
     const int steps = CR_TEST_SIZE(60, 4);
-    for (int paired = 0; paired < 3; paired++) { /* off, the last frame, every frame */
+    for (int paired = 0; paired < 2; paired++) {
         cr_epnet_def d = tiny_def();
         if (!paired) d.w_zero_rest = d.w_rest_response = 0;
-        d.paired_all_frames = paired == 2;
         cr_epnet *m = NULL;
         CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
         cr_epnet_seq *s = NULL;
@@ -357,8 +355,8 @@ CR_TEST(epnet, paired_terms_make_enet_realise_more_rb) {
         cr_epnet_destroy(m);
     }
     if (!cr_test_quick()) {
-        CR_CHECK(realised[1] > 0.3 && realised[2] > 0.3);
-        CR_CHECK(realised[1] > 3.0 * fabs(realised[0]) && realised[2] > 3.0 * fabs(realised[0]));
+        CR_CHECK(realised[1] > 0.3);
+        CR_CHECK(realised[1] > 3.0 * fabs(realised[0]));
     }
 }
 

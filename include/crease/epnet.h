@@ -112,9 +112,6 @@ typedef struct cr_epnet_def {
      * the folds RB asks for appear, relative to it. Defaults 2 and 5 (the authors'
      * configs/epnet_demo.json); 0 turns a term off. Not applied to a baseline. */
     double w_zero_rest, w_rest_response;
-    int paired_all_frames; /* 1: the paired terms on every frame of the clip (means over
-                              frames and hinges), as the authors' windows ending at every
-                              frame add up to; 0: the clip's last frame only (default) */
     /* Kept without a CLI flag (measured with no effect, docs/notes/epnet_rounds.md), for
      * the authors' recipe: */
     struct {

@@ -33,7 +33,6 @@ void help_epnet(void) {
         "                       0: off)\n"
         "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
         "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
-        "  --paired-all-frames  the paired terms on every frame, not the clip's last\n"
         "  --pnet-noise R       P-Net's teacher-forced RB noise, rad (default 0.05)\n"
         "  --pnet-val M         P-Net's validation clip for early stopping (default run;\n"
         "                       none: all --pnet-epochs)\n"
@@ -76,7 +75,7 @@ static int run_train(int argc, char **argv) {
     const char *pval = d.pnet_val_motion;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
-    int json = 0, seed = 1, pall = 0;
+    int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
           wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response,
           pnoise = (float)d.pnet_rb_noise;
@@ -95,7 +94,6 @@ static int run_train(int argc, char **argv) {
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
         CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
-        CLI_FLAG("--paired-all-frames", &pall),
         CLI_FLOAT("--pnet-noise", &pnoise, 0, 3.2),
         CLI_STR("--pnet-val", &pval),
         CLI_FLAG("--paper-sizes", &paper),
@@ -123,7 +121,7 @@ static int run_train(int argc, char **argv) {
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
     d.pin_top = pin_top, d.w_bending = wb, d.w_zero_rest = wz, d.w_rest_response = wr;
-    d.pnet_rb_noise = pnoise, d.paired_all_frames = pall;
+    d.pnet_rb_noise = pnoise;
     d.pnet_val_motion = pval && strcmp(pval, "none") ? pval : NULL;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};

@@ -632,15 +632,14 @@ cr_tensor *cr_epnet_enet_loss_(cr_epnet *m, const cr_epnet_seq *s, const float *
     cr_tensor *x = enet_full(m, s, rin, &hs, &hg);
     if (!x) return NULL;
     if (!d->baseline && (d->w_zero_rest > 0 || d->w_rest_response > 0)) {
-        /* the paired terms on the last frame (or every frame); the pose codes do
-         * not depend on RB, so the pass at RB = 0 is the decoder's alone */
-        const int64_t f0 = d->paired_all_frames ? 0 : T - 1, nf = T - f0;
-        cr_tensor *xl = cr_nn_slice(c, x, 0, f0, nf);
+        /* the paired terms on the last frame; the pose codes do not depend on
+         * RB, so the pass at RB = 0 is the decoder's alone */
+        cr_tensor *xl = cr_nn_slice(c, x, 0, T - 1, 1);
         cr_tensor *x0 = xl, *r = NULL;
         if (rin) {
-            x0 = enet_decode(m, s, f0, nf, cr_nn_slice(c, hs, 0, f0, nf),
-                             cr_nn_slice(c, hg, 0, f0, nf), NULL);
-            r = cr_nn_from(c, 2, (int64_t[]){nf, H}, rin + f0 * H);
+            x0 = enet_decode(m, s, T - 1, 1, cr_nn_slice(c, hs, 0, T - 1, 1),
+                             cr_nn_slice(c, hg, 0, T - 1, 1), NULL);
+            r = cr_nn_from(c, 2, (int64_t[]){1, H}, rin + (T - 1) * H);
         }
         cr_epnet_paired_terms_(c, m->bending, rin ? xl : NULL, x0, r, &zero, &resp);
     }

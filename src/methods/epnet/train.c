@@ -158,15 +158,13 @@ static void print_config(const cr_epnet_def *d, FILE *fp) {
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
-        " \"w_zero_rest\": %.9g, \"w_rest_response\": %.9g, \"paired_all_frames\": %d,\n"
-        " \"pnet_rb_noise\": %.9g,"
+        " \"w_zero_rest\": %.9g, \"w_rest_response\": %.9g,\n \"pnet_rb_noise\": %.9g,"
         " \"pnet_inactive_weight\": %.9g, \"pnet_patience\": %d, \"pnet_val\": \"%s\",\n"
         " \"static\": [",
         d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->experimental.inertia_detach,
-        d->pin_top, d->w_pin, d->w_bending, d->w_zero_rest, d->w_rest_response,
-        d->paired_all_frames, d->pnet_rb_noise, d->pnet_inactive_weight, d->pnet_patience,
-        d->pnet_val_motion ? d->pnet_val_motion : "");
+        d->pin_top, d->w_pin, d->w_bending, d->w_zero_rest, d->w_rest_response, d->pnet_rb_noise,
+        d->pnet_inactive_weight, d->pnet_patience, d->pnet_val_motion ? d->pnet_val_motion : "");
     for (int i = 0; i < d->nstatic; i++)
         fprintf(fp, "%s%d", i ? ", " : "", d->static_widths[i]);
     fprintf(fp, "], \"rb\": [");
@@ -266,7 +264,6 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
                 {"w_bending", 0},
                 {"w_zero_rest", 0},
                 {"w_rest_response", 0},
-                {"paired_all_frames", 0},
                 {"pnet_rb_noise", 0},
                 {"pnet_inactive_weight", 0},
                 {"pnet_patience", 0},
@@ -324,7 +321,6 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
     /* added 2026-12: a folder without them was trained without the paired terms */
     d.w_zero_rest = jnum(o, "w_zero_rest", 0.0);
     d.w_rest_response = jnum(o, "w_rest_response", 0.0);
-    d.paired_all_frames = jint(o, "paired_all_frames", 0);
     d.baseline = jint(o, "baseline", 0);
     d.seed = (uint64_t)jnum(o, "seed", 1);
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
