@@ -13,11 +13,13 @@
  * OUT_DIR/table_{epnet,baseline}_<motion>_<body>.json (cr_eval_table_json).
  *
  *   bench_epnet EPNET_DIR[,DIR,..] BASELINE_DIR[,DIR,..] OUT_DIR [motion,motion,...]
- *               [body,body,...] [hold] [friction] [twin_friction_delta]
+ *               [body,body,...] [hold] [friction] [twin_friction_delta] [inference] [warmup]
  * Several model folders (comma-separated) are seeds of one recipe: the table
  * gives their mean and spread. friction: the reference's Coulomb friction
  * against the body (default 0, the training loss's physics; cotton's is
- * 0.3); twin_friction_delta: the twin's change of it (default 0.001).
+ * 0.3); twin_friction_delta: the twin's change of it (default 0.001);
+ * inference: epnet's, proxy (default, cr_epnet_infer's) or closed-loop;
+ * warmup: frames before frame 0 (default 0), for every model.
  */
 #include "crease/epnet.h"
 #include "crease/eval.h"
@@ -118,7 +120,8 @@ static void print_table(const char *dir, const char *name, const char *motion, c
 int main(int argc, char **argv) {
     if (argc < 4) {
         fprintf(stderr, "usage: bench_epnet EPNET_DIR[,DIR,..] BASELINE_DIR[,DIR,..] OUT_DIR "
-                        "[motions] [bodies] [hold] [friction] [twin_friction_delta]\n");
+                        "[motions] [bodies] [hold] [friction] [twin_friction_delta] "
+                        "[proxy|closed-loop] [warmup]\n");
         return 2;
     }
     char ebuf[2048], lbuf[2048], mbuf[512], bbuf[256];
@@ -129,6 +132,15 @@ int main(int argc, char **argv) {
     const int hold = argc > 6 ? atoi(argv[6]) : 30;
     const double friction = argc > 7 ? atof(argv[7]) : 0.0;
     const double twin_delta = argc > 8 ? atof(argv[8]) : 0.001;
+    cr_epnet_infer_def inf = cr_epnet_infer_default_def(), zero;
+    if (argc > 9 && !strcmp(argv[9], "closed-loop"))
+        inf.mode = CR_EPNET_CLOSED_LOOP;
+    else if (argc > 9 && strcmp(argv[9], "proxy")) {
+        fprintf(stderr, "bench_epnet: inference '%s': expected proxy or closed-loop\n", argv[9]);
+        return 2;
+    }
+    inf.warmup = argc > 10 ? atoi(argv[10]) : 0;
+    zero = inf, zero.mode = CR_EPNET_ZERO_RB;
     const char *edirs[MAX_SEEDS], *ldirs[MAX_SEEDS], *motions[16], *bodies[8];
     const int ns = split(ebuf, edirs, MAX_SEEDS), nl = split(lbuf, ldirs, MAX_SEEDS);
     const int nm = split(mbuf, motions, 16), nb = split(bbuf, bodies, 8);
@@ -143,8 +155,10 @@ int main(int argc, char **argv) {
     const float *bar = cr_epnet_rest_angles(ep[0]);
     float *last_ep = malloc(sizeof(float) * 3 * (size_t)V);
     if (!last_ep) return 1;
-    printf("epnet: %d seed%s, baseline: %d; reference friction %g, twin %+g\n", ns,
-           ns == 1 ? "" : "s", nl, friction, twin_delta);
+    printf("epnet: %d seed%s (%s inference), baseline: %d; reference friction %g, twin %+g; "
+           "warm-up %d frames\n",
+           ns, ns == 1 ? "" : "s", inf.mode == CR_EPNET_PROXY ? "proxy" : "closed-loop", nl,
+           friction, twin_delta, inf.warmup);
     for (int b = 0; b < nb; b++)
         for (int mi = 0; mi < nm; mi++) {
             cr_epnet_seq *s = NULL;
@@ -171,7 +185,8 @@ int main(int argc, char **argv) {
                 const int is_ep = k < ns;
                 cr_epnet *m = is_ep ? ep[k] : bl[k - ns];
                 double t0 = cr_time_now();
-                if (cr_epnet_rollout(m, s, is_ep, buf.pos, buf.th, buf.rb, &err) != CR_OK)
+                if (cr_epnet_infer(m, s, is_ep ? &inf : &zero, buf.pos, buf.th, buf.rb, &err) !=
+                    CR_OK)
                     return fail(&err);
                 const double spf = (cr_time_now() - t0) / T;
                 /* RB realised: epnet's E-Net against itself with RB held at 0, at the
@@ -179,7 +194,7 @@ int main(int argc, char **argv) {
                  * hinges past 0.05 rad of RB */
                 double realised = NAN;
                 if (is_ep) {
-                    if (cr_epnet_rollout(m, s, 0, NULL, buf.th0, NULL, &err) != CR_OK)
+                    if (cr_epnet_infer(m, s, &zero, NULL, buf.th0, NULL, &err) != CR_OK)
                         return fail(&err);
                     realised = cr_epnet_rb_realised(buf.th + (size_t)(T - 1) * H,
                                                     buf.th0 + (size_t)(T - 1) * H,

@@ -16,7 +16,7 @@ check "epnet --help" bash -c "'$crease' epnet --help | grep -q usage"
 check "epnet listed" bash -c "'$crease' --help | grep -q 'epnet '"
 
 check "epnet train" bash -c "'$crease' epnet train ${small[*]} --cycles 2 -o '$tmp/m' --json > '$tmp/t.json'"
-check "train fields" json_has "$tmp/t.json" cycles first_loss last_loss first_stretch last_stretch pnet_mse
+check "train fields" json_has "$tmp/t.json" cycles first_loss last_loss first_stretch last_stretch pnet_loss pnet_val_loss
 check "train: 2 cycles" grep -q '"cycles":2' "$tmp/t.json"
 # stretch + shear + bending of the skinned template fall at least threefold
 [[ $quick == 0 ]] && check "elastic terms fall 3x" python3 -c "
@@ -36,6 +36,8 @@ check "run: outside the body (> -5 mm)" python3 -c "
 import json,sys; j=json.loads(open('$tmp/o.json').read().splitlines()[-1]); sys.exit(0 if j['min_body_distance'] > -0.005 else 1)"
 check "run outputs" test -s "$tmp/o/garment.pc2" -a -s "$tmp/o/garment.glb" -a -s "$tmp/o/garment.png" \
   -a -s "$tmp/o/rb.png" -a -s "$tmp/o/rb.npy"
+check "closed-loop run" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --closed-loop -o '$tmp/c' --json | grep -q '\"finite\":true'"
+check "proxy run with its options" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --drive 0.1 --min-delta 0.01 --warmup 5 -o '$tmp/p' --json | grep -q '\"finite\":true'"
 check "baseline run: RB 0" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --baseline -o '$tmp/b' --json | grep -q '\"max_abs_rb\":0'"
 
 expect_exit 2 "-o DIR is required" epnet train

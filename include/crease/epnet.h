@@ -52,6 +52,32 @@ int64_t cr_epnet_plastic_rollout(const float *theta, const float *theta_bar, con
 cr_status cr_epnet_hinge_graph(const cr_topology *t, int32_t **senders, int32_t **receivers,
                                int64_t *nedges, cr_error *err);
 
+/* The ratchet and drive gating of the proxy inference (cr_epnet_infer), one
+ * frame over nh hinges (after the authors' predict_pnet_tf.py). With s the
+ * proxy's strain theta - theta_bar (E-Net at RB = 0), a hinge is driven in a
+ * frame when |wrap(s - RB)| > drive; P-Net's increment delta is applied only
+ * at a hinge driven now and in at least drive_frames of the last drive_window
+ * frames (this one included), and only when |delta| >= min_delta; then
+ *     c = RB + delta,   RB' = sign(c) max(|RB|, |c|)
+ * (sign(0) read as RB's), so |RB| never shrinks and RB' lies between RB and
+ * c or keeps RB's size: a rollout's |RB| stays below max(|RB_0|, max |c|). */
+typedef struct cr_epnet_ratchet_def {
+    double drive;     /* rad (default 0.05) */
+    int drive_frames; /* default 3 */
+    int drive_window; /* frames, drive_frames..32 (default 5) */
+    double min_delta; /* rad: smaller increments are dropped (default 0.005) */
+    uint32_t cookie;
+} cr_epnet_ratchet_def;
+cr_epnet_ratchet_def cr_epnet_ratchet_default_def(void);
+/* CR_ERR_INVALID naming the field when d is out of range. */
+cr_status cr_epnet_ratchet_check(const cr_epnet_ratchet_def *d, cr_error *err);
+/* One frame: strain (H) the proxy's theta - theta_bar, rad; delta (H) P-Net's
+ * increments, rad; history (H) each hinge's drive over the last frames as
+ * bits (bit 0 this frame; zero before the first frame), updated; rb (H) rad,
+ * updated. Returns the number of hinges whose RB changed. O(H), no memory. */
+int32_t cr_epnet_ratchet_step(const cr_epnet_ratchet_def *d, const float *strain,
+                              const float *delta, int32_t nh, uint32_t *history, float *rb);
+
 /* ------------------------------------------------------------- options -- */
 
 enum { CR_EPNET_MAX_LAYERS = 8, CR_EPNET_MAX_MOTIONS = 16 };
@@ -77,6 +103,15 @@ typedef struct cr_epnet_def {
                          Default 0 (none); train's default for a skirt or trousers 0.01 */
     double w_pin;     /* pinning weight, J/m^2 per vertex (default 100, the authors') */
     double sharpness; /* Eq. 5 sigmoid sharpness (default 50) */
+    /* The authors' paired E-Net terms (model/ncs.py, paired_rest_consistency_loss): E-Net
+     * runs a second time at RB = 0 and, on the clip's last frame, with r(x) = theta(x) -
+     * theta_bar per hinge (rad, wrapped) and means over all H hinges,
+     *     zero rest      w_zero_rest     mean_h r(x_0)^2
+     *     rest response  w_rest_response mean_h (r(x_RB) - r(x_0) - RB)^2
+     * (RB the input E-Net was given at that frame): the RB-free drape stays smooth and
+     * the folds RB asks for appear, relative to it. Defaults 2 and 5 (the authors'
+     * configs/epnet_demo.json); 0 turns a term off. Not applied to a baseline. */
+    double w_zero_rest, w_rest_response;
     /* Kept without a CLI flag (measured with no effect, docs/notes/epnet_rounds.md), for
      * the authors' recipe: */
     struct {
@@ -99,14 +134,24 @@ typedef struct cr_epnet_def {
     int pnet_hidden_layers; /* default 1 */
     int pnet_steps;         /* default 3 */
     /* curriculum (authors: 4 cycles, E-Net 100 epochs lr 1e-4, P-Net 50-80 epochs lr 2e-5) */
-    int cycles;          /* default 4 */
-    int enet_epochs;     /* per cycle, default 40 */
-    int pnet_epochs;     /* per cycle, default 20 */
-    int pnet_frames;     /* frames drawn per P-Net step (default 4) */
-    float enet_lr;       /* default 1e-3 */
-    float pnet_lr;       /* default 1e-3 */
-    int baseline;        /* 1: RB fixed at zero, no P-Net (PBNS/SNUG/NCS) */
-    uint64_t seed;       /* default 1 */
+    int cycles;      /* default 4 */
+    int enet_epochs; /* per cycle, default 40 */
+    int pnet_epochs; /* per cycle, default 20 */
+    int pnet_frames; /* frames drawn per P-Net step (default 4) */
+    float enet_lr;   /* default 1e-3 */
+    float pnet_lr;   /* default 1e-3 */
+    /* P-Net's fit, the authors' (train_pnet_tf.py): inputs the proxy's (E-Net at RB =
+     * 0) positions and angles, targets the cycle's RB (Eq. 4-5 on E-Net's angles given
+     * its RB), teacher-forced with the target's RB of the frame before plus Gaussian
+     * noise, L1, hinges with no target RB weighted pnet_inactive_weight */
+    double pnet_rb_noise;        /* rad, standard deviation (default 0.05) */
+    double pnet_inactive_weight; /* default 0.03 */
+    const char *pnet_val_motion; /* validation clip for early stopping, neither a training
+                                    nor an evaluation clip (default "run"; NULL: none) */
+    int pnet_patience;           /* P-Net epochs without a better validation loss before
+                                    the phase stops, its best weights kept (default 5) */
+    int baseline;                /* 1: RB fixed at zero, no P-Net (PBNS/SNUG/NCS) */
+    uint64_t seed;               /* default 1 */
     const char *out_dir; /* model folder (checkpoint, config); required for cr_epnet_train */
     int resume;          /* 1: continue from out_dir's checkpoint */
     int quiet;           /* 1: no progress lines */
@@ -134,13 +179,14 @@ int64_t cr_epnet_param_count(const cr_epnet *m, int pnet);
  * its motions and out_dir are not kept (NULL). */
 const cr_epnet_def *cr_epnet_get_def(const cr_epnet *m);
 
-/* Loss terms of one forward pass, J per frame. */
-enum { CR_EPNET_NTERMS = 7 };
+/* Loss terms of one forward pass: the physics terms in J per frame, the paired
+ * terms (unitless, rad^2 weighted) of the clip's last frame. */
+enum { CR_EPNET_NTERMS = 9 };
 extern const char *const cr_epnet_term_names[CR_EPNET_NTERMS];
 typedef struct cr_epnet_losses {
     double total;
     double term[CR_EPNET_NTERMS]; /* stretch, shear, bending, gravity, collision, inertia,
-                                     pinning (each weighted) */
+                                     pinning, zero_rest, rest_response (each weighted) */
 } cr_epnet_losses;
 
 /* A sequence the model runs on: a motion (clip name or file) on a body
@@ -156,15 +202,21 @@ const float *cr_epnet_seq_body(const cr_epnet_seq *s); /* (T,Vb,3) posed body, m
 const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s);
 
 /* One E-Net training step on s (rb (T,H) rad or NULL: zero) when train is 1,
- * or only the loss when 0. */
+ * or only the loss when 0. rb[t] is the RB after frame t's update; frame t
+ * is given rb[t-1] (frame 0: zero), as at inference, and its bending term's
+ * rest is theta_bar + rb[t-1]. With RB, the paired terms take a second
+ * decoder pass of the last frame at RB = 0. */
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err);
-/* P-Net fit: steps of MSE between P-Net's one-step increment from the
- * target's previous frame and the target's own (teacher forcing), over
- * frames drawn from s. pos (T,V,3) and theta (T,H) the E-Net output the targets came from,
- * rb_target (T,H). Returns the mean MSE of the last step in *mse. */
+/* P-Net fit: steps of L1 between the RB P-Net gives from the target's RB of
+ * the frame before (plus def.pnet_rb_noise rad of Gaussian noise: teacher
+ * forcing) and the target's own, hinges with no target RB weighted
+ * def.pnet_inactive_weight, over def.pnet_frames frames drawn from s. pos
+ * (T,V,3) and theta (T,H) P-Net's inputs (in training the proxy's: E-Net at
+ * RB = 0), rb_target (T,H). Returns the last step's weighted mean L1 per
+ * hinge, rad, in *loss. */
 cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
-                            const float *theta, const float *rb_target, int steps, double *mse,
+                            const float *theta, const float *rb_target, int steps, double *loss,
                             cr_error *err);
 
 /* Inference over s: pos (T,V,3) m, theta (T,H) and rb (T,H) rad (each may
@@ -173,6 +225,34 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
  * frame). use_pnet 0: RB stays 0 (the baseline). */
 cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
                            float *theta, float *rb, cr_error *err);
+
+/* How a trained model runs over a sequence (cr_epnet_infer). */
+typedef enum cr_epnet_inference {
+    CR_EPNET_PROXY = 0,   /* the authors' open loop (default): E-Net at RB = 0 (the proxy),
+                             P-Net over the proxy's angles through the ratchet, then E-Net
+                             with that RB; RB never reads angles that RB made */
+    CR_EPNET_CLOSED_LOOP, /* cr_epnet_rollout with P-Net: frame t's E-Net with RB_{t-1},
+                             P-Net on its angles (the earlier rounds'; for comparison) */
+    CR_EPNET_ZERO_RB,     /* E-Net with RB held at 0 (the baseline) */
+} cr_epnet_inference;
+
+typedef struct cr_epnet_infer_def {
+    cr_epnet_inference mode;      /* default CR_EPNET_PROXY */
+    int32_t warmup;               /* frames of E-Net's recurrent state before frame 0, blending the
+                                     joints from the rest pose to frame 0's (root held), outputs
+                                     dropped; every mode (default 0: see docs/epnet.md) */
+    cr_epnet_ratchet_def ratchet; /* the proxy's gating (cr_epnet_ratchet_default_def) */
+    uint32_t cookie;
+} cr_epnet_infer_def;
+cr_epnet_infer_def cr_epnet_infer_default_def(void);
+
+/* The model over s by d's mode: pos (T,V,3) m, theta (T,H) and rb (T,H) rad,
+ * each caller-allocated or NULL. rb[t] is the RB after frame t; frame t's
+ * E-Net is given rb[t-1] (frame 0: zero) in every mode. Proxy: |rb| never
+ * shrinks and stays below the largest |theta_proxy - theta_bar| + 0.2 rad
+ * (P-Net's bounded correction) per hinge, however long s is. */
+cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                         float *pos, float *theta, float *rb, cr_error *err);
 
 /* P-Net alone on given positions pos (T,V,3), m (a reference simulation,
  * say): RB (T,H) rad rolled as in cr_epnet_rollout, frame t's increment from
@@ -206,7 +286,8 @@ typedef struct cr_epnet_train_report {
     int cycles_done;
     double first_loss, last_loss; /* E-Net loss per frame, J: first and last epoch */
     cr_epnet_losses first, last;
-    double pnet_mse; /* last P-Net fit, rad^2 */
+    double pnet_loss;     /* last P-Net epoch's mean fit loss (weighted L1 per hinge), rad */
+    double pnet_val_loss; /* and on the validation clip (NaN: none), rad */
     double seconds;
     size_t arena_peak_bytes; /* the tape's high-water mark, bytes */
 } cr_epnet_train_report;
@@ -229,13 +310,14 @@ cr_status cr_epnet_open_pnet(const char *model_dir, const char *garment, int32_t
                              cr_epnet **out, cr_error *err);
 
 typedef struct cr_epnet_run_def {
-    const char *model_dir; /* required */
-    const char *motion;    /* clip name or file; required */
-    const char *body;      /* preset; NULL: the model's */
-    int32_t frames;        /* 0: the motion's own length */
-    int32_t hold;          /* frames of its last pose after it (default 0) */
-    int baseline;          /* 1: RB held at 0 */
-    const char *out_dir;   /* garment.pc2, garment.glb, garment.png, rb.png, rb.npy */
+    const char *model_dir;    /* required */
+    const char *motion;       /* clip name or file; required */
+    const char *body;         /* preset; NULL: the model's */
+    int32_t frames;           /* 0: the motion's own length */
+    int32_t hold;             /* frames of its last pose after it (default 0) */
+    int baseline;             /* 1: RB held at 0 (infer.mode CR_EPNET_ZERO_RB) */
+    cr_epnet_infer_def infer; /* the inference (default: the proxy) */
+    const char *out_dir;      /* garment.pc2, garment.glb, garment.png, rb.png, rb.npy */
     uint32_t cookie;
 } cr_epnet_run_def;
 cr_epnet_run_def cr_epnet_run_default_def(void);

@@ -3,46 +3,62 @@
 #include "cli.h"
 #include "crease/epnet.h"
 
+#include <math.h>
 #include <string.h>
 
 void help_epnet(void) {
-    printf("usage: crease epnet train -o DIR [options]\n"
-           "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
-           "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
-           "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
-           "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
-           "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
-           "train:\n"
-           "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
-           "  --vertices N         garment vertex count (default 600)\n"
-           "  --body B             slim, normal (default) or heavy\n"
-           "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
-           "                       reach,lean,stretch)\n"
-           "  --frames N           frames per clip (default 60)\n"
-           "  --yield Y            yield angle, rad (default 0.52)\n"
-           "  --cycles N           curriculum cycles (default 4)\n"
-           "  --epochs N           E-Net epochs per cycle (default 40)\n"
-           "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
-           "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
-           "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
-           "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
-           "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
-           "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
-           "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
-           "  --lr R               E-Net Adam learning rate (default 0.001)\n"
-           "  --seed S             (default 1)\n"
-           "  --resume             continue from DIR's checkpoints\n"
-           "  --json               a summary on stdout\n"
-           "run:\n"
-           "  --model DIR          a trained model\n"
-           "  --motion M           clip name or motion file\n"
-           "  --body B             another body preset (default the model's)\n"
-           "  --frames N           frames of the motion (default its own)\n"
-           "  --hold N             frames of its last pose after it (default 0)\n"
-           "  --baseline           RB held at zero\n"
-           "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
-           "rb.npy\n"
-           "  --json               a summary on stdout\n");
+    printf(
+        "usage: crease epnet train -o DIR [options]\n"
+        "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
+        "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
+        "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
+        "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
+        "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
+        "train:\n"
+        "  --garment G          tshirt (default), dress, skirt, ... (garment.h types)\n"
+        "  --vertices N         garment vertex count (default 600)\n"
+        "  --body B             slim, normal (default) or heavy\n"
+        "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
+        "                       reach,lean,stretch)\n"
+        "  --frames N           frames per clip (default 60)\n"
+        "  --yield Y            yield angle, rad (default 0.52)\n"
+        "  --cycles N           curriculum cycles (default 4)\n"
+        "  --epochs N           E-Net epochs per cycle (default 40)\n"
+        "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
+        "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
+        "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+        "  --zero-rest-weight W the paired zero-rest consistency term (default 2, the\n"
+        "                       authors'; 0: off)\n"
+        "  --rest-response-weight W  the paired rest-response term (default 5, the authors';\n"
+        "                       0: off)\n"
+        "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
+        "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
+        "  --pnet-noise R       P-Net's teacher-forced RB noise, rad (default 0.05)\n"
+        "  --pnet-val M         P-Net's validation clip for early stopping (default run;\n"
+        "                       none: all --pnet-epochs)\n"
+        "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
+        "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
+        "  --lr R               E-Net Adam learning rate (default 0.001)\n"
+        "  --seed S             (default 1)\n"
+        "  --resume             continue from DIR's checkpoints\n"
+        "  --json               a summary on stdout\n"
+        "run:\n"
+        "  --model DIR          a trained model\n"
+        "  --motion M           clip name or motion file\n"
+        "  --body B             another body preset (default the model's)\n"
+        "  --frames N           frames of the motion (default its own)\n"
+        "  --hold N             frames of its last pose after it (default 0)\n"
+        "  --baseline           RB held at zero\n"
+        "  --closed-loop        P-Net on the angles E-Net makes with RB (the earlier rounds')\n"
+        "                       instead of the proxy inference (E-Net at RB = 0, P-Net over\n"
+        "                       its angles through the ratchet, E-Net with that RB)\n"
+        "  --drive R            proxy: RB moves only at hinges strained past R rad from RB in\n"
+        "                       3 of the last 5 frames (default 0.05)\n"
+        "  --min-delta R        proxy: P-Net increments under R rad are dropped (default 0.005)\n"
+        "  --warmup N           frames from the rest pose to the first before it (default 0)\n"
+        "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
+        "rb.npy\n"
+        "  --json               a summary on stdout\n");
 }
 
 static int split_motions(const char *s, char *buf, size_t cap, const char **out, int max) {
@@ -56,11 +72,13 @@ static int split_motions(const char *s, char *buf, size_t cap, const char **out,
 static int run_train(int argc, char **argv) {
     cr_epnet_def d = cr_epnet_default_def();
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
+    const char *pval = d.pnet_val_motion;
     int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending;
+          wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response,
+          pnoise = (float)d.pnet_rb_noise;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -74,6 +92,10 @@ static int run_train(int argc, char **argv) {
         CLI_FLAG("--baseline", &baseline),
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
         CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
+        CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
+        CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
+        CLI_FLOAT("--pnet-noise", &pnoise, 0, 3.2),
+        CLI_STR("--pnet-val", &pval),
         CLI_FLAG("--paper-sizes", &paper),
         CLI_INT("--seed", &seed, 0, 1000000000),
         CLI_FLAG("--resume", &resume),
@@ -98,7 +120,9 @@ static int run_train(int argc, char **argv) {
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb;
+    d.pin_top = pin_top, d.w_bending = wb, d.w_zero_rest = wz, d.w_rest_response = wr;
+    d.pnet_rb_noise = pnoise;
+    d.pnet_val_motion = pval && strcmp(pval, "none") ? pval : NULL;
     if (paper) {
         const int w[4] = {64, 128, 256, 512};
         memcpy(d.static_widths, w, sizeof w), d.nstatic = 4;
@@ -110,8 +134,9 @@ static int run_train(int argc, char **argv) {
     cr_epnet_train_report r;
     cr_error err;
     if (cr_epnet_train(&d, &r, &err) != CR_OK) return cli_fail(&err);
-    fprintf(stderr, "epnet: %d cycles in %.1f s, E-Net loss %.5g -> %.5g J/frame, P-Net mse %.3g\n",
-            r.cycles_done, r.seconds, r.first_loss, r.last_loss, r.pnet_mse);
+    fprintf(stderr,
+            "epnet: %d cycles in %.1f s, E-Net loss %.5g -> %.5g J/frame, P-Net L1 %.3g rad\n",
+            r.cycles_done, r.seconds, r.first_loss, r.last_loss, r.pnet_loss);
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddNumberToObject(j, "cycles", r.cycles_done);
@@ -126,7 +151,11 @@ static int run_train(int argc, char **argv) {
             snprintf(key, sizeof key, "last_%s", cr_epnet_term_names[k]);
             cJSON_AddNumberToObject(j, key, r.last.term[k]);
         }
-        cJSON_AddNumberToObject(j, "pnet_mse", r.pnet_mse);
+        cJSON_AddNumberToObject(j, "pnet_loss", r.pnet_loss);
+        if (isnan(r.pnet_val_loss))
+            cJSON_AddNullToObject(j, "pnet_val_loss");
+        else
+            cJSON_AddNumberToObject(j, "pnet_val_loss", r.pnet_val_loss);
         cli_json_print(j);
     }
     return CLI_OK;
@@ -135,7 +164,8 @@ static int run_train(int argc, char **argv) {
 static int run_run(int argc, char **argv) {
     cr_epnet_run_def d = cr_epnet_run_default_def();
     const char *model = NULL, *motion = NULL, *body = NULL, *out = NULL;
-    int frames = 0, hold = 0, baseline = 0, json = 0;
+    int frames = 0, hold = 0, baseline = 0, json = 0, closed = 0, warmup = d.infer.warmup;
+    float drive = (float)d.infer.ratchet.drive, min_delta = (float)d.infer.ratchet.min_delta;
     const cli_opt opts[] = {
         CLI_STR("--model", &model),
         CLI_STR("--motion", &motion),
@@ -143,6 +173,10 @@ static int run_run(int argc, char **argv) {
         CLI_INT("--frames", &frames, 0, 1000000),
         CLI_INT("--hold", &hold, 0, 1000000),
         CLI_FLAG("--baseline", &baseline),
+        CLI_FLAG("--closed-loop", &closed),
+        CLI_FLOAT("--drive", &drive, 0, 3.2),
+        CLI_FLOAT("--min-delta", &min_delta, 0, 3.2),
+        CLI_INT("--warmup", &warmup, 0, 100000),
         CLI_FLAG("--json", &json),
         CLI_OUTPUT(&out),
         CLI_END,
@@ -153,6 +187,9 @@ static int run_run(int argc, char **argv) {
         return cli_usage("epnet run", "--model, --motion and -o are required");
     d.model_dir = model, d.motion = motion, d.body = body, d.frames = frames, d.hold = hold;
     d.baseline = baseline, d.out_dir = out;
+    d.infer.mode = closed ? CR_EPNET_CLOSED_LOOP : CR_EPNET_PROXY;
+    d.infer.warmup = warmup;
+    d.infer.ratchet.drive = drive, d.infer.ratchet.min_delta = min_delta;
     cr_epnet_run_report r;
     cr_error err;
     if (cr_epnet_run(&d, &r, &err) != CR_OK) return cli_fail(&err);

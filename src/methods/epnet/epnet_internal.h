@@ -52,11 +52,26 @@ struct cr_epnet_seq {
     cr_body_model *own_body;  /* set when the sequence uses another body preset */
 };
 
-/* E-Net forward on the whole sequence: positions (T,V,3) on the tape. rb (T,H) or NULL. */
+/* E-Net forward on the whole sequence: positions (T,V,3) on the tape. rb (T,H)
+ * the RB after each frame, or NULL: frame t is given rb[t-1] (frame 0 zero). */
 cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb);
+/* E-Net's training loss on s with RB rb (T,H) or NULL, on m->ctx's tape (no
+ * reset): the scalar, and each weighted term in parts (CR_EPNET_NTERMS). */
+cr_tensor *cr_epnet_enet_loss_(cr_epnet *m, const cr_epnet_seq *s, const float *rb,
+                               cr_tensor **parts);
+/* The paired terms' unweighted means (each (), on the tape): zero rest
+ * mean r(x0)^2 and rest response mean (r(x_rb) - r(x0) - rb)^2, with
+ * r(x) = theta(x) - theta_bar (b's rest angles), wrapped. x_rb, x0 (B,V,3);
+ * rb (B,H) rad; x_rb NULL: no RB, the response is zero. */
+void cr_epnet_paired_terms_(cr_nn_ctx *c, const cr_bending *b, cr_tensor *x_rb, cr_tensor *x0,
+                            cr_tensor *rb, cr_tensor **zero, cr_tensor **resp);
 /* The training loss's terms of given positions pos (T,V,3) with RB rb (T,H) or NULL. */
 cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *pos, const float *rb,
                               cr_epnet_losses *out, cr_error *err);
+/* P-Net over the proxy's positions ppos (T,V,3) and angles pth (T,H), each
+ * increment through the ratchet d: RB (T,H) out (cr_epnet_infer's step 2). */
+cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth, int32_t T,
+                               const cr_epnet_ratchet_def *d, float *R, cr_error *err);
 /* Angles (T,H) of positions (T,V,3). */
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
 

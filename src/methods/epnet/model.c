@@ -14,7 +14,8 @@
  * hinges' midpoints, deformed and rest, and [dt, k_b, yield]. The decoder's
  * last layer starts at zero (the authors'), and its output is a strain
  * correction c bounded by PNET_CORR: the increment is Eq. 4-5's rule applied to
- * d + c (its loss compares 10 x the increment, PNET_OUT_SCALE).
+ * d + c. It is fitted as the authors' is: L1 on the RB it gives from the
+ * target's RB of the frame before plus noise, inactive hinges down-weighted.
  * Losses (Eq. 1-2, 6): Baraff-Witkin stretch and shear, bending with rest
  * theta_bar + RB, gravity, collision, and the implicit-Euler inertia over
  * three consecutive predicted frames, all through losses.h, per frame. */
@@ -31,11 +32,14 @@
 #include <string.h>
 
 #define EPNET_COOKIE 0x45504e31u
-#define PNET_OUT_SCALE 0.1f /* P-Net's loss is on 10 x the increment (rad) */
-#define PNET_CORR 0.2f      /* bound of P-Net's strain correction, rad */
+#define PNET_ACTIVE                                                                                \
+    1e-4f              /* rad: a hinge whose target RB is past this is active in P-Net's           \
+                          loss (the authors' active_threshold) */
+#define PNET_CORR 0.2f /* bound of P-Net's strain correction, rad */
 
-const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {
-    "stretch", "shear", "bending", "gravity", "collision", "inertia", "pinning"};
+const char *const cr_epnet_term_names[CR_EPNET_NTERMS] = {"stretch", "shear",     "bending",
+                                                          "gravity", "collision", "inertia",
+                                                          "pinning", "zero_rest", "rest_response"};
 
 /* The training clips: the first five of the earlier rounds, plus reach, lean
  * and stretch, which cover the held-out raise_arms' and bend's range of arm
@@ -75,6 +79,8 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.w_stretch = d.w_shear = d.w_bending = d.w_gravity = d.w_collision = d.w_inertia = 1.0;
     d.w_pin = 100.0;
     d.sharpness = 50;
+    d.w_zero_rest = 2.0;     /* the authors' zero_rest_consistency weight */
+    d.w_rest_response = 5.0; /* the authors' rest_response weight */
     d.static_widths[0] = 32, d.static_widths[1] = 64, d.nstatic = 2;
     d.dynamic_width = 32;
     d.gru_hidden = 64;
@@ -90,6 +96,10 @@ cr_epnet_def cr_epnet_default_def(void) {
     d.pnet_frames = 4;
     d.enet_lr = 1e-3f;
     d.pnet_lr = 1e-3f;
+    d.pnet_rb_noise = 0.05;        /* rad, the authors' */
+    d.pnet_inactive_weight = 0.03; /* the authors' */
+    d.pnet_val_motion = "run";     /* neither trained on nor evaluated */
+    d.pnet_patience = 5;
     d.seed = 1;
     d.cookie = EPNET_COOKIE;
     return d;
@@ -127,6 +137,14 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (!(d->pin_top >= 0) || !(d->w_pin >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: pin_top %g and w_pin %g must be >= 0",
                        d->pin_top, d->w_pin);
+    if (!(d->w_zero_rest >= 0) || !(d->w_rest_response >= 0))
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet: paired weights %g and %g must be >= 0",
+                       d->w_zero_rest, d->w_rest_response);
+    if (!(d->pnet_rb_noise >= 0) || !(d->pnet_inactive_weight >= 0) || d->pnet_patience < 1)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "epnet: P-Net noise %g and inactive weight %g must be >= 0, patience %d "
+                       ">= 1",
+                       d->pnet_rb_noise, d->pnet_inactive_weight, d->pnet_patience);
     if (!(d->material.yield_angle >= 0))
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: yield angle %g < 0", d->material.yield_angle);
     return CR_OK;
@@ -177,6 +195,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     m->def.garment = m->garment_name, m->def.body = m->body_name;
     m->def.out_dir = NULL;
     m->def.motions = NULL, m->def.nmotions = 0; /* the training set is train.c's */
+    m->def.pnet_val_motion = NULL;
     cr_status st = make_body(def->body, &m->body, err);
     cr_garment_def gd;
     cr_garment_type gt;
@@ -436,17 +455,57 @@ static cr_tensor *enet_decode(cr_epnet *m, const cr_epnet_seq *s, int64_t t0, in
     return cr_nn_add(c, x, cr_nn_wrap(c, 3, (int64_t[]){T, V, 3}, s->b + (size_t)t0 * V * 3));
 }
 
-cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+/* E-Net's RB input per frame, (T,H) in step memory: frame t is given rb[t-1]
+ * (the RB after the frame before) and frame 0 zero, the lag inference has.
+ * NULL when rb is NULL or that input is zero throughout (the first cycle), so
+ * the paired terms skip their second pass. */
+static const float *rb_input(cr_epnet *m, int64_t T, const float *rb) {
+    const int64_t H = m->nh;
+    if (!rb) return NULL;
+    int any = 0;
+    for (int64_t i = 0; i < (T - 1) * H && !any; i++)
+        any = rb[i] != 0.0f;
+    if (!any) return NULL;
+    float *in = cr_nn_scratch(m->ctx, "epnet RB input", sizeof(float) * (size_t)(T * H));
+    if (!in) return NULL;
+    memset(in, 0, sizeof(float) * (size_t)H);
+    memcpy(in + H, rb, sizeof(float) * (size_t)((T - 1) * H));
+    return in;
+}
+
+/* E-Net on the whole sequence with the RB input rb_in (T,H) (NULL: zero), as
+ * given (no lag added); the pose codes hs (T,.) and hg (T,.) out, which do
+ * not depend on RB. */
+static cr_tensor *enet_full(cr_epnet *m, const cr_epnet_seq *s, const float *rb_in, cr_tensor **hs,
+                            cr_tensor **hg) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T;
     cr_tensor *st = cr_nn_from(c, 2, (int64_t[]){T, EP_STATIC_IN}, s->stat);
     cr_tensor *dy = cr_nn_from(c, 2, (int64_t[]){T, EP_DYN_IN}, s->dyn);
-    cr_tensor *hs = cr_mlp_forward(c, m->enc_static, st);
+    *hs = cr_mlp_forward(c, m->enc_static, st);
     cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
     hd = cr_nn_reshape(c, hd, 3, (int64_t[]){T, 1, m->def.dynamic_width});
-    cr_tensor *hg = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
-    hg = cr_nn_reshape(c, hg, 2, (int64_t[]){T, m->def.gru_hidden});
-    return enet_decode(m, s, 0, T, hs, hg, rb);
+    cr_tensor *g = cr_gru_forward(c, &m->gru, hd, NULL, NULL);
+    *hg = cr_nn_reshape(c, g, 2, (int64_t[]){T, m->def.gru_hidden});
+    return enet_decode(m, s, 0, T, *hs, *hg, rb_in);
+}
+
+cr_tensor *cr_epnet_enet_forward_(cr_epnet *m, const cr_epnet_seq *s, const float *rb) {
+    cr_tensor *hs = NULL, *hg = NULL;
+    return enet_full(m, s, rb_input(m, s->T, rb), &hs, &hg);
+}
+
+void cr_epnet_paired_terms_(cr_nn_ctx *c, const cr_bending *b, cr_tensor *x_rb, cr_tensor *x0,
+                            cr_tensor *rb, cr_tensor **zero, cr_tensor **resp) {
+    cr_tensor *r0 = cr_loss_hinge_residual(c, b, 1.0, x0, NULL); /* (B,H) theta - theta_bar */
+    *zero = cr_nn_mean(c, cr_nn_square(c, r0));
+    if (!x_rb) {
+        *resp = cr_nn_zeros(c, 1, (int64_t[]){1});
+        return;
+    }
+    cr_tensor *rr = cr_loss_hinge_residual(c, b, 1.0, x_rb, NULL);
+    cr_tensor *e = cr_nn_sub(c, cr_nn_sub(c, rr, r0), rb);
+    *resp = cr_nn_mean(c, cr_nn_square(c, e));
 }
 
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
@@ -505,8 +564,11 @@ static cr_tensor *pin_term(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x) {
     return cr_nn_sum(c, cr_nn_mul(c, cr_nn_square(c, cr_nn_sub(c, x, target)), mask));
 }
 
-static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb,
-                            cr_tensor **parts) {
+/* The loss of positions x (T,V,3) given the RB input rb_in (T,H) (NULL: zero;
+ * the bending rest of frame t is theta_bar + rb_in[t]) and the paired terms
+ * (unweighted means, each NULL: zero). */
+static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, const float *rb_in,
+                            cr_tensor *zero_rest, cr_tensor *rest_response, cr_tensor **parts) {
     cr_nn_ctx *c = m->ctx;
     const int64_t T = s->T, H = m->nh, V = m->nv;
     const cr_epnet_def *d = &m->def;
@@ -514,7 +576,7 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
     if (rest)
         for (int64_t t = 0; t < T; t++)
             for (int64_t h = 0; h < H; h++)
-                rest->data[t * H + h] = m->theta_bar[h] + (rb ? rb[t * H + h] : 0.0f);
+                rest->data[t * H + h] = m->theta_bar[h] + (rb_in ? rb_in[t * H + h] : 0.0f);
     cr_energy_term ts, tsh, tg;
     cr_membrane_term_part(m->membrane, CR_MEMBRANE_STRETCH, &ts);
     cr_membrane_term_part(m->membrane, CR_MEMBRANE_SHEAR, &tsh);
@@ -531,11 +593,13 @@ static cr_tensor *enet_loss(cr_epnet *m, const cr_epnet_seq *s, cr_tensor *x, co
                         past(c, x, 1, T - 2, d->experimental.inertia_detach),
                         past(c, x, 0, T - 2, d->experimental.inertia_detach)),
         pin_term(m, s, x),
+        zero_rest ? zero_rest : cr_nn_zeros(c, 1, (int64_t[]){1}),
+        rest_response ? rest_response : cr_nn_zeros(c, 1, (int64_t[]){1}),
     };
-    const float w[CR_EPNET_NTERMS] = {(float)(d->w_stretch / T),   (float)(d->w_shear / T),
-                                      (float)(d->w_bending / T),   (float)(d->w_gravity / T),
-                                      (float)(d->w_collision / T), (float)(d->w_inertia / T),
-                                      (float)(d->w_pin / T)};
+    const float w[CR_EPNET_NTERMS] = {
+        (float)(d->w_stretch / T), (float)(d->w_shear / T),     (float)(d->w_bending / T),
+        (float)(d->w_gravity / T), (float)(d->w_collision / T), (float)(d->w_inertia / T),
+        (float)(d->w_pin / T),     (float)d->w_zero_rest,       (float)d->w_rest_response};
     return cr_loss_weighted_sum(c, terms, w, CR_EPNET_NTERMS, parts);
 }
 
@@ -552,19 +616,42 @@ cr_status cr_epnet_losses_of_(cr_epnet *m, const cr_epnet_seq *s, const float *p
     cr_nn_ctx_set_grad_enabled(m->ctx, 0);
     cr_tensor *x = cr_nn_from(m->ctx, 3, (int64_t[]){s->T, m->nv, 3}, pos);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
-    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    cr_tensor *loss = x ? enet_loss(m, s, x, rb_input(m, s->T, rb), NULL, NULL, parts) : NULL;
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
     read_parts(loss, parts, out);
     return CR_OK;
+}
+
+cr_tensor *cr_epnet_enet_loss_(cr_epnet *m, const cr_epnet_seq *s, const float *rb,
+                               cr_tensor **parts) {
+    cr_nn_ctx *c = m->ctx;
+    const cr_epnet_def *d = &m->def;
+    const int64_t T = s->T, H = m->nh;
+    const float *rin = rb_input(m, T, rb);
+    cr_tensor *hs = NULL, *hg = NULL, *zero = NULL, *resp = NULL;
+    cr_tensor *x = enet_full(m, s, rin, &hs, &hg);
+    if (!x) return NULL;
+    if (!d->baseline && (d->w_zero_rest > 0 || d->w_rest_response > 0)) {
+        /* the paired terms on the last frame; the pose codes do not depend on
+         * RB, so the pass at RB = 0 is the decoder's alone */
+        cr_tensor *xl = cr_nn_slice(c, x, 0, T - 1, 1);
+        cr_tensor *x0 = xl, *r = NULL;
+        if (rin) {
+            x0 = enet_decode(m, s, T - 1, 1, cr_nn_slice(c, hs, 0, T - 1, 1),
+                             cr_nn_slice(c, hg, 0, T - 1, 1), NULL);
+            r = cr_nn_from(c, 2, (int64_t[]){1, H}, rin + (T - 1) * H);
+        }
+        cr_epnet_paired_terms_(c, m->bending, rin ? xl : NULL, x0, r, &zero, &resp);
+    }
+    return enet_loss(m, s, x, rin, zero, resp, parts);
 }
 
 cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb, int train,
                              cr_epnet_losses *out, cr_error *err) {
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, train);
-    cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
     cr_tensor *parts[CR_EPNET_NTERMS] = {0};
-    cr_tensor *loss = x ? enet_loss(m, s, x, rb, parts) : NULL;
+    cr_tensor *loss = cr_epnet_enet_loss_(m, s, rb, parts);
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
     read_parts(loss, parts, out);
     if (!train) return CR_OK;
@@ -646,47 +733,53 @@ static cr_tensor *pnet_forward(cr_epnet *m, const float *pos, const float *theta
 }
 
 cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos,
-                            const float *theta, const float *rb_target, int steps, double *mse,
+                            const float *theta, const float *rb_target, int steps, double *loss,
                             cr_error *err) {
     const int32_t H = m->nh, V = m->nv, T = s->T;
-    float *zero = calloc((size_t)H, sizeof *zero), *inc = malloc(sizeof(float) * (size_t)H);
-    if (!zero || !inc) {
-        free(zero), free(inc);
+    const cr_epnet_def *d = &m->def;
+    float *prev = malloc(sizeof(float) * (size_t)H), *inc = malloc(sizeof(float) * (size_t)H);
+    float *w = malloc(sizeof(float) * (size_t)H);
+    if (!prev || !inc || !w) {
+        free(prev), free(inc), free(w);
         return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net targets");
     }
     cr_status st = CR_OK;
     double last = NAN;
     /* one frame on the tape at a time (a frame's graph of E edges holds a
      * few (E, 3L) tensors per step), the gradients summed over the frames */
-    const float wf = 1.0f / (float)m->def.pnet_frames;
+    const float wf = 1.0f / (float)(d->pnet_frames * (int64_t)H);
     for (int it = 0; st == CR_OK && it < steps; it++) {
         double sum = 0;
         cr_nn_params_zero_grad(m->pp);
-        for (int k = 0; st == CR_OK && k < m->def.pnet_frames; k++) {
+        for (int k = 0; st == CR_OK && k < d->pnet_frames; k++) {
             cr_nn_ctx_reset(m->ctx);
             cr_nn_ctx_set_grad_enabled(m->ctx, 1);
             const int32_t t = (int32_t)cr_rng_below(&m->rng, (uint32_t)T);
-            const float *prev = t > 0 ? rb_target + (size_t)(t - 1) * H : zero;
-            for (int32_t h = 0; h < H; h++)
-                inc[h] = (rb_target[(size_t)t * H + h] - prev[h]) / PNET_OUT_SCALE;
+            /* teacher forcing: the target's RB of the frame before, with noise */
+            for (int32_t h = 0; h < H; h++) {
+                const float tg = rb_target[(size_t)t * H + h];
+                float p = t > 0 ? rb_target[(size_t)(t - 1) * H + h] : 0.0f;
+                if (d->pnet_rb_noise > 0) p += (float)(d->pnet_rb_noise * cr_rng_normal(&m->rng));
+                prev[h] = p, inc[h] = tg - p;
+                w[h] = fabsf(tg) > PNET_ACTIVE ? 1.0f : (float)d->pnet_inactive_weight;
+            }
             cr_tensor *y = pnet_forward(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
-            cr_tensor *dlt = cr_nn_sub(m->ctx, cr_nn_mul_scalar(m->ctx, y, 1.0f / PNET_OUT_SCALE),
-                                       cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc));
-            cr_tensor *l =
-                cr_nn_mul_scalar(m->ctx, cr_nn_mean(m->ctx, cr_nn_square(m->ctx, dlt)), wf);
+            cr_tensor *e =
+                cr_nn_mul(m->ctx, cr_nn_sub(m->ctx, y, cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc)),
+                          cr_nn_from(m->ctx, 1, (int64_t[]){H}, w));
+            cr_tensor *l = cr_nn_mul_scalar(m->ctx, cr_nn_sum(m->ctx, cr_nn_abs(m->ctx, e)), wf);
             st = cr_nn_ctx_error(m->ctx, err);
             if (st != CR_OK) break;
             sum += l->data[0];
             st = cr_nn_backward(m->ctx, l, err);
         }
         if (st != CR_OK) break;
-        /* report in rad^2: the loss is on 10x the increment */
-        last = sum * PNET_OUT_SCALE * PNET_OUT_SCALE;
+        last = sum;
         st = cr_clip_grad_norm(m->pp, 10.0f, NULL, err);
         if (st == CR_OK) st = cr_optim_step(m->opt_p, err);
     }
-    free(zero), free(inc);
-    if (mse) *mse = last;
+    free(prev), free(inc), free(w);
+    if (loss) *loss = last;
     return st;
 }
 
@@ -709,8 +802,37 @@ static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, cons
     return enet_decode(m, s, t, 1, hs, hg, rb);
 }
 
-cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
-                           float *theta, float *rb, cr_error *err) {
+/* The GRU state (G) after `warmup` frames that blend the joints from the rest
+ * pose to frame 0's with the root held: each frame's joint velocities are
+ * frame 0's joint angles / warmup, in the dynamic input's units (seq_create:
+ * x 0.1 fps), the root's zero. The decoder does not run: the warm-up only
+ * starts the recurrent state (the authors' 20-frame warm-up from the rest pose). */
+static cr_status warm_up(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, float *hstate,
+                         cr_error *err) {
+    const int32_t G = m->def.gru_hidden;
+    float dyn[EP_DYN_IN] = {0};
+    for (int i = 0; i < 63; i++) /* joints 1..21: the static input's first 63 */
+        dyn[3 + i] = s->stat[i] / (float)warmup * 0.1f * m->def.fps;
+    for (int32_t k = 0; k < warmup; k++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        cr_tensor *h0 = k > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL;
+        cr_tensor *dy = cr_nn_from(m->ctx, 2, (int64_t[]){1, EP_DYN_IN}, dyn);
+        cr_tensor *h1 =
+            cr_gru_cell_forward(m->ctx, &m->gru, cr_mlp_forward(m->ctx, m->enc_dyn, dy), h0);
+        CR_TRY(cr_nn_ctx_error(m->ctx, err));
+        memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
+    }
+    return CR_OK;
+}
+
+/* E-Net frame by frame over s (the GRU state carried), after `warmup` frames.
+ * Frame t's RB input: rb_given[t-1] (frame 0 zero) when rb_given is set; else
+ * the closed loop's RB when use_pnet (P-Net on frame t's angles then gives
+ * RB_t); else zero. Outputs (T,...) each may be NULL; rb gets rb_given or the
+ * closed loop's RB. */
+static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, const float *rb_given,
+                         int use_pnet, float *pos, float *theta, float *rb, cr_error *err) {
     const int32_t V = m->nv, H = m->nh, T = s->T, G = m->def.gru_hidden;
     float *x = malloc(sizeof(float) * 3 * (size_t)V), *th = malloc(sizeof(float) * (size_t)H);
     float *r = calloc((size_t)H, sizeof(float)), *hstate = calloc((size_t)G, sizeof(float));
@@ -718,18 +840,21 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         free(x), free(th), free(r), free(hstate);
         return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the rollout");
     }
-    cr_status st = CR_OK;
+    cr_status st = warmup > 0 ? warm_up(m, s, warmup, hstate, err) : CR_OK;
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
         cr_nn_ctx_reset(m->ctx);
         cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-        cr_tensor *h0 = t > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL, *h1 = NULL;
-        cr_tensor *xt = enet_frame(m, s, t, r, h0, &h1);
+        cr_tensor *h0 =
+                      t > 0 || warmup > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL,
+                  *h1 = NULL;
+        const float *rin = !rb_given ? r : t > 0 ? rb_given + (size_t)(t - 1) * H : NULL;
+        cr_tensor *xt = enet_frame(m, s, t, rin, h0, &h1);
         st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
         memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
         cr_epnet_angles_(m, x, 1, th);
-        if (use_pnet) {
+        if (use_pnet && !rb_given) {
             cr_nn_ctx_reset(m->ctx);
             cr_tensor *inc = pnet_forward(m, x, th, r);
             st = cr_nn_ctx_error(m->ctx, err);
@@ -739,10 +864,92 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
         }
         if (pos) memcpy(pos + (size_t)t * V * 3, x, sizeof(float) * 3 * (size_t)V);
         if (theta) memcpy(theta + (size_t)t * H, th, sizeof(float) * (size_t)H);
-        if (rb) memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
+        if (rb)
+            memcpy(rb + (size_t)t * H, rb_given ? rb_given + (size_t)t * H : r,
+                   sizeof(float) * (size_t)H);
     }
     free(x), free(th), free(r), free(hstate);
     return st;
+}
+
+cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
+                           float *theta, float *rb, cr_error *err) {
+    return rollout(m, s, 0, NULL, use_pnet, pos, theta, rb, err);
+}
+
+/* The proxy inference: (1) E-Net at RB = 0, the proxy; (2) P-Net over the
+ * proxy's positions and angles, frame by frame, each increment through the
+ * ratchet and its drive gating (ratchet.c); (3) E-Net with that RB. */
+cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth, int32_t T,
+                               const cr_epnet_ratchet_def *d, float *R, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh;
+    float *r = calloc((size_t)H, sizeof(float)), *strain = malloc(sizeof(float) * (size_t)H);
+    uint32_t *hist = calloc((size_t)H, sizeof(uint32_t));
+    cr_status st = CR_OK;
+    if (!r || !strain || !hist)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net over the proxy");
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        cr_nn_ctx_reset(m->ctx);
+        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+        const float *th = pth + (size_t)t * H;
+        cr_tensor *inc = pnet_forward(m, ppos + (size_t)t * V * 3, th, r);
+        st = cr_nn_ctx_error(m->ctx, err);
+        if (st != CR_OK) break;
+        for (int32_t h = 0; h < H; h++)
+            strain[h] = th[h] - m->theta_bar[h];
+        cr_epnet_ratchet_step(d, strain, inc->data, H, hist, r);
+        memcpy(R + (size_t)t * H, r, sizeof(float) * (size_t)H);
+    }
+    free(r), free(strain), free(hist);
+    return st;
+}
+
+static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                               float *pos, float *theta, float *rb, cr_error *err) {
+    const int32_t V = m->nv, H = m->nh, T = s->T;
+    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V);
+    float *pth = malloc(sizeof(float) * (size_t)T * H), *R = malloc(sizeof(float) * (size_t)T * H);
+    cr_status st = CR_OK;
+    if (!ppos || !pth || !R)
+        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the proxy inference");
+    if (st == CR_OK) st = rollout(m, s, d->warmup, NULL, 0, ppos, pth, NULL, err);
+    if (st == CR_OK) st = cr_epnet_pnet_proxy_(m, ppos, pth, T, &d->ratchet, R, err);
+    if (st == CR_OK) st = rollout(m, s, d->warmup, R, 0, pos, theta, NULL, err);
+    if (st == CR_OK && rb) memcpy(rb, R, sizeof(float) * (size_t)T * H);
+    free(ppos), free(pth), free(R);
+    return st;
+}
+
+#define INFER_COOKIE 0x45504931u
+
+cr_epnet_infer_def cr_epnet_infer_default_def(void) {
+    cr_epnet_infer_def d;
+    memset(&d, 0, sizeof d);
+    d.mode = CR_EPNET_PROXY;
+    d.warmup = 0;
+    d.ratchet = cr_epnet_ratchet_default_def();
+    d.cookie = INFER_COOKIE;
+    return d;
+}
+
+cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                         float *pos, float *theta, float *rb, cr_error *err) {
+    if (d->cookie != INFER_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: def not made by its default");
+    if (d->warmup < 0 || d->warmup > 100000)
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: warm-up %d frames not in 0..100000",
+                       d->warmup);
+    switch (d->mode) {
+    case CR_EPNET_PROXY:
+        CR_TRY(cr_epnet_ratchet_check(&d->ratchet, err));
+        return proxy_rollout(m, s, d, pos, theta, rb, err);
+    case CR_EPNET_CLOSED_LOOP:
+        return rollout(m, s, d->warmup, NULL, 1, pos, theta, rb, err);
+    case CR_EPNET_ZERO_RB:
+        return rollout(m, s, d->warmup, NULL, 0, pos, theta, rb, err);
+    default:
+        return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: unknown mode %d", (int)d->mode);
+    }
 }
 
 cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *rb, cr_error *err) {

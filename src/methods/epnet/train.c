@@ -158,10 +158,13 @@ static void print_config(const cr_epnet_def *d, FILE *fp) {
         "{\"garment\": \"%s\", \"garment_vertices\": %d, \"body\": \"%s\", \"frames\": %d, "
         "\"fps\": %.9g, \"yield\": %.9g, \"sharpness\": %.9g, \"baseline\": %d, \"seed\": %llu,\n"
         " \"inertia_detach\": %d, \"pin_top\": %.9g, \"w_pin\": %.9g, \"w_bending\": %.9g,"
+        " \"w_zero_rest\": %.9g, \"w_rest_response\": %.9g,\n \"pnet_rb_noise\": %.9g,"
+        " \"pnet_inactive_weight\": %.9g, \"pnet_patience\": %d, \"pnet_val\": \"%s\",\n"
         " \"static\": [",
         d->garment, d->garment_vertices, d->body, d->frames, d->fps, d->material.yield_angle,
         d->sharpness, d->baseline, (unsigned long long)d->seed, d->experimental.inertia_detach,
-        d->pin_top, d->w_pin, d->w_bending);
+        d->pin_top, d->w_pin, d->w_bending, d->w_zero_rest, d->w_rest_response, d->pnet_rb_noise,
+        d->pnet_inactive_weight, d->pnet_patience, d->pnet_val_motion ? d->pnet_val_motion : "");
     for (int i = 0; i < d->nstatic; i++)
         fprintf(fp, "%s%d", i ? ", " : "", d->static_widths[i]);
     fprintf(fp, "], \"rb\": [");
@@ -259,6 +262,12 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
                 {"pin_top", 0},
                 {"w_pin", 0},
                 {"w_bending", 0},
+                {"w_zero_rest", 0},
+                {"w_rest_response", 0},
+                {"pnet_rb_noise", 0},
+                {"pnet_inactive_weight", 0},
+                {"pnet_patience", 0},
+                {"pnet_val", 0},
                 {"static", 1},
                 {"rb", 1},
                 {"dynamic", 1},
@@ -309,6 +318,9 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
     d.pin_top = jnum(o, "pin_top", d.pin_top);
     d.w_pin = jnum(o, "w_pin", d.w_pin);
     d.w_bending = jnum(o, "w_bending", d.w_bending);
+    /* added 2026-12: a folder without them was trained without the paired terms */
+    d.w_zero_rest = jnum(o, "w_zero_rest", 0.0);
+    d.w_rest_response = jnum(o, "w_rest_response", 0.0);
     d.baseline = jint(o, "baseline", 0);
     d.seed = (uint64_t)jnum(o, "seed", 1);
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "static");
@@ -365,22 +377,64 @@ cr_status cr_epnet_open_pnet(const char *dir, const char *garment, int32_t verti
 
 /* ------------------------------------------------------------ training -- */
 
-static void log_epoch(FILE *fp, int quiet, int cycle, const char *phase, int epoch,
-                      const cr_epnet_losses *l, double mse) {
-    char line[512];
-    int n = snprintf(line, sizeof line, "{\"cycle\": %d, \"phase\": \"%s\", \"epoch\": %d", cycle,
-                     phase, epoch);
-    if (l) {
-        n += snprintf(line + n, sizeof line - (size_t)n, ", \"loss\": %.6g", l->total);
-        for (int k = 0; k < CR_EPNET_NTERMS; k++)
-            n += snprintf(line + n, sizeof line - (size_t)n, ", \"%s\": %.6g",
-                          cr_epnet_term_names[k], l->term[k]);
-    } else {
-        n += snprintf(line + n, sizeof line - (size_t)n, ", \"mse_rad2\": %.6g", mse);
-    }
-    snprintf(line + n, sizeof line - (size_t)n, "}");
+static void log_line(FILE *fp, int quiet, const char *line) {
     if (fp) fprintf(fp, "%s\n", line), fflush(fp);
     if (!quiet) cr_log(CR_LOG_INFO, "epnet: %s", line);
+}
+
+static void log_enet(FILE *fp, int quiet, int cycle, int epoch, const cr_epnet_losses *l) {
+    char line[640];
+    int n = snprintf(line, sizeof line,
+                     "{\"cycle\": %d, \"phase\": \"enet\", \"epoch\": %d, \"loss\": %.6g", cycle,
+                     epoch, l->total);
+    for (int k = 0; k < CR_EPNET_NTERMS; k++)
+        n += snprintf(line + n, sizeof line - (size_t)n, ", \"%s\": %.6g", cr_epnet_term_names[k],
+                      l->term[k]);
+    snprintf(line + n, sizeof line - (size_t)n, "}");
+    log_line(fp, quiet, line);
+}
+
+/* val NaN: no validation clip (written as null) */
+static void log_pnet(FILE *fp, int quiet, int cycle, int epoch, double loss, double val) {
+    char line[256], v[32];
+    if (isnan(val))
+        snprintf(v, sizeof v, "null");
+    else
+        snprintf(v, sizeof v, "%.6g", val);
+    snprintf(line, sizeof line,
+             "{\"cycle\": %d, \"phase\": \"pnet\", \"epoch\": %d, \"l1_rad\": %.6g, "
+             "\"val_l1_rad\": %s}",
+             cycle, epoch, loss, v);
+    log_line(fp, quiet, line);
+}
+
+/* E-Net's positions (T,V,3) and angles (T,H) on s given RB rb (NULL: the proxy);
+ * either output may be NULL. */
+static cr_status enet_angles(cr_epnet *m, const cr_epnet_seq *s, const float *rb, float *pos,
+                             float *theta, cr_error *err) {
+    cr_nn_ctx_reset(m->ctx);
+    cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+    cr_tensor *x = cr_epnet_enet_forward_(m, s, rb);
+    CR_TRY(cr_nn_ctx_error(m->ctx, err));
+    if (pos) memcpy(pos, x->data, sizeof(float) * (size_t)s->T * m->nv * 3);
+    if (theta) cr_epnet_angles_(m, x->data, s->T, theta);
+    return CR_OK;
+}
+
+/* The validation loss: P-Net over the clip's proxy (vpos, vth) through the
+ * default ratchet against its target, weighted as the fit's L1 (rad per
+ * hinge and frame); R (T,H) scratch. */
+static cr_status val_loss(cr_epnet *m, const float *vpos, const float *vth, const float *vtarget,
+                          int32_t T, float *R, double *out, cr_error *err) {
+    const cr_epnet_ratchet_def rd = cr_epnet_ratchet_default_def();
+    CR_TRY(cr_epnet_pnet_proxy_(m, vpos, vth, T, &rd, R, err));
+    double sum = 0;
+    for (int64_t i = 0; i < (int64_t)T * m->nh; i++) {
+        const double w = fabsf(vtarget[i]) > 1e-4f ? 1.0 : m->def.pnet_inactive_weight;
+        sum += w * fabs((double)R[i] - vtarget[i]);
+    }
+    *out = sum / ((double)T * m->nh);
+    return CR_OK;
 }
 
 cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr_error *err) {
@@ -393,7 +447,9 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
     const int n = def->nmotions;
     const int64_t T = def->frames, H = m->nh, V = m->nv;
     cr_epnet_seq *seq[CR_EPNET_MAX_MOTIONS] = {0};
-    float *rb[CR_EPNET_MAX_MOTIONS] = {0}, *theta = NULL, *pos = NULL, *target = NULL;
+    float *rb[CR_EPNET_MAX_MOTIONS] = {0}, *theta = NULL, *ppos = NULL, *pth = NULL;
+    float *target = NULL, *vpos = NULL, *vth = NULL, *vR = NULL, *vtarget = NULL, *pbest = NULL;
+    cr_epnet_seq *vseq = NULL;
     double t0 = cr_time_now();
     cr_status st = CR_OK;
     for (int i = 0; st == CR_OK && i < n; i++) {
@@ -404,10 +460,26 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
         if (st == CR_OK && !(rb[i] = calloc((size_t)(T * H), sizeof(float))))
             st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: out of memory");
     }
+    if (st == CR_OK && def->pnet_val_motion && !def->baseline) {
+        st = cr_epnet_seq_create(m, def->pnet_val_motion, NULL, def->frames, 0, &vseq, err);
+        if (st == CR_OK && vseq->T != T)
+            st = CR_FAIL(err, CR_ERR_INVALID,
+                         "epnet train: validation motion %s has %d frames, not %lld",
+                         def->pnet_val_motion, vseq->T, (long long)T);
+    }
+    int64_t npp = 0;
+    cr_nn_params_data(m->pp, &npp);
     theta = malloc(sizeof(float) * (size_t)(T * H));
-    pos = malloc(sizeof(float) * (size_t)(T * V * 3));
+    ppos = malloc(sizeof(float) * (size_t)(n * T * V * 3));
+    pth = malloc(sizeof(float) * (size_t)(n * T * H));
     target = malloc(sizeof(float) * (size_t)(n * T * H));
-    if (st == CR_OK && (!theta || !pos || !target))
+    vpos = malloc(sizeof(float) * (size_t)(T * V * 3));
+    vth = malloc(sizeof(float) * (size_t)(T * H));
+    vR = malloc(sizeof(float) * (size_t)(T * H));
+    vtarget = malloc(sizeof(float) * (size_t)(T * H));
+    pbest = malloc(sizeof(float) * (size_t)(npp + 1));
+    if (st == CR_OK &&
+        (!theta || !ppos || !pth || !target || !vpos || !vth || !vR || !vtarget || !pbest))
         st = CR_FAIL(err, CR_ERR_MEMORY, "epnet train: out of memory");
     int c0 = 0, p0 = 0, e0 = 0;
     if (st == CR_OK && def->resume) {
@@ -436,44 +508,62 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
             if (st != CR_OK) break;
             if (first) rep.first = sum, rep.first_loss = sum.total, first = 0;
             rep.last = sum, rep.last_loss = sum.total;
-            log_epoch(log, def->quiet, c, "enet", e, &sum, 0);
+            log_enet(log, def->quiet, c, e, &sum);
             st = save_set(m, def->out_dir, c, 0, e + 1, rb, n, T, H, err);
         }
         if (st != CR_OK || def->baseline) {
             if (st == CR_OK) rep.cycles_done = c + 1;
             continue;
         }
-        /* phase 1: targets from E-Net's angles (Eq. 4-5), then P-Net */
+        /* phase 1: targets from E-Net's angles given RB (Eq. 4-5); P-Net's inputs the
+         * proxy's (E-Net at RB = 0) */
         for (int i = 0; st == CR_OK && i < n; i++) {
-            cr_nn_ctx_reset(m->ctx);
-            cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-            cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
-            st = cr_nn_ctx_error(m->ctx, err);
+            st = enet_angles(m, seq[i], NULL, ppos + i * T * V * 3, pth + i * T * H, err);
+            if (st == CR_OK) st = enet_angles(m, seq[i], rb[i], NULL, theta, err);
             if (st != CR_OK) break;
-            cr_epnet_angles_(m, x->data, (int32_t)T, theta);
             cr_epnet_plastic_rollout(theta, m->theta_bar, NULL, (int32_t)T, (int32_t)H,
                                      def->material.yield_angle, def->material.plastic_gain,
                                      def->sharpness, target + i * T * H);
         }
+        /* the validation clip's target: Eq. 4-5 on E-Net given the RB the current
+         * P-Net gives over its proxy (what inference would run) */
+        if (st == CR_OK && vseq) {
+            cr_epnet_ratchet_def rd = cr_epnet_ratchet_default_def();
+            st = enet_angles(m, vseq, NULL, vpos, vth, err);
+            if (st == CR_OK) st = cr_epnet_pnet_proxy_(m, vpos, vth, (int32_t)T, &rd, vR, err);
+            if (st == CR_OK) st = enet_angles(m, vseq, vR, NULL, theta, err);
+            if (st == CR_OK)
+                cr_epnet_plastic_rollout(theta, m->theta_bar, NULL, (int32_t)T, (int32_t)H,
+                                         def->material.yield_angle, def->material.plastic_gain,
+                                         def->sharpness, vtarget);
+        }
+        double best = INFINITY;
+        int worse = 0, have_best = 0;
         const int estart = (c == c0 && pstart == 1) ? e0 : 0;
         for (int e = estart; st == CR_OK && e < def->pnet_epochs; e++) {
-            double mse = 0, l = 0;
+            double loss = 0, l = 0, val = NAN;
             for (int i = 0; st == CR_OK && i < n; i++) {
-                cr_nn_ctx_reset(m->ctx);
-                cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-                cr_tensor *x = cr_epnet_enet_forward_(m, seq[i], rb[i]);
-                st = cr_nn_ctx_error(m->ctx, err);
-                if (st != CR_OK) break;
-                memcpy(pos, x->data, sizeof(float) * (size_t)(T * V * 3));
-                cr_epnet_angles_(m, pos, (int32_t)T, theta);
-                st = cr_epnet_pnet_fit(m, seq[i], pos, theta, target + i * T * H, 1, &l, err);
-                mse += l / n;
+                st = cr_epnet_pnet_fit(m, seq[i], ppos + i * T * V * 3, pth + i * T * H,
+                                       target + i * T * H, 1, &l, err);
+                loss += l / n;
             }
+            if (st == CR_OK && vseq)
+                st = val_loss(m, vpos, vth, vtarget, (int32_t)T, vR, &val, err);
             if (st != CR_OK) break;
-            rep.pnet_mse = mse;
-            log_epoch(log, def->quiet, c, "pnet", e, NULL, mse);
+            rep.pnet_loss = loss, rep.pnet_val_loss = val;
+            log_pnet(log, def->quiet, c, e, loss, val);
+            if (vseq && val < best) {
+                best = val, worse = 0, have_best = 1;
+                memcpy(pbest, cr_nn_params_data(m->pp, NULL), sizeof(float) * (size_t)npp);
+            } else if (vseq) {
+                worse++;
+            }
             st = cr_epnet_save(m, def->out_dir, c, 1, e + 1, err);
+            if (vseq && worse >= def->pnet_patience) break; /* early stopping */
         }
+        /* the phase ends with the best validation weights */
+        if (st == CR_OK && have_best)
+            memcpy(cr_nn_params_data(m->pp, NULL), pbest, sizeof(float) * (size_t)npp);
         if (st != CR_OK) break;
         for (int i = 0; st == CR_OK && i < n; i++) {
             memcpy(rb[i], target + i * T * H, sizeof(float) * (size_t)(T * H));
@@ -487,7 +577,9 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
     rep.arena_peak_bytes = cr_nn_ctx_arena_peak(m->ctx);
     for (int i = 0; i < n; i++)
         cr_epnet_seq_destroy(seq[i]), free(rb[i]);
-    free(theta), free(pos), free(target);
+    free(theta), free(ppos), free(pth), free(target);
+    free(vpos), free(vth), free(vR), free(vtarget), free(pbest);
+    cr_epnet_seq_destroy(vseq);
     cr_epnet_destroy(m);
     if (out) *out = rep;
     return st;
@@ -498,6 +590,7 @@ cr_status cr_epnet_train(const cr_epnet_def *def, cr_epnet_train_report *out, cr
 cr_epnet_run_def cr_epnet_run_default_def(void) {
     cr_epnet_run_def d;
     memset(&d, 0, sizeof d);
+    d.infer = cr_epnet_infer_default_def();
     d.cookie = 0x45505232u;
     return d;
 }
@@ -537,8 +630,9 @@ cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr
         if (!pos || !rb || !hs) st = CR_FAIL(err, CR_ERR_MEMORY, "epnet run: out of memory");
     }
     double t0 = cr_time_now();
-    if (st == CR_OK)
-        st = cr_epnet_rollout(m, s, !(def->baseline || m->def.baseline), pos, NULL, rb, err);
+    cr_epnet_infer_def inf = def->infer;
+    if (def->baseline || m->def.baseline) inf.mode = CR_EPNET_ZERO_RB;
+    if (st == CR_OK) st = cr_epnet_infer(m, s, &inf, pos, NULL, rb, err);
     cr_epnet_run_report rep = {.frames = T, .vertices = V, .hinges = H};
     rep.seconds_per_frame = T > 0 ? (cr_time_now() - t0) / T : 0;
     char path[1100];
