@@ -40,6 +40,15 @@ check "closed-loop run" bash -c "'$crease' epnet run --model '$tmp/m' --motion s
 check "proxy run with its options" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --drive 0.1 --min-delta 0.01 --warmup 5 -o '$tmp/p' --json | grep -q '\"finite\":true'"
 check "baseline run: RB 0" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --baseline -o '$tmp/b' --json | grep -q '\"max_abs_rb\":0'"
 
+# a garment mesh of one's own, without UVs: trained (one short cycle) and run
+"$crease" garment --type skirt --res 600 -o "$tmp/skirt.obj" >/dev/null 2>&1
+awk '$1 == "vt" { next } $1 == "f" { for (i = 2; i <= NF; i++) { split($i, p, "/"); $i = p[1] } } { print }' \
+  "$tmp/skirt.obj" > "$tmp/skirt_nouv.obj"
+check "train on a garment file without UVs" "$crease" epnet train --garment "$tmp/skirt_nouv.obj" \
+  --motions squat --frames 8 --epochs 2 --pnet-epochs 1 --cycles 1 -o "$tmp/mf"
+check "run it" bash -c "'$crease' epnet run --model '$tmp/mf' --motion squat --frames 8 -o '$tmp/of' --json | \
+  grep -q '\"finite\":true'"
+
 expect_exit 2 "-o DIR is required" epnet train
 expect_exit 2 "expected train or run" epnet fly
 expect_exit 1 "model.json" epnet run --model "$tmp/none" --motion squat -o "$tmp/x"

@@ -84,7 +84,10 @@ enum { CR_EPNET_MAX_LAYERS = 8, CR_EPNET_MAX_MOTIONS = 16 };
 
 typedef struct cr_epnet_def {
     /* scene */
-    const char *garment;        /* garment type (garment.h), default "tshirt" */
+    const char *garment;        /* garment type (garment.h), default "tshirt", or a garment mesh
+                                   file (.obj, .ply, .glb; UVs not needed) fitted to the body
+                                   (cr_garment_load_user; garment_vertices then unused); a
+                                   model names the file and reads it again when opened */
     int32_t garment_vertices;   /* template target vertex count (default 600; authors ~4-5k) */
     const char *body;           /* mannequin preset (default "normal") */
     const char *const *motions; /* training clips (motion.h names) or files; default the

@@ -184,6 +184,24 @@ static size_t epnet_arena_bytes(const cr_epnet_def *def, int64_t nedges) {
     return (size_t)(need > floor_bytes ? need : floor_bytes);
 }
 
+/* A garment of def->garment's type at def->garment_vertices, or the garment
+ * mesh file it names (fitted to the body; UVs not needed: nothing of epnet's
+ * reads them). */
+static cr_status make_garment(const cr_epnet_def *def, const cr_body_model *body,
+                              cr_garment **out, cr_error *err) {
+    char ext[16];
+    cr_path_ext(def->garment, ext, sizeof ext);
+    if (!strcmp(ext, "obj") || !strcmp(ext, "ply") || !strcmp(ext, "glb")) {
+        cr_garment_user_def ud = cr_garment_user_default_def();
+        return cr_garment_load_user(def->garment, &ud, body, out, err);
+    }
+    cr_garment_type gt;
+    CR_TRY(cr_garment_type_parse(def->garment, &gt, err));
+    cr_garment_def gd = cr_garment_default_def(gt);
+    gd.target_vertices = def->garment_vertices;
+    return cr_garment_create(&gd, body, out, err);
+}
+
 cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err) {
     *out = NULL;
     CR_TRY(check_def(def, err));
@@ -197,14 +215,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     m->def.motions = NULL, m->def.nmotions = 0; /* the training set is train.c's */
     m->def.pnet_val_motion = NULL;
     cr_status st = make_body(def->body, &m->body, err);
-    cr_garment_def gd;
-    cr_garment_type gt;
-    if (st == CR_OK) st = cr_garment_type_parse(def->garment, &gt, err);
-    if (st == CR_OK) {
-        gd = cr_garment_default_def(gt);
-        gd.target_vertices = def->garment_vertices;
-        st = cr_garment_create(&gd, m->body, &m->garment, err);
-    }
+    if (st == CR_OK) st = make_garment(def, m->body, &m->garment, err);
     if (st == CR_OK) st = cr_topology_build(m->garment->mesh, &m->topo, err);
     if (st == CR_OK) {
         m->nv = m->garment->mesh->nv, m->nh = m->topo->nh;
