@@ -68,6 +68,13 @@ typedef struct glb_out {
  * g->oom set when memory ran out. */
 cJSON *cr_glb_add(glb_out *g, cJSON *parent, const char *key, cJSON *item);
 void cr_glb_add_num(glb_out *g, cJSON *obj, const char *key, double v);
+/* Open `path` atomically and write the GLB header, the JSON chunk (padded
+ * with spaces) and the header of a BIN chunk of bin_len bytes; the caller
+ * writes the bytes and commits f (on failure f is aborted). */
+cr_status cr_glb_begin_file(const char *path, const char *json, uint64_t bin_len, cr_atomic_file *f,
+                            cr_error *err);
+/* An accessor's "min" and "max" over x (n, ncomp <= 16) floats. */
+void cr_glb_add_minmax(glb_out *g, cJSON *acc, const float *x, int64_t n, int ncomp);
 /* Floats as JSON numbers that parse back to exactly these floats. */
 cJSON *cr_glb_float_array(const float *x, int n);
 

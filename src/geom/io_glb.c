@@ -467,6 +467,19 @@ cJSON *cr_glb_float_array(const float *x, int n) {
     return arr;
 }
 
+void cr_glb_add_minmax(glb_out *g, cJSON *acc, const float *x, int64_t n, int ncomp) {
+    float lo[16], hi[16];
+    for (int k = 0; k < ncomp; k++)
+        lo[k] = hi[k] = x[k];
+    for (int64_t i = 1; i < n; i++)
+        for (int k = 0; k < ncomp; k++) {
+            lo[k] = fminf(lo[k], x[i * ncomp + k]);
+            hi[k] = fmaxf(hi[k], x[i * ncomp + k]);
+        }
+    cr_glb_add(g, acc, "min", cr_glb_float_array(lo, ncomp));
+    cr_glb_add(g, acc, "max", cr_glb_float_array(hi, ncomp));
+}
+
 /* What one pass over the file's binary pieces needs. The same code plans
  * (fp == NULL: registers views and accessors, computes min/max) and writes
  * (fp set: streams the bytes), so layout and data cannot drift apart. */
@@ -509,19 +522,7 @@ static int piece(glb_job *j, const void *data, int64_t n, int ncomp, int u32, in
     cr_glb_add_num(g, acc, "count", (double)n);
     static const char *const types[] = {"", "SCALAR", "VEC2", "VEC3"};
     cr_glb_add(g, acc, "type", cJSON_CreateString(types[ncomp]));
-    if (minmax && data) {
-        const float *x = data;
-        float lo[3], hi[3];
-        for (int k = 0; k < ncomp; k++)
-            lo[k] = hi[k] = x[k];
-        for (int64_t i = 1; i < n; i++)
-            for (int k = 0; k < ncomp; k++) {
-                lo[k] = fminf(lo[k], x[i * ncomp + k]);
-                hi[k] = fmaxf(hi[k], x[i * ncomp + k]);
-            }
-        cr_glb_add(g, acc, "min", cr_glb_float_array(lo, ncomp));
-        cr_glb_add(g, acc, "max", cr_glb_float_array(hi, ncomp));
-    }
+    if (minmax && data) cr_glb_add_minmax(g, acc, data, n, ncomp);
     return g->naccessors++;
 }
 
@@ -672,28 +673,36 @@ static void build_document(glb_job *j) {
     cr_glb_add(g, root, "accessors", g->accessors);
 }
 
-static cr_status write_container(const char *path, glb_job *j, const char *json, cr_error *err) {
+cr_status cr_glb_begin_file(const char *path, const char *json, uint64_t bin_len, cr_atomic_file *f,
+                            cr_error *err) {
     uint64_t jlen = strlen(json), jpad = (jlen + 3) & ~(uint64_t)3;
-    uint64_t total = 12 + 8 + jpad + 8 + j->g->bin_len;
+    uint64_t total = 12 + 8 + jpad + 8 + bin_len;
     if (total > UINT32_MAX)
         return CR_FAIL(err, CR_ERR_RANGE, "%s: %llu bytes exceed the 4 GiB glb limit", path,
                        (unsigned long long)total);
-    cr_atomic_file f;
-    CR_TRY(cr_atomic_open(&f, path, err));
+    CR_TRY(cr_atomic_open(f, path, err));
     unsigned char head[20];
     io_put_le32(head, GLB_MAGIC);
     io_put_le32(head + 4, 2);
     io_put_le32(head + 8, (uint32_t)total);
     io_put_le32(head + 12, (uint32_t)jpad);
     io_put_le32(head + 16, GLB_CHUNK_JSON);
-    int ok = fwrite(head, 1, 20, f.fp) == 20 && fwrite(json, 1, jlen, f.fp) == jlen;
+    int ok = fwrite(head, 1, 20, f->fp) == 20 && fwrite(json, 1, jlen, f->fp) == jlen;
     for (uint64_t i = jlen; i < jpad && ok; i++)
-        ok = fputc(' ', f.fp) != EOF;
-    io_put_le32(head, (uint32_t)j->g->bin_len);
+        ok = fputc(' ', f->fp) != EOF;
+    io_put_le32(head, (uint32_t)bin_len);
     io_put_le32(head + 4, GLB_CHUNK_BIN);
-    ok = ok && fwrite(head, 1, 8, f.fp) == 8;
+    ok = ok && fwrite(head, 1, 8, f->fp) == 8;
+    if (ok) return CR_OK;
+    cr_atomic_abort(f);
+    return CR_FAIL(err, CR_ERR_IO, "%s: write failed", path);
+}
+
+static cr_status write_container(const char *path, glb_job *j, const char *json, cr_error *err) {
+    cr_atomic_file f;
+    CR_TRY(cr_glb_begin_file(path, json, j->g->bin_len, &f, err));
     j->fp = f.fp;
-    cr_status st = ok ? emit_all(j, err) : CR_FAIL(err, CR_ERR_IO, "%s: write failed", path);
+    cr_status st = emit_all(j, err);
     if (st != CR_OK) {
         cr_atomic_abort(&f);
         return st;

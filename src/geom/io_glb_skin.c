@@ -89,19 +89,7 @@ static int put_accessor(glb_out *g, bin_buf *b, const void *data, int64_t count,
     cr_glb_add_num(g, acc, "componentType", ctype);
     cr_glb_add_num(g, acc, "count", (double)count);
     cr_glb_add(g, acc, "type", cJSON_CreateString(type));
-    if (minmax) {
-        const float *x = data;
-        float lo[16], hi[16];
-        for (int k = 0; k < ncomp; k++)
-            lo[k] = hi[k] = x[k];
-        for (int64_t i = 1; i < count; i++)
-            for (int k = 0; k < ncomp; k++) {
-                lo[k] = fminf(lo[k], x[i * ncomp + k]);
-                hi[k] = fmaxf(hi[k], x[i * ncomp + k]);
-            }
-        cr_glb_add(g, acc, "min", cr_glb_float_array(lo, ncomp));
-        cr_glb_add(g, acc, "max", cr_glb_float_array(hi, ncomp));
-    }
+    if (minmax) cr_glb_add_minmax(g, acc, data, count, ncomp);
     return g->naccessors++;
 }
 
@@ -331,26 +319,9 @@ static cr_status put_cloth(glb_out *g, bin_buf *b, const cr_glb_cloth *c, int32_
 }
 
 static cr_status write_file(const char *path, const char *json, const bin_buf *b, cr_error *err) {
-    uint64_t jlen = strlen(json), jpad = (jlen + 3) & ~(uint64_t)3;
-    uint64_t total = 12 + 8 + jpad + 8 + b->len;
-    if (total > UINT32_MAX)
-        return CR_FAIL(err, CR_ERR_RANGE, "%s: %llu bytes exceed the 4 GiB glb limit", path,
-                       (unsigned long long)total);
     cr_atomic_file f;
-    CR_TRY(cr_atomic_open(&f, path, err));
-    unsigned char head[20];
-    io_put_le32(head, GLB_MAGIC);
-    io_put_le32(head + 4, 2);
-    io_put_le32(head + 8, (uint32_t)total);
-    io_put_le32(head + 12, (uint32_t)jpad);
-    io_put_le32(head + 16, GLB_CHUNK_JSON);
-    int ok = fwrite(head, 1, 20, f.fp) == 20 && fwrite(json, 1, jlen, f.fp) == jlen;
-    for (uint64_t i = jlen; i < jpad && ok; i++)
-        ok = fputc(' ', f.fp) != EOF;
-    io_put_le32(head, (uint32_t)b->len);
-    io_put_le32(head + 4, GLB_CHUNK_BIN);
-    ok = ok && fwrite(head, 1, 8, f.fp) == 8 && fwrite(b->d, 1, b->len, f.fp) == b->len;
-    if (!ok) {
+    CR_TRY(cr_glb_begin_file(path, json, b->len, &f, err));
+    if (fwrite(b->d, 1, b->len, f.fp) != b->len) {
         cr_atomic_abort(&f);
         return CR_FAIL(err, CR_ERR_IO, "%s: write failed", path);
     }
