@@ -119,6 +119,16 @@ cr_mannequin_def cr_mannequin_default_def(void);
  * untouched). CR_ERR_INVALID naming an unknown preset. */
 cr_status cr_mannequin_preset(const char *name, cr_mannequin_def *def, cr_error *err);
 
+enum { CR_BODY_MAX_BETAS = 400 }; /* SMPL-X has 300 shape and 100 expression ones */
+
+/* A body as the commands take it: a mannequin preset ("slim", "normal",
+ * "heavy"), or an SMPL-family model file with its shape coefficients,
+ * "FILE.npz" or "FILE.npz:b0,b1,..." (cr_smpl_load: SMPL, SMPL+H, SMPL-X;
+ * the betas zero-padded). *out is heap-allocated (cr_body_model_destroy).
+ * Fails naming the spec: an unknown preset lists the presets, a bad beta
+ * names its position. */
+cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err);
+
 /* Build the mannequin: a closed, manifold, outward-oriented genus-0 rest mesh
  * with vertex normals, rest joints and four skinning weights per vertex. The
  * caller destroys *out with cr_body_model_destroy. CR_ERR_INVALID naming a

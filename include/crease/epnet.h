@@ -89,7 +89,8 @@ typedef struct cr_epnet_def {
                                    (cr_garment_load_user; garment_vertices then unused); a
                                    model names the file and reads it again when opened */
     int32_t garment_vertices;   /* template target vertex count (default 600; authors ~4-5k) */
-    const char *body;           /* mannequin preset (default "normal") */
+    const char *body;           /* a body spec (cr_body_resolve: a mannequin preset, default
+                                   "normal", or an SMPL-family FILE.npz[:betas]) */
     const char *const *motions; /* training clips (motion.h names) or files; default the
                                    eight procedural clips walk, squat, twist, dance, jump,
                                    reach, lean, stretch (raise_arms and bend held out) */
@@ -315,7 +316,7 @@ cr_status cr_epnet_open_pnet(const char *model_dir, const char *garment, int32_t
 typedef struct cr_epnet_run_def {
     const char *model_dir;    /* required */
     const char *motion;       /* clip name or file; required */
-    const char *body;         /* preset; NULL: the model's */
+    const char *body;         /* a body spec (cr_body_resolve); NULL: the model's */
     int32_t frames;           /* 0: the motion's own length */
     int32_t hold;             /* frames of its last pose after it (default 0) */
     int baseline;             /* 1: RB held at 0 (infer.mode CR_EPNET_ZERO_RB) */

@@ -22,8 +22,10 @@
  * Skinned Multi-Person Linear Model" (eqs. 2-5).
  */
 #include "body/motion_internal.h"
+#include "crease/body.h"
 #include "crease/mesh.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -238,4 +240,41 @@ cr_status cr_smpl_load(const char *path, const float *betas, int nbetas, cr_body
     cr_status st = smpl_from_npz(z, path, betas, nbetas, out, err);
     cr_npz_close(z);
     return st;
+}
+
+cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err) {
+    *out = NULL;
+    const char *npz = spec ? strstr(spec, ".npz") : NULL;
+    if (!npz || (npz[4] != '\0' && npz[4] != ':')) {
+        cr_mannequin_def md = cr_mannequin_default_def();
+        CR_TRY(cr_mannequin_preset(spec ? spec : "normal", &md, err));
+        return cr_mannequin_create(&md, out, err);
+    }
+    char path[1024];
+    const size_t n = (size_t)(npz + 4 - spec);
+    if (n >= sizeof path) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
+    memcpy(path, spec, n);
+    path[n] = '\0';
+    float betas[CR_BODY_MAX_BETAS];
+    int nbetas = 0;
+    for (const char *p = npz[4] == ':' ? npz + 5 : NULL; p && *p; nbetas++) {
+        char *end = NULL;
+        double v = strtod(p, &end);
+        if (end == p || !isfinite(v) || nbetas == CR_BODY_MAX_BETAS || (*end && *end != ','))
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "body %s: shape coefficient %d: expected up to %d numbers after ':', "
+                           "comma-separated",
+                           spec, nbetas + 1, CR_BODY_MAX_BETAS);
+        betas[nbetas] = (float)v;
+        p = *end ? end + 1 : end;
+    }
+    cr_body_model *b = cr_calloc(1, sizeof *b, err);
+    if (!b) return CR_ERR_MEMORY;
+    cr_status st = cr_smpl_load(path, betas, nbetas, b, err);
+    if (st != CR_OK) {
+        free(b);
+        return st;
+    }
+    *out = b;
+    return CR_OK;
 }

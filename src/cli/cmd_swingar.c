@@ -47,7 +47,8 @@ void help_swingar(void) {
            "  --model MODEL          a model written by `swingar train`\n"
            "  --garment G.obj        any garment mesh (UVs not needed), fitted to the body first\n"
            "  --motion M             a clip name (crease motion --list) or a .bvh / .npz file\n"
-           "  --body B               slim, normal (default) or heavy\n"
+           "  --body B               slim, normal (default), heavy, or an SMPL-family model\n"
+           "                         FILE.npz[:beta,beta,...]\n"
            "  --frames N             frames of a clip (default 120)\n"
            "  --fps F                frames per second (default 30)\n"
            "  --chunk K              frames per forward (default 8; memory grows with K)\n"
@@ -241,10 +242,8 @@ static int cmd_run(int argc, char **argv) {
     cr_garment *g = NULL;
     cr_motion *mo = NULL;
     float *pred = NULL, *body = NULL;
-    cr_mannequin_def md = cr_mannequin_default_def();
     cr_status st = o.model ? cr_swingar_load(o.model, &m, &err) : CR_OK;
-    if (st == CR_OK) st = cr_mannequin_preset(o.body, &md, &err);
-    if (st == CR_OK) st = cr_mannequin_create(&md, &b, &err);
+    if (st == CR_OK) st = cr_body_resolve(o.body, &b, &err);
     if (st == CR_OK) {
         cr_garment_user_def ud = cr_garment_user_default_def();
         st = cr_garment_load_user(o.garment, &ud, b, &g, &err);

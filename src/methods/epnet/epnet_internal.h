@@ -17,7 +17,7 @@ enum { EP_STATIC_IN = 66, EP_DYN_IN = 69 };
 
 struct cr_epnet {
     cr_epnet_def def;
-    char garment_name[1024], body_name[32]; /* a type, or a garment mesh file */
+    char garment_name[1024], body_name[1024]; /* a type or a garment file; a preset or a model */
     cr_body_model *body;
     cr_garment *garment;
     cr_topology *topo;

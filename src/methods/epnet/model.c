@@ -150,10 +150,8 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     return CR_OK;
 }
 
-static cr_status make_body(const char *preset, cr_body_model **out, cr_error *err) {
-    cr_mannequin_def md = cr_mannequin_default_def();
-    CR_TRY(cr_mannequin_preset(preset, &md, err));
-    return cr_mannequin_create(&md, out, err);
+static cr_status make_body(const char *spec, cr_body_model **out, cr_error *err) {
+    return cr_body_resolve(spec, out, err);
 }
 
 /* The vertices within pin_top of the rest garment's highest point. */
@@ -187,8 +185,8 @@ static size_t epnet_arena_bytes(const cr_epnet_def *def, int64_t nedges) {
 /* A garment of def->garment's type at def->garment_vertices, or the garment
  * mesh file it names (fitted to the body; UVs not needed: nothing of epnet's
  * reads them). */
-static cr_status make_garment(const cr_epnet_def *def, const cr_body_model *body,
-                              cr_garment **out, cr_error *err) {
+static cr_status make_garment(const cr_epnet_def *def, const cr_body_model *body, cr_garment **out,
+                              cr_error *err) {
     char ext[16];
     cr_path_ext(def->garment, ext, sizeof ext);
     if (!strcmp(ext, "obj") || !strcmp(ext, "ply") || !strcmp(ext, "glb")) {

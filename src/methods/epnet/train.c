@@ -303,7 +303,7 @@ static cr_status open_model(const char *dir, const char *garment_as, int32_t ver
         return st;
     }
     cr_epnet_def d = cr_epnet_default_def();
-    char garment[1024] = "tshirt", body[32] = "normal";
+    char garment[1024] = "tshirt", body[1024] = "normal";
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(o, "garment");
     const cJSON *b = cJSON_GetObjectItemCaseSensitive(o, "body");
     if (cJSON_IsString(g)) snprintf(garment, sizeof garment, "%s", g->valuestring);

@@ -1,0 +1,159 @@
+/* test_body_resolve.c: cr_body_resolve, the body spec every method takes: a
+ * mannequin preset, or an SMPL-family model file with its shape
+ * coefficients. The model file here is the mannequin written as SMPL's
+ * arrays (24 joints, a girth direction in shapedirs), so a method built on
+ * it can be checked against the mannequin itself. */
+#include "crease/body.h"
+#include "crease/bvh.h"
+#include "crease/epnet.h"
+#include "crease/mesh.h"
+#include "crease/motion.h"
+#include "crease/npz.h"
+#include "test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The mannequin as an SMPL-style .npz: v_template its rest, shapedirs one
+ * direction moving every vertex away from the vertical axis by 10 % per
+ * unit, J_regressor each joint the mean of the 12 vertices nearest its rest
+ * position, weights its own, kintree SMPL's (hands as children of the
+ * wrists, unweighted), f its faces. */
+static int write_model(const char *path, const cr_body_model *b) {
+    enum { J = 24, K = 12 };
+    const int64_t V = b->rest->nv, F = b->rest->nf;
+    double *tmpl = calloc((size_t)V * 3, sizeof(double));
+    double *dirs = calloc((size_t)V * 3, sizeof(double));
+    double *reg = calloc((size_t)J * V, sizeof(double));
+    double *w = calloc((size_t)V * J, sizeof(double));
+    int64_t *f = calloc((size_t)F * 3, sizeof(int64_t));
+    double kt[2][J];
+    float *d2 = malloc(sizeof(float) * (size_t)V);
+    if (!tmpl || !dirs || !reg || !w || !f || !d2) return 0;
+    for (int64_t v = 0; v < V; v++) {
+        const float *p = b->rest->pos + 3 * v;
+        for (int k = 0; k < 3; k++)
+            tmpl[3 * v + k] = p[k];
+        dirs[3 * v + 0] = 0.1 * p[0], dirs[3 * v + 2] = 0.1 * p[2];
+        for (int k = 0; k < 4; k++)
+            w[v * J + b->skin_joint[4 * v + k]] += b->skin_weight[4 * v + k];
+    }
+    for (int j = 0; j < J; j++) {
+        const float *c = b->joints + 3 * (j < CR_NJOINTS ? j : (j == 22 ? 20 : 21));
+        for (int64_t v = 0; v < V; v++) {
+            const float *p = b->rest->pos + 3 * v;
+            d2[v] = (p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
+                    (p[2] - c[2]) * (p[2] - c[2]);
+        }
+        for (int k = 0; k < K; k++) { /* the K nearest, by repeated selection */
+            int64_t best = 0;
+            for (int64_t v = 1; v < V; v++)
+                if (d2[v] < d2[best]) best = v;
+            reg[j * V + best] = 1.0 / K;
+            d2[best] = INFINITY;
+        }
+        kt[0][j] = j == 0 ? 4294967295.0 : j < CR_NJOINTS ? cr_joint_parent[j] : 20 + (j - 22);
+        kt[1][j] = j;
+    }
+    for (int64_t i = 0; i < 3 * F; i++)
+        f[i] = b->rest->tri[i];
+    int64_t s_t[2] = {V, 3}, s_d[3] = {V, 3, 1}, s_r[2] = {J, V}, s_w[2] = {V, J}, s_k[2] = {2, J},
+            s_f[2] = {F, 3};
+    cr_error err = {0};
+    cr_npz_writer *wr = NULL;
+    int ok = cr_npz_writer_open(path, 1, &wr, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "v_template", CR_NPY_F64, 2, s_t, tmpl, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "shapedirs", CR_NPY_F64, 3, s_d, dirs, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "J_regressor", CR_NPY_F64, 2, s_r, reg, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "weights", CR_NPY_F64, 2, s_w, w, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "kintree_table", CR_NPY_F64, 2, s_k, kt, &err) == CR_OK &&
+             cr_npz_writer_add(wr, "f", CR_NPY_I64, 2, s_f, f, &err) == CR_OK &&
+             cr_npz_writer_commit(wr, &err) == CR_OK;
+    if (!ok) printf("    %s\n", err.msg);
+    free(tmpl), free(dirs), free(reg), free(w), free(f), free(d2);
+    return ok;
+}
+
+static double width(const cr_body_model *b) {
+    float lo[3], hi[3];
+    cr_mesh_bounds(b->rest, lo, hi);
+    return hi[0] - lo[0];
+}
+
+CR_TEST(body_resolve, presets_and_model_files) {
+    cr_error err = {0};
+    cr_body_model *normal = NULL, *plain = NULL, *wide = NULL, *bad = NULL;
+    CR_CHECK_OK(cr_body_resolve("normal", &normal, &err), &err);
+    CR_REQUIRE(normal);
+    char path[512], spec[600];
+    snprintf(path, sizeof path, "%s/mannequin_smpl.npz", cr_test_tmpdir());
+    CR_REQUIRE(write_model(path, normal));
+    CR_CHECK_OK(cr_body_resolve(path, &plain, &err), &err);
+    snprintf(spec, sizeof spec, "%s:1.5", path);
+    CR_CHECK_OK(cr_body_resolve(spec, &wide, &err), &err);
+    CR_REQUIRE(plain && wide);
+    printf("    widths: mannequin %.4f m, its model file %.4f m, beta 1.5 %.4f m\n", width(normal),
+           width(plain), width(wide));
+    CR_CHECK(plain->rest->nv == normal->rest->nv);
+    CR_CHECK_NEAR(width(plain), width(normal), 1e-4);
+    CR_CHECK_NEAR(width(wide), 1.15 * width(normal), 2e-3);
+    /* Refusals name the spec and what is wrong. */
+    CR_CHECK(cr_body_resolve("giant", &bad, &err) == CR_ERR_INVALID && !bad);
+    CR_CHECK(strstr(err.msg, "giant") && strstr(err.msg, "slim"));
+    snprintf(spec, sizeof spec, "%s:1.5,x", path);
+    CR_CHECK(cr_body_resolve(spec, &bad, &err) == CR_ERR_INVALID && !bad);
+    CR_CHECK(strstr(err.msg, "coefficient 2") != NULL);
+    CR_CHECK(cr_body_resolve("/nonexistent/smplx.npz:0.1", &bad, &err) != CR_OK && !bad);
+    CR_CHECK(strstr(err.msg, "smplx.npz") != NULL);
+    cr_body_model_destroy(normal), cr_body_model_destroy(plain), cr_body_model_destroy(wide);
+}
+
+/* epnet on an SMPL-family body with shape coefficients: its garment is fitted
+ * to the wider body, every vertex outside it. */
+CR_TEST(body_resolve, epnet_on_a_model_file) {
+    cr_error err = {0};
+    cr_body_model *normal = NULL;
+    CR_CHECK_OK(cr_body_resolve("normal", &normal, &err), &err);
+    CR_REQUIRE(normal);
+    char path[512], spec[600];
+    snprintf(path, sizeof path, "%s/mannequin_smpl2.npz", cr_test_tmpdir());
+    CR_REQUIRE(write_model(path, normal));
+    snprintf(spec, sizeof spec, "%s:1.0", path);
+    cr_epnet_def d = cr_epnet_default_def();
+    d.body = spec;
+    d.garment_vertices = 500;
+    const char *motions[1] = {"squat"};
+    d.motions = motions, d.nmotions = 1, d.frames = 4;
+    cr_epnet *m = NULL;
+    CR_CHECK_OK(cr_epnet_create(&d, &m, &err), &err);
+    if (m) {
+        const cr_mesh *g = cr_epnet_garment(m);
+        float lo[3], hi[3];
+        cr_mesh_bounds(g, lo, hi);
+        printf("    t-shirt on the model file (beta 1): %d vertices, %.3f m wide (the body %.3f "
+               "m)\n",
+               g->nv, hi[0] - lo[0], 1.1 * width(normal));
+        CR_CHECK(hi[0] - lo[0] > 0.3);
+        /* fitted to the widened body: every vertex outside it */
+        cr_body_model *wide = NULL;
+        cr_bvh *bvh = NULL;
+        CR_CHECK_OK(cr_body_resolve(spec, &wide, &err), &err);
+        float *dist = malloc(sizeof(float) * (size_t)g->nv), nearest = INFINITY;
+        if (wide && dist &&
+            cr_bvh_build(wide->rest->pos, wide->rest->nv, wide->rest->tri, wide->rest->nf, &bvh,
+                         &err) == CR_OK) {
+            cr_bvh_signed_distance_batch(bvh, g->pos, g->nv, INFINITY, dist, NULL, NULL);
+            for (int32_t v = 0; v < g->nv; v++)
+                nearest = fminf(nearest, dist[v]);
+        }
+        printf("    nearest garment vertex %.4f m outside the body\n", (double)nearest);
+        CR_CHECK(nearest > 0.002f && nearest < 0.1f);
+        cr_bvh_destroy(bvh);
+        free(dist);
+        cr_body_model_destroy(wide);
+        cr_epnet_destroy(m);
+    }
+    cr_body_model_destroy(normal);
+}
