@@ -280,21 +280,23 @@ static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *s
         free(parent), free(id);
         return CR_ERR_MEMORY;
     }
+    const int has_uv = cr_mesh_has_uv(m);
     for (int32_t f = 0; f < m->nf; f++)
         parent[f] = f, id[f] = -1;
     for (int32_t f = 0; f < m->nf; f++)
         for (int k = 0; k < 3; k++) {
             int32_t g = t->face_face[3 * f + k];
             if (g < 0) continue;
-            /* The corners of the shared edge in g, matched by vertex. */
-            int32_t a = m->tri[3 * f + k], b = m->tri[3 * f + (k + 1) % 3], ua = -1, ub = -1;
-            for (int j = 0; j < 3 && cr_mesh_has_uv(m); j++) {
-                if (m->tri[3 * g + j] == a) ua = m->tri_uv[3 * g + j];
-                if (m->tri[3 * g + j] == b) ub = m->tri_uv[3 * g + j];
+            if (has_uv) { /* the corners of the shared edge in g, matched by vertex */
+                int32_t a = m->tri[3 * f + k], b = m->tri[3 * f + (k + 1) % 3], ua = -1, ub = -1;
+                for (int j = 0; j < 3; j++) {
+                    if (m->tri[3 * g + j] == a) ua = m->tri_uv[3 * g + j];
+                    if (m->tri[3 * g + j] == b) ub = m->tri_uv[3 * g + j];
+                }
+                if (!same_uv(m, ua, m->tri_uv[3 * f + k]) ||
+                    !same_uv(m, ub, m->tri_uv[3 * f + (k + 1) % 3]))
+                    continue;
             }
-            if (cr_mesh_has_uv(m) && (!same_uv(m, ua, m->tri_uv[3 * f + k]) ||
-                                      !same_uv(m, ub, m->tri_uv[3 * f + (k + 1) % 3])))
-                continue;
             int32_t x = f, y = g;
             while (parent[x] != x)
                 x = parent[x] = parent[parent[x]];
@@ -312,8 +314,7 @@ static cr_status uv_charts(const cr_mesh *m, const cr_topology *t, const char *s
         panel[f] = id[r];
         if (n > CR_GARMENT_MAX_PANELS)
             st = CR_FAIL(err, CR_ERR_INVALID, "%s: more than %d %s (panels)", src,
-                         CR_GARMENT_MAX_PANELS,
-                         cr_mesh_has_uv(m) ? "UV charts" : "separate pieces (no UVs)");
+                         CR_GARMENT_MAX_PANELS, has_uv ? "UV charts" : "separate pieces (no UVs)");
     }
     *npanels = n;
     free(parent), free(id);

@@ -15,6 +15,7 @@
  * Reference: Magnenat-Thalmann et al. 1988 (linear blend skinning); Loper et
  * al. 2015, SMPL, eq. 2-4.
  */
+#include "body/motion_internal.h"
 #include "crease/body.h"
 #include "crease/mesh_io.h"
 
@@ -112,14 +113,12 @@ cr_status cr_body_write_glb(const char *path, const cr_body_model *b, const cr_m
                           "motion", t, err));
     float *q = cr_malloc((size_t)m->nframes * CR_NJOINTS * 4 * sizeof(float), err);
     if (!q) return CR_ERR_MEMORY;
-    /* Axis-angle a to the unit quaternion (sin(|a|/2) a/|a|, cos(|a|/2)). */
+    /* glTF's quaternions are x, y, z, w; motion_internal.h's w, x, y, z. */
     for (int64_t i = 0; i < (int64_t)m->nframes * CR_NJOINTS; i++) {
-        const float *a = &m->poses[3 * i];
-        double th = sqrt((double)a[0] * a[0] + (double)a[1] * a[1] + (double)a[2] * a[2]);
-        double s = th > 1e-12 ? sin(0.5 * th) / th : 0.5;
-        for (int k = 0; k < 3; k++)
-            q[4 * i + k] = (float)(s * a[k]);
-        q[4 * i + 3] = (float)cos(0.5 * th);
+        double qd[4];
+        q_from_aa(&m->poses[3 * i], qd);
+        for (int k = 0; k < 4; k++)
+            q[4 * i + k] = (float)qd[(k + 1) % 4];
     }
     int32_t parent[CR_NJOINTS];
     for (int j = 0; j < CR_NJOINTS; j++)

@@ -51,6 +51,9 @@ cr_status cr_glb_accessor(const glb_in *g, uint64_t index, glb_acc *out, cr_erro
 /* A float accessor's components into out (count, ncomp), refusing non-finite. */
 cr_status cr_glb_read_floats(const glb_in *g, const glb_acc *a, const char *name, float *out,
                              cr_error *err);
+/* Frames per second of keys at t0 < t1, 1 / (t1 - t0), the nearest whole
+ * number when within 1e-4 of it (keys stored as i / fps in float). */
+double cr_glb_key_rate(float t0, float t1);
 /* Split a .glb's bytes into the parsed JSON (g->root, the caller deletes it)
  * and the BIN chunk. */
 cr_status cr_glb_open_container(glb_in *g, const unsigned char *d, size_t len, cr_error *err);
@@ -75,6 +78,10 @@ cr_status cr_glb_begin_file(const char *path, const char *json, uint64_t bin_len
                             cr_error *err);
 /* An accessor's "min" and "max" over x (n, ncomp <= 16) floats. */
 void cr_glb_add_minmax(glb_out *g, cJSON *acc, const float *x, int64_t n, int ncomp);
+/* A morph-target sequence's mesh fields: "weights" one-hot on frame 0 (what
+ * static viewers show) and "extras.targetNames" frame_0000, ... (Blender's
+ * shape-key names). */
+void cr_glb_add_frame_names(glb_out *g, cJSON *mesh, int32_t nframes);
 /* Floats as JSON numbers that parse back to exactly these floats. */
 cJSON *cr_glb_float_array(const float *x, int n);
 

@@ -611,6 +611,19 @@ static cr_status emit_all(glb_job *j, cr_error *err) {
     return st;
 }
 
+void cr_glb_add_frame_names(glb_out *g, cJSON *mesh, int32_t nframes) {
+    /* Static viewers show frame 0; Blender names shape keys from targetNames. */
+    cJSON *weights = cr_glb_add(g, mesh, "weights", cJSON_CreateArray());
+    cJSON *names = cr_glb_add(g, cr_glb_add(g, mesh, "extras", cJSON_CreateObject()), "targetNames",
+                              cJSON_CreateArray());
+    for (int32_t t = 0; t < nframes; t++) {
+        char name[32];
+        snprintf(name, sizeof name, "frame_%04d", t);
+        cr_glb_add_num(g, weights, NULL, t == 0);
+        cr_glb_add(g, names, NULL, cJSON_CreateString(name));
+    }
+}
+
 /* Everything in the JSON besides views and accessors, after the plan pass. */
 static void build_document(glb_job *j) {
     glb_out *g = j->g;
@@ -641,16 +654,7 @@ static void build_document(glb_job *j) {
     cr_glb_add_num(g, prim, "mode", MODE_TRIANGLES);
     if (j->frames) {
         cr_glb_add(g, prim, "targets", j->targets);
-        /* Static viewers show frame 0; Blender names shape keys from targetNames. */
-        cJSON *weights = cr_glb_add(g, mesh, "weights", cJSON_CreateArray());
-        cJSON *names = cr_glb_add(g, cr_glb_add(g, mesh, "extras", cJSON_CreateObject()),
-                                  "targetNames", cJSON_CreateArray());
-        for (int32_t t = 0; t < j->nframes; t++) {
-            char name[32];
-            snprintf(name, sizeof name, "frame_%04d", t);
-            cr_glb_add_num(g, weights, NULL, t == 0);
-            cr_glb_add(g, names, NULL, cJSON_CreateString(name));
-        }
+        cr_glb_add_frame_names(g, mesh, j->nframes);
         cJSON *anim = cr_glb_add(g, cr_glb_add(g, root, "animations", cJSON_CreateArray()), NULL,
                                  cJSON_CreateObject());
         cr_glb_add(g, anim, "name", cJSON_CreateString("sequence"));
@@ -812,6 +816,12 @@ static cr_status weld_map(const float *raw, int64_t nraw, const cr_mesh *m, int3
 }
 
 /* The frame rate of animations[0]: 1 / (t1 - t0) of its first sampler's input. */
+double cr_glb_key_rate(float t0, float t1) {
+    /* The writer stores i / fps in float: 1 / (t1 - t0) of 30 fps reads 29.999998. */
+    double fps = 1.0 / ((double)t1 - (double)t0), whole = round(fps);
+    return fabs(fps - whole) < 1e-4 * whole ? whole : fps;
+}
+
 static float read_fps(const glb_in *g) {
     const cJSON *anim = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
     const cJSON *smp = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(anim, "samplers"), 0);
@@ -824,9 +834,7 @@ static float read_fps(const glb_in *g) {
         return 0.0f;
     float t0 = io_f32(io_le32(a.base)), t1 = io_f32(io_le32(a.base + a.stride));
     if (!(isfinite(t1 - t0) && t1 > t0)) return 0.0f;
-    /* The writer stores i / fps in float: 1 / (t1 - t0) of 30 fps reads 29.999998. */
-    double fps = 1.0 / ((double)t1 - (double)t0), whole = round(fps);
-    return (float)(fabs(fps - whole) < 1e-4 * whole ? whole : fps);
+    return (float)cr_glb_key_rate(t0, t1);
 }
 
 static cr_status read_sequence(const glb_in *g, cr_mesh *m, float **frames, int32_t *nframes,

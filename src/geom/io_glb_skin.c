@@ -275,9 +275,7 @@ static cr_status put_cloth(glb_out *g, bin_buf *b, const cr_glb_cloth *c, int32_
                              cJSON_CreateObject());
     if (st == CR_OK) st = put_mesh(g, b, c->rest, &s, NULL, prim, err);
     cJSON *targets = cr_glb_add(g, prim, "targets", cJSON_CreateArray());
-    cJSON *weights = cr_glb_add(g, mesh, "weights", cJSON_CreateArray());
-    cJSON *names = cr_glb_add(g, cr_glb_add(g, mesh, "extras", cJSON_CreateObject()), "targetNames",
-                              cJSON_CreateArray());
+    cr_glb_add_frame_names(g, mesh, T);
     const int64_t nv = c->rest->nv;
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
         const float *x = c->frames + (int64_t)t * nv * 3;
@@ -288,10 +286,6 @@ static cr_status put_cloth(glb_out *g, bin_buf *b, const cr_glb_cloth *c, int32_
         cJSON *target = cr_glb_add(g, targets, NULL, cJSON_CreateObject());
         cr_glb_add_num(g, target, "POSITION",
                        put_accessor(g, b, d, s.nv, "VEC3", 3, CT_F32, TARGET_ARRAY, 1));
-        char name[32];
-        snprintf(name, sizeof name, "frame_%04d", t);
-        cr_glb_add_num(g, weights, NULL, t == 0);
-        cr_glb_add(g, names, NULL, cJSON_CreateString(name));
         w[(int64_t)t * T + t] = 1.0f;
     }
     if (st == CR_OK) {
@@ -434,6 +428,7 @@ typedef struct node_trs {
     double matrix[16];
     int has_matrix;
     int parent; /* -1 for a root */
+    int depth;  /* ancestors above it */
 } node_trs;
 
 static cr_status read_vec(const glb_in *g, const cJSON *node, const char *key, int n, double *out,
@@ -453,8 +448,10 @@ static cr_status read_vec(const glb_in *g, const cJSON *node, const char *key, i
     return CR_OK;
 }
 
+/* The nodes' rest transforms and parents into nt (n), and order (n) the
+ * nodes with every parent before its children. */
 static cr_status read_nodes(const glb_in *g, const cJSON *nodes, node_trs *nt, int64_t n,
-                            cr_error *err) {
+                            int32_t *order, cr_error *err) {
     for (int64_t i = 0; i < n; i++) {
         node_trs *p = &nt[i];
         memset(p, 0, sizeof *p);
@@ -483,7 +480,8 @@ static cr_status read_nodes(const glb_in *g, const cJSON *nodes, node_trs *nt, i
             nt[(int64_t)c->valuedouble].parent = (int)i;
         }
     }
-    for (int64_t i = 0; i < n; i++) { /* a cycle has no root: its walk never ends */
+    int64_t count[MAX_NODE_DEPTH + 2] = {0}; /* nodes per depth, then where each depth starts */
+    for (int64_t i = 0; i < n; i++) {        /* a cycle has no root: its walk never ends */
         int depth = 0;
         for (int p = nt[i].parent; p >= 0; p = nt[p].parent)
             if (++depth > MAX_NODE_DEPTH)
@@ -491,7 +489,13 @@ static cr_status read_nodes(const glb_in *g, const cJSON *nodes, node_trs *nt, i
                                "%s: nodes[%lld]: the hierarchy is cyclic or "
                                "deeper than %d",
                                g->source, (long long)i, MAX_NODE_DEPTH);
+        nt[i].depth = depth;
+        count[depth + 1]++;
     }
+    for (int d = 1; d <= MAX_NODE_DEPTH + 1; d++)
+        count[d] += count[d - 1];
+    for (int64_t i = 0; i < n; i++) /* by depth: parents first */
+        order[count[nt[i].depth]++] = (int32_t)i;
     return CR_OK;
 }
 
@@ -633,6 +637,7 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
 
     node_trs *nt = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof *nt, err);
     double *world = cr_malloc((size_t)(nn > 0 ? nn : 1) * 16 * sizeof(double), err);
+    int32_t *order = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof(int32_t), err);
     double *jm = cr_malloc((size_t)J * 16 * sizeof(double), err);
     float *ibm = cr_malloc((size_t)J * 16 * sizeof(float), err);
     int32_t *jnode = cr_malloc((size_t)J * sizeof(int32_t), err);
@@ -645,8 +650,9 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
     channel *ch = cr_calloc((size_t)(nch > 0 ? nch : 1), sizeof *ch, err);
     float *out = NULL;
     int used = 0;
-    cr_status st = nt && world && jm && ibm && jnode && vj && vw && ch ? CR_OK : CR_ERR_MEMORY;
-    if (st == CR_OK) st = read_nodes(g, nodes, nt, nn, err);
+    cr_status st =
+        nt && world && order && jm && ibm && jnode && vj && vw && ch ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) st = read_nodes(g, nodes, nt, nn, order, err);
     for (int64_t j = 0; st == CR_OK && j < J; j++) {
         const cJSON *e = cJSON_GetArrayItem(joints, (int)j);
         if (!cJSON_IsNumber(e) || e->valuedouble < 0 || e->valuedouble >= (double)nn ||
@@ -687,20 +693,15 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
     for (int c = 0; st == CR_OK && c < nch; c++) {
         int ok = 0;
         st = read_channel(g, anim, cJSON_GetArrayItem(chs, c), nn, &ch[used], &ok, err);
-        if (st == CR_OK && ok) {
+        if (st == CR_OK && ok)
             t0 = fmin(t0, ch[used].time[0]), t1 = fmax(t1, ch[used].time[ch[used].nkeys - 1]);
-            used++;
-        } else if (ok) {
-            used++; /* freed below */
-        }
+        used += ok; /* what it allocated is freed below either way */
     }
     /* Frames at the first channel's key spacing (crease writes one key a frame). */
     double rate = 30.0;
     for (int c = 0; c < used && st == CR_OK; c++)
         if (ch[c].nkeys >= 2) {
-            rate = 1.0 / ((double)ch[c].time[1] - ch[c].time[0]);
-            double whole = round(rate);
-            if (fabs(rate - whole) < 1e-4 * whole) rate = whole;
+            rate = cr_glb_key_rate(ch[c].time[0], ch[c].time[1]);
             break;
         }
     int64_t T = 1;
@@ -731,26 +732,14 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
                    v, (ch[c].path == 1 ? 4 : 3) * sizeof(double));
             p->has_matrix = 0; /* an animated node is TRS (glTF 3.11) */
         }
-        for (int64_t i = 0; i < nn; i++) { /* world = parent's world x local */
-            double local[16];
+        for (int64_t k = 0; k < nn; k++) { /* world = parent's world x local, parents first */
+            const int64_t i = order[k];
+            double *w = &world[16 * i];
             if (cur[i].has_matrix)
-                memcpy(local, cur[i].matrix, sizeof local);
+                memcpy(w, cur[i].matrix, 16 * sizeof(double));
             else
-                trs_matrix(cur[i].t, cur[i].r, cur[i].s, local);
-            memcpy(&world[16 * i], local, sizeof local);
-        }
-        for (int64_t i = 0; i < nn; i++) { /* up the chain: depth is bounded above */
-            double m[16];
-            memcpy(m, &world[16 * i], sizeof m);
-            for (int p = cur[i].parent; p >= 0; p = cur[p].parent) {
-                double local[16];
-                if (cur[p].has_matrix)
-                    memcpy(local, cur[p].matrix, sizeof local);
-                else
-                    trs_matrix(cur[p].t, cur[p].r, cur[p].s, local);
-                mat_mul(local, m, m);
-            }
-            memcpy(&world[16 * i + 0], m, sizeof m);
+                trs_matrix(cur[i].t, cur[i].r, cur[i].s, w);
+            if (cur[i].parent >= 0) mat_mul(&world[16 * (int64_t)cur[i].parent], w, w);
         }
         for (int64_t j = 0; j < J; j++) {
             double b[16];
@@ -776,7 +765,8 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
     free(cur);
     for (int c = 0; c < used; c++)
         free(ch[c].time), free(ch[c].value);
-    free(ch), free(nt), free(world), free(jm), free(ibm), free(jnode), free(vj), free(vw);
+    free(ch), free(nt), free(world), free(order), free(jm), free(ibm), free(jnode), free(vj),
+        free(vw);
     if (st != CR_OK) {
         free(out);
         return st;

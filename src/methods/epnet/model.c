@@ -150,10 +150,6 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     return CR_OK;
 }
 
-static cr_status make_body(const char *spec, cr_body_model **out, cr_error *err) {
-    return cr_body_resolve(spec, out, err);
-}
-
 /* The vertices within pin_top of the rest garment's highest point. */
 static cr_status make_pins(cr_epnet *m, cr_error *err) {
     const cr_mesh *g = m->garment->mesh;
@@ -212,7 +208,7 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     m->def.out_dir = NULL;
     m->def.motions = NULL, m->def.nmotions = 0; /* the training set is train.c's */
     m->def.pnet_val_motion = NULL;
-    cr_status st = make_body(def->body, &m->body, err);
+    cr_status st = cr_body_resolve(def->body, &m->body, err);
     if (st == CR_OK) st = make_garment(def, m->body, &m->garment, err);
     if (st == CR_OK) st = cr_topology_build(m->garment->mesh, &m->topo, err);
     if (st == CR_OK) {
@@ -377,7 +373,7 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
     cr_status st = CR_OK;
     const cr_body_model *bm = m->body;
     if (body && strcmp(body, m->body_name)) {
-        st = make_body(body, &s->own_body, err);
+        st = cr_body_resolve(body, &s->own_body, err);
         bm = s->own_body;
     }
     const int32_t T0 = mo->nframes, T = T0 + (hold > 0 ? hold : 0), V = m->nv;
