@@ -262,13 +262,8 @@ static cr_tensor *stack(cr_nn_ctx *ctx, cr_tensor **ts, int n) {
     return cr_nn_concat(ctx, n, v, 0);
 }
 
-/* The garment's part of a forward, the same for every frame and motion:
- * E_g, the skinning map A s of the shape features and the prior logits. */
-typedef struct swg_genc {
-    cr_tensor *G, *skinmat, *logw0; /* (V,H), (state width, J), (V,J) */
-} swg_genc;
-
-static int encode_garment(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g, swg_genc *e) {
+int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                               swg_genc *e) {
     const cr_swingar_def *d = &m->def;
     const int64_t V = g->rest->nv, J = CR_NJOINTS;
     cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
@@ -290,14 +285,10 @@ static int encode_garment(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garmen
     return 1;
 }
 
-/* Frames [t0, t0 + K) given the garment's encoding. prev: NULL, or the
- * (2,V,SWG_CORR_FEATURES) graphs M_c of frames t0-2 and t0-1 from the call
- * before (so only the K new coarse frames are computed); next: NULL, or
- * where the graphs of frames t0+K-2 and t0+K-1 go (host floats; it may be
- * prev). */
-static cr_tensor *forward_frames(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
-                                 const swg_genc *e, const cr_swingar_motion *mo, int32_t t0,
-                                 int32_t K, float *prev, float *next, cr_swingar_parts *parts) {
+cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                                      const swg_genc *e, const cr_swingar_motion *mo, int32_t t0,
+                                      int32_t K, float *prev, float *next,
+                                      cr_swingar_parts *parts) {
     const cr_swingar_def *d = &m->def;
     const int64_t V = g->rest->nv, J = CR_NJOINTS;
     const int32_t Kc = K + 2; /* coarse frames t0-2 .. t0+K-1 */
@@ -412,8 +403,8 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
                               cr_swingar_parts *parts) {
     if (!g || !mo || K < 1 || K > SWG_MAX_WINDOW || mo->nframes < 1) return NULL;
     swg_genc e;
-    if (!encode_garment(ctx, m, g, &e)) return NULL;
-    return forward_frames(ctx, m, g, &e, mo, t0, K, NULL, NULL, parts);
+    if (!cr_swingar_encode_garment_(ctx, m, g, &e)) return NULL;
+    return cr_swingar_forward_frames_(ctx, m, g, &e, mo, t0, K, NULL, NULL, parts);
 }
 
 cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const char *source,
@@ -469,7 +460,7 @@ cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
     double t0s = cr_time_now();
     swg_genc e;
     float *host = NULL, *prev = NULL;
-    cr_status st = encode_garment(ctx, m, g, &e) ? CR_OK : cr_nn_ctx_error(ctx, err);
+    cr_status st = cr_swingar_encode_garment_(ctx, m, g, &e) ? CR_OK : cr_nn_ctx_error(ctx, err);
     if (st == CR_OK && !(e.G && e.skinmat && e.logw0))
         st = CR_FAIL(err, CR_ERR_INVALID, "swingar predict: bad garment encoding");
     if (st == CR_OK) {
@@ -497,7 +488,8 @@ cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
                           cr_nn_wrap(ctx, 2, (int64_t[]){V, J}, hL)};
             int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
             float *pb = prev + 2 * fsz * b;
-            cr_tensor *y = forward_frames(ctx, m, g, &w, mo, t0, K, t0 > 0 ? pb : NULL, pb, NULL);
+            cr_tensor *y =
+                cr_swingar_forward_frames_(ctx, m, g, &w, mo, t0, K, t0 > 0 ? pb : NULL, pb, NULL);
             st = cr_nn_ctx_error(ctx, err);
             if (st == CR_OK && !y) st = CR_FAIL(err, CR_ERR_INVALID, "swingar: bad forward input");
             if (st == CR_OK)

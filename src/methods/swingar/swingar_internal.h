@@ -36,4 +36,23 @@ struct cr_swingar {
     cr_gat c0, c1;
 };
 
+/* The garment's part of a forward, the same for every frame and motion:
+ * E_g, the skinning map A s of the shape features and the prior logits. */
+typedef struct swg_genc {
+    cr_tensor *G, *skinmat, *logw0; /* (V,H), (state width, J), (V,J) */
+} swg_genc;
+
+/* 1 on success; 0 with the context's error set. */
+int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                               swg_genc *e);
+
+/* Frames [t0, t0 + K) given the garment's encoding. prev: NULL, or the
+ * (2,V,SWG_CORR_FEATURES) graphs M_c of frames t0-2 and t0-1 from the call
+ * before (so only the K new coarse frames are computed); next: NULL, or
+ * where the graphs of frames t0+K-2 and t0+K-1 go (host floats; it may be
+ * prev). Returns (K,V,3) world positions. */
+cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
+                                      const swg_genc *e, const cr_swingar_motion *mo, int32_t t0,
+                                      int32_t K, float *prev, float *next, cr_swingar_parts *parts);
+
 #endif
