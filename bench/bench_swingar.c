@@ -69,8 +69,8 @@ static int bench_size(const char *size, const cr_swingar_garment *g, const cr_sw
     for (int k = 0; k < 2; k++) {
         cr_swingar_predict_stats ps = {0};
         double t0 = cr_time_now();
-        cr_status st = k == 0 ? cr_swingar_predict_batch(m, g, mos, 1, arena, 1, out, &ps, &err)
-                              : cr_swingar_predict_batch(m, g, seq, B, arena, 1, out, &ps, &err);
+        cr_status st = k == 0 ? cr_swingar_predict_batch(m, g, mos, 1, arena, out, &ps, &err)
+                              : cr_swingar_predict_batch(m, g, seq, B, arena, out, &ps, &err);
         double s = cr_time_now() - t0;
         if (st != CR_OK) {
             printf("swingar %s batch %d: failed: %s (peak RSS %.2f GiB)\n", size, ns[k], err.msg,

@@ -4,12 +4,15 @@
  * differences, the def survives JSON, the split shares nothing, a tiny
  * model lowers its loss, and resumed training is bit-exact. */
 #include "crease/dataset.h"
+#include "crease/mesh_io.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/swingar.h"
 #include "nn_gradcheck.h"
 #include "test.h"
 
+#include <malloc.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -169,9 +172,9 @@ static double max_diff(const float *a, const float *b, int64_t n) {
     return d;
 }
 
-CR_TEST(swingar, predict_chunks_and_batch_agree) {
-    /* predict keeps each sequence's last two coarse graphs between chunks
-     * and encodes the garment once: any chunk, alone or batched, gives what
+CR_TEST(swingar, predict_and_batch_agree) {
+    /* predict steps the runtime frame by frame, keeping the last two coarse
+     * graphs, and encodes the garment once: alone or batched it gives what
      * one forward over the whole motion gives (random heads, so the
      * corrective shape depends on the frame triple) */
     const cr_swingar_data *d = tiny_data();
@@ -193,24 +196,167 @@ CR_TEST(swingar, predict_chunks_and_batch_agree) {
     CR_REQUIRE(out[0] && out[1]);
     /* the two motions differ: a mix-up of sequences would show */
     double apart = max_diff(ref[0], ref[1], n[0] < n[1] ? n[0] : n[1]);
-    int chunks[3] = {1, 4, 8};
-    for (int c = 0; c < 3; c++) {
-        CR_CHECK_OK(cr_swingar_predict(m, g, &mo[0], (size_t)256 << 20, chunks[c], out[0], &err),
-                    &err);
-        double dc = max_diff(out[0], ref[0], n[0]);
-        printf("    chunk %d alone: max |predict - one forward| %.2e m\n", chunks[c], dc);
-        CR_CHECK(dc < 1e-5);
-    }
+    CR_CHECK_OK(cr_swingar_predict(m, g, &mo[0], 0, out[0], &err), &err);
+    double dc = max_diff(out[0], ref[0], n[0]);
+    printf("    alone: max |predict - one forward| %.2e m\n", dc);
+    CR_CHECK(dc < 1e-5);
     cr_swingar_predict_stats ps;
-    CR_CHECK_OK(cr_swingar_predict_batch(m, g, mo, 2, (size_t)256 << 20, 2, out, &ps, &err), &err);
+    CR_CHECK_OK(cr_swingar_predict_batch(m, g, mo, 2, 0, out, &ps, &err), &err);
     double db = fmax(max_diff(out[0], ref[0], n[0]), max_diff(out[1], ref[1], n[1]));
-    printf("    batch of 2, chunk 2: %.2e m (the motions %.2e m apart); arena peak %zu bytes\n", db,
-           apart, ps.arena_peak_bytes);
+    printf("    batch of 2: %.2e m (the motions %.2e m apart); arena peak %zu bytes\n", db, apart,
+           ps.arena_peak_bytes);
     CR_CHECK(db < 1e-5);
     CR_CHECK(apart > 1e-3);
     CR_CHECK(ps.arena_peak_bytes > 0);
-    CR_CHECK(cr_swingar_predict_batch(m, g, mo, 0, 0, 2, out, NULL, &err) == CR_ERR_INVALID);
+    CR_CHECK(cr_swingar_predict_batch(m, g, mo, 0, 0, out, NULL, &err) == CR_ERR_INVALID);
     free(out[0]), free(out[1]), free(ref[0]), free(ref[1]);
+    cr_swingar_destroy(m);
+}
+
+/* One runtime stepping motion mo frame by frame into out (T,V,3). */
+static cr_status runtime_steps(cr_swingar_runtime *rt, const cr_swingar_motion *mo, float *out,
+                               cr_error *err) {
+    const int64_t V = cr_swingar_runtime_vertices(rt);
+    for (int32_t t = 0; t < mo->nframes; t++)
+        CR_TRY(cr_swingar_runtime_step(rt, mo->poses + (size_t)t * CR_NJOINTS * 3,
+                                       mo->trans + 3 * t, out + (size_t)t * V * 3, err));
+    return CR_OK;
+}
+
+typedef struct runtime_job {
+    cr_swingar_runtime *rt;
+    const cr_swingar_motion *mo;
+    float *out;
+    cr_status st;
+} runtime_job;
+
+static void *runtime_thread(void *p) {
+    runtime_job *j = p;
+    for (int rep = 0; rep < 3 && j->st == CR_OK; rep++) {
+        cr_swingar_runtime_reset(j->rt);
+        j->st = runtime_steps(j->rt, j->mo, j->out, NULL);
+    }
+    return NULL;
+}
+
+CR_TEST(swingar, runtime_steps_equal_the_whole_motion) {
+    /* frame by frame (the motion window of 4 slides over the 6 frames), after
+     * a reset, two characters in one batch call, and two on their own
+     * threads sharing one model: each equals one forward over the motion */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d && d->nsequences >= 2);
+    cr_swingar_def def = tiny_def();
+    def.zero_last = 0;
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    CR_CHECK_OK(cr_swingar_create(&def, 5, &m, &err), &err);
+    CR_REQUIRE(m);
+    const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
+    cr_swingar_motion mo[2] = {seq_motion(d, 0), seq_motion(d, 1)};
+    CR_REQUIRE(mo[0].nframes > def.motion_window + 1);
+    const int64_t V = g->rest->nv;
+    float *ref[2] = {one_forward(m, g, &mo[0]), one_forward(m, g, &mo[1])};
+    int64_t n[2] = {mo[0].nframes * V * 3, mo[1].nframes * V * 3};
+    float *out[2] = {malloc(sizeof(float) * (size_t)n[0]), malloc(sizeof(float) * (size_t)n[1])};
+    CR_REQUIRE(ref[0] && ref[1] && out[0] && out[1]);
+    cr_swingar_runtime *rt[2] = {NULL, NULL};
+    for (int i = 0; i < 2; i++)
+        CR_CHECK_OK(cr_swingar_runtime_create(m, g, mo[i].joints, 0, &rt[i], &err), &err);
+    CR_REQUIRE(rt[0] && rt[1]);
+    CR_CHECK(cr_swingar_runtime_vertices(rt[0]) == V);
+    size_t cap = cr_swingar_runtime_arena_bytes(rt[0]);
+    for (int rep = 0; rep < 2; rep++) {
+        cr_swingar_runtime_reset(rt[0]);
+        CR_CHECK_OK(runtime_steps(rt[0], &mo[0], out[0], &err), &err);
+        double dr = max_diff(out[0], ref[0], n[0]);
+        printf("    %s: max |step - one forward| %.2e m, arena %zu bytes\n",
+               rep ? "after reset" : "stepped", dr, cap);
+        CR_CHECK(dr < 1e-5);
+    }
+    CR_CHECK(cr_swingar_runtime_arena_bytes(rt[0]) == cap);
+#ifdef __GLIBC__
+    /* nothing held on the heap grows while stepping (the arena is the
+     * frame's memory; glibc's count of bytes in use stays put) */
+    size_t held = mallinfo2().uordblks;
+    cr_swingar_runtime_reset(rt[0]);
+    CR_CHECK_OK(runtime_steps(rt[0], &mo[0], out[0], &err), &err);
+    printf("    heap in use before / after a pass: %zu / %zu bytes\n", held,
+           (size_t)mallinfo2().uordblks);
+    CR_CHECK(mallinfo2().uordblks == held);
+#endif
+    /* the batch call: frame t of both characters at once */
+    cr_swingar_runtime_reset(rt[0]);
+    for (int32_t t = 0; t < mo[0].nframes && t < mo[1].nframes; t++) {
+        float poses[2 * CR_NJOINTS * 3], trans[6];
+        float *o[2] = {out[0] + (size_t)t * V * 3, out[1] + (size_t)t * V * 3};
+        for (int i = 0; i < 2; i++) {
+            memcpy(poses + i * CR_NJOINTS * 3, mo[i].poses + (size_t)t * CR_NJOINTS * 3,
+                   sizeof(float) * CR_NJOINTS * 3);
+            memcpy(trans + 3 * i, mo[i].trans + 3 * t, sizeof(float) * 3);
+        }
+        CR_CHECK_OK(cr_swingar_runtime_step_batch(rt, 2, poses, trans, o, &err), &err);
+    }
+    int64_t nb = (mo[0].nframes < mo[1].nframes ? mo[0].nframes : mo[1].nframes) * V * 3;
+    double db = fmax(max_diff(out[0], ref[0], nb), max_diff(out[1], ref[1], nb));
+    printf("    batch of 2: %.2e m\n", db);
+    CR_CHECK(db < 1e-5);
+    /* side by side on two threads, three passes each */
+    runtime_job jobs[2] = {{rt[0], &mo[0], out[0], CR_OK}, {rt[1], &mo[1], out[1], CR_OK}};
+    pthread_t th[2];
+    for (int i = 0; i < 2; i++)
+        CR_REQUIRE(pthread_create(&th[i], NULL, runtime_thread, &jobs[i]) == 0);
+    for (int i = 0; i < 2; i++)
+        pthread_join(th[i], NULL);
+    double dt = fmax(max_diff(out[0], ref[0], n[0]), max_diff(out[1], ref[1], n[1]));
+    printf("    two threads: %.2e m\n", dt);
+    CR_CHECK(jobs[0].st == CR_OK && jobs[1].st == CR_OK);
+    CR_CHECK(dt < 1e-5);
+    CR_CHECK(cr_swingar_runtime_step(rt[0], NULL, mo[0].trans, out[0], &err) == CR_ERR_INVALID);
+    for (int i = 0; i < 2; i++)
+        cr_swingar_runtime_destroy(rt[i]);
+    free(out[0]), free(out[1]), free(ref[0]), free(ref[1]);
+    cr_swingar_destroy(m);
+}
+
+CR_TEST(swingar, runtime_opens_files_and_names_a_missing_one) {
+    /* a saved model and the garment written as OBJ, fitted on the normal
+     * mannequin: the untrained model is the skinned garment, so frame 0
+     * (the rest pose) is the fitted rest garment moved by the root */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d);
+    cr_swingar_def def = tiny_def();
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    CR_CHECK_OK(cr_swingar_create(&def, 3, &m, &err), &err);
+    CR_REQUIRE(m);
+    char model[512], obj[512];
+    snprintf(model, sizeof model, "%s/swingar_runtime.safetensors", cr_test_tmpdir());
+    snprintf(obj, sizeof obj, "%s/swingar_runtime_dress.obj", cr_test_tmpdir());
+    CR_CHECK_OK(cr_swingar_save(model, m, &err), &err);
+    CR_CHECK_OK(cr_mesh_write(obj, d->garments[0]->rest, &err), &err);
+    cr_swingar_runtime *rt = NULL;
+    CR_CHECK_OK(cr_swingar_runtime_open(model, obj, "normal", 0, &rt, &err), &err);
+    CR_REQUIRE(rt);
+    const cr_mesh *rest = cr_swingar_runtime_rest(rt);
+    const int64_t V = cr_swingar_runtime_vertices(rt);
+    CR_CHECK(V == rest->nv && cr_swingar_runtime_body(rt));
+    float pose[CR_NJOINTS * 3] = {0}, root[3] = {0.1f, 0.0f, -0.2f};
+    float *out = malloc(sizeof(float) * (size_t)V * 3);
+    CR_REQUIRE(out);
+    CR_CHECK_OK(cr_swingar_runtime_step(rt, pose, root, out, &err), &err);
+    double dr = 0;
+    for (int64_t i = 0; i < V * 3; i++)
+        dr = fmax(dr, fabs(out[i] - rest->pos[i] - root[i % 3]));
+    printf("    opened: %lld vertices, frame 0 vs rest %.2e m\n", (long long)V, dr);
+    CR_CHECK(dr < 1e-3);
+    free(out);
+    cr_swingar_runtime_destroy(rt);
+    rt = NULL;
+    char missing[600];
+    snprintf(missing, sizeof missing, "%s/no_such_model.safetensors", cr_test_tmpdir());
+    CR_CHECK(cr_swingar_runtime_open(missing, obj, NULL, 0, &rt, &err) != CR_OK);
+    printf("    missing model: %s\n", err.msg);
+    CR_CHECK(strstr(err.msg, "no_such_model") != NULL && rt == NULL);
     cr_swingar_destroy(m);
 }
 

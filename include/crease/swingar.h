@@ -262,13 +262,12 @@ cr_status cr_swingar_load(const char *path, cr_swingar **out, cr_error *err);
 /* The def stored in a model or checkpoint, without its weights. */
 cr_status cr_swingar_read_def(const char *path, cr_swingar_def *def, cr_error *err);
 
-/* Predict a whole motion (frames 0..T-1) without gradients, `chunk` frames
- * per forward (0: 8; the two coarse frames before a chunk's first are kept
- * from the chunk before): out (T,V,3) caller-allocated. arena_bytes 0:
- * 512 MiB. */
+/* Predict a whole motion (frames 0..T-1) without gradients, frame by frame
+ * through the runtime below: out (T,V,3) caller-allocated. arena_bytes 0:
+ * sized by trial (cr_swingar_runtime_create). */
 cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
-                             const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
-                             float *out, cr_error *err);
+                             const cr_swingar_motion *mo, size_t arena_bytes, float *out,
+                             cr_error *err);
 
 /* A fitted garment (cr_garment_load_user, cr_garment_create) on body b
  * animated by motion mo: its descriptor when the model uses one (an error
@@ -276,26 +275,71 @@ cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
  * caller-allocated. */
 cr_status cr_swingar_animate(cr_swingar *m, const struct cr_garment *garment, const char *source,
                              const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
-                             int32_t chunk, float *out, cr_error *err);
+                             float *out, cr_error *err);
 
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {
-    double encode_seconds;   /* the garment's encoding (E_g, E_a, skinning map), once */
+    double encode_seconds;   /* the runtime's creation: the garment's encoding (E_g, E_a, the
+                                skinning map) and the arena's two trial frames, once */
     size_t arena_peak_bytes; /* the arena's high-water mark: the garment's encoding and the
-                                activations of one step */
+                                activations of one frame */
 } cr_swingar_predict_stats;
 
-/* nseq motions of one garment in one call: the garment is encoded once
- * (E_g, E_a, the skinning map), then each step of the arena predicts the
- * next `chunk` frames of one sequence, so memory does not grow with nseq.
- * Each sequence keeps its last two coarse graphs (M_c of eq. 6) between
- * steps, so a frame's coarse shape is computed once whatever the chunk.
- * out[b] (T_b,V,3) caller-allocated; stats may be NULL. cr_swingar_predict
- * is this with nseq 1. */
+/* nseq motions of one garment in one call: one runtime encodes the garment
+ * once and steps each sequence in turn (reset between), so memory does not
+ * grow with nseq. out[b] (T_b,V,3) caller-allocated; stats may be NULL.
+ * cr_swingar_predict is this with nseq 1. */
 cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
                                    const cr_swingar_motion *mos, int32_t nseq, size_t arena_bytes,
-                                   int32_t chunk, float *const *out,
-                                   cr_swingar_predict_stats *stats, cr_error *err);
+                                   float *const *out, cr_swingar_predict_stats *stats,
+                                   cr_error *err);
+
+/* ------------------------------------------------------------- runtime -- */
+
+/* Frame by frame, for a game loop or a renderer (src/methods/swingar/runtime.c):
+ *
+ *   cr_swingar_runtime *rt = NULL;
+ *   CR_TRY(cr_swingar_runtime_open("model.safetensors", "dress.obj", "normal", 0, &rt, err));
+ *   float *verts = malloc(sizeof(float) * 3 * cr_swingar_runtime_vertices(rt));
+ *   for each frame: cr_swingar_runtime_step(rt, pose, root, verts, err);   // (22,3), (3)
+ *   cr_swingar_runtime_destroy(rt);
+ *
+ * A step takes the frame's pose (22 axis-angles in the body's joint order,
+ * rad, relative to its rest pose) and root translation (m) and writes the
+ * garment's (V,3) world positions, m: the same as cr_swingar_predict of the
+ * whole motion, frame for frame. All memory is taken at create (the arena
+ * is sized by two trial frames); a step allocates nothing. Instances are
+ * independent: each may step on its own thread, also when several share
+ * one model (only read). */
+typedef struct cr_swingar_runtime cr_swingar_runtime;
+
+/* m, g and rest_joints (22,3) are borrowed (m and g must outlive the
+ * runtime; the joints are copied). arena_bytes 0: sized by trial. */
+cr_status cr_swingar_runtime_create(cr_swingar *m, const cr_swingar_garment *g,
+                                    const float *rest_joints, size_t arena_bytes,
+                                    cr_swingar_runtime **out, cr_error *err);
+/* From files, owning what it loads: a model (cr_swingar_save), a garment
+ * (OBJ, PLY or glb, with or without UVs: cr_garment_load_user) fitted on
+ * the body `body_spec` (cr_body_resolve: a preset or an SMPL-family file;
+ * NULL: the normal mannequin). Errors name the file. */
+cr_status cr_swingar_runtime_open(const char *model_path, const char *garment_path,
+                                  const char *body_spec, size_t arena_bytes,
+                                  cr_swingar_runtime **out, cr_error *err);
+void cr_swingar_runtime_destroy(cr_swingar_runtime *rt); /* NULL is a no-op */
+/* Back to before the first frame (the pose history and kept graphs cleared). */
+void cr_swingar_runtime_reset(cr_swingar_runtime *rt);
+cr_status cr_swingar_runtime_step(cr_swingar_runtime *rt, const float *pose, const float *trans,
+                                  float *out, cr_error *err);
+/* n characters, one frame each: poses (n,22,3), trans (n,3), out[i] (V_i,3). */
+cr_status cr_swingar_runtime_step_batch(cr_swingar_runtime *const *rts, int32_t n,
+                                        const float *poses, const float *trans, float *const *out,
+                                        cr_error *err);
+int32_t cr_swingar_runtime_vertices(const cr_swingar_runtime *rt);
+/* The garment's rest mesh (its triangles are the output's). */
+const cr_mesh *cr_swingar_runtime_rest(const cr_swingar_runtime *rt);
+/* The body an opened runtime fitted the garment on (NULL for a created one). */
+const cr_body_model *cr_swingar_runtime_body(const cr_swingar_runtime *rt);
+size_t cr_swingar_runtime_arena_bytes(const cr_swingar_runtime *rt);
 
 #ifdef __cplusplus
 }

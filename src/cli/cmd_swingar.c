@@ -51,8 +51,7 @@ void help_swingar(void) {
            "                         FILE.npz[:beta,beta,...]\n"
            "  --frames N             frames of a clip (default 120)\n"
            "  --fps F                frames per second (default 30)\n"
-           "  --chunk K              frames per forward (default 8; memory grows with K)\n"
-           "  --arena-mb N           per-step memory, MiB (default 512)\n"
+
            "  --scale S, --start-frame N, --end-frame N, --ease-in S, --ground MODE   a motion\n"
            "                         file's preparation, as in crease motion (ease-in 1 s)\n"
            "  --skinned              write the garment skinned by its own weights instead (the\n"
@@ -164,7 +163,7 @@ static int cmd_train(int argc, char **argv) {
 
 typedef struct run_opts {
     const char *model, *garment, *motion, *body, *out;
-    int frames, skinned, json, arena_mb, chunk;
+    int frames, skinned, json;
     float fps;
     cli_motion_file mf;
 } run_opts;
@@ -223,8 +222,6 @@ static int cmd_run(int argc, char **argv) {
         CLI_INT("--frames", &o.frames, 1, 1000000),
         CLI_FLOAT("--fps", &o.fps, 1e-3, 1000),
         CLI_FLAG("--skinned", &o.skinned),
-        CLI_INT("--arena-mb", &o.arena_mb, 16, 1 << 20),
-        CLI_INT("--chunk", &o.chunk, 1, 60),
         CLI_MOTION_FILE_OPTS(&o.mf),
         CLI_OUTPUT(&o.out),
         CLI_FLAG("--json", &o.json),
@@ -259,8 +256,7 @@ static int cmd_run(int argc, char **argv) {
             st = cr_garment_pose(g, b, mo->poses + (size_t)t * CR_NJOINTS * 3, mo->trans + 3 * t,
                                  pred + (size_t)t * V * 3, &err);
     } else if (st == CR_OK) {
-        st = cr_swingar_animate(m, g, o.garment, b, mo, (size_t)o.arena_mb << 20, o.chunk, pred,
-                                &err);
+        st = cr_swingar_animate(m, g, o.garment, b, mo, 0, pred, &err);
     }
     double seconds = cr_time_now() - t0;
     if (st == CR_OK) st = write_outputs(&o, g, b, pred, body, T, &err);

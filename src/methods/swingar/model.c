@@ -409,7 +409,7 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
 
 cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const char *source,
                              const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
-                             int32_t chunk, float *out, cr_error *err) {
+                             float *out, cr_error *err) {
     const cr_swingar_def *d = cr_swingar_get_def(m);
     float *desc = calloc((size_t)d->descriptor_len, sizeof(float));
     if (!desc) return CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
@@ -423,85 +423,8 @@ cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const cha
         st = cr_swingar_garment_create(garment->mesh, garment->skin_joint, garment->skin_weight, b,
                                        desc, d->descriptor_len, &sg, err);
     cr_swingar_motion sm = {mo->nframes, b->joints, mo->poses, mo->trans};
-    if (st == CR_OK) st = cr_swingar_predict(m, sg, &sm, arena_bytes, chunk, out, err);
+    if (st == CR_OK) st = cr_swingar_predict(m, sg, &sm, arena_bytes, out, err);
     cr_swingar_garment_destroy(sg);
     free(desc);
-    return st;
-}
-
-cr_status cr_swingar_predict(cr_swingar *m, const cr_swingar_garment *g,
-                             const cr_swingar_motion *mo, size_t arena_bytes, int32_t chunk,
-                             float *out, cr_error *err) {
-    return cr_swingar_predict_batch(m, g, mo, 1, arena_bytes, chunk, &out, NULL, err);
-}
-
-cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
-                                   const cr_swingar_motion *mos, int32_t nseq, size_t arena_bytes,
-                                   int32_t chunk, float *const *out,
-                                   cr_swingar_predict_stats *stats, cr_error *err) {
-    if (!m || !g || !mos || !out || nseq < 1)
-        return CR_FAIL(err, CR_ERR_INVALID, "swingar predict: NULL input or %d sequences", nseq);
-    if (chunk <= 0) chunk = SWG_PREDICT_CHUNK;
-    if (chunk > SWG_MAX_WINDOW) chunk = SWG_MAX_WINDOW;
-    int32_t T = 0;
-    for (int32_t b = 0; b < nseq; b++) {
-        if (mos[b].nframes < 1)
-            return CR_FAIL(err, CR_ERR_INVALID, "swingar predict: sequence %d has no frames", b);
-        if (mos[b].nframes > T) T = mos[b].nframes;
-    }
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = arena_bytes ? arena_bytes : (size_t)512 << 20;
-    cr_nn_ctx *ctx = NULL;
-    CR_TRY(cr_nn_ctx_create(&cd, &ctx, err));
-    cr_nn_ctx_set_grad_enabled(ctx, 0);
-    const int64_t V = g->rest->nv, J = CR_NJOINTS, H = m->def.garment_width[1];
-    const int64_t S = m->def.state_width, fsz = V * SWG_CORR_FEATURES;
-    /* the garment's encoding once, kept on the host across arena resets */
-    double t0s = cr_time_now();
-    swg_genc e;
-    float *host = NULL, *prev = NULL;
-    cr_status st = cr_swingar_encode_garment_(ctx, m, g, &e) ? CR_OK : cr_nn_ctx_error(ctx, err);
-    if (st == CR_OK && !(e.G && e.skinmat && e.logw0))
-        st = CR_FAIL(err, CR_ERR_INVALID, "swingar predict: bad garment encoding");
-    if (st == CR_OK) {
-        host = cr_malloc(sizeof(float) * (size_t)(V * H + S * J + V * J), err);
-        prev = cr_malloc(sizeof(float) * (size_t)(2 * fsz * nseq), err);
-        if (!host || !prev) st = err ? err->status : CR_ERR_MEMORY;
-    }
-    float *hG = host, *hS = host ? host + V * H : NULL, *hL = host ? hS + S * J : NULL;
-    if (st == CR_OK) {
-        memcpy(hG, e.G->data, sizeof(float) * (size_t)(V * H));
-        memcpy(hS, e.skinmat->data, sizeof(float) * (size_t)(S * J));
-        memcpy(hL, e.logw0->data, sizeof(float) * (size_t)(V * J));
-    }
-    double encode_s = cr_time_now() - t0s;
-    for (int32_t t0 = 0; t0 < T && st == CR_OK; t0 += chunk) {
-        /* one step of the arena per sequence: holding all of them at once
-         * (a GPU's batch) multiplies the memory and buys nothing on a CPU,
-         * whose GEMMs are already (V x width) */
-        for (int32_t b = 0; b < nseq && st == CR_OK; b++) {
-            const cr_swingar_motion *mo = &mos[b];
-            if (t0 >= mo->nframes) continue;
-            cr_nn_ctx_reset(ctx);
-            swg_genc w = {cr_nn_wrap(ctx, 2, (int64_t[]){V, H}, hG),
-                          cr_nn_wrap(ctx, 2, (int64_t[]){S, J}, hS),
-                          cr_nn_wrap(ctx, 2, (int64_t[]){V, J}, hL)};
-            int32_t K = mo->nframes - t0 < chunk ? mo->nframes - t0 : chunk;
-            float *pb = prev + 2 * fsz * b;
-            cr_tensor *y =
-                cr_swingar_forward_frames_(ctx, m, g, &w, mo, t0, K, t0 > 0 ? pb : NULL, pb, NULL);
-            st = cr_nn_ctx_error(ctx, err);
-            if (st == CR_OK && !y) st = CR_FAIL(err, CR_ERR_INVALID, "swingar: bad forward input");
-            if (st == CR_OK)
-                memcpy(out[b] + (size_t)t0 * V * 3, y->data, sizeof(float) * K * V * 3);
-        }
-    }
-    if (stats) {
-        stats->encode_seconds = encode_s;
-        stats->arena_peak_bytes = cr_nn_ctx_arena_peak(ctx);
-    }
-    free(host);
-    free(prev);
-    cr_nn_ctx_destroy(ctx);
     return st;
 }

@@ -245,7 +245,7 @@ static double seq_error(cr_swingar *m, const cr_swingar_data *d, int32_t si, siz
         *st = CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
         return 0;
     }
-    *st = cr_swingar_predict(m, g, &mo, arena, 0, pred, err);
+    *st = cr_swingar_predict(m, g, &mo, arena, pred, err);
     double sum = 0;
     for (int64_t i = 0; *st == CR_OK && i < s->nframes * V; i++) {
         const float *a = pred + 3 * i, *b = s->garment_pos + 3 * i;
