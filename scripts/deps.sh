@@ -20,6 +20,7 @@ packages=(
   libopenmpi-dev    # MPI ranks for `crease dataset` and `crease fit` (docs/mpi.md)
   openmpi-bin       # mpirun, for the 2-rank tests
   chromium          # headless browser for the `crease view` test (tests/view.sh)
+  python3-numpy     # python/crease.py (ctypes + numpy) and its test (tests/python_runtime.sh)
 )
 
 missing=()

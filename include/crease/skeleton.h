@@ -16,6 +16,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 struct cr_mesh;
 
 #define CR_NJOINTS 22
@@ -76,4 +80,7 @@ typedef struct cr_body_model {
 cr_status cr_motion_create(int32_t nframes, float fps, cr_motion **out, cr_error *err);
 void cr_motion_destroy(cr_motion *m);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

@@ -1,0 +1,197 @@
+"""crease.py: crease's frame-by-frame garment runtime from Python, through ctypes and numpy.
+
+    import numpy as np, crease
+    with crease.SwingarRuntime("model.safetensors", "dress.obj", body="normal") as rt:
+        for pose, root in zip(poses, trans):          # (22,3) axis-angles, rad; (3,) m
+            verts = rt.step(pose, root)              # (V,3) float32 world positions, m
+    faces = rt.triangles                            # (F,3) int32, the garment's rest triangles
+
+The library is libcrease_runtime.so (built beside libcrease.a; `make build` puts it in
+build/release). It is looked up in $CREASE_LIBRARY, then in ../build/release beside this file,
+then by the system's loader. Errors raise crease.Error with the library's message, which
+names the file or argument at fault. Only numpy and the standard library are used.
+"""
+
+import ctypes
+import ctypes.util
+import os
+
+import numpy as np
+
+__all__ = ["Error", "SwingarRuntime", "library"]
+
+NJOINTS = 22
+
+
+class Error(RuntimeError):
+    """A crease call failed; the message is the library's."""
+
+
+class _CrError(ctypes.Structure):
+    _fields_ = [
+        ("status", ctypes.c_int),
+        ("src_file", ctypes.c_char_p),
+        ("src_line", ctypes.c_int),
+        ("msg", ctypes.c_char * 512),
+    ]
+
+
+class _CrMesh(ctypes.Structure):  # the leading fields of cr_mesh (crease/mesh.h)
+    _fields_ = [
+        ("nv", ctypes.c_int32),
+        ("nf", ctypes.c_int32),
+        ("nuv", ctypes.c_int32),
+        ("pos", ctypes.POINTER(ctypes.c_float)),
+        ("tri", ctypes.POINTER(ctypes.c_int32)),
+    ]
+
+
+_lib = None
+
+
+def library():
+    """The loaded libcrease_runtime.so (loaded on first use)."""
+    global _lib
+    if _lib is not None:
+        return _lib
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidates = [
+        os.environ.get("CREASE_LIBRARY"),
+        os.path.join(here, "..", "build", "release", "libcrease_runtime.so"),
+        ctypes.util.find_library("crease_runtime"),
+    ]
+    tried = []
+    for path in candidates:
+        if not path:
+            continue
+        if os.sep in path and not os.path.exists(path):
+            tried.append(path + " (missing)")
+            continue
+        try:
+            lib = ctypes.CDLL(path)
+            break
+        except OSError as e:
+            tried.append("%s (%s)" % (path, e))
+    else:
+        raise Error("crease: libcrease_runtime.so not found; set CREASE_LIBRARY (tried: %s)"
+                    % "; ".join(tried))
+    f = ctypes.c_float
+    P = ctypes.POINTER
+    vp = ctypes.c_void_p
+    err = P(_CrError)
+    lib.cr_swingar_runtime_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
+                                            ctypes.c_size_t, P(vp), err]
+    lib.cr_swingar_runtime_open.restype = ctypes.c_int
+    lib.cr_swingar_runtime_step.argtypes = [vp, P(f), P(f), P(f), err]
+    lib.cr_swingar_runtime_step.restype = ctypes.c_int
+    lib.cr_swingar_runtime_step_batch.argtypes = [P(vp), ctypes.c_int32, P(f), P(f), P(P(f)),
+                                                  err]
+    lib.cr_swingar_runtime_step_batch.restype = ctypes.c_int
+    lib.cr_swingar_runtime_reset.argtypes = [vp]
+    lib.cr_swingar_runtime_reset.restype = None
+    lib.cr_swingar_runtime_destroy.argtypes = [vp]
+    lib.cr_swingar_runtime_destroy.restype = None
+    lib.cr_swingar_runtime_vertices.argtypes = [vp]
+    lib.cr_swingar_runtime_vertices.restype = ctypes.c_int32
+    lib.cr_swingar_runtime_rest.argtypes = [vp]
+    lib.cr_swingar_runtime_rest.restype = P(_CrMesh)
+    lib.cr_swingar_runtime_arena_bytes.argtypes = [vp]
+    lib.cr_swingar_runtime_arena_bytes.restype = ctypes.c_size_t
+    _lib = lib
+    return lib
+
+
+def _fptr(a):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_float))
+
+
+def _check(status, err):
+    if status != 0:
+        raise Error(err.msg.decode("utf-8", "replace"))
+
+
+def _floats(a, shape, what):
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    if a.shape != shape and a.size == int(np.prod(shape)):
+        a = a.reshape(shape)
+    if a.shape != shape:
+        raise Error("crease: %s has shape %s, expected %s" % (what, a.shape, shape))
+    return a
+
+
+class SwingarRuntime:
+    """SwinGar frame by frame (crease/swingar.h, cr_swingar_runtime_*).
+
+    model: a model file from `crease swingar train`; garment: an OBJ, PLY or glb garment
+    (UVs not needed), fitted to the body first; body: a mannequin preset (slim, normal,
+    heavy) or an SMPL-family FILE.npz[:betas]. All memory is taken here; step allocates only
+    the returned array (pass out= to reuse one)."""
+
+    def __init__(self, model, garment, body="normal"):
+        lib = library()
+        self._lib = lib
+        self._rt = ctypes.c_void_p()
+        err = _CrError()
+        _check(lib.cr_swingar_runtime_open(os.fsencode(model), os.fsencode(garment),
+                                           body.encode() if body else None, 0,
+                                           ctypes.byref(self._rt), ctypes.byref(err)), err)
+        self.vertices = lib.cr_swingar_runtime_vertices(self._rt)
+        mesh = lib.cr_swingar_runtime_rest(self._rt).contents
+        self.triangles = np.ctypeslib.as_array(mesh.tri, shape=(mesh.nf, 3)).copy()
+        self.rest = np.ctypeslib.as_array(mesh.pos, shape=(mesh.nv, 3)).copy()
+        self.arena_bytes = lib.cr_swingar_runtime_arena_bytes(self._rt)
+
+    def step(self, pose, root, out=None):
+        """One frame: pose (22,3) axis-angles (rad, SMPL's joint order, relative to the rest
+        pose; 66 floats also do), root (3,) translation, m. Returns (V,3) float32 positions."""
+        if not self._rt:
+            raise Error("crease: the runtime is closed")
+        pose = _floats(pose, (NJOINTS, 3), "pose")
+        root = _floats(root, (3,), "root")
+        if out is None:
+            out = np.empty((self.vertices, 3), dtype=np.float32)
+        elif out.dtype != np.float32 or out.shape != (self.vertices, 3) or \
+                not out.flags.c_contiguous:
+            raise Error("crease: out must be a C-contiguous float32 array of shape (%d, 3)"
+                        % self.vertices)
+        err = _CrError()
+        _check(self._lib.cr_swingar_runtime_step(self._rt, _fptr(pose), _fptr(root), _fptr(out),
+                                                 ctypes.byref(err)), err)
+        return out
+
+    def reset(self):
+        """Back to before the first frame."""
+        if self._rt:
+            self._lib.cr_swingar_runtime_reset(self._rt)
+
+    def close(self):
+        if self._rt:
+            self._lib.cr_swingar_runtime_destroy(self._rt)
+            self._rt = ctypes.c_void_p()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+    @staticmethod
+    def step_batch(runtimes, poses, roots):
+        """One frame of several characters in one call: poses (n,22,3), roots (n,3).
+        Returns a list of (V_i,3) arrays."""
+        n = len(runtimes)
+        if n == 0:
+            return []
+        lib = runtimes[0]._lib
+        poses = _floats(poses, (n, NJOINTS, 3), "poses")
+        roots = _floats(roots, (n, 3), "roots")
+        outs = [np.empty((r.vertices, 3), dtype=np.float32) for r in runtimes]
+        handles = (ctypes.c_void_p * n)(*[r._rt.value for r in runtimes])
+        optrs = (ctypes.POINTER(ctypes.c_float) * n)(*[_fptr(o) for o in outs])
+        err = _CrError()
+        _check(lib.cr_swingar_runtime_step_batch(handles, n, _fptr(poses), _fptr(roots), optrs,
+                                                 ctypes.byref(err)), err)
+        return outs

@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# runtime.sh: SwinGar's frame-by-frame runtime from outside the tool. examples/runtime_loop.c
+# streams a CMU-style BVH through it into an animated glb. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
+# numpy, and gives what `crease swingar run` writes for the same model, garment and clip (the
+# batch tool goes through the same runtime): within 1e-5 m on every frame. Also: a batch of two
+# characters equals each alone, reset starts over, a missing model raises crease.Error naming
+# the file, a wrong pose shape is refused. Debian's python3 with python3-numpy (scripts/deps.sh).
+# Usage: runtime.sh PATH_TO_CREASE PATH_TO_LIBCREASE_RUNTIME_SO (the examples beside the tool)
+source "$(dirname "$0")/lib_cli.sh" "$1"
+export CREASE_LIBRARY=${2:?usage: runtime.sh CREASE LIBCREASE_RUNTIME_SO}
+export OPENBLAS_NUM_THREADS=1 OMP_WAIT_POLICY=passive
+src=$(cd "$(dirname "$0")/.." && pwd)
+# Debian's interpreter, whose numpy scripts/deps.sh installs (a python3 earlier on PATH, such
+# as a pyenv one, may have none)
+py=/usr/bin/python3
+[[ -x $py ]] || py=$(command -v python3)
+
+check "dataset" "$crease" dataset --garments dress --motions walk --low-vertices 500 --frames 8 \
+  -o "$tmp/data" --quiet
+check "train" "$crease" swingar train --dataset "$tmp/data" --size tiny --epochs 2 --window 4 \
+  --batch 2 --lr 1e-2 -o "$tmp/m.safetensors" --quiet
+g=$(find "$tmp/data/garments" -name '*.obj' | head -n 1)
+check "motion" "$crease" motion --clip walk --frames 20 -o "$tmp/walk.npz"
+check "run" "$crease" swingar run --model "$tmp/m.safetensors" --garment "$g" --motion walk \
+  --frames 20 -o "$tmp/run"
+# the C example, on a BVH laid out as the CMU database's (example_cmu_walk_bvh)
+bin=$(dirname "$crease")
+check "bvh" "$bin/example_cmu_walk_bvh" "$tmp/walk.bvh" 1
+check "runtime_loop" bash -c "'$bin/example_runtime_loop' '$tmp/m.safetensors' '$g' '$tmp/walk.bvh' \
+  '$tmp/loop.glb' > '$tmp/loop.out'"
+check "runtime_loop glb" bash -c "[[ \$(head -c 4 '$tmp/loop.glb') == glTF ]] && grep -q 'frames/s' '$tmp/loop.out'"
+cat "$tmp/loop.out"
+if PYTHONPATH=$src/python "$py" - "$tmp" "$g" >"$tmp/py.out" 2>&1 <<'EOF_PY'
+import sys
+import numpy as np
+import crease
+
+tmp, garment = sys.argv[1], sys.argv[2]
+mo = np.load(tmp + "/walk.npz")
+poses, trans = mo["poses"].reshape(-1, 22, 3), mo["trans"]
+with open(tmp + "/run/garment.pc2", "rb") as f:
+    head = f.read(32)
+    assert head[:12] == b"POINTCACHE2\0", head[:12]
+    nv, nframes = np.frombuffer(head[16:20], "<i4")[0], np.frombuffer(head[28:32], "<i4")[0]
+    ref = np.frombuffer(f.read(), "<f4").reshape(nframes, nv, 3)
+assert ref.shape[0] == len(poses), (ref.shape, poses.shape)
+with crease.SwingarRuntime(tmp + "/m.safetensors", garment, body="normal") as rt:
+    assert rt.vertices == nv and rt.triangles.shape[1] == 3 and rt.triangles.max() < nv
+    out = np.empty((rt.vertices, 3), np.float32)
+    d = max(np.abs(rt.step(p, r, out=out) - ref[t]).max() for t, (p, r) in enumerate(zip(poses, trans)))
+    print("runtime vs swingar run: max %.2e m over %d frames, %d vertices, arena %d bytes"
+          % (d, len(poses), nv, rt.arena_bytes))
+    assert d < 1e-5, d
+    rt.reset()
+    with crease.SwingarRuntime(tmp + "/m.safetensors", garment) as rt2:
+        db = 0.0
+        for t in range(len(poses)):
+            a, b = crease.SwingarRuntime.step_batch([rt, rt2], poses[[t, t]], trans[[t, t]])
+            db = max(db, np.abs(a - ref[t]).max(), np.abs(b - ref[t]).max())
+        print("batch of two after a reset: max %.2e m" % db)
+        assert db < 1e-5, db
+    try:
+        rt.step(np.zeros(5), np.zeros(3))
+        raise AssertionError("a (5,) pose was accepted")
+    except crease.Error as e:
+        print("wrong pose:", e)
+try:
+    crease.SwingarRuntime(tmp + "/no_such_model.safetensors", garment)
+    raise AssertionError("a missing model opened")
+except crease.Error as e:
+    print("missing model:", e)
+    assert "no_such_model" in str(e)
+print("ok")
+EOF_PY
+then
+  passed=$((passed + 1))
+  cat "$tmp/py.out"
+else
+  failed=$((failed + 1))
+  echo "FAIL: python/crease.py:" >&2
+  cat "$tmp/py.out" >&2
+fi
+echo "runtime: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
