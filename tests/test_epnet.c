@@ -10,10 +10,12 @@
 #include "crease/epnet.h"
 #include "crease/losses.h"
 #include "crease/mesh.h"
+#include "crease/motion.h"
 #include "crease/npz.h"
 #include "crease/topology.h"
 #include "methods/epnet/epnet_internal.h"
 
+#include <malloc.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -667,6 +669,97 @@ CR_TEST(epnet, proxy_inference_cannot_run_away) {
     /* frame t's E-Net is given RB of frame t-1: frame 0's is the proxy's own */
     CR_CHECK(memcmp(th, th0, sizeof(float) * (size_t)H) == 0);
     free(th0), free(th), free(rb), free(pos);
+    cr_epnet_seq_destroy(s);
+    cr_epnet_destroy(m);
+}
+
+/* The runtime steps a motion frame by frame and gives cr_epnet_infer's
+ * positions and RB on the whole sequence (and, without a warm-up, the RB of
+ * P-Net run over E-Net's own zero-RB rollout, and that rollout's positions):
+ * the proxy (with and without a warm-up) and zero RB, on a squat with a hold, at a yield low enough
+ * that RB moves; a reset starts over; the heap does not grow while stepping. */
+CR_TEST(epnet, runtime_steps_equal_the_inference) {
+    cr_error err = {0};
+    cr_epnet_def d = tiny_def();
+    d.material.yield_angle = 0.05;
+    cr_epnet *m = NULL;
+    CR_REQUIRE(cr_epnet_create(&d, &m, &err) == CR_OK);
+    const int frames = 12, hold = 4;
+    cr_epnet_seq *s = NULL;
+    CR_REQUIRE(cr_epnet_seq_create(m, "squat", NULL, frames, hold, &s, &err) == CR_OK);
+    cr_motion *mo = NULL;
+    cr_motion_resolve_def rd = cr_motion_resolve_default_def();
+    rd.clip_frames = frames, rd.max_frames = frames, rd.fps = d.fps;
+    CR_REQUIRE(cr_motion_resolve("squat", &rd, &mo, NULL, &err) == CR_OK);
+    const int32_t T = cr_epnet_seq_frames(s), H = cr_epnet_hinge_count(m),
+                  V = cr_epnet_garment(m)->nv;
+    CR_REQUIRE(T == frames + hold && mo->nframes == frames);
+    float *pos = malloc(sizeof(float) * 3 * (size_t)T * V), *rb = malloc(sizeof(float) * T * H);
+    float *x = malloc(sizeof(float) * 3 * (size_t)V);
+    CR_REQUIRE(pos && rb && x);
+    /* the passes one after the other, as the proxy inference was first built:
+     * E-Net's rollout at RB = 0, then P-Net through the ratchet over it */
+    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V), *pth = malloc(sizeof(float) * T * H);
+    float *R = malloc(sizeof(float) * (size_t)T * H);
+    CR_REQUIRE(ppos && pth && R);
+    CR_REQUIRE(cr_epnet_rollout(m, s, 0, ppos, pth, NULL, &err) == CR_OK);
+    cr_epnet_ratchet_def rd0 = cr_epnet_ratchet_default_def();
+    CR_REQUIRE(cr_epnet_pnet_proxy_(m, ppos, pth, T, &rd0, R, &err) == CR_OK);
+    const cr_epnet_inference modes[3] = {CR_EPNET_PROXY, CR_EPNET_PROXY, CR_EPNET_ZERO_RB};
+    const int warmups[3] = {0, 3, 0};
+    for (int k = 0; k < 3; k++) {
+        cr_epnet_infer_def inf = cr_epnet_infer_default_def();
+        inf.mode = modes[k], inf.warmup = warmups[k];
+        CR_REQUIRE(cr_epnet_infer(m, s, &inf, pos, NULL, rb, &err) == CR_OK);
+        cr_epnet_runtime *rt = NULL;
+        CR_CHECK_OK(cr_epnet_runtime_create(m, NULL, &inf, &rt, &err), &err);
+        CR_REQUIRE(rt);
+        CR_CHECK(cr_epnet_runtime_vertices(rt) == V);
+        double dx = 0, drb = 0, maxrb = 0;
+        size_t held = 0;
+        for (int rep = 0; rep < 2; rep++) {
+            cr_epnet_runtime_reset(rt);
+            for (int32_t t = 0; t < T; t++) {
+                const int32_t f = t < frames ? t : frames - 1;
+#ifdef __GLIBC__
+                if (rep == 1 && t == 1) held = mallinfo2().uordblks;
+#endif
+                CR_CHECK_OK(cr_epnet_runtime_step(rt, mo->poses + (size_t)f * CR_NJOINTS * 3,
+                                                  mo->trans + 3 * f, x, &err),
+                            &err);
+                for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+                    dx = fmax(dx, fabs(x[i] - pos[(size_t)t * V * 3 + i]));
+                const float *r = cr_epnet_runtime_rb(rt);
+                for (int32_t h = 0; h < H; h++) {
+                    drb = fmax(drb, fabs(r[h] - rb[(size_t)t * H + h]));
+                    if (k == 0) drb = fmax(drb, fabs(r[h] - R[(size_t)t * H + h]));
+                    maxrb = fmax(maxrb, fabs(r[h]));
+                }
+                if (k == 2) /* zero RB: E-Net's own rollout */
+                    for (int64_t i = 0; i < 3 * (int64_t)V; i++)
+                        dx = fmax(dx, fabs(x[i] - ppos[(size_t)t * V * 3 + i]));
+            }
+        }
+        size_t now = held;
+#ifdef __GLIBC__
+        now = mallinfo2().uordblks;
+#endif
+        fprintf(stderr,
+                "  runtime, %s, warm-up %d: max |x - infer| %.2e m, |RB - infer| %.2e rad (max "
+                "|RB| %.3f), heap %zu -> %zu bytes\n",
+                modes[k] == CR_EPNET_PROXY ? "proxy" : "zero RB", warmups[k], dx, drb, maxrb, held,
+                now);
+        CR_CHECK(dx < 1e-5 && drb < 1e-6);
+        CR_CHECK(modes[k] == CR_EPNET_ZERO_RB ? maxrb == 0 : maxrb > 0.01);
+        CR_CHECK(now == held);
+        cr_epnet_runtime_destroy(rt);
+    }
+    cr_epnet_infer_def cl = cr_epnet_infer_default_def();
+    cl.mode = CR_EPNET_CLOSED_LOOP;
+    cr_epnet_runtime *rt = NULL;
+    CR_CHECK(cr_epnet_runtime_create(m, NULL, &cl, &rt, &err) == CR_ERR_UNSUPPORTED && !rt);
+    free(pos), free(rb), free(x), free(ppos), free(pth), free(R);
+    cr_motion_destroy(mo);
     cr_epnet_seq_destroy(s);
     cr_epnet_destroy(m);
 }

@@ -335,6 +335,42 @@ typedef struct cr_epnet_run_report {
 } cr_epnet_run_report;
 cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr_error *err);
 
+/* ------------------------------------------------------------- runtime -- */
+
+/* Frame by frame, for a game loop or a renderer (src/methods/epnet/runtime.c):
+ * each step takes the frame's pose (22 axis-angles, rad) and root (3, m) and
+ * writes the garment's (V,3) positions, m: what cr_epnet_infer gives on the
+ * whole motion, frame for frame (the proxy inference's three passes are
+ * causal: E-Net at RB = 0, E-Net with the RB after the frame before, P-Net
+ * through the ratchet). All memory is taken at create; a step allocates
+ * nothing. The networks run in the model's arena, so a runtime needs its own
+ * model to step beside another: cr_epnet_runtime_open loads one per
+ * runtime, and those are independent (one per thread). */
+typedef struct cr_epnet_runtime cr_epnet_runtime;
+
+/* On model m (borrowed: it must outlive the runtime, and no other runtime or
+ * inference may use it meanwhile). body: a body spec (cr_body_resolve) or
+ * NULL, the model's. infer: the mode (proxy or zero RB; the closed loop is
+ * refused), warm-up and ratchet; NULL: cr_epnet_infer_default_def. */
+cr_status cr_epnet_runtime_create(cr_epnet *m, const char *body, const cr_epnet_infer_def *infer,
+                                  cr_epnet_runtime **out, cr_error *err);
+/* The same on its own copy of the model in model_dir (cr_epnet_open). */
+cr_status cr_epnet_runtime_open(const char *model_dir, const char *body,
+                                const cr_epnet_infer_def *infer, cr_epnet_runtime **out,
+                                cr_error *err);
+void cr_epnet_runtime_destroy(cr_epnet_runtime *rt); /* NULL is a no-op */
+/* Back to before the first frame: RB, the ratchet's history and the GRU state zeroed. */
+void cr_epnet_runtime_reset(cr_epnet_runtime *rt);
+cr_status cr_epnet_runtime_step(cr_epnet_runtime *rt, const float *pose, const float *trans,
+                                float *out, cr_error *err);
+/* n characters, one frame each: poses (n,22,3), trans (n,3), out[i] (V_i,3). */
+cr_status cr_epnet_runtime_step_batch(cr_epnet_runtime *const *rts, int32_t n, const float *poses,
+                                      const float *trans, float *const *out, cr_error *err);
+int32_t cr_epnet_runtime_vertices(const cr_epnet_runtime *rt);
+const cr_mesh *cr_epnet_runtime_rest(const cr_epnet_runtime *rt); /* the model's garment */
+/* The RB after the last frame (H, rad), in hinge order (cr_epnet_hinge_count). */
+const float *cr_epnet_runtime_rb(const cr_epnet_runtime *rt);
+
 /* Persistence: the share of hinges whose |theta - theta_bar| at frame t
  * exceeds thresh (rad). theta (T,H), theta_bar (H). */
 double cr_epnet_fold_share(const float *theta, const float *theta_bar, int32_t t, int32_t nh,

@@ -74,5 +74,33 @@ cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth,
                                const cr_epnet_ratchet_def *d, float *R, cr_error *err);
 /* Angles (T,H) of positions (T,V,3). */
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta);
+/* One frame's angles (H) of positions (V,3), with caller scratch x (3V) and th (H + 1). */
+void cr_epnet_frame_angles_(const cr_epnet *m, const float *pos, double *x, double *th,
+                            float *theta);
+/* One frame's E-Net inputs from the pose (22,3) and root (3) on a body with rest
+ * joints (22,3): static (EP_STATIC_IN) and dynamic (EP_DYN_IN; zero when prev_pose is
+ * NULL, frame 0) inputs, the garment's per-vertex skinning A (V,3,3) and b (V,3). */
+void cr_epnet_frame_inputs_(const cr_epnet *m, const float *joints, const float *pose,
+                            const float *tr, const float *prev_pose, const float *prev_tr,
+                            float *stat, float *dyn, float *A, float *b);
+/* E-Net's frame t of s with RB input rb (H, or NULL: zero) and GRU state h_prev
+ * ((1,G) or NULL: zero): positions (1,V,3); *h_out the new state. On m->ctx. */
+cr_tensor *cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
+                                cr_tensor *h_prev, cr_tensor **h_out);
+/* P-Net's increment of one frame from positions pos (V,3) and angles th (H)
+ * through the ratchet d (history hist (H), scratch strain (H)) onto the RB r (H). */
+cr_status cr_epnet_pnet_ratchet_frame_(cr_epnet *m, const float *pos, const float *th,
+                                       const cr_epnet_ratchet_def *d, uint32_t *hist, float *strain,
+                                       float *r, cr_error *err);
+/* cr_epnet_infer's proxy and zero-RB modes: the runtime stepped over s's frames. */
+cr_status cr_epnet_runtime_infer_(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                                  float *pos, float *theta, float *rb, cr_error *err);
+/* The GRU state hstate (G) after `warmup` frames from the rest pose into frame 0 of s. */
+cr_status cr_epnet_warm_up_(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, float *hstate,
+                            cr_error *err);
+/* P-Net's RB increment (H) of a frame from positions (V,3), angles (H) and the RB
+ * before (H). On m->ctx. */
+cr_tensor *cr_epnet_pnet_forward_(cr_epnet *m, const float *pos, const float *theta,
+                                  const float *rb_prev);
 
 #endif

@@ -360,6 +360,44 @@ const cr_mesh *cr_epnet_seq_body_mesh(const cr_epnet_seq *s) {
     return s->body_rest;
 }
 
+void cr_epnet_frame_inputs_(const cr_epnet *m, const float *joints, const float *pose,
+                            const float *tr, const float *prev_pose, const float *prev_tr,
+                            float *stat, float *dyn, float *A_out, float *b_out) {
+    const int32_t V = m->nv;
+    const cr_garment *g = m->garment;
+    float xf[CR_NJOINTS * 12], R[9];
+    cr_body_skin_transforms(joints, pose, tr, xf);
+    for (int32_t v = 0; v < V; v++) {
+        float *A = A_out + (size_t)v * 9, *b = b_out + (size_t)v * 3;
+        memset(A, 0, 9 * sizeof *A), memset(b, 0, 3 * sizeof *b);
+        for (int k = 0; k < 4; k++) {
+            const float w = g->skin_weight[4 * v + k];
+            const float *X = xf + 12 * g->skin_joint[4 * v + k];
+            for (int r = 0; r < 3; r++) {
+                for (int c = 0; c < 3; c++)
+                    A[3 * r + c] += w * X[4 * r + c];
+                b[r] += w * X[4 * r + 3];
+            }
+        }
+    }
+    /* static: joints 1..21 and the world up in the root's frame */
+    memcpy(stat, pose + 3, 63 * sizeof *stat);
+    cr_body_rodrigues(pose, R);
+    for (int r = 0; r < 3; r++)
+        stat[63 + r] = R[3 * 1 + r]; /* R^T e_y */
+    /* dynamic: joint angular velocity and root velocity in the root frame, per s */
+    memset(dyn, 0, sizeof(float) * EP_DYN_IN);
+    if (!prev_pose) return;
+    for (int i = 0; i < 66; i++)
+        dyn[i] = (pose[i] - prev_pose[i]) * 0.1f * m->def.fps;
+    for (int r = 0; r < 3; r++) {
+        double v = 0;
+        for (int c = 0; c < 3; c++)
+            v += R[3 * c + r] * (tr[c] - prev_tr[c]);
+        dyn[66 + r] = (float)(v * m->def.fps);
+    }
+}
+
 cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char *body,
                               int32_t frames, int32_t hold, cr_epnet_seq **out, cr_error *err) {
     *out = NULL;
@@ -388,46 +426,14 @@ cr_status cr_epnet_seq_create(const cr_epnet *m, const char *motion, const char 
         if (!s->A || !s->b || !s->body || !s->stat || !s->dyn)
             st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for %d frames", T);
     }
-    float xf[CR_NJOINTS * 12], R[9];
-    const cr_garment *g = m->garment;
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
-        const int32_t f = t < T0 ? t : T0 - 1;
+        const int32_t f = t < T0 ? t : T0 - 1, fp = t == 0 ? -1 : (t - 1 < T0 ? t - 1 : T0 - 1);
         const float *pose = mo->poses + (size_t)f * CR_NJOINTS * 3, *tr = mo->trans + 3 * f;
         st = cr_body_pose(bm, pose, tr, s->body + (size_t)t * s->vb * 3, err);
-        cr_body_skin_transforms(bm->joints, pose, tr, xf);
-        for (int32_t v = 0; v < V; v++) {
-            float *A = s->A + ((size_t)t * V + v) * 9, *b = s->b + ((size_t)t * V + v) * 3;
-            memset(A, 0, 9 * sizeof *A), memset(b, 0, 3 * sizeof *b);
-            for (int k = 0; k < 4; k++) {
-                const float w = g->skin_weight[4 * v + k];
-                const float *X = xf + 12 * g->skin_joint[4 * v + k];
-                for (int r = 0; r < 3; r++) {
-                    for (int c = 0; c < 3; c++)
-                        A[3 * r + c] += w * X[4 * r + c];
-                    b[r] += w * X[4 * r + 3];
-                }
-            }
-        }
-        /* static: joints 1..21 and the world up in the root's frame */
-        float *si = s->stat + (size_t)t * EP_STATIC_IN;
-        memcpy(si, pose + 3, 63 * sizeof *si);
-        cr_body_rodrigues(pose, R);
-        for (int r = 0; r < 3; r++)
-            si[63 + r] = R[3 * 1 + r]; /* R^T e_y */
-        /* dynamic: joint angular velocity and root velocity in the root frame, per s */
-        float *di = s->dyn + (size_t)t * EP_DYN_IN;
-        if (t > 0) {
-            const int32_t fp = (t - 1) < T0 ? t - 1 : T0 - 1;
-            const float *pp = mo->poses + (size_t)fp * CR_NJOINTS * 3, *tp = mo->trans + 3 * fp;
-            for (int i = 0; i < 66; i++)
-                di[i] = (pose[i] - pp[i]) * 0.1f * m->def.fps;
-            for (int r = 0; r < 3; r++) {
-                double v = 0;
-                for (int c = 0; c < 3; c++)
-                    v += R[3 * c + r] * (tr[c] - tp[c]);
-                di[66 + r] = (float)(v * m->def.fps);
-            }
-        }
+        cr_epnet_frame_inputs_(
+            m, bm->joints, pose, tr, fp < 0 ? NULL : mo->poses + (size_t)fp * CR_NJOINTS * 3,
+            fp < 0 ? NULL : mo->trans + 3 * fp, s->stat + (size_t)t * EP_STATIC_IN,
+            s->dyn + (size_t)t * EP_DYN_IN, s->A + (size_t)t * V * 9, s->b + (size_t)t * V * 3);
     }
     cr_motion_destroy(mo);
     if (st != CR_OK) {
@@ -513,6 +519,15 @@ void cr_epnet_paired_terms_(cr_nn_ctx *c, const cr_bending *b, cr_tensor *x_rb, 
     *resp = cr_nn_mean(c, cr_nn_square(c, e));
 }
 
+void cr_epnet_frame_angles_(const cr_epnet *m, const float *pos, double *x, double *th,
+                            float *theta) {
+    for (int64_t i = 0; i < 3 * (int64_t)m->nv; i++)
+        x[i] = pos[i];
+    cr_bending_angles(m->bending, x, th);
+    for (int32_t h = 0; h < m->nh; h++)
+        theta[h] = (float)th[h];
+}
+
 void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *theta) {
     const int32_t V = m->nv, H = m->nh;
     double *x = malloc(sizeof(double) * 3 * (size_t)V),
@@ -522,13 +537,8 @@ void cr_epnet_angles_(const cr_epnet *m, const float *pos, int32_t T, float *the
         memset(theta, 0, sizeof(float) * (size_t)T * H);
         return;
     }
-    for (int32_t t = 0; t < T; t++) {
-        for (int64_t i = 0; i < 3 * (int64_t)V; i++)
-            x[i] = pos[(size_t)t * V * 3 + i];
-        cr_bending_angles(m->bending, x, th);
-        for (int32_t h = 0; h < H; h++)
-            theta[(size_t)t * H + h] = (float)th[h];
-    }
+    for (int32_t t = 0; t < T; t++)
+        cr_epnet_frame_angles_(m, pos + (size_t)t * V * 3, x, th, theta + (size_t)t * H);
     free(x), free(th);
 }
 
@@ -705,8 +715,8 @@ static void pnet_features(const cr_epnet *m, const float *pos, const float *thet
  * rollouts cannot drift (an unconstrained increment accumulated 1.55 rad
  * over 1,000 walking frames). With c = 0 (the zeroed decoder at start) it
  * is the plastic rule on E-Net's angles. */
-static cr_tensor *pnet_forward(cr_epnet *m, const float *pos, const float *theta,
-                               const float *rb_prev) {
+cr_tensor *cr_epnet_pnet_forward_(cr_epnet *m, const float *pos, const float *theta,
+                                  const float *rb_prev) {
     cr_nn_ctx *c = m->ctx;
     const int64_t H = m->nh;
     float *node = cr_nn_scratch(c, "epnet node features", sizeof(float) * 5 * (size_t)H);
@@ -768,7 +778,8 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
                 prev[h] = p, inc[h] = tg - p;
                 w[h] = fabsf(tg) > PNET_ACTIVE ? 1.0f : (float)d->pnet_inactive_weight;
             }
-            cr_tensor *y = pnet_forward(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
+            cr_tensor *y =
+                cr_epnet_pnet_forward_(m, pos + (size_t)t * V * 3, theta + (size_t)t * H, prev);
             cr_tensor *e =
                 cr_nn_mul(m->ctx, cr_nn_sub(m->ctx, y, cr_nn_from(m->ctx, 1, (int64_t[]){H}, inc)),
                           cr_nn_from(m->ctx, 1, (int64_t[]){H}, w));
@@ -794,8 +805,8 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
  * over frames 0..t with RB up to t - 1: O(T^2) on the GRU's cheap part;
  * the decoder runs once per frame on the last row only. To keep it O(T),
  * the GRU state is carried frame to frame here. */
-static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
-                             cr_tensor *h_prev, cr_tensor **h_out) {
+cr_tensor *cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
+                                cr_tensor *h_prev, cr_tensor **h_out) {
     cr_nn_ctx *c = m->ctx;
     cr_tensor *st =
         cr_nn_from(c, 2, (int64_t[]){1, EP_STATIC_IN}, s->stat + (size_t)t * EP_STATIC_IN);
@@ -812,8 +823,8 @@ static cr_tensor *enet_frame(cr_epnet *m, const cr_epnet_seq *s, int32_t t, cons
  * frame 0's joint angles / warmup, in the dynamic input's units (seq_create:
  * x 0.1 fps), the root's zero. The decoder does not run: the warm-up only
  * starts the recurrent state (the authors' 20-frame warm-up from the rest pose). */
-static cr_status warm_up(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, float *hstate,
-                         cr_error *err) {
+cr_status cr_epnet_warm_up_(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, float *hstate,
+                            cr_error *err) {
     const int32_t G = m->def.gru_hidden;
     float dyn[EP_DYN_IN] = {0};
     for (int i = 0; i < 63; i++) /* joints 1..21: the static input's first 63 */
@@ -845,7 +856,7 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
         free(x), free(th), free(r), free(hstate);
         return CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the rollout");
     }
-    cr_status st = warmup > 0 ? warm_up(m, s, warmup, hstate, err) : CR_OK;
+    cr_status st = warmup > 0 ? cr_epnet_warm_up_(m, s, warmup, hstate, err) : CR_OK;
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
         cr_nn_ctx_reset(m->ctx);
         cr_nn_ctx_set_grad_enabled(m->ctx, 0);
@@ -853,7 +864,7 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
                       t > 0 || warmup > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL,
                   *h1 = NULL;
         const float *rin = !rb_given ? r : t > 0 ? rb_given + (size_t)(t - 1) * H : NULL;
-        cr_tensor *xt = enet_frame(m, s, t, rin, h0, &h1);
+        cr_tensor *xt = cr_epnet_enet_frame_(m, s, t, rin, h0, &h1);
         st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
@@ -861,7 +872,7 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
         cr_epnet_angles_(m, x, 1, th);
         if (use_pnet && !rb_given) {
             cr_nn_ctx_reset(m->ctx);
-            cr_tensor *inc = pnet_forward(m, x, th, r);
+            cr_tensor *inc = cr_epnet_pnet_forward_(m, x, th, r);
             st = cr_nn_ctx_error(m->ctx, err);
             if (st != CR_OK) break;
             for (int32_t h = 0; h < H; h++)
@@ -885,6 +896,19 @@ cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, flo
 /* The proxy inference: (1) E-Net at RB = 0, the proxy; (2) P-Net over the
  * proxy's positions and angles, frame by frame, each increment through the
  * ratchet and its drive gating (ratchet.c); (3) E-Net with that RB. */
+cr_status cr_epnet_pnet_ratchet_frame_(cr_epnet *m, const float *pos, const float *th,
+                                       const cr_epnet_ratchet_def *d, uint32_t *hist, float *strain,
+                                       float *r, cr_error *err) {
+    cr_nn_ctx_reset(m->ctx);
+    cr_nn_ctx_set_grad_enabled(m->ctx, 0);
+    cr_tensor *inc = cr_epnet_pnet_forward_(m, pos, th, r);
+    CR_TRY(cr_nn_ctx_error(m->ctx, err));
+    for (int32_t h = 0; h < m->nh; h++)
+        strain[h] = th[h] - m->theta_bar[h];
+    cr_epnet_ratchet_step(d, strain, inc->data, m->nh, hist, r);
+    return CR_OK;
+}
+
 cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth, int32_t T,
                                const cr_epnet_ratchet_def *d, float *R, cr_error *err) {
     const int32_t V = m->nv, H = m->nh;
@@ -894,34 +918,11 @@ cr_status cr_epnet_pnet_proxy_(cr_epnet *m, const float *ppos, const float *pth,
     if (!r || !strain || !hist)
         st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for P-Net over the proxy");
     for (int32_t t = 0; st == CR_OK && t < T; t++) {
-        cr_nn_ctx_reset(m->ctx);
-        cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-        const float *th = pth + (size_t)t * H;
-        cr_tensor *inc = pnet_forward(m, ppos + (size_t)t * V * 3, th, r);
-        st = cr_nn_ctx_error(m->ctx, err);
-        if (st != CR_OK) break;
-        for (int32_t h = 0; h < H; h++)
-            strain[h] = th[h] - m->theta_bar[h];
-        cr_epnet_ratchet_step(d, strain, inc->data, H, hist, r);
-        memcpy(R + (size_t)t * H, r, sizeof(float) * (size_t)H);
+        st = cr_epnet_pnet_ratchet_frame_(m, ppos + (size_t)t * V * 3, pth + (size_t)t * H, d, hist,
+                                          strain, r, err);
+        if (st == CR_OK) memcpy(R + (size_t)t * H, r, sizeof(float) * (size_t)H);
     }
     free(r), free(strain), free(hist);
-    return st;
-}
-
-static cr_status proxy_rollout(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
-                               float *pos, float *theta, float *rb, cr_error *err) {
-    const int32_t V = m->nv, H = m->nh, T = s->T;
-    float *ppos = malloc(sizeof(float) * 3 * (size_t)T * V);
-    float *pth = malloc(sizeof(float) * (size_t)T * H), *R = malloc(sizeof(float) * (size_t)T * H);
-    cr_status st = CR_OK;
-    if (!ppos || !pth || !R)
-        st = CR_FAIL(err, CR_ERR_MEMORY, "epnet: out of memory for the proxy inference");
-    if (st == CR_OK) st = rollout(m, s, d->warmup, NULL, 0, ppos, pth, NULL, err);
-    if (st == CR_OK) st = cr_epnet_pnet_proxy_(m, ppos, pth, T, &d->ratchet, R, err);
-    if (st == CR_OK) st = rollout(m, s, d->warmup, R, 0, pos, theta, NULL, err);
-    if (st == CR_OK && rb) memcpy(rb, R, sizeof(float) * (size_t)T * H);
-    free(ppos), free(pth), free(R);
     return st;
 }
 
@@ -947,11 +948,11 @@ cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infe
     switch (d->mode) {
     case CR_EPNET_PROXY:
         CR_TRY(cr_epnet_ratchet_check(&d->ratchet, err));
-        return proxy_rollout(m, s, d, pos, theta, rb, err);
+        return cr_epnet_runtime_infer_(m, s, d, pos, theta, rb, err);
     case CR_EPNET_CLOSED_LOOP:
         return rollout(m, s, d->warmup, NULL, 1, pos, theta, rb, err);
     case CR_EPNET_ZERO_RB:
-        return rollout(m, s, d->warmup, NULL, 0, pos, theta, rb, err);
+        return cr_epnet_runtime_infer_(m, s, d, pos, theta, rb, err);
     default:
         return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: unknown mode %d", (int)d->mode);
     }
@@ -970,7 +971,7 @@ cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *
         cr_epnet_angles_(m, x, 1, th);
         cr_nn_ctx_reset(m->ctx);
         cr_nn_ctx_set_grad_enabled(m->ctx, 0);
-        cr_tensor *inc = pnet_forward(m, x, th, r);
+        cr_tensor *inc = cr_epnet_pnet_forward_(m, x, th, r);
         st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         for (int32_t h = 0; h < H; h++)
