@@ -2,6 +2,7 @@
 
     import numpy as np, crease
     with crease.SwingarRuntime("model.safetensors", "dress.obj", body="normal") as rt:
+    # or crease.EpnetRuntime("epnet_model_dir") (the model's own garment)
         for pose, root in zip(poses, trans):          # (22,3) axis-angles, rad; (3,) m
             verts = rt.step(pose, root)              # (V,3) float32 world positions, m
     faces = rt.triangles                            # (F,3) int32, the garment's rest triangles
@@ -18,7 +19,7 @@ import os
 
 import numpy as np
 
-__all__ = ["Error", "SwingarRuntime", "library"]
+__all__ = ["Error", "EpnetRuntime", "SwingarRuntime", "library"]
 
 NJOINTS = 22
 
@@ -79,24 +80,23 @@ def library():
     P = ctypes.POINTER
     vp = ctypes.c_void_p
     err = P(_CrError)
+    for method in ("swingar", "epnet"):
+        fn = lambda name: getattr(lib, "cr_%s_runtime_%s" % (method, name))
+        fn("step").argtypes = [vp, P(f), P(f), P(f), err]
+        fn("step_batch").argtypes = [P(vp), ctypes.c_int32, P(f), P(f), P(P(f)), err]
+        for name, res in (("reset", None), ("destroy", None), ("vertices", ctypes.c_int32),
+                          ("rest", P(_CrMesh))):
+            fn(name).argtypes = [vp]
+            fn(name).restype = res
     lib.cr_swingar_runtime_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
                                             ctypes.c_size_t, P(vp), err]
-    lib.cr_swingar_runtime_open.restype = ctypes.c_int
-    lib.cr_swingar_runtime_step.argtypes = [vp, P(f), P(f), P(f), err]
-    lib.cr_swingar_runtime_step.restype = ctypes.c_int
-    lib.cr_swingar_runtime_step_batch.argtypes = [P(vp), ctypes.c_int32, P(f), P(f), P(P(f)),
-                                                  err]
-    lib.cr_swingar_runtime_step_batch.restype = ctypes.c_int
-    lib.cr_swingar_runtime_reset.argtypes = [vp]
-    lib.cr_swingar_runtime_reset.restype = None
-    lib.cr_swingar_runtime_destroy.argtypes = [vp]
-    lib.cr_swingar_runtime_destroy.restype = None
-    lib.cr_swingar_runtime_vertices.argtypes = [vp]
-    lib.cr_swingar_runtime_vertices.restype = ctypes.c_int32
-    lib.cr_swingar_runtime_rest.argtypes = [vp]
-    lib.cr_swingar_runtime_rest.restype = P(_CrMesh)
     lib.cr_swingar_runtime_arena_bytes.argtypes = [vp]
     lib.cr_swingar_runtime_arena_bytes.restype = ctypes.c_size_t
+    lib.cr_epnet_runtime_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, vp, P(vp), err]
+    lib.cr_epnet_runtime_rb.argtypes = [vp]
+    lib.cr_epnet_runtime_rb.restype = P(f)
+    lib.cr_epnet_runtime_hinges.argtypes = [vp]
+    lib.cr_epnet_runtime_hinges.restype = ctypes.c_int32
     _lib = lib
     return lib
 
@@ -119,27 +119,19 @@ def _floats(a, shape, what):
     return a
 
 
-class SwingarRuntime:
-    """SwinGar frame by frame (crease/swingar.h, cr_swingar_runtime_*).
+class _Runtime:
+    """What every method's runtime shares: step, step_batch, reset, close, the garment's
+    rest mesh (triangles, rest) and its vertex count."""
 
-    model: a model file from `crease swingar train`; garment: an OBJ, PLY or glb garment
-    (UVs not needed), fitted to the body first; body: a mannequin preset (slim, normal,
-    heavy) or an SMPL-family FILE.npz[:betas]. All memory is taken here; step allocates only
-    the returned array (pass out= to reuse one)."""
+    _method = None
 
-    def __init__(self, model, garment, body="normal"):
-        lib = library()
-        self._lib = lib
-        self._rt = ctypes.c_void_p()
-        err = _CrError()
-        _check(lib.cr_swingar_runtime_open(os.fsencode(model), os.fsencode(garment),
-                                           body.encode() if body else None, 0,
-                                           ctypes.byref(self._rt), ctypes.byref(err)), err)
-        self.vertices = lib.cr_swingar_runtime_vertices(self._rt)
-        mesh = lib.cr_swingar_runtime_rest(self._rt).contents
+    def _opened(self, lib, handle):
+        self._lib, self._rt = lib, handle
+        self._fn = lambda name: getattr(lib, "cr_%s_runtime_%s" % (self._method, name))
+        self.vertices = self._fn("vertices")(self._rt)
+        mesh = self._fn("rest")(self._rt).contents
         self.triangles = np.ctypeslib.as_array(mesh.tri, shape=(mesh.nf, 3)).copy()
         self.rest = np.ctypeslib.as_array(mesh.pos, shape=(mesh.nv, 3)).copy()
-        self.arena_bytes = lib.cr_swingar_runtime_arena_bytes(self._rt)
 
     def step(self, pose, root, out=None):
         """One frame: pose (22,3) axis-angles (rad, SMPL's joint order, relative to the rest
@@ -155,18 +147,18 @@ class SwingarRuntime:
             raise Error("crease: out must be a C-contiguous float32 array of shape (%d, 3)"
                         % self.vertices)
         err = _CrError()
-        _check(self._lib.cr_swingar_runtime_step(self._rt, _fptr(pose), _fptr(root), _fptr(out),
-                                                 ctypes.byref(err)), err)
+        _check(self._fn("step")(self._rt, _fptr(pose), _fptr(root), _fptr(out),
+                                ctypes.byref(err)), err)
         return out
 
     def reset(self):
         """Back to before the first frame."""
         if self._rt:
-            self._lib.cr_swingar_runtime_reset(self._rt)
+            self._fn("reset")(self._rt)
 
     def close(self):
-        if self._rt:
-            self._lib.cr_swingar_runtime_destroy(self._rt)
+        if getattr(self, "_rt", None):
+            self._fn("destroy")(self._rt)
             self._rt = ctypes.c_void_p()
 
     def __enter__(self):
@@ -178,20 +170,65 @@ class SwingarRuntime:
     def __del__(self):
         self.close()
 
-    @staticmethod
-    def step_batch(runtimes, poses, roots):
-        """One frame of several characters in one call: poses (n,22,3), roots (n,3).
-        Returns a list of (V_i,3) arrays."""
+    @classmethod
+    def step_batch(cls, runtimes, poses, roots):
+        """One frame of several characters of this method in one call: poses (n,22,3),
+        roots (n,3). Returns a list of (V_i,3) arrays."""
         n = len(runtimes)
         if n == 0:
             return []
-        lib = runtimes[0]._lib
+        if any(not isinstance(r, cls) for r in runtimes):
+            raise Error("crease: step_batch takes runtimes of one method")
         poses = _floats(poses, (n, NJOINTS, 3), "poses")
         roots = _floats(roots, (n, 3), "roots")
         outs = [np.empty((r.vertices, 3), dtype=np.float32) for r in runtimes]
         handles = (ctypes.c_void_p * n)(*[r._rt.value for r in runtimes])
         optrs = (ctypes.POINTER(ctypes.c_float) * n)(*[_fptr(o) for o in outs])
         err = _CrError()
-        _check(lib.cr_swingar_runtime_step_batch(handles, n, _fptr(poses), _fptr(roots), optrs,
-                                                 ctypes.byref(err)), err)
+        _check(runtimes[0]._fn("step_batch")(handles, n, _fptr(poses), _fptr(roots), optrs,
+                                             ctypes.byref(err)), err)
         return outs
+
+
+class SwingarRuntime(_Runtime):
+    """SwinGar frame by frame (crease/swingar.h, cr_swingar_runtime_*).
+
+    model: a model file from `crease swingar train`; garment: an OBJ, PLY or glb garment
+    (UVs not needed), fitted to the body first; body: a mannequin preset (slim, normal,
+    heavy) or an SMPL-family FILE.npz[:betas]. All memory is taken here; step allocates only
+    the returned array (pass out= to reuse one)."""
+
+    _method = "swingar"
+
+    def __init__(self, model, garment, body="normal"):
+        lib = library()
+        rt = ctypes.c_void_p()
+        err = _CrError()
+        _check(lib.cr_swingar_runtime_open(os.fsencode(model), os.fsencode(garment),
+                                           body.encode() if body else None, 0,
+                                           ctypes.byref(rt), ctypes.byref(err)), err)
+        self._opened(lib, rt)
+        self.arena_bytes = lib.cr_swingar_runtime_arena_bytes(rt)
+
+
+class EpnetRuntime(_Runtime):
+    """EPNet's proxy inference frame by frame (crease/epnet.h, cr_epnet_runtime_*).
+
+    model_dir: a folder from `crease epnet train` (its garment is the model's); body: a body
+    spec, or None for the model's. rb() is the rest bending angle per hinge after the last
+    frame (rad)."""
+
+    _method = "epnet"
+
+    def __init__(self, model_dir, body=None):
+        lib = library()
+        rt = ctypes.c_void_p()
+        err = _CrError()
+        _check(lib.cr_epnet_runtime_open(os.fsencode(model_dir), body.encode() if body else None,
+                                         None, ctypes.byref(rt), ctypes.byref(err)), err)
+        self._opened(lib, rt)
+        self.hinges = lib.cr_epnet_runtime_hinges(rt)
+
+    def rb(self):
+        p = self._lib.cr_epnet_runtime_rb(self._rt)
+        return np.ctypeslib.as_array(p, shape=(self.hinges,)).copy()

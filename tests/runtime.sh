@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# runtime.sh: SwinGar's frame-by-frame runtime from outside the tool. examples/runtime_loop.c
-# streams a CMU-style BVH through it into an animated glb. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
+# runtime.sh: the methods' frame-by-frame runtimes from outside the tool. examples/runtime_loop.c
+# streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
 # numpy, and gives what `crease swingar run` writes for the same model, garment and clip (the
 # batch tool goes through the same runtime): within 1e-5 m on every frame. Also: a batch of two
 # characters equals each alone, reset starts over, a missing model raises crease.Error naming
@@ -26,10 +26,16 @@ check "run" "$crease" swingar run --model "$tmp/m.safetensors" --garment "$g" --
 # the C example, on a BVH laid out as the CMU database's (example_cmu_walk_bvh)
 bin=$(dirname "$crease")
 check "bvh" "$bin/example_cmu_walk_bvh" "$tmp/walk.bvh" 1
-check "runtime_loop" bash -c "'$bin/example_runtime_loop' '$tmp/m.safetensors' '$g' '$tmp/walk.bvh' \
-  '$tmp/loop.glb' > '$tmp/loop.out'"
-check "runtime_loop glb" bash -c "[[ \$(head -c 4 '$tmp/loop.glb') == glTF ]] && grep -q 'frames/s' '$tmp/loop.out'"
+check "runtime_loop swingar" bash -c "'$bin/example_runtime_loop' swingar '$tmp/m.safetensors' '$g' \
+  '$tmp/walk.bvh' '$tmp/loop.glb' > '$tmp/loop.out'"
+check "epnet train" "$crease" epnet train --vertices 500 --motions squat --frames 12 --epochs 2 \
+  --pnet-epochs 1 --yield 0.1 --cycles 1 -o "$tmp/ep"
+check "runtime_loop epnet" bash -c "'$bin/example_runtime_loop' epnet '$tmp/ep' '$tmp/walk.bvh' \
+  '$tmp/loop_ep.glb' >> '$tmp/loop.out'"
+check "runtime_loop glbs" bash -c "[[ \$(head -c 4 '$tmp/loop.glb') == glTF && \$(head -c 4 '$tmp/loop_ep.glb') == glTF ]] && [[ \$(grep -c 'frames/s' '$tmp/loop.out') == 2 ]]"
 cat "$tmp/loop.out"
+check "epnet run" "$crease" epnet run --model "$tmp/ep" --motion squat --frames 12 -o "$tmp/eprun"
+check "epnet motion" "$crease" motion --clip squat --frames 12 --fps "$(grep -o '"fps": *[0-9.]*' "$tmp/ep/model.json" | grep -o '[0-9.]*$')" -o "$tmp/squat.npz"
 if PYTHONPATH=$src/python "$py" - "$tmp" "$g" >"$tmp/py.out" 2>&1 <<'EOF_PY'
 import sys
 import numpy as np
@@ -70,6 +76,17 @@ try:
 except crease.Error as e:
     print("missing model:", e)
     assert "no_such_model" in str(e)
+mo = np.load(tmp + "/squat.npz")
+with open(tmp + "/eprun/garment.pc2", "rb") as f:
+    head = f.read(32)
+    nv, nframes = np.frombuffer(head[16:20], "<i4")[0], np.frombuffer(head[28:32], "<i4")[0]
+    ref = np.frombuffer(f.read(), "<f4").reshape(nframes, nv, 3)
+with crease.EpnetRuntime(tmp + "/ep") as ep:
+    d = max(np.abs(ep.step(p, r) - ref[t]).max()
+            for t, (p, r) in enumerate(zip(mo["poses"].reshape(-1, 22, 3), mo["trans"])))
+    print("epnet runtime vs epnet run: max %.2e m over %d frames, %d vertices, max |RB| %.3f rad"
+          % (d, nframes, nv, np.abs(ep.rb()).max()))
+    assert d < 1e-5, d
 print("ok")
 EOF_PY
 then

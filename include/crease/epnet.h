@@ -368,8 +368,11 @@ cr_status cr_epnet_runtime_step_batch(cr_epnet_runtime *const *rts, int32_t n, c
                                       const float *trans, float *const *out, cr_error *err);
 int32_t cr_epnet_runtime_vertices(const cr_epnet_runtime *rt);
 const cr_mesh *cr_epnet_runtime_rest(const cr_epnet_runtime *rt); /* the model's garment */
-/* The RB after the last frame (H, rad), in hinge order (cr_epnet_hinge_count). */
+/* The RB after the last frame (H, rad), in hinge order (cr_topology_build's). */
 const float *cr_epnet_runtime_rb(const cr_epnet_runtime *rt);
+int32_t cr_epnet_runtime_hinges(const cr_epnet_runtime *rt); /* H */
+/* The model it steps (its def's fps is the rate the motion must have). */
+const cr_epnet *cr_epnet_runtime_model(const cr_epnet_runtime *rt);
 
 /* Persistence: the share of hinges whose |theta - theta_bar| at frame t
  * exceeds thresh (rad). theta (T,H), theta_bar (H). */

@@ -136,6 +136,14 @@ const cr_mesh *cr_epnet_runtime_rest(const cr_epnet_runtime *rt) {
     return rt ? rt->m->garment->mesh : NULL;
 }
 
+const cr_epnet *cr_epnet_runtime_model(const cr_epnet_runtime *rt) {
+    return rt ? rt->m : NULL;
+}
+
+int32_t cr_epnet_runtime_hinges(const cr_epnet_runtime *rt) {
+    return rt ? rt->m->nh : 0;
+}
+
 const float *cr_epnet_runtime_rb(const cr_epnet_runtime *rt) {
     return rt ? rt->rb : NULL;
 }
