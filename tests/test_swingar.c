@@ -399,7 +399,7 @@ CR_TEST(swingar, loss_gradients_match_differences) {
 }
 
 CR_TEST(swingar, size_defs_are_valid) {
-    /* the CLI's --size and bench_swingar's sizes: each a valid def, the
+    /* the CLI's --size and bench_runtime's sizes: each a valid def, the
      * paper's unchanged, cpu with fewer heads, an unknown name refused */
     cr_error err = {0};
     const char *names[] = {"paper", "cpu", "tiny"};

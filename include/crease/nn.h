@@ -197,7 +197,14 @@ int cr_nn_ctx_grad_enabled(const cr_nn_ctx *ctx);
 size_t cr_nn_ctx_arena_used(const cr_nn_ctx *ctx);     /* bytes */
 size_t cr_nn_ctx_arena_peak(const cr_nn_ctx *ctx);     /* bytes, high-water mark since create */
 size_t cr_nn_ctx_arena_capacity(const cr_nn_ctx *ctx); /* bytes */
-int64_t cr_nn_ctx_tape_length(const cr_nn_ctx *ctx);   /* nodes recorded this step */
+/* Floating-point operations of every matrix product (2MNK) since the process
+ * started, on every thread and context: a benchmark's count of a step's
+ * GEMM work (element-wise passes are not counted). */
+uint64_t cr_nn_gemm_flops(void);
+/* The CPU kernels' vector level in use: "scalar" (the portable path), "avx2"
+ * or "avx512" (CREASE_NN_SIMD caps it). */
+const char *cr_nn_kernel_level(void);
+int64_t cr_nn_ctx_tape_length(const cr_nn_ctx *ctx); /* nodes recorded this step */
 /* Uninitialised, 64-byte aligned step memory (freed by reset); NULL and a
  * context error naming `who` when the arena is full. For fused ops' scratch. */
 void *cr_nn_scratch(cr_nn_ctx *ctx, const char *who, size_t bytes);

@@ -11,6 +11,7 @@
 #include "nn/cpu/cpu.h"
 
 #include <cblas.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -72,6 +73,18 @@ int cr_nn_cpu_set_gemm_own(int own) {
     return prev;
 }
 
+/* 2MNK of every product since the process started (cr_nn_gemm_flops). */
+static _Atomic uint64_t gemm_flops;
+
+uint64_t cr_nn_gemm_flops(void) {
+    return atomic_load_explicit(&gemm_flops, memory_order_relaxed);
+}
+
+const char *cr_nn_kernel_level(void) {
+    int l = cr_nn_cpu_simd();
+    return l == NN_SIMD_AVX512 ? "avx512" : l == NN_SIMD_AVX2 ? "avx2" : "scalar";
+}
+
 static int ld(int64_t x) {
     return x > 0 ? (int)x : 1;
 }
@@ -83,6 +96,7 @@ void cr_nn_cpu_gemm(int ta, int tb, int64_t M, int64_t N, int64_t K, float alpha
         scale_block(C, M, N, ldc, beta);
         return;
     }
+    atomic_fetch_add_explicit(&gemm_flops, (uint64_t)(2 * M * N * K), memory_order_relaxed);
     int own = cr_nn_cpu_gemm_uses_own();
     if (alpha != 0.0f && (own == 1 || (own == 2 && gemm_narrow(M, N, K))) &&
         cr_nn_cpu_gemm_own(cr_nn_cpu_simd(), ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C,

@@ -1,0 +1,270 @@
+/* bench_runtime.c: garments at game speed (issue 51): each method's runtime
+ * stepped frame by frame, next to the reference simulators on the same
+ * garment and motion, in one run.
+ *
+ * Cases: swingar at each named size on the default dress at 10,000 target
+ * vertices on the normal mannequin; epnet (the proxy inference: E-Net twice
+ * and P-Net a frame) on a t-shirt at `epnet_vertices`. Weights are untrained
+ * (the cost does not depend on them). Each steps `frames` frames of the walk
+ * clip one at a time (cr_*_runtime_step); with batch > 1, swingar also steps
+ * `batch` characters (runtimes sharing one model) a frame each in one
+ * cr_swingar_runtime_step_batch call. Then Newton and VBD at their defaults
+ * (cotton, 30 fps) simulate `sim_frames` frames of the same walk on each
+ * case's garment, from rest.
+ *
+ * Printed per case: frames per second, the GEMM work of a frame (2MNK of
+ * every product, cr_nn_gemm_flops: element-wise passes are not counted), the
+ * GFLOP/s that makes, its share of the machine's cblas_sgemm rate measured
+ * at the start of the same run (1024^3, best of 5), the time to create the
+ * runtime (the garment's encoding and the arena's trial frames), the arena
+ * and the process's peak resident memory so far (the runs go from small to
+ * large). The CPU kernel that ran is in the first line (OpenBLAS's core and
+ * the engine's SIMD level).
+ *
+ *   bench_runtime [frames] [sizes] [epnet_vertices] [sim_frames] [batch]
+ *   defaults: 30 frames, sizes tiny,paper (a comma list of tiny, cpu, paper;
+ *   "none" skips swingar), 2000 epnet vertices (0 skips epnet), 4 simulated
+ *   frames (0 skips the simulators), batch 1.
+ */
+#include "crease/body.h"
+#include "crease/epnet.h"
+#include "crease/garment.h"
+#include "crease/motion.h"
+#include "crease/nn.h"
+#include "crease/scene.h"
+#include "crease/swingar.h"
+
+#include <cblas.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+enum { MAX_BATCH = 16 };
+
+static int fail(const char *what, const cr_error *e) {
+    fprintf(stderr, "bench_runtime: %s: %s\n", what, e->msg);
+    return 1;
+}
+
+static double maxrss_gib(void) {
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return (double)ru.ru_maxrss / (1024.0 * 1024.0); /* kB on Linux */
+}
+
+/* cblas_sgemm's rate on 1024^3 with the run's threads, GFLOP/s, best of 5. */
+static double sgemm_rate(void) {
+    const int n = 1024;
+    float *a = malloc(sizeof(float) * n * n), *b = malloc(sizeof(float) * n * n),
+          *c = malloc(sizeof(float) * n * n);
+    if (!a || !b || !c) return 0;
+    for (int i = 0; i < n * n; i++)
+        a[i] = (float)(i % 7) * 0.1f, b[i] = (float)(i % 5) * 0.1f;
+    double best = 1e30;
+    for (int r = 0; r < 6; r++) { /* the first warms up */
+        double t0 = cr_time_now();
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0f, a, n, b, n, 0.0f, c,
+                    n);
+        double s = cr_time_now() - t0;
+        if (r > 0 && s < best) best = s;
+    }
+    free(a), free(b), free(c);
+    return 2.0 * n * n * (double)n / best * 1e-9;
+}
+
+/* One case's line: fps, GEMM work, rate and share of the sgemm rate. */
+static void report(const char *what, int64_t V, int frames, double seconds, uint64_t flops,
+                   double create_s, double arena_gib, double peak_sgemm) {
+    const double per = (double)flops / frames * 1e-9, rate = (double)flops / seconds * 1e-9;
+    printf("%s V=%lld: %.2f fps (%d frames, %.3f s); GEMM %.4f GFLOP/frame, %.2f GFLOP/s = "
+           "%.1f %% of sgemm; create %.2f s; arena %.3f GiB; peak RSS %.2f GiB\n",
+           what, (long long)V, frames / seconds, frames, seconds, per, rate,
+           100.0 * rate / peak_sgemm, create_s, arena_gib, maxrss_gib());
+    fflush(stdout);
+}
+
+static int bench_swingar(const char *size, const cr_garment *g, const cr_body_model *body,
+                         const float *desc, const cr_motion *mo, int frames, int B,
+                         double peak_sgemm) {
+    cr_error err = {0};
+    cr_swingar_def d = cr_swingar_default_def();
+    if (cr_swingar_size_def(size, &d, &err) != CR_OK) return fail(size, &err);
+    cr_swingar *m = NULL;
+    cr_swingar_garment *sg = NULL; /* tiny reads z = 16: the first 16 of the 256 (timing) */
+    if (cr_swingar_create(&d, 1, &m, &err) != CR_OK) return fail(size, &err);
+    if (cr_swingar_garment_create(g->mesh, g->skin_joint, g->skin_weight, body, desc,
+                                  d.descriptor_len, &sg, &err) != CR_OK)
+        return fail("swingar garment", &err);
+    const int64_t V = g->mesh->nv;
+    cr_swingar_runtime *rt[MAX_BATCH] = {0};
+    float *out[MAX_BATCH] = {0};
+    int rc = 0;
+    double t0 = cr_time_now();
+    for (int b = 0; b < B && !rc; b++) {
+        if (cr_swingar_runtime_create(m, sg, body->joints, 0, &rt[b], &err) != CR_OK)
+            rc = fail(size, &err);
+        else if (!(out[b] = malloc(sizeof(float) * 3 * (size_t)V)))
+            rc = 1;
+    }
+    double create_s = (cr_time_now() - t0) / B;
+    char what[160];
+    snprintf(what, sizeof what, "swingar %s (%lld parameters)", size,
+             (long long)cr_nn_params_numel(cr_swingar_params(m)));
+    for (int k = 0; k < (B > 1 ? 2 : 1) && !rc; k++) {
+        uint64_t f0 = cr_nn_gemm_flops();
+        t0 = cr_time_now();
+        for (int t = 0; t < frames && !rc; t++) {
+            const float *pose = mo->poses + (size_t)t * CR_NJOINTS * 3, *tr = mo->trans + 3 * t;
+            if (k == 0) {
+                if (cr_swingar_runtime_step(rt[0], pose, tr, out[0], &err) != CR_OK)
+                    rc = fail(size, &err);
+                continue;
+            }
+            float poses[MAX_BATCH * CR_NJOINTS * 3], trans[MAX_BATCH * 3];
+            for (int b = 0; b < B; b++) {
+                memcpy(poses + b * CR_NJOINTS * 3, pose, sizeof(float) * CR_NJOINTS * 3);
+                memcpy(trans + 3 * b, tr, sizeof(float) * 3);
+            }
+            if (cr_swingar_runtime_step_batch(rt, B, poses, trans, out, &err) != CR_OK)
+                rc = fail(size, &err);
+        }
+        double s = cr_time_now() - t0;
+        if (rc) break;
+        char line[200];
+        snprintf(line, sizeof line, "%s batch %d", what, k ? B : 1);
+        report(line, V, frames * (k ? B : 1), s, cr_nn_gemm_flops() - f0, create_s,
+               cr_swingar_runtime_arena_bytes(rt[0]) / 1073741824.0, peak_sgemm);
+    }
+    for (int b = 0; b < B; b++) {
+        cr_swingar_runtime_destroy(rt[b]);
+        free(out[b]);
+    }
+    cr_swingar_garment_destroy(sg);
+    cr_swingar_destroy(m);
+    return rc;
+}
+
+static int bench_epnet(int32_t vertices, const cr_motion *mo, int frames, double peak_sgemm,
+                       cr_epnet **model) {
+    cr_error err = {0};
+    cr_epnet_def d = cr_epnet_default_def();
+    d.garment_vertices = vertices;
+    if (cr_epnet_create(&d, model, &err) != CR_OK) return fail("epnet", &err);
+    cr_epnet_runtime *rt = NULL;
+    double t0 = cr_time_now();
+    if (cr_epnet_runtime_create(*model, NULL, NULL, &rt, &err) != CR_OK)
+        return fail("epnet runtime", &err);
+    double create_s = cr_time_now() - t0;
+    const int64_t V = cr_epnet_runtime_vertices(rt);
+    float *out = malloc(sizeof(float) * 3 * (size_t)V);
+    int rc = out ? 0 : 1;
+    uint64_t f0 = cr_nn_gemm_flops();
+    t0 = cr_time_now();
+    for (int t = 0; t < frames && !rc; t++)
+        if (cr_epnet_runtime_step(rt, mo->poses + (size_t)t * CR_NJOINTS * 3, mo->trans + 3 * t,
+                                  out, &err) != CR_OK)
+            rc = fail("epnet step", &err);
+    double s = cr_time_now() - t0;
+    char what[160];
+    snprintf(what, sizeof what, "epnet proxy (%lld + %lld parameters, %d hinges)",
+             (long long)cr_epnet_param_count(*model, 0), (long long)cr_epnet_param_count(*model, 1),
+             cr_epnet_hinge_count(*model));
+    if (!rc) report(what, V, frames, s, cr_nn_gemm_flops() - f0, create_s, 0.0, peak_sgemm);
+    free(out);
+    cr_epnet_runtime_destroy(rt);
+    return rc;
+}
+
+/* The reference simulator on the garment mesh `mesh` over the motion. */
+static int bench_sim(const cr_mesh *mesh, const cr_body_model *body, const cr_motion *mo,
+                     cr_sim_solver solver, int frames) {
+    cr_error err = {0};
+    float *posed = NULL;
+    if (cr_body_pose_motion(body, mo, &posed, &err) != CR_OK) return fail("pose", &err);
+    cr_sim_def sd = cr_sim_default_def();
+    if (cr_material_preset("cotton", &sd.material, &err) != CR_OK) return fail("material", &err);
+    sd.dt = 1.0 / 30.0;
+    sd.solver = solver;
+    sd.collider = body->rest;
+    sd.collider_frames = posed;
+    sd.collider_nframes = mo->nframes;
+    cr_sim *sim = NULL;
+    if (cr_sim_create(&sd, mesh, &sim, &err) != CR_OK) return fail("sim", &err);
+    cr_scene_run_stats rs;
+    cr_status st = cr_scene_run(sim, frames, NULL, NULL, NULL, &rs, &err);
+    if (st != CR_OK) printf("sim %s: stopped: %s\n", cr_sim_solver_name(solver), err.msg);
+    printf("sim %s V=%d: %.3f fps (%.2f s/frame over %d frames, %.1f Newton iterations a frame, "
+           "%s); peak RSS %.2f GiB\n",
+           cr_sim_solver_name(solver), mesh->nv, rs.frames / rs.seconds,
+           rs.seconds / (rs.frames ? rs.frames : 1), rs.frames,
+           rs.newton_iterations / (rs.frames ? rs.frames : 1.0),
+           rs.diverged ? "DIVERGED" : "no divergence", maxrss_gib());
+    fflush(stdout);
+    cr_sim_destroy(sim);
+    free(posed);
+    return st != CR_OK;
+}
+
+int main(int argc, char **argv) {
+    cr_parallel_choose_wait_policy(argv); /* as the tool: no spinning against a busy core */
+    int frames = argc > 1 ? atoi(argv[1]) : 30;
+    char sizes[64];
+    snprintf(sizes, sizeof sizes, "%s", argc > 2 ? argv[2] : "tiny,paper");
+    int ev = argc > 3 ? atoi(argv[3]) : 2000, sim_frames = argc > 4 ? atoi(argv[4]) : 4;
+    int B = argc > 5 ? atoi(argv[5]) : 1;
+    if (frames < 1 || frames > 10000 || ev < 0 || sim_frames < 0 || B < 1 || B > MAX_BATCH ||
+        argc > 6) {
+        fprintf(stderr,
+                "usage: bench_runtime [frames 1..10000] [tiny,cpu,paper|none] [epnet_vertices] "
+                "[sim_frames] [batch 1..%d]\n",
+                MAX_BATCH);
+        return 2;
+    }
+    double peak = sgemm_rate();
+    printf("threads %d, OpenBLAS %s, core type %s, engine kernels %s; cblas_sgemm 1024^3: "
+           "%.1f GFLOP/s\n",
+           cr_thread_count(), openblas_get_config(), openblas_get_corename(), cr_nn_kernel_level(),
+           peak);
+    cr_error err = {0};
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cr_body_model *body = NULL;
+    if (cr_mannequin_create(&md, &body, &err) != CR_OK) return fail("mannequin", &err);
+    cr_motion_clip_def cd = cr_motion_clip_default_def();
+    cd.name = "walk";
+    cd.nframes = frames > sim_frames ? frames : sim_frames;
+    cr_motion *mo = NULL;
+    if (cr_motion_clip_make(&cd, &mo, &err) != CR_OK) return fail("walk", &err);
+    int rc = 0;
+    if (strcmp(sizes, "none") != 0) {
+        cr_garment_def gd = cr_garment_default_def(CR_GARMENT_DRESS);
+        gd.target_vertices = 10000;
+        cr_garment *g = NULL;
+        if (cr_garment_create(&gd, body, &g, &err) != CR_OK) return fail("garment", &err);
+        float desc[256]; /* z = 256, geodesic: once per garment, not per frame */
+        double t0 = cr_time_now();
+        if (cr_swingar_compute_descriptor(g->mesh, 256, 0, desc, &err) != CR_OK)
+            return fail("descriptor", &err);
+        printf("dress V=%d F=%d; its descriptor (z = 256) %.2f s, once per garment\n", g->mesh->nv,
+               g->mesh->nf, cr_time_now() - t0);
+        for (char *s = strtok(sizes, ","); s; s = strtok(NULL, ","))
+            rc |= bench_swingar(s, g, body, desc, mo, frames, B, peak);
+        if (sim_frames > 0) {
+            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_NEWTON, sim_frames);
+            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_VBD, sim_frames);
+        }
+        cr_garment_destroy(g);
+    }
+    if (ev > 0) {
+        cr_epnet *m = NULL;
+        rc |= bench_epnet(ev, mo, frames, peak, &m);
+        if (m && sim_frames > 0) {
+            rc |= bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_NEWTON, sim_frames);
+            rc |= bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_VBD, sim_frames);
+        }
+        cr_epnet_destroy(m);
+    }
+    cr_motion_destroy(mo);
+    cr_body_model_destroy(body);
+    return rc;
+}
