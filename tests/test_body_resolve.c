@@ -5,8 +5,11 @@
  * it can be checked against the mannequin itself. */
 #include "crease/body.h"
 #include "crease/bvh.h"
+#include "crease/dataset.h"
 #include "crease/epnet.h"
+#include "crease/garment.h"
 #include "crease/mesh.h"
+#include "crease/mesh_io.h"
 #include "crease/motion.h"
 #include "crease/npz.h"
 #include "test.h"
@@ -102,6 +105,9 @@ CR_TEST(body_resolve, presets_and_model_files) {
     /* Refusals name the spec and what is wrong. */
     CR_CHECK(cr_body_resolve("giant", &bad, &err) == CR_ERR_INVALID && !bad);
     CR_CHECK(strstr(err.msg, "giant") && strstr(err.msg, "slim"));
+    snprintf(spec, sizeof spec, "%s:1.5:x", path); /* ':' separates betas as ',' does */
+    CR_CHECK(cr_body_resolve(spec, &bad, &err) == CR_ERR_INVALID && !bad);
+    CR_CHECK(strstr(err.msg, "coefficient 2") != NULL);
     snprintf(spec, sizeof spec, "%s:1.5,x", path);
     CR_CHECK(cr_body_resolve(spec, &bad, &err) == CR_ERR_INVALID && !bad);
     CR_CHECK(strstr(err.msg, "coefficient 2") != NULL);
@@ -155,5 +161,79 @@ CR_TEST(body_resolve, epnet_on_a_model_file) {
         cr_body_model_destroy(wide);
         cr_epnet_destroy(m);
     }
+    cr_body_model_destroy(normal);
+}
+
+/* A dataset on the user's own assets: an SMPL-family body file with a shape
+ * coefficient beside a preset, and a garment from another tool (an OBJ
+ * without UVs). Every sequence is simulated; the body's files are named by
+ * its label; the garment keeps its file's vertex count on each body, has no
+ * UVs, and less than 0.5 % of it is inside a body on any frame. */
+CR_TEST(body_resolve, dataset_with_a_model_file_and_a_garment_file) {
+    cr_error err = {0};
+    cr_body_model *normal = NULL;
+    CR_CHECK_OK(cr_body_resolve("normal", &normal, &err), &err);
+    CR_REQUIRE(normal);
+    char model[512], spec[600], obj[512], dir[512];
+    snprintf(model, sizeof model, "%s/mannequin_smpl3.npz", cr_test_tmpdir());
+    CR_REQUIRE(write_model(model, normal));
+    snprintf(spec, sizeof spec, "%s:0.5", model);
+    /* the garment as another tool exports it: positions and faces only */
+    cr_garment_def gd = cr_garment_default_def(CR_GARMENT_SKIRT);
+    gd.target_vertices = 600;
+    cr_garment *made = NULL;
+    CR_CHECK_OK(cr_garment_create(&gd, normal, &made, &err), &err);
+    CR_REQUIRE(made);
+    cr_mesh *bare = NULL;
+    CR_CHECK_OK(cr_mesh_create(made->mesh->nv, made->mesh->nf, 0, &bare, &err), &err);
+    CR_REQUIRE(bare);
+    memcpy(bare->pos, made->mesh->pos, sizeof(float) * 3 * (size_t)bare->nv);
+    memcpy(bare->tri, made->mesh->tri, sizeof(int32_t) * 3 * (size_t)bare->nf);
+    snprintf(obj, sizeof obj, "%s/their_skirt.obj", cr_test_tmpdir());
+    CR_CHECK_OK(cr_mesh_write(obj, bare, &err), &err);
+    snprintf(dir, sizeof dir, "%s/user_dataset", cr_test_tmpdir());
+    cr_dataset_def d = cr_dataset_default_def();
+    const char *garments[] = {obj}, *motions[] = {"walk"}, *bodies[] = {"normal", spec};
+    const char *res[] = {"low"};
+    d.out_dir = dir;
+    d.garments = garments, d.ngarments = 1;
+    d.motions = motions, d.nmotions = 1;
+    d.bodies = bodies, d.nbodies = 2;
+    d.res = res, d.nres = 1;
+    d.frames = CR_TEST_SIZE(8, 3);
+    d.quiet = 1;
+    cr_dataset_result r;
+    CR_CHECK_OK(cr_dataset_generate(&d, &r, &err), &err);
+    CR_CHECK(r.failed == 0 && r.done == 2);
+    printf("    most of the garment inside a body on a frame: %.3f %%\n",
+           100.0 * r.max_inside_share[0]);
+    CR_CHECK(r.max_inside_share[0] < 0.005);
+    cr_dataset_manifest man = {0};
+    CR_CHECK_OK(cr_dataset_read(dir, &man, &err), &err);
+    char label[64];
+    cr_dataset_body_label(spec, label, sizeof label);
+    printf("    body label %s; garment '%s'; %d sequences\n", label,
+           man.ngarments ? man.garments[0].label : "?", man.nsequences);
+    CR_CHECK(strcmp(label, "mannequin_smpl3_b0p5") == 0);
+    CR_CHECK(man.nbodies == 2 && cr_dataset_find_body(&man, label) != NULL);
+    CR_CHECK(man.ngarments == 2 && strcmp(man.garments[0].label, "their_skirt") == 0);
+    CR_CHECK(man.nsequences == 2 && man.sequences[0].done && man.sequences[1].done);
+    for (int32_t i = 0; i < man.ngarments && i < 2; i++) {
+        char path[CR_SCENE_PATH];
+        cr_mesh *gm = NULL;
+        CR_CHECK_OK(cr_dataset_path(&man, man.garments[i].mesh, path, sizeof path, &err), &err);
+        CR_CHECK_OK(cr_mesh_read(path, &gm, &err), &err);
+        if (gm) CR_CHECK(gm->nv == bare->nv && gm->nuv == 0);
+        cr_mesh_destroy(gm);
+    }
+    /* a garment file at two resolutions is refused by name */
+    const char *two[] = {"low", "high"};
+    d.res = two, d.nres = 2;
+    CR_CHECK(cr_dataset_generate(&d, &r, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "their_skirt.obj") != NULL);
+    printf("    two resolutions: %s\n", err.msg);
+    cr_dataset_manifest_free(&man);
+    cr_mesh_destroy(bare);
+    cr_garment_destroy(made);
     cr_body_model_destroy(normal);
 }

@@ -123,8 +123,9 @@ enum { CR_BODY_MAX_BETAS = 400 }; /* SMPL-X has 300 shape and 100 expression one
 
 /* A body as the commands take it: a mannequin preset ("slim", "normal",
  * "heavy"), or an SMPL-family model file with its shape coefficients,
- * "FILE.npz" or "FILE.npz:b0,b1,..." (cr_smpl_load: SMPL, SMPL+H, SMPL-X;
- * the betas zero-padded). *out is heap-allocated (cr_body_model_destroy).
+ * "FILE.npz" or "FILE.npz:b0,b1,..." (or "FILE.npz:b0:b1:...", for a list
+ * that is itself comma-separated) (cr_smpl_load: SMPL, SMPL+H, SMPL-X; the
+ * betas zero-padded). *out is heap-allocated (cr_body_model_destroy).
  * Fails naming the spec: an unknown preset lists the presets, a bad beta
  * names its position. */
 cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err);

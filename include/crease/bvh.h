@@ -85,10 +85,10 @@ void cr_bvh_destroy(cr_bvh *b);
 int32_t cr_bvh_vertex_count(const cr_bvh *b);
 int32_t cr_bvh_face_count(const cr_bvh *b);
 int32_t cr_bvh_node_count(const cr_bvh *b);
-int32_t cr_bvh_depth(const cr_bvh *b);               /* levels below the root */
-const float *cr_bvh_positions(const cr_bvh *b);      /* (V,3) the BVH's copy, m */
-const int32_t *cr_bvh_triangles(const cr_bvh *b);    /* (F,3) */
-const float *cr_bvh_face_normals(const cr_bvh *b);   /* (F,3) unit; zero for degenerate faces */
+int32_t cr_bvh_depth(const cr_bvh *b);             /* levels below the root */
+const float *cr_bvh_positions(const cr_bvh *b);    /* (V,3) the BVH's copy, m */
+const int32_t *cr_bvh_triangles(const cr_bvh *b);  /* (F,3) */
+const float *cr_bvh_face_normals(const cr_bvh *b); /* (F,3) unit; zero for degenerate faces */
 /* (V,3) unit, angle-weighted. After a refit the first call recomputes them
  * (the queries do not need it): make that call before sharing the array with
  * other threads. */

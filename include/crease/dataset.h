@@ -131,6 +131,17 @@ cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out,
  * file's base name without its extension ("dance" for "mocap/dance.bvh"). */
 void cr_dataset_motion_label(const char *spec, char *out, size_t size);
 
+/* A body spec's name in the dataset's files: a preset's own ("slim"), or an
+ * SMPL-family file's base name ("basicModel_f" for
+ * "models/basicModel_f.npz"), followed by its betas when given, '.' as 'p',
+ * '-' as 'm' and separators as '_' ("basicModel_f_b1p5_m0p5" for ":1.5,-0.5"
+ * or ":1.5:-0.5"). */
+void cr_dataset_body_label(const char *spec, char *out, size_t size);
+
+/* 1 when a garment spec names a mesh file (.obj, .ply or .glb): a garment from
+ * another tool, fitted to each body as given, UVs not needed. */
+int cr_dataset_garment_is_file(const char *spec);
+
 /* A garment spec's name in the dataset's files: the variant's label
  * ("dress_seed3"), or an outfit's ("tshirt+vest": its parts' labels joined
  * by '+'). CR_ERR_INVALID naming a bad spec. */
@@ -143,7 +154,7 @@ cr_status cr_dataset_garment_label(const char *spec, char *out, size_t size, cr_
  * are relative to the dataset folder (cr_dataset_path joins them); strings
  * are owned by the manifest and live until cr_dataset_manifest_free. */
 typedef struct cr_dataset_body_entry {
-    const char *name, *rest, *skin; /* preset; its rest mesh and skin.npz */
+    const char *name, *rest, *skin; /* label (cr_dataset_body_label); its rest mesh and skin.npz */
 } cr_dataset_body_entry;
 
 typedef struct cr_dataset_garment_entry {

@@ -28,8 +28,8 @@ double cr_triangle_corner_angle(const float a[3], const float b[3], const float 
 void cr_mesh_face_normals(const cr_mesh *m, float *normals, float *areas);
 
 typedef enum cr_normal_weight {
-    CR_NORMAL_AREA,  /* weight each face by its area */
-    CR_NORMAL_ANGLE  /* weight by the corner angle: the pseudo-normal of Baerentzen & Aanaes 2005 */
+    CR_NORMAL_AREA, /* weight each face by its area */
+    CR_NORMAL_ANGLE /* weight by the corner angle: the pseudo-normal of Baerentzen & Aanaes 2005 */
 } cr_normal_weight;
 
 /* Per-vertex unit normals (V,3). Isolated vertices get (0,0,0). */

@@ -25,8 +25,8 @@ extern "C" {
 #endif
 
 typedef enum cr_membrane_model {
-    CR_MEMBRANE_STVK = 0,      /* St. Venant-Kirchhoff on Green strain (lame_mu, lame_lambda) */
-    CR_MEMBRANE_BARAFF_WITKIN  /* stretch/shear of w_u, w_v (bw_stretch, bw_shear) */
+    CR_MEMBRANE_STVK = 0,     /* St. Venant-Kirchhoff on Green strain (lame_mu, lame_lambda) */
+    CR_MEMBRANE_BARAFF_WITKIN /* stretch/shear of w_u, w_v (bw_stretch, bw_shear) */
 } cr_membrane_model;
 
 /* Stamped by cr_material_preset: energies assert it to catch hand-zeroed structs. */
@@ -34,7 +34,7 @@ typedef enum cr_membrane_model {
 
 typedef struct cr_material {
     char name[32];
-    double density;              /* kg/m^2, area density */
+    double density; /* kg/m^2, area density */
     cr_membrane_model membrane;
     double lame_mu, lame_lambda; /* StVK Lame parameters, Pa*m (energy per rest area) */
     double bw_stretch, bw_shear; /* Baraff-Witkin stretch (w_u = w_v) and shear stiffness, J/m^2 */

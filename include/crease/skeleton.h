@@ -70,10 +70,10 @@ typedef struct cr_motion {
  * loaded SMPL-style model both produce. Linear blend skinning with at most
  * four joints per vertex (weights sum to 1, unused slots weight 0). */
 typedef struct cr_body_model {
-    struct cr_mesh *rest;    /* rest-pose mesh (A-pose for the mannequin), m, +Y up */
+    struct cr_mesh *rest;         /* rest-pose mesh (A-pose for the mannequin), m, +Y up */
     float joints[CR_NJOINTS * 3]; /* rest joint positions, m */
-    int32_t *skin_joint;     /* (V, 4) joint indices */
-    float *skin_weight;      /* (V, 4) weights */
+    int32_t *skin_joint;          /* (V, 4) joint indices */
+    float *skin_weight;           /* (V, 4) weights */
 } cr_body_model;
 
 /* Zeroed poses and translations for T frames. */

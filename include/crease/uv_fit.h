@@ -27,7 +27,12 @@
 extern "C" {
 #endif
 
-typedef enum cr_fit_model { CR_FIT_MLP = 0, CR_FIT_PE, CR_FIT_GRID, CR_FIT_MODEL_COUNT } cr_fit_model;
+typedef enum cr_fit_model {
+    CR_FIT_MLP = 0,
+    CR_FIT_PE,
+    CR_FIT_GRID,
+    CR_FIT_MODEL_COUNT
+} cr_fit_model;
 
 const char *cr_fit_model_name(cr_fit_model m); /* "mlp", "pe", "grid" */
 /* CR_ERR_INVALID naming the accepted names when `name` is none of them. */
@@ -35,35 +40,35 @@ cr_status cr_fit_model_parse(const char *name, cr_fit_model *out, cr_error *err)
 
 typedef struct cr_fit_def {
     cr_fit_model model;
-    int epochs;            /* cap on epochs, >= 1 (default 2000) */
-    int train_res;         /* training grid side (default 256) */
-    int eval_res;          /* evaluation grid side (default 512) */
-    int batch;             /* mini-batch size (default 4096) */
-    float lr;              /* Adam learning rate; 0 = the model's default (see uv_fit.c) */
-    float target_rel_l2;   /* the error to reach (default 0.01) */
-    int stop_at_target;    /* 1: stop once the target is reached (default 1) */
-    int eval_every;        /* evaluate every N epochs (default 1) */
-    uint64_t seed;         /* initialisation and shuffling (default 1) */
-    const char *out_dir;   /* where outputs go (NULL: write nothing) */
-    int checkpoint_every;  /* epochs between checkpoints into out_dir (default 50; 0: never) */
-    int resume;            /* 1: continue from out_dir/checkpoint.safetensors when present */
-    int quiet;             /* 1: no progress bar */
-    uint32_t cookie;       /* set by cr_fit_default_def */
+    int epochs;           /* cap on epochs, >= 1 (default 2000) */
+    int train_res;        /* training grid side (default 256) */
+    int eval_res;         /* evaluation grid side (default 512) */
+    int batch;            /* mini-batch size (default 4096) */
+    float lr;             /* Adam learning rate; 0 = the model's default (see uv_fit.c) */
+    float target_rel_l2;  /* the error to reach (default 0.01) */
+    int stop_at_target;   /* 1: stop once the target is reached (default 1) */
+    int eval_every;       /* evaluate every N epochs (default 1) */
+    uint64_t seed;        /* initialisation and shuffling (default 1) */
+    const char *out_dir;  /* where outputs go (NULL: write nothing) */
+    int checkpoint_every; /* epochs between checkpoints into out_dir (default 50; 0: never) */
+    int resume;           /* 1: continue from out_dir/checkpoint.safetensors when present */
+    int quiet;            /* 1: no progress bar */
+    uint32_t cookie;      /* set by cr_fit_default_def */
 } cr_fit_def;
 
 cr_fit_def cr_fit_default_def(cr_fit_model model);
 
 typedef struct cr_fit_result {
-    int64_t params;            /* trainable floats */
-    int epochs;                /* epochs trained in all (including resumed ones) */
-    double seconds;            /* training wall time, evaluation excluded, s */
-    double eval_seconds;       /* time spent evaluating, s */
-    double rel_l2;             /* final relative L2 error on the evaluation grid */
-    double final_loss;         /* mean squared error of the last epoch, m^2 */
-    int epochs_to_target;      /* first evaluated epoch at or below the target; -1 if never */
-    double seconds_to_target;  /* training time to that epoch; -1 if never */
-    int resumed_from;          /* epoch the run resumed from (0: fresh) */
-    char surface_png[1024];    /* written picture (empty when out_dir is NULL) */
+    int64_t params;           /* trainable floats */
+    int epochs;               /* epochs trained in all (including resumed ones) */
+    double seconds;           /* training wall time, evaluation excluded, s */
+    double eval_seconds;      /* time spent evaluating, s */
+    double rel_l2;            /* final relative L2 error on the evaluation grid */
+    double final_loss;        /* mean squared error of the last epoch, m^2 */
+    int epochs_to_target;     /* first evaluated epoch at or below the target; -1 if never */
+    double seconds_to_target; /* training time to that epoch; -1 if never */
+    int resumed_from;         /* epoch the run resumed from (0: fresh) */
+    char surface_png[1024];   /* written picture (empty when out_dir is NULL) */
 } cr_fit_result;
 
 /* The target deformation at (u,v): d (3), m. */

@@ -260,10 +260,11 @@ cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err) 
     for (const char *p = npz[4] == ':' ? npz + 5 : NULL; p && *p; nbetas++) {
         char *end = NULL;
         double v = strtod(p, &end);
-        if (end == p || !isfinite(v) || nbetas == CR_BODY_MAX_BETAS || (*end && *end != ','))
+        if (end == p || !isfinite(v) || nbetas == CR_BODY_MAX_BETAS ||
+            (*end && *end != ',' && *end != ':'))
             return CR_FAIL(err, CR_ERR_INVALID,
                            "body %s: shape coefficient %d: expected up to %d numbers after ':', "
-                           "comma-separated",
+                           "separated by ',' or ':'",
                            spec, nbetas + 1, CR_BODY_MAX_BETAS);
         betas[nbetas] = (float)v;
         p = *end ? end + 1 : end;

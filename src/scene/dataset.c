@@ -14,9 +14,10 @@
  * dataset_outfit.c into one garment of one component per layer and
  * simulated with self-contact on, so its layers collide.
  *
- * Left out: bodies other than the mannequin
- * presets (an SMPL model could be added as a body source), and distributing
- * sequences over machines.
+ * Bodies are body specs (cr_body_resolve: a mannequin preset or an
+ * SMPL-family file with its betas); garments may be mesh files from other
+ * tools (cr_garment_load_user, fitted to each body as given). Left out:
+ * distributing sequences over machines.
  */
 #include "crease/dataset.h"
 
@@ -33,6 +34,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 static const uint32_t DATASET_COOKIE = 0x44415441u; /* "DATA" */
 
@@ -88,8 +90,21 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
         return CR_FAIL(err, CR_ERR_INVALID, "dataset: max_collider_step = %g m, need 0 to 10",
                        d->max_collider_step);
     for (int i = 0; i < d->ngarments; i++) {
-        CR_TRY(cr_dataset_outfit_parse(d->garments[i], &ds->outfit[i], &ds->variant[i], err));
-        ds->garment_type[i] = ds->variant[i].def.type;
+        if ((ds->user_garment[i] = cr_dataset_garment_is_file(d->garments[i]))) {
+            /* a garment from another tool: its file's base name labels it */
+            if (d->nres != 1)
+                return CR_FAIL(err, CR_ERR_INVALID,
+                               "dataset: garment file %s is used at its own resolution: ask "
+                               "for one --res, not %d",
+                               d->garments[i], d->nres);
+            memset(&ds->variant[i], 0, sizeof ds->variant[i]);
+            cr_dataset_motion_label(d->garments[i], ds->variant[i].label,
+                                    sizeof ds->variant[i].label);
+            ds->garment_type[i] = CR_GARMENT_USER;
+        } else {
+            CR_TRY(cr_dataset_outfit_parse(d->garments[i], &ds->outfit[i], &ds->variant[i], err));
+            ds->garment_type[i] = ds->variant[i].def.type;
+        }
         for (int j = 0; j < i; j++)
             if (!strcmp(ds->variant[i].label, ds->variant[j].label))
                 return CR_FAIL(err, CR_ERR_INVALID,
@@ -108,8 +123,17 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
                                d->motions[j], d->motions[i], ds->motion_name[i]);
     }
     for (int i = 0; i < d->nbodies; i++) {
-        cr_mannequin_def md = cr_mannequin_default_def();
-        CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
+        const char *npz = strstr(d->bodies[i], ".npz");
+        if (!npz) { /* a preset, checked now; a file is read with the assets */
+            cr_mannequin_def md = cr_mannequin_default_def();
+            CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
+        }
+        cr_dataset_body_label(d->bodies[i], ds->body_label[i], sizeof ds->body_label[i]);
+        for (int j = 0; j < i; j++)
+            if (!strcmp(ds->body_label[i], ds->body_label[j]))
+                return CR_FAIL(err, CR_ERR_INVALID,
+                               "dataset: bodies '%s' and '%s' have the same label '%s'",
+                               d->bodies[j], d->bodies[i], ds->body_label[i]);
     }
     for (int i = 0; i < d->nres; i++) {
         if (!strcmp(d->res[i], "low"))
@@ -137,6 +161,32 @@ void cr_dataset_motion_label(const char *spec, char *out, size_t size) {
     snprintf(out, size, "%s", base);
     char *dot = strrchr(out, '.');
     if (dot && dot != out) *dot = '\0';
+}
+
+int cr_dataset_garment_is_file(const char *spec) {
+    const char *dot = spec ? strrchr(spec, '.') : NULL;
+    return dot &&
+           (!strcasecmp(dot, ".obj") || !strcasecmp(dot, ".ply") || !strcasecmp(dot, ".glb"));
+}
+
+void cr_dataset_body_label(const char *spec, char *out, size_t size) {
+    const char *npz = strstr(spec, ".npz");
+    if (!npz || size < 2) {
+        snprintf(out, size, "%s", spec);
+        return;
+    }
+    const char *base = spec;
+    for (const char *c = spec; c < npz; c++)
+        if (*c == '/') base = c + 1;
+    size_t n = 0;
+    for (const char *c = base; c < npz && n + 1 < size; c++)
+        out[n++] = *c;
+    if (npz[4] == ':' && n + 2 < size) { /* the betas, as a name can hold them */
+        out[n++] = '_', out[n++] = 'b';
+        for (const char *c = npz + 5; *c && n + 1 < size; c++)
+            out[n++] = *c == '.' ? 'p' : *c == '-' ? 'm' : (*c == ',' || *c == ':') ? '_' : *c;
+    }
+    out[n] = '\0';
 }
 
 static cr_status write_body(const dataset *ds, const char *name, const cr_body_model *b,
@@ -212,7 +262,7 @@ static cr_status write_pair(const dataset *ds, int b, int g, cr_error *err) {
         else
             hi = r;
     if (lo < 0 || hi < 0) return CR_OK;
-    return write_correspondence(ds, ds->def.bodies[b], ds->variant[g].label, ds->garment[b][g][lo],
+    return write_correspondence(ds, ds->body_label[b], ds->variant[g].label, ds->garment[b][g][lo],
                                 ds->garment[b][g][hi], err);
 }
 
@@ -224,9 +274,9 @@ static cr_status make_dirs(const dataset *ds, cr_error *err) {
         CR_TRY(cr_mkdir_p(path, err));
     }
     for (int b = 0; b < ds->def.nbodies; b++) {
-        snprintf(path, sizeof path, "%s/bodies/%s", ds->def.out_dir, ds->def.bodies[b]);
+        snprintf(path, sizeof path, "%s/bodies/%s", ds->def.out_dir, ds->body_label[b]);
         CR_TRY(cr_mkdir_p(path, err));
-        snprintf(path, sizeof path, "%s/garments/%s", ds->def.out_dir, ds->def.bodies[b]);
+        snprintf(path, sizeof path, "%s/garments/%s", ds->def.out_dir, ds->body_label[b]);
         CR_TRY(cr_mkdir_p(path, err));
     }
     return CR_OK;
@@ -247,27 +297,41 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
         cr_progress_update(bar, ++step, "motion %s", ds->motion_name[m]);
     }
     for (int b = 0; b < d->nbodies; b++) {
-        cr_mannequin_def md = cr_mannequin_default_def();
-        CR_TRY(cr_mannequin_preset(d->bodies[b], &md, err));
-        CR_TRY(cr_mannequin_create(&md, &ds->body[b], err));
-        CR_TRY(write_body(ds, d->bodies[b], ds->body[b], err));
+        const char *label = ds->body_label[b];
+        CR_TRY(cr_body_resolve(d->bodies[b], &ds->body[b], err));
+        CR_TRY(write_body(ds, label, ds->body[b], err));
         for (int m = 0; m < d->nmotions; m++) {
             CR_TRY(cr_body_pose_motion(ds->body[b], ds->motion[m], &ds->posed[b][m], err));
             char path[CR_DATASET_PATH];
-            snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", d->out_dir, d->bodies[b],
+            snprintf(path, sizeof path, "%s/bodies/%s/%s.pc2", d->out_dir, label,
                      ds->motion_name[m]);
             CR_TRY(cr_pc2_write(path, ds->posed[b][m], ds->body[b]->rest->nv,
                                 ds->motion[m]->nframes, 0.0f, 1.0f, err));
         }
         for (int g = 0; g < d->ngarments; g++) {
+            if (ds->user_garment[g]) { /* a mesh file, fitted to this body as given */
+                ds->built[b][g] = ds->variant[g];
+                cr_garment_user_def ud = cr_garment_user_default_def();
+                CR_TRY(cr_garment_load_user(d->garments[g], &ud, ds->body[b], &ds->garment[b][g][0],
+                                            err));
+                const cr_mesh *gm = ds->garment[b][g][0]->mesh;
+                cr_bvh *cloth = NULL;
+                ds->rest_crossings[b][g][0] = cr_dataset_crossings(&cloth, gm, gm->pos, err);
+                cr_bvh_destroy(cloth);
+                if (ds->rest_crossings[b][g][0] < 0) return err ? err->status : CR_ERR_MEMORY;
+                CR_TRY(write_garment(ds, label, ds->variant[g].label, d->res[0],
+                                     ds->garment[b][g][0], err));
+                cr_progress_update(bar, ++step, "%s on %s", ds->variant[g].label, label);
+                continue;
+            }
             if (ds->outfit[g].nparts) { /* layers merged into one garment: dataset_outfit.c */
                 ds->built[b][g] = ds->variant[g];
                 CR_TRY(cr_dataset_outfit_build(ds, b, g, err));
                 for (int r = 0; r < d->nres; r++)
-                    CR_TRY(write_garment(ds, d->bodies[b], ds->variant[g].label, d->res[r],
+                    CR_TRY(write_garment(ds, label, ds->variant[g].label, d->res[r],
                                          ds->garment[b][g][r], err));
                 CR_TRY(write_pair(ds, b, g, err));
-                cr_progress_update(bar, ++step, "%s on %s", ds->variant[g].label, d->bodies[b]);
+                cr_progress_update(bar, ++step, "%s on %s", ds->variant[g].label, label);
                 continue;
             }
             /* A random variant is drawn and checked at the lowest resolution
@@ -296,13 +360,12 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
                     if (n < 0) st = err ? err->status : CR_ERR_MEMORY;
                 }
                 if (st == CR_OK)
-                    st = write_garment(ds, d->bodies[b], v->label, d->res[r], ds->garment[b][g][r],
-                                       err);
+                    st = write_garment(ds, label, v->label, d->res[r], ds->garment[b][g][r], err);
             }
             cr_garment_template_destroy(t);
             CR_TRY(st);
             CR_TRY(write_pair(ds, b, g, err));
-            cr_progress_update(bar, ++step, "%s on %s", v->label, d->bodies[b]);
+            cr_progress_update(bar, ++step, "%s on %s", v->label, label);
         }
     }
     return CR_OK;

@@ -50,6 +50,8 @@ typedef struct dataset {
     cr_motion *motion[CR_DATASET_MAX_ITEMS];
     cr_motion_prepare_report motion_rep[CR_DATASET_MAX_ITEMS]; /* source rate, frames used */
     cr_body_model *body[CR_DATASET_MAX_ITEMS];
+    char body_label[CR_DATASET_MAX_ITEMS][64]; /* names the body's files (cr_dataset_body_label) */
+    int user_garment[CR_DATASET_MAX_ITEMS];    /* 1: garments[g] is a mesh file (no variant) */
     float *posed[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS]; /* [body][motion] (T,Vb,3) */
     cr_garment *garment[CR_DATASET_MAX_ITEMS][CR_DATASET_MAX_ITEMS][2]; /* [body][garment][res] */
     /* [body][garment][res]: crossing triangle pairs of the garment as built */

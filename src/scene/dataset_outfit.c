@@ -97,7 +97,7 @@ cr_status cr_dataset_outfit_build(dataset *ds, int b, int g, cr_error *err) {
         st = cr_garment_outfit(layers, o->nparts, &ds->garment[b][g][r], o->offset_m[b][r], err);
         if (st != CR_OK)
             st = CR_FAIL(err, st, "dataset: outfit '%s' on %s at %s resolution: %s",
-                         ds->def.garments[g], ds->def.bodies[b], ds->def.res[r], err->msg);
+                         ds->def.garments[g], ds->body_label[b], ds->def.res[r], err->msg);
     }
     for (int k = 0; k < o->nparts; k++)
         for (int r = 0; r < 2; r++)

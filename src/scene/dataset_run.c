@@ -80,7 +80,7 @@ cr_status cr_dataset_plan(dataset *ds, cr_error *err) {
                     dataset_seq *q = &ds->seq[k];
                     q->b = b, q->g = g, q->r = r, q->m = m;
                     snprintf(q->id, sizeof q->id, "%s_%s_%s_%s", ds->variant[g].label, d->res[r],
-                             d->bodies[b], ds->motion_name[m]);
+                             ds->body_label[b], ds->motion_name[m]);
                     q->state = already_done(ds, q) ? SEQ_SKIPPED : SEQ_PENDING;
                 }
     return CR_OK;
@@ -464,12 +464,14 @@ static cJSON *manifest(const dataset *ds) {
     cJSON *bodies = cJSON_AddArrayToObject(j, "bodies");
     for (int b = 0; b < d->nbodies; b++) {
         cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "name", d->bodies[b]);
-        add_path(o, "rest", "bodies/%s/rest.obj", d->bodies[b]);
-        add_path(o, "skin", "bodies/%s/skin.npz", d->bodies[b]);
+        cJSON_AddStringToObject(o, "name", ds->body_label[b]);
+        cJSON_AddStringToObject(o, "spec", d->bodies[b]);
+        add_path(o, "rest", "bodies/%s/rest.obj", ds->body_label[b]);
+        add_path(o, "skin", "bodies/%s/skin.npz", ds->body_label[b]);
         cJSON *mo = cJSON_AddObjectToObject(o, "motions");
         for (int m = 0; m < d->nmotions; m++)
-            add_path(mo, ds->motion_name[m], "bodies/%s/%s.pc2", d->bodies[b], ds->motion_name[m]);
+            add_path(mo, ds->motion_name[m], "bodies/%s/%s.pc2", ds->body_label[b],
+                     ds->motion_name[m]);
         cJSON_AddItemToArray(bodies, o);
     }
     cJSON *motions = cJSON_AddArrayToObject(j, "motions");
@@ -500,13 +502,22 @@ static cJSON *manifest(const dataset *ds) {
                 cJSON_AddStringToObject(o, "type", cr_garment_type_name(ds->garment_type[g]));
                 cJSON_AddStringToObject(o, "variant", d->garments[g]);
                 cJSON_AddStringToObject(o, "label", label);
-                cJSON_AddStringToObject(o, "body", d->bodies[b]);
+                const char *bl = ds->body_label[b];
+                cJSON_AddStringToObject(o, "body", bl);
                 cJSON_AddStringToObject(o, "res", d->res[r]);
-                add_path(o, "mesh", "garments/%s/%s_%s.obj", d->bodies[b], label, d->res[r]);
-                add_path(o, "skin", "garments/%s/%s_%s_skin.npz", d->bodies[b], label, d->res[r]);
+                add_path(o, "mesh", "garments/%s/%s_%s.obj", bl, label, d->res[r]);
+                add_path(o, "skin", "garments/%s/%s_%s_skin.npz", bl, label, d->res[r]);
                 if (d->nres == 2)
-                    add_path(o, "high_from_low", "garments/%s/%s_high_from_low.npz", d->bodies[b],
-                             label);
+                    add_path(o, "high_from_low", "garments/%s/%s_high_from_low.npz", bl, label);
+                if (ds->user_garment[g]) { /* a file: what regenerates it is the file */
+                    cJSON_AddNumberToObject(o, "vertices", gm ? gm->mesh->nv : 0);
+                    cJSON_AddNumberToObject(o, "faces", gm ? gm->mesh->nf : 0);
+                    cJSON_AddNumberToObject(o, "uv_scale_m", gm ? gm->uv_scale_m : 0);
+                    cJSON_AddNumberToObject(o, "rest_crossings",
+                                            (double)ds->rest_crossings[b][g][r]);
+                    cJSON_AddItemToArray(garments, o);
+                    continue;
+                }
                 /* What regenerates it: the parameters and their exact spec. */
                 cJSON *p = cJSON_AddObjectToObject(o, "params");
                 for (int i = 0; i < CR_GARMENT_NPARAMS; i++)
@@ -546,11 +557,11 @@ static cJSON *manifest(const dataset *ds) {
         cJSON_AddStringToObject(o, "id", q->id);
         cJSON_AddStringToObject(o, "garment", ds->variant[q->g].label);
         cJSON_AddStringToObject(o, "res", d->res[q->r]);
-        cJSON_AddStringToObject(o, "body", d->bodies[q->b]);
+        cJSON_AddStringToObject(o, "body", ds->body_label[q->b]);
         cJSON_AddStringToObject(o, "motion", ds->motion_name[q->m]);
         cJSON_AddStringToObject(o, "status", state_name[q->state]);
         add_path(o, "garment_pc2", "sequences/%s/garment.pc2", q->id);
-        add_path(o, "body_pc2", "bodies/%s/%s.pc2", d->bodies[q->b], ds->motion_name[q->m]);
+        add_path(o, "body_pc2", "bodies/%s/%s.pc2", ds->body_label[q->b], ds->motion_name[q->m]);
         add_path(o, "log", "sequences/%s/frames.jsonl", q->id);
         cJSON_AddNumberToObject(o, "frames", q->frames_done);
         cJSON_AddNumberToObject(o, "max_inside_share", q->max_inside_share);
