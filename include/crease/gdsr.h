@@ -437,6 +437,56 @@ cr_status cr_gdsr_render_compare(const cr_gdsr_data *d, int clip, const cr_gdsr_
                                  int32_t frame, int size, const char *png_path,
                                  const char *normals_path, cr_error *err);
 
+/* ------------------------------------------------------------ the run -- */
+
+/* `crease gdsr run` as one call (src/methods/gdsr/run.c): a trained model
+ * rolled out on a dataset's clip, or on a clip simulated first. */
+typedef struct cr_gdsr_run_def {
+    const char *dataset;  /* a crease dataset folder (with simulate: the model's training
+                             data, whose sizes and rate the simulation takes; may be NULL) */
+    const char *garment;  /* default "tshirt" */
+    const char *body;     /* default "normal" */
+    const char *motion;   /* a clip name or a motion file (required) */
+    const char *model;    /* model.safetensors (required) */
+    const char *baseline; /* a second model rolled out beside it (gdsr_nodec), or NULL */
+    const char *twin;     /* a twin dataset (the same clip re-simulated): its row, or NULL */
+    const char *out_dir;  /* required */
+    float eps;            /* collision handling's margin, m (default 0.002) */
+    int relax;            /* its relaxation rounds (default CR_GDSR_RELAX_DEFAULT) */
+    int surface;          /* 1: Eq. 27's layer test against the surface, 0: nearest vertex */
+    int32_t frames;       /* 0: the whole clip, else its first `frames` */
+    int simulate;         /* 1: simulate the clip first (cr_gdsr_simulate) into out_dir/sim */
+    int reference;        /* with simulate: the high reference too */
+    int32_t low_vertices, high_vertices; /* with simulate; 0: the dataset's or defaults */
+    const struct cr_motion_import_def *motion_import;   /* with simulate; NULL: defaults */
+    const struct cr_motion_prepare_def *motion_prepare; /* with simulate; NULL: defaults */
+    int32_t png_frame;      /* the comparison picture's frame (-1: the last) */
+    int32_t png_size;       /* its side, px (default 512) */
+    int32_t glb_max_frames; /* gdsr.glb animated up to this many frames (default
+                               CR_GDSR_GLB_MAX_FRAMES) */
+    float fps;              /* the glb's rate (default 30) */
+    int quiet;
+    uint32_t cookie;
+} cr_gdsr_run_def;
+cr_gdsr_run_def cr_gdsr_run_default_def(void);
+
+typedef struct cr_gdsr_run_report {
+    int32_t frames, low_vertices, high_vertices;
+    double seconds_per_frame; /* gdsr and handling (cr_gdsr_rollout_result) */
+    double inside_before, inside_after;
+    char *summary_json; /* OUT/summary.json's text (heap; cr_gdsr_run_report_free) */
+} cr_gdsr_run_report;
+
+/* Writes into out_dir: gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2
+ * (when the clip has one), gdsr_nodec.pc2 (with a baseline), high.obj,
+ * gdsr.glb, compare.png, compare_normals.png, body.pc2, body.obj,
+ * strain.csv, strain.png and summary.json (timings, the paper's metrics of
+ * gdsr, upsampling, the baseline and the twin against the reference, band
+ * power, strain drift). Progress and the table through cr_log. out may be
+ * NULL. */
+cr_status cr_gdsr_run(const cr_gdsr_run_def *def, cr_gdsr_run_report *out, cr_error *err);
+void cr_gdsr_run_report_free(cr_gdsr_run_report *r); /* NULL is a no-op */
+
 #ifdef __cplusplus
 }
 #endif

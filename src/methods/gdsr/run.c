@@ -1,0 +1,411 @@
+/* run.c: `crease gdsr run` as one library call (cr_gdsr_run): a trained
+ * model rolled out on a dataset's clip or on a freshly simulated one, its
+ * files (PC2s, glb, OBJs, comparison pictures, strain over the frames), the
+ * paper's metrics against the reference, upsampling and the twin, and
+ * OUT/summary.json. */
+#include "crease/eval.h"
+#include "crease/gdsr.h"
+#include "crease/mesh_io.h"
+#include "crease/motion.h"
+#include "crease/render.h"
+#include "gdsr_internal.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define RUN_COOKIE 0x47525231u
+
+cr_gdsr_run_def cr_gdsr_run_default_def(void) {
+    cr_gdsr_run_def d;
+    memset(&d, 0, sizeof d);
+    d.garment = "tshirt";
+    d.body = "normal";
+    d.eps = 0.002f;
+    d.relax = CR_GDSR_RELAX_DEFAULT;
+    d.png_frame = -1;
+    d.png_size = 512;
+    d.glb_max_frames = CR_GDSR_GLB_MAX_FRAMES;
+    d.fps = 30.0f;
+    d.cookie = RUN_COOKIE;
+    return d;
+}
+
+void cr_gdsr_run_report_free(cr_gdsr_run_report *r) {
+    if (!r) return;
+    free(r->summary_json);
+    memset(r, 0, sizeof *r);
+}
+
+static const cr_eval_metric shown[] = {
+    CR_EVAL_MED, CR_EVAL_NORMAL_ANGLE, CR_EVAL_SSIM,           CR_EVAL_E_U,
+    CR_EVAL_E_V, CR_EVAL_E_UV,         CR_EVAL_COLLISION_RATIO};
+enum { NSHOWN = sizeof shown / sizeof shown[0] };
+/* crease eval's curvature bands the table shows (cr_eval_h_band_edges_m) */
+enum { BAND_4_8CM = 2, BAND_2_4CM = 3 };
+
+/* On an outfit: edge-face crossings between the layers of frames 2.. of x,
+ * their mean and largest count a frame and the frames with any, into o. */
+static cr_status layer_crossings(const cr_gdsr_data *d, const float *x, int32_t T, cJSON *o,
+                                 const char *name, cr_error *err) {
+    int64_t nh3 = (int64_t)d->high->nv * 3, most = 0, sum = 0;
+    int32_t frames = 0;
+    for (int32_t t = 2; t < T; t++) {
+        int64_t c = cr_gdsr_layer_crossings(d, x + t * nh3, err);
+        if (c < 0) return err ? err->status : CR_ERR_MEMORY;
+        sum += c, most = c > most ? c : most, frames += c > 0;
+    }
+    double mean = T > 2 ? (double)sum / (T - 2) : 0.0;
+    cJSON_AddNumberToObject(o, "layer_crossings_mean", mean);
+    cJSON_AddNumberToObject(o, "layer_crossings_max", (double)most);
+    cJSON_AddNumberToObject(o, "layer_crossing_frames", frames);
+    cr_log(CR_LOG_INFO, "  %-10s layer crossings: mean %.2f, most %lld, on %d of %d frames", name,
+           mean, (long long)most, frames, T > 2 ? T - 2 : 0);
+    return CR_OK;
+}
+
+static cr_status measure(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const float *pred,
+                         const char *name, cJSON *table, cr_error *err) {
+    cr_eval_def ed = cr_eval_default_def();
+    /* frames 2.. (the model starts at frame 2) */
+    int64_t nh3 = (int64_t)d->high->nv * 3;
+    cr_eval_input in = {.garment = d->high,
+                        .nframes = cl->nframes - 2,
+                        .pred = pred + 2 * nh3,
+                        .ref = cl->high + 2 * nh3,
+                        .body_mesh = d->body,
+                        .body = cl->body + (int64_t)2 * d->body->nv * 3,
+                        .body_nframes = cl->nframes - 2,
+                        .pred_name = name};
+    cr_eval_result r = {0};
+    CR_TRY(cr_eval_run(&ed, &in, &r, err));
+    cJSON *o = cJSON_AddObjectToObject(table, name);
+    char line[512];
+    int n = snprintf(line, sizeof line, "  %-10s", name);
+    for (int k = 0; k < NSHOWN; k++) {
+        double v = r.summary[shown[k]].mean;
+        cJSON_AddNumberToObject(o, cr_eval_metric_name(shown[k]), v);
+        n += snprintf(line + n, sizeof line - (size_t)n, " %11.4g", v);
+    }
+    if (r.has_band_power) {
+        /* the curvature power of the 4-8 and 2-4 cm bands over the frames (crease eval's
+           band_power), against the reference's; '*' marks a band the high mesh resolves */
+        cJSON *bp = cJSON_AddArrayToObject(o, "band_power_pred");
+        cJSON *br = cJSON_AddArrayToObject(o, "band_power_ref");
+        cJSON *res = cJSON_AddArrayToObject(o, "band_resolved");
+        for (int b = 0; b < CR_EVAL_H_BANDS; b++) {
+            cJSON_AddItemToArray(bp, cJSON_CreateNumber(r.band_power_pred[b]));
+            cJSON_AddItemToArray(br, cJSON_CreateNumber(r.band_power_ref[b]));
+            cJSON_AddItemToArray(res, cJSON_CreateBool(r.band_resolved[b]));
+        }
+        for (int b = BAND_4_8CM; b <= BAND_2_4CM; b++)
+            n += snprintf(line + n, sizeof line - (size_t)n, " %10.4g%c %10.4g%c",
+                          r.band_power_pred[b], r.band_resolved[b] ? '*' : ' ', r.band_power_ref[b],
+                          r.band_resolved[b] ? '*' : ' ');
+    }
+    cr_log(CR_LOG_INFO, "%s", line);
+    cr_eval_result_free(&r);
+    return d->nlayers > 1 ? layer_crossings(d, pred, cl->nframes, o, name, err) : CR_OK;
+}
+
+/* E_u, E_v, E_uv of every frame of gdsr and of upsampling (crease eval's
+ * functions; the prediction as its own reference): strain.csv and
+ * strain.png (log axes), and the last frame's values against frame 2's in
+ * the JSON (the roll-out's drift). */
+static cr_status strain_over_frames(const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+                                    const cr_gdsr_rollout_result *r, const char *out, cJSON *j,
+                                    cr_error *err) {
+    static const cr_eval_metric em[3] = {CR_EVAL_E_U, CR_EVAL_E_V, CR_EVAL_E_UV};
+    static const char *names[3] = {"e_u", "e_v", "e_uv"};
+    int32_t T = cl->nframes;
+    double *v = malloc((size_t)T * 7 * sizeof(double)); /* frame, 3 gdsr, 3 upsampled */
+    if (!v) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    cr_status st = CR_OK;
+    for (int p = 0; p < 2 && st == CR_OK; p++) {
+        const float *x = p ? r->upsampled : r->gdsr;
+        cr_eval_def ed = cr_eval_default_def();
+        ed.ssim_side = 16;
+        cr_eval_input in = {.garment = d->high, .nframes = T, .pred = x, .ref = x};
+        cr_eval_result er = {0};
+        if ((st = cr_eval_run(&ed, &in, &er, err)) != CR_OK) break;
+        for (int32_t t = 0; t < T; t++) {
+            v[7 * t] = t;
+            for (int k = 0; k < 3; k++)
+                v[7 * t + 1 + 3 * p + k] = cr_eval_value(&er, t, em[k]);
+        }
+        cr_eval_result_free(&er);
+    }
+    char path[1100];
+    cr_atomic_file f;
+    snprintf(path, sizeof path, "%s/strain.csv", out);
+    if (st == CR_OK && (st = cr_atomic_open(&f, path, err)) == CR_OK) {
+        fprintf(f.fp, "frame,gdsr_e_u,gdsr_e_v,gdsr_e_uv,upsampled_e_u,upsampled_e_v,"
+                      "upsampled_e_uv\n");
+        for (int32_t t = 0; t < T; t++)
+            fprintf(f.fp, "%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", t, v[7 * t + 1], v[7 * t + 2],
+                    v[7 * t + 3], v[7 * t + 4], v[7 * t + 5], v[7 * t + 6]);
+        st = cr_atomic_commit(&f, err);
+    }
+    double *col = st == CR_OK ? malloc((size_t)T * 7 * sizeof(double)) : NULL;
+    if (st == CR_OK && !col) st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr run: out of memory");
+    if (st == CR_OK) {
+        for (int c = 0; c < 7; c++)
+            for (int32_t t = 0; t < T; t++)
+                col[(int64_t)c * T + t] = v[7 * t + c];
+        cr_plot_series ser[6];
+        cr_plot_panel pan[3];
+        char label[6][48];
+        for (int k = 0; k < 3; k++) {
+            for (int p = 0; p < 2; p++) {
+                snprintf(label[2 * k + p], sizeof label[0], "%s %s", p ? "upsampling" : "gdsr",
+                         names[k]);
+                ser[2 * k + p] =
+                    (cr_plot_series){.name = label[2 * k + p],
+                                     .x = col,
+                                     .y = col + (int64_t)(1 + 3 * p + k) * T,
+                                     .n = T,
+                                     .rgb = {p ? 120 : 200, p ? 120 : 40, p ? 120 : 40}};
+            }
+            pan[k] = (cr_plot_panel){.series = ser + 2 * k, .nseries = 2, .log_y = 1};
+        }
+        cr_image img = {0};
+        snprintf(path, sizeof path, "%s/strain.png", out);
+        if ((st = cr_plot_lines(pan, 3, "frame", "gdsr roll-out: e_u, e_v, e_uv", 900, 700, &img,
+                                err)) == CR_OK)
+            st = cr_image_write_png(&img, path, err);
+        cr_image_free(&img);
+        /* frame 2 is the model's first; the last shows any drift */
+        int32_t a = T > 2 ? 2 : 0, b = T - 1;
+        cJSON *o = cJSON_AddObjectToObject(j, "strain");
+        cJSON_AddNumberToObject(o, "first_frame", a);
+        cJSON_AddNumberToObject(o, "last_frame", b);
+        for (int k = 0; k < 3; k++) {
+            char key[64];
+            snprintf(key, sizeof key, "gdsr_%s_first", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * a + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_last", names[k]);
+            cJSON_AddNumberToObject(o, key, v[7 * b + 1 + k]);
+            double mx = 0;
+            for (int32_t t = a; t <= b; t++)
+                mx = fmax(mx, v[7 * t + 1 + k]);
+            snprintf(key, sizeof key, "gdsr_%s_max", names[k]);
+            cJSON_AddNumberToObject(o, key, mx);
+        }
+        cr_log(CR_LOG_INFO,
+               "  strain, frame %d -> %d: e_u %.3g -> %.3g, e_v %.3g -> %.3g, e_uv %.3g -> %.3g "
+               "(%s/strain.png)",
+               a, b, v[7 * a + 1], v[7 * b + 1], v[7 * a + 2], v[7 * b + 2], v[7 * a + 3],
+               v[7 * b + 3], out);
+    }
+    free(col);
+    free(v);
+    return st;
+}
+
+/* The outputs of a roll-out r (and the baseline's rb) of clip 0 of d into
+ * def->out_dir, the metrics and the summary into j. */
+static cr_status write_outputs(const cr_gdsr_run_def *def, const cr_gdsr_data *d,
+                               const cr_gdsr_data *dt, const cr_gdsr_rollout_result *r,
+                               const cr_gdsr_rollout_result *rb, cJSON *j, int *png_frame,
+                               int *animated, cr_error *err) {
+    const char *out = def->out_dir;
+    const cr_gdsr_clip *cl = &d->clip[0];
+    char path[1100], npath[1100];
+    struct {
+        const char *name;
+        const float *x;
+    } outs[] = {{"gdsr", r->gdsr},
+                {"gdsr_raw", r->gdsr_raw},
+                {"upsampled", r->upsampled},
+                {"reference", cl->high}, /* NULL: a low-only roll-out */
+                {"gdsr_nodec", rb->gdsr}};
+    for (int k = 0; k < 5; k++) {
+        if (!outs[k].x) continue;
+        snprintf(path, sizeof path, "%s/%s.pc2", out, outs[k].name);
+        CR_TRY(cr_pc2_write(path, outs[k].x, d->high->nv, cl->nframes, 0, 1, err));
+    }
+    snprintf(path, sizeof path, "%s/high.obj", out);
+    CR_TRY(cr_obj_write(path, d->high, err));
+    snprintf(path, sizeof path, "%s/gdsr.glb", out);
+    CR_TRY(cr_gdsr_write_glb(d->high, r->gdsr, cl->nframes, def->fps, def->glb_max_frames, path,
+                             animated, err));
+    if (*png_frame < 0 || *png_frame >= cl->nframes) *png_frame = cl->nframes - 1;
+    snprintf(path, sizeof path, "%s/compare.png", out);
+    snprintf(npath, sizeof npath, "%s/compare_normals.png", out);
+    CR_TRY(cr_gdsr_render_compare(d, 0, r, *png_frame, def->png_size, path, npath, err));
+    snprintf(path, sizeof path, "%s/body.pc2", out);
+    CR_TRY(cr_pc2_write(path, cl->body, d->body->nv, cl->nframes, 0, 1, err));
+    snprintf(path, sizeof path, "%s/body.obj", out);
+    CR_TRY(cr_obj_write(path, d->body, err));
+    cr_log(CR_LOG_INFO,
+           "gdsr run %s: %d frames, %d -> %d vertices, %.4f s per frame (gdsr + handling; "
+           "%.4f s CPU); inside the body: %.3f %% before handling, %.3f %% after",
+           def->motion, cl->nframes, d->low->nv, d->high->nv, r->seconds_per_frame,
+           r->cpu_seconds_per_frame, 100 * r->inside_before, 100 * r->inside_after);
+    char line[512];
+    int n = snprintf(line, sizeof line,
+                     "  first frame through the networks %.4f s (with the warm-up); per frame "
+                     "after:",
+                     r->first_frame_seconds);
+    for (int k = 0; k < 4; k++)
+        n += snprintf(line + n, sizeof line - (size_t)n, " %s %.4f s%s", cr_gdsr_stage_names[k],
+                      r->stage_seconds[k], k < 3 ? "," : "");
+    cr_log(CR_LOG_INFO, "%s", line);
+    if (d->nlayers > 1)
+        cr_log(CR_LOG_INFO, "  layers (Eq. 27): %lld coarse and %lld high vertices pushed out",
+               (long long)r->layer_pushed, (long long)r->layer_pushed_high);
+    if (cl->high) {
+        n = snprintf(line, sizeof line, "  %-10s", "");
+        for (int k = 0; k < NSHOWN; k++)
+            n += snprintf(line + n, sizeof line - (size_t)n, " %11.11s",
+                          cr_eval_metric_name(shown[k]));
+        snprintf(line + n, sizeof line - (size_t)n, " %11s %11s %11s %11s", "p4-8cm", "p4-8cm_ref",
+                 "p2-4cm", "p2-4cm_ref");
+        cr_log(CR_LOG_INFO, "%s", line);
+        cJSON *table = cJSON_AddObjectToObject(j, "metrics");
+        CR_TRY(measure(d, cl, r->upsampled, "upsampled", table, err));
+        CR_TRY(measure(d, cl, r->gdsr, "gdsr", table, err));
+        CR_TRY(measure(d, cl, r->gdsr_raw, "gdsr_raw", table, err));
+        if (rb->gdsr) CR_TRY(measure(d, cl, rb->gdsr, "gdsr_nodec", table, err));
+        if (dt) CR_TRY(measure(d, cl, dt->clip[0].high, "twin", table, err));
+        if (d->nlayers > 1)
+            CR_TRY(layer_crossings(d, cl->high, cl->nframes,
+                                   cJSON_AddObjectToObject(table, "reference"), "reference", err));
+    }
+    return strain_over_frames(d, cl, r, out, j, err);
+}
+
+static void add_summary(const cr_gdsr_run_def *def, const cr_gdsr_data *d,
+                        const cr_gdsr_rollout_result *r, const cr_gdsr_sim_result *sr,
+                        const char *simdir, int png_frame, int animated, cJSON *j) {
+    const cr_gdsr_clip *cl = &d->clip[0];
+    cJSON_AddStringToObject(j, "command", "gdsr run");
+    cJSON_AddStringToObject(j, "motion", def->motion);
+    cJSON_AddNumberToObject(j, "frames", cl->nframes);
+    cJSON_AddNumberToObject(j, "low_vertices", d->low->nv);
+    cJSON_AddNumberToObject(j, "high_vertices", d->high->nv);
+    cJSON_AddNumberToObject(j, "seconds_per_frame", r->seconds_per_frame);
+    cJSON_AddNumberToObject(j, "cpu_seconds_per_frame", r->cpu_seconds_per_frame);
+    cJSON_AddNumberToObject(j, "first_frame_seconds", r->first_frame_seconds);
+    cJSON *stages = cJSON_AddObjectToObject(j, "stage_seconds_per_frame");
+    for (int k = 0; k < 4; k++)
+        cJSON_AddNumberToObject(stages, cr_gdsr_stage_names[k], r->stage_seconds[k]);
+    cJSON_AddNumberToObject(j, "inside_before", r->inside_before);
+    cJSON_AddNumberToObject(j, "inside_after", r->inside_after);
+    cJSON_AddNumberToObject(j, "layer_pushed", (double)r->layer_pushed);
+    cJSON_AddNumberToObject(j, "layer_pushed_high", (double)r->layer_pushed_high);
+    cJSON_AddBoolToObject(j, "glb_animated", animated);
+    cJSON_AddNumberToObject(j, "png_frame", png_frame);
+    if (def->simulate) {
+        cJSON *o = cJSON_AddObjectToObject(j, "simulated");
+        cJSON_AddStringToObject(o, "dir", simdir);
+        cJSON_AddStringToObject(o, "garment", sr->garment);
+        cJSON_AddBoolToObject(o, "reference", def->reference);
+        cJSON_AddNumberToObject(o, "seconds", sr->seconds);
+        cJSON_AddNumberToObject(o, "max_inside_share", sr->max_inside_share);
+    }
+}
+
+/* The clip: a dataset's (and the twin dataset's), or a fresh simulation. */
+static cr_status load_clip(cr_gdsr_run_def *def, cr_gdsr_data *d, cr_gdsr_data *dt,
+                           cr_gdsr_sim_result *sr, char *simdir, size_t simcap, cr_error *err) {
+    if (def->simulate) {
+        snprintf(simdir, simcap, "%s/sim", def->out_dir);
+        cr_gdsr_sim_def sd = cr_gdsr_sim_default_def();
+        sd.out_dir = simdir, sd.garment = def->garment, sd.body = def->body;
+        sd.motion = def->motion, sd.like = def->dataset;
+        sd.low_vertices = def->low_vertices, sd.high_vertices = def->high_vertices;
+        if (def->frames > 0) sd.frames = def->frames;
+        sd.reference = def->reference, sd.quiet = def->quiet;
+        sd.motion_import = def->motion_import, sd.motion_prepare = def->motion_prepare;
+        CR_TRY(cr_gdsr_simulate(&sd, d, sr, err));
+        cr_log(CR_LOG_INFO,
+               "gdsr run: simulated %s on %s (%s), %d frames, %d low vertices%s, %.1f s (%s)",
+               sr->garment, def->body, sr->motion, d->clip[0].nframes - 1, sr->low_vertices,
+               def->reference ? " and the high reference" : "", sr->seconds, simdir);
+        def->motion = sr->motion;
+        def->frames = 0;
+        return CR_OK;
+    }
+    const char *motion = def->motion;
+    CR_TRY(cr_gdsr_data_load(def->dataset, def->garment, def->body, &motion, 1, d, err));
+    if (!def->twin) return CR_OK;
+    cr_status st = cr_gdsr_data_load(def->twin, def->garment, def->body, &motion, 1, dt, err);
+    if (st == CR_OK && (dt->high->nv != d->high->nv || dt->clip[0].nframes < d->clip[0].nframes))
+        st = CR_FAIL(err, CR_ERR_SHAPE,
+                     "gdsr run: %s's high %s clip has %d vertices and %d frames, %s's %d and %d",
+                     def->twin, motion, dt->high->nv, dt->clip[0].nframes, def->dataset,
+                     d->high->nv, d->clip[0].nframes);
+    if (st != CR_OK) { /* a failed load freed what it had */
+        if (dt->high) cr_gdsr_data_free(dt);
+        cr_gdsr_data_free(d);
+    }
+    return st;
+}
+
+cr_status cr_gdsr_run(const cr_gdsr_run_def *def_in, cr_gdsr_run_report *out, cr_error *err) {
+    if (!def_in || def_in->cookie != RUN_COOKIE)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr run: def not made by cr_gdsr_run_default_def");
+    cr_gdsr_run_def def = *def_in;
+    if (out) memset(out, 0, sizeof *out);
+    if (!def.motion || !def.model || !def.out_dir || (!def.dataset && !def.simulate))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr run: needs a motion, a model, an output folder and a dataset or "
+                       "simulate");
+    if (def.twin && def.simulate)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr run: a twin measures a dataset's clip, not a "
+                       "simulated one");
+    if (!def.simulate && (def.reference || def.low_vertices || def.high_vertices))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr run: reference, low_vertices and high_vertices need simulate");
+    cr_gdsr_data d, dt = {0};
+    cr_gdsr_sim_result sr = {0};
+    char simdir[1100] = "";
+    CR_TRY(load_clip(&def, &d, &dt, &sr, simdir, sizeof simdir, err));
+    if (def.frames > 0 && def.frames < d.clip[0].nframes) d.clip[0].nframes = def.frames;
+    cr_gdsr_model *m = NULL, *mb = NULL;
+    cr_gdsr_rollout_result r = {0}, rb = {0};
+    cJSON *j = cJSON_CreateObject();
+    int png_frame = def.png_frame, animated = 0;
+    cr_status st = j ? cr_mkdir_p(def.out_dir, err) : CR_FAIL(err, CR_ERR_MEMORY, "gdsr run");
+    if (st == CR_OK) st = cr_gdsr_model_load(def.model, &m, err);
+    if (st == CR_OK) st = cr_gdsr_rollout(m, &d, 0, def.eps, def.relax, def.surface, &r, err);
+    if (st == CR_OK && def.baseline) {
+        st = cr_gdsr_model_load(def.baseline, &mb, err);
+        if (st == CR_OK) st = cr_gdsr_rollout(mb, &d, 0, def.eps, def.relax, def.surface, &rb, err);
+    }
+    if (st == CR_OK)
+        st = write_outputs(&def, &d, def.twin ? &dt : NULL, &r, &rb, j, &png_frame, &animated, err);
+    if (st == CR_OK) {
+        add_summary(&def, &d, &r, &sr, simdir, png_frame, animated, j);
+        char *s = cJSON_Print(j), path[1100];
+        snprintf(path, sizeof path, "%s/summary.json", def.out_dir);
+        cr_atomic_file f;
+        st = s ? cr_atomic_open(&f, path, err)
+               : CR_FAIL(err, CR_ERR_MEMORY, "%s: out of memory", path);
+        if (st == CR_OK) {
+            fputs(s, f.fp);
+            st = cr_atomic_commit(&f, err);
+        }
+        if (st == CR_OK && out) {
+            out->frames = d.clip[0].nframes;
+            out->low_vertices = d.low->nv, out->high_vertices = d.high->nv;
+            out->seconds_per_frame = r.seconds_per_frame;
+            out->inside_before = r.inside_before, out->inside_after = r.inside_after;
+            out->summary_json = s;
+            s = NULL;
+        }
+        free(s);
+    }
+    cJSON_Delete(j);
+    cr_gdsr_rollout_free(&r);
+    cr_gdsr_rollout_free(&rb);
+    cr_gdsr_model_destroy(m);
+    cr_gdsr_model_destroy(mb);
+    cr_gdsr_data_free(&d);
+    if (def.twin) cr_gdsr_data_free(&dt);
+    return st;
+}
