@@ -126,7 +126,7 @@ void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]) {
 }
 
 cr_status cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix, cr_error *err) {
-    /* Through world rotations (rt_fix_world, the one copy shared with
+    /* Through world rotations (cr_retarget_fix_world, the one copy shared with
      * retargeting onto other skeletons): local = G_parent^-1 G. */
     const size_t T = (size_t)m->nframes;
     double *g = cr_malloc(T * CR_NJOINTS * 4 * sizeof(double), err);
@@ -146,7 +146,7 @@ cr_status cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix, cr_erro
         for (int k = 0; k < 3; k++)
             t[3 * f + (size_t)k] = m->trans[3 * f + (size_t)k];
     }
-    rt_fix_world(g, CR_NJOINTS, CR_JOINT_PELVIS, t, m->nframes, fix);
+    cr_retarget_fix_world(g, CR_NJOINTS, CR_JOINT_PELVIS, t, m->nframes, fix);
     for (size_t f = 0; f < T; f++) {
         const double *gf = g + f * CR_NJOINTS * 4;
         for (int j = 0; j < CR_NJOINTS; j++) {

@@ -290,7 +290,7 @@ static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr
     if (!names) return CR_ERR_MEMORY;
     for (int i = 0; i < b->n; i++)
         names[i] = b->j[i].end_site ? NULL : b->j[i].name;
-    int best_score = rt_match_roles(b->n, names, map, rig);
+    int best_score = cr_retarget_match_roles(b->n, names, map, rig);
     free(names);
     if (best_score < MIN_MAPPED) {
         char list[240];
@@ -302,7 +302,8 @@ static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: cannot map the skeleton onto SMPL's joints: the best rig (%s) "
                        "matches %d of 22 (known: %s names; joints here: %s)",
-                       b->t.source, rt_rig_name(*rig), best_score, rt_rig_list, list);
+                       b->t.source, cr_retarget_rig_name(*rig), best_score, cr_retarget_rig_list,
+                       list);
     }
     for (int j = 1; j < CR_NJOINTS; j++) {
         if (map[j] < 0) continue;
@@ -315,8 +316,8 @@ static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr
                            b->t.source, b->j[map[j]].line, b->j[map[j]].name, cr_joint_name[j],
                            b->j[map[a]].name, cr_joint_name[a]);
     }
-    cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source, rt_rig_name(*rig),
-           best_score);
+    cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source,
+           cr_retarget_rig_name(*rig), best_score);
     return CR_OK;
 }
 
@@ -334,12 +335,12 @@ static void rest_positions(const bvh_file *b, double (*p)[3]) {
 static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
                            double q[4], int *up_axis, int *up_sign, cr_error *err) {
     int la, ls;
-    if (!rt_rig_axes(map, p, up_axis, up_sign, &la, &ls))
+    if (!cr_retarget_rig_axes(map, p, up_axis, up_sign, &la, &ls))
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
                        "to head, right to left hip)",
                        b->t.source);
-    rt_axes_turn(*up_axis, *up_sign, la, ls, q);
+    cr_retarget_axes_turn(*up_axis, *up_sign, la, ls, q);
     return CR_OK;
 }
 
@@ -356,11 +357,11 @@ static double rig_scale(const bvh_file *b, int rig, double (*p)[3], const double
     /* Known rigs first: cgspeed's CMU conversion keeps the ASF's unit (0.45
      * inch, a joint height of about 24 units) and Mixamo writes centimetres. */
     double unit_m, unit_lo, unit_hi;
-    rt_rig_unit(rig, &unit_m, &unit_lo, &unit_hi);
+    cr_retarget_rig_unit(rig, &unit_m, &unit_lo, &unit_hi);
     if (unit_m > 0 && h >= unit_lo && h <= unit_hi) {
         cr_log(unit_m != 0.01 ? CR_LOG_INFO : CR_LOG_DEBUG,
-               "%s: %s rig, %g units high: %g m per unit", b->t.source, rt_rig_name(rig), h,
-               unit_m);
+               "%s: %s rig, %g units high: %g m per unit", b->t.source, cr_retarget_rig_name(rig),
+               h, unit_m);
         return unit_m;
     }
     if (h >= 0.8 && h <= 3.0) return 1.0;
@@ -409,7 +410,7 @@ static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
                                   {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
     int top = -1, l = -1;
     for (int i = 0; i < 4 && top < 0; i++)
-        if (map[rt_up_ends[i]] >= 0) top = map[rt_up_ends[i]];
+        if (map[cr_retarget_up_ends[i]] >= 0) top = map[cr_retarget_up_ends[i]];
     for (int i = 0; i < 2 && l < 0; i++)
         if (map[legs[i][0]] >= 0 && map[legs[i][1]] >= 0) l = i;
     if (top < 0 || l < 0) return 1;
@@ -418,7 +419,7 @@ static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
         up[k] = p[top][k] - p[map[0]][k];
         down[k] = 0.5 * (p[map[legs[l][0]]][k] + p[map[legs[l][1]]][k]) - p[map[0]][k];
     }
-    if (!rt_unit3(up, up, 1e-12) || !rt_unit3(down, down, 1e-12)) return 0;
+    if (!cr_retarget_unit3(up, up, 1e-12) || !cr_retarget_unit3(down, down, 1e-12)) return 0;
     return up[0] * down[0] + up[1] * down[1] + up[2] * down[2] < -0.5;
 }
 
@@ -438,7 +439,7 @@ static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4]
         int32_t f = (int32_t)((int64_t)i * b->nframes / n);
         int ua, us, la, ls;
         frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-        if (!rt_rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
+        if (!cr_retarget_rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
         votes[2 * ua + (us < 0)]++;
         if (first[2 * ua + (us < 0)] < 0 && stands(map, pos)) first[2 * ua + (us < 0)] = f;
     }
@@ -485,7 +486,7 @@ static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig
         (up_axis != rest_axis || up_sign != rest_sign)) {
         /* left: the first other axis in x, z, y order, so a Y-up file keeps its
          * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
-        rt_axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
+        cr_retarget_axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
         cr_log(CR_LOG_WARN,
                "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
                "frames): the motion's up is used",
@@ -505,7 +506,7 @@ static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig
                b->t.source, (int)standing);
     }
     rt_state rs = {0};
-    if (st == CR_OK && def->retarget) st = rt_state_alloc(tg->n, &rs, err);
+    if (st == CR_OK && def->retarget) st = cr_retarget_state_alloc(tg->n, &rs, err);
     if (st == CR_OK) {
         double s = rig_scale(b, rig, size_pose, size_turn, def->bvh_scale), lowest = INFINITY,
                highest = -INFINITY, root_up[3];
@@ -515,8 +516,8 @@ static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig
             lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
         }
         if (def->retarget)
-            rt_setup(tg, size_pose, size_pose == rest ? NULL : stand_w, fix.world, rest_turn,
-                     (highest - lowest) / s, &rs);
+            cr_retarget_setup(tg, size_pose, size_pose == rest ? NULL : stand_w, fix.world,
+                              rest_turn, (highest - lowest) / s, &rs);
         q_rotate(fix.world, rest[map[0]], fix.origin);
         q_rotate(size_turn, size_pose[map[0]], root_up);
         for (int k = 0; k < 3; k++)
@@ -525,7 +526,7 @@ static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig
         for (int f = 0; f < b->nframes; f++) {
             double(*gf)[4] = (double(*)[4])(g + 4 * (size_t)f * (size_t)tg->n);
             frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-            if (def->retarget) rt_frame(tg, &rs, w, pos, gf);
+            if (def->retarget) cr_retarget_frame(tg, &rs, w, pos, gf);
             for (int j = 0; !def->retarget && j < tg->n; j++) {
                 if (tg->src[j] >= 0)
                     memcpy(gf[j], w[tg->src[j]], sizeof gf[j]);
@@ -537,10 +538,10 @@ static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig
             for (int k = 0; k < 3; k++)
                 t[(size_t)f * 3 + (size_t)k] = s * pos[map[0]][k];
         }
-        rt_fix_world(g, tg->n, tg->pelvis, t, b->nframes, &fix);
+        cr_retarget_fix_world(g, tg->n, tg->pelvis, t, b->nframes, &fix);
         *hip_m = fix.origin[1];
     }
-    rt_state_free(&rs);
+    cr_retarget_state_free(&rs);
     free(rest);
     free(w);
     free(pos);
@@ -563,7 +564,7 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     for (int j = 0; j < CR_NJOINTS; j++) {
         for (int k = 0; k < 3; k++)
             rest[j][k] = canon[3 * j + k];
-        parent[j] = cr_joint_parent[j], bone[j] = rt_bone_child_role[j];
+        parent[j] = cr_joint_parent[j], bone[j] = cr_retarget_bone_child_role[j];
     }
     const rt_target tg = {.n = CR_NJOINTS,
                           .parent = parent,
@@ -623,5 +624,143 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
     if (st == CR_OK) st = build_motion(&b, def, out, err);
     free(b.j);
     free(b.values);
+    return st;
+}
+
+/* ------------------------------------------------- onto any skeleton -- */
+
+#define RETARGET_COOKIE 0x72746731u
+
+cr_retarget_def cr_retarget_default_def(void) {
+    return (cr_retarget_def){.import = cr_motion_import_default_def(), .cookie = RETARGET_COOKIE};
+}
+
+/* The character's motion from its joints' world rotations g (T,n,4) and
+ * pelvis displacement t (T,3), both in crease's frame: turned back into the
+ * character's frame, made local, and the roots' translation chosen so the
+ * pelvis lands at its rest position plus t. */
+static cr_status character_motion(const rt_character *c, const cr_glb_skin *skel, const double *g,
+                                  const double *t, cr_skin_motion *m, cr_error *err) {
+    const int n = c->t.n;
+    double inv[4];
+    q_conj(c->turn, inv);
+    double(*pos)[3] = cr_malloc((size_t)n * sizeof *pos, err);
+    double(*gw)[4] = cr_malloc((size_t)n * sizeof *gw, err);
+    if (!pos || !gw) {
+        free(pos), free(gw);
+        return CR_ERR_MEMORY;
+    }
+    for (int32_t f = 0; f < m->nframes; f++) {
+        float *rot = m->rotation + 4 * (size_t)f * (size_t)n;
+        for (int j = 0; j < n; j++) { /* G in the character's frame: C^-1 G C */
+            q_mul(inv, g + 4 * ((size_t)f * (size_t)n + (size_t)j), gw[j]);
+            q_mul(gw[j], c->turn, gw[j]);
+        }
+        for (int j = 0; j < n; j++) {
+            const int p = c->parent[j];
+            double local[4], d[3];
+            memcpy(local, gw[j], sizeof local);
+            if (p >= 0) {
+                double pinv[4];
+                q_conj(gw[p], pinv);
+                q_mul(pinv, local, local);
+            }
+            rot[4 * j] = (float)local[1], rot[4 * j + 1] = (float)local[2];
+            rot[4 * j + 2] = (float)local[3], rot[4 * j + 3] = (float)local[0];
+            for (int k = 0; k < 3; k++) /* forward kinematics with the roots at rest */
+                d[k] = skel->rest_joint[3 * j + k] - (p >= 0 ? skel->rest_joint[3 * p + k] : 0.0);
+            if (p >= 0) q_rotate(gw[p], d, d);
+            for (int k = 0; k < 3; k++)
+                pos[j][k] = (p >= 0 ? pos[p][k] : 0.0) + d[k];
+        }
+        double want[3];
+        q_rotate(inv, t + 3 * (size_t)f, want);
+        for (int k = 0; k < 3; k++)
+            m->translation[3 * f + k] =
+                (float)(skel->rest_joint[3 * c->t.pelvis + k] + want[k] - pos[c->t.pelvis][k]);
+    }
+    free(pos), free(gw);
+    return CR_OK;
+}
+
+cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *source,
+                                     const cr_glb_skin *skel, const char *skel_source,
+                                     const cr_retarget_def *def, cr_skin_motion **out,
+                                     cr_error *err) {
+    *out = NULL;
+    cr_retarget_def defaults = cr_retarget_default_def();
+    if (!def) def = &defaults;
+    CR_ASSERT(def->cookie == RETARGET_COOKIE && def->import.cookie == MOTION_IMPORT_COOKIE);
+    if (skel->njoints < 1 || skel->njoints > CR_GLB_MAX_JOINTS)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: %d joints (1 to %d)", skel_source, skel->njoints,
+                       CR_GLB_MAX_JOINTS);
+    bvh_file b;
+    memset(&b, 0, sizeof b);
+    cr_io_text_init(&b.t, data, len, source);
+    b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
+    if (!b.j) return CR_ERR_MEMORY;
+    int map[CR_NJOINTS], rig = 0;
+    const char **names = NULL;
+    double *g = NULL, *t = NULL, hip_m = 0.0;
+    rt_character c = {0};
+    cr_skin_motion *m = NULL;
+    cr_status st = parse_hierarchy(&b, err);
+    if (st == CR_OK) st = parse_motion(&b, err);
+    if (st == CR_OK) st = map_joints(&b, map, &rig, err);
+    if (st == CR_OK && !(names = cr_malloc((size_t)b.n * sizeof *names, err))) st = CR_ERR_MEMORY;
+    for (int i = 0; st == CR_OK && i < b.n; i++)
+        names[i] = b.j[i].end_site ? NULL : b.j[i].name;
+    if (st == CR_OK)
+        st = cr_retarget_character_build(skel, skel_source, def->joint_map, b.n, names, map, source,
+                                         &c, err);
+    const size_t T = (size_t)b.nframes, n = (size_t)skel->njoints;
+    if (st == CR_OK) {
+        g = cr_malloc(T * n * 4 * sizeof(double), err);
+        t = cr_malloc(T * 3 * sizeof(double), err);
+        if (!g || !t) st = CR_ERR_MEMORY;
+    }
+    if (st == CR_OK)
+        st = cr_skin_motion_create(skel->njoints, b.nframes, (float)bvh_fps(&b), &m, err);
+    if (st == CR_OK) st = bvh_drive(&b, map, rig, &def->import, &c.t, g, t, &hip_m, err);
+    if (st == CR_OK) {
+        const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0;
+        for (size_t i = 0; i < 3 * T; i++)
+            t[i] *= scale;
+        st = character_motion(&c, skel, g, t, m, err);
+    }
+    if (st == CR_OK) {
+        const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0;
+        int driven = 0;
+        for (size_t j = 0; j < n; j++)
+            driven += c.src[j] >= 0;
+        cr_log(CR_LOG_INFO,
+               "%s: %s joint names, %d of 22 body joints found by name%s%s%s; %d of %d joints "
+               "driven by %s (%s rig), the rest keep their rest pose; translation scaled by "
+               "%.3f (hips %.3f m over %.3f m)",
+               skel_source, c.nroles > 0 ? cr_retarget_rig_name(c.rig) : "no known", c.nroles,
+               def->joint_map ? ", " : "", def->joint_map ? def->joint_map : "",
+               def->joint_map ? " read" : "", driven, (int)n, source, cr_retarget_rig_name(rig),
+               scale, c.hip_m, hip_m);
+    }
+    cr_retarget_character_free(&c);
+    free(names), free(g), free(t);
+    free(b.j);
+    free(b.values);
+    if (st != CR_OK) {
+        cr_skin_motion_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+cr_status cr_motion_retarget_bvh(const char *path, const cr_glb_skin *skel, const char *skel_source,
+                                 const cr_retarget_def *def, cr_skin_motion **out, cr_error *err) {
+    *out = NULL;
+    char *buf;
+    size_t len;
+    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    cr_status st = cr_motion_retarget_bvh_mem(buf, len, path, skel, skel_source, def, out, err);
+    free(buf);
     return st;
 }

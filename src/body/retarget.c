@@ -148,17 +148,17 @@ static const rt_rig rigs[] = {
 
 enum { NRIGS = sizeof rigs / sizeof rigs[0] };
 
-const char *const rt_rig_list = "SMPL, Mixamo, CMU, DAZ/Poser, Unreal, Blender/Rigify";
+const char *const cr_retarget_rig_list = "SMPL, Mixamo, CMU, DAZ/Poser, Unreal, Blender/Rigify";
 
-const char *rt_rig_name(int rig) {
+const char *cr_retarget_rig_name(int rig) {
     return rigs[rig].name;
 }
 
-void rt_rig_unit(int rig, double *unit_m, double *lo, double *hi) {
+void cr_retarget_rig_unit(int rig, double *unit_m, double *lo, double *hi) {
     *unit_m = rigs[rig].unit_m, *lo = rigs[rig].unit_lo, *hi = rigs[rig].unit_hi;
 }
 
-void rt_normalise(const char *name, char *out, size_t cap) {
+void cr_retarget_normalise(const char *name, char *out, size_t cap) {
     const char *colon = strrchr(name, ':');
     if (colon) name = colon + 1;
     size_t n = 0;
@@ -184,7 +184,7 @@ static int find_candidate(int n, char (*norm)[RT_NAME_MAX + 1], const char *cand
     return -1;
 }
 
-int rt_match_roles(int n, const char *const *names, int map[CR_NJOINTS], int *rig) {
+int cr_retarget_match_roles(int n, const char *const *names, int map[CR_NJOINTS], int *rig) {
     char(*norm)[RT_NAME_MAX + 1] = malloc((size_t)(n > 0 ? n : 1) * sizeof *norm);
     for (int j = 0; j < CR_NJOINTS; j++)
         map[j] = -1;
@@ -192,7 +192,7 @@ int rt_match_roles(int n, const char *const *names, int map[CR_NJOINTS], int *ri
     if (!norm) return 0;
     for (int i = 0; i < n; i++) {
         norm[i][0] = 0;
-        if (names[i]) rt_normalise(names[i], norm[i], sizeof norm[i]);
+        if (names[i]) cr_retarget_normalise(names[i], norm[i], sizeof norm[i]);
     }
     int best_score = -1;
     for (int r = 0; r < NRIGS; r++) {
@@ -211,7 +211,7 @@ int rt_match_roles(int n, const char *const *names, int map[CR_NJOINTS], int *ri
 
 /* ----------------------------------------------------------- geometry -- */
 
-int rt_unit3(const double v[3], double out[3], double eps) {
+int cr_retarget_unit3(const double v[3], double out[3], double eps) {
     double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
     for (int k = 0; k < 3; k++)
@@ -219,7 +219,7 @@ int rt_unit3(const double v[3], double out[3], double eps) {
     return 1;
 }
 
-void rt_shortest_arc(const double a[3], const double b[3], double q[4]) {
+void cr_retarget_shortest_arc(const double a[3], const double b[3], double q[4]) {
     double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
     if (d < -1.0 + 1e-12) { /* opposite: half a turn about any perpendicular axis */
@@ -249,22 +249,22 @@ static int snap_axis(const double v[3], int skip, int *sign) {
     return a;
 }
 
-const int rt_up_ends[4] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
+const int cr_retarget_up_ends[4] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
 
-const int8_t rt_bone_child_role[CR_NJOINTS] = {3,  4,  5,  6,  7,  8,  9,  10, 11, 12, -1,
-                                               -1, 15, 16, 17, -1, 18, 19, 20, 21, -1, -1};
+const int8_t cr_retarget_bone_child_role[CR_NJOINTS] = {3,  4,  5,  6,  7,  8,  9,  10, 11, 12, -1,
+                                                        -1, 15, 16, 17, -1, 18, 19, 20, 21, -1, -1};
 
-int rt_rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up_sign,
-                int *left_axis, int *left_sign) {
+int cr_retarget_rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up_sign,
+                         int *left_axis, int *left_sign) {
     static const int lr[][2] = {{CR_JOINT_LEFT_HIP, CR_JOINT_RIGHT_HIP},
                                 {CR_JOINT_LEFT_SHOULDER, CR_JOINT_RIGHT_SHOULDER},
                                 {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
     double up[3] = {0}, left[3] = {0};
     *up_axis = -1, *left_axis = -1, *up_sign = 1, *left_sign = 1;
     for (int i = 0; i < 4 && *up_axis < 0; i++)
-        if (map[rt_up_ends[i]] >= 0) {
+        if (map[cr_retarget_up_ends[i]] >= 0) {
             for (int k = 0; k < 3; k++)
-                up[k] = p[map[rt_up_ends[i]]][k] - p[map[0]][k];
+                up[k] = p[map[cr_retarget_up_ends[i]]][k] - p[map[0]][k];
             *up_axis = snap_axis(up, -1, up_sign);
         }
     for (int i = 0; i < 3 && *up_axis >= 0 && *left_axis < 0; i++)
@@ -276,7 +276,7 @@ int rt_rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up
     return *up_axis >= 0 && *left_axis >= 0;
 }
 
-void rt_axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, double q[4]) {
+void cr_retarget_axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, double q[4]) {
     /* Rows of the turn: left -> x, up -> y, left x up (forward) -> z. */
     double m[3][3] = {{0}};
     m[0][left_axis] = left_sign;
@@ -304,16 +304,16 @@ void rt_axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, double
 
 /* -------------------------------------------------------- retargeting -- */
 
-cr_status rt_state_alloc(int n, rt_state *s, cr_error *err) {
+cr_status cr_retarget_state_alloc(int n, rt_state *s, cr_error *err) {
     s->child = cr_malloc((size_t)n * sizeof *s->child, err);
     s->e = cr_malloc((size_t)n * sizeof *s->e, err);
     s->align = cr_malloc((size_t)n * sizeof *s->align, err);
     if (s->child && s->e && s->align) return CR_OK;
-    rt_state_free(s);
+    cr_retarget_state_free(s);
     return CR_ERR_MEMORY;
 }
 
-void rt_state_free(rt_state *s) {
+void cr_retarget_state_free(rt_state *s) {
     free(s->child), free(s->e), free(s->align);
     s->child = NULL, s->e = NULL, s->align = NULL;
 }
@@ -340,8 +340,9 @@ void rt_state_free(rt_state *s) {
  * stand in that frame, A_j = W_j^-1 B_j with B_j the arc from the target's
  * bone to the posed one, and the pelvis by its spine and its hips both (a
  * frame, not an arc: a half turn about the spine would swap the legs). */
-void rt_setup(const rt_target *t, double (*ref)[3], double (*ref_w)[4], const double turn[4],
-              const double rest_turn[4], double height, rt_state *s) {
+void cr_retarget_setup(const rt_target *t, double (*ref)[3], double (*ref_w)[4],
+                       const double turn[4], const double rest_turn[4], double height,
+                       rt_state *s) {
     double turn_inv[4], stand[4], stand_inv[4];
     q_conj(turn, turn_inv);
     q_mul(turn_inv, rest_turn, stand); /* D: the rest pose stood along the motion's up */
@@ -364,11 +365,11 @@ void rt_setup(const rt_target *t, double (*ref)[3], double (*ref_w)[4], const do
             }
             q_rotate(turn_inv, e, e);
             q_rotate(stand, d, d);
-            if (!rt_unit3(d, d, 1e-3 * height) || !rt_unit3(e, e, 1e-6)) continue;
+            if (!cr_retarget_unit3(d, d, 1e-3 * height) || !cr_retarget_unit3(e, e, 1e-6)) continue;
             s->child[j] = c;
             memcpy(s->e[j], e, sizeof e);
             double arc[4];
-            rt_shortest_arc(e, d, arc);
+            cr_retarget_shortest_arc(e, d, arc);
             if (!ref_w) {
                 q_mul(stand_inv, arc, s->align[j]);
                 break;
@@ -388,9 +389,10 @@ void rt_setup(const rt_target *t, double (*ref)[3], double (*ref_w)[4], const do
                 double ld = dl[0] * d[0] + dl[1] * d[1] + dl[2] * d[2];
                 for (int k = 0; k < 3; k++)
                     v[k] -= vd * d[k], dl[k] -= ld * d[k];
-                if (rt_unit3(v, v, 1e-9) && rt_unit3(dl, dl, 1e-9)) {
+                if (cr_retarget_unit3(v, v, 1e-9) && cr_retarget_unit3(dl, dl, 1e-9)) {
                     double twist[4];
-                    rt_shortest_arc(v, dl, twist); /* about d: both are perpendicular to it */
+                    cr_retarget_shortest_arc(v, dl,
+                                             twist); /* about d: both are perpendicular to it */
                     q_mul(twist, arc, arc);
                 }
             }
@@ -402,8 +404,8 @@ void rt_setup(const rt_target *t, double (*ref)[3], double (*ref_w)[4], const do
     }
 }
 
-void rt_frame(const rt_target *t, const rt_state *s, double (*w)[4], double (*pos)[3],
-              double (*g)[4]) {
+void cr_retarget_frame(const rt_target *t, const rt_state *s, double (*w)[4], double (*pos)[3],
+                       double (*g)[4]) {
     for (int j = 0; j < t->n; j++) {
         int p = t->parent[j];
         if (t->src[j] < 0) {
@@ -420,13 +422,14 @@ void rt_frame(const rt_target *t, const rt_state *s, double (*w)[4], double (*po
         q_rotate(g[j], s->e[j], cur);
         for (int k = 0; k < 3; k++)
             act[k] = pos[t->src[c]][k] - pos[t->src[j]][k];
-        if (!rt_unit3(act, act, 1e-12)) continue;
-        rt_shortest_arc(cur, act, q);
+        if (!cr_retarget_unit3(act, act, 1e-12)) continue;
+        cr_retarget_shortest_arc(cur, act, q);
         q_mul(q, g[j], g[j]);
     }
 }
 
-void rt_fix_world(double *g, int n, int pelvis, double *t, int32_t T, const motion_frame_fix *fix) {
+void cr_retarget_fix_world(double *g, int n, int pelvis, double *t, int32_t T,
+                           const motion_frame_fix *fix) {
     double w_inv[4];
     q_conj(fix->world, w_inv);
     for (int32_t f = 0; f < T; f++) {
@@ -461,7 +464,7 @@ void rt_fix_world(double *g, int n, int pelvis, double *t, int32_t T, const moti
 
 /* ------------------------------------------------- a character target -- */
 
-void rt_character_free(rt_character *c) {
+void cr_retarget_character_free(rt_character *c) {
     free(c->parent), free(c->src), free(c->bone_child), free(c->rest);
     memset(c, 0, sizeof *c);
 }
@@ -546,9 +549,10 @@ static cr_status read_joint_map(rt_character *c, const cr_glb_skin *skel, const 
     return st;
 }
 
-cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, const char *map_path,
-                             int nsrc, const char *const *src_names, const int src_role[CR_NJOINTS],
-                             const char *src_source, rt_character *c, cr_error *err) {
+cr_status cr_retarget_character_build(const cr_glb_skin *skel, const char *skel_source,
+                                      const char *map_path, int nsrc, const char *const *src_names,
+                                      const int src_role[CR_NJOINTS], const char *src_source,
+                                      rt_character *c, cr_error *err) {
     memset(c, 0, sizeof *c);
     const int n = skel->njoints;
     c->parent = cr_malloc((size_t)n * sizeof *c->parent, err);
@@ -565,7 +569,7 @@ cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, c
         depth[j] = c->parent[j] >= 0 ? depth[c->parent[j]] + 1 : 0;
     }
     if (st == CR_OK) {
-        c->nroles = rt_match_roles(n, skel->joint_name, c->role, &c->rig);
+        c->nroles = cr_retarget_match_roles(n, skel->joint_name, c->role, &c->rig);
         for (int j = 0; j < n; j++)
             c->src[j] = -1;
         for (int r = 0; r < CR_NJOINTS; r++)
@@ -585,7 +589,7 @@ cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, c
                      "%s: no joint of the character is mapped to the hips (pelvis), so %s "
                      "cannot drive it (names known: %s; joints here: %s); name it in a joint "
                      "map file, 'character_joint = bvh_joint' a line",
-                     skel_source, src_source, rt_rig_list, names);
+                     skel_source, src_source, cr_retarget_rig_list, names);
     }
     if (st == CR_OK) {
         /* The character's frame: pelvis to head up, right to left hip left. */
@@ -595,8 +599,8 @@ cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, c
                 raw[j][k] = skel->rest_joint[3 * j + k];
         int ua, us, la, ls;
         q_identity(c->turn);
-        if (rt_rig_axes(c->role, raw, &ua, &us, &la, &ls))
-            rt_axes_turn(ua, us, la, ls, c->turn);
+        if (cr_retarget_rig_axes(c->role, raw, &ua, &us, &la, &ls))
+            cr_retarget_axes_turn(ua, us, la, ls, c->turn);
         else
             cr_log(CR_LOG_WARN,
                    "%s: cannot tell up and left from the skeleton (no head, neck or hips "
@@ -615,8 +619,8 @@ cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, c
             for (int k = 0; k < CR_NJOINTS; k++)
                 if (c->role[k] == j) r = k;
             if (r >= 0) {
-                for (int cr = rt_bone_child_role[r]; cr >= 0 && c->bone_child[j] < 0;
-                     cr = rt_bone_child_role[cr])
+                for (int cr = cr_retarget_bone_child_role[r]; cr >= 0 && c->bone_child[j] < 0;
+                     cr = cr_retarget_bone_child_role[cr])
                     if (c->role[cr] >= 0 && is_below(c->parent, j, c->role[cr]))
                         c->bone_child[j] = c->role[cr];
                 continue;
@@ -636,6 +640,6 @@ cr_status rt_character_build(const cr_glb_skin *skel, const char *skel_source, c
                            .rhip = c->role[CR_JOINT_RIGHT_HIP]};
     }
     free(by_user), free(depth);
-    if (st != CR_OK) rt_character_free(c);
+    if (st != CR_OK) cr_retarget_character_free(c);
     return st;
 }
