@@ -15,12 +15,20 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Paths under the test's folder, one buffer per name: they stay valid. */
 static const char *tmp(const char *name) {
-    static char path[4][512];
-    static int k = 0;
-    k = (k + 1) % 4;
-    snprintf(path[k], sizeof path[k], "%s/%s", cr_test_tmpdir(), name);
-    return path[k];
+    enum { SLOTS = 16 };
+    static char path[SLOTS][512];
+    for (int k = 0; k < SLOTS; k++) {
+        const size_t n = strlen(cr_test_tmpdir());
+        if (path[k][0] && !strcmp(path[k] + n + 1, name)) return path[k];
+        if (!path[k][0]) {
+            snprintf(path[k], sizeof path[k], "%s/%s", cr_test_tmpdir(), name);
+            return path[k];
+        }
+    }
+    CR_CHECK(!"tmp: out of slots");
+    return path[0];
 }
 
 /* ---------------------------------------------------------- the BVH -- */
@@ -435,13 +443,33 @@ CR_TEST(retarget, joint_map_file_drives_meaningless_names_and_bad_lines_are_refu
     free(cp);
     cr_skin_motion_destroy(sm);
     sm = NULL;
+    /* the same map as JSON drives the same bones */
+    n = snprintf(map, sizeof map, "{\n");
+    for (int j = 0; j < CR_NJOINTS; j++)
+        n += snprintf(map + n, sizeof map - (size_t)n, "  \"%s\": \"%s\",\n", bone[j], cmu[j]);
+    snprintf(map + n, sizeof map - (size_t)n, "  \"bone_top\": null\n}\n");
+    const char *json = tmp("map.json");
+    write_text(json, map);
+    rd.joint_map = json;
+    CR_CHECK_OK(
+        cr_motion_retarget_bvh_mem(text, strlen(text), "walk.bvh", &c->skin, glb, &rd, &sm, &err),
+        &err);
+    CR_REQUIRE(sm);
+    const double worst_json = worst_bone_angle(b, m, c, sm, index, &moved);
+    CR_CHECK(worst_json < 0.1 * M_PI / 180);
+    cr_skin_motion_destroy(sm);
+    sm = NULL;
     /* bad lines: the file and line named */
     static const struct {
         const char *text, *want;
     } bad[] = {{"bone00 = Hips\nbone01 LeftUpLeg\n", "bad_map.txt:2: expected"},
                {"# c\nbone99 = Hips\n", "bad_map.txt:2: the character"},
                {"bone00 = Hips\n\nbone03 = Pelvis\n", "bad_map.txt:3: the motion walk.bvh has no "
-                                                      "joint 'Pelvis'"}};
+                                                      "joint 'Pelvis'"},
+               {"{\n  \"bone00\": \"Hips\",\n  \"bone77\": \"Spine\"\n}\n",
+                "bad_map.txt:3: the character"},
+               {"{\n  \"bone00\": \"Hips\",\n  \"bone01\" \"LeftUpLeg\"\n}\n",
+                "bad_map.txt:3: expected a JSON object"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         const char *path = tmp("bad_map.txt");
         write_text(path, bad[i].text);

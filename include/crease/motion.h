@@ -263,9 +263,11 @@ cr_status cr_skin_motion_prepare(const cr_skin_motion *m, float fps, float ease_
                                  cr_skin_motion **out, cr_error *err);
 
 typedef struct cr_retarget_def {
-    /* A joint map file (may be NULL): lines "character_joint = bvh_joint"
-     * that override the names' matching ('#' starts a comment; nothing
-     * after '=' leaves the joint unmapped). */
+    /* A joint map file (may be NULL) that overrides the names' matching:
+     * lines "character_joint = bvh_joint" ('#' starts a comment; nothing
+     * after '=' leaves the joint unmapped), or a JSON object
+     * {"character_joint": "bvh_joint" or null, ...}. A mapped joint takes
+     * the role of its BVH joint. */
     const char *joint_map;
     cr_motion_import_def import; /* bvh_scale, recenter, retarget (defaults) */
     uint32_t cookie;             /* set by cr_retarget_default_def */

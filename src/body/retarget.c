@@ -22,6 +22,7 @@
 #include "body/retarget_internal.h"
 #include "geom/io_text.h"
 
+#include <cjson/cJSON.h>
 #include <ctype.h>
 #include <stdlib.h>
 #include <string.h>
@@ -491,14 +492,99 @@ static void trim(const char **b, const char **e) {
         (*e)--;
 }
 
-/* The joint map file: "character_joint = source_joint" a line. */
-static cr_status read_joint_map(rt_character *c, const cr_glb_skin *skel, const char *skel_source,
-                                const char *path, int nsrc, const char *const *src_names,
-                                const int src_role[CR_NJOINTS], const char *src_source,
-                                int *by_user, cr_error *err) {
+/* What a joint map line needs: the skeletons on both sides and what the
+ * lines have set so far. */
+typedef struct joint_map {
+    rt_character *c;
+    const cr_glb_skin *skel;
+    const char *skel_source, *path, *src_source;
+    int nsrc;
+    const char *const *src_names;
+    const int *src_role;
+    int *by_user;
+} joint_map;
+
+/* One pair: character joint [lb, le) driven by source joint [rb, re)
+ * (empty: none), at `line` of the file. */
+static cr_status map_pair(joint_map *jm, int line, const char *lb, const char *le, const char *rb,
+                          const char *re, cr_error *err) {
+    rt_character *c = jm->c;
+    int j = find_exact(jm->skel->njoints, jm->skel->joint_name, lb, le);
+    if (j < 0)
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%d: the character %s has no joint '%.*s'", jm->path,
+                       line, jm->skel_source, (int)(le - lb), lb);
+    int s = rb == re ? -1 : find_exact(jm->nsrc, jm->src_names, rb, re);
+    if (rb != re && s < 0)
+        return CR_FAIL(err, CR_ERR_PARSE, "%s:%d: the motion %s has no joint '%.*s'", jm->path,
+                       line, jm->src_source, (int)(re - rb), rb);
+    /* The character joint takes the source joint's role, if it has one. */
+    int r = -1;
+    for (int k = 0; k < CR_NJOINTS && s >= 0; k++)
+        if (jm->src_role[k] == s) r = k;
+    for (int k = 0; k < CR_NJOINTS; k++)
+        if (c->role[k] == j) c->role[k] = -1;
+    if (r >= 0 && c->role[r] >= 0 && c->role[r] != j && !jm->by_user[c->role[r]])
+        c->src[c->role[r]] = -1; /* the joint that had the role by name gives it up */
+    if (r >= 0) c->role[r] = j;
+    c->src[j] = s;
+    jm->by_user[j] = 1;
+    c->nuser++;
+    return CR_OK;
+}
+
+/* Line number (from 1) of position p in buf. */
+static int line_of(const char *buf, const char *p) {
+    int line = 1;
+    for (const char *q = buf; q < p; q++)
+        line += *q == '\n';
+    return line;
+}
+
+/* A JSON joint map: {"character_joint": "bvh_joint" or null, ...}; each
+ * pair's line is its key's. */
+static cr_status map_json(joint_map *jm, const char *buf, size_t len, cr_error *err) {
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithLengthOpts(buf, len, &end, 0);
+    if (!root || !cJSON_IsObject(root)) {
+        const char *at = root ? buf : (end ? end : buf);
+        cJSON_Delete(root);
+        return CR_FAIL(err, CR_ERR_PARSE,
+                       "%s:%d: expected a JSON object {\"character_joint\": \"bvh_joint\", ...}",
+                       jm->path, line_of(buf, at));
+    }
+    cr_status st = CR_OK;
+    const char *from = buf;
+    for (const cJSON *e = root->child; e && st == CR_OK; e = e->next) {
+        char quoted[RT_NAME_MAX + 3];
+        snprintf(quoted, sizeof quoted, "\"%s\"", e->string);
+        const char *at = strstr(from, quoted);
+        if (at) from = at + 1;
+        const int line = line_of(buf, at ? at : from);
+        if (!cJSON_IsString(e) && !cJSON_IsNull(e)) {
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s:%d: \"%s\": expected a BVH joint's name or null",
+                         jm->path, line, e->string);
+            break;
+        }
+        const char *v = cJSON_IsString(e) ? e->valuestring : "";
+        st = map_pair(jm, line, e->string, e->string + strlen(e->string), v, v + strlen(v), err);
+    }
+    cJSON_Delete(root);
+    return st;
+}
+
+/* The joint map file: "character_joint = source_joint" a line, or JSON. */
+static cr_status read_joint_map(joint_map *jm, cr_error *err) {
     char *buf;
     size_t len;
-    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    CR_TRY(cr_file_read_all(jm->path, &buf, &len, err));
+    const char *first = buf;
+    while (first < buf + len && isspace((unsigned char)*first))
+        first++;
+    if (first < buf + len && *first == '{') {
+        cr_status st = map_json(jm, buf, len, err);
+        free(buf);
+        return st;
+    }
     cr_status st = CR_OK;
     int line = 0;
     for (const char *p = buf, *end = buf + len; st == CR_OK && p < end; line++) {
@@ -514,36 +600,12 @@ static cr_status read_joint_map(rt_character *c, const cr_glb_skin *skel, const 
         trim(&lb, &le), trim(&rb, &re);
         char snip[48];
         cr_io_text_snippet(b, e, snip, sizeof snip);
-        if (!eq || lb == le || memchr(rb, '=', (size_t)(re - rb))) {
+        if (!eq || lb == le || memchr(rb, '=', (size_t)(re - rb)))
             st = CR_FAIL(err, CR_ERR_PARSE,
-                         "%s:%d: expected 'character_joint = bvh_joint', got '%s'", path, line + 1,
-                         snip);
-            break;
-        }
-        int j = find_exact(skel->njoints, skel->joint_name, lb, le);
-        if (j < 0) {
-            st = CR_FAIL(err, CR_ERR_PARSE, "%s:%d: the character %s has no joint '%.*s'", path,
-                         line + 1, skel_source, (int)(le - lb), lb);
-            break;
-        }
-        int s = rb == re ? -1 : find_exact(nsrc, src_names, rb, re);
-        if (rb != re && s < 0) {
-            st = CR_FAIL(err, CR_ERR_PARSE, "%s:%d: the motion %s has no joint '%.*s'", path,
-                         line + 1, src_source, (int)(re - rb), rb);
-            break;
-        }
-        /* The character joint takes the source joint's role, if it has one. */
-        int r = -1;
-        for (int k = 0; k < CR_NJOINTS && s >= 0; k++)
-            if (src_role[k] == s) r = k;
-        for (int k = 0; k < CR_NJOINTS; k++)
-            if (c->role[k] == j) c->role[k] = -1;
-        if (r >= 0 && c->role[r] >= 0 && c->role[r] != j && !by_user[c->role[r]])
-            c->src[c->role[r]] = -1; /* the joint that had the role by name gives it up */
-        if (r >= 0) c->role[r] = j;
-        c->src[j] = s;
-        by_user[j] = 1;
-        c->nuser++;
+                         "%s:%d: expected 'character_joint = bvh_joint', got '%s'", jm->path,
+                         line + 1, snip);
+        else
+            st = map_pair(jm, line + 1, lb, le, rb, re, err);
     }
     free(buf);
     return st;
@@ -574,9 +636,9 @@ cr_status cr_retarget_character_build(const cr_glb_skin *skel, const char *skel_
             c->src[j] = -1;
         for (int r = 0; r < CR_NJOINTS; r++)
             if (c->role[r] >= 0) c->src[c->role[r]] = src_role[r];
-        if (map_path)
-            st = read_joint_map(c, skel, skel_source, map_path, nsrc, src_names, src_role,
-                                src_source, by_user, err);
+        joint_map jm = {c,    skel,      skel_source, map_path, src_source,
+                        nsrc, src_names, src_role,    by_user};
+        if (map_path) st = read_joint_map(&jm, err);
     }
     const int pelvis = st == CR_OK ? c->role[CR_JOINT_PELVIS] : -1;
     if (st == CR_OK && (pelvis < 0 || c->src[pelvis] < 0)) {

@@ -118,7 +118,8 @@ typedef struct rt_character {
  * driven by a source of nsrc joints (src_names, NULL for unnamed ones such
  * as End Sites; src_role: the source joint of each role, `src_source` its
  * file). map_path (may be NULL): lines "character_joint = source_joint",
- * '#' comments; "joint =" leaves a joint unmapped. Fails naming the file
+ * '#' comments, "joint =" leaves a joint unmapped; or a JSON object of
+ * such pairs (null: unmapped). Fails naming the file
  * and line of a bad map line, or the character when its pelvis (hips) is
  * driven by nothing. */
 cr_status cr_retarget_character_build(const cr_glb_skin *skel, const char *skel_source,
