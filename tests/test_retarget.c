@@ -2,9 +2,12 @@
  * (cr_motion_retarget_bvh, src/body/retarget.c) gives the same bone
  * directions as the same BVH retargeted onto crease's mannequin
  * (cr_motion_read_bvh_mem), for a character with Mixamo joint names and
- * other proportions written by crease's own skinned writer, and for one with
- * meaningless names mapped by a joint map file; bad map lines, a character
- * without a skin and one whose hips nothing drives are refused by name. */
+ * other proportions written by crease's own skinned writer, for one with
+ * Unreal names under a root joint, and for one with meaningless names mapped
+ * by a joint map file (text or JSON); the name tables give every common
+ * convention's joints their roles; bad map lines, a character without a skin
+ * and one whose hips nothing drives are refused by name. */
+#include "body/retarget_internal.h"
 #include "crease/body.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
@@ -198,6 +201,39 @@ static void write_character(const cr_body_model *b, const char *path, const char
     const cr_glb_skin_motion still = {1, 30.0f, rot, tr};
     cr_error err = {0};
     CR_CHECK_OK(cr_glb_write_skinned(path, b->rest, &skin, &still, NULL, &err), &err);
+}
+
+static const char *const unreal[CR_NJOINTS] = {
+    "pelvis",     "thigh_l",    "thigh_r",    "spine_01", "calf_l",     "calf_r",
+    "spine_02",   "foot_l",     "foot_r",     "spine_03", "ball_l",     "ball_r",
+    "neck_01",    "clavicle_l", "clavicle_r", "head",     "upperarm_l", "upperarm_r",
+    "lowerarm_l", "lowerarm_r", "hand_l",     "hand_r"};
+
+/* The mannequin as an Unreal-style character: a "root" joint on the floor
+ * under the pelvis (driven by nothing) above SMPL's 22 joints. */
+static void write_rooted_character(const cr_body_model *b, const char *path) {
+    enum { J = CR_NJOINTS + 1 };
+    const char *nm[J] = {"root"};
+    int32_t parent[J] = {-1};
+    float rest[J * 3] = {b->joints[0], 0.0f, b->joints[2]};
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        nm[1 + j] = unreal[j];
+        parent[1 + j] = 1 + cr_joint_parent[j];
+        memcpy(rest + 3 * (1 + j), b->joints + 3 * j, 3 * sizeof(float));
+    }
+    const int64_t nv = b->rest->nv;
+    int32_t *sj = malloc((size_t)nv * 4 * sizeof(int32_t));
+    CR_REQUIRE(sj);
+    for (int64_t i = 0; i < 4 * nv; i++)
+        sj[i] = 1 + b->skin_joint[i];
+    float rot[J * 4] = {0}, tr[3] = {0};
+    for (int j = 0; j < J; j++)
+        rot[4 * j + 3] = 1.0f;
+    const cr_glb_skin skin = {J, nm, parent, rest, sj, b->skin_weight};
+    const cr_glb_skin_motion still = {1, 30.0f, rot, tr};
+    cr_error err = {0};
+    CR_CHECK_OK(cr_glb_write_skinned(path, b->rest, &skin, &still, NULL, &err), &err);
+    free(sj);
 }
 
 /* -------------------------------------------------------- comparing -- */
@@ -491,4 +527,118 @@ CR_TEST(retarget, joint_map_file_drives_meaningless_names_and_bad_lines_are_refu
     cr_glb_character_destroy(c);
     cr_body_model_destroy(b);
     free(text);
+}
+
+/* Unreal names with a root joint on the floor above the pelvis: the root
+ * is driven by nothing, and its translation is chosen so the pelvis follows
+ * the BVH's path (scaled by the hip heights) all the same, turning with the
+ * recentred heading. */
+CR_TEST(retarget, root_joint_above_the_pelvis_unreal_names) {
+    cr_error err = {0};
+    cr_mannequin_def md = cr_mannequin_default_def();
+    md.resolution = 48;
+    cr_body_model *b = NULL;
+    CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    CR_REQUIRE(b);
+    const char *glb = tmp("unreal.glb");
+    write_rooted_character(b, glb);
+    cr_glb_character *c = NULL;
+    CR_CHECK_OK(cr_glb_read_character(glb, &c, &err), &err);
+    CR_REQUIRE(c);
+    int index[CR_NJOINTS];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        index[j] = find_joint(&c->skin, unreal[j]);
+        CR_REQUIRE(index[j] >= 0);
+    }
+    CR_CHECK(c->skin.parent[index[CR_JOINT_PELVIS]] == find_joint(&c->skin, "root"));
+    char *text = make_bvh();
+    cr_retarget_def rd = cr_retarget_default_def();
+    rd.import.bvh_scale = 0.01f;
+    cr_skin_motion *sm = NULL;
+    cr_motion *m = NULL;
+    CR_CHECK_OK(
+        cr_motion_retarget_bvh_mem(text, strlen(text), "walk.bvh", &c->skin, glb, &rd, &sm, &err),
+        &err);
+    CR_CHECK_OK(cr_motion_read_bvh_mem(text, strlen(text), "walk.bvh", &rd.import, &m, &err), &err);
+    CR_REQUIRE(m && sm);
+    double moved = 0.0;
+    const double worst = worst_bone_angle(b, m, c, sm, index, &moved);
+    double lowest = INFINITY, path_err = 0.0;
+    for (int j = 0; j < c->skin.njoints; j++)
+        lowest = fmin(lowest, c->skin.rest_joint[3 * j + 1]);
+    const int pel = index[CR_JOINT_PELVIS];
+    const double ratio = (c->skin.rest_joint[3 * pel + 1] - lowest) / 0.98;
+    double *cp = malloc((size_t)c->skin.njoints * 3 * sizeof(double));
+    for (int32_t f = 0; f < NF; f++) {
+        skin_fk(&c->skin, sm, f, cp);
+        for (int k = 0; k < 3; k++)
+            path_err = fmax(path_err, fabs(cp[3 * pel + k] - c->skin.rest_joint[3 * pel + k] -
+                                           ratio * m->trans[3 * f + k]));
+    }
+    printf("    Unreal names under a root joint: bones off the mannequin's by %.2e deg, pelvis "
+           "path off the BVH's (x %.3f) by %.2e m\n",
+           worst * 180 / M_PI, ratio, path_err);
+    CR_CHECK(worst < 0.1 * M_PI / 180 && moved > 30 * M_PI / 180);
+    CR_CHECK(path_err < 1e-5);
+    free(cp);
+    cr_skin_motion_destroy(sm);
+    cr_motion_destroy(m);
+    cr_glb_character_destroy(c);
+    cr_body_model_destroy(b);
+    free(text);
+}
+
+/* The name tables: each convention's names give SMPL's 22 roles, with the
+ * words that differ between conventions (Mixamo's LeftShoulder is the
+ * collar, SMPL's left_shoulder the upper arm) read by the table that wins. */
+CR_TEST(retarget, name_tables_cover_the_common_conventions) {
+    static const struct {
+        const char *rig;
+        const char *names[CR_NJOINTS];
+    } sets[] = {
+        {"SMPL", {"Pelvis",  "L_Hip",    "R_Hip",    "Spine1", "L_Knee",     "R_Knee",
+                  "Spine2",  "L_Ankle",  "R_Ankle",  "Spine3", "L_Foot",     "R_Foot",
+                  "Neck",    "L_Collar", "R_Collar", "Head",   "L_Shoulder", "R_Shoulder",
+                  "L_Elbow", "R_Elbow",  "L_Wrist",  "R_Wrist"}},
+        {"SMPL", {"m_avg_Pelvis", "left_hip",      "right_hip",      "spine1",      "left_knee",
+                  "right_knee",   "spine2",        "left_ankle",     "right_ankle", "spine3",
+                  "left_foot",    "right_foot",    "neck",           "left_collar", "right_collar",
+                  "head",         "left_shoulder", "right_shoulder", "left_elbow",  "right_elbow",
+                  "left_wrist",   "right_wrist"}},
+        {"Mixamo", {"mixamorig:Hips",        "mixamorig:LeftUpLeg",    "mixamorig:RightUpLeg",
+                    "mixamorig:Spine",       "mixamorig:LeftLeg",      "mixamorig:RightLeg",
+                    "mixamorig:Spine1",      "mixamorig:LeftFoot",     "mixamorig:RightFoot",
+                    "mixamorig:Spine2",      "mixamorig:LeftToeBase",  "mixamorig:RightToeBase",
+                    "mixamorig:Neck",        "mixamorig:LeftShoulder", "mixamorig:RightShoulder",
+                    "mixamorig:Head",        "mixamorig:LeftArm",      "mixamorig:RightArm",
+                    "mixamorig:LeftForeArm", "mixamorig:RightForeArm", "mixamorig:LeftHand",
+                    "mixamorig:RightHand"}},
+        {"Unreal",
+         {"pelvis",     "thigh_l",    "thigh_r",    "spine_01", "calf_l",     "calf_r",
+          "spine_02",   "foot_l",     "foot_r",     "spine_03", "ball_l",     "ball_r",
+          "neck_01",    "clavicle_l", "clavicle_r", "head",     "upperarm_l", "upperarm_r",
+          "lowerarm_l", "lowerarm_r", "hand_l",     "hand_r"}},
+        {"Blender/Rigify",
+         {"spine",     "thigh.L",    "thigh.R",    "spine.001", "shin.L",      "shin.R",
+          "spine.002", "foot.L",     "foot.R",     "spine.003", "toe.L",       "toe.R",
+          "spine.004", "shoulder.L", "shoulder.R", "spine.006", "upper_arm.L", "upper_arm.R",
+          "forearm.L", "forearm.R",  "hand.L",     "hand.R"}},
+        {"Blender/Rigify",
+         {"DEF-spine",     "DEF-thigh.L",     "DEF-thigh.R",     "DEF-spine.001",  "DEF-shin.L",
+          "DEF-shin.R",    "DEF-spine.002",   "DEF-foot.L",      "DEF-foot.R",     "DEF-spine.003",
+          "DEF-toe.L",     "DEF-toe.R",       "DEF-spine.004",   "DEF-shoulder.L", "DEF-shoulder.R",
+          "DEF-spine.006", "DEF-upper_arm.L", "DEF-upper_arm.R", "DEF-forearm.L",  "DEF-forearm.R",
+          "DEF-hand.L",    "DEF-hand.R"}},
+    };
+    for (size_t i = 0; i < sizeof sets / sizeof sets[0]; i++) {
+        int map[CR_NJOINTS], rig = -1;
+        const int score = cr_retarget_match_roles(CR_NJOINTS, sets[i].names, map, &rig);
+        int right = 0;
+        for (int j = 0; j < CR_NJOINTS; j++)
+            right += map[j] == j;
+        CR_CHECK(score == CR_NJOINTS && right == CR_NJOINTS);
+        CR_CHECK(!strcmp(cr_retarget_rig_name(rig), sets[i].rig));
+        if (right != CR_NJOINTS)
+            printf("    set %zu (%s): %d of 22 right\n", i, sets[i].rig, right);
+    }
 }
