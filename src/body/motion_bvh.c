@@ -277,6 +277,23 @@ static cr_status parse_motion(bvh_file *b, cr_error *err) {
     return CR_OK;
 }
 
+/* The whole file parsed into b (freed with bvh_free, also on failure). */
+static cr_status bvh_parse(const void *data, size_t len, const char *source, bvh_file *b,
+                           cr_error *err) {
+    memset(b, 0, sizeof *b);
+    cr_io_text_init(&b->t, data, len, source);
+    b->j = cr_malloc(MAX_JOINTS * sizeof *b->j, err);
+    if (!b->j) return CR_ERR_MEMORY;
+    CR_TRY(parse_hierarchy(b, err));
+    return parse_motion(b, err);
+}
+
+static void bvh_free(bvh_file *b) {
+    free(b->j);
+    free(b->values);
+    b->j = NULL, b->values = NULL;
+}
+
 /* --------------------------------------------------------------- mapping -- */
 
 static int is_ancestor(const bvh_file *b, int anc, int j) {
@@ -615,15 +632,9 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
         return CR_FAIL(err, CR_ERR_INVALID, "bvh_scale %g: expected 0 (infer) or a positive scale",
                        (double)def->bvh_scale);
     bvh_file b;
-    memset(&b, 0, sizeof b);
-    cr_io_text_init(&b.t, data, len, source);
-    b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
-    if (!b.j) return CR_ERR_MEMORY;
-    cr_status st = parse_hierarchy(&b, err);
-    if (st == CR_OK) st = parse_motion(&b, err);
+    cr_status st = bvh_parse(data, len, source, &b, err);
     if (st == CR_OK) st = build_motion(&b, def, out, err);
-    free(b.j);
-    free(b.values);
+    bvh_free(&b);
     return st;
 }
 
@@ -695,17 +706,12 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
         return CR_FAIL(err, CR_ERR_INVALID, "%s: %d joints (1 to %d)", skel_source, skel->njoints,
                        CR_GLB_MAX_JOINTS);
     bvh_file b;
-    memset(&b, 0, sizeof b);
-    cr_io_text_init(&b.t, data, len, source);
-    b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
-    if (!b.j) return CR_ERR_MEMORY;
     int map[CR_NJOINTS], rig = 0;
     const char **names = NULL;
     double *g = NULL, *t = NULL, hip_m = 0.0;
     rt_character c = {0};
     cr_skin_motion *m = NULL;
-    cr_status st = parse_hierarchy(&b, err);
-    if (st == CR_OK) st = parse_motion(&b, err);
+    cr_status st = bvh_parse(data, len, source, &b, err);
     if (st == CR_OK) st = map_joints(&b, map, &rig, err);
     if (st == CR_OK && !(names = cr_malloc((size_t)b.n * sizeof *names, err))) st = CR_ERR_MEMORY;
     for (int i = 0; st == CR_OK && i < b.n; i++)
@@ -722,14 +728,13 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
     if (st == CR_OK)
         st = cr_skin_motion_create(skel->njoints, b.nframes, (float)bvh_fps(&b), &m, err);
     if (st == CR_OK) st = bvh_drive(&b, map, rig, &def->import, &c.t, g, t, &hip_m, err);
+    const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0; /* the hips' heights */
     if (st == CR_OK) {
-        const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0;
         for (size_t i = 0; i < 3 * T; i++)
             t[i] *= scale;
         st = character_motion(&c, skel, g, t, m, err);
     }
     if (st == CR_OK) {
-        const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0;
         int driven = 0;
         for (size_t j = 0; j < n; j++)
             driven += c.src[j] >= 0;
@@ -744,8 +749,7 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
     }
     cr_retarget_character_free(&c);
     free(names), free(g), free(t);
-    free(b.j);
-    free(b.values);
+    bvh_free(&b);
     if (st != CR_OK) {
         cr_skin_motion_destroy(m);
         return st;
