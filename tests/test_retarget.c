@@ -642,3 +642,32 @@ CR_TEST(retarget, name_tables_cover_the_common_conventions) {
             printf("    set %zu (%s): %d of 22 right\n", i, sets[i].rig, right);
     }
 }
+
+/* cr_skin_motion_prepare: the rest pose at frame 0, the motion's frame 0
+ * after the ease-in, and a resampled rate keeping the duration. */
+CR_TEST(retarget, skin_motion_eases_in_from_rest_and_resamples) {
+    cr_error err = {0};
+    cr_skin_motion *m = NULL, *p = NULL, *half = NULL;
+    CR_CHECK_OK(cr_skin_motion_create(2, 10, 30.0f, &m, &err), &err);
+    CR_REQUIRE(m);
+    for (int32_t f = 0; f < 10; f++) { /* joint 1 turns about +Y by 0.1 rad a frame */
+        const double a = 0.1 * (f + 1);
+        float *q = m->rotation + 4 * (2 * f + 1);
+        q[0] = 0.0f, q[1] = (float)sin(a / 2), q[2] = 0.0f, q[3] = (float)cos(a / 2);
+        m->translation[3 * f] = 0.01f * (float)(f + 1);
+    }
+    CR_CHECK_OK(cr_skin_motion_prepare(m, 30.0f, 0.1f, &p, &err), &err);
+    CR_REQUIRE(p);
+    CR_CHECK(p->nframes == 13 && p->fps == 30.0f);
+    CR_CHECK_NEAR(p->rotation[4 * 1 + 3], 1.0f, 1e-7); /* frame 0: the rest */
+    CR_CHECK_NEAR(p->translation[0], 0.0f, 1e-7);
+    CR_CHECK_NEAR(p->rotation[4 * (2 * 3 + 1) + 1], (float)sin(0.05), 1e-6); /* frame 3: m's 0 */
+    CR_CHECK_NEAR(p->translation[3 * 12], 0.1f, 1e-6);                       /* the last */
+    CR_CHECK_OK(cr_skin_motion_prepare(m, 15.0f, 0.0f, &half, &err), &err);
+    CR_REQUIRE(half);
+    CR_CHECK(half->nframes == 5);
+    CR_CHECK_NEAR(half->rotation[4 * (2 * 1 + 1) + 1], (float)sin(0.15), 1e-6); /* m's frame 2 */
+    cr_skin_motion_destroy(half);
+    cr_skin_motion_destroy(p);
+    cr_skin_motion_destroy(m);
+}
