@@ -186,6 +186,34 @@ cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_g
                                const cr_glb_skin_motion *motion, const cr_glb_cloth *cloth,
                                cr_error *err);
 
+/* A rigged character read from a .glb to be posed by another motion than
+ * its own (cr_motion_retarget_bvh): the skinned mesh at the rest pose its
+ * nodes hold (their translation, rotation and scale without animation;
+ * for crease's files and most exports the bind pose), welded like
+ * cr_glb_read; its skeleton with the joints ordered parents first, each
+ * named by its node ("joint_K" for an unnamed one), its parent the nearest
+ * ancestor node that is a joint, rest_joint its world position; the skin per
+ * vertex of `rest`. Owned; free with cr_glb_character_destroy. */
+typedef struct cr_glb_character {
+    cr_mesh *rest;
+    cr_glb_skin skin;
+} cr_glb_character;
+
+/* Fails naming the file when it has no skin (JOINTS_0, WEIGHTS_0 and a node
+ * drawing the mesh with a skin). */
+cr_status cr_glb_read_character(const char *path, cr_glb_character **out, cr_error *err);
+cr_status cr_glb_read_character_mem(const void *data, size_t len, const char *source,
+                                    cr_glb_character **out, cr_error *err);
+void cr_glb_character_destroy(cr_glb_character *c);
+
+/* The character posed by m (cr_glb_skin_motion's convention: rotations
+ * relative to the parent with world-aligned rest frames, the roots
+ * displaced by m->translation): *frames (T,V,3), m, over rest's V
+ * vertices, by the same linear blend skinning cr_glb_read_sequence uses.
+ * The caller frees *frames. */
+cr_status cr_glb_character_pose(const cr_glb_character *c, const cr_glb_skin_motion *m,
+                                float **frames, cr_error *err);
+
 /* ------------------------------------------------------------------ PC2 -- */
 
 /* PC2 point cache (Blender, 3ds Max): "POINTCACHE2\0", int32 version 1,

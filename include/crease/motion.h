@@ -37,6 +37,7 @@
 #define CREASE_MOTION_H
 
 #include "crease/base.h"
+#include "crease/mesh_io.h"
 #include "crease/skeleton.h"
 
 #ifdef __cplusplus
@@ -230,6 +231,69 @@ cr_motion_resolve_def cr_motion_resolve_default_def(void);
  * clips when it is neither a clip nor an existing file. */
 cr_status cr_motion_resolve(const char *spec, const cr_motion_resolve_def *def, cr_motion **out,
                             cr_motion_prepare_report *rep, cr_error *err);
+
+/* ------------------------------------------ retargeting onto any skeleton -- */
+
+/* A motion of any skeleton, in cr_glb_skin_motion's convention: each
+ * joint's rotation relative to its parent, with every rest (bind) frame
+ * aligned with the world, so the zero motion (identity rotations, zero
+ * translation) is the rest pose. cr_glb_write_skinned writes it as it is;
+ * cr_glb_character_pose poses a character by it. Free with
+ * cr_skin_motion_destroy. */
+typedef struct cr_skin_motion {
+    int32_t njoints;    /* J */
+    int32_t nframes;    /* T */
+    float fps;          /* > 0 */
+    float *rotation;    /* (T,J,4) unit quaternions x, y, z, w */
+    float *translation; /* (T,3) every root joint's displacement from its rest position, m */
+} cr_skin_motion;
+
+cr_status cr_skin_motion_create(int32_t njoints, int32_t nframes, float fps, cr_skin_motion **out,
+                                cr_error *err);
+void cr_skin_motion_destroy(cr_skin_motion *m);
+/* The view cr_glb_write_skinned and cr_glb_character_pose take. */
+cr_glb_skin_motion cr_skin_motion_view(const cr_skin_motion *m);
+
+/* A copy of m that starts at the rest pose and eases into m's frame 0 over
+ * `ease_in_s` seconds (each rotation slerped from the identity and the
+ * translation from zero, eased by 3u^2 - 2u^3), then plays m resampled to
+ * `fps` (slerp between the two nearest frames; 0 keeps m's rate): what a
+ * garment fitted at rest needs. */
+cr_status cr_skin_motion_prepare(const cr_skin_motion *m, float fps, float ease_in_s,
+                                 cr_skin_motion **out, cr_error *err);
+
+typedef struct cr_retarget_def {
+    /* A joint map file (may be NULL) that overrides the names' matching:
+     * lines "character_joint = bvh_joint" ('#' starts a comment; nothing
+     * after '=' leaves the joint unmapped), or a JSON object
+     * {"character_joint": "bvh_joint" or null, ...}. A mapped joint takes
+     * the role of its BVH joint. */
+    const char *joint_map;
+    cr_motion_import_def import; /* bvh_scale, recenter, retarget (defaults) */
+    uint32_t cookie;             /* set by cr_retarget_default_def */
+} cr_retarget_def;
+
+cr_retarget_def cr_retarget_default_def(void);
+
+/* The BVH at `path` retargeted onto skeleton `skel` (its names, parents and
+ * rest joints; the skin weights are not read), named `skel_source` in
+ * messages, by bone directions: the character's joints take SMPL's roles
+ * through the name tables of motion_bvh.c (SMPL, Mixamo, CMU, DAZ/Poser,
+ * Unreal, Blender/Rigify) or the joint map, each driven by the BVH joint of
+ * its role; every driven bone points where the BVH's bone points, turned
+ * from the character's rest bone by the least rotation, with the BVH
+ * joint's twist; joints driven by nothing keep their rest relation to
+ * their parent. The root translation is the BVH pelvis's displacement
+ * scaled by the ratio of the hip heights (character over BVH, each the
+ * rest pelvis over the lowest joint). The character's own frame (its up
+ * and left read from the skeleton) is kept. Fails naming the map file and
+ * line of a bad line, or the character when nothing drives its hips. */
+cr_status cr_motion_retarget_bvh(const char *path, const cr_glb_skin *skel, const char *skel_source,
+                                 const cr_retarget_def *def, cr_skin_motion **out, cr_error *err);
+cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *source,
+                                     const cr_glb_skin *skel, const char *skel_source,
+                                     const cr_retarget_def *def, cr_skin_motion **out,
+                                     cr_error *err);
 
 /* ---------------------------------------------------------- SMPL bodies -- */
 

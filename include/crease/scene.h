@@ -234,24 +234,32 @@ typedef struct cr_scene_sim_def {
     const char *body_mesh;       /* or a body mesh as the collider (not with object) */
     const char *body;            /* PC2 animating the collider (frame f moves from sample f to
                                     f + 1, held at the last); needs object or body_mesh */
-    const char *material;        /* preset (default "cotton") */
-    const char *material_json;   /* field overrides (cr_material_load_json), or NULL */
-    int frames;                  /* frames to simulate, >= 1 (required) */
-    float fps;                   /* default 30 */
-    int substeps;                /* 0: cr_sim_def's default */
-    int newton_iterations;       /* per substep at most; 0: cr_sim_def's default */
-    int vbd_iterations;          /* VBD sweeps per substep at most; 0: cr_sim_def's default */
-    float vbd_tol;               /* VBD's stopping tolerance, m/s; 0: cr_sim_def's default */
-    int vbd_coarse_every;        /* VBD's coarse correction every N sweeps; 0: off, -1 (what
-                                    cr_scene_sim_default_def gives): cr_sim_def's default */
-    int vbd_coarse_rings;        /* its aggregates' rings; 0: cr_sim_def's default */
-    int vbd_coarse_refresh;      /* corrections per coarse factorisation; 0: cr_sim_def's */
-    float max_collider_step;     /* cr_sim_def.max_collider_step, m (default 0: off) */
-    int plastic;                 /* 1: plastic bending */
-    int solver;                  /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
-    int self_contact;            /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
-    float self_thickness;        /* its thickness, m; 0 (default): cr_sim_def's */
-    const int32_t *pins;         /* (npins) vertices held at their initial positions */
+    /* A .bvh driving a rigged .glb body_mesh instead of its own animation:
+     * retargeted onto its skeleton (cr_motion_retarget_bvh), eased in from
+     * the rest pose over body_ease_in_s, one frame a simulated frame at fps;
+     * then out_dir/scene.glb holds the character so driven and the garment. */
+    const char *body_motion;
+    const char *joint_map;     /* cr_retarget_def.joint_map (may be NULL) */
+    float body_bvh_scale;      /* m per BVH unit, 0 (default): the rig's known unit or inferred */
+    float body_ease_in_s;      /* s, default 1 */
+    const char *material;      /* preset (default "cotton") */
+    const char *material_json; /* field overrides (cr_material_load_json), or NULL */
+    int frames;                /* frames to simulate, >= 1 (required) */
+    float fps;                 /* default 30 */
+    int substeps;              /* 0: cr_sim_def's default */
+    int newton_iterations;     /* per substep at most; 0: cr_sim_def's default */
+    int vbd_iterations;        /* VBD sweeps per substep at most; 0: cr_sim_def's default */
+    float vbd_tol;             /* VBD's stopping tolerance, m/s; 0: cr_sim_def's default */
+    int vbd_coarse_every;      /* VBD's coarse correction every N sweeps; 0: off, -1 (what
+                                  cr_scene_sim_default_def gives): cr_sim_def's default */
+    int vbd_coarse_rings;      /* its aggregates' rings; 0: cr_sim_def's default */
+    int vbd_coarse_refresh;    /* corrections per coarse factorisation; 0: cr_sim_def's */
+    float max_collider_step;   /* cr_sim_def.max_collider_step, m (default 0: off) */
+    int plastic;               /* 1: plastic bending */
+    int solver;                /* cr_sim_solver (default 0: CR_SIM_SOLVER_NEWTON) */
+    int self_contact;          /* cloth self-contact: 1 on, 0 off, -1 (default) cr_sim_def's */
+    float self_thickness;      /* its thickness, m; 0 (default): cr_sim_def's */
+    const int32_t *pins;       /* (npins) vertices held at their initial positions */
     int32_t npins;
     const char *out_dir; /* created when missing; required */
     int render_size;     /* last.png's side, pixels (default 800) */

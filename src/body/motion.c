@@ -8,7 +8,7 @@
  * Reference: Loper et al. 2015 (SMPL's pose convention: local axis-angle
  * rotations in world-aligned rest frames).
  */
-#include "body/motion_internal.h"
+#include "body/retarget_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -125,39 +125,43 @@ void cr_motion_rebase(cr_motion *m, const float rest[CR_NJOINTS * 3]) {
         }
 }
 
-void cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix) {
-    double w_inv[4];
-    q_conj(fix->world, w_inv);
-    for (int32_t f = 0; f < m->nframes; f++) {
-        float *pose = m->poses + (size_t)f * CR_NJOINTS * 3, *t = m->trans + (size_t)f * 3;
-        for (int j = 0; j < (fix->conjugate ? CR_NJOINTS : 1); j++) {
+cr_status cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix, cr_error *err) {
+    /* Through world rotations (cr_retarget_fix_world, the one copy shared with
+     * retargeting onto other skeletons): local = G_parent^-1 G. */
+    const size_t T = (size_t)m->nframes;
+    double *g = cr_malloc(T * CR_NJOINTS * 4 * sizeof(double), err);
+    double *t = cr_malloc(T * 3 * sizeof(double), err);
+    if (!g || !t) {
+        free(g), free(t);
+        return CR_ERR_MEMORY;
+    }
+    for (size_t f = 0; f < T; f++) {
+        double *gf = g + f * CR_NJOINTS * 4;
+        for (int j = 0; j < CR_NJOINTS; j++) {
             double q[4];
-            q_from_aa(pose + 3 * j, q);
-            q_mul(fix->world, q, q);
-            if (fix->conjugate) q_mul(q, w_inv, q);
-            q_to_aa(q, pose + 3 * j);
+            q_from_aa(m->poses + (f * CR_NJOINTS + (size_t)j) * 3, q);
+            if (cr_joint_parent[j] >= 0) q_mul(gf + 4 * cr_joint_parent[j], q, q);
+            memcpy(gf + 4 * j, q, sizeof q);
         }
-        double v[3] = {t[0], t[1], t[2]};
-        q_rotate(fix->world, v, v);
         for (int k = 0; k < 3; k++)
-            t[k] = (float)(v[k] - fix->origin[k]);
+            t[3 * f + (size_t)k] = m->trans[3 * f + (size_t)k];
     }
-    if (!fix->recenter) return;
-    /* Heading of frame 0: where the root turns the body's forward axis +Z. */
-    double q0[4], fwd[3] = {0, 0, 1}, heading[4];
-    q_from_aa(m->poses, q0);
-    q_rotate(q0, fwd, fwd);
-    double yaw = fabs(fwd[0]) + fabs(fwd[2]) > 1e-9 ? atan2(fwd[0], fwd[2]) : 0.0;
-    q_axis(0, 1, 0, -yaw, heading);
-    double t0[3] = {m->trans[0], fix->recenter_height ? m->trans[1] : 0.0, m->trans[2]};
-    for (int32_t f = 0; f < m->nframes; f++) {
-        float *root = m->poses + (size_t)f * CR_NJOINTS * 3, *t = m->trans + (size_t)f * 3;
-        double q[4], v[3] = {t[0] - t0[0], t[1] - t0[1], t[2] - t0[2]};
-        q_from_aa(root, q);
-        q_mul(heading, q, q);
-        q_to_aa(q, root);
-        q_rotate(heading, v, v);
+    cr_retarget_fix_world(g, CR_NJOINTS, CR_JOINT_PELVIS, t, m->nframes, fix);
+    for (size_t f = 0; f < T; f++) {
+        const double *gf = g + f * CR_NJOINTS * 4;
+        for (int j = 0; j < CR_NJOINTS; j++) {
+            double q[4];
+            memcpy(q, gf + 4 * j, sizeof q);
+            if (cr_joint_parent[j] >= 0) {
+                double inv[4];
+                q_conj(gf + 4 * cr_joint_parent[j], inv);
+                q_mul(inv, q, q);
+            }
+            q_to_aa(q, m->poses + (f * CR_NJOINTS + (size_t)j) * 3);
+        }
         for (int k = 0; k < 3; k++)
-            t[k] = (float)v[k];
+            m->trans[3 * f + (size_t)k] = (float)t[3 * f + (size_t)k];
     }
+    free(g), free(t);
+    return CR_OK;
 }

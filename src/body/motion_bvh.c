@@ -39,7 +39,7 @@
  * rig for the joint names.
  */
 #include "body/mannequin_internal.h"
-#include "body/motion_internal.h"
+#include "body/retarget_internal.h"
 #include "geom/io_text.h"
 
 #include <ctype.h>
@@ -53,9 +53,6 @@ static const char *const channel_names[6] = {"Xposition", "Yposition", "Zpositio
 static const double DEG = M_PI / 180.0;
 static const double JOINT_HEIGHT_M = 1.65; /* head to toe joints of a 1.75 m person, m */
 static const double FRAME_TIME_MAX = 10.0; /* s */
-/* cgspeed's CMU BVH: the ASF's length unit, 0.45 inch scaled by 1 / 0.45 ...
- * as the conversion's readme gives it, (1 / 0.45) 2.54 / 100 m per unit. */
-#define CMU_UNIT_M 0.056444
 
 typedef struct bvh_joint {
     char name[NAME_MAX_LEN + 1];
@@ -280,114 +277,24 @@ static cr_status parse_motion(bvh_file *b, cr_error *err) {
     return CR_OK;
 }
 
+/* The whole file parsed into b (freed with bvh_free, also on failure). */
+static cr_status bvh_parse(const void *data, size_t len, const char *source, bvh_file *b,
+                           cr_error *err) {
+    memset(b, 0, sizeof *b);
+    cr_io_text_init(&b->t, data, len, source);
+    b->j = cr_malloc(MAX_JOINTS * sizeof *b->j, err);
+    if (!b->j) return CR_ERR_MEMORY;
+    CR_TRY(parse_hierarchy(b, err));
+    return parse_motion(b, err);
+}
+
+static void bvh_free(bvh_file *b) {
+    free(b->j);
+    free(b->values);
+    b->j = NULL, b->values = NULL;
+}
+
 /* --------------------------------------------------------------- mapping -- */
-
-typedef struct bvh_rig {
-    const char *name;
-    const char *joints[CR_NJOINTS]; /* normalised candidates, '|'-separated, best first */
-    /* The rig's known unit, m, taken when its rest height (units) is in
-     * [unit_lo, unit_hi]; 0: infer from the height. */
-    double unit_m, unit_lo, unit_hi;
-} bvh_rig;
-
-static const bvh_rig rigs[] = {
-    {"SMPL",
-     {"pelvis",
-      "lefthip|lhip",
-      "righthip|rhip",
-      "spine1",
-      "leftknee|lknee",
-      "rightknee|rknee",
-      "spine2",
-      "leftankle|lankle",
-      "rightankle|rankle",
-      "spine3",
-      "leftfoot|lfoot",
-      "rightfoot|rfoot",
-      "neck",
-      "leftcollar|lcollar",
-      "rightcollar|rcollar",
-      "head",
-      "leftshoulder|lshoulder",
-      "rightshoulder|rshoulder",
-      "leftelbow|lelbow",
-      "rightelbow|relbow",
-      "leftwrist|lwrist",
-      "rightwrist|rwrist"},
-     0.0,
-     0.0,
-     0.0},
-    {"Mixamo",
-     {"hips",        "leftupleg",    "rightupleg",    "spine",    "leftleg",     "rightleg",
-      "spine1",      "leftfoot",     "rightfoot",     "spine2",   "lefttoebase", "righttoebase",
-      "neck",        "leftshoulder", "rightshoulder", "head",     "leftarm",     "rightarm",
-      "leftforearm", "rightforearm", "lefthand",      "righthand"},
-     0.01,
-     80.0,
-     300.0},
-    {"CMU",
-     {"hips",        "leftupleg",    "rightupleg",    "lowerback", "leftleg",     "rightleg",
-      "spine",       "leftfoot",     "rightfoot",     "spine1",    "lefttoebase", "righttoebase",
-      "neck",        "leftshoulder", "rightshoulder", "head",      "leftarm",     "rightarm",
-      "leftforearm", "rightforearm", "lefthand",      "righthand"},
-     CMU_UNIT_M,
-     12.0,
-     45.0},
-    {"generic (DAZ/Poser)",
-     {"hip|hips",
-      "lthigh|lthighbend|leftthigh",
-      "rthigh|rthighbend|rightthigh",
-      "abdomen|abdomenlower|abdomen1",
-      "lshin|lshinbend|leftshin",
-      "rshin|rshinbend|rightshin",
-      "abdomen2|abdomenupper",
-      "lfoot",
-      "rfoot",
-      "chest|chestupper|chestlower",
-      "ltoe|ltoes",
-      "rtoe|rtoes",
-      "neck|necklower",
-      "lcollar|lclavicle",
-      "rcollar|rclavicle",
-      "head",
-      "lshldr|lshldrbend|lupperarm",
-      "rshldr|rshldrbend|rupperarm",
-      "lforearm|lforearmbend",
-      "rforearm|rforearmbend",
-      "lhand",
-      "rhand"},
-     0.0,
-     0.0,
-     0.0},
-};
-enum { NRIGS = sizeof rigs / sizeof rigs[0] };
-
-static void normalise(const char *name, char *out, size_t cap) {
-    const char *colon = strrchr(name, ':');
-    if (colon) name = colon + 1;
-    size_t n = 0;
-    for (; *name && n + 1 < cap; name++) {
-        char c = *name;
-        if (c == '_' || c == '-' || c == '.' || c == ' ') continue;
-        out[n++] = (char)tolower((unsigned char)c);
-    }
-    out[n] = 0;
-    if (strncmp(out, "mavg", 4) == 0 || strncmp(out, "favg", 4) == 0) memmove(out, out + 4, n - 3);
-}
-
-/* Index of the first joint whose normalised name is among `cands`, or -1. */
-static int find_candidate(char (*norm)[NAME_MAX_LEN + 1], const bvh_file *b, const char *cands) {
-    const char *c = cands;
-    while (*c) {
-        const char *bar = strchr(c, '|');
-        size_t len = bar ? (size_t)(bar - c) : strlen(c);
-        for (int i = 0; i < b->n; i++)
-            if (!b->j[i].end_site && strlen(norm[i]) == len && memcmp(norm[i], c, len) == 0)
-                return i;
-        c += len + (bar != NULL);
-    }
-    return -1;
-}
 
 static int is_ancestor(const bvh_file *b, int anc, int j) {
     for (j = b->j[j].parent; j >= 0; j = b->j[j].parent)
@@ -396,34 +303,24 @@ static int is_ancestor(const bvh_file *b, int anc, int j) {
 }
 
 static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr_error *err) {
-    char(*norm)[NAME_MAX_LEN + 1] = cr_malloc((size_t)b->n * sizeof *norm, err);
-    if (!norm) return CR_ERR_MEMORY;
+    const char **names = cr_malloc((size_t)b->n * sizeof *names, err);
+    if (!names) return CR_ERR_MEMORY;
     for (int i = 0; i < b->n; i++)
-        normalise(b->j[i].name, norm[i], sizeof norm[i]);
-    int best = 0, best_score = -1;
-    for (int r = 0; r < NRIGS; r++) {
-        int score = 0, tmp[CR_NJOINTS];
-        for (int j = 0; j < CR_NJOINTS; j++)
-            score += (tmp[j] = find_candidate(norm, b, rigs[r].joints[j])) >= 0;
-        if (tmp[0] < 0) score = 0;
-        if (score > best_score) {
-            best = r, best_score = score;
-            memcpy(map, tmp, sizeof tmp);
-        }
-    }
-    free(norm);
+        names[i] = b->j[i].end_site ? NULL : b->j[i].name;
+    int best_score = cr_retarget_match_roles(b->n, names, map, rig);
+    free(names);
     if (best_score < MIN_MAPPED) {
-        char names[240];
+        char list[240];
         int n = 0;
-        for (int i = 0; i < b->n && n < (int)sizeof names - 40; i++)
+        for (int i = 0; i < b->n && n < (int)sizeof list - 40; i++)
             if (!b->j[i].end_site)
-                n += snprintf(names + n, sizeof names - (size_t)n, "%s%s", n ? ", " : "",
+                n += snprintf(list + n, sizeof list - (size_t)n, "%s%s", n ? ", " : "",
                               b->j[i].name);
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "%s: cannot map the skeleton onto SMPL's joints: the best rig (%s) "
-                       "matches %d of 22 (known: SMPL, Mixamo, CMU, DAZ/Poser names; joints "
-                       "here: %s)",
-                       b->t.source, rigs[best].name, best_score, names);
+                       "matches %d of 22 (known: %s names; joints here: %s)",
+                       b->t.source, cr_retarget_rig_name(*rig), best_score, cr_retarget_rig_list,
+                       list);
     }
     for (int j = 1; j < CR_NJOINTS; j++) {
         if (map[j] < 0) continue;
@@ -436,9 +333,8 @@ static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr
                            b->t.source, b->j[map[j]].line, b->j[map[j]].name, cr_joint_name[j],
                            b->j[map[a]].name, cr_joint_name[a]);
     }
-    cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source, rigs[best].name,
-           best_score);
-    *rig = best;
+    cr_log(CR_LOG_DEBUG, "%s: %s rig, %d of 22 joints mapped", b->t.source,
+           cr_retarget_rig_name(*rig), best_score);
     return CR_OK;
 }
 
@@ -451,82 +347,17 @@ static void rest_positions(const bvh_file *b, double (*p)[3]) {
             p[i][k] = b->j[i].offset[k] + (b->j[i].parent >= 0 ? p[b->j[i].parent][k] : 0.0);
 }
 
-/* Signed coordinate axis nearest to v, as (axis index, sign); -1 when v is 0
- * or its largest component is `skip`. */
-static int snap_axis(const double v[3], int skip, int *sign) {
-    int a = -1;
-    double best = 1e-9;
-    for (int k = 0; k < 3; k++)
-        if (k != skip && fabs(v[k]) > best) best = fabs(v[k]), a = k;
-    if (a >= 0) *sign = v[a] > 0 ? 1 : -1;
-    return a;
-}
-
-/* The joints "up" runs to from the pelvis, the first the rig has. */
-static const int up_ends[] = {CR_JOINT_HEAD, CR_JOINT_NECK, CR_JOINT_SPINE3, CR_JOINT_SPINE2};
-
-/* The rig's up and left as signed coordinate axes, from joint positions p:
- * pelvis to head, right to left hip. 0 when they cannot be told. */
-static int rig_axes(const int map[CR_NJOINTS], double (*p)[3], int *up_axis, int *up_sign,
-                    int *left_axis, int *left_sign) {
-    static const int lr[][2] = {{CR_JOINT_LEFT_HIP, CR_JOINT_RIGHT_HIP},
-                                {CR_JOINT_LEFT_SHOULDER, CR_JOINT_RIGHT_SHOULDER},
-                                {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
-    double up[3] = {0}, left[3] = {0};
-    *up_axis = -1, *left_axis = -1, *up_sign = 1, *left_sign = 1;
-    for (int i = 0; i < 4 && *up_axis < 0; i++)
-        if (map[up_ends[i]] >= 0) {
-            for (int k = 0; k < 3; k++)
-                up[k] = p[map[up_ends[i]]][k] - p[map[0]][k];
-            *up_axis = snap_axis(up, -1, up_sign);
-        }
-    for (int i = 0; i < 3 && *up_axis >= 0 && *left_axis < 0; i++)
-        if (map[lr[i][0]] >= 0 && map[lr[i][1]] >= 0) {
-            for (int k = 0; k < 3; k++)
-                left[k] = p[map[lr[i][0]]][k] - p[map[lr[i][1]]][k];
-            *left_axis = snap_axis(left, *up_axis, left_sign);
-        }
-    return *up_axis >= 0 && *left_axis >= 0;
-}
-
-/* The turn taking signed axis `up` to +Y and `left` to +X. */
-static void axes_turn(int up_axis, int up_sign, int left_axis, int left_sign, double q[4]) {
-    /* Rows of the turn: left -> x, up -> y, left x up (forward) -> z. */
-    double m[3][3] = {{0}};
-    m[0][left_axis] = left_sign;
-    m[1][up_axis] = up_sign;
-    for (int k = 0; k < 3; k++) {
-        int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-        m[2][k] = m[0][k1] * m[1][k2] - m[0][k2] * m[1][k1];
-    }
-    /* A signed permutation with det +1: Shepperd's matrix-to-quaternion. */
-    double tr = m[0][0] + m[1][1] + m[2][2];
-    if (tr > 0) {
-        double s = 2 * sqrt(1 + tr);
-        q[0] = s / 4, q[1] = (m[2][1] - m[1][2]) / s, q[2] = (m[0][2] - m[2][0]) / s,
-        q[3] = (m[1][0] - m[0][1]) / s;
-    } else {
-        int i = m[1][1] > m[0][0] ? (m[2][2] > m[1][1] ? 2 : 1) : (m[2][2] > m[0][0] ? 2 : 0);
-        int j = (i + 1) % 3, k = (i + 2) % 3;
-        double s = 2 * sqrt(1 + m[i][i] - m[j][j] - m[k][k]);
-        q[0] = (m[k][j] - m[j][k]) / s;
-        q[1 + i] = s / 4;
-        q[1 + j] = (m[j][i] + m[i][j]) / s;
-        q[1 + k] = (m[k][i] + m[i][k]) / s;
-    }
-}
-
 /* The turn taking the rig's up to +Y and its left to +X, from rest positions;
  * the up it found as a signed axis. */
 static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
                            double q[4], int *up_axis, int *up_sign, cr_error *err) {
     int la, ls;
-    if (!rig_axes(map, p, up_axis, up_sign, &la, &ls))
+    if (!cr_retarget_rig_axes(map, p, up_axis, up_sign, &la, &ls))
         return CR_FAIL(err, CR_ERR_PARSE,
                        "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
                        "to head, right to left hip)",
                        b->t.source);
-    axes_turn(*up_axis, *up_sign, la, ls, q);
+    cr_retarget_axes_turn(*up_axis, *up_sign, la, ls, q);
     return CR_OK;
 }
 
@@ -542,11 +373,13 @@ static double rig_scale(const bvh_file *b, int rig, double (*p)[3], const double
     double h = hi - lo;
     /* Known rigs first: cgspeed's CMU conversion keeps the ASF's unit (0.45
      * inch, a joint height of about 24 units) and Mixamo writes centimetres. */
-    if (rigs[rig].unit_m > 0 && h >= rigs[rig].unit_lo && h <= rigs[rig].unit_hi) {
-        cr_log(rigs[rig].unit_m != 0.01 ? CR_LOG_INFO : CR_LOG_DEBUG,
-               "%s: %s rig, %g units high: %g m per unit", b->t.source, rigs[rig].name, h,
-               rigs[rig].unit_m);
-        return rigs[rig].unit_m;
+    double unit_m, unit_lo, unit_hi;
+    cr_retarget_rig_unit(rig, &unit_m, &unit_lo, &unit_hi);
+    if (unit_m > 0 && h >= unit_lo && h <= unit_hi) {
+        cr_log(unit_m != 0.01 ? CR_LOG_INFO : CR_LOG_DEBUG,
+               "%s: %s rig, %g units high: %g m per unit", b->t.source, cr_retarget_rig_name(rig),
+               h, unit_m);
+        return unit_m;
     }
     if (h >= 0.8 && h <= 3.0) return 1.0;
     if (h >= 80.0 && h <= 300.0) return 0.01;
@@ -585,14 +418,6 @@ static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], doub
     }
 }
 
-static int unit3(const double v[3], double out[3], double eps) {
-    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(n > eps) || !isfinite(n)) return 0; /* degenerate, or offsets past double's range */
-    for (int k = 0; k < 3; k++)
-        out[k] = v[k] / n;
-    return 1;
-}
-
 /* Whether a skeleton at positions p stands: the legs (pelvis to the ankles,
  * or the knees) point against the spine (pelvis to head). 1 when a rig lacks
  * them (nothing to go by). A joint-oriented bind pose with every bone along
@@ -602,7 +427,7 @@ static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
                                   {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
     int top = -1, l = -1;
     for (int i = 0; i < 4 && top < 0; i++)
-        if (map[up_ends[i]] >= 0) top = map[up_ends[i]];
+        if (map[cr_retarget_up_ends[i]] >= 0) top = map[cr_retarget_up_ends[i]];
     for (int i = 0; i < 2 && l < 0; i++)
         if (map[legs[i][0]] >= 0 && map[legs[i][1]] >= 0) l = i;
     if (top < 0 || l < 0) return 1;
@@ -611,7 +436,7 @@ static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
         up[k] = p[top][k] - p[map[0]][k];
         down[k] = 0.5 * (p[map[legs[l][0]]][k] + p[map[legs[l][1]]][k]) - p[map[0]][k];
     }
-    if (!unit3(up, up, 1e-12) || !unit3(down, down, 1e-12)) return 0;
+    if (!cr_retarget_unit3(up, up, 1e-12) || !cr_retarget_unit3(down, down, 1e-12)) return 0;
     return up[0] * down[0] + up[1] * down[1] + up[2] * down[2] < -0.5;
 }
 
@@ -631,7 +456,7 @@ static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4]
         int32_t f = (int32_t)((int64_t)i * b->nframes / n);
         int ua, us, la, ls;
         frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-        if (!rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
+        if (!cr_retarget_rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
         votes[2 * ua + (us < 0)]++;
         if (first[2 * ua + (us < 0)] < 0 && stands(map, pos)) first[2 * ua + (us < 0)] = f;
     }
@@ -643,158 +468,26 @@ static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4]
     return 2 * votes[best] > n;
 }
 
-/* ----------------------------------------------------------- retargeting -- */
-
-/* The bone each SMPL joint turns: towards this child (-1: a leaf, which
- * moves with its parent's alignment). */
-static const int8_t bone_child[CR_NJOINTS] = {3,  4,  5,  6,  7,  8,  9,  10, 11, 12, -1,
-                                              -1, 15, 16, 17, -1, 18, 19, 20, 21, -1, -1};
-
-/* Retargeting by bone directions. For SMPL joint j with bone child c, d_j is
- * the rig's rest bone (rig joint of j to rig joint of c) and e_j the body's
- * (canonical mannequin, turned into the rig's frame); A_j carries e_j onto
- * d_j by the shortest arc. A frame's world rotation of j is then
- * Q_j W_j A_j, W_j the rig joint's world rotation and Q_j the shortest arc
- * from W_j A_j e_j to the rig's bone as posed (the identity unless folded
- * joints lie between the two, CMU's Neck1). So the body's bone points where
- * the rig's does, with the rig's twist about it. */
-typedef struct retarget {
-    int child[CR_NJOINTS];   /* bone end per joint (descending past missing, coincident ones) */
-    double e[CR_NJOINTS][3]; /* the body's rest bone, unit, rig frame */
-    double align[CR_NJOINTS][4];
-} retarget;
-
-static void shortest_arc(const double a[3], const double b[3], double q[4]) {
-    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-    if (d < -1.0 + 1e-12) { /* opposite: half a turn about any perpendicular axis */
-        double p[3] = {0, 0, 0};
-        p[fabs(a[0]) < 0.9 ? 0 : 1] = 1;
-        c[0] = a[1] * p[2] - a[2] * p[1], c[1] = a[2] * p[0] - a[0] * p[2];
-        c[2] = a[0] * p[1] - a[1] * p[0];
-        d = -1.0;
-        q[0] = 0;
-    } else {
-        q[0] = 1.0 + d;
-    }
-    q[1] = c[0], q[2] = c[1], q[3] = c[2];
-    double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    for (int k = 0; k < 4; k++)
-        q[k] /= n;
+/* Frames per second of the file: 0.0333333 s is 30 fps. */
+static double bvh_fps(const bvh_file *b) {
+    double fps = 1.0 / b->frame_time;
+    return fabs(fps - round(fps)) < 0.01 ? round(fps) : fps;
 }
 
-/* turn: the file's frame to crease's; rest_turn: the rest pose's own upright
- * frame to crease's, which differs from turn when the bind skeleton lies
- * along another axis than the motion stands: each bone is then matched after
- * standing the rest pose up (D below), so a bone along the axis of that turn
- * keeps its twist, which a shortest arc alone would lose.
- *
- * ref_w: NULL to match against the rest pose (ref its positions). Otherwise
- * ref and ref_w are a standing frame's joint positions and world rotations,
- * for a bind pose that does not stand (stands()): a shortest arc from the
- * mannequin's bone to such a rest bone twists arbitrarily, so the bones are
- * matched as they stand in that frame, A_j = W_j^-1 B_j with B_j the arc
- * from the mannequin's bone to the posed one, and the pelvis by its spine
- * and its hips both (a frame, not an arc: a half turn about the spine would
- * swap the legs). */
-static void retarget_setup(const int map[CR_NJOINTS], double (*ref)[3], double (*ref_w)[4],
-                           const double turn[4], const double rest_turn[4], double height,
-                           retarget *rt) {
-    float canon[CR_NJOINTS * 3];
-    cr_mannequin_def md = cr_mannequin_default_def();
-    cr_mannequin_rest_joints(&md, canon);
-    double turn_inv[4], stand[4], stand_inv[4];
-    q_conj(turn, turn_inv);
-    q_mul(turn_inv, rest_turn, stand); /* D: the rest pose stood along the motion's up */
-    if (ref_w) q_identity(stand);
-    q_conj(stand, stand_inv);
-    for (int j = 0; j < CR_NJOINTS; j++) {
-        int p = cr_joint_parent[j];
-        rt->child[j] = -1;
-        if (p >= 0)
-            memcpy(rt->align[j], rt->align[p], sizeof rt->align[j]);
-        else
-            memcpy(rt->align[j], stand_inv, sizeof rt->align[j]);
-        if (map[j] < 0) continue;
-        for (int c = bone_child[j]; c >= 0; c = bone_child[c]) {
-            if (map[c] < 0) continue;
-            double d[3], e[3];
-            for (int k = 0; k < 3; k++) {
-                d[k] = ref[map[c]][k] - ref[map[j]][k];
-                e[k] = (double)canon[3 * c + k] - (double)canon[3 * j + k];
-            }
-            q_rotate(turn_inv, e, e);
-            q_rotate(stand, d, d);
-            if (!unit3(d, d, 1e-3 * height) || !unit3(e, e, 1e-6)) continue;
-            rt->child[j] = c;
-            memcpy(rt->e[j], e, sizeof e);
-            double arc[4];
-            shortest_arc(e, d, arc);
-            if (!ref_w) {
-                q_mul(stand_inv, arc, rt->align[j]);
-                break;
-            }
-            const int lh = map[CR_JOINT_LEFT_HIP], rh = map[CR_JOINT_RIGHT_HIP];
-            if (p < 0 && lh >= 0 && rh >= 0) {
-                /* the twist about the spine that turns the mannequin's hips onto the rig's */
-                double el[3], dl[3], v[3];
-                for (int k = 0; k < 3; k++) {
-                    el[k] = (double)canon[3 * CR_JOINT_LEFT_HIP + k] -
-                            (double)canon[3 * CR_JOINT_RIGHT_HIP + k];
-                    dl[k] = ref[lh][k] - ref[rh][k];
-                }
-                q_rotate(turn_inv, el, el);
-                q_rotate(arc, el, v);
-                double vd = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
-                double ld = dl[0] * d[0] + dl[1] * d[1] + dl[2] * d[2];
-                for (int k = 0; k < 3; k++)
-                    v[k] -= vd * d[k], dl[k] -= ld * d[k];
-                if (unit3(v, v, 1e-9) && unit3(dl, dl, 1e-9)) {
-                    double twist[4];
-                    shortest_arc(v, dl, twist); /* about d: both are perpendicular to it */
-                    q_mul(twist, arc, arc);
-                }
-            }
-            double w_inv[4];
-            q_conj(ref_w[map[j]], w_inv);
-            q_mul(w_inv, arc, rt->align[j]);
-            break;
-        }
-    }
-}
-
-/* World rotations of SMPL's joints in one frame, in the rig's frame. */
-static void retarget_frame(const retarget *rt, const int map[CR_NJOINTS], double (*w)[4],
-                           double (*pos)[3], double g[CR_NJOINTS][4]) {
-    for (int j = 0; j < CR_NJOINTS; j++) {
-        int p = cr_joint_parent[j];
-        if (map[j] < 0) {
-            memcpy(g[j], g[p], sizeof g[j]);
-            continue;
-        }
-        q_mul(w[map[j]], rt->align[j], g[j]);
-        int c = rt->child[j];
-        if (c < 0) continue;
-        double cur[3], act[3], q[4];
-        q_rotate(g[j], rt->e[j], cur);
-        for (int k = 0; k < 3; k++)
-            act[k] = pos[map[c]][k] - pos[map[j]][k];
-        if (!unit3(act, act, 1e-12)) continue;
-        shortest_arc(cur, act, q);
-        q_mul(q, g[j], g[j]);
-    }
-}
-
-static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
-                              cr_error *err) {
-    int map[CR_NJOINTS], rig = 0;
-    CR_TRY(map_joints(b, map, &rig, err));
+/* The BVH driving target tg (tg->src: BVH joints; map: the BVH's roles):
+ * per frame the target joints' world rotations in crease's frame, g
+ * (T,n,4), and the pelvis's displacement from its rest standing position, t
+ * (T,3), m. *hip_m: the rig's rest pelvis height over its lowest joint, m.
+ * def->retarget 0: each joint takes its source joint's world rotation (no
+ * bone matching). */
+static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig,
+                           const cr_motion_import_def *def, const rt_target *tg, double *g,
+                           double *t, double *hip_m, cr_error *err) {
     double(*rest)[3] = cr_malloc((size_t)b->n * sizeof *rest, err);
     double(*w)[4] = cr_malloc((size_t)b->n * sizeof *w, err);
     double(*pos)[3] = cr_malloc((size_t)b->n * sizeof *pos, err);
     double(*stand_pos)[3] = cr_malloc((size_t)b->n * sizeof *stand_pos, err);
     double(*stand_w)[4] = cr_malloc((size_t)b->n * sizeof *stand_w, err);
-    cr_motion *m = NULL;
     cr_status st = rest && w && pos && stand_pos && stand_w ? CR_OK : CR_ERR_MEMORY;
     motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
     double rest_turn[4] = {1, 0, 0, 0}; /* the rest pose's own upright frame: its height and feet */
@@ -810,7 +503,7 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
         (up_axis != rest_axis || up_sign != rest_sign)) {
         /* left: the first other axis in x, z, y order, so a Y-up file keeps its
          * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
-        axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
+        cr_retarget_axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
         cr_log(CR_LOG_WARN,
                "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
                "frames): the motion's up is used",
@@ -829,9 +522,8 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
                "feet are read from frame %d",
                b->t.source, (int)standing);
     }
-    double fps = 1.0 / b->frame_time;
-    if (fabs(fps - round(fps)) < 0.01) fps = round(fps); /* 0.0333333 s is 30 fps */
-    if (st == CR_OK) st = cr_motion_create(b->nframes, (float)fps, &m, err);
+    rt_state rs = {0};
+    if (st == CR_OK && def->retarget) st = cr_retarget_state_alloc(tg->n, &rs, err);
     if (st == CR_OK) {
         double s = rig_scale(b, rig, size_pose, size_turn, def->bvh_scale), lowest = INFINITY,
                highest = -INFINITY, root_up[3];
@@ -840,48 +532,88 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
             q_rotate(size_turn, size_pose[i], v);
             lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
         }
-        retarget rt;
         if (def->retarget)
-            retarget_setup(map, size_pose, size_pose == rest ? NULL : stand_w, fix.world, rest_turn,
-                           (highest - lowest) / s, &rt);
+            cr_retarget_setup(tg, size_pose, size_pose == rest ? NULL : stand_w, fix.world,
+                              rest_turn, (highest - lowest) / s, &rs);
         q_rotate(fix.world, rest[map[0]], fix.origin);
         q_rotate(size_turn, size_pose[map[0]], root_up);
         for (int k = 0; k < 3; k++)
             fix.origin[k] *= s;
         fix.origin[1] = s * root_up[1] - lowest; /* the root's height over the feet */
         for (int f = 0; f < b->nframes; f++) {
-            double wj[CR_NJOINTS][4];
+            double(*gf)[4] = (double(*)[4])(g + 4 * (size_t)f * (size_t)tg->n);
             frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-            if (def->retarget) retarget_frame(&rt, map, w, pos, wj);
-            float *pose = m->poses + (size_t)f * CR_NJOINTS * 3;
-            for (int j = 0; j < CR_NJOINTS; j++) {
-                int p = cr_joint_parent[j];
-                if (!def->retarget) {
-                    if (map[j] >= 0)
-                        memcpy(wj[j], w[map[j]], sizeof wj[j]);
-                    else
-                        memcpy(wj[j], wj[p], sizeof wj[j]);
-                }
-                double local[4];
-                if (p < 0) {
-                    memcpy(local, wj[j], sizeof local);
-                } else {
-                    double inv[4];
-                    q_conj(wj[p], inv);
-                    q_mul(inv, wj[j], local);
-                }
-                q_to_aa(local, pose + 3 * j);
+            if (def->retarget) cr_retarget_frame(tg, &rs, w, pos, gf);
+            for (int j = 0; !def->retarget && j < tg->n; j++) {
+                if (tg->src[j] >= 0)
+                    memcpy(gf[j], w[tg->src[j]], sizeof gf[j]);
+                else if (tg->parent[j] >= 0)
+                    memcpy(gf[j], gf[tg->parent[j]], sizeof gf[j]);
+                else
+                    q_identity(gf[j]);
             }
             for (int k = 0; k < 3; k++)
-                m->trans[(size_t)f * 3 + (size_t)k] = (float)(s * pos[map[0]][k]);
+                t[(size_t)f * 3 + (size_t)k] = s * pos[map[0]][k];
         }
-        cr_motion_fix_frame(m, &fix);
+        cr_retarget_fix_world(g, tg->n, tg->pelvis, t, b->nframes, &fix);
+        *hip_m = fix.origin[1];
     }
+    cr_retarget_state_free(&rs);
     free(rest);
     free(w);
     free(pos);
     free(stand_pos);
     free(stand_w);
+    return st;
+}
+
+/* The BVH onto crease's mannequin: the 22-joint target whose rest is the
+ * mannequin's, as SMPL-style local axis-angle poses. */
+static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
+                              cr_error *err) {
+    int map[CR_NJOINTS], rig = 0;
+    CR_TRY(map_joints(b, map, &rig, err));
+    float canon[CR_NJOINTS * 3];
+    cr_mannequin_def md = cr_mannequin_default_def();
+    cr_mannequin_rest_joints(&md, canon);
+    double rest[CR_NJOINTS][3];
+    int parent[CR_NJOINTS], bone[CR_NJOINTS];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        for (int k = 0; k < 3; k++)
+            rest[j][k] = canon[3 * j + k];
+        parent[j] = cr_joint_parent[j], bone[j] = cr_retarget_bone_child_role[j];
+    }
+    const rt_target tg = {.n = CR_NJOINTS,
+                          .parent = parent,
+                          .rest = (const double(*)[3])rest,
+                          .src = map,
+                          .bone_child = bone,
+                          .pelvis = CR_JOINT_PELVIS,
+                          .lhip = CR_JOINT_LEFT_HIP,
+                          .rhip = CR_JOINT_RIGHT_HIP};
+    const size_t T = (size_t)b->nframes;
+    cr_motion *m = NULL;
+    double *g = cr_malloc(T * CR_NJOINTS * 4 * sizeof(double), err);
+    double *t = cr_malloc(T * 3 * sizeof(double), err), hip_m;
+    cr_status st = g && t ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) st = cr_motion_create(b->nframes, (float)bvh_fps(b), &m, err);
+    if (st == CR_OK) st = bvh_drive(b, map, rig, def, &tg, g, t, &hip_m, err);
+    for (size_t f = 0; st == CR_OK && f < T; f++) {
+        const double *gf = g + f * CR_NJOINTS * 4;
+        for (int j = 0; j < CR_NJOINTS; j++) {
+            double local[4];
+            memcpy(local, gf + 4 * j, sizeof local);
+            if (parent[j] >= 0) {
+                double inv[4];
+                q_conj(gf + 4 * parent[j], inv);
+                q_mul(inv, local, local);
+            }
+            q_to_aa(local, m->poses + (f * CR_NJOINTS + (size_t)j) * 3);
+        }
+        for (int k = 0; k < 3; k++)
+            m->trans[f * 3 + (size_t)k] = (float)t[f * 3 + (size_t)k];
+    }
+    free(g), free(t);
     if (st != CR_OK) {
         cr_motion_destroy(m);
         return st;
@@ -900,14 +632,139 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
         return CR_FAIL(err, CR_ERR_INVALID, "bvh_scale %g: expected 0 (infer) or a positive scale",
                        (double)def->bvh_scale);
     bvh_file b;
-    memset(&b, 0, sizeof b);
-    cr_io_text_init(&b.t, data, len, source);
-    b.j = cr_malloc(MAX_JOINTS * sizeof *b.j, err);
-    if (!b.j) return CR_ERR_MEMORY;
-    cr_status st = parse_hierarchy(&b, err);
-    if (st == CR_OK) st = parse_motion(&b, err);
+    cr_status st = bvh_parse(data, len, source, &b, err);
     if (st == CR_OK) st = build_motion(&b, def, out, err);
-    free(b.j);
-    free(b.values);
+    bvh_free(&b);
+    return st;
+}
+
+/* ------------------------------------------------- onto any skeleton -- */
+
+#define RETARGET_COOKIE 0x72746731u
+
+cr_retarget_def cr_retarget_default_def(void) {
+    return (cr_retarget_def){.import = cr_motion_import_default_def(), .cookie = RETARGET_COOKIE};
+}
+
+/* The character's motion from its joints' world rotations g (T,n,4) and
+ * pelvis displacement t (T,3), both in crease's frame: turned back into the
+ * character's frame, made local, and the roots' translation chosen so the
+ * pelvis lands at its rest position plus t. */
+static cr_status character_motion(const rt_character *c, const cr_glb_skin *skel, const double *g,
+                                  const double *t, cr_skin_motion *m, cr_error *err) {
+    const int n = c->t.n;
+    double inv[4];
+    q_conj(c->turn, inv);
+    double(*pos)[3] = cr_malloc((size_t)n * sizeof *pos, err);
+    double(*gw)[4] = cr_malloc((size_t)n * sizeof *gw, err);
+    if (!pos || !gw) {
+        free(pos), free(gw);
+        return CR_ERR_MEMORY;
+    }
+    for (int32_t f = 0; f < m->nframes; f++) {
+        float *rot = m->rotation + 4 * (size_t)f * (size_t)n;
+        for (int j = 0; j < n; j++) { /* G in the character's frame: C^-1 G C */
+            q_mul(inv, g + 4 * ((size_t)f * (size_t)n + (size_t)j), gw[j]);
+            q_mul(gw[j], c->turn, gw[j]);
+        }
+        for (int j = 0; j < n; j++) {
+            const int p = c->parent[j];
+            double local[4], d[3];
+            memcpy(local, gw[j], sizeof local);
+            if (p >= 0) {
+                double pinv[4];
+                q_conj(gw[p], pinv);
+                q_mul(pinv, local, local);
+            }
+            rot[4 * j] = (float)local[1], rot[4 * j + 1] = (float)local[2];
+            rot[4 * j + 2] = (float)local[3], rot[4 * j + 3] = (float)local[0];
+            for (int k = 0; k < 3; k++) /* forward kinematics with the roots at rest */
+                d[k] = skel->rest_joint[3 * j + k] - (p >= 0 ? skel->rest_joint[3 * p + k] : 0.0);
+            if (p >= 0) q_rotate(gw[p], d, d);
+            for (int k = 0; k < 3; k++)
+                pos[j][k] = (p >= 0 ? pos[p][k] : 0.0) + d[k];
+        }
+        double want[3];
+        q_rotate(inv, t + 3 * (size_t)f, want);
+        for (int k = 0; k < 3; k++)
+            m->translation[3 * f + k] =
+                (float)(skel->rest_joint[3 * c->t.pelvis + k] + want[k] - pos[c->t.pelvis][k]);
+    }
+    free(pos), free(gw);
+    return CR_OK;
+}
+
+cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *source,
+                                     const cr_glb_skin *skel, const char *skel_source,
+                                     const cr_retarget_def *def, cr_skin_motion **out,
+                                     cr_error *err) {
+    *out = NULL;
+    cr_retarget_def defaults = cr_retarget_default_def();
+    if (!def) def = &defaults;
+    CR_ASSERT(def->cookie == RETARGET_COOKIE && def->import.cookie == MOTION_IMPORT_COOKIE);
+    if (skel->njoints < 1 || skel->njoints > CR_GLB_MAX_JOINTS)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: %d joints (1 to %d)", skel_source, skel->njoints,
+                       CR_GLB_MAX_JOINTS);
+    bvh_file b;
+    int map[CR_NJOINTS], rig = 0;
+    const char **names = NULL;
+    double *g = NULL, *t = NULL, hip_m = 0.0;
+    rt_character c = {0};
+    cr_skin_motion *m = NULL;
+    cr_status st = bvh_parse(data, len, source, &b, err);
+    if (st == CR_OK) st = map_joints(&b, map, &rig, err);
+    if (st == CR_OK && !(names = cr_malloc((size_t)b.n * sizeof *names, err))) st = CR_ERR_MEMORY;
+    for (int i = 0; st == CR_OK && i < b.n; i++)
+        names[i] = b.j[i].end_site ? NULL : b.j[i].name;
+    if (st == CR_OK)
+        st = cr_retarget_character_build(skel, skel_source, def->joint_map, b.n, names, map, source,
+                                         &c, err);
+    const size_t T = (size_t)b.nframes, n = (size_t)skel->njoints;
+    if (st == CR_OK) {
+        g = cr_malloc(T * n * 4 * sizeof(double), err);
+        t = cr_malloc(T * 3 * sizeof(double), err);
+        if (!g || !t) st = CR_ERR_MEMORY;
+    }
+    if (st == CR_OK)
+        st = cr_skin_motion_create(skel->njoints, b.nframes, (float)bvh_fps(&b), &m, err);
+    if (st == CR_OK) st = bvh_drive(&b, map, rig, &def->import, &c.t, g, t, &hip_m, err);
+    const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0; /* the hips' heights */
+    if (st == CR_OK) {
+        for (size_t i = 0; i < 3 * T; i++)
+            t[i] *= scale;
+        st = character_motion(&c, skel, g, t, m, err);
+    }
+    if (st == CR_OK) {
+        int driven = 0;
+        for (size_t j = 0; j < n; j++)
+            driven += c.src[j] >= 0;
+        cr_log(CR_LOG_INFO,
+               "%s: %s joint names, %d of 22 body joints found by name%s%s%s; %d of %d joints "
+               "driven by %s (%s rig), the rest keep their rest pose; translation scaled by "
+               "%.3f (hips %.3f m over %.3f m)",
+               skel_source, c.nroles > 0 ? cr_retarget_rig_name(c.rig) : "no known", c.nroles,
+               def->joint_map ? ", " : "", def->joint_map ? def->joint_map : "",
+               def->joint_map ? " read" : "", driven, (int)n, source, cr_retarget_rig_name(rig),
+               scale, c.hip_m, hip_m);
+    }
+    cr_retarget_character_free(&c);
+    free(names), free(g), free(t);
+    bvh_free(&b);
+    if (st != CR_OK) {
+        cr_skin_motion_destroy(m);
+        return st;
+    }
+    *out = m;
+    return CR_OK;
+}
+
+cr_status cr_motion_retarget_bvh(const char *path, const cr_glb_skin *skel, const char *skel_source,
+                                 const cr_retarget_def *def, cr_skin_motion **out, cr_error *err) {
+    *out = NULL;
+    char *buf;
+    size_t len;
+    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    cr_status st = cr_motion_retarget_bvh_mem(buf, len, path, skel, skel_source, def, out, err);
+    free(buf);
     return st;
 }

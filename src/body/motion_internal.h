@@ -89,7 +89,7 @@ typedef struct motion_frame_fix {
     int recenter_height;
 } motion_frame_fix;
 
-void cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix);
+cr_status cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix, cr_error *err);
 
 /* The motion in an open .npz (AMASS or crease's own). */
 cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motion_import_def *def,

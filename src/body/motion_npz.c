@@ -158,9 +158,9 @@ cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motio
         if (up != UP_Y) {
             motion_frame_fix fix = {.recenter = up == 0 && def->recenter, .recenter_height = 1};
             q_axis(1, 0, 0, -M_PI / 2, fix.world); /* Z-up to Y-up: (x, y, z) -> (x, z, -y) */
-            cr_motion_fix_frame(m, &fix);
+            st = cr_motion_fix_frame(m, &fix, err);
         }
-        if (up == 0 && def->retarget) {
+        if (st == CR_OK && up == 0 && def->retarget) {
             /* AMASS poses are relative to SMPL's T-pose: re-expressed against
              * the mannequin's A-pose, crease's one rest. */
             float apose[CR_NJOINTS * 3];

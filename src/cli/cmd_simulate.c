@@ -17,7 +17,7 @@ enum { RENDER_SIZE = 800, MAX_PINS = 1 << 20 };
 void help_simulate(void) {
     printf(
         "usage: crease simulate --garment G.obj (--object O | --body-mesh B.obj --body B.pc2 |\n"
-        "                       --motion CLIP|FILE)\n"
+        "                       --motion CLIP|FILE | --body-mesh CHAR.glb [--motion F.bvh])\n"
         "                       --frames N -o DIR [options]\n\n"
         "Simulate a garment with the reference implicit-Euler Newton solver (docs/physics.md)\n"
         "against a collider: a static object, an object animated by a PC2, or a body (mesh +\n"
@@ -27,7 +27,16 @@ void help_simulate(void) {
         "  --object O           collider: sphere (r 0.3 m), torus (0.3/0.1), prism (side 0.4),\n"
         "                       box (0.4) or a mesh file; static unless --body animates it\n"
         "  --body-mesh B        body mesh: the collider's faces; a .glb character (skinned,\n"
-        "                       any skeleton) or sequence moves by its own animation\n"
+        "                       any skeleton) or sequence moves by its own animation, or a\n"
+        "                       rigged .glb by --motion F.bvh retargeted onto its skeleton\n"
+        "                       (joints matched by name: SMPL, Mixamo, CMU, DAZ, Unreal,\n"
+        "                       Rigify; eased in from its rest pose over --ease-in S, default\n"
+        "                       1; --scale as below; written with the garment as\n"
+        "                       DIR/scene.glb; docs/body.md)\n"
+        "  --joint-map F        with --body-mesh CHAR.glb --motion F.bvh: lines\n"
+        "                       'character_joint = bvh_joint' (# comments) that override the\n"
+        "                       name matching; 'joint =' leaves a joint unmapped; or a JSON\n"
+        "                       object {\"character_joint\": \"bvh_joint\", ...}\n"
         "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
         "                       f+1, held at the last); vertex count must match the collider\n"
         "  --motion CLIP|FILE   collider: the mannequin posed by a clip (crease motion --list)\n"
@@ -74,6 +83,7 @@ void help_simulate(void) {
 
 typedef struct {
     const char *garment, *object, *body_mesh, *body, *motion, *material, *material_json, *out;
+    const char *joint_map;
     const char *solver, *self_contact;
     float self_contact_thickness;
     cli_motion_file mf; /* --motion's options */
@@ -118,6 +128,7 @@ static int parse(int argc, char **argv, sim_opts *o) {
         CLI_STR("--body-mesh", &o->body_mesh),
         CLI_STR("--body", &o->body),
         CLI_STR("--motion", &o->motion),
+        CLI_STR("--joint-map", &o->joint_map),
         CLI_MOTION_FILE_OPTS(&o->mf),
         CLI_STR("--material", &o->material),
         CLI_STR("--material-json", &o->material_json),
@@ -151,15 +162,24 @@ static int parse(int argc, char **argv, sim_opts *o) {
     if (!o->garment) return cli_usage("simulate", "missing --garment G.obj");
     if (!o->out) return cli_usage("simulate", "missing -o DIR");
     if (o->frames < 1) return cli_usage("simulate", "missing --frames N");
-    if (o->motion && (o->object || o->body_mesh || o->body))
-        return cli_usage("simulate",
-                         "--motion poses the mannequin: no --object, --body-mesh, --body");
+    char ext[16] = "", mext[16] = "";
+    if (o->body_mesh) cr_path_ext(o->body_mesh, ext, sizeof ext);
+    if (o->motion) cr_path_ext(o->motion, mext, sizeof mext);
+    if (o->motion && o->body_mesh &&
+        (strcmp(ext, "glb") != 0 || strcmp(mext, "bvh") != 0 || o->body || o->object))
+        return cli_usage("simulate", "--motion with --body-mesh: a .bvh driving a rigged .glb "
+                                     "character (no --body, --object)");
+    if (o->motion && o->body_mesh && (o->mf.start_set || o->mf.end_frame >= 0))
+        return cli_usage("simulate", "--start-frame and --end-frame pose the mannequin, not a "
+                                     "--body-mesh character");
+    if (o->motion && (o->object || o->body))
+        return cli_usage("simulate", "--motion poses the mannequin: no --object, --body");
+    if (o->joint_map && !(o->motion && o->body_mesh))
+        return cli_usage("simulate", "--joint-map needs --body-mesh CHAR.glb --motion F.bvh");
     if (o->object && o->body_mesh)
         return cli_usage("simulate", "give --object or --body-mesh, not both");
     if (o->body && !o->object && !o->body_mesh)
         return cli_usage("simulate", "--body needs --body-mesh (or --object) for its faces");
-    char ext[16] = "";
-    if (o->body_mesh) cr_path_ext(o->body_mesh, ext, sizeof ext);
     if (o->body_mesh && !o->body && strcmp(ext, "glb") != 0)
         return cli_usage("simulate", "--body-mesh needs --body B.pc2 (its animation), or a .glb");
     return CLI_OK;
@@ -223,8 +243,13 @@ int cmd_simulate(int argc, char **argv) {
     cr_status st = CR_OK;
     cr_body_model *body = NULL;
     cr_motion *motion = NULL;
-    if (o.motion) st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &body, &motion, &err);
-    if (o.motion) def.body_mesh = body_mesh, def.body = body_pc2;
+    if (o.motion && o.body_mesh) { /* a BVH driving the user's character */
+        def.body_motion = o.motion, def.joint_map = o.joint_map;
+        def.body_bvh_scale = o.mf.scale, def.body_ease_in_s = o.mf.ease_in;
+    } else if (o.motion) {
+        st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &body, &motion, &err);
+        def.body_mesh = body_mesh, def.body = body_pc2;
+    }
     def.character = body, def.character_motion = motion;
     cr_scene_sim_result r;
     if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);

@@ -5,6 +5,7 @@
 #define CREASE_GEOM_GLB_INTERNAL_H
 
 #include "crease/base.h"
+#include "crease/mesh_io.h"
 
 #include <cjson/cJSON.h>
 #include <stdint.h>
@@ -91,5 +92,14 @@ cJSON *cr_glb_float_array(const float *x, int n);
  * (*fps that rate; one frame at the rest pose without an animation). */
 cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
                              float **frames, int32_t *nframes, float *fps, cr_error *err);
+
+/* A skinned primitive's skeleton and skin at its nodes' rest pose into c
+ * (io_glb_skin.c): joints ordered parents first (the nearest ancestor node
+ * that is a joint is the parent), named by their nodes, rest_joint their
+ * world positions; raw (nraw,3) the file's positions, weld (nraw) the
+ * welded vertex of each, c->rest (already read, welded) gets the rest-posed
+ * positions and c->skin the skin per welded vertex. */
+cr_status cr_glb_skin_rest(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
+                           const int32_t *weld, cr_glb_character *c, cr_error *err);
 
 #endif

@@ -937,3 +937,58 @@ cr_status cr_glb_read_sequence_mem(const void *data, size_t len, const char *sou
     cJSON_Delete(g.root);
     return st;
 }
+
+/* ------------------------------------------------------------ characters -- */
+
+cr_status cr_glb_read_character_mem(const void *data, size_t len, const char *source,
+                                    cr_glb_character **out, cr_error *err) {
+    *out = NULL;
+    glb_in g = {.source = source};
+    cr_glb_character *c = cr_calloc(1, sizeof *c, err);
+    if (!c) return CR_ERR_MEMORY;
+    float *raw = NULL;
+    int32_t *weld = NULL;
+    const cJSON *prim = NULL;
+    glb_acc pa;
+    int has_p = 0;
+    cr_status st = cr_glb_open_container(&g, data, len, err);
+    if (st == CR_OK) st = read_mesh(&g, &c->rest, err);
+    if (st == CR_OK) st = get_primitive(&g, &prim, err);
+    if (st == CR_OK)
+        st = get_attribute(&g, cJSON_GetObjectItemCaseSensitive(prim, "attributes"), "POSITION",
+                           &pa, &has_p, err);
+    const cJSON *attrs = prim ? cJSON_GetObjectItemCaseSensitive(prim, "attributes") : NULL;
+    if (st == CR_OK && (!cJSON_GetObjectItemCaseSensitive(attrs, "JOINTS_0") ||
+                        !cJSON_GetObjectItemCaseSensitive(attrs, "WEIGHTS_0") ||
+                        !cJSON_GetObjectItemCaseSensitive(g.root, "skins")))
+        st = CR_FAIL(err, CR_ERR_UNSUPPORTED,
+                     "%s: the mesh has no skin (JOINTS_0, WEIGHTS_0 and a skins entry): a "
+                     "character must be rigged to follow a motion",
+                     source);
+    if (st == CR_OK) {
+        raw = cr_malloc((size_t)pa.count * 3 * sizeof(float), err);
+        weld = cr_malloc((size_t)pa.count * sizeof(int32_t), err);
+        if (!raw || !weld) st = CR_ERR_MEMORY;
+    }
+    if (st == CR_OK) st = cr_glb_read_floats(&g, &pa, "POSITION", raw, err);
+    if (st == CR_OK) st = weld_map(raw, pa.count, c->rest, weld, source, err);
+    if (st == CR_OK) st = cr_glb_skin_rest(&g, prim, raw, pa.count, weld, c, err);
+    free(raw), free(weld);
+    cJSON_Delete(g.root);
+    if (st != CR_OK) {
+        cr_glb_character_destroy(c);
+        return st;
+    }
+    *out = c;
+    return CR_OK;
+}
+
+cr_status cr_glb_read_character(const char *path, cr_glb_character **out, cr_error *err) {
+    *out = NULL;
+    char *buf;
+    size_t len;
+    CR_TRY(cr_file_read_all(path, &buf, &len, err));
+    cr_status st = cr_glb_read_character_mem(buf, len, path, out, err);
+    free(buf);
+    return st;
+}

@@ -597,9 +597,31 @@ static void sample(const channel *c, double t, double *v) {
         v[i] = wa * a[i] + wb * bb[i];
 }
 
-cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
-                             float **frames, int32_t *nframes, float *fps, cr_error *err) {
-    *frames = NULL, *nframes = 0;
+/* A skinned primitive ready to evaluate: the node tree, the skin's joints
+ * and inverse bind matrices, and each vertex's four joints and weights. */
+typedef struct skin_eval {
+    int64_t nn, J, nraw;
+    node_trs *nt;    /* (nn) rest transforms */
+    double *world;   /* (nn,16) scratch: world matrices */
+    int32_t *order;  /* (nn) parents first */
+    double *jm;      /* (J,16) scratch: skinning matrices */
+    float *ibm;      /* (J,16) */
+    int32_t *jnode;  /* (J) each joint's node */
+    int32_t *vj;     /* (nraw,4) */
+    float *vw;       /* (nraw,4) */
+    uint64_t skin_i; /* the skin's index, for messages */
+    const cJSON *skin;
+} skin_eval;
+
+static void skin_eval_free(skin_eval *e) {
+    free(e->nt), free(e->world), free(e->order), free(e->jm), free(e->ibm), free(e->jnode),
+        free(e->vj), free(e->vw);
+    memset(e, 0, sizeof *e);
+}
+
+static cr_status skin_open(const glb_in *g, const cJSON *prim, int64_t nraw, skin_eval *e,
+                           cr_error *err) {
+    memset(e, 0, sizeof *e);
     const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(g->root, "nodes");
     const int64_t nn = cJSON_IsArray(nodes) ? cJSON_GetArraySize(nodes) : 0;
     int64_t mesh_node = -1;
@@ -634,33 +656,28 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
                        "%s: JOINTS_0 (u8/u16 VEC4) and WEIGHTS_0 (float VEC4) of %lld vertices "
                        "expected",
                        g->source, (long long)nraw);
-
-    node_trs *nt = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof *nt, err);
-    double *world = cr_malloc((size_t)(nn > 0 ? nn : 1) * 16 * sizeof(double), err);
-    int32_t *order = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof(int32_t), err);
-    double *jm = cr_malloc((size_t)J * 16 * sizeof(double), err);
-    float *ibm = cr_malloc((size_t)J * 16 * sizeof(float), err);
-    int32_t *jnode = cr_malloc((size_t)J * sizeof(int32_t), err);
-    uint16_t *vj = cr_malloc((size_t)nraw * 4 * sizeof(uint16_t), err);
-    float *vw = cr_malloc((size_t)nraw * 4 * sizeof(float), err);
-    const cJSON *anims = cJSON_GetObjectItemCaseSensitive(g->root, "animations");
-    const cJSON *anim = cr_glb_json_at(anims, 0);
-    const cJSON *chs = cJSON_GetObjectItemCaseSensitive(anim, "channels");
-    const int nch = cJSON_IsArray(chs) ? cJSON_GetArraySize(chs) : 0;
-    channel *ch = cr_calloc((size_t)(nch > 0 ? nch : 1), sizeof *ch, err);
-    float *out = NULL;
-    int used = 0;
-    cr_status st =
-        nt && world && order && jm && ibm && jnode && vj && vw && ch ? CR_OK : CR_ERR_MEMORY;
-    if (st == CR_OK) st = read_nodes(g, nodes, nt, nn, order, err);
+    const size_t nn1 = (size_t)(nn > 0 ? nn : 1);
+    e->nn = nn, e->J = J, e->nraw = nraw, e->skin_i = skin_i, e->skin = skin;
+    e->nt = cr_malloc(nn1 * sizeof *e->nt, err);
+    e->world = cr_malloc(nn1 * 16 * sizeof(double), err);
+    e->order = cr_malloc(nn1 * sizeof(int32_t), err);
+    e->jm = cr_malloc((size_t)J * 16 * sizeof(double), err);
+    e->ibm = cr_malloc((size_t)J * 16 * sizeof(float), err);
+    e->jnode = cr_malloc((size_t)J * sizeof(int32_t), err);
+    e->vj = cr_malloc((size_t)nraw * 4 * sizeof(int32_t), err);
+    e->vw = cr_malloc((size_t)nraw * 4 * sizeof(float), err);
+    cr_status st = e->nt && e->world && e->order && e->jm && e->ibm && e->jnode && e->vj && e->vw
+                       ? CR_OK
+                       : CR_ERR_MEMORY;
+    if (st == CR_OK) st = read_nodes(g, nodes, e->nt, nn, e->order, err);
     for (int64_t j = 0; st == CR_OK && j < J; j++) {
-        const cJSON *e = cJSON_GetArrayItem(joints, (int)j);
-        if (!cJSON_IsNumber(e) || e->valuedouble < 0 || e->valuedouble >= (double)nn ||
-            e->valuedouble != floor(e->valuedouble))
+        const cJSON *c = cJSON_GetArrayItem(joints, (int)j);
+        if (!cJSON_IsNumber(c) || c->valuedouble < 0 || c->valuedouble >= (double)nn ||
+            c->valuedouble != floor(c->valuedouble))
             st = CR_FAIL(err, CR_ERR_PARSE, "%s: skins[%llu].joints[%lld]: not a node", g->source,
                          (unsigned long long)skin_i, (long long)j);
         else
-            jnode[j] = (int32_t)e->valuedouble;
+            e->jnode[j] = (int32_t)c->valuedouble;
     }
     if (st == CR_OK) {
         uint64_t bi;
@@ -672,23 +689,80 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
             if (st == CR_OK && (ba.ctype != CT_F32 || ba.ncomp != 16 || ba.count != J))
                 st = CR_FAIL(err, CR_ERR_PARSE, "%s: inverseBindMatrices: expected %lld float MAT4",
                              g->source, (long long)J);
-            if (st == CR_OK) st = cr_glb_read_floats(g, &ba, "inverseBindMatrices", ibm, err);
+            if (st == CR_OK) st = cr_glb_read_floats(g, &ba, "inverseBindMatrices", e->ibm, err);
         } else {
             for (int64_t j = 0; j < J; j++)
                 for (int k = 0; k < 16; k++)
-                    ibm[16 * j + k] = k % 5 == 0;
+                    e->ibm[16 * j + k] = k % 5 == 0;
         }
     }
     for (int64_t i = 0; st == CR_OK && i < nraw; i++)
         for (int k = 0; k < 4; k++) {
             const unsigned char *p = ja.base + (uint64_t)i * ja.stride;
-            vj[4 * i + k] = ja.ctype == CT_U8 ? p[k] : (uint16_t)io_load(p + 2 * k, 2, 0);
-            vw[4 * i + k] = io_f32(io_le32(wa.base + (uint64_t)i * wa.stride + 4 * (uint64_t)k));
-            if (vj[4 * i + k] >= J || !isfinite(vw[4 * i + k]))
-                st = CR_FAIL(err, CR_ERR_PARSE, "%s: vertex %lld: joint %u of %lld, or weight %g",
-                             g->source, (long long)i, vj[4 * i + k], (long long)J,
-                             (double)vw[4 * i + k]);
+            e->vj[4 * i + k] = ja.ctype == CT_U8 ? p[k] : (int32_t)io_load(p + 2 * k, 2, 0);
+            e->vw[4 * i + k] = io_f32(io_le32(wa.base + (uint64_t)i * wa.stride + 4 * (uint64_t)k));
+            if (e->vj[4 * i + k] >= J || !isfinite(e->vw[4 * i + k]))
+                st = CR_FAIL(err, CR_ERR_PARSE, "%s: vertex %lld: joint %d of %lld, or weight %g",
+                             g->source, (long long)i, e->vj[4 * i + k], (long long)J,
+                             (double)e->vw[4 * i + k]);
         }
+    if (st != CR_OK) skin_eval_free(e);
+    return st;
+}
+
+/* World matrices of every node posed by cur (nn), parents first, and the
+ * skin's matrices: each joint's world times its inverse bind matrix. */
+static void skin_matrices(skin_eval *e, const node_trs *cur) {
+    for (int64_t k = 0; k < e->nn; k++) { /* world = parent's world x local, parents first */
+        const int64_t i = e->order[k];
+        double *w = &e->world[16 * i];
+        if (cur[i].has_matrix)
+            memcpy(w, cur[i].matrix, 16 * sizeof(double));
+        else
+            trs_matrix(cur[i].t, cur[i].r, cur[i].s, w);
+        if (cur[i].parent >= 0) mat_mul(&e->world[16 * (int64_t)cur[i].parent], w, w);
+    }
+    for (int64_t j = 0; j < e->J; j++) {
+        double b[16];
+        for (int k = 0; k < 16; k++)
+            b[k] = e->ibm[16 * j + k];
+        mat_mul(&e->world[16 * (int64_t)e->jnode[j]], b, &e->jm[16 * j]);
+    }
+}
+
+/* Linear blend skinning: dst (n,3) = sum_k w_k M_{j_k} x over each vertex's
+ * four joints (vj, vw (n,4)), jm (J,16) column-major. */
+static void blend(const float *x, int64_t n, const int32_t *vj, const float *vw, const double *jm,
+                  float *dst) {
+    for (int64_t i = 0; i < n; i++) {
+        const float *v = x + 3 * i;
+        double p[3] = {0, 0, 0};
+        for (int k = 0; k < 4; k++) {
+            const double w = vw[4 * i + k];
+            if (w == 0.0) continue;
+            const double *m = &jm[16 * (int64_t)vj[4 * i + k]];
+            for (int r = 0; r < 3; r++)
+                p[r] += w * (m[r] * v[0] + m[4 + r] * v[1] + m[8 + r] * v[2] + m[12 + r]);
+        }
+        for (int r = 0; r < 3; r++)
+            dst[3 * i + r] = (float)p[r];
+    }
+}
+
+cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
+                             float **frames, int32_t *nframes, float *fps, cr_error *err) {
+    *frames = NULL, *nframes = 0;
+    skin_eval e;
+    CR_TRY(skin_open(g, prim, nraw, &e, err));
+    const int64_t nn = e.nn;
+    const cJSON *anims = cJSON_GetObjectItemCaseSensitive(g->root, "animations");
+    const cJSON *anim = cr_glb_json_at(anims, 0);
+    const cJSON *chs = cJSON_GetObjectItemCaseSensitive(anim, "channels");
+    const int nch = cJSON_IsArray(chs) ? cJSON_GetArraySize(chs) : 0;
+    channel *ch = cr_calloc((size_t)(nch > 0 ? nch : 1), sizeof *ch, err);
+    float *out = NULL;
+    int used = 0;
+    cr_status st = ch ? CR_OK : CR_ERR_MEMORY;
     double t0 = INFINITY, t1 = -INFINITY;
     for (int c = 0; st == CR_OK && c < nch; c++) {
         int ok = 0;
@@ -721,7 +795,7 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
     if (st == CR_OK && !cur) st = CR_ERR_MEMORY;
     for (int64_t f = 0; st == CR_OK && f < T; f++) {
         const double t = (used > 0 && t1 > t0 ? t0 : 0.0) + (double)f / rate;
-        memcpy(cur, nt, (size_t)nn * sizeof *cur);
+        memcpy(cur, e.nt, (size_t)nn * sizeof *cur);
         for (int c = 0; c < used; c++) {
             double v[4];
             sample(&ch[c], t, v);
@@ -732,41 +806,14 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
                    v, (ch[c].path == 1 ? 4 : 3) * sizeof(double));
             p->has_matrix = 0; /* an animated node is TRS (glTF 3.11) */
         }
-        for (int64_t k = 0; k < nn; k++) { /* world = parent's world x local, parents first */
-            const int64_t i = order[k];
-            double *w = &world[16 * i];
-            if (cur[i].has_matrix)
-                memcpy(w, cur[i].matrix, 16 * sizeof(double));
-            else
-                trs_matrix(cur[i].t, cur[i].r, cur[i].s, w);
-            if (cur[i].parent >= 0) mat_mul(&world[16 * (int64_t)cur[i].parent], w, w);
-        }
-        for (int64_t j = 0; j < J; j++) {
-            double b[16];
-            for (int k = 0; k < 16; k++)
-                b[k] = ibm[16 * j + k];
-            mat_mul(&world[16 * (int64_t)jnode[j]], b, &jm[16 * j]);
-        }
-        float *dst = out + f * nraw * 3;
-        for (int64_t i = 0; i < nraw; i++) {
-            const float *x = raw + 3 * i;
-            double p[3] = {0, 0, 0};
-            for (int k = 0; k < 4; k++) {
-                const double w = vw[4 * i + k];
-                if (w == 0.0) continue;
-                const double *m = &jm[16 * (int64_t)vj[4 * i + k]];
-                for (int r = 0; r < 3; r++)
-                    p[r] += w * (m[r] * x[0] + m[4 + r] * x[1] + m[8 + r] * x[2] + m[12 + r]);
-            }
-            for (int r = 0; r < 3; r++)
-                dst[3 * i + r] = (float)p[r];
-        }
+        skin_matrices(&e, cur);
+        blend(raw, nraw, e.vj, e.vw, e.jm, out + f * nraw * 3);
     }
     free(cur);
     for (int c = 0; c < used; c++)
         free(ch[c].time), free(ch[c].value);
-    free(ch), free(nt), free(world), free(order), free(jm), free(ibm), free(jnode), free(vj),
-        free(vw);
+    free(ch);
+    skin_eval_free(&e);
     if (st != CR_OK) {
         free(out);
         return st;
@@ -774,5 +821,152 @@ cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *ra
     *frames = out;
     *nframes = (int32_t)T;
     *fps = (float)rate;
+    return CR_OK;
+}
+
+/* ============================================================ characters == */
+
+void cr_glb_character_destroy(cr_glb_character *c) {
+    if (!c) return;
+    if (c->skin.joint_name)
+        for (int32_t j = 0; j < c->skin.njoints; j++)
+            free((void *)c->skin.joint_name[j]);
+    free((void *)c->skin.joint_name), free((void *)c->skin.parent);
+    free((void *)c->skin.rest_joint), free((void *)c->skin.skin_joint);
+    free((void *)c->skin.skin_weight);
+    cr_mesh_destroy(c->rest);
+    free(c);
+}
+
+cr_status cr_glb_skin_rest(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
+                           const int32_t *weld, cr_glb_character *c, cr_error *err) {
+    skin_eval e;
+    CR_TRY(skin_open(g, prim, nraw, &e, err));
+    const int64_t J = e.J, nv = c->rest->nv;
+    const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(g->root, "nodes");
+    int32_t *jidx = cr_malloc((size_t)(e.nn > 0 ? e.nn : 1) * sizeof(int32_t), err);
+    int32_t *par = cr_malloc((size_t)J * sizeof(int32_t), err); /* skin order */
+    int32_t *depth = cr_calloc((size_t)J, sizeof(int32_t), err);
+    int32_t *order = cr_malloc((size_t)J * sizeof(int32_t), err); /* new -> skin */
+    int32_t *inv = cr_malloc((size_t)J * sizeof(int32_t), err);   /* skin -> new */
+    float *posed = cr_malloc((size_t)nraw * 3 * sizeof(float), err);
+    char **names = cr_calloc((size_t)J, sizeof(char *), err);
+    int32_t *parent = cr_malloc((size_t)J * sizeof(int32_t), err);
+    float *rest_joint = cr_malloc((size_t)J * 3 * sizeof(float), err);
+    int32_t *sj = cr_malloc((size_t)nv * 4 * sizeof(int32_t), err);
+    float *sw = cr_malloc((size_t)nv * 4 * sizeof(float), err);
+    cr_status st =
+        jidx && par && depth && order && inv && posed && names && parent && rest_joint && sj && sw
+            ? CR_OK
+            : CR_ERR_MEMORY;
+    c->skin = (cr_glb_skin){(int32_t)J, (const char *const *)names, parent, rest_joint, sj, sw};
+    if (st != CR_OK) {
+        free(names), free(parent), free(rest_joint), free(sj), free(sw);
+        memset(&c->skin, 0, sizeof c->skin);
+    }
+    for (int64_t i = 0; st == CR_OK && i < e.nn; i++)
+        jidx[i] = -1;
+    for (int64_t j = 0; st == CR_OK && j < J; j++) {
+        if (jidx[e.jnode[j]] >= 0)
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s: skins[%llu]: node %d is listed twice", g->source,
+                         (unsigned long long)e.skin_i, e.jnode[j]);
+        else
+            jidx[e.jnode[j]] = (int32_t)j;
+    }
+    for (int64_t j = 0; st == CR_OK && j < J; j++) {
+        int p = e.nt[e.jnode[j]].parent;
+        while (p >= 0 && jidx[p] < 0)
+            p = e.nt[p].parent;
+        par[j] = p >= 0 ? jidx[p] : -1;
+    }
+    for (int64_t j = 0; st == CR_OK && j < J; j++) /* the node tree is acyclic (read_nodes) */
+        for (int32_t p = par[j]; p >= 0; p = par[p])
+            depth[j]++;
+    if (st == CR_OK) { /* parents first: by depth, then the skin's order */
+        int64_t k = 0;
+        for (int32_t d = 0; k < J; d++)
+            for (int64_t j = 0; j < J; j++)
+                if (depth[j] == d) order[k++] = (int32_t)j;
+        for (int64_t i = 0; i < J; i++)
+            inv[order[i]] = (int32_t)i;
+        skin_matrices(&e, e.nt); /* the nodes' rest */
+        blend(raw, nraw, e.vj, e.vw, e.jm, posed);
+    }
+    for (int64_t i = 0; st == CR_OK && i < J; i++) {
+        const int32_t j = order[i];
+        const char *nm = cJSON_GetStringValue(
+            cJSON_GetObjectItemCaseSensitive(cr_glb_json_at(nodes, (uint64_t)e.jnode[j]), "name"));
+        char dflt[32];
+        snprintf(dflt, sizeof dflt, "joint_%d", (int)j);
+        if (!nm) nm = dflt;
+        if (!(names[i] = cr_malloc(strlen(nm) + 1, err))) {
+            st = CR_ERR_MEMORY;
+            break;
+        }
+        memcpy(names[i], nm, strlen(nm) + 1);
+        parent[i] = par[j] >= 0 ? inv[par[j]] : -1;
+        for (int k = 0; k < 3; k++)
+            rest_joint[3 * i + k] = (float)e.world[16 * (int64_t)e.jnode[j] + 12 + k];
+    }
+    for (int64_t r = nraw - 1; st == CR_OK && r >= 0; r--) { /* the first copy of each wins */
+        const int64_t v = weld[r];
+        double sum = 0.0;
+        for (int k = 0; k < 3; k++)
+            c->rest->pos[3 * v + k] = posed[3 * r + k];
+        for (int k = 0; k < 4; k++) {
+            sj[4 * v + k] = inv[e.vj[4 * r + k]];
+            sw[4 * v + k] = e.vw[4 * r + k] > 0.0f ? e.vw[4 * r + k] : 0.0f;
+            sum += sw[4 * v + k];
+        }
+        if (!(sum > 0.0))
+            st = CR_FAIL(err, CR_ERR_PARSE, "%s: vertex %lld has no skin weight", g->source,
+                         (long long)r);
+        for (int k = 0; k < 4 && st == CR_OK; k++)
+            sw[4 * v + k] = (float)(sw[4 * v + k] / sum);
+    }
+    free(jidx), free(par), free(depth), free(order), free(inv), free(posed);
+    skin_eval_free(&e);
+    return st;
+}
+
+cr_status cr_glb_character_pose(const cr_glb_character *c, const cr_glb_skin_motion *m,
+                                float **frames, cr_error *err) {
+    *frames = NULL;
+    const cr_glb_skin *s = &c->skin;
+    const int64_t J = s->njoints, nv = c->rest->nv, T = m->nframes;
+    if (T < 1 || T * nv > MAX_SKIN_VALUES)
+        return CR_FAIL(err, CR_ERR_RANGE, "character: %lld frames of %lld vertices", (long long)T,
+                       (long long)nv);
+    double *world = cr_malloc((size_t)J * 16 * sizeof(double), err);
+    double *jm = cr_malloc((size_t)J * 16 * sizeof(double), err);
+    float *out = cr_malloc((size_t)T * (size_t)nv * 3 * sizeof(float), err);
+    if (!world || !jm || !out) {
+        free(world), free(jm), free(out);
+        return CR_ERR_MEMORY;
+    }
+    static const double one[3] = {1, 1, 1};
+    for (int64_t f = 0; f < T; f++) {
+        for (int64_t j = 0; j < J; j++) { /* world-aligned rest frames, as the writer's files */
+            const int32_t p = s->parent[j];
+            double t[3], q[4], local[16];
+            for (int k = 0; k < 3; k++)
+                t[k] = s->rest_joint[3 * j + k] - (p >= 0 ? s->rest_joint[3 * p + k] : 0.0f) +
+                       (p >= 0 ? 0.0 : m->translation[3 * f + k]);
+            for (int k = 0; k < 4; k++)
+                q[k] = m->rotation[4 * (f * J + j) + k];
+            trs_matrix(t, q, one, local);
+            if (p >= 0)
+                mat_mul(&world[16 * p], local, &world[16 * j]);
+            else
+                memcpy(&world[16 * j], local, sizeof local);
+            double ib[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+            for (int k = 0; k < 3; k++)
+                ib[12 + k] = -s->rest_joint[3 * j + k];
+            mat_mul(&world[16 * j], ib, &jm[16 * j]);
+        }
+        blend(c->rest->pos, nv, s->skin_joint, s->skin_weight, jm, out + f * nv * 3);
+    }
+    free(world), free(jm);
+    *frames = out;
     return CR_OK;
 }

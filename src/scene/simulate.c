@@ -6,6 +6,7 @@
 
 #include "crease/body.h"
 #include "crease/mesh_io.h"
+#include "crease/motion.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -43,7 +44,8 @@ cr_scene_sim_def cr_scene_sim_default_def(void) {
                               .fps = 30.0f,
                               .render_size = DEFAULT_RENDER_SIZE,
                               .self_contact = -1,
-                              .vbd_coarse_every = -1};
+                              .vbd_coarse_every = -1,
+                              .body_ease_in_s = 1.0f};
 }
 
 /* A .glb body carries its own animation (a skinned character or a morph-target sequence). */
@@ -67,6 +69,13 @@ static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
     if (d->body_mesh && !d->body && !is_glb(d->body_mesh))
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: body mesh %s without its animation",
                        d->body_mesh);
+    if (d->body_motion && (!d->body_mesh || d->body || !is_glb(d->body_mesh)))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "simulate: the motion %s drives a rigged .glb body mesh (and no PC2)",
+                       d->body_motion);
+    if (d->joint_map && !d->body_motion)
+        return CR_FAIL(err, CR_ERR_INVALID, "simulate: the joint map %s maps no motion",
+                       d->joint_map);
     if (d->render_size < 16)
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: render size %d, expected >= 16",
                        d->render_size);
@@ -77,16 +86,46 @@ static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
 typedef struct sim_run {
     cr_mesh *garment, *collider;
     cr_pc2 anim;
+    cr_glb_character *character; /* a rigged body driven by body_motion */
+    cr_skin_motion *character_motion;
     cr_sim *sim;
     cr_scene_record *rec;
 } sim_run;
 
 static void sim_run_free(sim_run *r) {
+    cr_skin_motion_destroy(r->character_motion);
+    cr_glb_character_destroy(r->character);
     cr_scene_record_destroy(r->rec);
     cr_sim_destroy(r->sim);
     cr_pc2_free(&r->anim);
     cr_mesh_destroy(r->collider);
     cr_mesh_destroy(r->garment);
+}
+
+/* A rigged .glb driven by a BVH: read, retarget, ease in from rest at the
+ * run's rate, pose; the collider is the character's rest mesh and frames. */
+static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error *err) {
+    CR_TRY(cr_glb_read_character(o->body_mesh, &r->character, err));
+    cr_retarget_def rd = cr_retarget_default_def();
+    rd.joint_map = o->joint_map;
+    rd.import.bvh_scale = o->body_bvh_scale;
+    cr_skin_motion *raw = NULL;
+    CR_TRY(
+        cr_motion_retarget_bvh(o->body_motion, &r->character->skin, o->body_mesh, &rd, &raw, err));
+    cr_status st =
+        cr_skin_motion_prepare(raw, o->fps, o->body_ease_in_s, &r->character_motion, err);
+    cr_skin_motion_destroy(raw);
+    CR_TRY(st);
+    const cr_glb_skin_motion view = cr_skin_motion_view(r->character_motion);
+    CR_TRY(cr_glb_character_pose(r->character, &view, &r->anim.frames, err));
+    r->anim.nframes = r->character_motion->nframes;
+    r->anim.nv = r->character->rest->nv;
+    r->collider = r->character->rest;
+    r->character->rest = NULL; /* the run owns the mesh now */
+    if (r->anim.nframes < o->frames + 1)
+        cr_log(CR_LOG_WARN, "%s: %d frames (with the ease-in) for %d; the body holds its last pose",
+               o->body_motion, r->anim.nframes, o->frames);
+    return CR_OK;
 }
 
 static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *def,
@@ -98,7 +137,13 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->garment_offset) cr_mesh_transform(r->garment, 1.0f, o->garment_offset);
     if (cr_scene_twin_is_set(&o->twin)) cr_mesh_transform(r->garment, 1.0f, o->twin.offset);
     const char *cname = o->object ? o->object : o->body_mesh;
-    if (o->body_mesh && !o->body && is_glb(o->body_mesh)) {
+    if (o->body_motion) {
+        CR_TRY(character_setup(o, r, err));
+        def->collider = r->collider;
+        def->collider_frames = r->anim.frames;
+        def->collider_nframes = r->anim.nframes;
+        cname = NULL;
+    } else if (o->body_mesh && !o->body && is_glb(o->body_mesh)) {
         /* Posed by the file's own animation: frame f of the run at its key f. */
         float fps = 0.0f;
         CR_TRY(cr_glb_read_sequence(o->body_mesh, &r->collider, &r->anim.frames, &r->anim.nframes,
@@ -154,6 +199,13 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     return cr_scene_record_keep_rest_angles(r->rec, r->sim, err);
 }
 
+static int character_roots(const cr_glb_skin *s) {
+    int n = 0;
+    for (int32_t j = 0; j < s->njoints; j++)
+        n += s->parent[j] < 0;
+    return n;
+}
+
 static cr_status sim_progress(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
                               const cr_scene_run_stats *so_far, cr_error *err) {
     (void)sim, (void)err;
@@ -187,6 +239,15 @@ cr_status cr_scene_simulate(const cr_scene_sim_def *o, cr_scene_sim_result *out,
         snprintf(out->scene, sizeof out->scene, "%s/scene.glb", o->out_dir);
         st = cr_body_write_glb(out->scene, o->character, &m, r.garment, cr_scene_record_all(r.rec),
                                err);
+    }
+    if (st == CR_OK && r.character_motion && character_roots(&r.character->skin) == 1) {
+        /* the character as driven (crease's writer moves one root), the garment beside it */
+        cr_glb_skin_motion m = cr_skin_motion_view(r.character_motion);
+        int32_t n = cr_scene_record_samples(r.rec);
+        if (n < m.nframes) m.nframes = n;
+        const cr_glb_cloth cloth = {r.garment, cr_scene_record_all(r.rec)};
+        snprintf(out->scene, sizeof out->scene, "%s/scene.glb", o->out_dir);
+        st = cr_glb_write_skinned(out->scene, r.collider, &r.character->skin, &m, &cloth, err);
     }
     if (st == CR_OK) {
         const float *cpos = NULL;

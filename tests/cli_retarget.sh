@@ -1,0 +1,137 @@
+#!/usr/bin/env bash
+# cli_retarget.sh: `crease simulate --body-mesh CHAR.glb --motion F.bvh`: a garment simulated
+# for a few frames on a rigged character with Mixamo joint names (crease's mannequin written by
+# pose-body, its joints renamed) driven by a CMU-named BVH retargeted onto its skeleton; a joint
+# map file for names no table knows; refusals name the file and what is missing.
+source "$(dirname "$0")/lib_cli.sh" "$1"
+
+json_num() { # json_num FILE KEY: the number at KEY in the last line
+  tail -n 1 "$1" | grep -o "\"$2\":[-0-9.eE+]*" | head -n 1 | cut -d: -f2
+}
+json_between() { # json_between FILE KEY LO HI: LO <= number at KEY <= HI
+  local v; v=$(json_num "$1" "$2")
+  [[ -n $v ]] && awk -v v="$v" -v lo="$3" -v hi="$4" 'BEGIN { exit !(v >= lo && v <= hi) }'
+}
+
+check "garment" "$crease" garment --type tshirt --res 800 --body-res 72 -o "$tmp/t.obj"
+check "mannequin glb" "$crease" pose-body --clip walk --frames 2 --res 72 -o "$tmp/m.glb"
+# rename the skin's joints (SMPL's names -> Mixamo's, or boneNN) in the glb's JSON chunk
+cat > "$tmp/rename.py" <<'PY'
+import json, struct, sys
+src, dst, style = sys.argv[1:4]
+smpl = ["pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2",
+        "left_ankle", "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar",
+        "right_collar", "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+        "left_wrist", "right_wrist"]
+mixamo = ["Hips", "LeftUpLeg", "RightUpLeg", "Spine", "LeftLeg", "RightLeg", "Spine1",
+          "LeftFoot", "RightFoot", "Spine2", "LeftToeBase", "RightToeBase", "Neck",
+          "LeftShoulder", "RightShoulder", "Head", "LeftArm", "RightArm", "LeftForeArm",
+          "RightForeArm", "LeftHand", "RightHand"]
+b = open(src, "rb").read()
+jlen = struct.unpack_from("<I", b, 12)[0]
+doc = json.loads(b[20:20 + jlen])
+rest = b[20 + jlen:]
+for n in doc["nodes"]:
+    if n.get("name") in smpl:
+        i = smpl.index(n["name"])
+        n["name"] = "mixamorig:" + mixamo[i] if style == "mixamo" else "bone%02d" % i
+j = json.dumps(doc, separators=(",", ":")).encode()
+j += b" " * (-len(j) % 4)
+out = b[:12] + struct.pack("<I", len(j)) + b[16:20] + j + rest
+out = out[:8] + struct.pack("<I", len(out)) + out[12:]
+open(dst, "wb").write(out)
+PY
+check "mixamo character" python3 "$tmp/rename.py" "$tmp/m.glb" "$tmp/char.glb" mixamo
+check "boneNN character" python3 "$tmp/rename.py" "$tmp/m.glb" "$tmp/bones.glb" bones
+# a CMU-named rig in a T-pose, centimetres: 12 frames at 30 fps, the arms brought down and
+# swinging, the legs stepping
+cat > "$tmp/bvh.py" <<'PY'
+import math, sys
+J = [("Hips", -1, (0, 95, 0)), ("LHipJoint", 0, (5, -5, 0)), ("LeftUpLeg", 1, (4, -5, 0)),
+     ("LeftLeg", 2, (0, -42, 0)), ("LeftFoot", 3, (0, -40, 0)), ("LeftToeBase", 4, (0, -6, 12)),
+     ("RHipJoint", 0, (-5, -5, 0)), ("RightUpLeg", 6, (-4, -5, 0)), ("RightLeg", 7, (0, -42, 0)),
+     ("RightFoot", 8, (0, -40, 0)), ("RightToeBase", 9, (0, -6, 12)), ("LowerBack", 0, (0, 6, 0)),
+     ("Spine", 11, (0, 10, 0)), ("Spine1", 12, (0, 10, 0)), ("Neck", 13, (0, 15, 0)),
+     ("Head", 14, (0, 10, 0)), ("LeftShoulder", 13, (3, 12, 0)), ("LeftArm", 16, (15, 0, 0)),
+     ("LeftForeArm", 17, (28, 0, 0)), ("LeftHand", 18, (25, 0, 0)),
+     ("RightShoulder", 13, (-3, 12, 0)), ("RightArm", 20, (-15, 0, 0)),
+     ("RightForeArm", 21, (-28, 0, 0)), ("RightHand", 22, (-25, 0, 0))]
+order = []
+def dfs(i):
+    order.append(i)
+    for c, (_, p, _) in enumerate(J):
+        if p == i: dfs(c)
+dfs(0)
+out, stack = ["HIERARCHY"], []
+for i in order:
+    name, p, off = J[i]
+    while stack and stack[-1] != p:
+        out.append("}"); stack.pop()
+    out.append(("ROOT " if p < 0 else "JOINT ") + name)
+    out.append("{")
+    out.append("OFFSET %g %g %g" % off)
+    out.append("CHANNELS " + ("6 Xposition Yposition Zposition" if p < 0 else "3") +
+               " Zrotation Xrotation Yrotation")
+    stack.append(i)
+out += ["}"] * len(stack)
+T = 12
+out += ["MOTION", "Frames: %d" % T, "Frame Time: 0.0333333"]
+for f in range(T):
+    s = math.sin(0.5 * f)
+    ang = {2: (0, 20 * s, 0), 7: (0, -20 * s, 0), 3: (0, 20 + 15 * s, 0), 8: (0, 20 - 15 * s, 0),
+           17: (-60, 10 * s, 0), 21: (60, -10 * s, 0)}
+    row = [0.0, 95.0, 1.0 * f]
+    for i in order:
+        row += ang.get(i, (0, 0, 0))
+    out.append(" ".join("%g" % v for v in row))
+open(sys.argv[1], "w").write("\n".join(out) + "\n")
+PY
+check "bvh" python3 "$tmp/bvh.py" "$tmp/walk.bvh"
+
+# --- the Mixamo-named character driven by the BVH -------------------------------------------
+check "simulate on the retargeted character" bash -c "'$crease' simulate --garment '$tmp/t.obj' \
+  --body-mesh '$tmp/char.glb' --motion '$tmp/walk.bvh' --ease-in 0.2 --frames 4 \
+  -o '$tmp/sim' --quiet --json > '$tmp/sim.json' 2> '$tmp/sim.err'"
+check "4 frames, not diverged" grep -q '"frames":4,"frames_requested":4,"diverged":false' \
+  "$tmp/sim.json"
+check "garment stays outside" json_between "$tmp/sim.json" max_penetration_m 0 0.005
+check "names matched" grep -q "Mixamo joint names, 22 of 22" "$tmp/sim.err"
+check "scene.glb: the character and the garment" bash -c "head -c 20000 '$tmp/sim/scene.glb' | \
+  grep -aq 'mixamorig:LeftArm' && head -c 20000 '$tmp/sim/scene.glb' | grep -aq '\"garment\"'"
+
+# --- a joint map file for names no table knows ----------------------------------------------
+expect_exit 1 "bones.glb: no joint of the character is mapped to the hips" simulate \
+  --garment "$tmp/t.obj" --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" --frames 1 \
+  -o "$tmp/x"
+python3 - "$tmp/map.txt" <<'PY'
+import sys
+cmu = ["Hips", "LeftUpLeg", "RightUpLeg", "LowerBack", "LeftLeg", "RightLeg", "Spine",
+       "LeftFoot", "RightFoot", "Spine1", "LeftToeBase", "RightToeBase", "Neck",
+       "LeftShoulder", "RightShoulder", "Head", "LeftArm", "RightArm", "LeftForeArm",
+       "RightForeArm", "LeftHand", "RightHand"]
+open(sys.argv[1], "w").write("# boneNN = CMU joint\n" +
+                             "".join("bone%02d = %s\n" % (i, n) for i, n in enumerate(cmu)))
+PY
+check "simulate with a joint map" "$crease" simulate --garment "$tmp/t.obj" \
+  --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" --joint-map "$tmp/map.txt" \
+  --ease-in 0.2 --frames 2 -o "$tmp/sim_map" --quiet
+printf 'bone00 = Hips\nbone16 LeftArm\n' > "$tmp/bad.txt"
+expect_exit 1 "bad.txt:2: expected 'character_joint = bvh_joint'" simulate --garment "$tmp/t.obj" \
+  --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" --joint-map "$tmp/bad.txt" --frames 1 \
+  -o "$tmp/x"
+printf 'bone00 = Hips\nbone16 = LeftUpperArm\n' > "$tmp/bad2.txt"
+expect_exit 1 "bad2.txt:2: the motion .*walk.bvh has no joint 'LeftUpperArm'" simulate \
+  --garment "$tmp/t.obj" --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" \
+  --joint-map "$tmp/bad2.txt" --frames 1 -o "$tmp/x"
+
+# --- refusals --------------------------------------------------------------------------------
+check "plain glb" "$crease" primitive sphere -o "$tmp/plain.glb"
+expect_exit 1 "plain.glb: the mesh has no skin" simulate --garment "$tmp/t.obj" \
+  --body-mesh "$tmp/plain.glb" --motion "$tmp/walk.bvh" --frames 1 -o "$tmp/x"
+expect_exit 2 "--joint-map needs --body-mesh" simulate --garment "$tmp/t.obj" --motion walk \
+  --joint-map "$tmp/map.txt" --frames 1 -o "$tmp/x"
+expect_exit 2 "a .bvh driving a rigged .glb" simulate --garment "$tmp/t.obj" \
+  --body-mesh "$tmp/char.glb" --motion walk --frames 1 -o "$tmp/x"
+
+echo "cli_retarget: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]
