@@ -147,21 +147,7 @@ cr_status cr_motion_fix_frame(cr_motion *m, const motion_frame_fix *fix, cr_erro
             t[3 * f + (size_t)k] = m->trans[3 * f + (size_t)k];
     }
     cr_retarget_fix_world(g, CR_NJOINTS, CR_JOINT_PELVIS, t, m->nframes, fix);
-    for (size_t f = 0; f < T; f++) {
-        const double *gf = g + f * CR_NJOINTS * 4;
-        for (int j = 0; j < CR_NJOINTS; j++) {
-            double q[4];
-            memcpy(q, gf + 4 * j, sizeof q);
-            if (cr_joint_parent[j] >= 0) {
-                double inv[4];
-                q_conj(gf + 4 * cr_joint_parent[j], inv);
-                q_mul(inv, q, q);
-            }
-            q_to_aa(q, m->poses + (f * CR_NJOINTS + (size_t)j) * 3);
-        }
-        for (int k = 0; k < 3; k++)
-            m->trans[3 * f + (size_t)k] = (float)t[3 * f + (size_t)k];
-    }
+    motion_from_world(g, t, m);
     free(g), free(t);
     return CR_OK;
 }

@@ -598,21 +598,7 @@ static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def
     cr_status st = g && t ? CR_OK : CR_ERR_MEMORY;
     if (st == CR_OK) st = cr_motion_create(b->nframes, (float)bvh_fps(b), &m, err);
     if (st == CR_OK) st = bvh_drive(b, map, rig, def, &tg, g, t, &hip_m, err);
-    for (size_t f = 0; st == CR_OK && f < T; f++) {
-        const double *gf = g + f * CR_NJOINTS * 4;
-        for (int j = 0; j < CR_NJOINTS; j++) {
-            double local[4];
-            memcpy(local, gf + 4 * j, sizeof local);
-            if (parent[j] >= 0) {
-                double inv[4];
-                q_conj(gf + 4 * parent[j], inv);
-                q_mul(inv, local, local);
-            }
-            q_to_aa(local, m->poses + (f * CR_NJOINTS + (size_t)j) * 3);
-        }
-        for (int k = 0; k < 3; k++)
-            m->trans[f * 3 + (size_t)k] = (float)t[f * 3 + (size_t)k];
-    }
+    if (st == CR_OK) motion_from_world(g, t, m); /* the mannequin's parents are SMPL's */
     free(g), free(t);
     if (st != CR_OK) {
         cr_motion_destroy(m);

@@ -13,6 +13,7 @@
 #include "crease/npz.h"
 
 #include <math.h>
+#include <string.h>
 
 static inline void q_identity(double q[4]) {
     q[0] = 1, q[1] = q[2] = q[3] = 0;
@@ -52,6 +53,26 @@ static inline void q_to_aa(const double q_in[4], float aa[3]) {
     double v = sqrt(x * x + y * y + z * z);
     double k = v < 1e-12 ? 2.0 : 2.0 * atan2(v, w) / v;
     aa[0] = (float)(k * x), aa[1] = (float)(k * y), aa[2] = (float)(k * z);
+}
+
+/* World rotations g (T,22,4) and translations t (T,3) into m's poses (local
+ * = G_parent^-1 G, as axis-angles) and trans. */
+static inline void motion_from_world(const double *g, const double *t, cr_motion *m) {
+    for (size_t f = 0; f < (size_t)m->nframes; f++) {
+        const double *gf = g + f * CR_NJOINTS * 4;
+        for (int j = 0; j < CR_NJOINTS; j++) {
+            double q[4];
+            memcpy(q, gf + 4 * j, sizeof q);
+            if (cr_joint_parent[j] >= 0) {
+                double inv[4];
+                q_conj(gf + 4 * cr_joint_parent[j], inv);
+                q_mul(inv, q, q);
+            }
+            q_to_aa(q, m->poses + (f * CR_NJOINTS + (size_t)j) * 3);
+        }
+        for (int k = 0; k < 3; k++)
+            m->trans[3 * f + (size_t)k] = (float)t[3 * f + (size_t)k];
+    }
 }
 
 /* Angle of the rotation q, radians in [0, pi]. */
