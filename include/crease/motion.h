@@ -254,9 +254,16 @@ void cr_skin_motion_destroy(cr_skin_motion *m);
 /* The view cr_glb_write_skinned and cr_glb_character_pose take. */
 cr_glb_skin_motion cr_skin_motion_view(const cr_skin_motion *m);
 
+/* 1 when m's frame 0 is a calibration frame (a T-pose before the capture,
+ * the rule cr_motion_prepare drops one by); *jump (may be NULL) the largest
+ * joint turn into frame 1, rad. */
+int cr_skin_motion_is_calibration_start(const cr_skin_motion *m, float *jump);
+
 /* A copy of m that starts at the rest pose and eases into m's frame 0 over
- * `ease_in_s` seconds (each rotation slerped from the identity and the
- * translation from zero, eased by 3u^2 - 2u^3), then plays m resampled to
+ * `ease_in_s` seconds (cr_motion_ease_in's curve: each joint from the rest
+ * to frame 0 arriving with the motion's first step as velocity, the
+ * translation from zero likewise, so the motion goes on without a jerk),
+ * then plays m resampled to
  * `fps` (slerp between the two nearest frames; 0 keeps m's rate): what a
  * garment fitted at rest needs. */
 cr_status cr_skin_motion_prepare(const cr_skin_motion *m, float fps, float ease_in_s,

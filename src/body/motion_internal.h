@@ -55,6 +55,62 @@ static inline void q_to_aa(const double q_in[4], float aa[3]) {
     aa[0] = (float)(k * x), aa[1] = (float)(k * y), aa[2] = (float)(k * z);
 }
 
+/* The ease-in from the rest pose into a motion's first frame, one joint at
+ * a time (cr_motion_ease_in for crease's motions, cr_skin_motion_prepare for
+ * any skeleton's): in the tangent space at the first frame's rotation q0, a
+ * quintic Hermite from log(q0^-1) (the rest) to 0 (q0) that arrives with the
+ * motion's first step as velocity, so the motion goes on without a jerk.
+ * motion_ease_velocity: that velocity over the ease's span (q1 the second
+ * frame's rotation, NULL for none; steps_per_span the motion's frames in the
+ * span). motion_ease_rotation: the joint at u in [0, 1). motion_ease_value:
+ * a translation coordinate, from 0 to x0 arriving with velocity v. */
+static inline void motion_ease_velocity(const double q0[4], const double *q1, double steps_per_span,
+                                        double vel[3]) {
+    vel[0] = vel[1] = vel[2] = 0;
+    if (!q1) return;
+    double q0i[4], rel[4];
+    float aa[3];
+    q_conj(q0, q0i);
+    q_mul(q0i, q1, rel);
+    q_to_aa(rel, aa);
+    for (int c = 0; c < 3; c++)
+        vel[c] = aa[c] * steps_per_span;
+}
+
+static inline void motion_ease_weights(double u, double *h0, double *hv) {
+    double u3 = u * u * u;
+    *h0 = 1.0 - 10.0 * u3 + 15.0 * u3 * u - 6.0 * u3 * u * u;
+    *hv = -4.0 * u3 + 7.0 * u3 * u - 3.0 * u3 * u * u;
+}
+
+static inline void motion_ease_rotation(const double q0[4], const double vel[3], double u,
+                                        double out[4]) {
+    double q0i[4], h0, hv, e[4];
+    float start[3], p[3];
+    q_conj(q0, q0i);
+    q_to_aa(q0i, start);
+    motion_ease_weights(u, &h0, &hv);
+    for (int c = 0; c < 3; c++)
+        p[c] = (float)(h0 * start[c] + hv * vel[c]);
+    q_from_aa(p, e);
+    q_mul(q0, e, out);
+}
+
+static inline double motion_ease_value(double x0, double v, double u) {
+    double h0, hv;
+    motion_ease_weights(u, &h0, &hv);
+    return (1.0 - h0) * x0 + hv * v;
+}
+
+/* A calibration frame 0 (a T-pose before the capture): the largest joint
+ * turn from frame 0 into frame 1, j0 rad, over 0.35 rad and over 5 times
+ * the largest turn of the next frames' steps. One rule for crease's motions
+ * (cr_motion_is_calibration_start) and any skeleton's
+ * (cr_skin_motion_is_calibration_start). */
+static inline int motion_calibration_rule(double j0, double next) {
+    return j0 > 0.35 && j0 > 5.0 * fmax(next, 1e-3);
+}
+
 /* World rotations g (T,22,4) and translations t (T,3) into m's poses (local
  * = G_parent^-1 G, as axis-angles) and trans. */
 static inline void motion_from_world(const double *g, const double *t, cr_motion *m) {

@@ -20,8 +20,6 @@
 #include <string.h>
 
 #define PREPARE_COOKIE 0x70726570u
-#define CALIBRATION_JUMP 0.35 /* rad in one frame */
-#define CALIBRATION_RATIO 5.0 /* the jump over the next frames' steps */
 
 cr_motion_prepare_def cr_motion_prepare_default_def(void) {
     cr_motion_prepare_def d;
@@ -127,7 +125,7 @@ int cr_motion_is_calibration_start(const cr_motion *m, float *jump) {
     double j0 = frame_step(m, 0), next = frame_step(m, 1);
     if (m->nframes > 3) next = fmax(next, frame_step(m, 2));
     if (jump) *jump = (float)j0;
-    return j0 > CALIBRATION_JUMP && j0 > CALIBRATION_RATIO * fmax(next, 1e-3);
+    return motion_calibration_rule(j0, next);
 }
 
 cr_status cr_motion_ease_in(const cr_motion *m, float seconds, cr_motion **out, cr_error *err) {
@@ -146,33 +144,13 @@ cr_status cr_motion_ease_in(const cr_motion *m, float seconds, cr_motion **out, 
     double span = (double)ne / m->fps; /* s */
     int has_next = m->nframes > 1;
     for (int j = 0; j < CR_NJOINTS; j++) {
-        /* Tangent space at m_0: start log(m_0^-1), end 0, end velocity the
-         * motion's first step (body frame), over u in [0, 1]. */
-        double q0[4], q0i[4], start[3], vel[3] = {0, 0, 0};
+        double q0[4], q1[4], vel[3];
         q_from_aa(pose_at(m, 0, j), q0);
-        q_conj(q0, q0i);
-        float aa[3];
-        q_to_aa(q0i, aa);
-        for (int c = 0; c < 3; c++)
-            start[c] = aa[c];
-        if (has_next) {
-            double q1[4], rel[4];
-            q_from_aa(pose_at(m, 1, j), q1);
-            q_mul(q0i, q1, rel);
-            q_to_aa(rel, aa);
-            for (int c = 0; c < 3; c++)
-                vel[c] = aa[c] * m->fps * span;
-        }
+        if (has_next) q_from_aa(pose_at(m, 1, j), q1);
+        motion_ease_velocity(q0, has_next ? q1 : NULL, m->fps * span, vel);
         for (int64_t k = 0; k < ne; k++) {
-            double u = (double)k / (double)ne, u3 = u * u * u;
-            double h0 = 1.0 - 10.0 * u3 + 15.0 * u3 * u - 6.0 * u3 * u * u;
-            double hv = -4.0 * u3 + 7.0 * u3 * u - 3.0 * u3 * u * u;
-            float p[3];
-            for (int c = 0; c < 3; c++)
-                p[c] = (float)(h0 * start[c] + hv * vel[c]);
-            double e[4], q[4];
-            q_from_aa(p, e);
-            q_mul(q0, e, q);
+            double q[4];
+            motion_ease_rotation(q0, vel, (double)k / (double)ne, q);
             float *dst = r->poses + ((size_t)k * CR_NJOINTS + (size_t)j) * 3;
             q_to_aa(q, dst);
             if (k == 0) dst[0] = dst[1] = dst[2] = 0.0f; /* the rest, exactly */
@@ -181,12 +159,8 @@ cr_status cr_motion_ease_in(const cr_motion *m, float seconds, cr_motion **out, 
     for (int c = 0; c < 3; c++) {
         double t0 = m->trans[c];
         double v = has_next ? (m->trans[3 + c] - t0) * m->fps * span : 0.0;
-        for (int64_t k = 0; k < ne; k++) {
-            double u = (double)k / (double)ne, u3 = u * u * u;
-            double h1 = 10.0 * u3 - 15.0 * u3 * u + 6.0 * u3 * u * u;
-            double hv = -4.0 * u3 + 7.0 * u3 * u - 3.0 * u3 * u * u;
-            r->trans[3 * k + c] = (float)(h1 * t0 + hv * v);
-        }
+        for (int64_t k = 0; k < ne; k++)
+            r->trans[3 * k + c] = (float)motion_ease_value(t0, v, (double)k / (double)ne);
     }
     return CR_OK;
 }

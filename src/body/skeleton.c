@@ -8,15 +8,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-const int8_t cr_joint_parent[CR_NJOINTS] = {-1, 0, 0,  0,  1,  2,  3,  4,  5,  6,  7,
+const int8_t cr_joint_parent[CR_NJOINTS] = {-1, 0, 0, 0, 1,  2,  3,  4,  5,  6,  7,
                                             8,  9, 9, 9, 12, 13, 14, 16, 17, 18, 19};
 
 const char *const cr_joint_name[CR_NJOINTS] = {
-    "pelvis",         "left_hip",       "right_hip",     "spine1",      "left_knee",
-    "right_knee",     "spine2",         "left_ankle",    "right_ankle", "spine3",
-    "left_foot",      "right_foot",     "neck",          "left_collar", "right_collar",
-    "head",           "left_shoulder",  "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist",     "right_wrist"};
+    "pelvis",     "left_hip",    "right_hip",    "spine1",     "left_knee",     "right_knee",
+    "spine2",     "left_ankle",  "right_ankle",  "spine3",     "left_foot",     "right_foot",
+    "neck",       "left_collar", "right_collar", "head",       "left_shoulder", "right_shoulder",
+    "left_elbow", "right_elbow", "left_wrist",   "right_wrist"};
 
 int cr_joint_find(const char *name) {
     for (int j = 0; j < CR_NJOINTS; j++)

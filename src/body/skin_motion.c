@@ -69,13 +69,23 @@ static void slerp(const float *a, const float *b, double u, float *out) {
 static void prepare_frame(const cr_skin_motion *m, float fps, int32_t ease, int32_t i, float *rot,
                           float *tr) {
     const int32_t J = m->njoints;
-    static const float id[4] = {0, 0, 0, 1};
-    if (i < ease) {
-        const double x = (double)i / ease, u = x * x * (3.0 - 2.0 * x);
-        for (int32_t j = 0; j < J; j++)
-            slerp(id, m->rotation + 4 * (size_t)j, u, rot + 4 * (size_t)j);
-        for (int k = 0; k < 3; k++)
-            tr[k] = (float)(u * m->translation[k]);
+    if (i < ease) { /* the mannequin's ease-in (motion_internal.h), in x, y, z, w order */
+        const double u = (double)i / ease, span = ease / (double)fps; /* s */
+        const int has_next = m->nframes > 1;
+        for (int32_t j = 0; j < J; j++) {
+            const float *a = m->rotation + 4 * (size_t)j, *b = a + 4 * (size_t)J;
+            double q0[4] = {a[3], a[0], a[1], a[2]}, q1[4] = {0}, vel[3], q[4];
+            if (has_next) q1[0] = b[3], q1[1] = b[0], q1[2] = b[1], q1[3] = b[2];
+            motion_ease_velocity(q0, has_next ? q1 : NULL, m->fps * span, vel);
+            motion_ease_rotation(q0, vel, u, q);
+            float *o = rot + 4 * (size_t)j;
+            o[0] = (float)q[1], o[1] = (float)q[2], o[2] = (float)q[3], o[3] = (float)q[0];
+        }
+        for (int k = 0; k < 3; k++) {
+            const double x0 = m->translation[k];
+            const double v = has_next ? (m->translation[3 + k] - x0) * m->fps * span : 0.0;
+            tr[k] = (float)motion_ease_value(x0, v, u);
+        }
         return;
     }
     const double s = (double)(i - ease) * m->fps / fps;
@@ -89,6 +99,27 @@ static void prepare_frame(const cr_skin_motion *m, float fps, int32_t ease, int3
     for (int k = 0; k < 3; k++)
         tr[k] = (float)((1.0 - u) * m->translation[3 * (size_t)f0 + (size_t)k] +
                         u * m->translation[3 * (size_t)f1 + (size_t)k]);
+}
+
+/* Largest joint turn between frames f and f + 1, rad. */
+static double skin_frame_step(const cr_skin_motion *m, int32_t f) {
+    double best = 0;
+    for (int32_t j = 0; j < m->njoints; j++) {
+        const float *a = m->rotation + 4 * ((size_t)f * m->njoints + j);
+        const float *b = a + 4 * (size_t)m->njoints;
+        double d = fabs((double)a[0] * b[0] + (double)a[1] * b[1] + (double)a[2] * b[2] +
+                        (double)a[3] * b[3]);
+        best = fmax(best, 2.0 * acos(fmin(d, 1.0)));
+    }
+    return best;
+}
+
+int cr_skin_motion_is_calibration_start(const cr_skin_motion *m, float *jump) {
+    if (jump) *jump = 0.0f;
+    if (m->nframes < 4) return 0;
+    double j0 = skin_frame_step(m, 0), next = fmax(skin_frame_step(m, 1), skin_frame_step(m, 2));
+    if (jump) *jump = (float)j0;
+    return motion_calibration_rule(j0, next);
 }
 
 cr_status cr_skin_motion_prepare(const cr_skin_motion *m, float fps, float ease_in_s,

@@ -102,8 +102,9 @@ static void sim_run_free(sim_run *r) {
     cr_mesh_destroy(r->garment);
 }
 
-/* A rigged .glb driven by a BVH: read, retarget, ease in from rest at the
- * run's rate, pose; the collider is the character's rest mesh and frames. */
+/* A rigged .glb driven by a BVH: read, retarget, drop a calibration frame,
+ * ease in from rest at the run's rate, pose; the collider is the character's rest mesh and frames.
+ */
 static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error *err) {
     CR_TRY(cr_glb_read_character(o->body_mesh, &r->character, err));
     cr_retarget_def rd = cr_retarget_default_def();
@@ -112,8 +113,19 @@ static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error
     cr_skin_motion *raw = NULL;
     CR_TRY(
         cr_motion_retarget_bvh(o->body_motion, &r->character->skin, o->body_mesh, &rd, &raw, err));
+    /* a calibration T-pose at frame 0 is dropped, as cr_motion_prepare drops one for the
+     * mannequin: eased into and left in one frame, the arms would sweep through the garment */
+    cr_skin_motion used = *raw;
+    float jump = 0.0f;
+    if (cr_skin_motion_is_calibration_start(raw, &jump)) {
+        cr_log(CR_LOG_WARN,
+               "%s: frame 0 is a calibration frame (joints turn by up to %.2f rad into frame 1): "
+               "dropped",
+               o->body_motion, (double)jump);
+        used.rotation += 4 * (size_t)raw->njoints, used.translation += 3, used.nframes--;
+    }
     cr_status st =
-        cr_skin_motion_prepare(raw, o->fps, o->body_ease_in_s, &r->character_motion, err);
+        cr_skin_motion_prepare(&used, o->fps, o->body_ease_in_s, &r->character_motion, err);
     cr_skin_motion_destroy(raw);
     CR_TRY(st);
     const cr_glb_skin_motion view = cr_skin_motion_view(r->character_motion);
