@@ -31,7 +31,8 @@ expect_exit 1 "hist.safetensors: training state 'vert_err_history' entry 0" swin
 g="$tmp/data/garments/normal/dress_low.obj"
 check "run" bash -c "'$crease' swingar run --model '$tmp/m.safetensors' --garment '$g' \
   --motion walk --frames 13 -o '$tmp/pred' --json > '$tmp/r.json'"
-check "run fields" json_has "$tmp/r.json" vertices frames fps
+check "run fields" json_has "$tmp/r.json" vertices frames fps inside_before inside_after
+check "run removes collisions" grep -q '"inside_after":0[,}]' "$tmp/r.json"
 check "run outputs" test -s "$tmp/pred/garment.pc2" -a -s "$tmp/pred/garment.glb" \
   -a -s "$tmp/pred/body.pc2" -a -s "$tmp/pred/garment.obj"
 check "run png" bash -c "head -c 4 '$tmp/pred/last.png' | grep -q PNG"

@@ -277,6 +277,21 @@ cr_status cr_swingar_animate(cr_swingar *m, const struct cr_garment *garment, co
                              const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
                              float *out, cr_error *err);
 
+/* Collision removal with the exact distance to the posed body (eq. 10 on
+ * the BVH's signed distance, up to 4 passes; `swingar run`'s default, the
+ * neural field of docs/swingar_sdf.md being the paper's): pred (T,V,3) in
+ * place, garment its rest mesh (the one-ring of eq. 10), body (T,Vb,3) the
+ * posed body_rest. margin, m, is added to every move. */
+typedef struct cr_swingar_removal_stats {
+    double inside_before, inside_after; /* largest share of vertices inside on a frame */
+    int64_t moved;                      /* vertex moves, summed over the frames */
+    double seconds;
+} cr_swingar_removal_stats;
+cr_status cr_swingar_remove_collisions_exact(const cr_mesh *garment, const cr_mesh *body_rest,
+                                             const float *body, int32_t T, float margin,
+                                             float *pred, cr_swingar_removal_stats *stats,
+                                             cr_error *err);
+
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {
     double encode_seconds;   /* the runtime's creation: the garment's encoding (E_g, E_a, the

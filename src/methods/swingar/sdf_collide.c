@@ -21,6 +21,7 @@
 #include "methods/swingar/sdf.h"
 
 #include "crease/bvh.h"
+#include "crease/swingar.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -205,4 +206,56 @@ cr_status cr_swingar_collision_remove(const cr_swingar_collide_def *def, float *
     }
     out->mean_move_m = moved > 0 ? out->mean_move_m / moved : 0;
     return CR_OK;
+}
+
+/* ---------------------------------------------- exact removal, a whole run -- */
+
+/* The share of the n points inside the body (signed distance < 0). */
+static double inside_share(const cr_bvh *bvh, const float *x, int64_t n, float *d) {
+    cr_bvh_signed_distance_batch(bvh, x, n, 0.05f, d, NULL, NULL);
+    int64_t in = 0;
+    for (int64_t i = 0; i < n; i++)
+        in += d[i] < 0.0f;
+    return n ? (double)in / (double)n : 0.0;
+}
+
+cr_status cr_swingar_remove_collisions_exact(const cr_mesh *garment, const cr_mesh *body_rest,
+                                             const float *body, int32_t T, float margin,
+                                             float *pred, cr_swingar_removal_stats *stats,
+                                             cr_error *err) {
+    cr_swingar_removal_stats local = {0};
+    cr_swingar_removal_stats *s = stats ? stats : &local;
+    memset(s, 0, sizeof *s);
+    if (!garment || !body_rest || !body || !pred || T < 1 || !(margin >= 0.0f))
+        return CR_FAIL(err, CR_ERR_INVALID, "swingar removal: NULL input, %d frames or margin %g",
+                       T, (double)margin);
+    const int64_t V = garment->nv, Vb = body_rest->nv;
+    double t0 = cr_time_now();
+    cr_topology *topo = NULL;
+    cr_bvh *bvh = NULL;
+    float *d = malloc(sizeof(float) * (size_t)V);
+    cr_status st = d ? cr_topology_build(garment, &topo, err)
+                     : CR_FAIL(err, CR_ERR_MEMORY, "swingar removal: out of memory");
+    if (st == CR_OK) st = cr_bvh_build(body, (int32_t)Vb, body_rest->tri, body_rest->nf, &bvh, err);
+    cr_swingar_collide_def cd = cr_swingar_collide_default_def();
+    cd.margin = margin;
+    cd.passes = 4; /* the exact field: a second pass finds what a neighbour's move left */
+    for (int32_t t = 0; st == CR_OK && t < T; t++) {
+        float *x = pred + (size_t)t * V * 3;
+        if (t > 0) st = cr_bvh_refit(bvh, body + (size_t)t * Vb * 3, err);
+        if (st != CR_OK) break;
+        s->inside_before = fmax(s->inside_before, inside_share(bvh, x, V, d));
+        cr_swingar_sdf_bvh_source user;
+        cr_swingar_sdf_source src;
+        cr_swingar_sdf_source_bvh(bvh, INFINITY, &user, &src);
+        cr_swingar_collide_stats cs;
+        st = cr_swingar_collision_remove(&cd, x, topo, &src, &cs, err);
+        s->moved += cs.colliding;
+        if (st == CR_OK) s->inside_after = fmax(s->inside_after, inside_share(bvh, x, V, d));
+    }
+    s->seconds = cr_time_now() - t0;
+    cr_bvh_destroy(bvh);
+    cr_topology_destroy(topo);
+    free(d);
+    return st;
 }
