@@ -394,10 +394,10 @@ CR_TEST(swingar, exact_removal_leaves_no_vertex_inside) {
     CR_CHECK_OK(cr_swingar_remove_collisions_exact(g->rest, br, q->body_pos, (int32_t)T, 0.001f, x,
                                                    &rs, &err),
                 &err);
-    printf(
-        "    %lld vertex pushes (every 7th, each frame): inside before %.2f %%, after %.3f %%, %lld moves, %.3f s\n",
-        (long long)pushed, 100 * rs.inside_before, 100 * rs.inside_after, (long long)rs.moved,
-        rs.seconds);
+    printf("    %lld vertex pushes (every 7th, each frame): inside before %.2f %%, after %.3f %%, "
+           "%lld moves, %.3f s\n",
+           (long long)pushed, 100 * rs.inside_before, 100 * rs.inside_after, (long long)rs.moved,
+           rs.seconds);
     CR_CHECK(rs.inside_before > 0.1);
     CR_CHECK(rs.inside_after == 0.0);
     free(x), free(pt), free(nr), free(dist);
@@ -529,6 +529,41 @@ CR_TEST(swingar, tiny_model_lowers_its_loss) {
         CR_CHECK(r.last_loss < 0.9f * r.first_loss);
         CR_CHECK(r.last_vert_m < r.first_vert_m);
     }
+    cr_swingar_destroy(m);
+}
+
+CR_TEST(swingar, descriptor_standardisation_round_trips) {
+    /* training sets the descriptor's mean and spread from its training
+     * garments (here one: the mean is its descriptor, the spread the floor,
+     * 1e-3 of |mean|); they are frozen (Adam leaves them) and come back from
+     * the model file */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d);
+    cr_swingar_train_def t = tiny_train();
+    t.epochs = 1;
+    cr_error err = {0};
+    cr_swingar *m = NULL, *back = NULL;
+    cr_swingar_train_result r;
+    CR_CHECK_OK(cr_swingar_train(&t, d, &m, &r, &err), &err);
+    CR_REQUIRE(m);
+    char path[512];
+    snprintf(path, sizeof path, "%s/swingar_std.safetensors", cr_test_tmpdir());
+    CR_CHECK_OK(cr_swingar_save(path, m, &err), &err);
+    CR_CHECK_OK(cr_swingar_load(path, &back, &err), &err);
+    CR_REQUIRE(back);
+    const cr_tensor *mean = cr_nn_params_find(cr_swingar_params(back), "descriptor.mean");
+    const cr_tensor *sd = cr_nn_params_find(cr_swingar_params(back), "descriptor.std");
+    CR_REQUIRE(mean && sd && mean->numel == t.model.descriptor_len);
+    const float *desc = d->garments[d->sequences[0].garment_index]->descriptor;
+    double dm = 0, ds = 0;
+    for (int64_t k = 0; k < mean->numel; k++) {
+        dm = fmax(dm, fabs(mean->data[k] - desc[k]));
+        ds = fmax(ds, fabs(sd->data[k] - 1e-3 * fabs(desc[k])) / (1e-3 * fabs(desc[k]) + 1e-30));
+    }
+    printf("    mean vs the garment's descriptor %.2e, spread vs the floor %.2e (relative)\n", dm,
+           ds);
+    CR_CHECK(dm < 1e-7 && ds < 1e-5);
+    cr_swingar_destroy(back);
     cr_swingar_destroy(m);
 }
 

@@ -152,6 +152,15 @@ cr_status cr_swingar_create(const cr_swingar_def *def, uint64_t seed, cr_swingar
                       "garment.1", &rng, &m->g1, err);
     if (st == CR_OK)
         st = mlp_make(d->descriptor_len, d->shape_width, P, "shape", &rng, &m->shape, err);
+    /* the descriptor's standardisation, frozen: set from the training garments
+     * (cr_swingar_standardise_descriptor_); until then times z, the eigenvalues
+     * summing to about 1 (descriptor.h), so its entries are of order 1 */
+    if (st == CR_OK)
+        st = cr_nn_params_add(P, "descriptor.mean", 1, (int64_t[]){d->descriptor_len},
+                              &m->desc_mean, err);
+    if (st == CR_OK)
+        st = cr_nn_params_add(P, "descriptor.std", 1, (int64_t[]){d->descriptor_len}, &m->desc_std,
+                              err);
     /* body information */
     if (st == CR_OK) {
         cr_rnn_def rd = cr_rnn_default_def();
@@ -196,6 +205,11 @@ cr_status cr_swingar_create(const cr_swingar_def *def, uint64_t seed, cr_swingar
         cr_swingar_destroy(m);
         return st;
     }
+    /* the adds may have moved the block: look both up again */
+    m->desc_mean = cr_nn_params_find(P, "descriptor.mean");
+    m->desc_std = cr_nn_params_find(P, "descriptor.std");
+    m->desc_mean->requires_grad = m->desc_std->requires_grad = 0;
+    cr_nn_fill(m->desc_std, 1.0f / (float)d->descriptor_len);
     if (d->zero_last) {
         cr_nn_fill(m->skin.weight, 0.0f);
         cr_nn_fill(m->bout.weight, 0.0f);
@@ -262,6 +276,33 @@ static cr_tensor *stack(cr_nn_ctx *ctx, cr_tensor **ts, int n) {
     return cr_nn_concat(ctx, n, v, 0);
 }
 
+cr_status cr_swingar_standardise_descriptor_(cr_swingar *m, const cr_swingar_data *d,
+                                             const int8_t *is_test, cr_error *err) {
+    const int z = m->def.descriptor_len;
+    int8_t *used = cr_calloc((size_t)(d->ngarments > 0 ? d->ngarments : 1), 1, err);
+    if (!used) return err ? err->status : CR_ERR_MEMORY;
+    int n = 0;
+    for (int32_t i = 0; i < d->nsequences; i++) {
+        int32_t g = d->sequences[i].garment_index;
+        if ((!is_test || is_test[i] == 0) && g >= 0 && g < d->ngarments && !used[g])
+            used[g] = 1, n++;
+    }
+    for (int k = 0; k < z && n > 0; k++) {
+        double s = 0, q = 0;
+        for (int32_t g = 0; g < d->ngarments; g++)
+            if (used[g]) s += d->garments[g]->descriptor[k];
+        const double mean = s / n;
+        for (int32_t g = 0; g < d->ngarments; g++)
+            if (used[g])
+                q +=
+                    (d->garments[g]->descriptor[k] - mean) * (d->garments[g]->descriptor[k] - mean);
+        m->desc_mean->data[k] = (float)mean;
+        m->desc_std->data[k] = (float)fmax(fmax(sqrt(q / n), 1e-3 * fabs(mean)), 1e-12);
+    }
+    free(used);
+    return CR_OK;
+}
+
 int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
                                swg_genc *e) {
     const cr_swingar_def *d = &m->def;
@@ -273,9 +314,8 @@ int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_g
     cr_tensor *desc = d->use_descriptor
                           ? cr_nn_wrap(ctx, 2, (int64_t[]){1, d->descriptor_len}, g->descriptor)
                           : cr_nn_zeros(ctx, 2, (int64_t[]){1, d->descriptor_len});
-    /* the eigenvalues sum to about 1 (descriptor.h): times z they are of order 1 */
-    cr_tensor *s =
-        cr_mlp_forward(ctx, m->shape, cr_nn_mul_scalar(ctx, desc, (float)d->descriptor_len));
+    cr_tensor *s = cr_mlp_forward(ctx, m->shape,
+                                  cr_nn_div(ctx, cr_nn_sub(ctx, desc, m->desc_mean), m->desc_std));
     e->skinmat =
         cr_nn_reshape(ctx, cr_linear_forward(ctx, &m->skin, s), 2, (int64_t[]){d->state_width, J});
     e->logw0 = cr_nn_new(ctx, 2, (int64_t[]){V, J});

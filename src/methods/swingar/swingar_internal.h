@@ -24,15 +24,16 @@ enum {
 struct cr_swingar {
     cr_swingar_def def;
     cr_nn_params *P;
-    cr_gat g0, g1;      /* E_g */
-    cr_mlp *shape;      /* E_a */
-    cr_rnn_cell motion; /* E_m */
-    cr_mlp *body;       /* E_b */
-    cr_gat state;       /* E_s */
-    cr_linear skin;     /* shape features -> (state width, joints) */
-    cr_gat b0, b1;      /* blend shapes */
-    cr_linear bout;     /* -> 3 */
-    cr_gat_lstm corr;   /* P_d */
+    cr_gat g0, g1;                   /* E_g */
+    cr_mlp *shape;                   /* E_a */
+    cr_tensor *desc_mean, *desc_std; /* (z) frozen: E_a reads (descriptor - mean) / std */
+    cr_rnn_cell motion;              /* E_m */
+    cr_mlp *body;                    /* E_b */
+    cr_gat state;                    /* E_s */
+    cr_linear skin;                  /* shape features -> (state width, joints) */
+    cr_gat b0, b1;                   /* blend shapes */
+    cr_linear bout;                  /* -> 3 */
+    cr_gat_lstm corr;                /* P_d */
     cr_gat c0, c1;
 };
 
@@ -41,6 +42,12 @@ struct cr_swingar {
 typedef struct swg_genc {
     cr_tensor *G, *skinmat, *logw0; /* (V,H), (state width, J), (V,J) */
 } swg_genc;
+
+/* The descriptor's standardisation from the garments the training sequences
+ * use (is_test NULL: all): per entry the mean and the standard deviation
+ * (floored at 1e-3 of |mean| and 1e-12), into the model's frozen tensors. */
+cr_status cr_swingar_standardise_descriptor_(cr_swingar *m, const cr_swingar_data *d,
+                                             const int8_t *is_test, cr_error *err);
 
 /* 1 on success; 0 with the context's error set. */
 int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,

@@ -324,6 +324,8 @@ static cr_status start_run(train_run *r, const cr_swingar_def *mdef, const cJSON
     CR_TRY(cr_optim_create(&od, r->m->P, &r->opt, err));
     r->rng = cr_rng_make(def->seed, 21);
     *epoch0 = 0, r->supervised = 1, r->switched = -1;
+    if (!def->resume && mdef->use_descriptor) /* a resumed model has its own */
+        CR_TRY(cr_swingar_standardise_descriptor_(r->m, r->d, def->is_test, err));
     if (def->resume) {
         cr_checkpoint_meta meta;
         memset(&meta, 0, sizeof meta);
