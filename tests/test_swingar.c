@@ -532,6 +532,25 @@ CR_TEST(swingar, tiny_model_lowers_its_loss) {
     cr_swingar_destroy(m);
 }
 
+CR_TEST(swingar, supervised_first_switch_fires_in_a_short_run) {
+    /* the default rule is relative to the run: 6 epochs switch to every loss
+     * by the third at the latest (a window of 2 epochs, or half the run) */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d);
+    cr_swingar_train_def t = tiny_train();
+    t.stall_epochs = cr_swingar_train_default_def().stall_epochs;
+    t.stall_rel = cr_swingar_train_default_def().stall_rel;
+    t.epochs = CR_TEST_SIZE(6, 4);
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    cr_swingar_train_result r;
+    CR_CHECK_OK(cr_swingar_train(&t, d, &m, &r, &err), &err);
+    printf("    %d epochs: every loss from epoch %d\n", r.epochs_done, r.switched_epoch);
+    CR_CHECK(t.stall_epochs == 0);
+    CR_CHECK(r.switched_epoch >= 1 && r.switched_epoch <= t.epochs / 2);
+    cr_swingar_destroy(m);
+}
+
 CR_TEST(swingar, descriptor_standardisation_round_trips) {
     /* training sets the descriptor's mean and spread from its training
      * garments (here one: the mean is its descriptor, the spread the floor,

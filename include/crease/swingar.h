@@ -226,8 +226,11 @@ typedef struct cr_swingar_train_def {
     float lr;         /* 1e-3, cosine-annealed to lr_final over all steps */
     float lr_final;   /* default 0 */
     float clip_norm;  /* gradient clipping (default 0: off) */
-    int stall_epochs; /* supervised only until the vertex error improves by less than */
-    float stall_rel;  /* stall_rel over stall_epochs epochs (paper: 2 % over 50) */
+    int stall_epochs; /* supervised only until the vertex error improves by less than
+                         stall_rel over stall_epochs epochs (paper: 2 % over 50; default
+                         0: a tenth of the run, at least 2, and at the latest once
+                         half the epochs are done) */
+    float stall_rel;  /* default 0.02 */
     uint64_t seed;
     size_t arena_bytes;     /* per-step memory (default 1 GiB) */
     const int8_t *is_test;  /* (nsequences) from cr_swingar_split, or NULL: all train */

@@ -31,7 +31,9 @@ void help_swingar(void) {
            "  --batch B              samples per Adam step (default 4)\n"
            "  --lr X                 Adam's rate, cosine-annealed to 0 (default 1e-3)\n"
            "  --stall-epochs N       vertex loss alone until the vertex error improves by less\n"
-           "  --stall-rel X          than X over N epochs (default 0.02 over 50, the paper's)\n"
+           "  --stall-rel X          than X over N epochs (default 0.02 over a tenth of the\n"
+           "                         epochs, at least 2, and at the latest after half of them;\n"
+           "                         the paper's 50 are a sliver of its run)\n"
            "  --test-garments A,B    held out: garment types, motions and bodies; a sequence is\n"
            "  --test-motions A,B     test when all its given axes are held out, train when none\n"
            "  --test-bodies A,B      is, unused otherwise\n"
@@ -84,7 +86,7 @@ static int cmd_train(int argc, char **argv) {
         CLI_INT("--window", &t.window, 1, 60),
         CLI_INT("--batch", &t.batch, 1, 100000),
         CLI_FLOAT("--lr", &t.lr, 1e-8, 1),
-        CLI_INT("--stall-epochs", &t.stall_epochs, 1, 1000000),
+        CLI_INT("--stall-epochs", &t.stall_epochs, 0, 1000000),
         CLI_FLOAT("--stall-rel", &t.stall_rel, 0, 1),
         CLI_CUSTOM("--test-garments", cli_parse_list, &held[0], 1),
         CLI_CUSTOM("--test-motions", cli_parse_list, &held[1], 1),

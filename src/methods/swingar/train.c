@@ -166,7 +166,7 @@ cr_swingar_train_def cr_swingar_train_default_def(void) {
     d.batch = 4;
     d.lr = 1e-3f;
     d.lr_final = 0.0f;
-    d.stall_epochs = 50;
+    d.stall_epochs = 0; /* relative to the run (stall_window) */
     d.stall_rel = 0.02f;
     d.seed = 1;
     d.arena_bytes = (size_t)1 << 30;
@@ -182,9 +182,17 @@ typedef struct window {
  * error improved by less than stall_rel (relative) over the last
  * stall_epochs epochs. */
 static int stalled(const float *hist, int e, int S, float rel) {
-    if (e < S) return 0;
+    if (e < S || S < 1) return 0;
     float then = hist[e - S], now = hist[e];
     return then <= 0 || (then - now) / then < rel;
+}
+
+/* The stall rule's window: stall_epochs, or (0) a tenth of the run, at
+ * least 2: the paper's 50 epochs are a sliver of its 3.9 M steps, and a
+ * window as long as a short run never closes. */
+static int stall_window(const cr_swingar_train_def *def) {
+    if (def->stall_epochs > 0) return def->stall_epochs;
+    return def->epochs / 10 > 2 ? def->epochs / 10 : 2;
 }
 
 static cJSON *train_state(int supervised, int switched, const float *hist, int n) {
@@ -410,7 +418,10 @@ static cr_status end_epoch(train_run *r, int e, int epoch0, double loss_sum, dou
     }
     res->last_loss = (float)(loss_sum / r->nw);
     res->last_vert_m = r->hist[e];
-    if (r->supervised && stalled(r->hist, e, def->stall_epochs, def->stall_rel)) {
+    /* every loss from the stall on, and (the relative rule) at the latest for the run's
+     * second half */
+    if (r->supervised && (stalled(r->hist, e, stall_window(def), def->stall_rel) ||
+                          (def->stall_epochs == 0 && e + 1 >= def->epochs / 2))) {
         r->supervised = 0;
         r->switched = e + 1;
     }
@@ -438,7 +449,7 @@ cr_status cr_swingar_train(const cr_swingar_train_def *def, const cr_swingar_dat
     if (!def || def->cookie != SWG_TRAIN_COOKIE)
         return CR_FAIL(err, CR_ERR_INVALID, "swingar train: def not made by its default_def");
     if (def->epochs < 1 || def->window < 1 || def->window > SWG_MAX_WINDOW || def->batch < 1 ||
-        !(def->lr > 0) || def->stall_epochs < 1 || !(def->stall_rel >= 0))
+        !(def->lr > 0) || def->stall_epochs < 0 || !(def->stall_rel >= 0))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "swingar train: epochs, window (1..%d), batch, lr or stall rule out of "
                        "range",
