@@ -26,6 +26,27 @@ typedef enum nn_binary_mode {
     NN_BINARY_GRAD_B  /* out = dy * df/db */
 } nn_binary_mode;
 
+/* GAT-LN's attention for inference (cpu_gat.c): what layer_gat.c's tape
+ * ops compute from the projection p to the aggregate, before bias and
+ * activation. Edges come grouped by receiver: those of receiver i are
+ * snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
+enum { NN_GAT_MAX_HEADS = 64 };
+enum { NN_GAT_NORM_NONE = 0, NN_GAT_NORM_GLOBAL = 1, NN_GAT_NORM_RECEIVER = 2 }; /* cr_gat_norm */
+typedef struct nn_gat_attend_args {
+    int64_t N, IN, H, F; /* nodes, input features, heads (<= NN_GAT_MAX_HEADS), per-head out */
+    int concat;          /* 1: out (N,H*F) heads side by side; 0: (N,F) their mean */
+    int norm;            /* NN_GAT_NORM_* */
+    float alpha, slope;  /* eq. 4's alpha; LeakyReLU's negative slope */
+    const float *x;      /* (N,IN) the layer's input (|x| of eq. 4) */
+    const float *w;      /* (H*F,IN) the projection's weight (Lip(g) of eq. 4) */
+    const float *p;      /* (N,H*F) x w^T */
+    const float *att_src, *att_dst; /* (H,F) */
+    const int64_t *off;             /* (N+1) */
+    const int32_t *perm, *snd;      /* (E) */
+    float *scratch;                 /* gat_attend_scratch(N, E, H) floats */
+    float *out;                     /* (N,concat ? H*F : F) */
+} nn_gat_attend_args;
+
 typedef struct cr_nn_backend {
     const char *name;
 
@@ -108,6 +129,10 @@ typedef struct cr_nn_backend {
                                     const int32_t *perm, int64_t nseg, float *y);
     void (*segment_softmax_backward)(const float *y, const float *dy, int64_t H, const int64_t *off,
                                      const int32_t *perm, int64_t nseg, float *dx);
+
+    /* ---- fused forward-only kernels (inference: no tape, nothing kept) */
+    size_t (*gat_attend_scratch)(int64_t N, int64_t E, int64_t H); /* floats */
+    void (*gat_attend_forward)(const nn_gat_attend_args *a);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */

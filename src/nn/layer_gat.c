@@ -240,6 +240,51 @@ static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tens
     return cr_nn_mul_scalar(ctx, cr_nn_div(ctx, g, den), gat->def.alpha);
 }
 
+/* Inference (the context's gradient off): the projection's GEMM, then the
+ * scores, normalisation, softmax and weighted sum in the backend's one
+ * forward-only kernel, then bias and activation in one pass; nothing on the
+ * tape and no (E,H,F) array. Same values as the ops below within float
+ * rounding (tests/test_nn_graph.c). */
+static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, int64_t N,
+                                const int32_t *snd, const int32_t *rcv, int64_t E) {
+    const cr_gat_def *d = &gat->def;
+    const cr_nn_backend *be = ctx->be;
+    int64_t H = d->heads, F = d->out, C = cr_gat_out_dim(d);
+    cr_tensor *p = cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
+    int64_t *off = cr_nn_scratch(ctx, "gat", (size_t)(N + 1) * sizeof *off);
+    int32_t *perm = cr_nn_scratch(ctx, "gat", (size_t)E * sizeof *perm);
+    float *scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(N, E, H) * sizeof(float));
+    cr_tensor *out = cr_nn_new(ctx, 2, (int64_t[]){N, C});
+    if (!p || !off || !perm || !scratch || !out) return NULL;
+    be->csr_build(rcv, E, N, off, perm);
+    nn_gat_attend_args a = {.N = N,
+                            .IN = d->input,
+                            .H = H,
+                            .F = F,
+                            .concat = d->concat,
+                            .norm = (int)d->norm,
+                            .alpha = d->alpha,
+                            .slope = d->negative_slope,
+                            .x = x->data,
+                            .w = gat->lin.weight->data,
+                            .p = p->data,
+                            .att_src = gat->att_src->data,
+                            .att_dst = gat->att_dst->data,
+                            .off = off,
+                            .perm = perm,
+                            .snd = snd,
+                            .scratch = scratch,
+                            .out = out->data};
+    be->gat_attend_forward(&a);
+    cr_op op = cr_nn_act_fused_op(d->act, d->act_param);
+    if (op == CR_OP_COUNT) {
+        if (gat->bias) out = cr_nn_add(ctx, out, gat->bias);
+        return cr_act_forward(ctx, d->act, d->act_param, out);
+    }
+    be->bias_act_forward(op, d->act_param, gat->bias ? gat->bias->data : NULL, out->data, N, C);
+    return out;
+}
+
 cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const cr_nn_graph *g,
                           cr_gat_attention *att) {
     CR_ASSERT(gat && g);
@@ -256,6 +301,8 @@ cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const
     int32_t *snd = NULL, *rcv = NULL;
     int64_t E = build_edges(ctx, g, d->self_loops, &snd, &rcv);
     if (E < 0) return NULL;
+    if (E > 0 && !att && !ctx->grad_enabled && H <= NN_GAT_MAX_HEADS)
+        return forward_infer(ctx, gat, x, N, snd, rcv, E);
     cr_tensor *out;
     if (E == 0) {
         out = cr_nn_zeros(ctx, 2, (int64_t[]){N, cr_gat_out_dim(d)});

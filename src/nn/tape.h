@@ -11,6 +11,7 @@
 #define CREASE_NN_TAPE_H
 
 #include "crease/nn.h"
+#include "crease/nn_layers.h"
 #include "nn/backend.h"
 
 /* Typed per-op parameters (one struct per op family, no untyped int bags). */
@@ -137,6 +138,11 @@ cr_tensor *cr_nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t
 static inline float *nn_gout(const cr_tensor *t) {
     return t && t->requires_grad ? t->grad : NULL;
 }
+
+/* ---- layer_linear.c */
+/* The op a fused bias + activation pass runs for act (backend
+ * bias_act_forward), or CR_OP_COUNT for one it does not (sin). */
+cr_op cr_nn_act_fused_op(cr_act act, float param);
 
 /* ---- tape.c */
 /* Run the node's forward, then record it if a gradient is wanted. Returns

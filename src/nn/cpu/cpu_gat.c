@@ -1,0 +1,282 @@
+/* cpu_gat.c: GAT-LN's attention for inference (layer_gat.c with the
+ * context's gradient off): the scores, eq. 4's Lipschitz normalisation, the
+ * LeakyReLU, the softmax over each receiver's incoming edges and the
+ * weighted sum of the senders' projected features, in passes over the
+ * receivers in CSR order instead of a dozen tape ops that each write an
+ * (E,H) or (E,H,F) array (docs/swingar.md, issue 51).
+ *
+ * The formulas are layer_gat.c's, evaluated in the same order per edge:
+ *   g_ij   = s_dst_i + s_src_j,  s_*_n = a_* . p_n                   (E,H)
+ *   rows_i = sum_{j->i} g_ij^2,  den = max{sqrt(rows + ROW_TINY), |x|_max Lip} + DEN_TINY
+ *   e_ij   = LeakyReLU(alpha g_ij / den),  w_ij = softmax over i's edges
+ *   out_i  = sum_j w_ij p_j  (heads concatenated, or averaged)
+ * with |x|_max and the row norm global or per receiver as the def asks.
+ * Sums over edges are in float (the tape's segment sums are in double), so
+ * results agree with the tape within float rounding, not bit for bit.
+ * The per-head dot products and the weighted row sums have AVX2 + FMA and
+ * AVX-512F paths (cr_nn_cpu_simd), the exponentials go through
+ * cpu_vmath.c; the portable path is the reference the tests compare.
+ * Leaves out: the bias and activation (the caller's bias_act_forward) and
+ * any gradient.
+ */
+#include "nn/cpu/cpu.h"
+
+#include <math.h>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define NN_CPU_X86 1
+#else
+#define NN_CPU_X86 0
+#endif
+
+/* layer_gat.c's floors (see there). */
+static const float ROW_TINY = 1e-24f;
+static const float DEN_TINY = 1e-12f;
+
+/* ------------------------------------------------- dot and axpy, 3 paths -- */
+
+static float dot_scalar(const float *a, const float *b, int64_t n) {
+    float s = 0.0f;
+    for (int64_t i = 0; i < n; i++)
+        s += a[i] * b[i];
+    return s;
+}
+
+static void axpy_scalar(float a, const float *x, float *y, int64_t n) {
+    for (int64_t i = 0; i < n; i++)
+        y[i] += a * x[i];
+}
+
+#if NN_CPU_X86
+#define NN_AVX2 __attribute__((target("avx2,fma")))
+#define NN_AVX512 __attribute__((target("avx512f")))
+
+static NN_AVX2 float dot_avx2(const float *a, const float *b, int64_t n) {
+    __m256 acc = _mm256_setzero_ps();
+    int64_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        acc = _mm256_fmadd_ps(_mm256_loadu_ps(a + i), _mm256_loadu_ps(b + i), acc);
+    __m128 s = _mm_add_ps(_mm256_castps256_ps128(acc), _mm256_extractf128_ps(acc, 1));
+    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+    s = _mm_add_ss(s, _mm_movehdup_ps(s));
+    float r = _mm_cvtss_f32(s);
+    for (; i < n; i++)
+        r += a[i] * b[i];
+    return r;
+}
+
+static NN_AVX2 void axpy_avx2(float a, const float *x, float *y, int64_t n) {
+    __m256 va = _mm256_set1_ps(a);
+    int64_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm256_storeu_ps(y + i,
+                         _mm256_fmadd_ps(va, _mm256_loadu_ps(x + i), _mm256_loadu_ps(y + i)));
+    for (; i < n; i++)
+        y[i] += a * x[i];
+}
+
+static NN_AVX512 float dot_avx512(const float *a, const float *b, int64_t n) {
+    __m512 acc = _mm512_setzero_ps();
+    int64_t i = 0;
+    for (; i + 16 <= n; i += 16)
+        acc = _mm512_fmadd_ps(_mm512_loadu_ps(a + i), _mm512_loadu_ps(b + i), acc);
+    if (i < n) {
+        __mmask16 m = (__mmask16)((1u << (n - i)) - 1u);
+        acc =
+            _mm512_fmadd_ps(_mm512_maskz_loadu_ps(m, a + i), _mm512_maskz_loadu_ps(m, b + i), acc);
+    }
+    return _mm512_reduce_add_ps(acc);
+}
+
+static NN_AVX512 void axpy_avx512(float a, const float *x, float *y, int64_t n) {
+    __m512 va = _mm512_set1_ps(a);
+    int64_t i = 0;
+    for (; i + 16 <= n; i += 16)
+        _mm512_storeu_ps(y + i,
+                         _mm512_fmadd_ps(va, _mm512_loadu_ps(x + i), _mm512_loadu_ps(y + i)));
+    if (i < n) {
+        __mmask16 m = (__mmask16)((1u << (n - i)) - 1u);
+        _mm512_mask_storeu_ps(
+            y + i, m,
+            _mm512_fmadd_ps(va, _mm512_maskz_loadu_ps(m, x + i), _mm512_maskz_loadu_ps(m, y + i)));
+    }
+}
+#endif
+
+typedef float (*dot_fn)(const float *, const float *, int64_t);
+typedef void (*axpy_fn)(float, const float *, float *, int64_t);
+
+/* ------------------------------------------------------------- passes -- */
+
+typedef struct gat_pass {
+    const nn_gat_attend_args *a;
+    float *s;     /* (N,2H): s_dst then s_src of each node */
+    float *score; /* (E,H) in CSR order */
+    float *rows;  /* (N,H) sum of squared scores per receiver */
+    float *xn;    /* (N) |x_n| */
+    float *lip;   /* (H) */
+    float *den;   /* (H) the global denominators */
+    dot_fn dot;
+    axpy_fn axpy;
+} gat_pass;
+
+static void node_range(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    int64_t H = a->H, F = a->F;
+    for (int64_t n = begin; n < end; n++) {
+        const float *pn = a->p + n * H * F;
+        for (int64_t h = 0; h < H; h++) {
+            g->s[n * 2 * H + h] = g->dot(pn + h * F, a->att_dst + h * F, F);
+            g->s[n * 2 * H + H + h] = g->dot(pn + h * F, a->att_src + h * F, F);
+        }
+        g->xn[n] = sqrtf(g->dot(a->x + n * a->IN, a->x + n * a->IN, a->IN));
+    }
+}
+
+/* Raw scores in CSR order and their squared row sums. */
+static void score_range(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    int64_t H = a->H;
+    for (int64_t i = begin; i < end; i++) {
+        const float *sd = g->s + i * 2 * H;
+        float *rows = g->rows + i * H;
+        for (int64_t h = 0; h < H; h++)
+            rows[h] = 0.0f;
+        for (int64_t k = a->off[i]; k < a->off[i + 1]; k++) {
+            const float *ss = g->s + (int64_t)a->snd[a->perm[k]] * 2 * H + H;
+            float *sc = g->score + k * H;
+            for (int64_t h = 0; h < H; h++) {
+                float v = sd[h] + ss[h];
+                sc[h] = v;
+                rows[h] += v * v;
+            }
+        }
+    }
+}
+
+/* Normalised, activated scores minus each receiver's maximum per head. */
+static void logit_range(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    int64_t H = a->H;
+    float den[NN_GAT_MAX_HEADS], mx[NN_GAT_MAX_HEADS];
+    for (int64_t i = begin; i < end; i++) {
+        int64_t k0 = a->off[i], k1 = a->off[i + 1];
+        if (a->norm == NN_GAT_NORM_RECEIVER) {
+            float xm = g->xn[i];
+            for (int64_t k = k0; k < k1; k++) {
+                float v = g->xn[a->snd[a->perm[k]]];
+                xm = v > xm ? v : xm;
+            }
+            for (int64_t h = 0; h < H; h++) {
+                float rn = sqrtf(g->rows[i * H + h] + ROW_TINY), lt = xm * g->lip[h];
+                den[h] = (rn >= lt ? rn : lt) + DEN_TINY;
+            }
+        }
+        const float *dh = a->norm == NN_GAT_NORM_RECEIVER ? den : g->den;
+        for (int64_t h = 0; h < H; h++)
+            mx[h] = -INFINITY;
+        for (int64_t k = k0; k < k1; k++) {
+            float *sc = g->score + k * H;
+            for (int64_t h = 0; h < H; h++) {
+                float v = a->norm == NN_GAT_NORM_NONE ? sc[h] : sc[h] / dh[h] * a->alpha;
+                v = nn_cpu_select_pos(v, v, a->slope * v);
+                sc[h] = v;
+                mx[h] = v > mx[h] ? v : mx[h];
+            }
+        }
+        for (int64_t k = k0; k < k1; k++)
+            for (int64_t h = 0; h < H; h++)
+                g->score[k * H + h] -= mx[h];
+    }
+}
+
+/* Softmax weights from the exponentials, then the weighted sum. */
+static void gather_range(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    int64_t H = a->H, F = a->F, HF = H * F, C = a->concat ? HF : F;
+    float inv[NN_GAT_MAX_HEADS];
+    const float scale = a->concat ? 1.0f : 1.0f / (float)H;
+    for (int64_t i = begin; i < end; i++) {
+        int64_t k0 = a->off[i], k1 = a->off[i + 1];
+        for (int64_t h = 0; h < H; h++)
+            inv[h] = 0.0f;
+        for (int64_t k = k0; k < k1; k++)
+            for (int64_t h = 0; h < H; h++)
+                inv[h] += g->score[k * H + h];
+        for (int64_t h = 0; h < H; h++)
+            inv[h] = scale / inv[h];
+        float *o = a->out + i * C;
+        for (int64_t c = 0; c < C; c++)
+            o[c] = 0.0f;
+        for (int64_t k = k0; k < k1; k++) {
+            const float *pj = a->p + (int64_t)a->snd[a->perm[k]] * HF;
+            const float *sc = g->score + k * H;
+            for (int64_t h = 0; h < H; h++)
+                g->axpy(sc[h] * inv[h], pj + h * F, o + (a->concat ? h * F : 0), F);
+        }
+    }
+}
+
+/* Lip(g) per head: |[W_h^T a_dst ; W_h^T a_src]|, W (H*F,IN). */
+static void lipschitz(const nn_gat_attend_args *a, float *lip) {
+    for (int64_t h = 0; h < a->H; h++) {
+        double acc = 0.0;
+        for (int64_t k = 0; k < a->IN; k++) {
+            double ud = 0.0, us = 0.0;
+            for (int64_t f = 0; f < a->F; f++) {
+                double w = a->w[(h * a->F + f) * a->IN + k];
+                ud += w * a->att_dst[h * a->F + f];
+                us += w * a->att_src[h * a->F + f];
+            }
+            acc += ud * ud + us * us;
+        }
+        lip[h] = (float)sqrt(acc);
+    }
+}
+
+size_t cr_nn_cpu_gat_attend_scratch(int64_t N, int64_t E, int64_t H) {
+    return (size_t)(2 * N * H + E * H + N * H + N + 2 * H);
+}
+
+void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
+    CR_ASSERT(a->H >= 1 && a->H <= NN_GAT_MAX_HEADS && a->N >= 1);
+    int64_t N = a->N, H = a->H, E = a->off[N];
+    gat_pass g = {.a = a, .dot = dot_scalar, .axpy = axpy_scalar};
+#if NN_CPU_X86
+    int level = cr_nn_cpu_simd();
+    if (level >= NN_SIMD_AVX512)
+        g.dot = dot_avx512, g.axpy = axpy_avx512;
+    else if (level >= NN_SIMD_AVX2)
+        g.dot = dot_avx2, g.axpy = axpy_avx2;
+#endif
+    g.s = a->scratch;
+    g.score = g.s + 2 * N * H;
+    g.rows = g.score + E * H;
+    g.xn = g.rows + N * H;
+    g.lip = g.xn + N;
+    g.den = g.lip + H;
+    int64_t per = E / N + 1;
+    cr_parallel_for(N, nn_cpu_row_grain(2 * H * a->F + a->IN), node_range, &g);
+    cr_parallel_for(N, nn_cpu_row_grain(per * H), score_range, &g);
+    if (a->norm != NN_GAT_NORM_NONE) lipschitz(a, g.lip);
+    if (a->norm == NN_GAT_NORM_GLOBAL) {
+        float xmax = g.xn[0];
+        for (int64_t n = 1; n < N; n++)
+            xmax = g.xn[n] > xmax ? g.xn[n] : xmax;
+        for (int64_t h = 0; h < H; h++) {
+            float rmax = g.rows[h];
+            for (int64_t n = 1; n < N; n++)
+                rmax = g.rows[n * H + h] > rmax ? g.rows[n * H + h] : rmax;
+            float rn = sqrtf(rmax + ROW_TINY), lt = xmax * g.lip[h];
+            g.den[h] = (rn >= lt ? rn : lt) + DEN_TINY;
+        }
+    }
+    cr_parallel_for(N, nn_cpu_row_grain(per * H), logit_range, &g);
+    cr_nn_cpu_unary_forward(CR_OP_EXP, 0.0f, g.score, g.score, E * H);
+    cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), gather_range, &g);
+}
