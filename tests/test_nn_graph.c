@@ -442,6 +442,79 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
     cr_nn_ctx_destroy(ctx);
 }
 
+/* |a - b| over n floats, checked against tol (1 + |b|); returns the largest. */
+static double near_all(const cr_tensor *a, const cr_tensor *b, double tol) {
+    double worst = 0.0;
+    CR_CHECK(a && b && cr_nn_same_shape(a, b));
+    if (!a || !b || !cr_nn_same_shape(a, b)) return INFINITY;
+    for (int64_t i = 0; i < a->numel; i++) {
+        double e = fabs((double)a->data[i] - b->data[i]);
+        worst = e > worst ? e : worst;
+        CR_CHECK_NEAR(a->data[i], b->data[i], tol * (1.0 + fabs(b->data[i])));
+    }
+    return worst;
+}
+
+/* The LSTM runner and the graph LSTM with the gradient off (cpu_rnn.c's
+ * gates, cpu_gat.c's attention) against the tape on every SIMD path:
+ * H = 7 leaves vector tails; zero and given states, with peepholes. */
+CR_TEST(nn_graph, lstm_inference_matches_tape) {
+    enum { T = 3, B = 5, IN = 4, H = 7 };
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
+    CR_REQUIRE(ctx);
+    cr_nn_params *P = NULL;
+    cr_error err = {0};
+    CR_REQUIRE(cr_nn_params_create(&P, &err) == CR_OK);
+    cr_rng rng = cr_rng_make(7, 0);
+    cr_rnn_def rd = cr_rnn_default_def();
+    rd.input = IN, rd.hidden = H;
+    cr_rnn_cell lstm;
+    CR_CHECK_OK(cr_lstm_cell_create(&rd, P, "lstm", &rng, &lstm, &err), &err);
+    cr_gat_lstm_def gd = cr_gat_lstm_default_def();
+    gd.input = IN, gd.hidden = H, gd.gat.heads = 2, gd.gat.concat = 0;
+    cr_gat_lstm gl;
+    CR_CHECK_OK(cr_gat_lstm_create(&gd, P, "gl", &rng, &gl, &err), &err);
+    randomise(P, 0.8f, 8);
+    const cr_nn_graph g = infer_graph();
+    float x[T * IN_N * IN], s0[2 * IN_N * H];
+    nn_gradcheck_fill(x, T * IN_N * IN, -1, 1, 0, 9);
+    nn_gradcheck_fill(s0, 2 * IN_N * H, -1, 1, 0, 10);
+    const int prev = cr_nn_cpu_simd();
+    double worst = 0.0;
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        for (int given = 0; given < 2; given++) {
+            cr_tensor *y[2], *hl[2], *cl[2], *gy[2], *ghl[2], *gcl[2];
+            cr_nn_ctx_reset(ctx);
+            for (int mode = 0; mode < 2; mode++) {
+                cr_nn_ctx_set_grad_enabled(ctx, mode == 0);
+                cr_tensor *xs = cr_nn_from(ctx, 3, (int64_t[]){T, B, IN}, x);
+                cr_tensor *xg = cr_nn_from(ctx, 3, (int64_t[]){T, IN_N, IN}, x);
+                xs->requires_grad = xg->requires_grad = 1;
+                cr_tensor *h0 = given ? cr_nn_from(ctx, 2, (int64_t[]){B, H}, s0) : NULL;
+                cr_tensor *c0 = given ? cr_nn_from(ctx, 2, (int64_t[]){B, H}, s0 + B * H) : NULL;
+                cr_tensor *gh0 = given ? cr_nn_from(ctx, 2, (int64_t[]){IN_N, H}, s0) : NULL;
+                cr_tensor *gc0 =
+                    given ? cr_nn_from(ctx, 2, (int64_t[]){IN_N, H}, s0 + IN_N * H) : NULL;
+                y[mode] = cr_lstm_forward(ctx, &lstm, xs, h0, c0, &hl[mode], &cl[mode]);
+                gy[mode] = cr_gat_lstm_forward(ctx, &gl, xg, &g, gh0, gc0, &ghl[mode], &gcl[mode]);
+                CR_REQUIRE(y[mode] && gy[mode]);
+                CR_CHECK(y[mode]->requires_grad == (mode == 0));
+            }
+            cr_nn_ctx_set_grad_enabled(ctx, 1);
+            double e[6] = {near_all(y[1], y[0], 2e-5),     near_all(hl[1], hl[0], 2e-5),
+                           near_all(cl[1], cl[0], 2e-5),   near_all(gy[1], gy[0], 2e-5),
+                           near_all(ghl[1], ghl[0], 2e-5), near_all(gcl[1], gcl[0], 2e-5)};
+            for (int i = 0; i < 6; i++)
+                worst = e[i] > worst ? e[i] : worst;
+        }
+    }
+    cr_nn_cpu_set_simd(prev);
+    cr_log(CR_LOG_INFO, "lstm inference against the tape: max |diff| %.3g", worst);
+    cr_nn_params_destroy(P);
+    cr_nn_ctx_destroy(ctx);
+}
+
 /* Receivers' incoming weights sum to one; scores obey |g*| <= alpha and,
  * row by row, ||g*_i||_2 <= alpha; scaling x by 100 leaves them unchanged,
  * while plain GAT saturates. */

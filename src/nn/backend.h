@@ -47,6 +47,18 @@ typedef struct nn_gat_attend_args {
     float *out;                     /* (N,concat ? H*F : F) */
 } nn_gat_attend_args;
 
+/* An LSTM cell's gates for inference (cpu_rnn.c): z = zx + zh (+ peepholes
+ * on c), [i, f, g, o] along 4H, c_out = f c + i g, h = o tanh(c_out). */
+typedef struct nn_lstm_gates_args {
+    int64_t B, H;
+    const float *zx;    /* (B,4H) */
+    const float *zh;    /* (B,4H) or NULL (zero) */
+    const float *c;     /* (B,H) or NULL (zero state) */
+    const float *pw[3]; /* (H) peephole weights of i, f, o on c, or all NULL */
+    float *z;           /* (B,4H) scratch */
+    float *h, *c_out;   /* (B,H) */
+} nn_lstm_gates_args;
+
 typedef struct cr_nn_backend {
     const char *name;
 
@@ -133,6 +145,7 @@ typedef struct cr_nn_backend {
     /* ---- fused forward-only kernels (inference: no tape, nothing kept) */
     size_t (*gat_attend_scratch)(int64_t N, int64_t E, int64_t H); /* floats */
     void (*gat_attend_forward)(const nn_gat_attend_args *a);
+    void (*lstm_gates_forward)(const nn_lstm_gates_args *a);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */

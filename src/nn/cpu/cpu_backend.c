@@ -29,6 +29,7 @@ static const cr_nn_backend cpu_backend = {
     .segment_softmax_backward = cr_nn_cpu_segment_softmax_backward,
     .gat_attend_scratch = cr_nn_cpu_gat_attend_scratch,
     .gat_attend_forward = cr_nn_cpu_gat_attend_forward,
+    .lstm_gates_forward = cr_nn_cpu_lstm_gates_forward,
     .layer_norm_forward = cr_nn_cpu_layer_norm_forward,
     .layer_norm_backward = cr_nn_cpu_layer_norm_backward,
     .cross_forward = cr_nn_cpu_cross_forward,
