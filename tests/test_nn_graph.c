@@ -380,6 +380,19 @@ CR_TEST(nn_graph, gat_matches_loop_reference) {
     cr_nn_ctx_destroy(ctx);
 }
 
+/* |a - b| over n floats, checked against tol (1 + |b|); returns the largest. */
+static double near_all(const cr_tensor *a, const cr_tensor *b, double tol) {
+    double worst = 0.0;
+    CR_CHECK(a && b && cr_nn_same_shape(a, b));
+    if (!a || !b || !cr_nn_same_shape(a, b)) return INFINITY;
+    for (int64_t i = 0; i < a->numel; i++) {
+        double e = fabs((double)a->data[i] - b->data[i]);
+        worst = e > worst ? e : worst;
+        CR_CHECK_NEAR(a->data[i], b->data[i], tol * (1.0 + fabs(b->data[i])));
+    }
+    return worst;
+}
+
 /* A ring of n nodes with chords i -> i + 7, one given self loop (dropped
  * and replaced by the layer's own) and node 0 receiving from everyone (a
  * long segment); senders and receivers as arena-free static storage. */
@@ -426,33 +439,27 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
                 cr_tensor *ref = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
                 cr_nn_ctx_set_grad_enabled(ctx, 0);
                 cr_tensor *y = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
-                cr_nn_ctx_set_grad_enabled(ctx, 1);
                 CR_REQUIRE(ref && y && cr_nn_same_shape(ref, y));
                 CR_CHECK(ref->requires_grad && !y->requires_grad);
-                for (int64_t i = 0; i < y->numel; i++) {
-                    double e = fabs((double)y->data[i] - ref->data[i]);
-                    worst = e > worst ? e : worst;
-                    CR_CHECK_NEAR(y->data[i], ref->data[i], 2e-5 * (1.0 + fabs(ref->data[i])));
-                }
+                double e = near_all(y, ref, 2e-5);
+                worst = e > worst ? e : worst;
+                /* another graph in the same step, then the first again: the
+                 * step's cached edges must follow the graph */
+                const cr_nn_graph small = test_graph();
+                cr_tensor *xs = cr_nn_from(ctx, 2, (int64_t[]){GN, 13}, x);
+                cr_tensor *ys = cr_gat_forward(ctx, &k.gat, xs, &small, NULL);
+                cr_tensor *y2 = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
+                cr_nn_ctx_set_grad_enabled(ctx, 1);
+                cr_tensor *refs = cr_gat_forward(ctx, &k.gat, xs, &small, NULL);
+                CR_REQUIRE(ys && y2 && refs);
+                near_all(ys, refs, 2e-5);
+                near_all(y2, ref, 2e-5);
                 cr_nn_params_destroy(P);
             }
     }
     cr_nn_cpu_set_simd(prev);
     cr_log(CR_LOG_INFO, "gat inference against the tape: max |diff| %.3g", worst);
     cr_nn_ctx_destroy(ctx);
-}
-
-/* |a - b| over n floats, checked against tol (1 + |b|); returns the largest. */
-static double near_all(const cr_tensor *a, const cr_tensor *b, double tol) {
-    double worst = 0.0;
-    CR_CHECK(a && b && cr_nn_same_shape(a, b));
-    if (!a || !b || !cr_nn_same_shape(a, b)) return INFINITY;
-    for (int64_t i = 0; i < a->numel; i++) {
-        double e = fabs((double)a->data[i] - b->data[i]);
-        worst = e > worst ? e : worst;
-        CR_CHECK_NEAR(a->data[i], b->data[i], tol * (1.0 + fabs(b->data[i])));
-    }
-    return worst;
 }
 
 /* The LSTM runner and the graph LSTM with the gradient off (cpu_rnn.c's

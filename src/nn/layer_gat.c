@@ -240,23 +240,52 @@ static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tens
     return cr_nn_mul_scalar(ctx, cr_nn_div(ctx, g, den), gat->def.alpha);
 }
 
+/* The edges and their CSR for inference: the step's cached ones when the
+ * graph's arrays hold the same edges as at the last call (the layers of one
+ * model share a graph), else built and cached. NULL on error. */
+static const nn_gat_edges *infer_edges(cr_nn_ctx *ctx, const cr_nn_graph *g, int self_loops) {
+    nn_gat_edges *c = ctx->gat_edges;
+    size_t bytes = (size_t)g->edges * sizeof(int32_t);
+    if (c && c->nodes == g->nodes && c->edges == g->edges && c->self_loops == self_loops &&
+        (g->edges == 0 || (memcmp(c->given_snd, g->senders, bytes) == 0 &&
+                           memcmp(c->given_rcv, g->receivers, bytes) == 0)))
+        return c;
+    c = cr_nn_scratch(ctx, "gat", sizeof *c);
+    if (!c) return NULL;
+    c->nodes = g->nodes, c->edges = g->edges, c->self_loops = self_loops;
+    c->E = build_edges(ctx, g, self_loops, &c->snd, &c->rcv);
+    if (c->E < 0) return NULL;
+    c->given_snd = cr_nn_scratch(ctx, "gat", bytes + 1);
+    c->given_rcv = cr_nn_scratch(ctx, "gat", bytes + 1);
+    c->off = cr_nn_scratch(ctx, "gat", (size_t)(g->nodes + 1) * sizeof *c->off);
+    c->perm = cr_nn_scratch(ctx, "gat", (size_t)(c->E > 0 ? c->E : 1) * sizeof *c->perm);
+    if (!c->given_snd || !c->given_rcv || !c->off || !c->perm) return NULL;
+    if (g->edges > 0) {
+        memcpy(c->given_snd, g->senders, bytes);
+        memcpy(c->given_rcv, g->receivers, bytes);
+    }
+    ctx->be->csr_build(c->rcv, c->E, g->nodes, c->off, c->perm);
+    ctx->gat_edges = c;
+    return c;
+}
+
 /* Inference (the context's gradient off): the projection's GEMM, then the
- * scores, normalisation, softmax and weighted sum in the backend's one
- * forward-only kernel, then bias and activation in one pass; nothing on the
- * tape and no (E,H,F) array. Same values as the ops below within float
- * rounding (tests/test_nn_graph.c). */
-static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, int64_t N,
-                                const int32_t *snd, const int32_t *rcv, int64_t E) {
+ * scores, normalisation, softmax, weighted sum and bias in the backend's one
+ * forward-only kernel, then the activation in one vector pass; nothing on
+ * the tape and no (E,H,F) array. Same values as the ops below within float
+ * rounding (tests/test_nn_graph.c). NULL with no error recorded when the
+ * graph has no edges (the caller's ops handle that). */
+static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
+                                const cr_nn_graph *g) {
     const cr_gat_def *d = &gat->def;
     const cr_nn_backend *be = ctx->be;
-    int64_t H = d->heads, F = d->out, C = cr_gat_out_dim(d);
+    int64_t N = g->nodes, H = d->heads, F = d->out, C = cr_gat_out_dim(d);
+    const nn_gat_edges *ed = infer_edges(ctx, g, d->self_loops);
+    if (!ed || ed->E == 0) return NULL;
     cr_tensor *p = cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
-    int64_t *off = cr_nn_scratch(ctx, "gat", (size_t)(N + 1) * sizeof *off);
-    int32_t *perm = cr_nn_scratch(ctx, "gat", (size_t)E * sizeof *perm);
-    float *scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(N, E, H) * sizeof(float));
+    float *scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(N, ed->E, H) * sizeof(float));
     cr_tensor *out = cr_nn_new(ctx, 2, (int64_t[]){N, C});
-    if (!p || !off || !perm || !scratch || !out) return NULL;
-    be->csr_build(rcv, E, N, off, perm);
+    if (!p || !scratch || !out) return NULL;
     nn_gat_attend_args a = {.N = N,
                             .IN = d->input,
                             .H = H,
@@ -270,18 +299,16 @@ static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
                             .p = p->data,
                             .att_src = gat->att_src->data,
                             .att_dst = gat->att_dst->data,
-                            .off = off,
-                            .perm = perm,
-                            .snd = snd,
+                            .off = ed->off,
+                            .perm = ed->perm,
+                            .snd = ed->snd,
+                            .bias = gat->bias ? gat->bias->data : NULL,
                             .scratch = scratch,
                             .out = out->data};
     be->gat_attend_forward(&a);
     cr_op op = cr_nn_act_fused_op(d->act, d->act_param);
-    if (op == CR_OP_COUNT) {
-        if (gat->bias) out = cr_nn_add(ctx, out, gat->bias);
-        return cr_act_forward(ctx, d->act, d->act_param, out);
-    }
-    be->bias_act_forward(op, d->act_param, gat->bias ? gat->bias->data : NULL, out->data, N, C);
+    if (op == CR_OP_COUNT) return cr_act_forward(ctx, d->act, d->act_param, out);
+    if (op != CR_OP_NONE) be->unary_forward(op, d->act_param, out->data, out->data, out->numel);
     return out;
 }
 
@@ -298,11 +325,13 @@ cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const
                 (long long)N, d->input, (long long)N, cr_nn_shape_str(x, s, sizeof s));
         return NULL;
     }
+    if (!att && !ctx->grad_enabled && H <= NN_GAT_MAX_HEADS) {
+        cr_tensor *y = forward_infer(ctx, gat, x, g);
+        if (y || ctx->err.status != CR_OK) return y;
+    }
     int32_t *snd = NULL, *rcv = NULL;
     int64_t E = build_edges(ctx, g, d->self_loops, &snd, &rcv);
     if (E < 0) return NULL;
-    if (E > 0 && !att && !ctx->grad_enabled && H <= NN_GAT_MAX_HEADS)
-        return forward_infer(ctx, gat, x, N, snd, rcv, E);
     cr_tensor *out;
     if (E == 0) {
         out = cr_nn_zeros(ctx, 2, (int64_t[]){N, cr_gat_out_dim(d)});

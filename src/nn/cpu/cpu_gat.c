@@ -16,8 +16,10 @@
  * The per-head dot products and the weighted row sums have AVX2 + FMA and
  * AVX-512F paths (cr_nn_cpu_simd), the exponentials go through
  * cpu_vmath.c; the portable path is the reference the tests compare.
- * Leaves out: the bias and activation (the caller's bias_act_forward) and
- * any gradient.
+ * The bias is added at the end of each receiver's row; the activation is
+ * the caller's (one vector pass over the whole output). alpha / den is
+ * multiplied where the tape divides, a rounding apart.
+ * Leaves out: the activation and any gradient.
  */
 #include "nn/cpu/cpu.h"
 
@@ -33,6 +35,8 @@
 /* layer_gat.c's floors (see there). */
 static const float ROW_TINY = 1e-24f;
 static const float DEN_TINY = 1e-12f;
+
+enum { SMALL_F = 32 }; /* per-head widths below this are summed inline, not by a vector call */
 
 /* ------------------------------------------------- dot and axpy, 3 paths -- */
 
@@ -116,7 +120,7 @@ typedef struct gat_pass {
     float *rows;  /* (N,H) sum of squared scores per receiver */
     float *xn;    /* (N) |x_n| */
     float *lip;   /* (H) */
-    float *den;   /* (H) the global denominators */
+    float *den;   /* (H) alpha over the global denominators (1 without a norm) */
     dot_fn dot;
     axpy_fn axpy;
 } gat_pass;
@@ -173,7 +177,7 @@ static void logit_range(void *vctx, int64_t begin, int64_t end) {
             }
             for (int64_t h = 0; h < H; h++) {
                 float rn = sqrtf(g->rows[i * H + h] + ROW_TINY), lt = xm * g->lip[h];
-                den[h] = (rn >= lt ? rn : lt) + DEN_TINY;
+                den[h] = a->alpha / ((rn >= lt ? rn : lt) + DEN_TINY);
             }
         }
         const float *dh = a->norm == NN_GAT_NORM_RECEIVER ? den : g->den;
@@ -182,7 +186,7 @@ static void logit_range(void *vctx, int64_t begin, int64_t end) {
         for (int64_t k = k0; k < k1; k++) {
             float *sc = g->score + k * H;
             for (int64_t h = 0; h < H; h++) {
-                float v = a->norm == NN_GAT_NORM_NONE ? sc[h] : sc[h] / dh[h] * a->alpha;
+                float v = sc[h] * dh[h];
                 v = nn_cpu_select_pos(v, v, a->slope * v);
                 sc[h] = v;
                 mx[h] = v > mx[h] ? v : mx[h];
@@ -216,9 +220,21 @@ static void gather_range(void *vctx, int64_t begin, int64_t end) {
         for (int64_t k = k0; k < k1; k++) {
             const float *pj = a->p + (int64_t)a->snd[a->perm[k]] * HF;
             const float *sc = g->score + k * H;
-            for (int64_t h = 0; h < H; h++)
-                g->axpy(sc[h] * inv[h], pj + h * F, o + (a->concat ? h * F : 0), F);
+            for (int64_t h = 0; h < H; h++) {
+                float wt = sc[h] * inv[h];
+                const float *src = pj + h * F;
+                float *dst = o + (a->concat ? h * F : 0);
+                if (F >= SMALL_F) {
+                    g->axpy(wt, src, dst, F);
+                    continue;
+                }
+                for (int64_t f = 0; f < F; f++) /* short rows: a call costs more */
+                    dst[f] += wt * src[f];
+            }
         }
+        if (a->bias)
+            for (int64_t c = 0; c < C; c++)
+                o[c] += a->bias[c];
     }
 }
 
@@ -273,8 +289,11 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
             for (int64_t n = 1; n < N; n++)
                 rmax = g.rows[n * H + h] > rmax ? g.rows[n * H + h] : rmax;
             float rn = sqrtf(rmax + ROW_TINY), lt = xmax * g.lip[h];
-            g.den[h] = (rn >= lt ? rn : lt) + DEN_TINY;
+            g.den[h] = a->alpha / ((rn >= lt ? rn : lt) + DEN_TINY);
         }
+    } else if (a->norm == NN_GAT_NORM_NONE) {
+        for (int64_t h = 0; h < H; h++)
+            g.den[h] = 1.0f;
     }
     cr_parallel_for(N, nn_cpu_row_grain(per * H), logit_range, &g);
     cr_nn_cpu_unary_forward(CR_OP_EXP, 0.0f, g.score, g.score, E * H);
