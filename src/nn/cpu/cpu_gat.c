@@ -36,7 +36,10 @@
 static const float ROW_TINY = 1e-24f;
 static const float DEN_TINY = 1e-12f;
 
-enum { SMALL_F = 32 }; /* per-head widths below this are summed inline, not by a vector call */
+enum {
+    GATHER_ROW = 1024, /* output widths summed in a local row (wider ones in place) */
+    GATHER_PAD = 16    /* room past the row for a whole vector */
+};
 
 /* ------------------------------------------------- dot and axpy, 3 paths -- */
 
@@ -47,7 +50,7 @@ static float dot_scalar(const float *a, const float *b, int64_t n) {
     return s;
 }
 
-static void axpy_scalar(float a, const float *x, float *y, int64_t n) {
+static inline void axpy_scalar(float a, const float *x, float *y, int64_t n) {
     for (int64_t i = 0; i < n; i++)
         y[i] += a * x[i];
 }
@@ -70,14 +73,19 @@ static NN_AVX2 float dot_avx2(const float *a, const float *b, int64_t n) {
     return r;
 }
 
-static NN_AVX2 void axpy_avx2(float a, const float *x, float *y, int64_t n) {
+static inline NN_AVX2 void axpy_avx2(float a, const float *x, float *y, int64_t n) {
+    static const int32_t lanes[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
     __m256 va = _mm256_set1_ps(a);
     int64_t i = 0;
     for (; i + 8 <= n; i += 8)
         _mm256_storeu_ps(y + i,
                          _mm256_fmadd_ps(va, _mm256_loadu_ps(x + i), _mm256_loadu_ps(y + i)));
-    for (; i < n; i++)
-        y[i] += a * x[i];
+    if (i < n) { /* the first n - i lanes */
+        __m256i m = _mm256_loadu_si256((const __m256i *)(lanes + 8 - (n - i)));
+        _mm256_maskstore_ps(
+            y + i, m,
+            _mm256_fmadd_ps(va, _mm256_maskload_ps(x + i, m), _mm256_maskload_ps(y + i, m)));
+    }
 }
 
 static NN_AVX512 float dot_avx512(const float *a, const float *b, int64_t n) {
@@ -93,7 +101,7 @@ static NN_AVX512 float dot_avx512(const float *a, const float *b, int64_t n) {
     return _mm512_reduce_add_ps(acc);
 }
 
-static NN_AVX512 void axpy_avx512(float a, const float *x, float *y, int64_t n) {
+static inline NN_AVX512 void axpy_avx512(float a, const float *x, float *y, int64_t n) {
     __m512 va = _mm512_set1_ps(a);
     int64_t i = 0;
     for (; i + 16 <= n; i += 16)
@@ -108,8 +116,32 @@ static NN_AVX512 void axpy_avx512(float a, const float *x, float *y, int64_t n) 
 }
 #endif
 
+#if NN_CPU_X86
+/* y[0..n) += a x[0..n) where y has a vector of room past n (the gather's
+ * local row): x's tail is a masked load, y is read and written whole, so
+ * the next edge's load of y forwards from this store (a masked store does
+ * not forward; it cost a third of the gather). The extra lanes add a * 0. */
+static inline NN_AVX512 void axpy_pad_avx512(float a, const float *x, float *y, int64_t n) {
+    __m512 va = _mm512_set1_ps(a);
+    for (int64_t i = 0; i < n; i += 16) {
+        __mmask16 m = n - i >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (n - i)) - 1u);
+        _mm512_storeu_ps(
+            y + i, _mm512_fmadd_ps(va, _mm512_maskz_loadu_ps(m, x + i), _mm512_loadu_ps(y + i)));
+    }
+}
+
+static inline NN_AVX2 void axpy_pad_avx2(float a, const float *x, float *y, int64_t n) {
+    static const int32_t lanes[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
+    __m256 va = _mm256_set1_ps(a);
+    for (int64_t i = 0; i < n; i += 8) {
+        __m256i m = _mm256_loadu_si256((const __m256i *)(lanes + 8 - (n - i >= 8 ? 8 : n - i)));
+        _mm256_storeu_ps(y + i,
+                         _mm256_fmadd_ps(va, _mm256_maskload_ps(x + i, m), _mm256_loadu_ps(y + i)));
+    }
+}
+#endif
+
 typedef float (*dot_fn)(const float *, const float *, int64_t);
-typedef void (*axpy_fn)(float, const float *, float *, int64_t);
 
 /* ------------------------------------------------------------- passes -- */
 
@@ -122,7 +154,6 @@ typedef struct gat_pass {
     float *lip;   /* (H) */
     float *den;   /* (H) alpha over the global denominators (1 without a norm) */
     dot_fn dot;
-    axpy_fn axpy;
 } gat_pass;
 
 static void node_range(void *vctx, int64_t begin, int64_t end) {
@@ -198,13 +229,16 @@ static void logit_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
-/* Softmax weights from the exponentials, then the weighted sum. */
-static void gather_range(void *vctx, int64_t begin, int64_t end) {
-    const gat_pass *g = vctx;
+/* Softmax weights from the exponentials, then the weighted sum: one body,
+ * instantiated per SIMD level below so the row updates inline (rows of a
+ * few floats are common: a call per edge and head cost more than its work). */
+static inline __attribute__((always_inline)) void gather_body(const gat_pass *g, int64_t begin,
+                                                              int64_t end, int level) {
     const nn_gat_attend_args *a = g->a;
     int64_t H = a->H, F = a->F, HF = H * F, C = a->concat ? HF : F;
-    float inv[NN_GAT_MAX_HEADS];
+    float inv[NN_GAT_MAX_HEADS], acc[GATHER_ROW + GATHER_PAD];
     const float scale = a->concat ? 1.0f : 1.0f / (float)H;
+    const int local = C <= GATHER_ROW; /* the row sums in acc, else in out */
     for (int64_t i = begin; i < end; i++) {
         int64_t k0 = a->off[i], k1 = a->off[i + 1];
         for (int64_t h = 0; h < H; h++)
@@ -214,29 +248,45 @@ static void gather_range(void *vctx, int64_t begin, int64_t end) {
                 inv[h] += g->score[k * H + h];
         for (int64_t h = 0; h < H; h++)
             inv[h] = scale / inv[h];
-        float *o = a->out + i * C;
-        for (int64_t c = 0; c < C; c++)
-            o[c] = 0.0f;
+        float *o = a->out + i * C, *row = local ? acc : o;
+        for (int64_t c = 0; c < (local ? C + GATHER_PAD : C); c++)
+            row[c] = 0.0f;
         for (int64_t k = k0; k < k1; k++) {
             const float *pj = a->p + (int64_t)a->snd[a->perm[k]] * HF;
             const float *sc = g->score + k * H;
             for (int64_t h = 0; h < H; h++) {
                 float wt = sc[h] * inv[h];
-                const float *src = pj + h * F;
-                float *dst = o + (a->concat ? h * F : 0);
-                if (F >= SMALL_F) {
-                    g->axpy(wt, src, dst, F);
-                    continue;
-                }
-                for (int64_t f = 0; f < F; f++) /* short rows: a call costs more */
-                    dst[f] += wt * src[f];
+                float *dst = row + (a->concat ? h * F : 0);
+#if NN_CPU_X86
+                if (level == NN_SIMD_AVX512)
+                    local ? axpy_pad_avx512(wt, pj + h * F, dst, F)
+                          : axpy_avx512(wt, pj + h * F, dst, F);
+                else if (level == NN_SIMD_AVX2)
+                    local ? axpy_pad_avx2(wt, pj + h * F, dst, F)
+                          : axpy_avx2(wt, pj + h * F, dst, F);
+                else
+#endif
+                    axpy_scalar(wt, pj + h * F, dst, F);
             }
         }
-        if (a->bias)
-            for (int64_t c = 0; c < C; c++)
-                o[c] += a->bias[c];
+        for (int64_t c = 0; c < C; c++)
+            o[c] = row[c] + (a->bias ? a->bias[c] : 0.0f);
     }
 }
+
+static void gather_scalar(void *vctx, int64_t begin, int64_t end) {
+    gather_body(vctx, begin, end, NN_SIMD_SCALAR);
+}
+
+#if NN_CPU_X86
+static NN_AVX2 void gather_avx2(void *vctx, int64_t begin, int64_t end) {
+    gather_body(vctx, begin, end, NN_SIMD_AVX2);
+}
+
+static NN_AVX512 void gather_avx512(void *vctx, int64_t begin, int64_t end) {
+    gather_body(vctx, begin, end, NN_SIMD_AVX512);
+}
+#endif
 
 /* Lip(g) per head: |[W_h^T a_dst ; W_h^T a_src]|, W (H*F,IN). */
 static void lipschitz(const nn_gat_attend_args *a, float *lip) {
@@ -262,13 +312,14 @@ size_t cr_nn_cpu_gat_attend_scratch(int64_t N, int64_t E, int64_t H) {
 void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     CR_ASSERT(a->H >= 1 && a->H <= NN_GAT_MAX_HEADS && a->N >= 1);
     int64_t N = a->N, H = a->H, E = a->off[N];
-    gat_pass g = {.a = a, .dot = dot_scalar, .axpy = axpy_scalar};
+    gat_pass g = {.a = a, .dot = dot_scalar};
+    cr_range_fn gather = gather_scalar;
 #if NN_CPU_X86
     int level = cr_nn_cpu_simd();
     if (level >= NN_SIMD_AVX512)
-        g.dot = dot_avx512, g.axpy = axpy_avx512;
+        g.dot = dot_avx512, gather = gather_avx512;
     else if (level >= NN_SIMD_AVX2)
-        g.dot = dot_avx2, g.axpy = axpy_avx2;
+        g.dot = dot_avx2, gather = gather_avx2;
 #endif
     g.s = a->scratch;
     g.score = g.s + 2 * N * H;
@@ -297,5 +348,5 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     }
     cr_parallel_for(N, nn_cpu_row_grain(per * H), logit_range, &g);
     cr_nn_cpu_unary_forward(CR_OP_EXP, 0.0f, g.score, g.score, E * H);
-    cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), gather_range, &g);
+    cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), gather, &g);
 }
