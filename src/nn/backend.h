@@ -27,9 +27,8 @@ typedef enum nn_binary_mode {
 } nn_binary_mode;
 
 /* GAT-LN's attention for inference (cpu_gat.c): what layer_gat.c's tape
- * ops compute from the projection p to the aggregate plus bias, before
- * the activation. Edges come grouped by receiver: those of receiver i are
- * snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
+ * ops compute from the projection p to the activated output. Edges come grouped by receiver: those
+ * of receiver i are snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
 enum { NN_GAT_MAX_HEADS = 64 };
 enum { NN_GAT_NORM_NONE = 0, NN_GAT_NORM_GLOBAL = 1, NN_GAT_NORM_RECEIVER = 2 }; /* cr_gat_norm */
 typedef struct nn_gat_attend_args {
@@ -44,6 +43,8 @@ typedef struct nn_gat_attend_args {
     const int64_t *off;             /* (N+1) */
     const int32_t *perm, *snd;      /* (E) */
     const float *bias;              /* (concat ? H*F : F) added to out, or NULL */
+    cr_op act;                      /* then out = act(out): NONE, RELU, LEAKY_RELU, TANH, */
+    float act_p;                    /* SIGMOID or SOFTPLUS, with its slope or beta */
     float *scratch;                 /* gat_attend_scratch(N, E, H) floats */
     float *out;                     /* (N,concat ? H*F : F) */
 } nn_gat_attend_args;

@@ -270,9 +270,9 @@ static const nn_gat_edges *infer_edges(cr_nn_ctx *ctx, const cr_nn_graph *g, int
 }
 
 /* Inference (the context's gradient off): the projection's GEMM, then the
- * scores, normalisation, softmax, weighted sum and bias in the backend's one
- * forward-only kernel, then the activation in one vector pass; nothing on
- * the tape and no (E,H,F) array. Same values as the ops below within float
+ * scores, normalisation, softmax, weighted sum, bias and activation in the
+ * backend's one forward-only kernel (an activation it lacks, sin, after it);
+ * nothing on the tape and no (E,H,F) array. Same values as the ops below within float
  * rounding (tests/test_nn_graph.c). NULL with no error recorded when the
  * graph has no edges (the caller's ops handle that). */
 static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
@@ -305,11 +305,11 @@ static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
                             .bias = gat->bias ? gat->bias->data : NULL,
                             .scratch = scratch,
                             .out = out->data};
-    be->gat_attend_forward(&a);
     cr_op op = cr_nn_act_fused_op(d->act, d->act_param);
-    if (op == CR_OP_COUNT) return cr_act_forward(ctx, d->act, d->act_param, out);
-    if (op != CR_OP_NONE) be->unary_forward(op, d->act_param, out->data, out->data, out->numel);
-    return out;
+    a.act = op == CR_OP_COUNT ? CR_OP_NONE : op;
+    a.act_p = d->act_param;
+    be->gat_attend_forward(&a);
+    return op == CR_OP_COUNT ? cr_act_forward(ctx, d->act, d->act_param, out) : out;
 }
 
 cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const cr_nn_graph *g,

@@ -16,10 +16,12 @@
  * The per-head dot products and the weighted row sums have AVX2 + FMA and
  * AVX-512F paths (cr_nn_cpu_simd), the exponentials go through
  * cpu_vmath.c; the portable path is the reference the tests compare.
- * The bias is added at the end of each receiver's row; the activation is
- * the caller's (one vector pass over the whole output). alpha / den is
- * multiplied where the tape divides, a rounding apart.
- * Leaves out: the activation and any gradient.
+ * The bias is added at the end of each receiver's row, the activation over
+ * blocks of rows. alpha / den is multiplied where the tape divides, a
+ * rounding apart. Three parallel passes: per node, per edge (the raw scores
+ * and row norms), then per block of receivers the rest (the global norm's
+ * maxima between the last two).
+ * Leaves out: any gradient.
  */
 #include "nn/cpu/cpu.h"
 
@@ -38,7 +40,8 @@ static const float DEN_TINY = 1e-12f;
 
 enum {
     GATHER_ROW = 1024, /* output widths summed in a local row (wider ones in place) */
-    GATHER_PAD = 16    /* room past the row for a whole vector */
+    GATHER_PAD = 16,   /* room past the row for a whole vector */
+    ATTEND_BLOCK = 64  /* receivers whose exponentials and activations go as one span */
 };
 
 /* ------------------------------------------------- dot and axpy, 3 paths -- */
@@ -274,17 +277,72 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
     }
 }
 
-static void gather_scalar(void *vctx, int64_t begin, int64_t end) {
-    gather_body(vctx, begin, end, NN_SIMD_SCALAR);
+/* The activation the caller asked for, one element (the vector spans' tail). */
+static float act_scalar(cr_op act, float p, float z) {
+    switch (act) {
+    case CR_OP_RELU:
+        return nn_cpu_select_pos(z, z, 0.0f);
+    case CR_OP_LEAKY_RELU:
+        return nn_cpu_select_pos(z, z, p * z);
+    case CR_OP_TANH:
+        return tanhf(z);
+    case CR_OP_SIGMOID:
+        return nn_cpu_sigmoidf(z);
+    case CR_OP_SOFTPLUS:
+        return nn_cpu_softplusf(z, p);
+    default:
+        return z;
+    }
+}
+
+/* x = fn(x) over n floats: cpu_vmath.c's vector span where it has fn, then
+ * the portable tail. */
+static void act_span(int level, cr_op act, float p, float *x, int64_t n) {
+    int vfn = act == CR_OP_TANH       ? NN_VEC_TANH
+              : act == CR_OP_SIGMOID  ? NN_VEC_SIGMOID
+              : act == CR_OP_SOFTPLUS ? NN_VEC_SOFTPLUS
+              : act == CR_OP_EXP      ? NN_VEC_EXP
+                                      : -1;
+    int64_t k = 0;
+    if (act == CR_OP_NONE) return;
+    if (vfn >= 0 && level >= NN_SIMD_AVX2)
+        k = cr_nn_cpu_vec_span(level, (nn_vec_fn)vfn, p, x, NULL, NULL, x, 0, n);
+    if (act == CR_OP_EXP)
+        for (; k < n; k++)
+            x[k] = expf(x[k]);
+    else
+        for (; k < n; k++)
+            x[k] = act_scalar(act, p, x[k]);
+}
+
+/* Logits, their exponentials, the weighted sums and the activation over
+ * blocks of ATTEND_BLOCK receivers: the block's scores and output rows are
+ * contiguous (CSR order), so the exponentials and the activation are whole
+ * vector spans, and one parallel pass does all four. */
+static inline __attribute__((always_inline)) void attend_body(const gat_pass *g, int64_t begin,
+                                                              int64_t end, int level) {
+    const nn_gat_attend_args *a = g->a;
+    const int64_t H = a->H, C = a->concat ? H * a->F : a->F;
+    for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
+        int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
+        logit_range((void *)g, b0, b1);
+        act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
+        gather_body(g, b0, b1, level);
+        act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
+    }
+}
+
+static void attend_scalar(void *vctx, int64_t begin, int64_t end) {
+    attend_body(vctx, begin, end, NN_SIMD_SCALAR);
 }
 
 #if NN_CPU_X86
-static NN_AVX2 void gather_avx2(void *vctx, int64_t begin, int64_t end) {
-    gather_body(vctx, begin, end, NN_SIMD_AVX2);
+static NN_AVX2 void attend_avx2(void *vctx, int64_t begin, int64_t end) {
+    attend_body(vctx, begin, end, NN_SIMD_AVX2);
 }
 
-static NN_AVX512 void gather_avx512(void *vctx, int64_t begin, int64_t end) {
-    gather_body(vctx, begin, end, NN_SIMD_AVX512);
+static NN_AVX512 void attend_avx512(void *vctx, int64_t begin, int64_t end) {
+    attend_body(vctx, begin, end, NN_SIMD_AVX512);
 }
 #endif
 
@@ -313,13 +371,13 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     CR_ASSERT(a->H >= 1 && a->H <= NN_GAT_MAX_HEADS && a->N >= 1);
     int64_t N = a->N, H = a->H, E = a->off[N];
     gat_pass g = {.a = a, .dot = dot_scalar};
-    cr_range_fn gather = gather_scalar;
+    cr_range_fn attend = attend_scalar;
 #if NN_CPU_X86
     int level = cr_nn_cpu_simd();
     if (level >= NN_SIMD_AVX512)
-        g.dot = dot_avx512, gather = gather_avx512;
+        g.dot = dot_avx512, attend = attend_avx512;
     else if (level >= NN_SIMD_AVX2)
-        g.dot = dot_avx2, gather = gather_avx2;
+        g.dot = dot_avx2, attend = attend_avx2;
 #endif
     g.s = a->scratch;
     g.score = g.s + 2 * N * H;
@@ -346,7 +404,5 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
         for (int64_t h = 0; h < H; h++)
             g.den[h] = 1.0f;
     }
-    cr_parallel_for(N, nn_cpu_row_grain(per * H), logit_range, &g);
-    cr_nn_cpu_unary_forward(CR_OP_EXP, 0.0f, g.score, g.score, E * H);
-    cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), gather, &g);
+    cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), attend, &g);
 }
