@@ -412,8 +412,8 @@ static cr_nn_graph infer_graph(void) {
 
 /* The forward-only path (gradient off: cpu_gat.c's fused kernel) against
  * the tape's ops (gradient on) on every SIMD path the machine has, every
- * norm, concatenated and averaged heads, each activation on some path;
- * F = 19 leaves vector tails. */
+ * norm, concatenated and averaged heads (projected first and aggregated
+ * first), each activation on some path; F = 19 and 5 leave vector tails. */
 CR_TEST(nn_graph, gat_inference_matches_tape) {
     const cr_gat_norm norms[3] = {CR_GAT_NORM_NONE, CR_GAT_NORM_GLOBAL, CR_GAT_NORM_RECEIVER};
     cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
@@ -426,7 +426,9 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
         for (int m = 0; m < 3; m++)
             for (int concat = 0; concat < 2; concat++) {
                 cr_gat_def d = cr_gat_default_def();
-                d.input = 13, d.out = 19, d.heads = 3, d.concat = concat, d.norm = norms[m];
+                /* F = 5 < IN / 2: averaged heads project first; F = 19 aggregate first */
+                d.input = 13, d.out = m == 1 ? 5 : 19, d.heads = 3, d.concat = concat;
+                d.norm = norms[m];
                 /* every activation over the levels: the kernel's and sin, run after it */
                 const cr_act acts[7] = {CR_ACT_TANH,       CR_ACT_NONE,    CR_ACT_RELU,
                                         CR_ACT_LEAKY_RELU, CR_ACT_SIGMOID, CR_ACT_SOFTPLUS,

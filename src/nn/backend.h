@@ -27,8 +27,11 @@ typedef enum nn_binary_mode {
 } nn_binary_mode;
 
 /* GAT-LN's attention for inference (cpu_gat.c): what layer_gat.c's tape
- * ops compute from the projection p to the activated output. Edges come grouped by receiver: those
- * of receiver i are snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
+ * ops compute from the projection p to the activated output. Averaged
+ * heads may go aggregate-first (p NULL): per head the weighted sums of the
+ * inputs x (IN wide, where p's head is F wide), then one GEMM over the
+ * heads side by side; the same products, fewer bytes per edge. Edges come grouped by receiver:
+ * those of receiver i are snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
 enum { NN_GAT_MAX_HEADS = 64 };
 enum { NN_GAT_NORM_NONE = 0, NN_GAT_NORM_GLOBAL = 1, NN_GAT_NORM_RECEIVER = 2 }; /* cr_gat_norm */
 typedef struct nn_gat_attend_args {
@@ -38,7 +41,7 @@ typedef struct nn_gat_attend_args {
     float alpha, slope;  /* eq. 4's alpha; LeakyReLU's negative slope */
     const float *x;      /* (N,IN) the layer's input (|x| of eq. 4) */
     const float *w;      /* (H*F,IN) the projection's weight (Lip(g) of eq. 4) */
-    const float *p;      /* (N,H*F) x w^T */
+    const float *p;      /* (N,H*F) x w^T; NULL (averaged heads only): aggregate first */
     const float *att_src, *att_dst; /* (H,F) */
     const int64_t *off;             /* (N+1) */
     const int32_t *perm, *snd;      /* (E) */
@@ -145,7 +148,7 @@ typedef struct cr_nn_backend {
                                      const int32_t *perm, int64_t nseg, float *dx);
 
     /* ---- fused forward-only kernels (inference: no tape, nothing kept) */
-    size_t (*gat_attend_scratch)(int64_t N, int64_t E, int64_t H); /* floats */
+    size_t (*gat_attend_scratch)(const nn_gat_attend_args *a); /* floats; a without scratch */
     void (*gat_attend_forward)(const nn_gat_attend_args *a);
     void (*lstm_gates_forward)(const nn_lstm_gates_args *a);
 

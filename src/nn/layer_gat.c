@@ -282,10 +282,12 @@ static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
     int64_t N = g->nodes, H = d->heads, F = d->out, C = cr_gat_out_dim(d);
     const nn_gat_edges *ed = infer_edges(ctx, g, d->self_loops);
     if (!ed || ed->E == 0) return NULL;
-    cr_tensor *p = cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
-    float *scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(N, ed->E, H) * sizeof(float));
+    /* Averaged heads read x (IN per edge) rather than p (H F per edge) when
+     * IN is at most 2 F: the state and blend layers of swingar. */
+    int agg_first = !d->concat && H > 1 && d->input <= 2 * F;
+    cr_tensor *p = agg_first ? NULL : cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
     cr_tensor *out = cr_nn_new(ctx, 2, (int64_t[]){N, C});
-    if (!p || !scratch || !out) return NULL;
+    if ((!p && !agg_first) || !out) return NULL;
     nn_gat_attend_args a = {.N = N,
                             .IN = d->input,
                             .H = H,
@@ -296,15 +298,16 @@ static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
                             .slope = d->negative_slope,
                             .x = x->data,
                             .w = gat->lin.weight->data,
-                            .p = p->data,
+                            .p = p ? p->data : NULL,
                             .att_src = gat->att_src->data,
                             .att_dst = gat->att_dst->data,
                             .off = ed->off,
                             .perm = ed->perm,
                             .snd = ed->snd,
                             .bias = gat->bias ? gat->bias->data : NULL,
-                            .scratch = scratch,
                             .out = out->data};
+    a.scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(&a) * sizeof(float));
+    if (!a.scratch) return NULL;
     cr_op op = cr_nn_act_fused_op(d->act, d->act_param);
     a.act = op == CR_OP_COUNT ? CR_OP_NONE : op;
     a.act_p = d->act_param;

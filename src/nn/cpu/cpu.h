@@ -173,7 +173,7 @@ void cr_nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t
                                         float *dx);
 
 /* cpu_gat.c */
-size_t cr_nn_cpu_gat_attend_scratch(int64_t N, int64_t E, int64_t H);
+size_t cr_nn_cpu_gat_attend_scratch(const nn_gat_attend_args *a);
 void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a);
 
 /* cpu_rnn.c */

@@ -26,6 +26,7 @@
 #include "nn/cpu/cpu.h"
 
 #include <math.h>
+#include <string.h>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -156,6 +157,9 @@ typedef struct gat_pass {
     float *xn;    /* (N) |x_n| */
     float *lip;   /* (H) */
     float *den;   /* (H) alpha over the global denominators (1 without a norm) */
+    float *u;     /* (2H,IN) W_h^T a_dst then W_h^T a_src (aggregate-first) */
+    float *agg;   /* (N,H*IN) per-head weighted sums of x (aggregate-first) */
+    float *wcat;  /* (F,H*IN) W's heads side by side (aggregate-first) */
     dot_fn dot;
 } gat_pass;
 
@@ -164,12 +168,14 @@ static void node_range(void *vctx, int64_t begin, int64_t end) {
     const nn_gat_attend_args *a = g->a;
     int64_t H = a->H, F = a->F;
     for (int64_t n = begin; n < end; n++) {
-        const float *pn = a->p + n * H * F;
-        for (int64_t h = 0; h < H; h++) {
+        const float *pn = a->p + n * H * F, *xn = a->x + n * a->IN;
+        for (int64_t h = 0; h < H && a->p; h++) {
             g->s[n * 2 * H + h] = g->dot(pn + h * F, a->att_dst + h * F, F);
             g->s[n * 2 * H + H + h] = g->dot(pn + h * F, a->att_src + h * F, F);
         }
-        g->xn[n] = sqrtf(g->dot(a->x + n * a->IN, a->x + n * a->IN, a->IN));
+        for (int64_t h = 0; h < 2 * H && !a->p; h++) /* a . W_h x = (W_h^T a) . x */
+            g->s[n * 2 * H + h] = g->dot(xn, g->u + h * a->IN, a->IN);
+        g->xn[n] = sqrtf(g->dot(xn, xn, a->IN));
     }
 }
 
@@ -238,9 +244,14 @@ static void logit_range(void *vctx, int64_t begin, int64_t end) {
 static inline __attribute__((always_inline)) void gather_body(const gat_pass *g, int64_t begin,
                                                               int64_t end, int level) {
     const nn_gat_attend_args *a = g->a;
-    int64_t H = a->H, F = a->F, HF = H * F, C = a->concat ? HF : F;
+    /* sums of p's head slices (F wide) or, aggregate-first, of x (IN wide) per head */
+    const int agg = a->p == NULL;
+    const int64_t H = a->H, F = agg ? a->IN : a->F, HF = H * F;
+    const int64_t C = agg || a->concat ? HF : F, stride = agg ? a->IN : HF;
+    const float *src = agg ? a->x : a->p, *bias = agg ? NULL : a->bias;
+    float *out = agg ? g->agg : a->out;
     float inv[NN_GAT_MAX_HEADS], acc[GATHER_ROW + GATHER_PAD];
-    const float scale = a->concat ? 1.0f : 1.0f / (float)H;
+    const float scale = a->concat || agg ? 1.0f : 1.0f / (float)H;
     const int local = C <= GATHER_ROW; /* the row sums in acc, else in out */
     for (int64_t i = begin; i < end; i++) {
         int64_t k0 = a->off[i], k1 = a->off[i + 1];
@@ -251,29 +262,29 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
                 inv[h] += g->score[k * H + h];
         for (int64_t h = 0; h < H; h++)
             inv[h] = scale / inv[h];
-        float *o = a->out + i * C, *row = local ? acc : o;
+        float *o = out + i * C, *row = local ? acc : o;
         for (int64_t c = 0; c < (local ? C + GATHER_PAD : C); c++)
             row[c] = 0.0f;
         for (int64_t k = k0; k < k1; k++) {
-            const float *pj = a->p + (int64_t)a->snd[a->perm[k]] * HF;
+            const float *sj = src + (int64_t)a->snd[a->perm[k]] * stride;
             const float *sc = g->score + k * H;
             for (int64_t h = 0; h < H; h++) {
                 float wt = sc[h] * inv[h];
-                float *dst = row + (a->concat ? h * F : 0);
+                const float *x = agg ? sj : sj + h * F;
+                float *dst = row + (C == F ? 0 : h * F);
 #if NN_CPU_X86
                 if (level == NN_SIMD_AVX512)
-                    local ? axpy_pad_avx512(wt, pj + h * F, dst, F)
-                          : axpy_avx512(wt, pj + h * F, dst, F);
+                    local ? axpy_pad_avx512(wt, x, dst, F) : axpy_avx512(wt, x, dst, F);
                 else if (level == NN_SIMD_AVX2)
-                    local ? axpy_pad_avx2(wt, pj + h * F, dst, F)
-                          : axpy_avx2(wt, pj + h * F, dst, F);
+                    local ? axpy_pad_avx2(wt, x, dst, F) : axpy_avx2(wt, x, dst, F);
                 else
 #endif
-                    axpy_scalar(wt, pj + h * F, dst, F);
+                    axpy_scalar(wt, x, dst, F);
             }
         }
-        for (int64_t c = 0; c < C; c++)
-            o[c] = row[c] + (a->bias ? a->bias[c] : 0.0f);
+        if (local || bias)
+            for (int64_t c = 0; c < C; c++)
+                o[c] = row[c] + (bias ? bias[c] : 0.0f);
     }
 }
 
@@ -328,9 +339,37 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
         logit_range((void *)g, b0, b1);
         act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
         gather_body(g, b0, b1, level);
-        act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
+        if (a->p) act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
     }
 }
+
+/* Aggregate-first: out = act(out + bias) after the GEMM, by blocks of rows. */
+static inline __attribute__((always_inline)) void finish_body(const gat_pass *g, int64_t begin,
+                                                              int64_t end, int level) {
+    const nn_gat_attend_args *a = g->a;
+    const int64_t F = a->F;
+    for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
+        int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
+        for (int64_t r = b0; r < b1 && a->bias; r++)
+            for (int64_t f = 0; f < F; f++)
+                a->out[r * F + f] += a->bias[f];
+        act_span(level, a->act, a->act_p, a->out + b0 * F, (b1 - b0) * F);
+    }
+}
+
+static void finish_scalar(void *vctx, int64_t begin, int64_t end) {
+    finish_body(vctx, begin, end, NN_SIMD_SCALAR);
+}
+
+#if NN_CPU_X86
+static NN_AVX2 void finish_avx2(void *vctx, int64_t begin, int64_t end) {
+    finish_body(vctx, begin, end, NN_SIMD_AVX2);
+}
+
+static NN_AVX512 void finish_avx512(void *vctx, int64_t begin, int64_t end) {
+    finish_body(vctx, begin, end, NN_SIMD_AVX512);
+}
+#endif
 
 static void attend_scalar(void *vctx, int64_t begin, int64_t end) {
     attend_body(vctx, begin, end, NN_SIMD_SCALAR);
@@ -346,38 +385,44 @@ static NN_AVX512 void attend_avx512(void *vctx, int64_t begin, int64_t end) {
 }
 #endif
 
-/* Lip(g) per head: |[W_h^T a_dst ; W_h^T a_src]|, W (H*F,IN). */
-static void lipschitz(const nn_gat_attend_args *a, float *lip) {
-    for (int64_t h = 0; h < a->H; h++) {
+/* u_h = W_h^T a_dst, W_h^T a_src (u (2H,IN)) and Lip(g) per head,
+ * |[u_dst ; u_src]|, W (H*F,IN). */
+static void score_vectors(const nn_gat_attend_args *a, float *u, float *lip) {
+    const int64_t H = a->H, IN = a->IN, F = a->F;
+    for (int64_t h = 0; h < H; h++) {
         double acc = 0.0;
-        for (int64_t k = 0; k < a->IN; k++) {
+        for (int64_t k = 0; k < IN; k++) {
             double ud = 0.0, us = 0.0;
-            for (int64_t f = 0; f < a->F; f++) {
-                double w = a->w[(h * a->F + f) * a->IN + k];
-                ud += w * a->att_dst[h * a->F + f];
-                us += w * a->att_src[h * a->F + f];
+            for (int64_t f = 0; f < F; f++) {
+                double w = a->w[(h * F + f) * IN + k];
+                ud += w * a->att_dst[h * F + f];
+                us += w * a->att_src[h * F + f];
             }
             acc += ud * ud + us * us;
+            u[h * IN + k] = (float)ud;
+            u[(H + h) * IN + k] = (float)us;
         }
         lip[h] = (float)sqrt(acc);
     }
 }
 
-size_t cr_nn_cpu_gat_attend_scratch(int64_t N, int64_t E, int64_t H) {
-    return (size_t)(2 * N * H + E * H + N * H + N + 2 * H);
+size_t cr_nn_cpu_gat_attend_scratch(const nn_gat_attend_args *a) {
+    const int64_t N = a->N, H = a->H, E = a->off[N], IN = a->IN;
+    size_t agg = a->p ? 0 : (size_t)((N + a->F) * H * IN);
+    return (size_t)(2 * N * H + E * H + N * H + N + 2 * H + 2 * H * IN) + agg;
 }
 
 void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     CR_ASSERT(a->H >= 1 && a->H <= NN_GAT_MAX_HEADS && a->N >= 1);
     int64_t N = a->N, H = a->H, E = a->off[N];
     gat_pass g = {.a = a, .dot = dot_scalar};
-    cr_range_fn attend = attend_scalar;
+    cr_range_fn attend = attend_scalar, finish = finish_scalar;
 #if NN_CPU_X86
     int level = cr_nn_cpu_simd();
     if (level >= NN_SIMD_AVX512)
-        g.dot = dot_avx512, attend = attend_avx512;
+        g.dot = dot_avx512, attend = attend_avx512, finish = finish_avx512;
     else if (level >= NN_SIMD_AVX2)
-        g.dot = dot_avx2, attend = attend_avx2;
+        g.dot = dot_avx2, attend = attend_avx2, finish = finish_avx2;
 #endif
     g.s = a->scratch;
     g.score = g.s + 2 * N * H;
@@ -385,10 +430,13 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     g.xn = g.rows + N * H;
     g.lip = g.xn + N;
     g.den = g.lip + H;
+    g.u = g.den + H;
+    g.agg = g.u + 2 * H * a->IN;
+    g.wcat = g.agg + N * H * a->IN;
     int64_t per = E / N + 1;
+    if (a->norm != NN_GAT_NORM_NONE || !a->p) score_vectors(a, g.u, g.lip);
     cr_parallel_for(N, nn_cpu_row_grain(2 * H * a->F + a->IN), node_range, &g);
     cr_parallel_for(N, nn_cpu_row_grain(per * H), score_range, &g);
-    if (a->norm != NN_GAT_NORM_NONE) lipschitz(a, g.lip);
     if (a->norm == NN_GAT_NORM_GLOBAL) {
         float xmax = g.xn[0];
         for (int64_t n = 1; n < N; n++)
@@ -405,4 +453,12 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
             g.den[h] = 1.0f;
     }
     cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), attend, &g);
+    if (a->p) return;
+    /* aggregate-first: out = (1/H) sum_h agg_h W_h^T, one GEMM over the heads side by side */
+    const int64_t IN = a->IN, F = a->F, HIN = H * IN;
+    for (int64_t f = 0; f < F; f++)
+        for (int64_t h = 0; h < H; h++)
+            memcpy(g.wcat + f * HIN + h * IN, a->w + (h * F + f) * IN, sizeof(float) * (size_t)IN);
+    cr_nn_cpu_gemm(0, 1, N, F, HIN, 1.0f / (float)H, g.agg, HIN, g.wcat, HIN, 0.0f, a->out, F);
+    cr_parallel_for(N, nn_cpu_row_grain(F), finish, &g);
 }
