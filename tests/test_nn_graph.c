@@ -473,9 +473,9 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
 
 /* The LSTM runner and the graph LSTM with the gradient off (cpu_rnn.c's
  * gates, cpu_gat.c's attention) against the tape on every SIMD path:
- * H = 7 leaves vector tails; zero and given states, with peepholes. */
+ * H = 19: a whole vector and a tail; zero and given states, with peepholes. */
 CR_TEST(nn_graph, lstm_inference_matches_tape) {
-    enum { T = 3, B = 5, IN = 4, H = 7 };
+    enum { T = 3, B = 5, IN = 4, H = 19 };
     cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
     CR_REQUIRE(ctx);
     cr_nn_params *P = NULL;

@@ -16,6 +16,7 @@
 #include "nn/cpu/cpu.h"
 
 #include <math.h>
+#include <string.h>
 
 enum { LSTM_BLOCK = 1024 }; /* floats of z a block holds at most (the rows stay in L1) */
 
@@ -32,48 +33,147 @@ static void span(int level, nn_vec_fn fn, const float *x, float *out, int64_t n)
         out[k] = fn == NN_VEC_TANH ? tanhf(x[k]) : nn_cpu_sigmoidf(x[k]);
 }
 
-static void lstm_range(void *vctx, int64_t begin, int64_t end) {
-    const lstm_pass *L = vctx;
-    const nn_lstm_gates_args *a = L->a;
-    const int64_t H = a->H, G = 4 * H;
-    for (int64_t r = begin; r < end; r++) {
-        const float *zx = a->zx + r * G, *zh = a->zh ? a->zh + r * G : NULL;
-        const float *c = a->c ? a->c + r * H : NULL;
-        float *z = a->z + r * G;
-        for (int64_t k = 0; k < G; k++)
-            z[k] = zh ? zx[k] + zh[k] : zx[k];
-        if (c && a->pw[0])
-            for (int64_t k = 0; k < H; k++) {
-                z[k] += c[k] * a->pw[0][k];
-                z[H + k] += c[k] * a->pw[1][k];
-                z[3 * H + k] += c[k] * a->pw[2][k];
-            }
-        for (int64_t k = 2 * H; k < 3 * H; k++)
-            z[k] *= 2.0f;
+/* Row-wise loops over 16 floats at a time in GCC/clang vector types (the
+ * bodies below are inlined into functions compiled for AVX2 or AVX-512, where
+ * these become ymm or zmm operations; -O2 leaves plain loops scalar), then
+ * the tail. */
+typedef float v16 __attribute__((vector_size(64)));
+#define ALWAYS static inline __attribute__((always_inline))
+
+/* Loads and stores of unaligned vectors as copies (no vector crosses a call). */
+#define V_LD(v, p) memcpy(&(v), (p), sizeof(v16))
+#define V_ST(p, v) memcpy((p), &(v), sizeof(v16))
+
+/* y = a + b */
+ALWAYS void vadd(float *y, const float *a, const float *b, int64_t n) {
+    int64_t k = 0;
+    for (; k + 16 <= n; k += 16) {
+        v16 u, v;
+        V_LD(u, a + k), V_LD(v, b + k);
+        u += v;
+        V_ST(y + k, u);
     }
-    span(L->level, NN_VEC_SIGMOID, a->z + begin * G, a->z + begin * G, (end - begin) * G);
-    for (int64_t r = begin; r < end; r++) {
-        const float *z = a->z + r * G, *c = a->c ? a->c + r * H : NULL;
-        float *c1 = a->c_out + r * H;
-        for (int64_t k = 0; k < H; k++) {
-            float g = 2.0f * z[2 * H + k] - 1.0f;
-            c1[k] = (c ? z[H + k] * c[k] : 0.0f) + z[k] * g;
-        }
-    }
-    span(L->level, NN_VEC_TANH, a->c_out + begin * H, a->h + begin * H, (end - begin) * H);
-    for (int64_t r = begin; r < end; r++)
-        for (int64_t k = 0; k < H; k++)
-            a->h[r * H + k] *= a->z[r * G + 3 * H + k];
+    for (; k < n; k++)
+        y[k] = a[k] + b[k];
 }
 
-static void lstm_blocks(void *vctx, int64_t begin, int64_t end) {
+/* y += a w */
+ALWAYS void vfma(float *y, const float *a, const float *w, int64_t n) {
+    int64_t k = 0;
+    for (; k + 16 <= n; k += 16) {
+        v16 u, v, x;
+        V_LD(u, y + k), V_LD(v, a + k), V_LD(x, w + k);
+        u += v * x;
+        V_ST(y + k, u);
+    }
+    for (; k < n; k++)
+        y[k] += a[k] * w[k];
+}
+
+/* y *= s */
+ALWAYS void vscale(float *y, float s, int64_t n) {
+    int64_t k = 0;
+    for (; k + 16 <= n; k += 16) {
+        v16 u;
+        V_LD(u, y + k);
+        u *= s;
+        V_ST(y + k, u);
+    }
+    for (; k < n; k++)
+        y[k] *= s;
+}
+
+/* c1 = f c + i (2 s - 1), c NULL: zero (s is sigmoid(2 z_g): tanh's gate) */
+ALWAYS void vcell(float *c1, const float *i, const float *f, const float *s, const float *c,
+                  int64_t n) {
+    int64_t k = 0;
+    for (; k + 16 <= n; k += 16) {
+        v16 g, ik, fk, ck;
+        V_LD(g, s + k), V_LD(ik, i + k);
+        g = ik * (2.0f * g - 1.0f);
+        if (c) {
+            V_LD(fk, f + k), V_LD(ck, c + k);
+            g += fk * ck;
+        }
+        V_ST(c1 + k, g);
+    }
+    for (; k < n; k++) {
+        float g = 2.0f * s[k] - 1.0f;
+        c1[k] = (c ? f[k] * c[k] : 0.0f) + i[k] * g;
+    }
+}
+
+/* y *= a */
+ALWAYS void vmul(float *y, const float *a, int64_t n) {
+    int64_t k = 0;
+    for (; k + 16 <= n; k += 16) {
+        v16 u, v;
+        V_LD(u, y + k), V_LD(v, a + k);
+        u *= v;
+        V_ST(y + k, u);
+    }
+    for (; k < n; k++)
+        y[k] *= a[k];
+}
+
+/* Rows [begin, end) of one block. */
+ALWAYS void lstm_rows(const lstm_pass *L, int64_t begin, int64_t end) {
+    const nn_lstm_gates_args *a = L->a;
+    const int64_t H = a->H, G = 4 * H, R = end - begin;
+    float *zb = a->z + begin * G;
+    if (a->zh)
+        vadd(zb, a->zx + begin * G, a->zh + begin * G, R * G);
+    else
+        memcpy(zb, a->zx + begin * G, sizeof(float) * (size_t)(R * G));
+    for (int64_t r = begin; r < end; r++) {
+        const float *c = a->c ? a->c + r * H : NULL;
+        float *z = a->z + r * G;
+        if (c && a->pw[0]) {
+            vfma(z, c, a->pw[0], H);
+            vfma(z + H, c, a->pw[1], H);
+            vfma(z + 3 * H, c, a->pw[2], H);
+        }
+        vscale(z + 2 * H, 2.0f, H);
+    }
+    span(L->level, NN_VEC_SIGMOID, zb, zb, R * G);
+    for (int64_t r = begin; r < end; r++) {
+        const float *z = a->z + r * G;
+        vcell(a->c_out + r * H, z, z + H, z + 2 * H, a->c ? a->c + r * H : NULL, H);
+    }
+    span(L->level, NN_VEC_TANH, a->c_out + begin * H, a->h + begin * H, R * H);
+    for (int64_t r = begin; r < end; r++)
+        vmul(a->h + r * H, a->z + r * G + 3 * H, H);
+}
+
+ALWAYS void lstm_body(void *vctx, int64_t begin, int64_t end) {
     const lstm_pass *L = vctx;
     int64_t rows = LSTM_BLOCK / (4 * L->a->H) > 0 ? LSTM_BLOCK / (4 * L->a->H) : 1;
     for (int64_t r = begin; r < end; r += rows)
-        lstm_range(vctx, r, r + rows < end ? r + rows : end);
+        lstm_rows(L, r, r + rows < end ? r + rows : end);
 }
+
+static void lstm_scalar(void *vctx, int64_t begin, int64_t end) {
+    lstm_body(vctx, begin, end);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+static __attribute__((target("avx2,fma"))) void lstm_avx2(void *vctx, int64_t begin, int64_t end) {
+    lstm_body(vctx, begin, end);
+}
+
+static __attribute__((target("avx512f"))) void lstm_avx512(void *vctx, int64_t begin, int64_t end) {
+    lstm_body(vctx, begin, end);
+}
+#endif
 
 void cr_nn_cpu_lstm_gates_forward(const nn_lstm_gates_args *a) {
     lstm_pass L = {a, cr_nn_cpu_simd()};
-    cr_parallel_for(a->B, nn_cpu_row_grain(8 * a->H), lstm_blocks, &L);
+    cr_range_fn fn = lstm_scalar;
+#if defined(__x86_64__) || defined(__i386__)
+    if (L.level >= NN_SIMD_AVX512)
+        fn = lstm_avx512;
+    else if (L.level >= NN_SIMD_AVX2)
+        fn = lstm_avx2;
+#endif
+    cr_parallel_for(a->B, nn_cpu_row_grain(8 * a->H), fn, &L);
 }
