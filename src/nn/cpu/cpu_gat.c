@@ -42,7 +42,8 @@ static const float DEN_TINY = 1e-12f;
 enum {
     GATHER_ROW = 1024, /* output widths summed in a local row (wider ones in place) */
     GATHER_PAD = 16,   /* room past the row for a whole vector */
-    ATTEND_BLOCK = 64  /* receivers whose exponentials and activations go as one span */
+    ATTEND_BLOCK = 64, /* receivers whose exponentials and activations go as one span */
+    BOUNDED_ALPHA = 30 /* exp(30) ~ 1e13: a receiver's sum stays far from FLT_MAX */
 };
 
 /* ------------------------------------------------- dot and axpy, 3 paths -- */
@@ -179,6 +180,33 @@ static void node_range(void *vctx, int64_t begin, int64_t end) {
     }
 }
 
+#if NN_CPU_X86
+/* Up to 16 heads in one register, masked to H lanes: the per-edge loops
+ * over heads below for AVX-512 (the portable loops kept their sums in
+ * memory, a store-to-load chain per edge). */
+static inline NN_AVX512 __mmask16 head_mask(int64_t H) {
+    return (__mmask16)((1u << H) - 1u);
+}
+
+static NN_AVX512 void score_range_avx512(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    const int64_t H = a->H;
+    const __mmask16 m = head_mask(H);
+    for (int64_t i = begin; i < end; i++) {
+        __m512 sd = _mm512_maskz_loadu_ps(m, g->s + i * 2 * H), rows = _mm512_setzero_ps();
+        for (int64_t k = a->off[i]; k < a->off[i + 1]; k++) {
+            __m512 ss = _mm512_maskz_loadu_ps(m, g->s + (int64_t)a->snd[a->perm[k]] * 2 * H + H);
+            __m512 v = _mm512_add_ps(sd, ss);
+            _mm512_mask_storeu_ps(g->score + k * H, m, v);
+            rows = _mm512_fmadd_ps(v, v, rows);
+        }
+        _mm512_mask_storeu_ps(g->rows + i * H, m, rows);
+    }
+}
+
+#endif
+
 /* Raw scores in CSR order and their squared row sums. */
 static void score_range(void *vctx, int64_t begin, int64_t end) {
     const gat_pass *g = vctx;
@@ -202,9 +230,13 @@ static void score_range(void *vctx, int64_t begin, int64_t end) {
 }
 
 /* Normalised, activated scores minus each receiver's maximum per head. */
-static void logit_range(void *vctx, int64_t begin, int64_t end) {
-    const gat_pass *g = vctx;
+static void logit_range(const gat_pass *g, int64_t begin, int64_t end) {
     const nn_gat_attend_args *a = g->a;
+    /* Normalised scores obey |g*| <= alpha (layer_gat.c), so up to
+     * BOUNDED_ALPHA their exponentials neither overflow nor vanish and the
+     * softmax needs no maximum subtracted (the same weights, a rounding
+     * apart); plain GAT scores are unbounded and keep it. */
+    const int bounded = a->norm != NN_GAT_NORM_NONE && a->alpha <= BOUNDED_ALPHA;
     int64_t H = a->H;
     float den[NN_GAT_MAX_HEADS], mx[NN_GAT_MAX_HEADS];
     for (int64_t i = begin; i < end; i++) {
@@ -221,6 +253,16 @@ static void logit_range(void *vctx, int64_t begin, int64_t end) {
             }
         }
         const float *dh = a->norm == NN_GAT_NORM_RECEIVER ? den : g->den;
+        if (bounded) { /* one streaming pass: no maximum to subtract */
+            for (int64_t k = k0; k < k1; k++) {
+                float *sc = g->score + k * H;
+                for (int64_t h = 0; h < H; h++) {
+                    float v = sc[h] * dh[h];
+                    sc[h] = nn_cpu_select_pos(v, v, a->slope * v);
+                }
+            }
+            continue;
+        }
         for (int64_t h = 0; h < H; h++)
             mx[h] = -INFINITY;
         for (int64_t k = k0; k < k1; k++) {
@@ -250,28 +292,38 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
     const int64_t C = agg || a->concat ? HF : F, stride = agg ? a->IN : HF;
     const float *src = agg ? a->x : a->p, *bias = agg ? NULL : a->bias;
     float *out = agg ? g->agg : a->out;
-    float inv[NN_GAT_MAX_HEADS], acc[GATHER_ROW + GATHER_PAD];
+    float inv[NN_GAT_MAX_HEADS], acc[2 * (GATHER_ROW + GATHER_PAD)];
     const float scale = a->concat || agg ? 1.0f : 1.0f / (float)H;
-    const int local = C <= GATHER_ROW; /* the row sums in acc, else in out */
+    /* local: the row sums in acc, heads apart (averaged at the end) and even
+     * and odd edges apart, so the updates form 2 H independent chains, not
+     * one of length degree x H; else in place in out */
+    const int local = HF <= GATHER_ROW, mean = C != HF;
+    float *acc1 = acc + HF + GATHER_PAD;
     for (int64_t i = begin; i < end; i++) {
         int64_t k0 = a->off[i], k1 = a->off[i + 1];
         for (int64_t h = 0; h < H; h++)
             inv[h] = 0.0f;
-        for (int64_t k = k0; k < k1; k++)
+        /* in place the weights are normalised first; in acc the sums of the
+         * exponentials are taken on the way and divide at the end */
+        for (int64_t k = k0; k < k1 && !local; k++)
             for (int64_t h = 0; h < H; h++)
                 inv[h] += g->score[k * H + h];
-        for (int64_t h = 0; h < H; h++)
+        for (int64_t h = 0; h < H && !local; h++)
             inv[h] = scale / inv[h];
-        float *o = out + i * C, *row = local ? acc : o;
-        for (int64_t c = 0; c < (local ? C + GATHER_PAD : C); c++)
-            row[c] = 0.0f;
+        float *o = out + i * C;
+        if (local)
+            memset(acc, 0, sizeof(float) * (size_t)(2 * (HF + GATHER_PAD)));
+        else
+            memset(o, 0, sizeof(float) * (size_t)C);
         for (int64_t k = k0; k < k1; k++) {
             const float *sj = src + (int64_t)a->snd[a->perm[k]] * stride;
             const float *sc = g->score + k * H;
+            float *row = local ? ((k - k0) & 1 ? acc1 : acc) : o;
             for (int64_t h = 0; h < H; h++) {
-                float wt = sc[h] * inv[h];
+                float wt = local ? sc[h] : sc[h] * inv[h];
+                if (local) inv[h] += sc[h];
                 const float *x = agg ? sj : sj + h * F;
-                float *dst = row + (C == F ? 0 : h * F);
+                float *dst = row + (mean && !local ? 0 : h * F);
 #if NN_CPU_X86
                 if (level == NN_SIMD_AVX512)
                     local ? axpy_pad_avx512(wt, x, dst, F) : axpy_avx512(wt, x, dst, F);
@@ -282,9 +334,23 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
                     axpy_scalar(wt, x, dst, F);
             }
         }
-        if (local || bias)
+        for (int64_t h = 0; h < H && local; h++)
+            inv[h] = scale / inv[h];
+        if (local && mean) {
+            for (int64_t c = 0; c < C; c++) {
+                float v = bias ? bias[c] : 0.0f;
+                for (int64_t h = 0; h < H; h++)
+                    v += inv[h] * (acc[h * F + c] + acc1[h * F + c]);
+                o[c] = v;
+            }
+        } else if (local) {
+            for (int64_t h = 0; h < H; h++)
+                for (int64_t c = h * F; c < (h + 1) * F; c++)
+                    o[c] = inv[h] * (acc[c] + acc1[c]) + (bias ? bias[c] : 0.0f);
+        } else if (bias) {
             for (int64_t c = 0; c < C; c++)
-                o[c] = row[c] + (bias ? bias[c] : 0.0f);
+                o[c] += bias[c];
+        }
     }
 }
 
@@ -336,7 +402,7 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
     const int64_t H = a->H, C = a->concat ? H * a->F : a->F;
     for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
         int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
-        logit_range((void *)g, b0, b1);
+        logit_range(g, b0, b1);
         act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
         gather_body(g, b0, b1, level);
         if (a->p) act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
@@ -436,7 +502,11 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     int64_t per = E / N + 1;
     if (a->norm != NN_GAT_NORM_NONE || !a->p) score_vectors(a, g.u, g.lip);
     cr_parallel_for(N, nn_cpu_row_grain(2 * H * a->F + a->IN), node_range, &g);
-    cr_parallel_for(N, nn_cpu_row_grain(per * H), score_range, &g);
+    cr_range_fn scores = score_range;
+#if NN_CPU_X86
+    if (level >= NN_SIMD_AVX512 && H <= 16) scores = score_range_avx512;
+#endif
+    cr_parallel_for(N, nn_cpu_row_grain(per * H), scores, &g);
     if (a->norm == NN_GAT_NORM_GLOBAL) {
         float xmax = g.xn[0];
         for (int64_t n = 1; n < N; n++)
