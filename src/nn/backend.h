@@ -27,10 +27,11 @@ typedef enum nn_binary_mode {
 } nn_binary_mode;
 
 /* GAT-LN's attention for inference (cpu_gat.c): what layer_gat.c's tape
- * ops compute from the projection p to the activated output. Averaged
- * heads may go aggregate-first (p NULL): per head the weighted sums of the
- * inputs x (IN wide, where p's head is F wide), then one GEMM over the
- * heads side by side; the same products, fewer bytes per edge. Edges come grouped by receiver:
+ * ops compute from the projection p to the activated output. Several heads
+ * may go aggregate-first (p NULL): per head the weighted sums of the inputs
+ * x (IN wide, where p's head is F wide), then one GEMM over the heads side
+ * by side (averaged) or one per head (concatenated); the same products,
+ * fewer bytes per edge. Edges come grouped by receiver:
  * those of receiver i are snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
 enum { NN_GAT_MAX_HEADS = 64 };
 enum { NN_GAT_NORM_NONE = 0, NN_GAT_NORM_GLOBAL = 1, NN_GAT_NORM_RECEIVER = 2 }; /* cr_gat_norm */
@@ -41,7 +42,7 @@ typedef struct nn_gat_attend_args {
     float alpha, slope;  /* eq. 4's alpha; LeakyReLU's negative slope */
     const float *x;      /* (N,IN) the layer's input (|x| of eq. 4) */
     const float *w;      /* (H*F,IN) the projection's weight (Lip(g) of eq. 4) */
-    const float *p;      /* (N,H*F) x w^T; NULL (averaged heads only): aggregate first */
+    const float *p;      /* (N,H*F) x w^T; NULL: aggregate first */
     const float *att_src, *att_dst; /* (H,F) */
     const int64_t *off;             /* (N+1) */
     const int32_t *perm, *snd;      /* (E) */

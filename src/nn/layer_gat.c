@@ -282,9 +282,11 @@ static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
     int64_t N = g->nodes, H = d->heads, F = d->out, C = cr_gat_out_dim(d);
     const nn_gat_edges *ed = infer_edges(ctx, g, d->self_loops);
     if (!ed || ed->E == 0) return NULL;
-    /* Averaged heads read x (IN per edge) rather than p (H F per edge) when
-     * IN is at most 2 F: the state and blend layers of swingar. */
-    int agg_first = !d->concat && H > 1 && d->input <= 2 * F;
+    /* Several heads read x (IN an edge) rather than p (H F an edge) when IN
+     * is at most 2 F (averaged: one GEMM after the sums) or F (concatenated:
+     * a GEMM per head): swingar's state and blend layers, the paper size's
+     * graph LSTM input. */
+    int agg_first = H > 1 && d->input <= (d->concat ? F : 2 * F);
     cr_tensor *p = agg_first ? NULL : cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
     cr_tensor *out = cr_nn_new(ctx, 2, (int64_t[]){N, C});
     if ((!p && !agg_first) || !out) return NULL;

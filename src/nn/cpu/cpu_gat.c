@@ -164,18 +164,12 @@ typedef struct gat_pass {
     dot_fn dot;
 } gat_pass;
 
+/* |x_n| of eq. 4. */
 static void node_range(void *vctx, int64_t begin, int64_t end) {
     const gat_pass *g = vctx;
     const nn_gat_attend_args *a = g->a;
-    int64_t H = a->H, F = a->F;
     for (int64_t n = begin; n < end; n++) {
-        const float *pn = a->p + n * H * F, *xn = a->x + n * a->IN;
-        for (int64_t h = 0; h < H && a->p; h++) {
-            g->s[n * 2 * H + h] = g->dot(pn + h * F, a->att_dst + h * F, F);
-            g->s[n * 2 * H + H + h] = g->dot(pn + h * F, a->att_src + h * F, F);
-        }
-        for (int64_t h = 0; h < 2 * H && !a->p; h++) /* a . W_h x = (W_h^T a) . x */
-            g->s[n * 2 * H + h] = g->dot(xn, g->u + h * a->IN, a->IN);
+        const float *xn = a->x + n * a->IN;
         g->xn[n] = sqrtf(g->dot(xn, xn, a->IN));
     }
 }
@@ -413,7 +407,7 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
 static inline __attribute__((always_inline)) void finish_body(const gat_pass *g, int64_t begin,
                                                               int64_t end, int level) {
     const nn_gat_attend_args *a = g->a;
-    const int64_t F = a->F;
+    const int64_t F = a->concat ? a->H * a->F : a->F; /* the output's width */
     for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
         int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
         for (int64_t r = b0; r < b1 && a->bias; r++)
@@ -500,8 +494,10 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     g.agg = g.u + 2 * H * a->IN;
     g.wcat = g.agg + N * H * a->IN;
     int64_t per = E / N + 1;
-    if (a->norm != NN_GAT_NORM_NONE || !a->p) score_vectors(a, g.u, g.lip);
-    cr_parallel_for(N, nn_cpu_row_grain(2 * H * a->F + a->IN), node_range, &g);
+    /* the scores' halves a . W_h x = (W_h^T a) . x for every node: one GEMM */
+    score_vectors(a, g.u, g.lip);
+    cr_nn_cpu_gemm(0, 1, N, 2 * H, a->IN, 1.0f, a->x, a->IN, g.u, a->IN, 0.0f, g.s, 2 * H);
+    cr_parallel_for(N, nn_cpu_row_grain(a->IN), node_range, &g);
     cr_range_fn scores = score_range;
 #if NN_CPU_X86
     if (level >= NN_SIMD_AVX512 && H <= 16) scores = score_range_avx512;
@@ -524,11 +520,16 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     }
     cr_parallel_for(N, nn_cpu_row_grain(per * H * a->F), attend, &g);
     if (a->p) return;
-    /* aggregate-first: out = (1/H) sum_h agg_h W_h^T, one GEMM over the heads side by side */
     const int64_t IN = a->IN, F = a->F, HIN = H * IN;
-    for (int64_t f = 0; f < F; f++)
-        for (int64_t h = 0; h < H; h++)
-            memcpy(g.wcat + f * HIN + h * IN, a->w + (h * F + f) * IN, sizeof(float) * (size_t)IN);
-    cr_nn_cpu_gemm(0, 1, N, F, HIN, 1.0f / (float)H, g.agg, HIN, g.wcat, HIN, 0.0f, a->out, F);
-    cr_parallel_for(N, nn_cpu_row_grain(F), finish, &g);
+    if (a->concat) { /* out_h = agg_h W_h^T, a product per head */
+        cr_nn_cpu_gemm_batched(0, 1, N, F, IN, g.agg, HIN, IN, a->w, IN, F * IN, 0.0f, a->out,
+                               H * F, F, H);
+    } else { /* out = (1/H) sum_h agg_h W_h^T, one GEMM over the heads side by side */
+        for (int64_t f = 0; f < F; f++)
+            for (int64_t h = 0; h < H; h++)
+                memcpy(g.wcat + f * HIN + h * IN, a->w + (h * F + f) * IN,
+                       sizeof(float) * (size_t)IN);
+        cr_nn_cpu_gemm(0, 1, N, F, HIN, 1.0f / (float)H, g.agg, HIN, g.wcat, HIN, 0.0f, a->out, F);
+    }
+    cr_parallel_for(N, nn_cpu_row_grain(a->concat ? H * F : F), finish, &g);
 }
