@@ -1,26 +1,32 @@
 /* cpu_gat.c: GAT-LN's attention for inference (layer_gat.c with the
  * context's gradient off): the scores, eq. 4's Lipschitz normalisation, the
  * LeakyReLU, the softmax over each receiver's incoming edges and the
- * weighted sum of the senders' projected features, in passes over the
- * receivers in CSR order instead of a dozen tape ops that each write an
- * (E,H) or (E,H,F) array (docs/swingar.md, issue 51).
+ * weighted sum of the senders' features, in passes over the receivers in
+ * CSR order instead of a dozen tape ops that each write an (E,H) or
+ * (E,H,F) array (docs/swingar.md, issue 51).
  *
- * The formulas are layer_gat.c's, evaluated in the same order per edge:
- *   g_ij   = s_dst_i + s_src_j,  s_*_n = a_* . p_n                   (E,H)
+ * The formulas are layer_gat.c's:
+ *   g_ij   = s_dst_i + s_src_j,  s_*_n = a_* . W_h x_n = (W_h^T a_*) . x_n   (E,H)
  *   rows_i = sum_{j->i} g_ij^2,  den = max{sqrt(rows + ROW_TINY), |x|_max Lip} + DEN_TINY
  *   e_ij   = LeakyReLU(alpha g_ij / den),  w_ij = softmax over i's edges
- *   out_i  = sum_j w_ij p_j  (heads concatenated, or averaged)
+ *   out_i  = act(sum_j w_ij p_j + b),  p_j = W x_j, heads concatenated or averaged
  * with |x|_max and the row norm global or per receiver as the def asks.
- * Sums over edges are in float (the tape's segment sums are in double), so
- * results agree with the tape within float rounding, not bit for bit.
- * The per-head dot products and the weighted row sums have AVX2 + FMA and
- * AVX-512F paths (cr_nn_cpu_simd), the exponentials go through
- * cpu_vmath.c; the portable path is the reference the tests compare.
- * The bias is added at the end of each receiver's row, the activation over
- * blocks of rows. alpha / den is multiplied where the tape divides, a
- * rounding apart. Three parallel passes: per node, per edge (the raw scores
- * and row norms), then per block of receivers the rest (the global norm's
- * maxima between the last two).
+ * Two orders of the last line: project first (the caller's GEMM gives p,
+ * the sums read H F floats an edge), or aggregate first (p NULL: per head
+ * sum_j w_ij x_j, IN floats an edge, then one GEMM over the heads side by
+ * side when averaged, one per head when concatenated): the same products.
+ * Passes: the s_* of every node (one GEMM with the score vectors W_h^T a),
+ * per receiver |x_i|, the raw scores and row norms, then per block of 64
+ * receivers the logits, their exponentials, the weighted sums, bias and
+ * activation (the global norm's maxima between the last two).
+ * Differences from the tape, all within float rounding (tests compare):
+ * sums over edges in float (the tape's are double); alpha / den multiplied
+ * where the tape divides; with the normalisation on and alpha <= 30 no
+ * maximum is subtracted before exp (|g*| <= alpha, and softmax does not
+ * depend on the shift); the softmax sums divide the summed row at the end.
+ * Paths: portable, AVX2 + FMA and AVX-512F (cr_nn_cpu_simd); row updates,
+ * dots and up-to-16-head score loops in intrinsics, the exponentials and
+ * activations through cpu_vmath.c; the portable path is the reference.
  * Leaves out: any gradient.
  */
 #include "nn/cpu/cpu.h"
@@ -187,6 +193,7 @@ static NN_AVX512 void score_range_avx512(void *vctx, int64_t begin, int64_t end)
     const nn_gat_attend_args *a = g->a;
     const int64_t H = a->H;
     const __mmask16 m = head_mask(H);
+    node_range(vctx, begin, end);
     for (int64_t i = begin; i < end; i++) {
         __m512 sd = _mm512_maskz_loadu_ps(m, g->s + i * 2 * H), rows = _mm512_setzero_ps();
         for (int64_t k = a->off[i]; k < a->off[i + 1]; k++) {
@@ -201,11 +208,13 @@ static NN_AVX512 void score_range_avx512(void *vctx, int64_t begin, int64_t end)
 
 #endif
 
-/* Raw scores in CSR order and their squared row sums. */
+/* |x_i|, the raw scores in CSR order and their squared row sums of the
+ * receivers [begin, end). */
 static void score_range(void *vctx, int64_t begin, int64_t end) {
     const gat_pass *g = vctx;
     const nn_gat_attend_args *a = g->a;
     int64_t H = a->H;
+    node_range(vctx, begin, end);
     for (int64_t i = begin; i < end; i++) {
         const float *sd = g->s + i * 2 * H;
         float *rows = g->rows + i * H;
@@ -497,12 +506,11 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     /* the scores' halves a . W_h x = (W_h^T a) . x for every node: one GEMM */
     score_vectors(a, g.u, g.lip);
     cr_nn_cpu_gemm(0, 1, N, 2 * H, a->IN, 1.0f, a->x, a->IN, g.u, a->IN, 0.0f, g.s, 2 * H);
-    cr_parallel_for(N, nn_cpu_row_grain(a->IN), node_range, &g);
     cr_range_fn scores = score_range;
 #if NN_CPU_X86
     if (level >= NN_SIMD_AVX512 && H <= 16) scores = score_range_avx512;
 #endif
-    cr_parallel_for(N, nn_cpu_row_grain(per * H), scores, &g);
+    cr_parallel_for(N, nn_cpu_row_grain(per * H + a->IN), scores, &g);
     if (a->norm == NN_GAT_NORM_GLOBAL) {
         float xmax = g.xn[0];
         for (int64_t n = 1; n < N; n++)
