@@ -37,6 +37,9 @@
  *
  * Maxima are taken on the host over the eagerly computed values and turned
  * into gathers of the winning entries, since the engine has no max op.
+ * With the context's gradient off the layer runs the backend's forward-only
+ * kernel instead (forward_infer, src/nn/cpu/cpu_gat.c): the same values
+ * within float rounding, nothing on the tape.
  * Leaves out: dropout on attention, edge features in the score (GATv2,
  * HOOD-style edges go through the MPNN instead), bipartite graphs.
  */

@@ -16,6 +16,8 @@
  *   n = tanh(x_n + r (h W_hn^T + b_hn));   h' = (1 - z) n + z h
  * Runners project all T inputs with one GEMM, then step through time; the
  * tape records every step, so backward is backpropagation through time.
+ * With the context's gradient off the gates of every step run in the
+ * backend's forward-only pass (lstm_gates_infer, src/nn/cpu/cpu_rnn.c).
  *
  * Leaves out: stacked layers, bidirectional runs, dropout and projections
  * (torch.nn.LSTM's proj_size); chain runners for depth.
