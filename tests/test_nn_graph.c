@@ -413,7 +413,8 @@ static cr_nn_graph infer_graph(void) {
 /* The forward-only path (gradient off: cpu_gat.c's fused kernel) against
  * the tape's ops (gradient on) on every SIMD path the machine has, every
  * norm, concatenated and averaged heads (projected first and aggregated
- * first), each activation on some path; F = 19 and 5 leave vector tails. */
+ * first, rows narrower and wider than 64), each activation on some path;
+ * the widths leave vector tails. */
 CR_TEST(nn_graph, gat_inference_matches_tape) {
     const cr_gat_norm norms[3] = {CR_GAT_NORM_NONE, CR_GAT_NORM_GLOBAL, CR_GAT_NORM_RECEIVER};
     cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
@@ -426,8 +427,10 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
         for (int m = 0; m < 3; m++)
             for (int concat = 0; concat < 2; concat++) {
                 cr_gat_def d = cr_gat_default_def();
-                /* F = 5 < IN / 2: averaged heads project first; F = 19 aggregate first */
-                d.input = 13, d.out = m == 1 ? 5 : 19, d.heads = 3, d.concat = concat;
+                /* (IN, F): (13, 5) projects first, (80, 90) aggregates first, (150,
+                 * 70) projects first over rows wider than 64 with tails */
+                const int ins[3] = {13, 80, 150}, outs[3] = {5, 90, 70}, IN = ins[m];
+                d.input = IN, d.out = outs[m], d.heads = 3, d.concat = concat;
                 d.norm = norms[m];
                 /* every activation over the levels: the kernel's and sin, run after it */
                 const cr_act acts[7] = {CR_ACT_TANH,       CR_ACT_NONE,    CR_ACT_RELU,
@@ -439,11 +442,11 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
                 cr_nn_params *P = NULL;
                 gat_case k;
                 CR_REQUIRE(make_gat(&d, &P, &k, 90 + (uint64_t)m));
-                float x[IN_N * 13];
-                nn_gradcheck_fill(x, IN_N * 13, -1, 1, 0, 91 + (uint64_t)m);
+                static float x[IN_N * 150];
+                nn_gradcheck_fill(x, IN_N * IN, -1, 1, 0, 91 + (uint64_t)m);
                 cr_nn_ctx_reset(ctx);
                 cr_nn_ctx_set_grad_enabled(ctx, 1);
-                cr_tensor *xt = cr_nn_from(ctx, 2, (int64_t[]){IN_N, 13}, x);
+                cr_tensor *xt = cr_nn_from(ctx, 2, (int64_t[]){IN_N, IN}, x);
                 xt->requires_grad = 1;
                 cr_tensor *ref = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
                 cr_nn_ctx_set_grad_enabled(ctx, 0);
@@ -455,7 +458,7 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
                 /* another graph in the same step, then the first again: the
                  * step's cached edges must follow the graph */
                 const cr_nn_graph small = test_graph();
-                cr_tensor *xs = cr_nn_from(ctx, 2, (int64_t[]){GN, 13}, x);
+                cr_tensor *xs = cr_nn_from(ctx, 2, (int64_t[]){GN, IN}, x);
                 cr_tensor *ys = cr_gat_forward(ctx, &k.gat, xs, &small, NULL);
                 cr_tensor *y2 = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
                 cr_nn_ctx_set_grad_enabled(ctx, 1);

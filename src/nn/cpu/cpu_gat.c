@@ -357,6 +357,66 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
     }
 }
 
+#if NN_CPU_X86
+/* gather_body for AVX-512 with the sums in registers: 64 columns of a
+ * head's row at a time in four accumulators over all edges (the other
+ * paths update a row in memory, a store-to-load chain per edge and head),
+ * the weights normalised before, the bias added at the store. */
+static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64_t end) {
+    const nn_gat_attend_args *a = g->a;
+    const int agg = a->p == NULL;
+    const int64_t H = a->H, F = agg ? a->IN : a->F, HF = H * F;
+    const int64_t C = agg || a->concat ? HF : F, stride = agg ? a->IN : HF;
+    const int mean = C != HF;
+    const float *src = agg ? a->x : a->p, *bias = agg ? NULL : a->bias;
+    float *out = agg ? g->agg : a->out;
+    const float scale = a->concat || agg ? 1.0f : 1.0f / (float)H;
+    float inv[NN_GAT_MAX_HEADS];
+    for (int64_t i = begin; i < end; i++) {
+        const int64_t k0 = a->off[i], k1 = a->off[i + 1];
+        for (int64_t h = 0; h < H; h++)
+            inv[h] = 0.0f;
+        for (int64_t k = k0; k < k1; k++)
+            for (int64_t h = 0; h < H; h++)
+                inv[h] += g->score[k * H + h];
+        for (int64_t h = 0; h < H; h++)
+            inv[h] = scale / inv[h];
+        float *o = out + i * C;
+        for (int64_t c0 = 0; c0 < F; c0 += 64) {
+            const int64_t nc = F - c0 < 64 ? F - c0 : 64, nr = (nc + 15) / 16;
+            __mmask16 m[4];
+            for (int r = 0; r < 4; r++) {
+                int64_t lanes = nc - 16 * r;
+                m[r] = lanes >= 16 ? (__mmask16)0xffff
+                       : lanes > 0 ? (__mmask16)((1u << lanes) - 1u)
+                                   : (__mmask16)0;
+            }
+            __m512 z = _mm512_setzero_ps(), s0 = z, s1 = z, s2 = z, s3 = z;
+            for (int64_t h = 0; h < H; h++) {
+                if (!mean) s0 = s1 = s2 = s3 = z;
+                const int64_t off = (agg ? 0 : h * F) + c0;
+                for (int64_t k = k0; k < k1; k++) {
+                    const float *x = src + (int64_t)a->snd[a->perm[k]] * stride + off;
+                    __m512 w = _mm512_set1_ps(g->score[k * H + h] * inv[h]);
+                    s0 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[0], x), s0);
+                    if (nr > 1) s1 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[1], x + 16), s1);
+                    if (nr > 2) s2 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[2], x + 32), s2);
+                    if (nr > 3) s3 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[3], x + 48), s3);
+                }
+                if (mean && h + 1 < H) continue;
+                const int64_t d = (mean ? 0 : h * F) + c0;
+                __m512 acc[4] = {s0, s1, s2, s3};
+                for (int r = 0; r < nr; r++) {
+                    __m512 v = acc[r];
+                    if (bias) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(m[r], bias + d + 16 * r));
+                    _mm512_mask_storeu_ps(o + d + 16 * r, m[r], v);
+                }
+            }
+        }
+    }
+}
+#endif
+
 /* The activation the caller asked for, one element (the vector spans' tail). */
 static float act_scalar(cr_op act, float p, float z) {
     switch (act) {
@@ -407,7 +467,12 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
         int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
         logit_range(g, b0, b1);
         act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
-        gather_body(g, b0, b1, level);
+#if NN_CPU_X86
+        if (level == NN_SIMD_AVX512)
+            gather_regs_avx512(g, b0, b1);
+        else
+#endif
+            gather_body(g, b0, b1, level);
         if (a->p) act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
     }
 }
