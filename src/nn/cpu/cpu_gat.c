@@ -46,10 +46,11 @@ static const float ROW_TINY = 1e-24f;
 static const float DEN_TINY = 1e-12f;
 
 enum {
-    GATHER_ROW = 1024, /* output widths summed in a local row (wider ones in place) */
-    GATHER_PAD = 16,   /* room past the row for a whole vector */
-    ATTEND_BLOCK = 64, /* receivers whose exponentials and activations go as one span */
-    BOUNDED_ALPHA = 30 /* exp(30) ~ 1e13: a receiver's sum stays far from FLT_MAX */
+    GATHER_ROW = 1024,  /* output widths summed in a local row (wider ones in place) */
+    GATHER_PAD = 16,    /* room past the row for a whole vector */
+    ATTEND_BLOCK = 64,  /* receivers whose exponentials and activations go as one span */
+    BOUNDED_ALPHA = 30, /* exp(30) ~ 1e13: a receiver's sum stays far from FLT_MAX */
+    SCORE_GEMM_MIN = 16 /* 2H from which the scores' halves are one GEMM (measured, tiny: 2H = 4) */
 };
 
 /* ------------------------------------------------- dot and axpy, 3 paths -- */
@@ -178,6 +179,16 @@ static void node_range(void *vctx, int64_t begin, int64_t end) {
         const float *xn = a->x + n * a->IN;
         g->xn[n] = sqrtf(g->dot(xn, xn, a->IN));
     }
+}
+
+/* s_* of nodes [begin, end) as 2H dot products each (few heads: cheaper
+ * than the GEMM's narrow path). */
+static void score_halves_range(void *vctx, int64_t begin, int64_t end) {
+    const gat_pass *g = vctx;
+    const nn_gat_attend_args *a = g->a;
+    for (int64_t n = begin; n < end; n++)
+        for (int64_t h = 0; h < 2 * a->H; h++)
+            g->s[n * 2 * a->H + h] = g->dot(a->x + n * a->IN, g->u + h * a->IN, a->IN);
 }
 
 #if NN_CPU_X86
@@ -568,9 +579,13 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a) {
     g.agg = g.u + 2 * H * a->IN;
     g.wcat = g.agg + N * H * a->IN;
     int64_t per = E / N + 1;
-    /* the scores' halves a . W_h x = (W_h^T a) . x for every node: one GEMM */
+    /* the scores' halves a . W_h x = (W_h^T a) . x for every node: one GEMM,
+     * or dot products for a few heads */
     score_vectors(a, g.u, g.lip);
-    cr_nn_cpu_gemm(0, 1, N, 2 * H, a->IN, 1.0f, a->x, a->IN, g.u, a->IN, 0.0f, g.s, 2 * H);
+    if (2 * H >= SCORE_GEMM_MIN)
+        cr_nn_cpu_gemm(0, 1, N, 2 * H, a->IN, 1.0f, a->x, a->IN, g.u, a->IN, 0.0f, g.s, 2 * H);
+    else
+        cr_parallel_for(N, nn_cpu_row_grain(2 * H * a->IN), score_halves_range, &g);
     cr_range_fn scores = score_range;
 #if NN_CPU_X86
     if (level >= NN_SIMD_AVX512 && H <= 16) scores = score_range_avx512;
