@@ -430,7 +430,7 @@ CR_TEST(nn_graph, gat_inference_matches_tape) {
                 /* (IN, F): (13, 5) projects first, (80, 90) aggregates first, (150,
                  * 70) projects first over rows wider than 64 with tails */
                 const int ins[3] = {13, 80, 150}, outs[3] = {5, 90, 70}, IN = ins[m];
-                d.input = IN, d.out = outs[m], d.heads = 3, d.concat = concat;
+                d.input = IN, d.out = outs[m], d.heads = m == 1 ? 4 : 3, d.concat = concat;
                 d.norm = norms[m];
                 /* every activation over the levels: the kernel's and sin, run after it */
                 const cr_act acts[7] = {CR_ACT_TANH,       CR_ACT_NONE,    CR_ACT_RELU,

@@ -217,6 +217,22 @@ static NN_AVX512 void score_range_avx512(void *vctx, int64_t begin, int64_t end)
     }
 }
 
+/* The bounded logits of a block under the global norm as one flat span:
+ * x = LeakyReLU(x den[k mod H]) for H dividing 16 (den's pattern fills a
+ * register). */
+static NN_AVX512 void logits_flat_avx512(float *x, int64_t n, const float *den, int64_t H,
+                                         float slope) {
+    float pat[16];
+    for (int l = 0; l < 16; l++)
+        pat[l] = den[l % H];
+    const __m512 d = _mm512_loadu_ps(pat), sl = _mm512_set1_ps(slope), z = _mm512_setzero_ps();
+    for (int64_t k = 0; k < n; k += 16) {
+        __mmask16 m = n - k >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (n - k)) - 1u);
+        __m512 v = _mm512_mul_ps(_mm512_maskz_loadu_ps(m, x + k), d);
+        __mmask16 pos = _mm512_cmp_ps_mask(v, z, _CMP_GT_OQ);
+        _mm512_mask_storeu_ps(x + k, m, _mm512_mask_blend_ps(pos, _mm512_mul_ps(v, sl), v));
+    }
+}
 #endif
 
 /* |x_i|, the raw scores in CSR order and their squared row sums of the
@@ -244,13 +260,22 @@ static void score_range(void *vctx, int64_t begin, int64_t end) {
 }
 
 /* Normalised, activated scores minus each receiver's maximum per head. */
-static void logit_range(const gat_pass *g, int64_t begin, int64_t end) {
+static void logit_range(const gat_pass *g, int64_t begin, int64_t end, int level) {
     const nn_gat_attend_args *a = g->a;
     /* Normalised scores obey |g*| <= alpha (layer_gat.c), so up to
      * BOUNDED_ALPHA their exponentials neither overflow nor vanish and the
      * softmax needs no maximum subtracted (the same weights, a rounding
      * apart); plain GAT scores are unbounded and keep it. */
     const int bounded = a->norm != NN_GAT_NORM_NONE && a->alpha <= BOUNDED_ALPHA;
+#if NN_CPU_X86
+    if (bounded && a->norm == NN_GAT_NORM_GLOBAL && level >= NN_SIMD_AVX512 && 16 % a->H == 0) {
+        logits_flat_avx512(g->score + a->off[begin] * a->H, (a->off[end] - a->off[begin]) * a->H,
+                           g->den, a->H, a->slope);
+        return;
+    }
+#else
+    (void)level;
+#endif
     int64_t H = a->H;
     float den[NN_GAT_MAX_HEADS], mx[NN_GAT_MAX_HEADS];
     for (int64_t i = begin; i < end; i++) {
@@ -476,7 +501,7 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
     const int64_t H = a->H, C = a->concat ? H * a->F : a->F;
     for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
         int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
-        logit_range(g, b0, b1);
+        logit_range(g, b0, b1, level);
         act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
 #if NN_CPU_X86
         if (level == NN_SIMD_AVX512)
