@@ -396,7 +396,7 @@ static double near_all(const cr_tensor *a, const cr_tensor *b, double tol) {
 /* A ring of n nodes with chords i -> i + 7, one given self loop (dropped
  * and replaced by the layer's own) and node 0 receiving from everyone (a
  * long segment); senders and receivers as arena-free static storage. */
-enum { IN_N = 61, IN_E = 4 * IN_N + 1 };
+enum { IN_N = 71, IN_E = 4 * IN_N + 1 }; /* node 0: over 64 edges (cpu_gat.c GATHER_DEG) */
 static int32_t in_snd[IN_E], in_rcv[IN_E];
 static cr_nn_graph infer_graph(void) {
     int64_t e = 0;

@@ -50,6 +50,7 @@ enum {
     GATHER_PAD = 16,    /* room past the row for a whole vector */
     ATTEND_BLOCK = 64,  /* receivers whose exponentials and activations go as one span */
     BOUNDED_ALPHA = 30, /* exp(30) ~ 1e13: a receiver's sum stays far from FLT_MAX */
+    GATHER_DEG = 64,    /* receivers with at most this many edges keep their senders' rows */
     SCORE_GEMM_MIN = 16 /* 2H from which the scores' halves are one GEMM (measured, tiny: 2H = 4) */
 };
 
@@ -410,14 +411,18 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
     float inv[NN_GAT_MAX_HEADS];
     for (int64_t i = begin; i < end; i++) {
         const int64_t k0 = a->off[i], k1 = a->off[i + 1];
-        for (int64_t h = 0; h < H; h++)
-            inv[h] = 0.0f;
-        for (int64_t k = k0; k < k1; k++)
-            for (int64_t h = 0; h < H; h++)
-                inv[h] += g->score[k * H + h];
-        for (int64_t h = 0; h < H; h++)
-            inv[h] = scale / inv[h];
+        for (int64_t h = 0; h < H; h++) { /* a register sum per head, not a chain through inv */
+            float sum = 0.0f;
+            for (int64_t k = k0; k < k1; k++)
+                sum += g->score[k * H + h];
+            inv[h] = scale / sum;
+        }
         float *o = out + i * C;
+        /* the senders' rows once per receiver (not per head and column block) */
+        const int64_t deg = k1 - k0;
+        const float *rows[GATHER_DEG];
+        for (int64_t k = k0; k < k1 && deg <= GATHER_DEG; k++)
+            rows[k - k0] = src + (int64_t)a->snd[a->perm[k]] * stride;
         for (int64_t c0 = 0; c0 < F; c0 += 64) {
             const int64_t nc = F - c0 < 64 ? F - c0 : 64, nr = (nc + 15) / 16;
             __mmask16 m[4];
@@ -427,12 +432,41 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
                        : lanes > 0 ? (__mmask16)((1u << lanes) - 1u)
                                    : (__mmask16)0;
             }
+            /* even edges into s, odd into t: two chains per register */
             __m512 z = _mm512_setzero_ps(), s0 = z, s1 = z, s2 = z, s3 = z;
+            __m512 t0 = z, t1 = z, t2 = z, t3 = z;
             for (int64_t h = 0; h < H; h++) {
-                if (!mean) s0 = s1 = s2 = s3 = z;
+                if (!mean) s0 = s1 = s2 = s3 = t0 = t1 = t2 = t3 = z;
                 const int64_t off = (agg ? 0 : h * F) + c0;
-                for (int64_t k = k0; k < k1; k++) {
-                    const float *x = src + (int64_t)a->snd[a->perm[k]] * stride + off;
+                int64_t k = k0;
+                for (; k + 2 <= k1; k += 2) {
+                    const float *x =
+                        (deg <= GATHER_DEG ? rows[k - k0]
+                                           : src + (int64_t)a->snd[a->perm[k]] * stride) +
+                        off;
+                    const float *y =
+                        (deg <= GATHER_DEG ? rows[k + 1 - k0]
+                                           : src + (int64_t)a->snd[a->perm[k + 1]] * stride) +
+                        off;
+                    __m512 w = _mm512_set1_ps(g->score[k * H + h] * inv[h]);
+                    __m512 v = _mm512_set1_ps(g->score[(k + 1) * H + h] * inv[h]);
+                    s0 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[0], x), s0);
+                    t0 = _mm512_fmadd_ps(v, _mm512_maskz_loadu_ps(m[0], y), t0);
+                    if (nr > 1) {
+                        s1 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[1], x + 16), s1);
+                        t1 = _mm512_fmadd_ps(v, _mm512_maskz_loadu_ps(m[1], y + 16), t1);
+                    }
+                    if (nr > 2) {
+                        s2 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[2], x + 32), s2);
+                        t2 = _mm512_fmadd_ps(v, _mm512_maskz_loadu_ps(m[2], y + 32), t2);
+                    }
+                    if (nr > 3) {
+                        s3 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[3], x + 48), s3);
+                        t3 = _mm512_fmadd_ps(v, _mm512_maskz_loadu_ps(m[3], y + 48), t3);
+                    }
+                }
+                if (k < k1) {
+                    const float *x = src + (int64_t)a->snd[a->perm[k]] * stride + off; /* once */
                     __m512 w = _mm512_set1_ps(g->score[k * H + h] * inv[h]);
                     s0 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[0], x), s0);
                     if (nr > 1) s1 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[1], x + 16), s1);
@@ -441,7 +475,8 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
                 }
                 if (mean && h + 1 < H) continue;
                 const int64_t d = (mean ? 0 : h * F) + c0;
-                __m512 acc[4] = {s0, s1, s2, s3};
+                __m512 acc[4] = {_mm512_add_ps(s0, t0), _mm512_add_ps(s1, t1),
+                                 _mm512_add_ps(s2, t2), _mm512_add_ps(s3, t3)};
                 for (int r = 0; r < nr; r++) {
                     __m512 v = acc[r];
                     if (bias) v = _mm512_add_ps(v, _mm512_maskz_loadu_ps(m[r], bias + d + 16 * r));
