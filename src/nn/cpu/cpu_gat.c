@@ -114,35 +114,13 @@ static NN_AVX512 float dot_avx512(const float *a, const float *b, int64_t n) {
     return _mm512_reduce_add_ps(acc);
 }
 
-static inline NN_AVX512 void axpy_avx512(float a, const float *x, float *y, int64_t n) {
-    __m512 va = _mm512_set1_ps(a);
-    int64_t i = 0;
-    for (; i + 16 <= n; i += 16)
-        _mm512_storeu_ps(y + i,
-                         _mm512_fmadd_ps(va, _mm512_loadu_ps(x + i), _mm512_loadu_ps(y + i)));
-    if (i < n) {
-        __mmask16 m = (__mmask16)((1u << (n - i)) - 1u);
-        _mm512_mask_storeu_ps(
-            y + i, m,
-            _mm512_fmadd_ps(va, _mm512_maskz_loadu_ps(m, x + i), _mm512_maskz_loadu_ps(m, y + i)));
-    }
-}
 #endif
 
 #if NN_CPU_X86
 /* y[0..n) += a x[0..n) where y has a vector of room past n (the gather's
  * local row): x's tail is a masked load, y is read and written whole, so
  * the next edge's load of y forwards from this store (a masked store does
- * not forward; it cost a third of the gather). The extra lanes add a * 0. */
-static inline NN_AVX512 void axpy_pad_avx512(float a, const float *x, float *y, int64_t n) {
-    __m512 va = _mm512_set1_ps(a);
-    for (int64_t i = 0; i < n; i += 16) {
-        __mmask16 m = n - i >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (n - i)) - 1u);
-        _mm512_storeu_ps(
-            y + i, _mm512_fmadd_ps(va, _mm512_maskz_loadu_ps(m, x + i), _mm512_loadu_ps(y + i)));
-    }
-}
-
+ * not forward: it cost a third of the gather). The extra lanes add a * 0. */
 static inline NN_AVX2 void axpy_pad_avx2(float a, const float *x, float *y, int64_t n) {
     static const int32_t lanes[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
     __m256 va = _mm256_set1_ps(a);
@@ -166,7 +144,7 @@ typedef struct gat_pass {
     float *xn;    /* (N) |x_n| */
     float *lip;   /* (H) */
     float *den;   /* (H) alpha over the global denominators (1 without a norm) */
-    float *u;     /* (2H,IN) W_h^T a_dst then W_h^T a_src (aggregate-first) */
+    float *u;     /* (2H,IN) W_h^T a_dst then W_h^T a_src */
     float *agg;   /* (N,H*IN) per-head weighted sums of x (aggregate-first) */
     float *wcat;  /* (F,H*IN) W's heads side by side (aggregate-first) */
     dot_fn dot;
@@ -320,9 +298,10 @@ static void logit_range(const gat_pass *g, int64_t begin, int64_t end, int level
     }
 }
 
-/* Softmax weights from the exponentials, then the weighted sum: one body,
- * instantiated per SIMD level below so the row updates inline (rows of a
- * few floats are common: a call per edge and head cost more than its work). */
+/* Softmax weights from the exponentials, then the weighted sum (portable and
+ * AVX2; AVX-512 has gather_regs_avx512): one body per level so the row
+ * updates inline (rows of a few floats are common: a call per edge and head
+ * cost more than its work). */
 static inline __attribute__((always_inline)) void gather_body(const gat_pass *g, int64_t begin,
                                                               int64_t end, int level) {
     const nn_gat_attend_args *a = g->a;
@@ -365,9 +344,7 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
                 const float *x = agg ? sj : sj + h * F;
                 float *dst = row + (mean && !local ? 0 : h * F);
 #if NN_CPU_X86
-                if (level == NN_SIMD_AVX512)
-                    local ? axpy_pad_avx512(wt, x, dst, F) : axpy_avx512(wt, x, dst, F);
-                else if (level == NN_SIMD_AVX2)
+                if (level == NN_SIMD_AVX2)
                     local ? axpy_pad_avx2(wt, x, dst, F) : axpy_avx2(wt, x, dst, F);
                 else
 #endif
