@@ -33,22 +33,23 @@ static void span(int level, nn_vec_fn fn, const float *x, float *out, int64_t n)
         out[k] = fn == NN_VEC_TANH ? tanhf(x[k]) : nn_cpu_sigmoidf(x[k]);
 }
 
-/* Row-wise loops over 16 floats at a time in GCC/clang vector types (the
+/* Row-wise loops over 8 floats at a time in GCC/clang vector types (the
  * bodies below are inlined into functions compiled for AVX2 or AVX-512, where
- * these become ymm or zmm operations; -O2 leaves plain loops scalar), then
- * the tail. */
-typedef float v16 __attribute__((vector_size(64)));
+ * these become ymm operations; -O2 leaves plain loops scalar), then the
+ * tail. 8, not 16: the tiny model's gates are 8 wide, and these loops are a
+ * small part next to the sigmoid and tanh spans. */
+typedef float v8 __attribute__((vector_size(32)));
 #define ALWAYS static inline __attribute__((always_inline))
 
 /* Loads and stores of unaligned vectors as copies (no vector crosses a call). */
-#define V_LD(v, p) memcpy(&(v), (p), sizeof(v16))
-#define V_ST(p, v) memcpy((p), &(v), sizeof(v16))
+#define V_LD(v, p) memcpy(&(v), (p), sizeof(v8))
+#define V_ST(p, v) memcpy((p), &(v), sizeof(v8))
 
 /* y = a + b */
 ALWAYS void vadd(float *y, const float *a, const float *b, int64_t n) {
     int64_t k = 0;
-    for (; k + 16 <= n; k += 16) {
-        v16 u, v;
+    for (; k + 8 <= n; k += 8) {
+        v8 u, v;
         V_LD(u, a + k), V_LD(v, b + k);
         u += v;
         V_ST(y + k, u);
@@ -60,8 +61,8 @@ ALWAYS void vadd(float *y, const float *a, const float *b, int64_t n) {
 /* y += a w */
 ALWAYS void vfma(float *y, const float *a, const float *w, int64_t n) {
     int64_t k = 0;
-    for (; k + 16 <= n; k += 16) {
-        v16 u, v, x;
+    for (; k + 8 <= n; k += 8) {
+        v8 u, v, x;
         V_LD(u, y + k), V_LD(v, a + k), V_LD(x, w + k);
         u += v * x;
         V_ST(y + k, u);
@@ -73,8 +74,8 @@ ALWAYS void vfma(float *y, const float *a, const float *w, int64_t n) {
 /* y *= s */
 ALWAYS void vscale(float *y, float s, int64_t n) {
     int64_t k = 0;
-    for (; k + 16 <= n; k += 16) {
-        v16 u;
+    for (; k + 8 <= n; k += 8) {
+        v8 u;
         V_LD(u, y + k);
         u *= s;
         V_ST(y + k, u);
@@ -87,8 +88,8 @@ ALWAYS void vscale(float *y, float s, int64_t n) {
 ALWAYS void vcell(float *c1, const float *i, const float *f, const float *s, const float *c,
                   int64_t n) {
     int64_t k = 0;
-    for (; k + 16 <= n; k += 16) {
-        v16 g, ik, fk, ck;
+    for (; k + 8 <= n; k += 8) {
+        v8 g, ik, fk, ck;
         V_LD(g, s + k), V_LD(ik, i + k);
         g = ik * (2.0f * g - 1.0f);
         if (c) {
@@ -106,8 +107,8 @@ ALWAYS void vcell(float *c1, const float *i, const float *f, const float *s, con
 /* y *= a */
 ALWAYS void vmul(float *y, const float *a, int64_t n) {
     int64_t k = 0;
-    for (; k + 16 <= n; k += 16) {
-        v16 u, v;
+    for (; k + 8 <= n; k += 8) {
+        v8 u, v;
         V_LD(u, y + k), V_LD(v, a + k);
         u *= v;
         V_ST(y + k, u);
