@@ -379,24 +379,26 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
     cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
     cr_tensor *G = e->G, *skinmat = e->skinmat, *logw0 = e->logw0;
 
-    /* body information for every coarse frame: the motion LSTM over m poses,
-     * the body encoder on [beta, theta^t] */
+    /* body information for every coarse frame computed here (the first two
+     * come with prev): the motion LSTM over m poses, the body encoder on
+     * [beta, theta^t]; row k - k0 is coarse frame k */
     const int W = d->motion_window;
-    cr_tensor *seq = cr_nn_new(ctx, 3, (int64_t[]){W, Kc, SWG_POSE_FEATURES});
-    cr_tensor *bin = cr_nn_new(ctx, 2, (int64_t[]){Kc, SWG_BODY_FEATURES});
+    const int32_t k0 = prev ? 2 : 0, Kb = Kc - k0;
+    cr_tensor *seq = cr_nn_new(ctx, 3, (int64_t[]){W, Kb, SWG_POSE_FEATURES});
+    cr_tensor *bin = cr_nn_new(ctx, 2, (int64_t[]){Kb, SWG_BODY_FEATURES});
     if (!seq || !bin) return NULL;
-    for (int32_t k = 0; k < Kc; k++) {
+    for (int32_t k = k0; k < Kc; k++) {
         int32_t f = t0 - 2 + k;
         for (int w = 0; w < W; w++)
             pose_features(mo, f - (W - 1) + w,
-                          seq->data + ((size_t)w * Kc + k) * SWG_POSE_FEATURES);
-        float *b = bin->data + (size_t)k * SWG_BODY_FEATURES;
+                          seq->data + ((size_t)w * Kb + (k - k0)) * SWG_POSE_FEATURES);
+        float *b = bin->data + (size_t)(k - k0) * SWG_BODY_FEATURES;
         memcpy(b, mo->joints, sizeof(float) * J * 3);
         pose_features(mo, f, b + J * 3);
     }
     cr_tensor *mfeat = NULL;
-    cr_lstm_forward(ctx, &m->motion, seq, NULL, NULL, &mfeat, NULL); /* (Kc, H) */
-    cr_tensor *bfeat = cr_mlp_forward(ctx, m->body, bin);            /* (Kc, 64) */
+    cr_lstm_forward(ctx, &m->motion, seq, NULL, NULL, &mfeat, NULL); /* (Kb, H) */
+    cr_tensor *bfeat = cr_mlp_forward(ctx, m->body, bin);            /* (Kb, 64) */
 
     /* rest positions in homogeneous form, (V,4) */
     cr_tensor *rest = cr_nn_wrap(ctx, 2, (int64_t[]){V, 3}, g->rest->pos);
@@ -417,7 +419,7 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
         }
         int32_t f = clampi(t0 - 2 + k, 0, mo->nframes - 1);
         const float *pose = mo->poses + (size_t)f * J * 3;
-        cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k, 1); /* (1,H) */
+        cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k - k0, 1); /* (1,H) */
         cr_tensor *q = cr_gat_forward(ctx, &m->state, cr_nn_mul(ctx, G, mk), &graph, NULL);
         /* unposed blend shape B^t */
         cr_tensor *bb =
@@ -467,7 +469,7 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
         cr_tensor *x3 = stack(ctx, coarse_feat + k, 3); /* (3,V,25) */
         cr_tensor *h = NULL;
         cr_gat_lstm_forward(ctx, &m->corr, x3, &graph, NULL, NULL, &h, NULL);
-        cr_tensor *hb = cr_nn_mul(ctx, h, cr_nn_slice(ctx, bfeat, 0, k + 2, 1));
+        cr_tensor *hb = cr_nn_mul(ctx, h, cr_nn_slice(ctx, bfeat, 0, k + 2 - k0, 1));
         cr_tensor *D = cr_nn_mul_scalar(
             ctx,
             cr_gat_forward(ctx, &m->c1, cr_gat_forward(ctx, &m->c0, hb, &graph, NULL), &graph,
