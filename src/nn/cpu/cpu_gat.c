@@ -394,6 +394,9 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
                 sum += g->score[k * H + h];
             inv[h] = scale / sum;
         }
+        for (int64_t k = k0; k < k1; k++) /* the weights, in place of the exponentials */
+            for (int64_t h = 0; h < H; h++)
+                g->score[k * H + h] *= inv[h];
         float *o = out + i * C;
         /* the senders' rows once per receiver (not per head and column block) */
         const int64_t deg = k1 - k0;
@@ -425,8 +428,8 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
                         (deg <= GATHER_DEG ? rows[k + 1 - k0]
                                            : src + (int64_t)a->snd[a->perm[k + 1]] * stride) +
                         off;
-                    __m512 w = _mm512_set1_ps(g->score[k * H + h] * inv[h]);
-                    __m512 v = _mm512_set1_ps(g->score[(k + 1) * H + h] * inv[h]);
+                    __m512 w = _mm512_set1_ps(g->score[k * H + h]);
+                    __m512 v = _mm512_set1_ps(g->score[(k + 1) * H + h]);
                     s0 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[0], x), s0);
                     t0 = _mm512_fmadd_ps(v, _mm512_maskz_loadu_ps(m[0], y), t0);
                     if (nr > 1) {
@@ -444,7 +447,7 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
                 }
                 if (k < k1) {
                     const float *x = src + (int64_t)a->snd[a->perm[k]] * stride + off; /* once */
-                    __m512 w = _mm512_set1_ps(g->score[k * H + h] * inv[h]);
+                    __m512 w = _mm512_set1_ps(g->score[k * H + h]);
                     s0 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[0], x), s0);
                     if (nr > 1) s1 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[1], x + 16), s1);
                     if (nr > 2) s2 = _mm512_fmadd_ps(w, _mm512_maskz_loadu_ps(m[2], x + 32), s2);
