@@ -328,7 +328,7 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
             for (int64_t h = 0; h < H; h++)
                 inv[h] += g->score[k * H + h];
         for (int64_t h = 0; h < H && !local; h++)
-            inv[h] = scale / inv[h];
+            inv[h] = inv[h] != 0.0f ? scale / inv[h] : 0.0f; /* no edges: a zero row */
         float *o = out + i * C;
         if (local)
             memset(acc, 0, sizeof(float) * (size_t)(2 * (HF + GATHER_PAD)));
@@ -352,7 +352,7 @@ static inline __attribute__((always_inline)) void gather_body(const gat_pass *g,
             }
         }
         for (int64_t h = 0; h < H && local; h++)
-            inv[h] = scale / inv[h];
+            inv[h] = inv[h] != 0.0f ? scale / inv[h] : 0.0f;
         if (local && mean) {
             for (int64_t c = 0; c < C; c++) {
                 float v = bias ? bias[c] : 0.0f;
@@ -392,7 +392,7 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
             float sum = 0.0f;
             for (int64_t k = k0; k < k1; k++)
                 sum += g->score[k * H + h];
-            inv[h] = scale / sum;
+            inv[h] = sum != 0.0f ? scale / sum : 0.0f; /* no edges: a zero row */
         }
         for (int64_t k = k0; k < k1; k++) /* the weights, in place of the exponentials */
             for (int64_t h = 0; h < H; h++)
