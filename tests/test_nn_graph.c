@@ -11,6 +11,7 @@
  * The graph is a 6-node ring plus one chord, both directions: 14 edges.
  */
 #include "crease/nn_graph.h"
+#include "nn/cpu/cpu.h"
 #include "nn_gradcheck.h"
 #include "test.h"
 
@@ -376,6 +377,163 @@ CR_TEST(nn_graph, gat_matches_loop_reference) {
                 CR_CHECK_NEAR(y->data[i], ref[i], 2e-5);
             cr_nn_params_destroy(P);
         }
+    cr_nn_ctx_destroy(ctx);
+}
+
+/* |a - b| over n floats, checked against tol (1 + |b|); returns the largest. */
+static double near_all(const cr_tensor *a, const cr_tensor *b, double tol) {
+    double worst = 0.0;
+    CR_CHECK(a && b && cr_nn_same_shape(a, b));
+    if (!a || !b || !cr_nn_same_shape(a, b)) return INFINITY;
+    for (int64_t i = 0; i < a->numel; i++) {
+        double e = fabs((double)a->data[i] - b->data[i]);
+        worst = e > worst ? e : worst;
+        CR_CHECK_NEAR(a->data[i], b->data[i], tol * (1.0 + fabs(b->data[i])));
+    }
+    return worst;
+}
+
+/* A ring of n nodes with chords i -> i + 7, one given self loop (dropped
+ * and replaced by the layer's own), node 0 receiving from everyone (a long
+ * segment) and the last node from no one (an empty segment without self
+ * loops); senders and receivers as arena-free static storage. */
+enum { IN_N = 71, IN_E = 4 * IN_N + 1 }; /* node 0: over 64 edges (cpu_gat.c GATHER_DEG) */
+static int32_t in_snd[IN_E], in_rcv[IN_E];
+static cr_nn_graph infer_graph(void) {
+    int64_t e = 0;
+    const int32_t pair[4][2] = {{0, 1}, {1, 0}, {0, 7}, {0, -1}}; /* sender, receiver offsets */
+    for (int32_t i = 0; i < IN_N; i++)
+        for (int q = 0; q < 4; q++) {
+            int32_t a = (i + pair[q][0]) % IN_N, b = pair[q][1] < 0 ? 0 : (i + pair[q][1]) % IN_N;
+            if (b == IN_N - 1) continue; /* the last node receives nothing but its self loop */
+            in_snd[e] = a, in_rcv[e++] = b;
+        }
+    in_snd[e] = 5, in_rcv[e++] = 5;
+    return (cr_nn_graph){.nodes = IN_N, .edges = e, .senders = in_snd, .receivers = in_rcv};
+}
+
+/* The forward-only path (gradient off: cpu_gat.c's fused kernel) against
+ * the tape's ops (gradient on) on every SIMD path the machine has, every
+ * norm, concatenated and averaged heads (projected first and aggregated
+ * first, rows narrower and wider than 64), each activation on some path;
+ * the widths leave vector tails. */
+CR_TEST(nn_graph, gat_inference_matches_tape) {
+    const cr_gat_norm norms[3] = {CR_GAT_NORM_NONE, CR_GAT_NORM_GLOBAL, CR_GAT_NORM_RECEIVER};
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
+    CR_REQUIRE(ctx);
+    const cr_nn_graph g = infer_graph();
+    const int prev = cr_nn_cpu_simd();
+    double worst = 0.0;
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        for (int m = 0; m < 3; m++)
+            for (int concat = 0; concat < 2; concat++) {
+                cr_gat_def d = cr_gat_default_def();
+                /* (IN, F): (13, 5) projects first, (80, 90) aggregates first, (150,
+                 * 70) projects first over rows wider than 64 with tails */
+                const int ins[3] = {13, 80, 150}, outs[3] = {5, 90, 70}, IN = ins[m];
+                d.input = IN, d.out = outs[m], d.heads = m == 1 ? 4 : 3, d.concat = concat;
+                d.self_loops = m != 2; /* without: the last node's segment is empty */
+                d.norm = norms[m];
+                /* every activation over the levels: the kernel's and sin, run after it */
+                const cr_act acts[7] = {CR_ACT_TANH,       CR_ACT_NONE,    CR_ACT_RELU,
+                                        CR_ACT_LEAKY_RELU, CR_ACT_SIGMOID, CR_ACT_SOFTPLUS,
+                                        CR_ACT_SIN};
+                const float params[7] = {0, 0, 0, 0.1f, 0, 2.0f, 3.0f};
+                int ai = (2 * m + concat + 3 * level) % 7;
+                d.act = acts[ai], d.act_param = params[ai];
+                cr_nn_params *P = NULL;
+                gat_case k;
+                CR_REQUIRE(make_gat(&d, &P, &k, 90 + (uint64_t)m));
+                static float x[IN_N * 150];
+                nn_gradcheck_fill(x, IN_N * IN, -1, 1, 0, 91 + (uint64_t)m);
+                cr_nn_ctx_reset(ctx);
+                cr_nn_ctx_set_grad_enabled(ctx, 1);
+                cr_tensor *xt = cr_nn_from(ctx, 2, (int64_t[]){IN_N, IN}, x);
+                xt->requires_grad = 1;
+                cr_tensor *ref = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
+                cr_nn_ctx_set_grad_enabled(ctx, 0);
+                cr_tensor *y = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
+                CR_REQUIRE(ref && y && cr_nn_same_shape(ref, y));
+                CR_CHECK(ref->requires_grad && !y->requires_grad);
+                double e = near_all(y, ref, 2e-5);
+                worst = e > worst ? e : worst;
+                /* another graph in the same step, then the first again: the
+                 * step's cached edges must follow the graph */
+                const cr_nn_graph small = test_graph();
+                cr_tensor *xs = cr_nn_from(ctx, 2, (int64_t[]){GN, IN}, x);
+                cr_tensor *ys = cr_gat_forward(ctx, &k.gat, xs, &small, NULL);
+                cr_tensor *y2 = cr_gat_forward(ctx, &k.gat, xt, &g, NULL);
+                cr_nn_ctx_set_grad_enabled(ctx, 1);
+                cr_tensor *refs = cr_gat_forward(ctx, &k.gat, xs, &small, NULL);
+                CR_REQUIRE(ys && y2 && refs);
+                near_all(ys, refs, 2e-5);
+                near_all(y2, ref, 2e-5);
+                cr_nn_params_destroy(P);
+            }
+    }
+    cr_nn_cpu_set_simd(prev);
+    cr_log(CR_LOG_INFO, "gat inference against the tape: max |diff| %.3g", worst);
+    cr_nn_ctx_destroy(ctx);
+}
+
+/* The LSTM runner and the graph LSTM with the gradient off (cpu_rnn.c's
+ * gates, cpu_gat.c's attention) against the tape on every SIMD path:
+ * H = 19: a whole vector and a tail; zero and given states, with peepholes. */
+CR_TEST(nn_graph, lstm_inference_matches_tape) {
+    enum { T = 3, B = 5, IN = 4, H = 19 };
+    cr_nn_ctx *ctx = nn_gradcheck_ctx(16 << 20);
+    CR_REQUIRE(ctx);
+    cr_nn_params *P = NULL;
+    cr_error err = {0};
+    CR_REQUIRE(cr_nn_params_create(&P, &err) == CR_OK);
+    cr_rng rng = cr_rng_make(7, 0);
+    cr_rnn_def rd = cr_rnn_default_def();
+    rd.input = IN, rd.hidden = H;
+    cr_rnn_cell lstm;
+    CR_CHECK_OK(cr_lstm_cell_create(&rd, P, "lstm", &rng, &lstm, &err), &err);
+    cr_gat_lstm_def gd = cr_gat_lstm_default_def();
+    gd.input = IN, gd.hidden = H, gd.gat.heads = 2, gd.gat.concat = 0;
+    cr_gat_lstm gl;
+    CR_CHECK_OK(cr_gat_lstm_create(&gd, P, "gl", &rng, &gl, &err), &err);
+    randomise(P, 0.8f, 8);
+    const cr_nn_graph g = infer_graph();
+    float x[T * IN_N * IN], s0[2 * IN_N * H];
+    nn_gradcheck_fill(x, T * IN_N * IN, -1, 1, 0, 9);
+    nn_gradcheck_fill(s0, 2 * IN_N * H, -1, 1, 0, 10);
+    const int prev = cr_nn_cpu_simd();
+    double worst = 0.0;
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        for (int given = 0; given < 2; given++) {
+            cr_tensor *y[2], *hl[2], *cl[2], *gy[2], *ghl[2], *gcl[2];
+            cr_nn_ctx_reset(ctx);
+            for (int mode = 0; mode < 2; mode++) {
+                cr_nn_ctx_set_grad_enabled(ctx, mode == 0);
+                cr_tensor *xs = cr_nn_from(ctx, 3, (int64_t[]){T, B, IN}, x);
+                cr_tensor *xg = cr_nn_from(ctx, 3, (int64_t[]){T, IN_N, IN}, x);
+                xs->requires_grad = xg->requires_grad = 1;
+                cr_tensor *h0 = given ? cr_nn_from(ctx, 2, (int64_t[]){B, H}, s0) : NULL;
+                cr_tensor *c0 = given ? cr_nn_from(ctx, 2, (int64_t[]){B, H}, s0 + B * H) : NULL;
+                cr_tensor *gh0 = given ? cr_nn_from(ctx, 2, (int64_t[]){IN_N, H}, s0) : NULL;
+                cr_tensor *gc0 =
+                    given ? cr_nn_from(ctx, 2, (int64_t[]){IN_N, H}, s0 + IN_N * H) : NULL;
+                y[mode] = cr_lstm_forward(ctx, &lstm, xs, h0, c0, &hl[mode], &cl[mode]);
+                gy[mode] = cr_gat_lstm_forward(ctx, &gl, xg, &g, gh0, gc0, &ghl[mode], &gcl[mode]);
+                CR_REQUIRE(y[mode] && gy[mode]);
+                CR_CHECK(y[mode]->requires_grad == (mode == 0));
+            }
+            cr_nn_ctx_set_grad_enabled(ctx, 1);
+            double e[6] = {near_all(y[1], y[0], 2e-5),     near_all(hl[1], hl[0], 2e-5),
+                           near_all(cl[1], cl[0], 2e-5),   near_all(gy[1], gy[0], 2e-5),
+                           near_all(ghl[1], ghl[0], 2e-5), near_all(gcl[1], gcl[0], 2e-5)};
+            for (int i = 0; i < 6; i++)
+                worst = e[i] > worst ? e[i] : worst;
+        }
+    }
+    cr_nn_cpu_set_simd(prev);
+    cr_log(CR_LOG_INFO, "lstm inference against the tape: max |diff| %.3g", worst);
+    cr_nn_params_destroy(P);
     cr_nn_ctx_destroy(ctx);
 }
 

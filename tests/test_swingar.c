@@ -8,6 +8,7 @@
 #include "crease/mesh_io.h"
 #include "crease/nn_checkpoint.h"
 #include "crease/swingar.h"
+#include "nn/cpu/cpu.h"
 #include "nn_gradcheck.h"
 #include "test.h"
 
@@ -154,16 +155,31 @@ CR_TEST(swingar, untrained_model_is_the_skinned_garment) {
     cr_swingar_destroy(m);
 }
 
-/* Frames [0, T) of motion i in one forward, the reference for predict. */
-static float *one_forward(cr_swingar *m, const cr_swingar_garment *g, const cr_swingar_motion *mo) {
+/* Frames [0, T) of motion i in one forward, the reference for predict:
+ * with the gradient on (grad 1) the tape's ops, off the inference kernels.
+ * skin and coarse, when given, receive the parts (malloc'd). */
+static float *forward_grad(cr_swingar *m, const cr_swingar_garment *g, const cr_swingar_motion *mo,
+                           int grad, float **skin, float **coarse) {
     cr_nn_ctx *ctx = test_ctx(256);
     if (!ctx) return NULL;
-    cr_nn_ctx_set_grad_enabled(ctx, 0);
-    cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, 0, mo->nframes, NULL);
+    cr_nn_ctx_set_grad_enabled(ctx, grad);
+    cr_swingar_parts parts;
+    cr_tensor *y = cr_swingar_forward(ctx, m, g, mo, 0, mo->nframes, skin ? &parts : NULL);
     float *out = y ? malloc(sizeof(float) * (size_t)y->numel) : NULL;
     if (out) memcpy(out, y->data, sizeof(float) * (size_t)y->numel);
+    if (out && grad) CR_CHECK(y->requires_grad);
+    cr_tensor *pt[2] = {skin ? parts.skin : NULL, skin ? parts.coarse : NULL};
+    float **dst[2] = {skin, coarse};
+    for (int i = 0; i < 2 && skin; i++) {
+        *dst[i] = out && pt[i] ? malloc(sizeof(float) * (size_t)pt[i]->numel) : NULL;
+        if (*dst[i]) memcpy(*dst[i], pt[i]->data, sizeof(float) * (size_t)pt[i]->numel);
+    }
     cr_nn_ctx_destroy(ctx);
     return out;
+}
+
+static float *one_forward(cr_swingar *m, const cr_swingar_garment *g, const cr_swingar_motion *mo) {
+    return forward_grad(m, g, mo, 0, NULL, NULL);
 }
 
 static double max_diff(const float *a, const float *b, int64_t n) {
@@ -211,6 +227,48 @@ CR_TEST(swingar, predict_and_batch_agree) {
     CR_CHECK(ps.arena_peak_bytes > 0);
     CR_CHECK(cr_swingar_predict_batch(m, g, mo, 0, 0, out, NULL, &err) == CR_ERR_INVALID);
     free(out[0]), free(out[1]), free(ref[0]), free(ref[1]);
+    cr_swingar_destroy(m);
+}
+
+CR_TEST(swingar, inference_matches_the_tape_forward) {
+    /* issue 51: with the gradient off the GAT, LSTM and skinning run fused
+     * forward-only kernels; predict (the runtime, gradient off) and a
+     * gradient-off forward's parts give the tape's values (gradient on)
+     * within float rounding, on every SIMD path the machine has (random
+     * heads, so every layer reaches the output) */
+    const cr_swingar_data *d = tiny_data();
+    CR_REQUIRE(d);
+    cr_swingar_def def = tiny_def();
+    def.zero_last = 0;
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    CR_CHECK_OK(cr_swingar_create(&def, 7, &m, &err), &err);
+    CR_REQUIRE(m);
+    const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
+    cr_swingar_motion mo = seq_motion(d, 0);
+    const int64_t V = g->rest->nv, n = mo.nframes * V * 3, ns = mo.nframes * V * CR_NJOINTS;
+    float *skin[2] = {0}, *coarse[2] = {0};
+    float *ref = forward_grad(m, g, &mo, 1, &skin[0], &coarse[0]);
+    float *out = malloc(sizeof(float) * (size_t)n);
+    CR_REQUIRE(ref && skin[0] && coarse[0] && out);
+    const int prev = cr_nn_cpu_simd();
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        CR_CHECK_OK(cr_swingar_predict(m, g, &mo, 0, out, &err), &err);
+        double dp = max_diff(out, ref, n);
+        printf("    simd %d: max |predict - tape forward| %.2e m\n", level, dp);
+        CR_CHECK(dp < 1e-5);
+        float *y = forward_grad(m, g, &mo, 0, &skin[1], &coarse[1]);
+        CR_REQUIRE(y && skin[1] && coarse[1]);
+        double dy = max_diff(y, ref, n), dw = max_diff(skin[1], skin[0], ns);
+        double dc = max_diff(coarse[1], coarse[0], n);
+        printf("    simd %d forward: output %.2e m, skinning weights %.2e, coarse %.2e m\n", level,
+               dy, dw, dc);
+        CR_CHECK(dy < 1e-5 && dw < 1e-6 && dc < 1e-5);
+        free(y), free(skin[1]), free(coarse[1]);
+    }
+    cr_nn_cpu_set_simd(prev);
+    free(out), free(ref), free(skin[0]), free(coarse[0]);
     cr_swingar_destroy(m);
 }
 

@@ -26,6 +26,45 @@ typedef enum nn_binary_mode {
     NN_BINARY_GRAD_B  /* out = dy * df/db */
 } nn_binary_mode;
 
+/* GAT-LN's attention for inference (cpu_gat.c): what layer_gat.c's tape
+ * ops compute from the projection p to the activated output. Several heads
+ * may go aggregate-first (p NULL): per head the weighted sums of the inputs
+ * x (IN wide, where p's head is F wide), then one GEMM over the heads side
+ * by side (averaged) or one per head (concatenated); the same products,
+ * fewer bytes per edge. Edges come grouped by receiver:
+ * those of receiver i are snd[perm[k]] for k in [off[i], off[i+1]), self loops included. */
+enum { NN_GAT_MAX_HEADS = 64 };
+enum { NN_GAT_NORM_NONE = 0, NN_GAT_NORM_GLOBAL = 1, NN_GAT_NORM_RECEIVER = 2 }; /* cr_gat_norm */
+typedef struct nn_gat_attend_args {
+    int64_t N, IN, H, F; /* nodes, input features, heads (<= NN_GAT_MAX_HEADS), per-head out */
+    int concat;          /* 1: out (N,H*F) heads side by side; 0: (N,F) their mean */
+    int norm;            /* NN_GAT_NORM_* */
+    float alpha, slope;  /* eq. 4's alpha; LeakyReLU's negative slope */
+    const float *x;      /* (N,IN) the layer's input (|x| of eq. 4) */
+    const float *w;      /* (H*F,IN) the projection's weight (Lip(g) of eq. 4) */
+    const float *p;      /* (N,H*F) x w^T; NULL: aggregate first */
+    const float *att_src, *att_dst; /* (H,F) */
+    const int64_t *off;             /* (N+1) */
+    const int32_t *perm, *snd;      /* (E) */
+    const float *bias;              /* (concat ? H*F : F) added to out, or NULL */
+    cr_op act;                      /* then out = act(out): NONE, RELU, LEAKY_RELU, TANH, */
+    float act_p;                    /* SIGMOID or SOFTPLUS, with its slope or beta */
+    float *scratch;                 /* gat_attend_scratch(N, E, H) floats */
+    float *out;                     /* (N,concat ? H*F : F) */
+} nn_gat_attend_args;
+
+/* An LSTM cell's gates for inference (cpu_rnn.c): z = zx + zh (+ peepholes
+ * on c), [i, f, g, o] along 4H, c_out = f c + i g, h = o tanh(c_out). */
+typedef struct nn_lstm_gates_args {
+    int64_t B, H;
+    const float *zx;    /* (B,4H) */
+    const float *zh;    /* (B,4H) or NULL (zero) */
+    const float *c;     /* (B,H) or NULL (zero state) */
+    const float *pw[3]; /* (H) peephole weights of i, f, o on c, or all NULL */
+    float *z;           /* (B,4H) scratch */
+    float *h, *c_out;   /* (B,H) */
+} nn_lstm_gates_args;
+
 typedef struct cr_nn_backend {
     const char *name;
 
@@ -108,6 +147,11 @@ typedef struct cr_nn_backend {
                                     const int32_t *perm, int64_t nseg, float *y);
     void (*segment_softmax_backward)(const float *y, const float *dy, int64_t H, const int64_t *off,
                                      const int32_t *perm, int64_t nseg, float *dx);
+
+    /* ---- fused forward-only kernels (inference: no tape, nothing kept) */
+    size_t (*gat_attend_scratch)(const nn_gat_attend_args *a); /* floats; a without scratch */
+    void (*gat_attend_forward)(const nn_gat_attend_args *a);
+    void (*lstm_gates_forward)(const nn_lstm_gates_args *a);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */

@@ -37,6 +37,9 @@
  *
  * Maxima are taken on the host over the eagerly computed values and turned
  * into gathers of the winning entries, since the engine has no max op.
+ * With the context's gradient off the layer runs the backend's forward-only
+ * kernel instead (forward_infer, src/nn/cpu/cpu_gat.c): the same values
+ * within float rounding, nothing on the tape.
  * Leaves out: dropout on attention, edge features in the score (GATv2,
  * HOOD-style edges go through the MPNN instead), bipartite graphs.
  */
@@ -240,6 +243,83 @@ static cr_tensor *lipschitz_normalise(cr_nn_ctx *ctx, const cr_gat *gat, cr_tens
     return cr_nn_mul_scalar(ctx, cr_nn_div(ctx, g, den), gat->def.alpha);
 }
 
+/* The edges and their CSR for inference: the step's cached ones when the
+ * graph's arrays hold the same edges as at the last call (the layers of one
+ * model share a graph), else built and cached. NULL on error. */
+static const nn_gat_edges *infer_edges(cr_nn_ctx *ctx, const cr_nn_graph *g, int self_loops) {
+    nn_gat_edges *c = ctx->gat_edges;
+    size_t bytes = (size_t)g->edges * sizeof(int32_t);
+    if (c && c->nodes == g->nodes && c->edges == g->edges && c->self_loops == self_loops &&
+        (g->edges == 0 || (memcmp(c->given_snd, g->senders, bytes) == 0 &&
+                           memcmp(c->given_rcv, g->receivers, bytes) == 0)))
+        return c;
+    c = cr_nn_scratch(ctx, "gat", sizeof *c);
+    if (!c) return NULL;
+    c->nodes = g->nodes, c->edges = g->edges, c->self_loops = self_loops;
+    c->E = build_edges(ctx, g, self_loops, &c->snd, &c->rcv);
+    if (c->E < 0) return NULL;
+    c->given_snd = cr_nn_scratch(ctx, "gat", bytes + 1);
+    c->given_rcv = cr_nn_scratch(ctx, "gat", bytes + 1);
+    c->off = cr_nn_scratch(ctx, "gat", (size_t)(g->nodes + 1) * sizeof *c->off);
+    c->perm = cr_nn_scratch(ctx, "gat", (size_t)(c->E > 0 ? c->E : 1) * sizeof *c->perm);
+    if (!c->given_snd || !c->given_rcv || !c->off || !c->perm) return NULL;
+    if (g->edges > 0) {
+        memcpy(c->given_snd, g->senders, bytes);
+        memcpy(c->given_rcv, g->receivers, bytes);
+    }
+    ctx->be->csr_build(c->rcv, c->E, g->nodes, c->off, c->perm);
+    ctx->gat_edges = c;
+    return c;
+}
+
+/* Inference (the context's gradient off): the projection's GEMM, then the
+ * scores, normalisation, softmax, weighted sum, bias and activation in the
+ * backend's one forward-only kernel (an activation it lacks, sin, after it);
+ * nothing on the tape and no (E,H,F) array. Same values as the ops below within float
+ * rounding (tests/test_nn_graph.c). NULL with no error recorded when the
+ * graph has no edges (the caller's ops handle that). */
+static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x,
+                                const cr_nn_graph *g) {
+    const cr_gat_def *d = &gat->def;
+    const cr_nn_backend *be = ctx->be;
+    int64_t N = g->nodes, H = d->heads, F = d->out, C = cr_gat_out_dim(d);
+    const nn_gat_edges *ed = infer_edges(ctx, g, d->self_loops);
+    if (!ed || ed->E == 0) return NULL;
+    /* Several heads read x (IN an edge) rather than p (H F an edge) when IN
+     * is at most 2 F (averaged: one GEMM after the sums) or F (concatenated:
+     * a GEMM per head): swingar's state and blend layers, the paper size's
+     * graph LSTM input. */
+    int agg_first = H > 1 && d->input <= (d->concat ? F : 2 * F);
+    cr_tensor *p = agg_first ? NULL : cr_linear_forward(ctx, &gat->lin, x); /* (N,HF) */
+    cr_tensor *out = cr_nn_new(ctx, 2, (int64_t[]){N, C});
+    if ((!p && !agg_first) || !out) return NULL;
+    nn_gat_attend_args a = {.N = N,
+                            .IN = d->input,
+                            .H = H,
+                            .F = F,
+                            .concat = d->concat,
+                            .norm = (int)d->norm,
+                            .alpha = d->alpha,
+                            .slope = d->negative_slope,
+                            .x = x->data,
+                            .w = gat->lin.weight->data,
+                            .p = p ? p->data : NULL,
+                            .att_src = gat->att_src->data,
+                            .att_dst = gat->att_dst->data,
+                            .off = ed->off,
+                            .perm = ed->perm,
+                            .snd = ed->snd,
+                            .bias = gat->bias ? gat->bias->data : NULL,
+                            .out = out->data};
+    a.scratch = cr_nn_scratch(ctx, "gat", be->gat_attend_scratch(&a) * sizeof(float));
+    if (!a.scratch) return NULL;
+    cr_op op = cr_nn_act_fused_op(d->act, d->act_param);
+    a.act = op == CR_OP_COUNT ? CR_OP_NONE : op;
+    a.act_p = d->act_param;
+    be->gat_attend_forward(&a);
+    return op == CR_OP_COUNT ? cr_act_forward(ctx, d->act, d->act_param, out) : out;
+}
+
 cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const cr_nn_graph *g,
                           cr_gat_attention *att) {
     CR_ASSERT(gat && g);
@@ -252,6 +332,10 @@ cr_tensor *cr_gat_forward(cr_nn_ctx *ctx, const cr_gat *gat, cr_tensor *x, const
         NN_FAIL(ctx, CR_ERR_SHAPE, "gat: x: expected (%lld,%d) for a graph of %lld nodes, got %s",
                 (long long)N, d->input, (long long)N, cr_nn_shape_str(x, s, sizeof s));
         return NULL;
+    }
+    if (!att && !ctx->grad_enabled && H <= NN_GAT_MAX_HEADS) {
+        cr_tensor *y = forward_infer(ctx, gat, x, g);
+        if (y || ctx->err.status != CR_OK) return y;
     }
     int32_t *snd = NULL, *rcv = NULL;
     int64_t E = build_edges(ctx, g, d->self_loops, &snd, &rcv);

@@ -365,7 +365,7 @@ void cr_mlp_destroy(cr_mlp *mlp) {
 
 /* The op of an activation the fused linear runs, or CR_OP_COUNT for one it
  * does not (sin's derivative needs the pre-activation). */
-static cr_op fused_act(cr_act act, float param) {
+cr_op cr_nn_act_fused_op(cr_act act, float param) {
     switch (act) {
     case CR_ACT_NONE:
         return CR_OP_NONE;
@@ -394,9 +394,8 @@ static cr_tensor *forward_fused(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x)
     float p[CR_MLP_MAX_LAYERS];
     for (int i = 0; i < def->nlayers; i++) {
         cr_act act = cr_mlp_layer_act(def, i, &p[i]);
-        op[i] = fused_act(act, p[i]);
-        if (op[i] == CR_OP_COUNT || mlp->ln_weight[i] || cr_mlp_layer_residual(def, i))
-            return NULL;
+        op[i] = cr_nn_act_fused_op(act, p[i]);
+        if (op[i] == CR_OP_COUNT || mlp->ln_weight[i] || cr_mlp_layer_residual(def, i)) return NULL;
         w[i] = mlp->layer[i].weight, b[i] = mlp->layer[i].bias;
     }
     return cr_nn_mlp_fused(ctx, x, def->nlayers, w, b, op, p);
@@ -412,7 +411,7 @@ cr_tensor *cr_mlp_forward(cr_nn_ctx *ctx, const cr_mlp *mlp, cr_tensor *x) {
     for (int i = 0; i < def->nlayers; i++) {
         float param;
         cr_act act = cr_mlp_layer_act(def, i, &param);
-        cr_op op = fused_act(act, param);
+        cr_op op = cr_nn_act_fused_op(act, param);
         if (!mlp->ln_weight[i] && op != CR_OP_COUNT) { /* one op: GEMM, bias, activation */
             const cr_linear *l = &mlp->layer[i];
             cr_tensor *a = cr_nn_linear_act(ctx, h, l->weight, l->bias, op, param);

@@ -16,6 +16,8 @@
  *   n = tanh(x_n + r (h W_hn^T + b_hn));   h' = (1 - z) n + z h
  * Runners project all T inputs with one GEMM, then step through time; the
  * tape records every step, so backward is backpropagation through time.
+ * With the context's gradient off the gates of every step run in the
+ * backend's forward-only pass (lstm_gates_infer, src/nn/cpu/cpu_rnn.c).
  *
  * Leaves out: stacked layers, bidirectional runs, dropout and projections
  * (torch.nn.LSTM's proj_size); chain runners for depth.
@@ -131,9 +133,39 @@ static cr_tensor *lstm_gates(cr_nn_ctx *ctx, cr_tensor *z, cr_tensor *c, int64_t
     return cr_nn_mul(ctx, o, cr_nn_tanh(ctx, c1));
 }
 
+/* Inference (the context's gradient off): the gates of z = zx + zh in the
+ * backend's one forward-only pass (cpu_rnn.c); zh and c may be NULL (zero).
+ * Same values as lstm_gates within float rounding (tests/test_nn_graph.c). */
+static cr_tensor *lstm_gates_infer(cr_nn_ctx *ctx, cr_tensor *zx, cr_tensor *zh, cr_tensor *c,
+                                   int64_t H, cr_tensor *const *pw, cr_tensor **c_out) {
+    *c_out = NULL;
+    if (!zx || ctx->err.status != CR_OK) return NULL;
+    int64_t B = zx->shape[0];
+    cr_tensor *h = cr_nn_new(ctx, 2, (int64_t[]){B, H});
+    cr_tensor *c1 = cr_nn_new(ctx, 2, (int64_t[]){B, H});
+    float *z = cr_nn_scratch(ctx, "lstm", (size_t)(B * 4 * H) * sizeof(float));
+    if (!h || !c1 || !z) return NULL;
+    nn_lstm_gates_args a = {
+        .B = B,
+        .H = H,
+        .zx = zx->data,
+        .zh = zh ? zh->data : NULL,
+        .c = c ? c->data : NULL,
+        .pw = {pw ? pw[0]->data : NULL, pw ? pw[1]->data : NULL, pw ? pw[2]->data : NULL},
+        .z = z,
+        .h = h->data,
+        .c_out = c1->data};
+    ctx->be->lstm_gates_forward(&a);
+    *c_out = c1;
+    return h;
+}
+
 /* One LSTM step from the input projection xi = x W_ih^T + b_ih (B,4H). */
 static cr_tensor *lstm_step(cr_nn_ctx *ctx, const cr_rnn_cell *cell, cr_tensor *xi, cr_tensor *h,
                             cr_tensor *c, cr_tensor **c_out) {
+    if (!ctx->grad_enabled)
+        return lstm_gates_infer(ctx, xi, cr_nn_linear(ctx, h, cell->weight_hh, cell->bias_hh), c,
+                                cell->hidden, NULL, c_out);
     cr_tensor *z = cr_nn_add(ctx, xi, cr_nn_linear(ctx, h, cell->weight_hh, cell->bias_hh));
     return lstm_gates(ctx, z, c, cell->hidden, NULL, c_out);
 }
@@ -284,6 +316,9 @@ static cr_tensor *gat_lstm_step(cr_nn_ctx *ctx, const cr_gat_lstm *cell, const c
                                 cr_tensor *zx, cr_tensor *h, cr_tensor *c, cr_tensor **c_out) {
     int64_t N = g->nodes, H = cell->def.hidden;
     /* A zero state gives GAT_h(0) = 0 (no bias, zero features, zero scores). */
+    if (!ctx->grad_enabled)
+        return lstm_gates_infer(ctx, zx, h ? cr_gat_forward(ctx, &cell->gh, h, g, NULL) : NULL, c,
+                                H, cell->def.peephole ? cell->peep : NULL, c_out);
     cr_tensor *z = h ? cr_nn_add(ctx, zx, cr_gat_forward(ctx, &cell->gh, h, g, NULL)) : zx;
     return lstm_gates(ctx, z, zero_state(ctx, c, N, H), H, cell->def.peephole ? cell->peep : NULL,
                       c_out);

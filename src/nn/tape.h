@@ -11,6 +11,7 @@
 #define CREASE_NN_TAPE_H
 
 #include "crease/nn.h"
+#include "crease/nn_layers.h"
 #include "nn/backend.h"
 
 /* Typed per-op parameters (one struct per op family, no untyped int bags). */
@@ -89,6 +90,18 @@ typedef struct nn_node {
     struct nn_node *prev; /* the node recorded before this one */
 } nn_node;
 
+/* The edges GAT-LN's inference ran over last in this step (layer_gat.c):
+ * the given arrays (copies, compared before reuse), the edges with self
+ * loops made and their CSR by receiver. Arena memory, gone at reset. */
+typedef struct nn_gat_edges {
+    int64_t nodes, edges; /* as given */
+    int self_loops;
+    int32_t *given_snd, *given_rcv; /* (edges) copies of the given arrays */
+    int64_t E;                      /* edges attention runs over */
+    int32_t *snd, *rcv, *perm;      /* (E) */
+    int64_t *off;                   /* (nodes+1) */
+} nn_gat_edges;
+
 struct cr_nn_ctx {
     cr_arena arena;
     const cr_nn_backend *be;
@@ -100,7 +113,8 @@ struct cr_nn_ctx {
     /* The input whose grad prepare_grads allocated for this node without
      * zeroing it: the node's backward assigns it instead of adding. */
     const cr_tensor *fresh_grad;
-    cr_error err; /* first error of the step */
+    cr_error err;            /* first error of the step */
+    nn_gat_edges *gat_edges; /* layer_gat.c's cache for the step, or NULL */
 };
 
 /* ---- tensor.c */
@@ -137,6 +151,11 @@ cr_tensor *cr_nn_slice_view(cr_nn_ctx *ctx, cr_tensor *x, int64_t start, int64_t
 static inline float *nn_gout(const cr_tensor *t) {
     return t && t->requires_grad ? t->grad : NULL;
 }
+
+/* ---- layer_linear.c */
+/* The op a fused bias + activation pass runs for act (backend
+ * bias_act_forward), or CR_OP_COUNT for one it does not (sin). */
+cr_op cr_nn_act_fused_op(cr_act act, float param);
 
 /* ---- tape.c */
 /* Run the node's forward, then record it if a gradient is wanted. Returns

@@ -63,6 +63,7 @@ void cr_nn_ctx_reset(cr_nn_ctx *ctx) {
     ctx->tape_len = 0;
     ctx->backward_done = 0;
     ctx->fresh_grad = NULL;
+    ctx->gat_edges = NULL;
     memset(&ctx->err, 0, sizeof ctx->err);
 }
 

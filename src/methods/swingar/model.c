@@ -303,6 +303,90 @@ cr_status cr_swingar_standardise_descriptor_(cr_swingar *m, const cr_swingar_dat
     return CR_OK;
 }
 
+/* ------------------------------------- skinning for inference (no tape) -- */
+
+/* Skinning weights, linear blend skinning and the joint distances of eq. 6
+ * in one pass over the vertices, for the gradient-off forward; the tape
+ * path builds the same values from a (V,J,3) broadcast product and an axis
+ * sum. Per vertex v:
+ *   W_v  = softmax_j(logits_vj + logw0_vj)
+ *   M_v  = sum_j W_vj [A_j | b_j]     (3,4): blend the transforms, then
+ *   x'_v = M_v (rest_v + B_v, 1)      apply them once
+ *   d_vj = |x'_v - joint_j|
+ * in: logits (V,J), logw0 (V,J), rest (V,3), B (V,3), xf (J,12) the joints'
+ * [A|b] rows, jpos (J,3); out: W (V,J), coarse (V,3), feat (V,3+J). */
+typedef struct skin_pass {
+    cr_tensor *const *in, *const *out;
+} skin_pass;
+
+static void skin_range(void *vctx, int64_t begin, int64_t end) {
+    const skin_pass *sp = vctx;
+    const int J = CR_NJOINTS;
+    const float *logits = sp->in[0]->data, *logw0 = sp->in[1]->data, *rest = sp->in[2]->data;
+    const float *B = sp->in[3]->data, *xf = sp->in[4]->data, *jpos = sp->in[5]->data;
+    float *W = sp->out[0]->data, *coarse = sp->out[1]->data, *feat = sp->out[2]->data;
+    for (int64_t v = begin; v < end; v++) {
+        float *w = W + v * J, mx = -INFINITY;
+        for (int j = 0; j < J; j++) {
+            w[j] = logits[v * J + j] + logw0[v * J + j];
+            mx = w[j] > mx ? w[j] : mx;
+        }
+        double sum = 0.0;
+        for (int j = 0; j < J; j++) {
+            w[j] = expf(w[j] - mx);
+            sum += w[j];
+        }
+        float M[12] = {0};
+        for (int j = 0; j < J; j++) {
+            w[j] = (float)(w[j] / sum);
+            for (int k = 0; k < 12; k++)
+                M[k] += w[j] * xf[j * 12 + k];
+        }
+        float x[3], *y = coarse + v * 3, *f = feat + v * SWG_CORR_FEATURES;
+        for (int r = 0; r < 3; r++)
+            x[r] = rest[v * 3 + r] + B[v * 3 + r];
+        for (int r = 0; r < 3; r++)
+            y[r] = f[r] =
+                M[r * 4] * x[0] + M[r * 4 + 1] * x[1] + M[r * 4 + 2] * x[2] + M[r * 4 + 3];
+        for (int j = 0; j < J; j++) {
+            double d0 = y[0] - jpos[j * 3], d1 = y[1] - jpos[j * 3 + 1],
+                   d2 = y[2] - jpos[j * 3 + 2];
+            f[3 + j] = (float)sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+        }
+    }
+}
+
+static cr_status skin_forward(const cr_fused_op *def, cr_nn_ctx *ctx, cr_tensor *const *in, int nin,
+                              cr_tensor *const *out, int nout, void **stash, cr_error *err) {
+    (void)def, (void)ctx, (void)nin, (void)nout, (void)stash, (void)err;
+    skin_pass sp = {in, out};
+    cr_parallel_for(in[0]->shape[0], 512, skin_range, &sp);
+    return CR_OK;
+}
+
+/* Forward only: no backward, so the engine refuses it on inputs that need a gradient. */
+static const cr_fused_op skin_op = {"swingar skinning (inference)", skin_forward, NULL, NULL};
+
+/* Returns coarse (V,3) and sets *W (V,J) and *feat (V,3+J); NULL on error. */
+static cr_tensor *skin_infer(cr_nn_ctx *ctx, cr_tensor *logits, cr_tensor *logw0, cr_tensor *rest,
+                             cr_tensor *B, const float *xf, const float *jpos, cr_tensor **W,
+                             cr_tensor **feat) {
+    const int64_t V = rest->shape[0], J = CR_NJOINTS;
+    cr_tensor *in[6] = {logits,
+                        logw0,
+                        rest,
+                        B,
+                        cr_nn_from(ctx, 2, (int64_t[]){J, 12}, xf),
+                        cr_nn_from(ctx, 2, (int64_t[]){J, 3}, jpos)};
+    for (int i = 0; i < 6; i++)
+        if (!in[i]) return NULL;
+    cr_nn_shape shapes[3] = {{2, {V, J}}, {2, {V, 3}}, {2, {V, SWG_CORR_FEATURES}}};
+    cr_tensor *out[3];
+    if (!cr_nn_fused(ctx, &skin_op, 6, in, 3, shapes, out)) return NULL;
+    *W = out[0], *feat = out[2];
+    return out[1];
+}
+
 int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
                                swg_genc *e) {
     const cr_swingar_def *d = &m->def;
@@ -335,24 +419,26 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
     cr_nn_graph graph = {V, 2 * (int64_t)g->nedges, g->senders, g->receivers};
     cr_tensor *G = e->G, *skinmat = e->skinmat, *logw0 = e->logw0;
 
-    /* body information for every coarse frame: the motion LSTM over m poses,
-     * the body encoder on [beta, theta^t] */
+    /* body information for every coarse frame computed here (the first two
+     * come with prev): the motion LSTM over m poses, the body encoder on
+     * [beta, theta^t]; row k - k0 is coarse frame k */
     const int W = d->motion_window;
-    cr_tensor *seq = cr_nn_new(ctx, 3, (int64_t[]){W, Kc, SWG_POSE_FEATURES});
-    cr_tensor *bin = cr_nn_new(ctx, 2, (int64_t[]){Kc, SWG_BODY_FEATURES});
+    const int32_t k0 = prev ? 2 : 0, Kb = Kc - k0;
+    cr_tensor *seq = cr_nn_new(ctx, 3, (int64_t[]){W, Kb, SWG_POSE_FEATURES});
+    cr_tensor *bin = cr_nn_new(ctx, 2, (int64_t[]){Kb, SWG_BODY_FEATURES});
     if (!seq || !bin) return NULL;
-    for (int32_t k = 0; k < Kc; k++) {
+    for (int32_t k = k0; k < Kc; k++) {
         int32_t f = t0 - 2 + k;
         for (int w = 0; w < W; w++)
             pose_features(mo, f - (W - 1) + w,
-                          seq->data + ((size_t)w * Kc + k) * SWG_POSE_FEATURES);
-        float *b = bin->data + (size_t)k * SWG_BODY_FEATURES;
+                          seq->data + ((size_t)w * Kb + (k - k0)) * SWG_POSE_FEATURES);
+        float *b = bin->data + (size_t)(k - k0) * SWG_BODY_FEATURES;
         memcpy(b, mo->joints, sizeof(float) * J * 3);
         pose_features(mo, f, b + J * 3);
     }
     cr_tensor *mfeat = NULL;
-    cr_lstm_forward(ctx, &m->motion, seq, NULL, NULL, &mfeat, NULL); /* (Kc, H) */
-    cr_tensor *bfeat = cr_mlp_forward(ctx, m->body, bin);            /* (Kc, 64) */
+    cr_lstm_forward(ctx, &m->motion, seq, NULL, NULL, &mfeat, NULL); /* (Kb, H) */
+    cr_tensor *bfeat = cr_mlp_forward(ctx, m->body, bin);            /* (Kb, 64) */
 
     /* rest positions in homogeneous form, (V,4) */
     cr_tensor *rest = cr_nn_wrap(ctx, 2, (int64_t[]){V, 3}, g->rest->pos);
@@ -373,20 +459,29 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
         }
         int32_t f = clampi(t0 - 2 + k, 0, mo->nframes - 1);
         const float *pose = mo->poses + (size_t)f * J * 3;
-        cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k, 1); /* (1,H) */
+        cr_tensor *mk = cr_nn_slice(ctx, mfeat, 0, k - k0, 1); /* (1,H) */
         cr_tensor *q = cr_gat_forward(ctx, &m->state, cr_nn_mul(ctx, G, mk), &graph, NULL);
-        /* dynamic skinning weights W^t = softmax(prior + q . (A s)) */
-        cr_tensor *logits = cr_nn_add(ctx, cr_nn_matmul(ctx, q, skinmat, 0, 0), logw0);
-        cr_tensor *Wt = row_softmax(ctx, logits, V, J);
-        skin[k] = Wt;
         /* unposed blend shape B^t */
         cr_tensor *bb =
             cr_gat_forward(ctx, &m->b1, cr_gat_forward(ctx, &m->b0, q, &graph, NULL), &graph, NULL);
         cr_tensor *B = cr_linear_forward(ctx, &m->bout, cr_nn_mul(ctx, bb, mk));
         /* linear blend skinning, rest joints' transforms without the root's
-         * translation: X (V,4) x [A_j | b_j]^T for all joints (4, 3J) */
-        float xf[CR_NJOINTS * 12];
+         * translation, and the posed joints of eq. 6 */
+        float xf[CR_NJOINTS * 12], jpos[CR_NJOINTS * 3];
         cr_body_skin_transforms(mo->joints, pose, NULL, xf);
+        cr_body_forward_kinematics(mo->joints, pose, NULL, NULL, jpos);
+        /* dynamic skinning weights W^t = softmax(prior + q . (A s)) */
+        cr_tensor *logits = cr_nn_matmul(ctx, q, skinmat, 0, 0);
+        if (!cr_nn_ctx_grad_enabled(ctx)) {
+            if (!logits || !B) return NULL;
+            coarse[k] =
+                skin_infer(ctx, logits, logw0, rest, B, xf, jpos, &skin[k], &coarse_feat[k]);
+            if (!coarse[k]) return NULL;
+            continue;
+        }
+        cr_tensor *Wt = row_softmax(ctx, cr_nn_add(ctx, logits, logw0), V, J);
+        skin[k] = Wt;
+        /* X (V,4) x [A_j | b_j]^T for all joints (4, 3J) */
         cr_tensor *Mt = cr_nn_new(ctx, 2, (int64_t[]){4, 3 * J});
         if (!Mt) return NULL;
         for (int64_t j = 0; j < J; j++)
@@ -400,8 +495,6 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
                                       (int64_t[]){V, 3});
         coarse[k] = Mc;
         /* the graph M_c^t of eq. 6: positions and distances to the posed joints */
-        float jpos[CR_NJOINTS * 3];
-        cr_body_forward_kinematics(mo->joints, pose, NULL, NULL, jpos);
         cr_tensor *jt = cr_nn_from(ctx, 3, (int64_t[]){1, J, 3}, jpos);
         cr_tensor *dj = cr_nn_norm(
             ctx, cr_nn_sub(ctx, cr_nn_reshape(ctx, Mc, 3, (int64_t[]){V, 1, 3}), jt), 1e-12f);
@@ -416,7 +509,7 @@ cr_tensor *cr_swingar_forward_frames_(cr_nn_ctx *ctx, cr_swingar *m, const cr_sw
         cr_tensor *x3 = stack(ctx, coarse_feat + k, 3); /* (3,V,25) */
         cr_tensor *h = NULL;
         cr_gat_lstm_forward(ctx, &m->corr, x3, &graph, NULL, NULL, &h, NULL);
-        cr_tensor *hb = cr_nn_mul(ctx, h, cr_nn_slice(ctx, bfeat, 0, k + 2, 1));
+        cr_tensor *hb = cr_nn_mul(ctx, h, cr_nn_slice(ctx, bfeat, 0, k + 2 - k0, 1));
         cr_tensor *D = cr_nn_mul_scalar(
             ctx,
             cr_gat_forward(ctx, &m->c1, cr_gat_forward(ctx, &m->c0, hb, &graph, NULL), &graph,

@@ -172,6 +172,13 @@ void cr_nn_cpu_segment_softmax_backward(const float *y, const float *dy, int64_t
                                         const int64_t *off, const int32_t *perm, int64_t nseg,
                                         float *dx);
 
+/* cpu_gat.c */
+size_t cr_nn_cpu_gat_attend_scratch(const nn_gat_attend_args *a);
+void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a);
+
+/* cpu_rnn.c */
+void cr_nn_cpu_lstm_gates_forward(const nn_lstm_gates_args *a);
+
 /* cpu_vector.c */
 void cr_nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,
                                   const float *b, float eps, float *y, float *mean, float *rstd);
