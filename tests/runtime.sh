@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # runtime.sh: the methods' frame-by-frame runtimes from outside the tool. examples/runtime_loop.c
 # streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
-# numpy, and gives what `crease swingar run` writes for the same model, garment and clip (the
+# numpy, and gives what `crease swingar run --raw` writes for the same model, garment and clip (the
 # batch tool goes through the same runtime): within 1e-5 m on every frame. Also: a batch of two
 # characters equals each alone, reset starts over, a missing model raises crease.Error naming
 # the file, a wrong pose shape is refused. Debian's python3 with python3-numpy (scripts/deps.sh).
@@ -22,7 +22,7 @@ check "train" "$crease" swingar train --dataset "$tmp/data" --size tiny --epochs
 g=$(find "$tmp/data/garments" -name '*.obj' | head -n 1)
 check "motion" "$crease" motion --clip walk --frames 20 -o "$tmp/walk.npz"
 check "run" "$crease" swingar run --model "$tmp/m.safetensors" --garment "$g" --motion walk \
-  --frames 20 -o "$tmp/run"
+  --frames 20 --raw -o "$tmp/run"
 # the C example, on a BVH laid out as the CMU database's (example_cmu_walk_bvh)
 bin=$(dirname "$crease")
 check "bvh" "$bin/example_cmu_walk_bvh" "$tmp/walk.bvh" 1
