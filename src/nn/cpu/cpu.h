@@ -53,6 +53,24 @@ static inline float nn_cpu_softplusf(float x, float beta) {
     return (nn_cpu_select_pos(bx, bx, 0.0f) + nn_cpu_log1pf(expf(-fabsf(bx)))) / beta;
 }
 
+/* The fused ops' activations, one element (CR_OP_NONE and any other: z). */
+static inline float nn_cpu_act(cr_op act, float p, float z) {
+    switch (act) {
+    case CR_OP_RELU:
+        return nn_cpu_select_pos(z, z, 0.0f);
+    case CR_OP_LEAKY_RELU:
+        return nn_cpu_select_pos(z, z, p * z);
+    case CR_OP_TANH:
+        return tanhf(z);
+    case CR_OP_SIGMOID:
+        return nn_cpu_sigmoidf(z);
+    case CR_OP_SOFTPLUS:
+        return nn_cpu_softplusf(z, p);
+    default:
+        return z;
+    }
+}
+
 /* sigmoid(beta x) from y = softplus_beta(x): 1 - exp(-beta y), by its Taylor
  * series below 0.1 where the difference would cancel (glibc's expm1f costs
  * twice expf); relative error below 1e-6. */

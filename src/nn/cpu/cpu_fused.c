@@ -71,23 +71,6 @@ int cr_nn_cpu_set_simd(int level) {
 
 /* ------------------------------------------------------------ scalar -- */
 
-static inline float f_of(cr_op act, float p, float z) {
-    switch (act) {
-    case CR_OP_RELU:
-        return nn_cpu_select_pos(z, z, 0.0f);
-    case CR_OP_LEAKY_RELU:
-        return nn_cpu_select_pos(z, z, p * z);
-    case CR_OP_TANH:
-        return tanhf(z);
-    case CR_OP_SIGMOID:
-        return nn_cpu_sigmoidf(z);
-    case CR_OP_SOFTPLUS:
-        return nn_cpu_softplusf(z, p);
-    default: /* CR_OP_NONE */
-        return z;
-    }
-}
-
 /* dy f'(z) written with y = f(z) (for leaky ReLU with slope >= 0, y > 0 iff z > 0). */
 static inline float df_of(cr_op act, float p, float y, float dy) {
     switch (act) {
@@ -111,7 +94,7 @@ static void bias_act_rows_scalar(cr_op act, float p, const float *b, float *y, i
     for (int64_t r = r0; r < r1; r++) {
         float *row = y + r * C;
         for (int64_t c = 0; c < C; c++)
-            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+            row[c] = nn_cpu_act(act, p, row[c] + (b ? b[c] : 0.0f));
     }
 }
 
@@ -161,7 +144,7 @@ static NN_AVX2 void bias_act_rows_avx2(cr_op act, float p, const float *b, float
             _mm256_storeu_ps(row + c, f_avx2(act, vp, z));
         }
         for (; c < C; c++)
-            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+            row[c] = nn_cpu_act(act, p, row[c] + (b ? b[c] : 0.0f));
     }
 }
 
@@ -223,7 +206,7 @@ static NN_AVX512 void bias_act_rows_avx512(cr_op act, float p, const float *b, f
             _mm512_storeu_ps(row + c, f_avx512(act, vp, z));
         }
         for (; c < C; c++)
-            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+            row[c] = nn_cpu_act(act, p, row[c] + (b ? b[c] : 0.0f));
     }
 }
 
@@ -262,7 +245,7 @@ static void bias_act_rows_vec(int level, nn_vec_fn fn, cr_op act, float p, const
     for (int64_t r = r0; r < r1; r++) {
         float *row = y + r * C;
         for (int64_t c = cr_nn_cpu_vec_span(level, fn, p, row, b, NULL, row, 0, C); c < C; c++)
-            row[c] = f_of(act, p, row[c] + (b ? b[c] : 0.0f));
+            row[c] = nn_cpu_act(act, p, row[c] + (b ? b[c] : 0.0f));
     }
 }
 
@@ -377,8 +360,8 @@ static void act_grad_range(void *vctx, int64_t begin, int64_t end) {
             acc[c] = 0.0;
         double *a = g->db ? acc : NULL;
         if (g->vfn >= 0)
-            act_grad_cols_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, y, dy, rows, g->C, c0,
-                              w, dz, a);
+            act_grad_cols_vec(g->level, (nn_vec_fn)g->vfn, g->act, g->p, y, dy, rows, g->C, c0, w,
+                              dz, a);
         else if (g->pl == NN_SIMD_SCALAR)
             act_grad_cols_scalar(g->act, g->p, y, dy, rows, g->C, c0, w, dz, a);
 #if NN_CPU_X86

@@ -468,24 +468,6 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
 }
 #endif
 
-/* The activation the caller asked for, one element (the vector spans' tail). */
-static float act_scalar(cr_op act, float p, float z) {
-    switch (act) {
-    case CR_OP_RELU:
-        return nn_cpu_select_pos(z, z, 0.0f);
-    case CR_OP_LEAKY_RELU:
-        return nn_cpu_select_pos(z, z, p * z);
-    case CR_OP_TANH:
-        return tanhf(z);
-    case CR_OP_SIGMOID:
-        return nn_cpu_sigmoidf(z);
-    case CR_OP_SOFTPLUS:
-        return nn_cpu_softplusf(z, p);
-    default:
-        return z;
-    }
-}
-
 /* x = fn(x) over n floats: cpu_vmath.c's vector span where it has fn, then
  * the portable tail. */
 static void act_span(int level, cr_op act, float p, float *x, int64_t n) {
@@ -503,7 +485,7 @@ static void act_span(int level, cr_op act, float p, float *x, int64_t n) {
             x[k] = expf(x[k]);
     else
         for (; k < n; k++)
-            x[k] = act_scalar(act, p, x[k]);
+            x[k] = nn_cpu_act(act, p, x[k]);
 }
 
 /* Logits, their exponentials, the weighted sums and the activation over
