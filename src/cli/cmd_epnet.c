@@ -29,7 +29,7 @@ void help_epnet(void) {
         "  --epochs N           E-Net epochs per cycle (default 40)\n"
         "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
         "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
-        "  --bending-weight W   multiplies the bending loss (default 1: the authors' 0.002)\n"
+
         "  --zero-rest-weight W the paired zero-rest consistency term (default 2, the\n"
         "                       authors'; 0: off)\n"
         "  --rest-response-weight W  the paired rest-response term (default 5, the authors';\n"
@@ -81,8 +81,7 @@ static int run_train(int argc, char **argv) {
     int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
     int json = 0, seed = 1;
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wb = (float)d.w_bending, wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response,
-          pnoise = (float)d.pnet_rb_noise;
+          wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response, pnoise = (float)d.pnet_rb_noise;
     const cli_opt opts[] = {
         CLI_STR("--garment", &garment),
         CLI_INT("--vertices", &vertices, 100, 100000),
@@ -95,7 +94,6 @@ static int run_train(int argc, char **argv) {
         CLI_INT("--pnet-epochs", &pepochs, 0, 100000),
         CLI_FLAG("--baseline", &baseline),
         CLI_FLOAT("--pin-top", &pin_top, 0, 10),
-        CLI_FLOAT("--bending-weight", &wb, 0, 1e6),
         CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
         CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
         CLI_FLOAT("--pnet-noise", &pnoise, 0, 3.2),
@@ -124,7 +122,7 @@ static int run_train(int argc, char **argv) {
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;
-    d.pin_top = pin_top, d.w_bending = wb, d.w_zero_rest = wz, d.w_rest_response = wr;
+    d.pin_top = pin_top, d.w_zero_rest = wz, d.w_rest_response = wr;
     d.pnet_rb_noise = pnoise;
     d.pnet_val_motion = pval && strcmp(pval, "none") ? pval : NULL;
     if (paper) {
