@@ -83,10 +83,15 @@ void cr_epnet_frame_angles_(const cr_epnet *m, const float *pos, double *x, doub
 void cr_epnet_frame_inputs_(const cr_epnet *m, const float *joints, const float *pose,
                             const float *tr, const float *prev_pose, const float *prev_tr,
                             float *stat, float *dyn, float *A, float *b);
-/* E-Net's frame t of s with RB input rb (H, or NULL: zero) and GRU state h_prev
- * ((1,G) or NULL: zero): positions (1,V,3); *h_out the new state. On m->ctx. */
-cr_tensor *cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
-                                cr_tensor *h_prev, cr_tensor **h_out);
+/* E-Net's frame t of s from GRU state h_prev ((1,G) or NULL: zero): *h_out
+ * the new state, and x[k] (1,V,3) the positions for each of the n RB inputs
+ * rb[k] (H, or NULL: zero), the encoders and the GRU run once. On m->ctx; 0
+ * with its error set. */
+int cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, int n,
+                         const float *const *rb, cr_tensor *h_prev, cr_tensor **h_out,
+                         cr_tensor **x);
+/* The infer def's checks (cookie, warm-up, mode, the proxy's ratchet). */
+cr_status cr_epnet_infer_check_(const cr_epnet_infer_def *d, cr_error *err);
 /* P-Net's increment of one frame from positions pos (V,3) and angles th (H)
  * through the ratchet d (history hist (H), scratch strain (H)) onto the RB r (H). */
 cr_status cr_epnet_pnet_ratchet_frame_(cr_epnet *m, const float *pos, const float *th,

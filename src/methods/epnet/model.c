@@ -805,8 +805,9 @@ cr_status cr_epnet_pnet_fit(cr_epnet *m, const cr_epnet_seq *s, const float *pos
  * over frames 0..t with RB up to t - 1: O(T^2) on the GRU's cheap part;
  * the decoder runs once per frame on the last row only. To keep it O(T),
  * the GRU state is carried frame to frame here. */
-cr_tensor *cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, const float *rb,
-                                cr_tensor *h_prev, cr_tensor **h_out) {
+int cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, int n,
+                         const float *const *rb, cr_tensor *h_prev, cr_tensor **h_out,
+                         cr_tensor **x) {
     cr_nn_ctx *c = m->ctx;
     cr_tensor *st =
         cr_nn_from(c, 2, (int64_t[]){1, EP_STATIC_IN}, s->stat + (size_t)t * EP_STATIC_IN);
@@ -815,7 +816,10 @@ cr_tensor *cr_epnet_enet_frame_(cr_epnet *m, const cr_epnet_seq *s, int32_t t, c
     cr_tensor *hd = cr_mlp_forward(c, m->enc_dyn, dy);
     cr_tensor *hg = cr_gru_cell_forward(c, &m->gru, hd, h_prev);
     *h_out = hg;
-    return enet_decode(m, s, t, 1, hs, hg, rb);
+    int ok = hg != NULL;
+    for (int k = 0; k < n; k++)
+        ok &= (x[k] = enet_decode(m, s, t, 1, hs, hg, rb[k])) != NULL;
+    return ok && cr_nn_ctx_error(c, NULL) == CR_OK;
 }
 
 /* The GRU state (G) after `warmup` frames that blend the joints from the rest
@@ -843,12 +847,11 @@ cr_status cr_epnet_warm_up_(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, 
 }
 
 /* E-Net frame by frame over s (the GRU state carried), after `warmup` frames.
- * Frame t's RB input: rb_given[t-1] (frame 0 zero) when rb_given is set; else
- * the closed loop's RB when use_pnet (P-Net on frame t's angles then gives
- * RB_t); else zero. Outputs (T,...) each may be NULL; rb gets rb_given or the
- * closed loop's RB. */
-static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, const float *rb_given,
-                         int use_pnet, float *pos, float *theta, float *rb, cr_error *err) {
+ * Frame t's RB input: the closed loop's RB when use_pnet (P-Net on frame t's
+ * angles then gives RB_t), else zero. Outputs (T,...) each may be NULL; rb
+ * gets the closed loop's RB. */
+static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, int use_pnet,
+                         float *pos, float *theta, float *rb, cr_error *err) {
     const int32_t V = m->nv, H = m->nh, T = s->T, G = m->def.gru_hidden;
     float *x = malloc(sizeof(float) * 3 * (size_t)V), *th = malloc(sizeof(float) * (size_t)H);
     float *r = calloc((size_t)H, sizeof(float)), *hstate = calloc((size_t)G, sizeof(float));
@@ -863,14 +866,15 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
         cr_tensor *h0 =
                       t > 0 || warmup > 0 ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, hstate) : NULL,
                   *h1 = NULL;
-        const float *rin = !rb_given ? r : t > 0 ? rb_given + (size_t)(t - 1) * H : NULL;
-        cr_tensor *xt = cr_epnet_enet_frame_(m, s, t, rin, h0, &h1);
+        const float *rin = r;
+        cr_tensor *xt = NULL;
+        cr_epnet_enet_frame_(m, s, t, 1, &rin, h0, &h1, &xt);
         st = cr_nn_ctx_error(m->ctx, err);
         if (st != CR_OK) break;
         memcpy(x, xt->data, sizeof(float) * 3 * (size_t)V);
         memcpy(hstate, h1->data, sizeof(float) * (size_t)G);
         cr_epnet_angles_(m, x, 1, th);
-        if (use_pnet && !rb_given) {
+        if (use_pnet) {
             cr_nn_ctx_reset(m->ctx);
             cr_tensor *inc = cr_epnet_pnet_forward_(m, x, th, r);
             st = cr_nn_ctx_error(m->ctx, err);
@@ -880,9 +884,7 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
         }
         if (pos) memcpy(pos + (size_t)t * V * 3, x, sizeof(float) * 3 * (size_t)V);
         if (theta) memcpy(theta + (size_t)t * H, th, sizeof(float) * (size_t)H);
-        if (rb)
-            memcpy(rb + (size_t)t * H, rb_given ? rb_given + (size_t)t * H : r,
-                   sizeof(float) * (size_t)H);
+        if (rb) memcpy(rb + (size_t)t * H, r, sizeof(float) * (size_t)H);
     }
     free(x), free(th), free(r), free(hstate);
     return st;
@@ -890,7 +892,7 @@ static cr_status rollout(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, con
 
 cr_status cr_epnet_rollout(cr_epnet *m, const cr_epnet_seq *s, int use_pnet, float *pos,
                            float *theta, float *rb, cr_error *err) {
-    return rollout(m, s, 0, NULL, use_pnet, pos, theta, rb, err);
+    return rollout(m, s, 0, use_pnet, pos, theta, rb, err);
 }
 
 /* The proxy inference: (1) E-Net at RB = 0, the proxy; (2) P-Net over the
@@ -938,24 +940,22 @@ cr_epnet_infer_def cr_epnet_infer_default_def(void) {
     return d;
 }
 
-cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
-                         float *pos, float *theta, float *rb, cr_error *err) {
+cr_status cr_epnet_infer_check_(const cr_epnet_infer_def *d, cr_error *err) {
     if (d->cookie != INFER_COOKIE)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: def not made by its default");
     if (d->warmup < 0 || d->warmup > 100000)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: warm-up %d frames not in 0..100000",
                        d->warmup);
-    switch (d->mode) {
-    case CR_EPNET_PROXY:
-        CR_TRY(cr_epnet_ratchet_check(&d->ratchet, err));
-        return cr_epnet_runtime_infer_(m, s, d, pos, theta, rb, err);
-    case CR_EPNET_CLOSED_LOOP:
-        return rollout(m, s, d->warmup, NULL, 1, pos, theta, rb, err);
-    case CR_EPNET_ZERO_RB:
-        return cr_epnet_runtime_infer_(m, s, d, pos, theta, rb, err);
-    default:
+    if (d->mode != CR_EPNET_PROXY && d->mode != CR_EPNET_CLOSED_LOOP && d->mode != CR_EPNET_ZERO_RB)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet infer: unknown mode %d", (int)d->mode);
-    }
+    return d->mode == CR_EPNET_PROXY ? cr_epnet_ratchet_check(&d->ratchet, err) : CR_OK;
+}
+
+cr_status cr_epnet_infer(cr_epnet *m, const cr_epnet_seq *s, const cr_epnet_infer_def *d,
+                         float *pos, float *theta, float *rb, cr_error *err) {
+    CR_TRY(cr_epnet_infer_check_(d, err));
+    if (d->mode == CR_EPNET_CLOSED_LOOP) return rollout(m, s, d->warmup, 1, pos, theta, rb, err);
+    return cr_epnet_runtime_infer_(m, s, d, pos, theta, rb, err); /* proxy, zero RB */
 }
 
 cr_status cr_epnet_pnet_replay(cr_epnet *m, const float *pos, int32_t T, float *rb, cr_error *err) {

@@ -28,7 +28,7 @@ struct cr_epnet_runtime {
     cr_epnet_seq frame;        /* the frame's inputs (T = 1): own buffers, or a sequence's row */
     float *A, *b, *stat, *dyn; /* the own buffers */
     float *prev_pose, *prev_tr;
-    float *proxy, *theta, *strain, *rb, *hstate, *hnext;
+    float *proxy, *theta, *strain, *rb, *hstate;
     double *xd, *thd; /* angle scratch */
     uint32_t *hist;   /* the ratchet's drive history */
     int64_t frames;
@@ -46,7 +46,7 @@ void cr_epnet_runtime_destroy(cr_epnet_runtime *rt) {
     if (!rt) return;
     free(rt->A), free(rt->b), free(rt->stat), free(rt->dyn);
     free(rt->prev_pose), free(rt->prev_tr), free(rt->proxy), free(rt->theta), free(rt->strain);
-    free(rt->rb), free(rt->hstate), free(rt->hnext), free(rt->xd), free(rt->thd), free(rt->hist);
+    free(rt->rb), free(rt->hstate), free(rt->xd), free(rt->thd), free(rt->hist);
     cr_body_model_destroy(rt->own_body);
     if (rt->owns_model) cr_epnet_destroy(rt->m);
     free(rt);
@@ -57,17 +57,10 @@ cr_status cr_epnet_runtime_create(cr_epnet *m, const char *body, const cr_epnet_
     if (!m || !out) return CR_FAIL(err, CR_ERR_INVALID, "epnet runtime: NULL model");
     *out = NULL;
     cr_epnet_infer_def d = infer ? *infer : cr_epnet_infer_default_def();
-    if (d.cookie != cr_epnet_infer_default_def().cookie)
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet runtime: infer def not made by its default");
+    CR_TRY(cr_epnet_infer_check_(&d, err));
     if (d.mode == CR_EPNET_CLOSED_LOOP)
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
                        "epnet runtime: the closed loop is not a runtime mode (proxy or zero RB)");
-    if (d.mode != CR_EPNET_PROXY && d.mode != CR_EPNET_ZERO_RB)
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet runtime: unknown mode %d", (int)d.mode);
-    if (d.warmup < 0 || d.warmup > 100000)
-        return CR_FAIL(err, CR_ERR_INVALID, "epnet runtime: warm-up %d frames not in 0..100000",
-                       d.warmup);
-    CR_TRY(cr_epnet_ratchet_check(&d.ratchet, err));
     cr_epnet_runtime *rt = cr_calloc(1, sizeof *rt, err);
     if (!rt) return err ? err->status : CR_ERR_MEMORY;
     rt->m = m;
@@ -94,13 +87,12 @@ cr_status cr_epnet_runtime_create(cr_epnet *m, const char *body, const cr_epnet_
         rt->strain = malloc(sizeof(float) * H);
         rt->rb = malloc(sizeof(float) * H);
         rt->hstate = malloc(sizeof(float) * G);
-        rt->hnext = malloc(sizeof(float) * G);
         rt->xd = malloc(sizeof(double) * 3 * V);
         rt->thd = malloc(sizeof(double) * (H + 1));
         rt->hist = malloc(sizeof(uint32_t) * H);
         if (!rt->frame.A || !rt->frame.b || !rt->frame.stat || !rt->frame.dyn || !rt->prev_pose ||
             !rt->prev_tr || !rt->proxy || !rt->theta || !rt->strain || !rt->rb || !rt->hstate ||
-            !rt->hnext || !rt->xd || !rt->thd || !rt->hist)
+            !rt->xd || !rt->thd || !rt->hist)
             st = CR_FAIL(err, CR_ERR_MEMORY, "epnet runtime: out of memory");
     }
     if (st != CR_OK) {
@@ -148,39 +140,33 @@ const float *cr_epnet_runtime_rb(const cr_epnet_runtime *rt) {
     return rt ? rt->rb : NULL;
 }
 
-/* E-Net at frame rt->frame with RB input rb (NULL: zero) from the state
- * before the frame, into out (V,3); the new state into h (may be NULL). */
-static cr_status enet(cr_epnet_runtime *rt, const float *rb, float *out, float *h, cr_error *err) {
+/* One frame on the inputs in rt->frame: E-Net's encoders and GRU once, its
+ * decoder at RB = 0 (the proxy; with zero RB, the output) and, for the proxy,
+ * with the RB after the frame before (the output); then P-Net through the
+ * ratchet. */
+static cr_status step_frame(cr_epnet_runtime *rt, float *out, cr_error *err) {
     cr_epnet *m = rt->m;
-    const int64_t G = m->def.gru_hidden;
+    const int64_t G = m->def.gru_hidden, V3 = 3 * (int64_t)m->nv;
+    const int proxy = rt->infer.mode == CR_EPNET_PROXY;
+    if (rt->frames == 0 && rt->infer.warmup > 0)
+        CR_TRY(cr_epnet_warm_up_(m, &rt->frame, rt->infer.warmup, rt->hstate, err));
     cr_nn_ctx_reset(m->ctx);
     cr_nn_ctx_set_grad_enabled(m->ctx, 0);
     cr_tensor *h0 = rt->frames > 0 || rt->infer.warmup > 0
                         ? cr_nn_from(m->ctx, 2, (int64_t[]){1, G}, rt->hstate)
                         : NULL,
-              *h1 = NULL;
-    cr_tensor *x = cr_epnet_enet_frame_(m, &rt->frame, 0, rb, h0, &h1);
+              *h1 = NULL, *x[2] = {NULL, NULL};
+    const float *rb[2] = {NULL, rt->rb};
+    cr_epnet_enet_frame_(m, &rt->frame, 0, proxy ? 2 : 1, rb, h0, &h1, x);
     CR_TRY(cr_nn_ctx_error(m->ctx, err));
-    memcpy(out, x->data, sizeof(float) * 3 * (size_t)m->nv);
-    if (h) memcpy(h, h1->data, sizeof(float) * (size_t)G);
-    return CR_OK;
-}
-
-/* One frame on the inputs in rt->frame. */
-static cr_status step_frame(cr_epnet_runtime *rt, float *out, cr_error *err) {
-    cr_epnet *m = rt->m;
-    if (rt->frames == 0 && rt->infer.warmup > 0)
-        CR_TRY(cr_epnet_warm_up_(m, &rt->frame, rt->infer.warmup, rt->hstate, err));
-    if (rt->infer.mode == CR_EPNET_ZERO_RB) {
-        CR_TRY(enet(rt, NULL, out, rt->hnext, err));
-    } else {
-        CR_TRY(enet(rt, NULL, rt->proxy, rt->hnext, err)); /* the proxy */
-        CR_TRY(enet(rt, rt->rb, out, NULL, err));          /* with the RB after t - 1 */
+    memcpy(rt->hstate, h1->data, sizeof(float) * (size_t)G);
+    memcpy(out, x[proxy]->data, sizeof(float) * (size_t)V3);
+    if (proxy) {
+        memcpy(rt->proxy, x[0]->data, sizeof(float) * (size_t)V3);
         cr_epnet_frame_angles_(m, rt->proxy, rt->xd, rt->thd, rt->theta);
         CR_TRY(cr_epnet_pnet_ratchet_frame_(m, rt->proxy, rt->theta, &rt->infer.ratchet, rt->hist,
                                             rt->strain, rt->rb, err));
     }
-    memcpy(rt->hstate, rt->hnext, sizeof(float) * (size_t)m->def.gru_hidden);
     rt->frames++;
     return CR_OK;
 }
