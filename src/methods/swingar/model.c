@@ -540,13 +540,11 @@ cr_tensor *cr_swingar_forward(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_ga
     return cr_swingar_forward_frames_(ctx, m, g, &e, mo, t0, K, NULL, NULL, parts);
 }
 
-cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const char *source,
-                             const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
-                             float *out, cr_error *err) {
-    const cr_swingar_def *d = cr_swingar_get_def(m);
+cr_status cr_swingar_garment_of_(const cr_swingar *m, const cr_garment *garment, const char *source,
+                                 const cr_body_model *b, cr_swingar_garment **out, cr_error *err) {
+    const cr_swingar_def *d = &m->def;
     float *desc = calloc((size_t)d->descriptor_len, sizeof(float));
     if (!desc) return CR_FAIL(err, CR_ERR_MEMORY, "swingar: out of memory");
-    cr_swingar_garment *sg = NULL;
     cr_status st = CR_OK;
     if (d->use_descriptor && cr_swingar_compute_descriptor(garment->mesh, d->descriptor_len,
                                                            d->affinity, desc, err) != CR_OK)
@@ -554,10 +552,18 @@ cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const cha
                      err ? err->msg : "descriptor");
     if (st == CR_OK)
         st = cr_swingar_garment_create(garment->mesh, garment->skin_joint, garment->skin_weight, b,
-                                       desc, d->descriptor_len, &sg, err);
+                                       desc, d->descriptor_len, out, err);
+    free(desc);
+    return st;
+}
+
+cr_status cr_swingar_animate(cr_swingar *m, const cr_garment *garment, const char *source,
+                             const cr_body_model *b, const cr_motion *mo, size_t arena_bytes,
+                             float *out, cr_error *err) {
+    cr_swingar_garment *sg = NULL;
+    cr_status st = cr_swingar_garment_of_(m, garment, source, b, &sg, err);
     cr_swingar_motion sm = {mo->nframes, b->joints, mo->poses, mo->trans};
     if (st == CR_OK) st = cr_swingar_predict(m, sg, &sm, arena_bytes, out, err);
     cr_swingar_garment_destroy(sg);
-    free(desc);
     return st;
 }

@@ -12,9 +12,9 @@
  * repeats before it, as the batch does; once full it slides, and its first
  * pose only gives the root's move into the second.
  *
- * All memory is taken at create: the arena is sized by a trial frame run
- * in a generous reservation, then made again at the trial's high-water
- * mark plus an eighth, so a step never allocates. */
+ * All memory is taken at create: the arena is sized by two trial frames run
+ * in a generous reservation, then made again at the high-water mark plus an
+ * eighth, so a step never allocates. */
 #include "crease/body.h"
 #include "crease/garment.h"
 #include "crease/swingar.h"
@@ -34,6 +34,7 @@ struct cr_swingar_runtime {
     float *trans;                 /* (W+1,3) */
     int32_t nhist;                /* poses held, <= W + 1 */
     int64_t frames;               /* frames stepped since create or reset */
+    size_t trial_peak;            /* the encoding's and two trial frames' arena, bytes */
     /* what an opened runtime owns */
     cr_swingar_garment *owned_garment;
     cr_garment *garment;
@@ -93,9 +94,8 @@ static cr_status make_ctx(cr_swingar_runtime *rt, size_t bytes, cr_error *err) {
     return CR_OK;
 }
 
-/* The garment's encoding into rt->enc, then two trial frames at the rest
- * pose (the second with kept graphs), then a reset. */
-static cr_status encode_and_try(cr_swingar_runtime *rt, cr_error *err) {
+/* The garment's encoding into rt->enc, kept on the host for every step. */
+static cr_status encode(cr_swingar_runtime *rt, cr_error *err) {
     const cr_swingar_def *d = &rt->model->def;
     const int64_t V = rt->g->rest->nv, H = d->garment_width[1], S = d->state_width;
     cr_nn_ctx_reset(rt->ctx);
@@ -110,8 +110,14 @@ static cr_status encode_and_try(cr_swingar_runtime *rt, cr_error *err) {
     memcpy(rt->enc + V * H, e.skinmat->data, sizeof(float) * (size_t)(S * CR_NJOINTS));
     memcpy(rt->enc + V * H + S * CR_NJOINTS, e.logw0->data,
            sizeof(float) * (size_t)(V * CR_NJOINTS));
+    return CR_OK;
+}
+
+/* Two trial frames at the rest pose (the second with kept graphs), then a
+ * reset: what a step needs of the arena. */
+static cr_status try_frames(cr_swingar_runtime *rt, cr_error *err) {
     float zero[CR_NJOINTS * 3] = {0};
-    float *frame = cr_malloc(sizeof(float) * (size_t)V * 3, err);
+    float *frame = cr_malloc(sizeof(float) * (size_t)rt->g->rest->nv * 3, err);
     if (!frame) return err ? err->status : CR_ERR_MEMORY;
     cr_status st = step_one(rt, zero, zero, frame, err);
     if (st == CR_OK) st = step_one(rt, zero, zero, frame, err);
@@ -120,23 +126,20 @@ static cr_status encode_and_try(cr_swingar_runtime *rt, cr_error *err) {
     return st;
 }
 
-/* arena_bytes, or (0) the trial's high-water mark in a generous reservation
- * (touched only as used; halved while the system refuses it), plus an
- * eighth. */
+/* The garment encoded and the frames tried in arena_bytes, or (0) in a
+ * generous reservation (touched only as used; halved while the system
+ * refuses it), then the arena made again at the encoding's and the trial's
+ * high-water mark plus an eighth: the encoding stays on the host. */
 static cr_status size_arena(cr_swingar_runtime *rt, size_t arena_bytes, cr_error *err) {
-    if (arena_bytes) {
-        CR_TRY(make_ctx(rt, arena_bytes, err));
-        return encode_and_try(rt, err);
-    }
-    size_t bytes = (size_t)8 << 30;
+    size_t bytes = arena_bytes ? arena_bytes : (size_t)8 << 30;
     cr_status st;
-    while ((st = make_ctx(rt, bytes, err)) != CR_OK && bytes > ((size_t)64 << 20))
+    while ((st = make_ctx(rt, bytes, err)) != CR_OK && !arena_bytes && bytes > ((size_t)64 << 20))
         bytes /= 2;
-    if (st == CR_OK) st = encode_and_try(rt, err);
+    if (st == CR_OK) st = encode(rt, err);
+    if (st == CR_OK) st = try_frames(rt, err);
     if (st != CR_OK) return st;
-    size_t peak = cr_nn_ctx_arena_peak(rt->ctx);
-    CR_TRY(make_ctx(rt, peak + peak / 8 + ((size_t)1 << 20), err));
-    return encode_and_try(rt, err);
+    const size_t peak = rt->trial_peak = cr_nn_ctx_arena_peak(rt->ctx);
+    return arena_bytes ? CR_OK : make_ctx(rt, peak + peak / 8 + ((size_t)1 << 20), err);
 }
 
 cr_status cr_swingar_runtime_create(cr_swingar *m, const cr_swingar_garment *g,
@@ -178,25 +181,13 @@ cr_status cr_swingar_runtime_open(const char *model_path, const char *garment_pa
     cr_body_model *b = NULL;
     cr_garment *garment = NULL;
     cr_swingar_garment *sg = NULL;
-    float *desc = NULL;
     CR_TRY(cr_swingar_load(model_path, &m, err));
-    const cr_swingar_def *d = cr_swingar_get_def(m);
     cr_status st = cr_body_resolve(body_spec, &b, err);
     if (st == CR_OK) {
         cr_garment_user_def ud = cr_garment_user_default_def();
         st = cr_garment_load_user(garment_path, &ud, b, &garment, err);
     }
-    if (st == CR_OK && !(desc = cr_calloc((size_t)d->descriptor_len, sizeof(float), err)))
-        st = err ? err->status : CR_ERR_MEMORY;
-    if (st == CR_OK && d->use_descriptor &&
-        cr_swingar_compute_descriptor(garment->mesh, d->descriptor_len, d->affinity, desc, err) !=
-            CR_OK)
-        st = CR_FAIL(err, err ? err->status : CR_ERR_INVALID, "%s: %s", garment_path,
-                     err ? err->msg : "descriptor");
-    if (st == CR_OK)
-        st = cr_swingar_garment_create(garment->mesh, garment->skin_joint, garment->skin_weight, b,
-                                       desc, d->descriptor_len, &sg, err);
-    free(desc);
+    if (st == CR_OK) st = cr_swingar_garment_of_(m, garment, garment_path, b, &sg, err);
     cr_swingar_runtime *rt = NULL;
     if (st == CR_OK) st = cr_swingar_runtime_create(m, sg, b->joints, arena_bytes, &rt, err);
     if (st != CR_OK) {
@@ -287,7 +278,7 @@ cr_status cr_swingar_predict_batch(cr_swingar *m, const cr_swingar_garment *g,
     CR_TRY(cr_swingar_runtime_create(m, g, mos[0].joints, arena_bytes, &rt, err));
     if (stats) {
         stats->encode_seconds = cr_time_now() - t0;
-        stats->arena_peak_bytes = cr_nn_ctx_arena_peak(rt->ctx);
+        stats->arena_peak_bytes = rt->trial_peak;
     }
     const int64_t V = g->rest->nv, J3 = CR_NJOINTS * 3;
     cr_status st = CR_OK;

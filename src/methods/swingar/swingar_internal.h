@@ -49,6 +49,13 @@ typedef struct swg_genc {
 cr_status cr_swingar_standardise_descriptor_(cr_swingar *m, const cr_swingar_data *d,
                                              const int8_t *is_test, cr_error *err);
 
+/* A fitted garment (cr_garment_load_user, cr_garment_create) on body b as
+ * the model sees it: its descriptor when the model uses one (an error names
+ * `source`), then cr_swingar_garment_create. */
+cr_status cr_swingar_garment_of_(const cr_swingar *m, const struct cr_garment *garment,
+                                 const char *source, const cr_body_model *b,
+                                 cr_swingar_garment **out, cr_error *err);
+
 /* 1 on success; 0 with the context's error set. */
 int cr_swingar_encode_garment_(cr_nn_ctx *ctx, cr_swingar *m, const cr_swingar_garment *g,
                                swg_genc *e);
