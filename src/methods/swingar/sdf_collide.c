@@ -244,12 +244,13 @@ cr_status cr_swingar_remove_collisions_exact(const cr_mesh *garment, const cr_me
         float *x = pred + (size_t)t * V * 3;
         if (t > 0) st = cr_bvh_refit(bvh, body + (size_t)t * Vb * 3, err);
         if (st != CR_OK) break;
-        s->inside_before = fmax(s->inside_before, inside_share(bvh, x, V, d));
         cr_swingar_sdf_bvh_source user;
         cr_swingar_sdf_source src;
         cr_swingar_sdf_source_bvh(bvh, INFINITY, &user, &src);
         cr_swingar_collide_stats cs;
         st = cr_swingar_collision_remove(&cd, x, topo, &src, &cs, err);
+        /* the first pass's detection is the share inside before */
+        s->inside_before = fmax(s->inside_before, (double)cs.colliding / (double)(V ? V : 1));
         s->moved += cs.colliding;
         if (st == CR_OK) s->inside_after = fmax(s->inside_after, inside_share(bvh, x, V, d));
     }
