@@ -189,6 +189,17 @@ void cr_dataset_body_label(const char *spec, char *out, size_t size) {
     out[n] = '\0';
 }
 
+/* The crossing triangle pairs of garment [b][g][r] as built, into
+ * rest_crossings. */
+static cr_status count_rest_crossings(dataset *ds, int b, int g, int r, cr_error *err) {
+    const cr_mesh *gm = ds->garment[b][g][r]->mesh;
+    cr_bvh *cloth = NULL;
+    int64_t n = cr_dataset_crossings(&cloth, gm, gm->pos, err);
+    cr_bvh_destroy(cloth);
+    ds->rest_crossings[b][g][r] = n;
+    return n < 0 ? (err ? err->status : CR_ERR_MEMORY) : CR_OK;
+}
+
 static cr_status write_body(const dataset *ds, const char *name, const cr_body_model *b,
                             cr_error *err) {
     char path[CR_DATASET_PATH];
@@ -314,11 +325,7 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
                 cr_garment_user_def ud = cr_garment_user_default_def();
                 CR_TRY(cr_garment_load_user(d->garments[g], &ud, ds->body[b], &ds->garment[b][g][0],
                                             err));
-                const cr_mesh *gm = ds->garment[b][g][0]->mesh;
-                cr_bvh *cloth = NULL;
-                ds->rest_crossings[b][g][0] = cr_dataset_crossings(&cloth, gm, gm->pos, err);
-                cr_bvh_destroy(cloth);
-                if (ds->rest_crossings[b][g][0] < 0) return err ? err->status : CR_ERR_MEMORY;
+                CR_TRY(count_rest_crossings(ds, b, g, 0, err));
                 CR_TRY(write_garment(ds, label, ds->variant[g].label, d->res[0],
                                      ds->garment[b][g][0], err));
                 cr_progress_update(bar, ++step, "%s on %s", ds->variant[g].label, label);
@@ -351,14 +358,7 @@ static cr_status make_assets(dataset *ds, cr_progress *bar, cr_error *err) {
             for (int r = 0; r < d->nres && st == CR_OK; r++) {
                 st = cr_garment_template_instantiate(t, ds->res_vertices[r], ds->body[b],
                                                      &ds->garment[b][g][r], err);
-                if (st == CR_OK) {
-                    const cr_mesh *gm = ds->garment[b][g][r]->mesh;
-                    cr_bvh *cloth = NULL;
-                    int64_t n = cr_dataset_crossings(&cloth, gm, gm->pos, err);
-                    cr_bvh_destroy(cloth);
-                    ds->rest_crossings[b][g][r] = n;
-                    if (n < 0) st = err ? err->status : CR_ERR_MEMORY;
-                }
+                if (st == CR_OK) st = count_rest_crossings(ds, b, g, r, err);
                 if (st == CR_OK)
                     st = write_garment(ds, label, v->label, d->res[r], ds->garment[b][g][r], err);
             }
