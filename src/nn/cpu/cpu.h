@@ -130,6 +130,10 @@ typedef enum nn_vec_fn {
  * out may be x. */
 int64_t cr_nn_cpu_vec_span(int level, nn_vec_fn fn, float p, const float *x, const float *b,
                            const float *mul, float *out, int acc, int64_t n);
+/* out[i] = act(x[i]) over n floats (CR_OP_NONE, RELU, LEAKY_RELU, TANH,
+ * SIGMOID, SOFTPLUS with p, or EXP): the vector span where cpu_vmath.c has
+ * the function, then nn_cpu_act (expf) for the rest. out may be x. */
+void cr_nn_cpu_act_span(int level, cr_op act, float p, const float *x, float *out, int64_t n);
 
 /* cpu_reduce.c */
 double cr_nn_cpu_sum_all(const float *x, int64_t n);

@@ -468,26 +468,6 @@ static NN_AVX512 void gather_regs_avx512(const gat_pass *g, int64_t begin, int64
 }
 #endif
 
-/* x = fn(x) over n floats: cpu_vmath.c's vector span where it has fn, then
- * the portable tail. */
-static void act_span(int level, cr_op act, float p, float *x, int64_t n) {
-    int vfn = act == CR_OP_TANH       ? NN_VEC_TANH
-              : act == CR_OP_SIGMOID  ? NN_VEC_SIGMOID
-              : act == CR_OP_SOFTPLUS ? NN_VEC_SOFTPLUS
-              : act == CR_OP_EXP      ? NN_VEC_EXP
-                                      : -1;
-    int64_t k = 0;
-    if (act == CR_OP_NONE) return;
-    if (vfn >= 0 && level >= NN_SIMD_AVX2)
-        k = cr_nn_cpu_vec_span(level, (nn_vec_fn)vfn, p, x, NULL, NULL, x, 0, n);
-    if (act == CR_OP_EXP)
-        for (; k < n; k++)
-            x[k] = expf(x[k]);
-    else
-        for (; k < n; k++)
-            x[k] = nn_cpu_act(act, p, x[k]);
-}
-
 /* Logits, their exponentials, the weighted sums and the activation over
  * blocks of ATTEND_BLOCK receivers: the block's scores and output rows are
  * contiguous (CSR order), so the exponentials and the activation are whole
@@ -499,14 +479,17 @@ static inline __attribute__((always_inline)) void attend_body(const gat_pass *g,
     for (int64_t b0 = begin; b0 < end; b0 += ATTEND_BLOCK) {
         int64_t b1 = b0 + ATTEND_BLOCK < end ? b0 + ATTEND_BLOCK : end;
         logit_range(g, b0, b1, level);
-        act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
+        cr_nn_cpu_act_span(level, CR_OP_EXP, 0.0f, g->score + a->off[b0] * H,
+                           g->score + a->off[b0] * H, (a->off[b1] - a->off[b0]) * H);
 #if NN_CPU_X86
         if (level == NN_SIMD_AVX512)
             gather_regs_avx512(g, b0, b1);
         else
 #endif
             gather_body(g, b0, b1, level);
-        if (a->p) act_span(level, a->act, a->act_p, a->out + b0 * C, (b1 - b0) * C);
+        if (a->p)
+            cr_nn_cpu_act_span(level, a->act, a->act_p, a->out + b0 * C, a->out + b0 * C,
+                               (b1 - b0) * C);
     }
 }
 
@@ -520,7 +503,8 @@ static inline __attribute__((always_inline)) void finish_body(const gat_pass *g,
         for (int64_t r = b0; r < b1 && a->bias; r++)
             for (int64_t f = 0; f < F; f++)
                 a->out[r * F + f] += a->bias[f];
-        act_span(level, a->act, a->act_p, a->out + b0 * F, (b1 - b0) * F);
+        cr_nn_cpu_act_span(level, a->act, a->act_p, a->out + b0 * F, a->out + b0 * F,
+                           (b1 - b0) * F);
     }
 }
 

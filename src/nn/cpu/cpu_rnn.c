@@ -25,14 +25,6 @@ typedef struct lstm_pass {
     int level;
 } lstm_pass;
 
-/* out[k] = fn(x[k]) over n floats: the vector span, then the portable tail. */
-static void span(int level, nn_vec_fn fn, const float *x, float *out, int64_t n) {
-    int64_t k =
-        level >= NN_SIMD_AVX2 ? cr_nn_cpu_vec_span(level, fn, 0.0f, x, NULL, NULL, out, 0, n) : 0;
-    for (; k < n; k++)
-        out[k] = fn == NN_VEC_TANH ? tanhf(x[k]) : nn_cpu_sigmoidf(x[k]);
-}
-
 /* Row-wise loops over 8 floats at a time in GCC/clang vector types (the
  * bodies below are inlined into functions compiled for AVX2 or AVX-512, where
  * these become ymm operations; -O2 leaves plain loops scalar), then the
@@ -136,12 +128,12 @@ ALWAYS void lstm_rows(const lstm_pass *L, int64_t begin, int64_t end) {
         }
         vscale(z + 2 * H, 2.0f, H);
     }
-    span(L->level, NN_VEC_SIGMOID, zb, zb, R * G);
+    cr_nn_cpu_act_span(L->level, CR_OP_SIGMOID, 0.0f, zb, zb, R * G);
     for (int64_t r = begin; r < end; r++) {
         const float *z = a->z + r * G;
         vcell(a->c_out + r * H, z, z + H, z + 2 * H, a->c ? a->c + r * H : NULL, H);
     }
-    span(L->level, NN_VEC_TANH, a->c_out + begin * H, a->h + begin * H, R * H);
+    cr_nn_cpu_act_span(L->level, CR_OP_TANH, 0.0f, a->c_out + begin * H, a->h + begin * H, R * H);
     for (int64_t r = begin; r < end; r++)
         vmul(a->h + r * H, a->z + r * G + 3 * H, H);
 }

@@ -48,3 +48,24 @@ int64_t cr_nn_cpu_vec_span(int level, nn_vec_fn fn, float p, const float *x, con
 #endif
     return 0;
 }
+
+void cr_nn_cpu_act_span(int level, cr_op act, float p, const float *x, float *out, int64_t n) {
+    int vfn = act == CR_OP_TANH       ? NN_VEC_TANH
+              : act == CR_OP_SIGMOID  ? NN_VEC_SIGMOID
+              : act == CR_OP_SOFTPLUS ? NN_VEC_SOFTPLUS
+              : act == CR_OP_EXP      ? NN_VEC_EXP
+                                      : -1;
+    int64_t k = 0;
+    if (act == CR_OP_NONE) {
+        if (out != x) memmove(out, x, sizeof(float) * (size_t)n);
+        return;
+    }
+    if (vfn >= 0 && level >= NN_SIMD_AVX2)
+        k = cr_nn_cpu_vec_span(level, (nn_vec_fn)vfn, p, x, NULL, NULL, out, 0, n);
+    if (act == CR_OP_EXP)
+        for (; k < n; k++)
+            out[k] = expf(x[k]);
+    else
+        for (; k < n; k++)
+            out[k] = nn_cpu_act(act, p, x[k]);
+}
