@@ -65,6 +65,43 @@ typedef struct nn_lstm_gates_args {
     float *h, *c_out;   /* (B,H) */
 } nn_lstm_gates_args;
 
+/* One MLP block of a message-passing net over rows (edges or nodes) for
+ * inference (cpu_mpnn.c): per row r, with x_r = x[x_rows ? x_rows[r] : r]
+ * (rows ldx apart, 0: width[0]),
+ *   z = x_r W0^T + b0 (+ gath[0][gath_idx[0][r]] + gath[1][gath_idx[1][r]]),
+ *   z = act_l(z Wl^T + bl) layer by layer (act_0 on the first),
+ *   z = LayerNorm(z) with ln_w, ln_b (when ln_w),  out_r = res_r + z (res
+ *   NULL: z),
+ * and, when agg, agg[n] = sum of out_r over the rows of node n, rows
+ * [off[n], off[n+1]) (rows sorted by node; every node's sum written, rows
+ * ld_agg apart, 0: width[nl]). Layer l's weight is (width[l+1], ldw[l])
+ * row-major, its first width[l] columns used (a column block of a wider
+ * layer: w[l] may point into a row). */
+enum { NN_MPNN_MAX_LAYERS = 8, NN_MPNN_MAX_WIDTH = 256 };
+typedef struct nn_mpnn_block_args {
+    int64_t R, N;                          /* rows; nodes of gath and agg */
+    int nl;                                /* layers, 1..NN_MPNN_MAX_LAYERS */
+    int64_t width[NN_MPNN_MAX_LAYERS + 1]; /* width[0]: x's; the others <= NN_MPNN_MAX_WIDTH */
+    const float *w[NN_MPNN_MAX_LAYERS];
+    int64_t ldw[NN_MPNN_MAX_LAYERS];
+    const float *b[NN_MPNN_MAX_LAYERS]; /* or NULL */
+    cr_op act[NN_MPNN_MAX_LAYERS];      /* NONE, RELU, LEAKY_RELU, TANH, SIGMOID, SOFTPLUS */
+    float act_p[NN_MPNN_MAX_LAYERS];
+    const float *x;             /* rows of width[0], ldx apart */
+    int64_t ldx;                /* 0: width[0] */
+    const int32_t *x_rows;      /* (R) or NULL */
+    const float *gath[2];       /* (N,width[1]) rows added to the first layer, or NULL */
+    const int32_t *gath_idx[2]; /* (R) */
+    const float *ln_w, *ln_b;   /* (width[nl]) or NULL */
+    float ln_eps;
+    const float *res;   /* (R,width[nl]) added to the output, or NULL; may be out */
+    float *out;         /* (R,width[nl]); may be x */
+    float *agg;         /* (N,width[nl]) rows ld_agg apart, or NULL */
+    int64_t ld_agg;     /* 0: width[nl] */
+    const int64_t *off; /* (N+1) with agg */
+    float *scratch;     /* mpnn_block_scratch(a) floats */
+} nn_mpnn_block_args;
+
 typedef struct cr_nn_backend {
     const char *name;
 
@@ -152,6 +189,8 @@ typedef struct cr_nn_backend {
     size_t (*gat_attend_scratch)(const nn_gat_attend_args *a); /* floats; a without scratch */
     void (*gat_attend_forward)(const nn_gat_attend_args *a);
     void (*lstm_gates_forward)(const nn_lstm_gates_args *a);
+    size_t (*mpnn_block_scratch)(const nn_mpnn_block_args *a); /* floats; a without scratch */
+    void (*mpnn_block_forward)(const nn_mpnn_block_args *a);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */

@@ -16,6 +16,11 @@
  * multiply-adds and its largest buffers. The values are those of the
  * concatenated form (the loop reference in the tests writes it that way).
  *
+ * With the context's gradient off every block runs in the backend's
+ * forward-only kernel (cpu_mpnn.c): each edge set sorted by receiver once
+ * (not at all when given so), the edge block's gathers, layers, LayerNorm,
+ * residual and the receivers' sums in one pass, no tape.
+ *
  * Leaves out: hierarchical graphs (HOOD's multi-level edges are ordinary
  * edge sets here; building the levels is geometry's job), weight sharing
  * across steps, mean or max aggregation.
@@ -213,6 +218,161 @@ static int check_shape(cr_nn_ctx *ctx, const char *what, const cr_tensor *t, int
     return 0;
 }
 
+/* ------------------------------------------------------------ inference -- */
+
+/* The kernel's arguments for block b (its MLP's layers, activations and
+ * LayerNorm); 0 when the kernel cannot run it (too many layers, a layer
+ * too wide, an activation it lacks): the caller takes the ops instead. */
+static int block_args(const block *b, nn_mpnn_block_args *a) {
+    const cr_mlp_def *md = &b->mlp->def;
+    if (md->nlayers > NN_MPNN_MAX_LAYERS || md->layer_norm || md->residual) return 0;
+    memset(a, 0, sizeof *a);
+    a->nl = md->nlayers;
+    a->width[0] = md->widths[0];
+    for (int i = 0; i < md->nlayers; i++) {
+        const cr_linear *lin = &b->mlp->layer[i];
+        float param;
+        cr_act act = cr_mlp_layer_act(md, i, &param);
+        cr_op op = cr_nn_act_fused_op(act, param);
+        if (op == CR_OP_COUNT || lin->out > NN_MPNN_MAX_WIDTH) return 0;
+        a->width[i + 1] = lin->out;
+        a->w[i] = lin->weight->data;
+        a->ldw[i] = lin->in;
+        a->b[i] = lin->bias ? lin->bias->data : NULL;
+        a->act[i] = op, a->act_p[i] = param;
+    }
+    a->ln_w = b->ln_w ? b->ln_w->data : NULL;
+    a->ln_b = b->ln_b ? b->ln_b->data : NULL;
+    a->ln_eps = LN_EPS;
+    return 1;
+}
+
+/* Run a's block over R rows of x (ldx apart, 0: packed) into out. */
+static int block_run(cr_nn_ctx *ctx, nn_mpnn_block_args *a, int64_t R, const float *x, int64_t ldx,
+                     float *out) {
+    a->R = R, a->x = x, a->ldx = ldx, a->out = out;
+    a->scratch = cr_nn_scratch(ctx, "mpnn", ctx->be->mpnn_block_scratch(a) * sizeof(float));
+    if (!a->scratch) return 0;
+    ctx->be->mpnn_block_forward(a);
+    return 1;
+}
+
+/* An edge set sorted by receiver for the kernel: off (N+1), perm (E: the
+ * given edge of each sorted row; NULL when the given order is sorted), snd
+ * and rcv in sorted order. */
+typedef struct sorted_edges {
+    int64_t *off;
+    const int32_t *perm, *snd, *rcv;
+} sorted_edges;
+
+static int sort_edges(cr_nn_ctx *ctx, const cr_nn_graph *g, sorted_edges *se) {
+    const int64_t E = g->edges, N = g->nodes;
+    const int32_t *r = g->receivers;
+    se->off = cr_nn_scratch(ctx, "mpnn", sizeof(int64_t) * (size_t)(N + 1));
+    if (!se->off) return 0;
+    if (ctx->be->index_check(g->senders, E, N) >= 0 || ctx->be->index_check(r, E, N) >= 0) {
+        NN_FAIL(ctx, CR_ERR_INVALID, "mpnn: an edge index outside [0,%lld)", (long long)N);
+        return 0;
+    }
+    int64_t k = 1;
+    while (k < E && r[k - 1] <= r[k])
+        k++;
+    if (k >= E) { /* sorted already (a graph built receiver by receiver): the offsets only */
+        se->perm = NULL, se->snd = g->senders, se->rcv = r;
+        for (int64_t n = 0, e = 0; n <= N; n++) {
+            while (e < E && r[e] < n)
+                e++;
+            se->off[n] = e;
+        }
+        return 1;
+    }
+    int32_t *perm = cr_nn_scratch(ctx, "mpnn", sizeof(int32_t) * (size_t)E);
+    int32_t *snd = cr_nn_scratch(ctx, "mpnn", sizeof(int32_t) * (size_t)E);
+    int32_t *rcv = cr_nn_scratch(ctx, "mpnn", sizeof(int32_t) * (size_t)E);
+    if (!perm || !snd || !rcv) return 0;
+    ctx->be->csr_build(r, E, N, se->off, perm);
+    for (k = 0; k < E; k++)
+        snd[k] = g->senders[perm[k]], rcv[k] = r[perm[k]];
+    se->perm = perm, se->snd = snd, se->rcv = rcv;
+    return 1;
+}
+
+/* Inference (the context's gradient off): every block in the backend's
+ * forward-only kernel over the step's buffers, each edge set sorted by
+ * receiver once so that the receivers' sums come out of the edge pass,
+ * straight into the node block's input [h, sum over set 0, ...]. Returns
+ * the output, *latent the last h. NULL with no error recorded when a block
+ * is one the kernel does not run (the caller takes the ops). */
+static cr_tensor *forward_infer(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
+                                const cr_nn_graph *graphs, cr_tensor *const *edge_x,
+                                cr_tensor **latent) {
+    const cr_mpnn_def *d = &net->def;
+    const int S = d->edge_sets;
+    const int64_t N = x->shape[0], L = d->latent, C = (1 + S) * L;
+    nn_mpnn_block_args enc, dec, node, edge, prod;
+    if (!block_args(&net->node_enc, &enc) || !block_args(&net->dec, &dec)) return NULL;
+    for (int s = 0; s < S; s++)
+        if (!block_args(&net->edge_enc[s], &edge)) return NULL;
+    for (int k = 0; k < d->steps; k++) {
+        if (!block_args(&net->node_proc[k], &node)) return NULL;
+        for (int s = 0; s < S; s++)
+            if (!block_args(&net->edge_proc[k * S + s], &edge)) return NULL;
+    }
+    cr_tensor *h = cr_nn_new(ctx, 2, (int64_t[]){N, L});
+    cr_tensor *y = cr_nn_new(ctx, 2, (int64_t[]){N, d->node_out});
+    float *cat = cr_nn_scratch(ctx, "mpnn", sizeof(float) * (size_t)(N * C));
+    float *pr = cr_nn_scratch(ctx, "mpnn", sizeof(float) * (size_t)(2 * N * L)), *ps = pr + N * L;
+    if (!h || !y || !cat || !pr || !block_run(ctx, &enc, N, x->data, 0, h->data)) return NULL;
+    sorted_edges se[CR_MPNN_MAX_EDGE_SETS];
+    float *e[CR_MPNN_MAX_EDGE_SETS] = {NULL};
+    for (int s = 0; s < S; s++) {
+        const cr_nn_graph *g = &graphs[s];
+        if (g->edges == 0) { /* its sum stays zero */
+            for (int64_t n = 0; n < N; n++)
+                memset(cat + n * C + (1 + s) * L, 0, sizeof(float) * (size_t)L);
+            continue;
+        }
+        e[s] = cr_nn_scratch(ctx, "mpnn", sizeof(float) * (size_t)(g->edges * L));
+        if (!e[s] || !sort_edges(ctx, g, &se[s])) return NULL;
+        block_args(&net->edge_enc[s], &edge);
+        edge.x_rows = se[s].perm;
+        if (!block_run(ctx, &edge, g->edges, edge_x[s]->data, 0, e[s])) return NULL;
+    }
+    for (int k = 0; k < d->steps; k++) {
+        for (int s = 0; s < S; s++) {
+            const cr_nn_graph *g = &graphs[s];
+            if (g->edges == 0) continue;
+            /* GDSR eq. 6 with the first layer split by columns (top of
+             * file): the receivers' and senders' products W_r h, W_s h,
+             * then the block on e with them gathered */
+            const block *b = &net->edge_proc[k * S + s];
+            const cr_linear *first = &b->mlp->layer[0];
+            for (int part = 0; part < 2; part++) {
+                memset(&prod, 0, sizeof prod);
+                prod.nl = 1, prod.width[0] = L, prod.width[1] = L, prod.act[0] = CR_OP_NONE;
+                prod.w[0] = first->weight->data + (1 + part) * L, prod.ldw[0] = 3 * L;
+                if (!block_run(ctx, &prod, N, h->data, 0, part ? ps : pr)) return NULL;
+            }
+            block_args(b, &edge);
+            edge.width[0] = L; /* the first L columns of the (L, 3L) weight: e's */
+            edge.N = N, edge.res = e[s];
+            edge.gath[0] = pr, edge.gath_idx[0] = se[s].rcv;
+            edge.gath[1] = ps, edge.gath_idx[1] = se[s].snd;
+            edge.agg = cat + (1 + s) * L, edge.ld_agg = C, edge.off = se[s].off;
+            if (!block_run(ctx, &edge, g->edges, e[s], 0, e[s])) return NULL;
+        }
+        /* GDSR eq. 7: h += MLP([h, sum_j e_ij, ...]) */
+        for (int64_t n = 0; n < N; n++)
+            memcpy(cat + n * C, h->data + n * L, sizeof(float) * (size_t)L);
+        block_args(&net->node_proc[k], &node);
+        node.res = h->data;
+        if (!block_run(ctx, &node, N, cat, C, h->data)) return NULL;
+    }
+    if (!block_run(ctx, &dec, N, h->data, 0, y->data)) return NULL;
+    if (latent) *latent = h;
+    return y;
+}
+
 cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
                            const cr_nn_graph *graphs, cr_tensor *const *edge_x,
                            cr_tensor **latent) {
@@ -224,7 +384,6 @@ cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
     int64_t N = x->shape[0], L = d->latent;
     if (!check_shape(ctx, "x", x, N, d->node_in)) return NULL;
     cr_tensor *e[CR_MPNN_MAX_EDGE_SETS] = {NULL};
-    cr_tensor *h = block_forward(ctx, &net->node_enc, x);
     for (int s = 0; s < S; s++) {
         const cr_nn_graph *g = &graphs[s];
         if (g->nodes != N || g->edges < 0 || (g->edges > 0 && (!g->senders || !g->receivers))) {
@@ -234,12 +393,18 @@ cr_tensor *cr_mpnn_forward(cr_nn_ctx *ctx, const cr_mpnn *net, cr_tensor *x,
                     s, (long long)g->nodes, (long long)g->edges, (long long)N);
             return NULL;
         }
-        if (g->edges == 0) continue;
         char what[32];
         snprintf(what, sizeof what, "edge_x[%d]", s);
-        if (!check_shape(ctx, what, edge_x[s], g->edges, d->edge_in[s])) return NULL;
-        e[s] = block_forward(ctx, &net->edge_enc[s], edge_x[s]);
+        if (g->edges > 0 && !check_shape(ctx, what, edge_x[s], g->edges, d->edge_in[s]))
+            return NULL;
     }
+    if (!ctx->grad_enabled && ctx->be->mpnn_block_forward) {
+        cr_tensor *y = forward_infer(ctx, net, x, graphs, edge_x, latent);
+        if (y || ctx->err.status != CR_OK) return y;
+    }
+    cr_tensor *h = block_forward(ctx, &net->node_enc, x);
+    for (int s = 0; s < S; s++)
+        if (graphs[s].edges > 0) e[s] = block_forward(ctx, &net->edge_enc[s], edge_x[s]);
     cr_tensor *zero_agg = NULL; /* shared sum for edge sets with no edges */
     for (int k = 0; k < d->steps; k++) {
         cr_tensor *node_in[1 + CR_MPNN_MAX_EDGE_SETS] = {h};

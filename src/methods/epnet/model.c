@@ -679,31 +679,31 @@ cr_status cr_epnet_enet_step(cr_epnet *m, const cr_epnet_seq *s, const float *rb
 /* ------------------------------------------------------------- P-Net -- */
 
 /* Node (H,5) and edge (E,9) features of frame t from positions pos (V,3),
- * angles theta (H) and the previous RB rb_prev (H). */
+ * angles theta (H) and the previous RB rb_prev (H); mid: scratch of 6H
+ * floats (the hinges' edge midpoints, posed and at rest). */
 static void pnet_features(const cr_epnet *m, const float *pos, const float *theta,
-                          const float *rb_prev, float *node, float *edge) {
+                          const float *rb_prev, float *mid, float *node, float *edge) {
     const int32_t H = m->nh;
     const double y = m->def.material.yield_angle;
+    const float *rest = m->garment->mesh->pos;
+    const int32_t *hg = m->topo->hinge;
     for (int32_t h = 0; h < H; h++) {
         const double d = theta[h] - m->theta_bar[h] - rb_prev[h];
         float *n = node + 5 * (size_t)h;
         n[0] = rb_prev[h], n[1] = (float)d, n[2] = (float)fabs(d), n[3] = (float)(fabs(d) - y);
         n[4] = (float)y;
-    }
-    const float *rest = m->garment->mesh->pos;
-    const int32_t *hg = m->topo->hinge;
-    for (int64_t e = 0; e < m->ne; e++) {
-        const int32_t a = m->send[e], b = m->recv[e];
-        float *f = edge + 9 * (size_t)e;
         for (int k = 0; k < 3; k++) {
-            const float ma = 0.5f * (pos[3 * hg[4 * a] + k] + pos[3 * hg[4 * a + 1] + k]);
-            const float mb = 0.5f * (pos[3 * hg[4 * b] + k] + pos[3 * hg[4 * b + 1] + k]);
-            const float ra = 0.5f * (rest[3 * hg[4 * a] + k] + rest[3 * hg[4 * a + 1] + k]);
-            const float rb = 0.5f * (rest[3 * hg[4 * b] + k] + rest[3 * hg[4 * b + 1] + k]);
-            f[k] = 10.0f * (ma - mb), f[3 + k] = 10.0f * (ra - rb); /* dm */
+            mid[6 * h + k] = 0.5f * (pos[3 * hg[4 * h] + k] + pos[3 * hg[4 * h + 1] + k]);
+            mid[6 * h + 3 + k] = 0.5f * (rest[3 * hg[4 * h] + k] + rest[3 * hg[4 * h + 1] + k]);
         }
-        f[6] = 1.0f / m->def.fps, f[7] = (float)(m->def.material.bending * 100.0);
-        f[8] = (float)y;
+    }
+    const float dt = 1.0f / m->def.fps, stiff = (float)(m->def.material.bending * 100.0);
+    for (int64_t e = 0; e < m->ne; e++) {
+        const float *ma = mid + 6 * (size_t)m->send[e], *mb = mid + 6 * (size_t)m->recv[e];
+        float *f = edge + 9 * (size_t)e;
+        for (int k = 0; k < 6; k++) /* dm, posed then at rest */
+            f[k] = 10.0f * (ma[k] - mb[k]);
+        f[6] = dt, f[7] = stiff, f[8] = (float)y;
     }
 }
 
@@ -722,8 +722,9 @@ cr_tensor *cr_epnet_pnet_forward_(cr_epnet *m, const float *pos, const float *th
     float *node = cr_nn_scratch(c, "epnet node features", sizeof(float) * 5 * (size_t)H);
     float *edge = cr_nn_scratch(c, "epnet edge features", sizeof(float) * 9 * (size_t)(m->ne + 1));
     float *dd = cr_nn_scratch(c, "epnet strain", sizeof(float) * (size_t)H);
-    if (!node || !edge || !dd) return NULL;
-    pnet_features(m, pos, theta, rb_prev, node, edge);
+    float *mid = cr_nn_scratch(c, "epnet midpoints", sizeof(float) * 6 * (size_t)H);
+    if (!node || !edge || !dd || !mid) return NULL;
+    pnet_features(m, pos, theta, rb_prev, mid, node, edge);
     for (int64_t h = 0; h < H; h++)
         dd[h] = node[5 * h + 1];
     cr_nn_graph g = {.nodes = H, .edges = m->ne, .senders = m->send, .receivers = m->recv};

@@ -201,6 +201,10 @@ void cr_nn_cpu_gat_attend_forward(const nn_gat_attend_args *a);
 /* cpu_rnn.c */
 void cr_nn_cpu_lstm_gates_forward(const nn_lstm_gates_args *a);
 
+/* cpu_mpnn.c */
+size_t cr_nn_cpu_mpnn_block_scratch(const nn_mpnn_block_args *a);
+void cr_nn_cpu_mpnn_block_forward(const nn_mpnn_block_args *a);
+
 /* cpu_vector.c */
 void cr_nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,
                                   const float *b, float eps, float *y, float *mean, float *rstd);
