@@ -104,20 +104,22 @@ ALWAYS void rows_matmul(float *y, int64_t ldy, const float *const *x, int64_t in
         }
 }
 
-/* The sum of v's lanes, as a tree of halves. */
-ALWAYS float hsum(v16 v) {
+/* The sum of *v's lanes, as a tree of halves (by pointer: a 64-byte vector
+ * passed by value changes the ABI on the lower levels). */
+ALWAYS float hsum(v16 *v) {
+    v16 u = *v;
 #if defined(__clang__)
-    v += __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7);
-    v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
-    v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13);
-    v += __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14);
+    u += __builtin_shufflevector(u, u, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7);
+    u += __builtin_shufflevector(u, u, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
+    u += __builtin_shufflevector(u, u, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13);
+    u += __builtin_shufflevector(u, u, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14);
 #else
-    v += __builtin_shuffle(v, (vi16){8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7});
-    v += __builtin_shuffle(v, (vi16){4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11});
-    v += __builtin_shuffle(v, (vi16){2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13});
-    v += __builtin_shuffle(v, (vi16){1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14});
+    u += __builtin_shuffle(u, (vi16){8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7});
+    u += __builtin_shuffle(u, (vi16){4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11});
+    u += __builtin_shuffle(u, (vi16){2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13});
+    u += __builtin_shuffle(u, (vi16){1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14});
 #endif
-    return v[0];
+    return u[0];
 }
 
 /* y += a over n floats */
@@ -156,7 +158,7 @@ ALWAYS float vsum(const float *a, float c, int sq, int64_t n) {
         if (sq) u = (u - c) * (u - c);
         acc += u;
     }
-    float s = hsum(acc);
+    float s = hsum(&acc);
     for (; i < n; i++)
         s += sq ? (a[i] - c) * (a[i] - c) : a[i];
     return s;
@@ -478,7 +480,6 @@ static __attribute__((target("avx512f"))) void mpnn16_avx512(void *vctx, int64_t
         _mm512_storeu_ps(a->agg + (a->ld_agg > 0 ? a->ld_agg : 16) * n,
                          span16(P, a->off[n], a->off[n + 1]));
 }
-#endif
 
 /* 1 when every layer's output is 16 wide (epnet's P-Net). */
 static int all_16(const nn_mpnn_block_args *a) {
@@ -486,6 +487,7 @@ static int all_16(const nn_mpnn_block_args *a) {
         if (a->width[l] != 16) return 0;
     return 1;
 }
+#endif
 
 /* The weights transposed into the scratch. With a LayerNorm after a last
  * layer without activation (and no gathered rows added to it), that layer's
