@@ -99,6 +99,16 @@ check "names matched" grep -q "Mixamo joint names, 22 of 22" "$tmp/sim.err"
 check "scene.glb: the character and the garment" bash -c "head -c 20000 '$tmp/sim/scene.glb' | \
   grep -aq 'mixamorig:LeftArm' && head -c 20000 '$tmp/sim/scene.glb' | grep -aq '\"garment\"'"
 
+# --- a range of the BVH's frames: 6 of its 12, eased into over 0.2 s ----------------------------
+check "simulate frames 4..9" bash -c "'$crease' simulate --garment '$tmp/t.obj' \
+  --body-mesh '$tmp/char.glb' --motion '$tmp/walk.bvh' --start-frame 4 --end-frame 9 \
+  --ease-in 0.2 --frames 14 -o '$tmp/sim_range' --quiet 2> '$tmp/range.err'"
+check "the range's frames and the ease-in only" grep -q "walk.bvh: 12 frames (with the ease-in) for 14" \
+  "$tmp/range.err"
+expect_exit 1 "walk.bvh: frames 4..12 asked for, the file has 0..11" simulate \
+  --garment "$tmp/t.obj" --body-mesh "$tmp/char.glb" --motion "$tmp/walk.bvh" --start-frame 4 \
+  --end-frame 12 --frames 1 -o "$tmp/x"
+
 # --- a joint map file for names no table knows ----------------------------------------------
 expect_exit 1 "bones.glb: no joint of the character is mapped to the hips" simulate \
   --garment "$tmp/t.obj" --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" --frames 1 \

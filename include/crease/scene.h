@@ -239,9 +239,13 @@ typedef struct cr_scene_sim_def {
      * the rest pose over body_ease_in_s, one frame a simulated frame at fps;
      * then out_dir/scene.glb holds the character so driven and the garment. */
     const char *body_motion;
-    const char *joint_map;     /* cr_retarget_def.joint_map (may be NULL) */
-    float body_bvh_scale;      /* m per BVH unit, 0 (default): the rig's known unit or inferred */
-    float body_ease_in_s;      /* s, default 1 */
+    const char *joint_map; /* cr_retarget_def.joint_map (may be NULL) */
+    float body_bvh_scale;  /* m per BVH unit, 0 (default): the rig's known unit or inferred */
+    float body_ease_in_s;  /* s, default 1 */
+    /* The BVH's frames used, before the ease-in: [body_start_frame,
+     * body_end_frame] (-1, -1 by default: all; a calibration frame 0 is then
+     * dropped, as cr_motion_prepare drops one; a given start keeps it). */
+    int body_start_frame, body_end_frame;
     const char *material;      /* preset (default "cotton") */
     const char *material_json; /* field overrides (cr_material_load_json), or NULL */
     int frames;                /* frames to simulate, >= 1 (required) */

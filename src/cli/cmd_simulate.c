@@ -31,8 +31,9 @@ void help_simulate(void) {
         "                       rigged .glb by --motion F.bvh retargeted onto its skeleton\n"
         "                       (joints matched by name: SMPL, Mixamo, CMU, DAZ, Unreal,\n"
         "                       Rigify; eased in from its rest pose over --ease-in S, default\n"
-        "                       1; --scale as below; written with the garment as\n"
-        "                       DIR/scene.glb; docs/body.md)\n"
+        "                       1; --scale, --start-frame and --end-frame (the BVH's frames)\n"
+        "                       as below; written with the garment as DIR/scene.glb;\n"
+        "                       docs/body.md)\n"
         "  --joint-map F        with --body-mesh CHAR.glb --motion F.bvh: lines\n"
         "                       'character_joint = bvh_joint' (# comments) that override the\n"
         "                       name matching; 'joint =' leaves a joint unmapped; or a JSON\n"
@@ -169,9 +170,6 @@ static int parse(int argc, char **argv, sim_opts *o) {
         (strcmp(ext, "glb") != 0 || strcmp(mext, "bvh") != 0 || o->body || o->object))
         return cli_usage("simulate", "--motion with --body-mesh: a .bvh driving a rigged .glb "
                                      "character (no --body, --object)");
-    if (o->motion && o->body_mesh && (o->mf.start_set || o->mf.end_frame >= 0))
-        return cli_usage("simulate", "--start-frame and --end-frame pose the mannequin, not a "
-                                     "--body-mesh character");
     if (o->motion && (o->object || o->body))
         return cli_usage("simulate", "--motion poses the mannequin: no --object, --body");
     if (o->joint_map && !(o->motion && o->body_mesh))
@@ -246,6 +244,8 @@ int cmd_simulate(int argc, char **argv) {
     if (o.motion && o.body_mesh) { /* a BVH driving the user's character */
         def.body_motion = o.motion, def.joint_map = o.joint_map;
         def.body_bvh_scale = o.mf.scale, def.body_ease_in_s = o.mf.ease_in;
+        def.body_start_frame = o.mf.start_set ? o.mf.start_frame : -1;
+        def.body_end_frame = o.mf.end_frame;
     } else if (o.motion) {
         st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &body, &motion, &err);
         def.body_mesh = body_mesh, def.body = body_pc2;

@@ -45,7 +45,9 @@ cr_scene_sim_def cr_scene_sim_default_def(void) {
                               .render_size = DEFAULT_RENDER_SIZE,
                               .self_contact = -1,
                               .vbd_coarse_every = -1,
-                              .body_ease_in_s = 1.0f};
+                              .body_ease_in_s = 1.0f,
+                              .body_start_frame = -1,
+                              .body_end_frame = -1};
 }
 
 /* A .glb body carries its own animation (a skinned character or a morph-target sequence). */
@@ -113,11 +115,24 @@ static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error
     cr_skin_motion *raw = NULL;
     CR_TRY(
         cr_motion_retarget_bvh(o->body_motion, &r->character->skin, o->body_mesh, &rd, &raw, err));
-    /* a calibration T-pose at frame 0 is dropped, as cr_motion_prepare drops one for the
-     * mannequin: eased into and left in one frame, the arms would sweep through the garment */
+    /* the frames asked for; without a start, a calibration T-pose at frame 0 is dropped, as
+     * cr_motion_prepare drops one for the mannequin: eased into and left in one frame, the
+     * arms would sweep through the garment */
     cr_skin_motion used = *raw;
+    const int32_t first = o->body_start_frame > 0 ? o->body_start_frame : 0;
+    const int32_t last = o->body_end_frame >= 0 ? o->body_end_frame : raw->nframes - 1;
+    if (first >= raw->nframes || last < first || last >= raw->nframes) {
+        const int count = raw->nframes;
+        cr_skin_motion_destroy(raw);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "%s: frames %d..%d asked for, the file has 0..%d (start <= end < count)",
+                       o->body_motion, (int)first, (int)last, count - 1);
+    }
+    used.rotation += 4 * (size_t)raw->njoints * first, used.translation += 3 * (size_t)first;
+    used.nframes = last - first + 1;
     float jump = 0.0f;
-    if (cr_skin_motion_is_calibration_start(raw, &jump)) {
+    if (o->body_start_frame < 0 && used.nframes > 1 &&
+        cr_skin_motion_is_calibration_start(&used, &jump)) {
         cr_log(CR_LOG_WARN,
                "%s: frame 0 is a calibration frame (joints turn by up to %.2f rad into frame 1): "
                "dropped",
