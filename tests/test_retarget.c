@@ -9,6 +9,7 @@
  * and one whose hips nothing drives are refused by name. */
 #include "body/retarget_internal.h"
 #include "crease/body.h"
+#include "crease/dataset.h"
 #include "crease/mesh_io.h"
 #include "crease/motion.h"
 #include "test.h"
@@ -186,8 +187,8 @@ static void write_character(const cr_body_model *b, const char *path, const char
         for (int k = 0; k < 3; k++) {
             const int p = parent[j];
             const double off = b->joints[3 * j + k] - (p >= 0 ? b->joints[3 * p + k] : 0.0f);
-            rest[3 * j + k] = (float)((p >= 0 ? rest[3 * p + k] : b->joints[3 * j + k]) +
-                                      (p >= 0 && scaled ? bone_scale(j) : 1.0) * off);
+            rest[3 * j + k] =
+                (float)(p >= 0 ? rest[3 * p + k] + (scaled ? bone_scale(j) : 1.0) * off : off);
         }
     }
     nm[CR_NJOINTS] = names ? "bone_top" : "mixamorig:HeadTop_End";
@@ -645,6 +646,141 @@ CR_TEST(retarget, name_tables_cover_the_common_conventions) {
 
 /* cr_skin_motion_prepare: the rest pose at frame 0, the motion's frame 0
  * after the ease-in, and a resampled rate keeping the duration. */
+/* Per vertex, the weight each of the 22 roles gets from a body's four slots. */
+static void role_weights(const cr_body_model *b, int64_t v, double w[CR_NJOINTS]) {
+    memset(w, 0, CR_NJOINTS * sizeof *w);
+    for (int s = 0; s < 4; s++)
+        w[b->skin_joint[4 * v + s]] += b->skin_weight[4 * v + s];
+}
+
+/* A rigged character as a body (cr_body_from_character, cr_body_resolve
+ * "X.glb"): the mannequin written as an Unreal-named character with a root
+ * joint above its pelvis comes back as the mannequin (mesh, joints and each
+ * vertex's weight per role); meaningless names with a map file naming SMPL
+ * joints, the collars left out, put the collars halfway between the third
+ * spine joint and the shoulders and give them no weight; without names or
+ * map the refusal names the file and the hips; a T-posed character comes
+ * back in the mannequin's A-pose. */
+CR_TEST(retarget, character_as_a_body_comes_back_as_the_mannequin) {
+    cr_error err = {0};
+    cr_mannequin_def md = cr_mannequin_default_def();
+    md.resolution = 48;
+    cr_body_model *b = NULL, *cb = NULL;
+    CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    CR_REQUIRE(b);
+    const char *glb = tmp("unreal_body.glb");
+    write_rooted_character(b, glb);
+    CR_CHECK_OK(cr_body_resolve(glb, &cb, &err), &err);
+    CR_REQUIRE(cb && cb->rest->nv == b->rest->nv && cb->rest->nf == b->rest->nf);
+    /* the mannequin stands on y = 0 with its pelvis 5 mm off x = z = 0: the
+     * character's body stands with it over the origin */
+    const double shift[3] = {-b->joints[0], 0.0, -b->joints[2]};
+    double dpos = 0.0, djoint = 0.0, dweight = 0.0;
+    for (int64_t i = 0; i < 3 * (int64_t)b->rest->nv; i++)
+        dpos = fmax(dpos, fabs(cb->rest->pos[i] - (b->rest->pos[i] + shift[i % 3])));
+    for (int i = 0; i < 3 * CR_NJOINTS; i++)
+        djoint = fmax(djoint, fabs(cb->joints[i] - (b->joints[i] + shift[i % 3])));
+    for (int64_t v = 0; v < b->rest->nv; v++) {
+        double wa[CR_NJOINTS], wb[CR_NJOINTS];
+        role_weights(b, v, wa), role_weights(cb, v, wb);
+        for (int r = 0; r < CR_NJOINTS; r++)
+            dweight = fmax(dweight, fabs(wa[r] - wb[r]));
+    }
+    printf("    Unreal names and a root: mesh %.2e m, joints %.2e m, weights %.2e off the "
+           "mannequin's\n",
+           dpos, djoint, dweight);
+    CR_CHECK(dpos < 1e-5 && djoint < 1e-5 && dweight < 1e-5);
+    cr_body_model_destroy(cb);
+    cb = NULL;
+    /* meaningless names: refused without a map, mapped to SMPL's names with one */
+    static const char *bone[CR_NJOINTS];
+    static char storage[CR_NJOINTS][16];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        snprintf(storage[j], sizeof storage[j], "bone%02d", j);
+        bone[j] = storage[j];
+    }
+    const char *bones = tmp("bones_body.glb");
+    write_character(b, bones, bone, 0);
+    CR_CHECK(cr_body_from_character(bones, NULL, &cb, &err) == CR_ERR_UNSUPPORTED && !cb);
+    printf("    no map: %s\n", err.msg);
+    CR_CHECK(strstr(err.msg, "bones_body.glb") && strstr(err.msg, "hips"));
+    const char *map = tmp("bones_body.txt");
+    FILE *f = fopen(map, "w");
+    CR_REQUIRE(f);
+    for (int j = 0; j < CR_NJOINTS; j++)
+        if (j != CR_JOINT_LEFT_COLLAR && j != CR_JOINT_RIGHT_COLLAR)
+            fprintf(f, "%s = %s\n", bone[j], cr_joint_name[j]);
+    fclose(f);
+    char spec[512];
+    snprintf(spec, sizeof spec, "%s:%s", bones, map);
+    CR_CHECK_OK(cr_body_resolve(spec, &cb, &err), &err);
+    CR_REQUIRE(cb);
+    for (int side = 0; side < 2; side++) {
+        const int collar = side ? CR_JOINT_RIGHT_COLLAR : CR_JOINT_LEFT_COLLAR;
+        const int shoulder = side ? CR_JOINT_RIGHT_SHOULDER : CR_JOINT_LEFT_SHOULDER;
+        for (int k = 0; k < 3; k++)
+            CR_CHECK_NEAR(cb->joints[3 * collar + k],
+                          0.5 * (b->joints[3 * CR_JOINT_SPINE3 + k] + b->joints[3 * shoulder + k]) +
+                              shift[k],
+                          1e-5);
+        for (int64_t v = 0; v < cb->rest->nv; v++) {
+            double w[CR_NJOINTS];
+            role_weights(cb, v, w);
+            CR_CHECK(w[collar] == 0.0);
+        }
+    }
+    for (int j = 0; j < CR_NJOINTS; j++)
+        if (j != CR_JOINT_LEFT_COLLAR && j != CR_JOINT_RIGHT_COLLAR)
+            for (int k = 0; k < 3; k++)
+                CR_CHECK_NEAR(cb->joints[3 * j + k], b->joints[3 * j + k] + shift[k], 1e-5);
+    cr_body_model_destroy(cb);
+    cb = NULL;
+    /* a T-posed character (the mannequin's shoulders raised 40 degrees, its
+     * mesh skinned there and written as the bind pose) comes back in the
+     * A-pose: the joints where the mannequin's are, the mesh within what
+     * blend skinning there and back keeps */
+    float pose[CR_NJOINTS * 3] = {0}, tj[CR_NJOINTS * 3];
+    pose[3 * CR_JOINT_LEFT_SHOULDER + 2] = (float)(40 * M_PI / 180);
+    pose[3 * CR_JOINT_RIGHT_SHOULDER + 2] = (float)(-40 * M_PI / 180);
+    cr_mesh *tm = NULL;
+    CR_CHECK_OK(cr_mesh_clone(b->rest, &tm, &err), &err);
+    CR_REQUIRE(tm);
+    CR_CHECK_OK(cr_body_pose(b, pose, NULL, tm->pos, &err), &err);
+    cr_body_forward_kinematics(b->joints, pose, NULL, NULL, tj);
+    CR_CHECK_NEAR(tj[3 * CR_JOINT_LEFT_WRIST + 1], tj[3 * CR_JOINT_LEFT_SHOULDER + 1], 0.03);
+    cr_body_model tb = *b;
+    tb.rest = tm;
+    memcpy(tb.joints, tj, sizeof tj);
+    const char *tglb = tmp("tpose_body.glb");
+    write_character(&tb, tglb, NULL, 0);
+    CR_CHECK_OK(cr_body_resolve(tglb, &cb, &err), &err);
+    CR_REQUIRE(cb);
+    djoint = 0.0, dpos = 0.0;
+    double mean = 0.0;
+    for (int i = 0; i < 3 * CR_NJOINTS; i++)
+        djoint = fmax(djoint, fabs(cb->joints[i] - (b->joints[i] + shift[i % 3])));
+    for (int64_t v = 0; v < b->rest->nv; v++) {
+        double d2 = 0.0;
+        for (int k = 0; k < 3; k++)
+            d2 += pow(cb->rest->pos[3 * v + k] - (b->rest->pos[3 * v + k] + shift[k]), 2);
+        dpos = fmax(dpos, sqrt(d2));
+        mean += sqrt(d2) / b->rest->nv;
+    }
+    printf("    T-posed: joints %.2e m off the mannequin's A-pose, mesh %.2e m on average, %.2e "
+           "at most\n",
+           djoint, mean, dpos);
+    CR_CHECK(djoint < 1e-4 && mean < 2e-3 && dpos < 0.03);
+    /* its name in a dataset */
+    char label[64];
+    cr_dataset_body_label("chars/hero.glb:maps/bones.txt", label, sizeof label);
+    CR_CHECK(strcmp(label, "hero_bones") == 0);
+    cr_dataset_body_label("hero.glb", label, sizeof label);
+    CR_CHECK(strcmp(label, "hero") == 0);
+    cr_mesh_destroy(tm);
+    cr_body_model_destroy(cb);
+    cr_body_model_destroy(b);
+}
+
 CR_TEST(retarget, skin_motion_eases_in_from_rest_and_resamples) {
     cr_error err = {0};
     cr_skin_motion *m = NULL, *p = NULL, *half = NULL;

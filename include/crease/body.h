@@ -125,10 +125,25 @@ enum { CR_BODY_MAX_BETAS = 400 }; /* SMPL-X has 300 shape and 100 expression one
  * "heavy"), or an SMPL-family model file with its shape coefficients,
  * "FILE.npz" or "FILE.npz:b0,b1,..." (or "FILE.npz:b0:b1:...", for a list
  * that is itself comma-separated) (cr_smpl_load: SMPL, SMPL+H, SMPL-X; the
- * betas zero-padded). *out is heap-allocated (cr_body_model_destroy).
+ * betas zero-padded), or a rigged glTF character "CHAR.glb" or
+ * "CHAR.glb:MAP" (cr_body_from_character). *out is heap-allocated
+ * (cr_body_model_destroy).
  * Fails naming the spec: an unknown preset lists the presets, a bad beta
  * names its position. */
 cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err);
+
+/* A rigged glTF character (a skinned mesh: JOINTS_0, WEIGHTS_0, a skin) as a
+ * body (body_character.c): its joints given SMPL's 22 roles by name
+ * (SMPL, Mixamo, CMU, DAZ/Poser, Unreal, Blender/Rigify conventions) or by
+ * joint_map (may be NULL: lines "character_joint = smpl_joint", '#'
+ * comments, or a JSON object), its weights merged into those roles, turned
+ * into crease's frame, its bind pose re-posed into the mannequin's rest bone
+ * directions (the A-pose motions are written against) and stood on the
+ * ground.
+ * cr_body_resolve takes "CHAR.glb" and "CHAR.glb:MAP". Fails naming the
+ * file: no skin, no joint for the hips, a bad map line (file and line). */
+cr_status cr_body_from_character(const char *path, const char *joint_map, cr_body_model **out,
+                                 cr_error *err);
 
 /* Build the mannequin: a closed, manifold, outward-oriented genus-0 rest mesh
  * with vertex normals, rest joints and four skinning weights per vertex. The

@@ -135,7 +135,8 @@ void cr_dataset_motion_label(const char *spec, char *out, size_t size);
  * SMPL-family file's base name ("basicModel_f" for
  * "models/basicModel_f.npz"), followed by its betas when given, '.' as 'p',
  * '-' as 'm' and separators as '_' ("basicModel_f_b1p5_m0p5" for ":1.5,-0.5"
- * or ":1.5:-0.5"). */
+ * or ":1.5:-0.5"), or a character's base name and its joint map's ("hero_bones"
+ * for "chars/hero.glb:maps/bones.txt"). */
 void cr_dataset_body_label(const char *spec, char *out, size_t size);
 
 /* 1 when a garment spec names a mesh file (.obj, .ply or .glb): a garment from

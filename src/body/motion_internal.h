@@ -174,4 +174,16 @@ cr_status cr_motion_from_npz(const cr_npz *z, const char *source, const cr_motio
 
 #define MOTION_IMPORT_COOKIE 0x6d6f7431u
 
+/* ---------------------------------------------- bodies from other files -- */
+
+/* The four largest of a vertex's weights over J joints (w, >= 0 up to float
+ * noise) merged into SMPL's 22 roles by merged (J), renormalised into idx,
+ * wt (4); fails naming source and vertex v on a negative weight or none.
+ * smpl_model.c's SMPL files and body_character.c's characters. */
+cr_status cr_body_top_weights_(const float *w, int64_t J, const int *merged, int64_t v,
+                               const char *source, int32_t *idx, float *wt, cr_error *err);
+/* The shift standing a body on the ground as crease's bodies stand: its
+ * lowest vertex (pos, (V,3)) on y = 0, its pelvis over x = z = 0. */
+void cr_body_stand_shift_(const double *pos, int64_t V, const double pelvis[3], double shift[3]);
+
 #endif

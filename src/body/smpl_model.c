@@ -101,9 +101,8 @@ static cr_status read_kintree(const cr_npz *z, const char *source, int64_t J, in
     return st;
 }
 
-/* The four largest of 22 merged weights, renormalised. */
-static cr_status top_weights(const float *w, int64_t J, const int *merged, int64_t v,
-                             const char *source, int32_t *idx, float *wt, cr_error *err) {
+cr_status cr_body_top_weights_(const float *w, int64_t J, const int *merged, int64_t v,
+                               const char *source, int32_t *idx, float *wt, cr_error *err) {
     double acc[CR_NJOINTS] = {0};
     for (int64_t k = 0; k < J; k++) {
         if (w[k] < -NEGATIVE_WEIGHT_TOL)
@@ -129,6 +128,13 @@ static cr_status top_weights(const float *w, int64_t J, const int *merged, int64
         if (wt[s] == 0) idx[s] = 0;
     }
     return CR_OK;
+}
+
+void cr_body_stand_shift_(const double *pos, int64_t V, const double pelvis[3], double shift[3]) {
+    double lowest = INFINITY;
+    for (int64_t i = 0; i < V; i++)
+        lowest = fmin(lowest, pos[i * 3 + 1]);
+    shift[0] = -pelvis[0], shift[1] = -lowest, shift[2] = -pelvis[2];
 }
 
 static cr_status smpl_from_npz(const cr_npz *z, const char *source, const float *betas, int nbetas,
@@ -190,10 +196,9 @@ static cr_status smpl_from_npz(const cr_npz *z, const char *source, const float 
                     acc += (double)reg.f32[j * V + i] * shaped[i * 3 + k];
                 out->joints[j * 3 + k] = (float)acc;
             }
-        double lowest = INFINITY;
-        for (int64_t i = 0; i < V; i++)
-            lowest = fmin(lowest, shaped[i * 3 + 1]);
-        double shift[3] = {-out->joints[0], -lowest, -out->joints[2]};
+        const double pelvis[3] = {out->joints[0], out->joints[1], out->joints[2]};
+        double shift[3];
+        cr_body_stand_shift_(shaped, V, pelvis, shift);
         for (int j = 0; j < CR_NJOINTS; j++)
             for (int k = 0; k < 3; k++)
                 out->joints[j * 3 + k] = (float)(out->joints[j * 3 + k] + shift[k]);
@@ -207,9 +212,9 @@ static cr_status smpl_from_npz(const cr_npz *z, const char *source, const float 
             if (!out->skin_joint || !out->skin_weight) st = CR_ERR_MEMORY;
         }
         for (int64_t i = 0; st == CR_OK && i < V; i++)
-            st = top_weights(weights.f32 + i * J, J, merged, i, source,
-                             out->skin_joint + i * SKIN_SLOTS, out->skin_weight + i * SKIN_SLOTS,
-                             err);
+            st = cr_body_top_weights_(weights.f32 + i * J, J, merged, i, source,
+                                      out->skin_joint + i * SKIN_SLOTS,
+                                      out->skin_weight + i * SKIN_SLOTS, err);
     }
     free(merged);
     free(shaped);
@@ -244,6 +249,15 @@ cr_status cr_smpl_load(const char *path, const float *betas, int nbetas, cr_body
 
 cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err) {
     *out = NULL;
+    const char *glb = spec ? strstr(spec, ".glb") : NULL;
+    if (glb && (glb[4] == '\0' || glb[4] == ':')) { /* a character, and its joint map */
+        char path[1024];
+        const size_t n = (size_t)(glb + 4 - spec);
+        if (n >= sizeof path) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
+        memcpy(path, spec, n);
+        path[n] = '\0';
+        return cr_body_from_character(path, glb[4] == ':' ? glb + 5 : NULL, out, err);
+    }
     const char *npz = spec ? strstr(spec, ".npz") : NULL;
     if (!npz || (npz[4] != '\0' && npz[4] != ':')) {
         cr_mannequin_def md = cr_mannequin_default_def();

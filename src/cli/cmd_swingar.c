@@ -49,8 +49,8 @@ void help_swingar(void) {
            "  --model MODEL          a model written by `swingar train`\n"
            "  --garment G.obj        any garment mesh (UVs not needed), fitted to the body first\n"
            "  --motion M             a clip name (crease motion --list) or a .bvh / .npz file\n"
-           "  --body B               slim, normal (default), heavy, or an SMPL-family model\n"
-           "                         FILE.npz[:beta,beta,...]\n"
+           "  --body B               slim, normal (default), heavy, an SMPL-family model\n"
+           "                         FILE.npz[:beta,beta,...], or a rigged CHAR.glb[:MAP]\n"
            "  --frames N             frames of a clip (default 120)\n"
            "  --fps F                frames per second (default 30)\n"
 

@@ -123,8 +123,8 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
                                d->motions[j], d->motions[i], ds->motion_name[i]);
     }
     for (int i = 0; i < d->nbodies; i++) {
-        const char *npz = strstr(d->bodies[i], ".npz");
-        if (!npz) { /* a preset, checked now; a file is read with the assets */
+        if (!strstr(d->bodies[i], ".npz") && !strstr(d->bodies[i], ".glb")) {
+            /* a preset, checked now; a file is read with the assets */
             cr_mannequin_def md = cr_mannequin_default_def();
             CR_TRY(cr_mannequin_preset(d->bodies[i], &md, err));
         }
@@ -170,21 +170,29 @@ int cr_dataset_garment_is_file(const char *spec) {
 }
 
 void cr_dataset_body_label(const char *spec, char *out, size_t size) {
-    const char *npz = strstr(spec, ".npz");
-    if (!npz || size < 2) {
+    const char *npz = strstr(spec, ".npz"), *glb = strstr(spec, ".glb");
+    const char *ext = npz ? npz : glb;
+    if (!ext || size < 2) {
         snprintf(out, size, "%s", spec);
         return;
     }
     const char *base = spec;
-    for (const char *c = spec; c < npz; c++)
+    for (const char *c = spec; c < ext; c++)
         if (*c == '/') base = c + 1;
     size_t n = 0;
-    for (const char *c = base; c < npz && n + 1 < size; c++)
+    for (const char *c = base; c < ext && n + 1 < size; c++)
         out[n++] = *c;
-    if (npz[4] == ':' && n + 2 < size) { /* the betas, as a name can hold them */
+    if (npz && npz[4] == ':' && n + 2 < size) { /* the betas, as a name can hold them */
         out[n++] = '_', out[n++] = 'b';
         for (const char *c = npz + 5; *c && n + 1 < size; c++)
             out[n++] = *c == '.' ? 'p' : *c == '-' ? 'm' : (*c == ',' || *c == ':') ? '_' : *c;
+    } else if (!npz && glb[4] == ':' && n + 1 < size) { /* the joint map's base name */
+        const char *map = glb + 5, *slash = strrchr(map, '/'), *dot;
+        map = slash ? slash + 1 : map;
+        dot = strrchr(map, '.');
+        out[n++] = '_';
+        for (const char *c = map; *c && c != dot && n + 1 < size; c++)
+            out[n++] = *c;
     }
     out[n] = '\0';
 }
