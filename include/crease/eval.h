@@ -66,7 +66,8 @@
  *
  * Also here, for the methods: the drape paper's surface measures (Chamfer
  * distance between two surfaces, signed mean curvature, its spectrum), SSIM
- * of two images, and a small line-plot and text renderer for report PNGs.
+ * of two images, and a small line-plot and text renderer for report PNGs;
+ * and `crease eval` as one call over files (cr_eval_files_run).
  *
  * Thread safety: calls share no state. The library prints nothing.
  */
@@ -330,6 +331,45 @@ char *cr_eval_table_text(const cr_eval_table *t);
  * cr_image_write_png, which does the same). */
 cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in, const char *dir,
                                cr_eval_report *out, cr_error *err);
+
+/* `crease eval` as one call (src/eval/files.c): the files read and checked
+ * (vertex and frame counts; a sequence more than 5 times larger or smaller
+ * than its rest mesh is refused as a unit mix-up), every row scored
+ * (cr_eval_run) and reported (cr_eval_write_report: the first prediction's
+ * in out_dir, the other seeds' in out_dir/seed<k>/, out_dir/twin/,
+ * out_dir/baseline/), the admission, and the table of every row
+ * (out_dir/table.md, table.json). Paths are PC2 sequences, meshes (.obj,
+ * .ply, .glb) and float .npy rest angles, rad, (T,H) or (H). */
+typedef struct cr_eval_files_def {
+    cr_eval_def eval;        /* the metrics (cr_eval_default_def) */
+    const char *const *pred; /* (npred >= 1) predictions, one per seed */
+    int npred;
+    const char *const *pred_rest; /* (npred_rest: 0, 1 for all, or npred) their rest angles */
+    int npred_rest;
+    const char *ref;                      /* the reference (required) */
+    const char *garment;                  /* the rest mesh every sequence animates (required) */
+    const char *body;                     /* body positions per frame, or NULL (needs body_mesh) */
+    const char *body_mesh;                /* the body mesh (alone: a static body), or NULL */
+    const char *rest;                     /* the reference's rest angles, or NULL */
+    const char *twin, *twin_rest;         /* the twin and its rest angles (admission), or NULL */
+    const char *baseline, *baseline_rest; /* a baseline and its rest angles, or NULL */
+    const char *out_dir;                  /* required */
+    uint32_t cookie;                      /* set by cr_eval_files_default_def */
+} cr_eval_files_def;
+cr_eval_files_def cr_eval_files_default_def(void);
+
+typedef struct cr_eval_files_result {
+    cr_eval_result first;        /* the first prediction's result */
+    cr_eval_report report;       /* its report, out_dir's own */
+    cr_eval_admission admission; /* of the twin when it has rest angles, else of first */
+    char *table_json;            /* cr_eval_table_json's text (owned) */
+    char *table_text;            /* cr_eval_table_text's (owned) */
+} cr_eval_files_result;
+
+/* Progress ("eval: scoring ...") and warnings through cr_log. On failure out is
+ * left empty. */
+cr_status cr_eval_files_run(const cr_eval_files_def *def, cr_eval_files_result *out, cr_error *err);
+void cr_eval_files_result_free(cr_eval_files_result *r); /* NULL is a no-op */
 
 /* The BED hinge selection alone: the k = max(1, ceil(fraction H)) hinges of
  * largest score, score (H) any non-negative value (ties: lower index

@@ -11,6 +11,8 @@
  *   a user OBJ checked and pushed out of the body             cr_garment_load_user, _fit_user
  *   shape parameters by key, seeded random variants           cr_garment_param_*, _random_def,
  *     ("dress:seed=3", "tshirt:length=0.8"), quality targets    cr_garment_variant_*, _check
+ *   `crease garment` as one call: built, written, measured,   cr_garment_make
+ *     pictured on the body
  *
  *   cr_garment_def def = cr_garment_default_def(CR_GARMENT_TSHIRT);
  *   def.target_vertices = 8000;
@@ -52,6 +54,7 @@
 #ifndef CREASE_GARMENT_H
 #define CREASE_GARMENT_H
 
+#include "crease/body.h"
 #include "crease/mesh.h"
 #include "crease/skeleton.h"
 
@@ -373,6 +376,57 @@ cr_status cr_garment_fit_user(const cr_mesh *mesh, const char *source,
 /* Read an OBJ, PLY or glb (by extension) and cr_garment_fit_user it. */
 cr_status cr_garment_load_user(const char *path, const cr_garment_user_def *def,
                                const cr_body_model *body, cr_garment **out, cr_error *err);
+
+/* ----------------------------------------------------- crease garment -- */
+
+/* `crease garment` as one call (src/body/garment_make.c): the mannequin, the
+ * garments (procedural layers, one random variant, or a user's file), each
+ * written and measured, and a picture of them on the body. */
+#define CR_GARMENT_MAKE_MAX_LAYERS 4
+
+typedef struct cr_garment_make_def {
+    cr_mannequin_def body;   /* the body they fit (cr_mannequin_default_def) */
+    const char *types;       /* "TYPE" or layers worn over each other, innermost first
+                                ("tshirt,vest"); with random a variant spec (cr_garment_variant);
+                                NULL with user */
+    const char *user;        /* a user's garment file (cr_garment_load_user), or NULL */
+    const char *out;         /* the mesh file (.obj, .ply, .glb); of layers, each one's with _TYPE
+                                before the extension (required) */
+    int32_t target_vertices; /* of a procedural garment (default 8000) */
+    float grid_m;            /* level-set grid cell, m; 0: each type's default */
+    float param[CR_GARMENT_NPARAMS]; /* shape parameters by table row ... */
+    uint32_t given;                  /* ... bit i: param[i] overrides (a user garment: only
+                                        clearance) */
+    int random;                      /* draw one variant of types (seeded) */
+    uint64_t seed;
+    const char *render_png; /* a picture of the garments on the body, or NULL */
+    int32_t render_size;    /* its side, px (default 720) */
+    float render_yaw_deg;   /* camera yaw (default 30) */
+    const char *clip;       /* body and garments posed at a frame of this procedural clip
+                               (cr_motion_clip), or NULL: the rest pose */
+    int32_t clip_frame;     /* the clip's frame (default 15) */
+    uint32_t cookie;        /* set by cr_garment_make_default_def */
+} cr_garment_make_def;
+cr_garment_make_def cr_garment_make_default_def(void);
+
+typedef struct cr_garment_make_result {
+    int32_t n;                                              /* garments built */
+    cr_garment *garments[CR_GARMENT_MAKE_MAX_LAYERS];       /* (n), owned */
+    cr_garment_def defs[CR_GARMENT_MAKE_MAX_LAYERS];        /* (n) what each was built with (not
+                                                               for a user garment) */
+    cr_garment_quality quality[CR_GARMENT_MAKE_MAX_LAYERS]; /* (n) cr_garment_measure */
+    char paths[CR_GARMENT_MAKE_MAX_LAYERS][1024];           /* (n) the files written */
+    cr_garment_variant variant;                             /* with random: attempts, rejected */
+    double seconds;                                         /* body and build, s */
+    int bad_types; /* on failure, 1 when def->types itself is wrong (an unknown type, more
+                      than CR_GARMENT_MAKE_MAX_LAYERS layers, no type): the caller's
+                      spelling */
+} cr_garment_make_result;
+
+/* On failure out holds no garments (bad_types set as above). */
+cr_status cr_garment_make(const cr_garment_make_def *def, cr_garment_make_result *out,
+                          cr_error *err);
+void cr_garment_make_result_free(cr_garment_make_result *r); /* NULL is a no-op */
 
 #ifdef __cplusplus
 }

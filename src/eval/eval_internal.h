@@ -38,6 +38,8 @@ void cr_eval_json_number(struct cJSON *o, const char *key, double v);
 /* o on one line in a malloc'd string (free() it), o deleted; NULL when out of memory
  * (report.c). */
 char *cr_eval_json_text(struct cJSON *o);
+/* text written to path atomically (report.c). */
+cr_status cr_eval_write_text_(const char *path, const char *text, cr_error *err);
 
 /* Mean rest edge length of the garment, m. */
 double cr_eval_mean_edge(const cr_mesh *g, const cr_topology *t);

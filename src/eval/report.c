@@ -123,8 +123,7 @@ char *cr_eval_summary_json(const cr_eval_result *r) {
     return cr_eval_json_text(o);
 }
 
-/* Write `text` lines to path atomically. */
-static cr_status write_text(const char *path, const char *text, cr_error *err) {
+cr_status cr_eval_write_text_(const char *path, const char *text, cr_error *err) {
     cr_atomic_file f;
     CR_TRY(cr_atomic_open(&f, path, err));
     if (fputs(text, f.fp) < 0) {
@@ -277,7 +276,7 @@ cr_status cr_eval_write_report(const cr_eval_result *r, const cr_eval_input *in,
     cr_status st = line ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "out of memory");
     if (st == CR_OK) {
         memcpy(line, summary, n), line[n] = '\n', line[n + 1] = '\0';
-        st = write_text(out->summary_json, line, err);
+        st = cr_eval_write_text_(out->summary_json, line, err);
     }
     free(line), free(summary);
     if (st == CR_OK) st = write_plots(r, out->plots_dir, &out->nplots, err);
