@@ -122,6 +122,14 @@ check "epnet run on it" bash -c "'$crease' epnet run --model '$tmp/ep' --motion 
   -o '$tmp/er' --json > '$tmp/er.json' 2> /dev/null"
 # the issue's bar: no vertex more than 5 mm inside the body
 check "the garment outside the character" json_between "$tmp/er.json" min_body_distance -0.005 1
+check "a t-shirt modelled on it" "$crease" garment --type tshirt --res 800 --body "$tmp/prop.glb" \
+  -o "$tmp/pt.obj"
+check "simulated on it by a clip" bash -c "'$crease' simulate --garment '$tmp/pt.obj' --motion walk \
+  --body '$tmp/prop.glb' --frames 8 --ease-in 0.2 -o '$tmp/psim' --quiet --json > '$tmp/psim.json'"
+check "not diverged" grep -q '"diverged":false' "$tmp/psim.json"
+check "within 5 mm of the skin" json_between "$tmp/psim.json" max_penetration_m 0 0.005
+expect_exit 2 "--body replaces the mannequin" garment --type tshirt --body "$tmp/prop.glb" \
+  --shape slim -o "$tmp/x.obj"
 expect_exit 1 "bones.glb: no joint of the character is mapped to the hips" epnet train \
   --body "$tmp/bones.glb" --cycles 1 -o "$tmp/x"
 python3 - "$tmp/smpl_map.txt" <<'PY'

@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
-"""make_character.py SRC.glb DST.glb STYLE [proportions]: a rigged character made from
-crease's skinned mannequin (`crease pose-body -o SRC.glb`) the way another tool's would
-differ: the skin's joints renamed from SMPL's names to Mixamo's ("mixamo") or to
+"""make_character.py SRC.glb DST.glb STYLE [proportions] [tpose]: a rigged character made
+from crease's skinned mannequin (`crease pose-body -o SRC.glb`) the way another tool's
+would differ: the skin's joints renamed from SMPL's names to Mixamo's ("mixamo") or to
 meaningless boneNN ("bones"); with "proportions", longer legs (x1.12) and spine (x1.15)
-and shorter arms (x0.9), by the joints' rest offsets (the mesh follows through its
-inverse bind matrices), and without the file's own animation. Standard library only."""
+and shorter arms (x0.9), by the joints' rest offsets; with "tpose", the arms raised 40
+degrees into a T-pose, by the shoulders' rest rotations (the mesh follows both through
+its inverse bind matrices, as a reader poses it by the nodes' rest); either drops the
+file's own animation. Standard library only."""
 import json
+import math
 import struct
 import sys
 
@@ -25,7 +28,9 @@ SCALE = {"left_knee": 1.12, "right_knee": 1.12, "left_ankle": 1.12, "right_ankle
 
 def main():
     src, dst, style = sys.argv[1:4]
-    proportions = len(sys.argv) > 4 and sys.argv[4] == "proportions"
+    proportions = "proportions" in sys.argv[4:]
+    tpose = "tpose" in sys.argv[4:]
+    half = math.radians(40) / 2  # the shoulders' turn about +Z, left up, right up
     b = open(src, "rb").read()
     jlen = struct.unpack_from("<I", b, 12)[0]
     doc = json.loads(b[20:20 + jlen])
@@ -37,8 +42,11 @@ def main():
         i = SMPL.index(name)
         if proportions and name in SCALE and "translation" in n:
             n["translation"] = [SCALE[name] * t for t in n["translation"]]
+        if tpose and name in ("left_shoulder", "right_shoulder"):
+            s = math.sin(half) * (1 if name == "left_shoulder" else -1)
+            n["rotation"] = [0.0, 0.0, s, math.cos(half)]
         n["name"] = "mixamorig:" + MIXAMO[i] if style == "mixamo" else "bone%02d" % i
-    if proportions:
+    if proportions or tpose:
         doc.pop("animations", None)
     j = json.dumps(doc, separators=(",", ":")).encode()
     j += b" " * (-len(j) % 4)

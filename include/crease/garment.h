@@ -385,7 +385,9 @@ cr_status cr_garment_load_user(const char *path, const cr_garment_user_def *def,
 #define CR_GARMENT_MAKE_MAX_LAYERS 4
 
 typedef struct cr_garment_make_def {
-    cr_mannequin_def body;   /* the body they fit (cr_mannequin_default_def) */
+    cr_mannequin_def body;   /* the body they fit (cr_mannequin_default_def) ... */
+    const char *body_spec;   /* ... or this body (cr_body_resolve: a preset, an SMPL file, a
+                                rigged CHAR.glb[:MAP]) when not NULL */
     const char *types;       /* "TYPE" or layers worn over each other, innermost first
                                 ("tshirt,vest"); with random a variant spec (cr_garment_variant);
                                 NULL with user */

@@ -167,7 +167,8 @@ cr_status cr_garment_make(const cr_garment_make_def *def, cr_garment_make_result
                        "(random: types)");
     double t0 = cr_time_now();
     cr_body_model *body = NULL;
-    CR_TRY(cr_mannequin_create(&def->body, &body, err));
+    CR_TRY(def->body_spec ? cr_body_resolve(def->body_spec, &body, err)
+                          : cr_mannequin_create(&def->body, &body, err));
     cr_status st = build(def, body, out, err);
     out->seconds = cr_time_now() - t0;
     for (int i = 0; i < out->n && st == CR_OK; i++) {

@@ -28,6 +28,8 @@ void help_garment(void) {
         "  --shape NAME     body preset: slim, normal (default) or heavy\n"
         "  --height M       body height, m, 1 to 2.5 (default 1.75)\n"
         "  --body-res N     mannequin grid cells over the height, 32 to 512 (default 110)\n"
+        "  --body B         another body instead of those three: an SMPL-family\n"
+        "                   FILE.npz[:betas] or a rigged CHAR.glb[:MAP] (docs/body.md)\n"
         "  --grid M         level-set grid cell, m, 0.004 to 0.03 (default 0.01)\n"
         "  --random         draw the shape parameters of one --type (uniform in each one's\n"
         "                   sampled range, docs/garments.md); a draw failing the quality\n"
@@ -71,6 +73,7 @@ static int parse(int argc, char **argv, cr_garment_make_def *d, garment_opts *o)
         CLI_OUTPUT(&d->out),
         CLI_STR("--render", &d->render_png),
         CLI_STR("--shape", &o->shape),
+        CLI_STR("--body", &d->body_spec),
         CLI_STR("--clip", &d->clip),
         CLI_INT("--res", &d->target_vertices, 500, 100000),
         CLI_INT("--body-res", &o->body_res, 32, 512),
@@ -155,6 +158,7 @@ static void print_json(const cr_garment_make_def *d, const garment_opts *o,
     cJSON_AddStringToObject(j, "command", "garment");
     cJSON_AddStringToObject(j, "type", d->user ? "user" : d->types);
     cJSON_AddStringToObject(j, "shape", o->shape);
+    if (d->body_spec) cJSON_AddStringToObject(j, "body", d->body_spec);
     double nv = 0, nf = 0, share = 1, angle = 180, clear = 1e9;
     cJSON *arr = cJSON_CreateArray(), *layers = cJSON_CreateArray();
     for (int i = 0; i < n; i++) {
@@ -197,6 +201,9 @@ int cmd_garment(int argc, char **argv) {
     int rc = parse(argc, argv, &d, &o);
     if (rc != CLI_OK) return rc;
     cr_error err = {0};
+    if (d.body_spec && (strcmp(o.shape, "normal") || o.set_height || o.body_res))
+        return cli_usage("garment", "--body replaces the mannequin: not with --shape, --height "
+                                    "or --body-res");
     if (cr_mannequin_preset(o.shape, &d.body, &err) != CR_OK)
         return cli_usage("garment", "%s", err.msg);
     if (o.set_height) d.body.height_m = o.height;

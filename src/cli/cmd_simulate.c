@@ -40,8 +40,10 @@ void help_simulate(void) {
         "                       object {\"character_joint\": \"bvh_joint\", ...}\n"
         "  --body B.pc2         collider positions per frame (frame f moves from sample f to\n"
         "                       f+1, held at the last); vertex count must match the collider\n"
-        "  --motion CLIP|FILE   collider: the mannequin posed by a clip (crease motion --list)\n"
-        "                       or a .bvh or .npz motion,\n"
+        "  --motion CLIP|FILE   collider: the mannequin (or --body B: a preset, an SMPL-family\n"
+        "                       FILE.npz[:betas] or a rigged CHAR.glb[:MAP], docs/body.md)\n"
+        "                       posed by a clip (crease motion --list) or a .bvh or .npz\n"
+        "                       motion,\n"
         "                       resampled to --fps, starting at the rest pose (where\n"
         "                       garments are fitted) and easing in, written as DIR/body.obj\n"
         "                       and DIR/body.pc2, and with the garment as DIR/scene.glb (a\n"
@@ -170,26 +172,27 @@ static int parse(int argc, char **argv, sim_opts *o) {
         (strcmp(ext, "glb") != 0 || strcmp(mext, "bvh") != 0 || o->body || o->object))
         return cli_usage("simulate", "--motion with --body-mesh: a .bvh driving a rigged .glb "
                                      "character (no --body, --object)");
-    if (o->motion && (o->object || o->body))
-        return cli_usage("simulate", "--motion poses the mannequin: no --object, --body");
+    if (o->motion && !o->body_mesh && (o->object || (o->body && strstr(o->body, ".pc2"))))
+        return cli_usage("simulate", "--motion poses a body model (--body a preset, FILE.npz or "
+                                     "CHAR.glb): no --object, no --body B.pc2");
     if (o->joint_map && !(o->motion && o->body_mesh))
         return cli_usage("simulate", "--joint-map needs --body-mesh CHAR.glb --motion F.bvh");
     if (o->object && o->body_mesh)
         return cli_usage("simulate", "give --object or --body-mesh, not both");
-    if (o->body && !o->object && !o->body_mesh)
+    if (o->body && !o->object && !o->body_mesh && !o->motion)
         return cli_usage("simulate", "--body needs --body-mesh (or --object) for its faces");
     if (o->body_mesh && !o->body && strcmp(ext, "glb") != 0)
         return cli_usage("simulate", "--body-mesh needs --body B.pc2 (its animation), or a .glb");
     return CLI_OK;
 }
 
-/* --motion: the mannequin the garments are fitted on, posed by the prepared file (at --fps,
+/* --motion: the body the garments are fitted on (--body, default the mannequin), posed by
+ * the prepared file (at --fps,
  * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
  * collider, and the body beside the garment for rendering; *b and *m (the caller's) go into
  * DIR/scene.glb with the garment. */
 static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap,
                              cr_body_model **b_out, cr_motion **m_out, cr_error *err) {
-    cr_mannequin_def md = cr_mannequin_default_def();
     cli_motion_file mf = o->mf;
     mf.fps = o->fps;
     snprintf(mesh, cap, "%s/body.obj", o->out);
@@ -198,7 +201,7 @@ static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t ca
     cr_motion *m = NULL;
     float *frames = NULL;
     cr_status st = cr_mkdir_p(o->out, err);
-    if (st == CR_OK) st = cr_mannequin_create(&md, &b, err);
+    if (st == CR_OK) st = cr_body_resolve(o->body ? o->body : "normal", &b, err);
     if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
     if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, err);
     if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
