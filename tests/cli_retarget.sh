@@ -111,8 +111,8 @@ expect_exit 1 "bad2.txt:2: the motion .*walk.bvh has no joint 'LeftUpperArm'" si
   --garment "$tmp/t.obj" --body-mesh "$tmp/bones.glb" --motion "$tmp/walk.bvh" \
   --joint-map "$tmp/bad2.txt" --frames 1 -o "$tmp/x"
 
-# --- the character as the body of a method: longer legs and spine, shorter arms ------------
-check "proportioned character" python3 "$mk" "$tmp/m.glb" "$tmp/prop.glb" mixamo proportions
+# --- the character as the body of a method: longer legs and spine, shorter arms, a T-pose ---
+check "proportioned, T-posed character" python3 "$mk" "$tmp/m.glb" "$tmp/prop.glb" mixamo proportions tpose
 check "epnet train on it" bash -c "'$crease' epnet train --body '$tmp/prop.glb' --vertices 500 \
   --motions squat --frames 12 --epochs 8 --pnet-epochs 1 --cycles 1 -o '$tmp/ep' \
   2> '$tmp/ep.err'"
