@@ -160,7 +160,7 @@ expect_exit 2 "read a file" motion --clip walk --scale 2 -o "$tmp/x.npz"
 "$crease" garment --type tshirt --res 500 -o "$tmp/shirt.obj" >/dev/null 2>&1
 check "simulate --motion" bash -c "'$crease' simulate --garment '$tmp/shirt.obj' --motion '$tmp/turn.bvh' \
   --ease-in 0.1 --frames 2 --quiet -o '$tmp/sim' --json | grep -q '\"frames\":2,'"
-expect_exit 2 "--motion poses the mannequin" simulate --garment "$tmp/shirt.obj" \
+expect_exit 2 "--motion poses a body model" simulate --garment "$tmp/shirt.obj" \
   --motion "$tmp/turn.bvh" --object sphere --frames 2 -o "$tmp/sim"
 check "bvh npz back" bash -c "'$crease' motion --input '$tmp/turn.npz' --json | grep -q '\"frames\":3,'"
 

@@ -27,6 +27,7 @@
 #define CREASE_SCENE_H
 
 #include "crease/mesh_io.h"
+#include "crease/motion.h"
 #include "crease/phys_sim.h"
 
 #ifdef __cplusplus
@@ -268,12 +269,15 @@ typedef struct cr_scene_sim_def {
     const char *out_dir; /* created when missing; required */
     int render_size;     /* last.png's side, pixels (default 800) */
     int quiet;           /* 1: no progress bar */
-    /* Optional: the skinned body and motion behind `body` (its frame f is
-     * sample f of the PC2): then out_dir/scene.glb holds both, the body as a
-     * skinned, animated character and the garment beside it on the same
-     * timeline (cr_body_write_glb). Borrowed. */
-    const struct cr_body_model *character;
-    const struct cr_motion *character_motion;
+    /* Or a body model posed by a motion as the collider: pose_motion, a clip name or a
+     * .bvh/.npz file (cr_motion_resolve with pose_def, at fps, starting at the rest pose
+     * the garment is fitted on), on pose_body (cr_body_resolve: a preset, an SMPL file or a
+     * rigged CHAR.glb[:MAP]; NULL: the normal mannequin); written as out_dir/body.obj and
+     * body.pc2 and, with the garment, out_dir/scene.glb (the body as a skinned, animated
+     * character and the garment beside it on one timeline, cr_body_write_glb). Not with
+     * object, body_mesh or body. */
+    const char *pose_motion, *pose_body;
+    cr_motion_resolve_def pose_def; /* cr_motion_resolve_default_def() */
 } cr_scene_sim_def;
 
 cr_scene_sim_def cr_scene_sim_default_def(void);
@@ -288,6 +292,8 @@ typedef struct cr_scene_sim_result {
     char pc2[CR_SCENE_PATH], glb[CR_SCENE_PATH], log[CR_SCENE_PATH], png[CR_SCENE_PATH];
     char rest_angles[CR_SCENE_PATH];
     char scene[CR_SCENE_PATH]; /* scene.glb with a character, else "" */
+    /* with pose_motion: body.obj and body.pc2, the posed body; else "" */
+    char body_mesh[CR_SCENE_PATH], body_pc2[CR_SCENE_PATH];
 } cr_scene_sim_result;
 
 /* Read, set up, simulate (cr_scene_run), write the outputs. A run that

@@ -186,31 +186,6 @@ static int parse(int argc, char **argv, sim_opts *o) {
     return CLI_OK;
 }
 
-/* --motion: the body the garments are fitted on (--body, default the mannequin), posed by
- * the prepared file (at --fps,
- * starting at the rest pose and easing in), written as DIR/body.obj and DIR/body.pc2: the
- * collider, and the body beside the garment for rendering; *b and *m (the caller's) go into
- * DIR/scene.glb with the garment. */
-static cr_status motion_body(const sim_opts *o, char *mesh, char *pc2, size_t cap,
-                             cr_body_model **b_out, cr_motion **m_out, cr_error *err) {
-    cli_motion_file mf = o->mf;
-    mf.fps = o->fps;
-    snprintf(mesh, cap, "%s/body.obj", o->out);
-    snprintf(pc2, cap, "%s/body.pc2", o->out);
-    cr_body_model *b = NULL;
-    cr_motion *m = NULL;
-    float *frames = NULL;
-    cr_status st = cr_mkdir_p(o->out, err);
-    if (st == CR_OK) st = cr_body_resolve(o->body ? o->body : "normal", &b, err);
-    if (st == CR_OK) st = cli_motion_file_load(o->motion, &mf, b, &m, NULL, err);
-    if (st == CR_OK) st = cr_body_pose_motion(b, m, &frames, err);
-    if (st == CR_OK) st = cr_mesh_write(mesh, b->rest, err);
-    if (st == CR_OK) st = cr_pc2_write(pc2, frames, b->rest->nv, m->nframes, 0.0f, 1.0f, err);
-    free(frames);
-    *b_out = b, *m_out = m;
-    return st;
-}
-
 int cmd_simulate(int argc, char **argv) {
     sim_opts o = {.material = "cotton",
                   .fps = 30.0f,
@@ -227,7 +202,8 @@ int cmd_simulate(int argc, char **argv) {
     }
     cr_scene_sim_def def = cr_scene_sim_default_def();
     def.garment = o.garment, def.garment_offset = o.has_offset ? o.offset : NULL;
-    def.object = o.object, def.body_mesh = o.body_mesh, def.body = o.body;
+    def.object = o.object, def.body_mesh = o.body_mesh;
+    def.body = o.motion && !o.body_mesh ? NULL : o.body;
     def.material = o.material, def.material_json = o.material_json;
     def.frames = o.frames, def.fps = o.fps, def.substeps = o.substeps;
     def.newton_iterations = o.newton_iterations, def.vbd_iterations = o.vbd_iterations;
@@ -240,25 +216,18 @@ int cmd_simulate(int argc, char **argv) {
     def.self_thickness = o.self_contact_thickness;
     def.out_dir = o.out, def.render_size = RENDER_SIZE, def.quiet = o.quiet;
     cli_twin_get(&o.twin, &def.twin);
-    char body_mesh[1200], body_pc2[1200];
-    cr_status st = CR_OK;
-    cr_body_model *body = NULL;
-    cr_motion *motion = NULL;
     if (o.motion && o.body_mesh) { /* a BVH driving the user's character */
         def.body_motion = o.motion, def.joint_map = o.joint_map;
         def.body_bvh_scale = o.mf.scale, def.body_ease_in_s = o.mf.ease_in;
         def.body_start_frame = o.mf.start_set ? o.mf.start_frame : -1;
         def.body_end_frame = o.mf.end_frame;
-    } else if (o.motion) {
-        st = motion_body(&o, body_mesh, body_pc2, sizeof body_mesh, &body, &motion, &err);
-        def.body_mesh = body_mesh, def.body = body_pc2;
+    } else if (o.motion) { /* a body model (the mannequin by default) posed by it */
+        def.pose_motion = o.motion, def.pose_body = o.body;
+        def.pose_def = cli_motion_resolve_def(&o.mf, NULL);
     }
-    def.character = body, def.character_motion = motion;
     cr_scene_sim_result r;
-    if (st == CR_OK) st = cr_scene_simulate(&def, &r, &err);
+    cr_status st = cr_scene_simulate(&def, &r, &err);
     free(o.pins);
-    cr_motion_destroy(motion);
-    cr_body_model_destroy(body);
     if (st != CR_OK) return cli_fail(&err);
 
     const cr_scene_run_stats *run = &r.run;
@@ -271,10 +240,12 @@ int cmd_simulate(int argc, char **argv) {
     if (!o.quiet)
         fprintf(stderr, "simulate: %d frames of %d vertices, %.3f s per frame, deepest %.3g mm\n",
                 done, r.vertices, per_frame, 1e3 * run->max_penetration_m);
-    const char *collider = def.body_mesh ? def.body_mesh : def.object;
-    if (!o.quiet && collider && def.body)
-        fprintf(stderr, "view: crease view %s+%s@%s -o %s/view\n", r.glb, def.body, collider,
-                o.out);
+    const char *collider = r.body_mesh[0]  ? r.body_mesh
+                           : def.body_mesh ? def.body_mesh
+                                           : def.object;
+    const char *anim = r.body_pc2[0] ? r.body_pc2 : def.body;
+    if (!o.quiet && collider && anim)
+        fprintf(stderr, "view: crease view %s+%s@%s -o %s/view\n", r.glb, anim, collider, o.out);
     else if (!o.quiet)
         fprintf(stderr, "view: crease view %s%s%s -o %s/view\n", r.glb, collider ? "+" : "",
                 collider ? collider : "", o.out);

@@ -47,7 +47,8 @@ cr_scene_sim_def cr_scene_sim_default_def(void) {
                               .vbd_coarse_every = -1,
                               .body_ease_in_s = 1.0f,
                               .body_start_frame = -1,
-                              .body_end_frame = -1};
+                              .body_end_frame = -1,
+                              .pose_def = cr_motion_resolve_default_def()};
 }
 
 /* A .glb body carries its own animation (a skinned character or a morph-target sequence). */
@@ -78,6 +79,11 @@ static cr_status sim_validate(const cr_scene_sim_def *d, cr_error *err) {
     if (d->joint_map && !d->body_motion)
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: the joint map %s maps no motion",
                        d->joint_map);
+    if (d->pose_motion && (d->object || d->body_mesh || d->body))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "simulate: the motion %s poses a body model: no object, body mesh or "
+                       "PC2 beside it",
+                       d->pose_motion);
     if (d->render_size < 16)
         return CR_FAIL(err, CR_ERR_INVALID, "simulate: render size %d, expected >= 16",
                        d->render_size);
@@ -90,6 +96,8 @@ typedef struct sim_run {
     cr_pc2 anim;
     cr_glb_character *character; /* a rigged body driven by body_motion */
     cr_skin_motion *character_motion;
+    cr_body_model *pose_body; /* a body model posed by pose_motion */
+    cr_motion *pose_motion;
     cr_sim *sim;
     cr_scene_record *rec;
 } sim_run;
@@ -97,6 +105,8 @@ typedef struct sim_run {
 static void sim_run_free(sim_run *r) {
     cr_skin_motion_destroy(r->character_motion);
     cr_glb_character_destroy(r->character);
+    cr_motion_destroy(r->pose_motion);
+    cr_body_model_destroy(r->pose_body);
     cr_scene_record_destroy(r->rec);
     cr_sim_destroy(r->sim);
     cr_pc2_free(&r->anim);
@@ -155,6 +165,31 @@ static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error
     return CR_OK;
 }
 
+/* A body model posed by a motion (pose_motion): resolved, prepared against that body at
+ * the run's rate, skinned, written as out_dir/body.obj and body.pc2; the collider is its
+ * rest mesh and frames. */
+static cr_status posed_setup(const cr_scene_sim_def *o, sim_run *r, cr_scene_sim_result *out,
+                             cr_error *err) {
+    CR_TRY(cr_mkdir_p(o->out_dir, err));
+    CR_TRY(cr_body_resolve(o->pose_body ? o->pose_body : "normal", &r->pose_body, err));
+    cr_motion_resolve_def rd = o->pose_def;
+    rd.fps = o->fps, rd.body = r->pose_body;
+    CR_TRY(cr_motion_resolve(o->pose_motion, &rd, &r->pose_motion, NULL, err));
+    CR_TRY(cr_body_pose_motion(r->pose_body, r->pose_motion, &r->anim.frames, err));
+    r->anim.nframes = r->pose_motion->nframes;
+    r->anim.nv = r->pose_body->rest->nv;
+    snprintf(out->body_mesh, sizeof out->body_mesh, "%s/body.obj", o->out_dir);
+    snprintf(out->body_pc2, sizeof out->body_pc2, "%s/body.pc2", o->out_dir);
+    CR_TRY(cr_mesh_write(out->body_mesh, r->pose_body->rest, err));
+    CR_TRY(
+        cr_pc2_write(out->body_pc2, r->anim.frames, r->anim.nv, r->anim.nframes, 0.0f, 1.0f, err));
+    CR_TRY(cr_mesh_clone(r->pose_body->rest, &r->collider, err));
+    if (r->anim.nframes < o->frames + 1)
+        cr_log(CR_LOG_WARN, "%s: %d frames (with the ease-in) for %d; the body holds its last pose",
+               o->pose_motion, r->anim.nframes, o->frames);
+    return CR_OK;
+}
+
 static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *def,
                            cr_scene_sim_result *out, cr_error *err) {
     CR_TRY(cr_material_preset(o->material, &def->material, err));
@@ -164,8 +199,8 @@ static cr_status sim_setup(const cr_scene_sim_def *o, sim_run *r, cr_sim_def *de
     if (o->garment_offset) cr_mesh_transform(r->garment, 1.0f, o->garment_offset);
     if (cr_scene_twin_is_set(&o->twin)) cr_mesh_transform(r->garment, 1.0f, o->twin.offset);
     const char *cname = o->object ? o->object : o->body_mesh;
-    if (o->body_motion) {
-        CR_TRY(character_setup(o, r, err));
+    if (o->body_motion || o->pose_motion) {
+        CR_TRY(o->body_motion ? character_setup(o, r, err) : posed_setup(o, r, out, err));
         def->collider = r->collider;
         def->collider_frames = r->anim.frames;
         def->collider_nframes = r->anim.nframes;
@@ -258,13 +293,13 @@ cr_status cr_scene_simulate(const cr_scene_sim_def *o, cr_scene_sim_result *out,
     if (st == CR_OK) st = cr_scene_record_write(r.rec, out->pc2, out->glb, o->fps, err);
     if (st == CR_OK && out->rest_angles[0])
         st = cr_scene_record_write_rest_angles(r.rec, out->rest_angles, err);
-    if (st == CR_OK && o->character && o->character_motion) {
+    if (st == CR_OK && r.pose_motion) {
         /* The body's frames and the garment's samples, as many as both have. */
-        cr_motion m = *o->character_motion;
+        cr_motion m = *r.pose_motion;
         int32_t n = cr_scene_record_samples(r.rec);
         if (n < m.nframes) m.nframes = n;
         snprintf(out->scene, sizeof out->scene, "%s/scene.glb", o->out_dir);
-        st = cr_body_write_glb(out->scene, o->character, &m, r.garment, cr_scene_record_all(r.rec),
+        st = cr_body_write_glb(out->scene, r.pose_body, &m, r.garment, cr_scene_record_all(r.rec),
                                err);
     }
     if (st == CR_OK && r.character_motion && character_roots(&r.character->skin) == 1) {
