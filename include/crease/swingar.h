@@ -28,6 +28,7 @@
 
 #include "crease/base.h"
 #include "crease/mesh.h"
+#include "crease/motion.h"
 #include "crease/nn.h"
 #include "crease/nn_graph.h"
 #include "crease/skeleton.h"
@@ -294,6 +295,33 @@ cr_status cr_swingar_remove_collisions_exact(const cr_mesh *garment, const cr_me
                                              const float *body, int32_t T, float margin,
                                              float *pred, cr_swingar_removal_stats *stats,
                                              cr_error *err);
+
+/* `crease swingar run` as one call (src/methods/swingar/run.c). */
+typedef struct cr_swingar_run_def {
+    const char *model;   /* a trained model (.safetensors); unused with skinned */
+    const char *garment; /* any garment mesh (.obj, .ply, .glb; UVs not needed), fitted to the
+                            body (cr_garment_load_user) */
+    const char *body;    /* cr_body_resolve spec (default "normal") */
+    const char *motion;  /* a clip name or a motion file (cr_motion_resolve) */
+    cr_motion_resolve_def motion_def; /* clip frames, rate (the glb plays at it), the file's
+                                         import and preparation; its body is set here */
+    int skinned;                      /* 1: the garment skinned by its own weights (the baseline) */
+    int raw;                          /* 1: the network's output as it is, no collision removal */
+    const char *out_dir; /* garment.pc2, body.pc2, garment.obj, garment.glb, last.png */
+    uint32_t cookie;     /* set by cr_swingar_run_default_def */
+} cr_swingar_run_def;
+cr_swingar_run_def cr_swingar_run_default_def(void);
+
+typedef struct cr_swingar_run_report {
+    int32_t vertices, frames;
+    double seconds;                   /* the prediction and removal, not the files */
+    int removed;                      /* 1: the exact removal ran (a model, not raw) */
+    cr_swingar_removal_stats removal; /* its shares inside the body, before and after */
+} cr_swingar_run_report;
+
+/* Fails naming the model, garment, body or motion it could not read. out may
+ * be NULL. */
+cr_status cr_swingar_run(const cr_swingar_run_def *def, cr_swingar_run_report *out, cr_error *err);
 
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {

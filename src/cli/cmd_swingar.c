@@ -167,136 +167,63 @@ static int cmd_train(int argc, char **argv) {
 }
 
 typedef struct run_opts {
-    const char *model, *garment, *motion, *body, *out;
-    int frames, skinned, json, raw;
+    int frames, json;
     float fps;
     cli_motion_file mf;
 } run_opts;
 
-static cr_status load_motion(const run_opts *o, const cr_body_model *b, cr_motion **m,
-                             cr_error *err) {
-    cli_motion_file mf = o->mf;
-    mf.fps = o->fps;
-    cr_motion_resolve_def rd = cli_motion_resolve_def(&mf, b);
-    rd.clip_frames = o->frames;
-    return cr_motion_resolve(o->motion, &rd, m, NULL, err);
-}
-
-static cr_status write_outputs(const run_opts *o, const cr_garment *g, const cr_body_model *b,
-                               const float *pred, const float *body, int32_t T, cr_error *err) {
-    char path[1100];
-    CR_TRY(cr_mkdir_p(o->out, err));
-    snprintf(path, sizeof path, "%s/garment.pc2", o->out);
-    CR_TRY(cr_pc2_write(path, pred, g->mesh->nv, T, 0, 1, err));
-    snprintf(path, sizeof path, "%s/body.pc2", o->out);
-    CR_TRY(cr_pc2_write(path, body, b->rest->nv, T, 0, 1, err));
-    snprintf(path, sizeof path, "%s/garment.obj", o->out);
-    CR_TRY(cr_obj_write(path, g->mesh, err));
-    snprintf(path, sizeof path, "%s/garment.glb", o->out);
-    CR_TRY(cr_glb_write_sequence(path, g->mesh, pred, T, o->fps, err));
-    /* the last frame, garment on body */
-    cr_mesh *gm = NULL, *bm = NULL;
-    cr_status st = cr_mesh_clone(g->mesh, &gm, err);
-    if (st == CR_OK) st = cr_mesh_clone(b->rest, &bm, err);
-    if (st == CR_OK) {
-        memcpy(gm->pos, pred + (size_t)(T - 1) * gm->nv * 3, sizeof(float) * gm->nv * 3);
-        memcpy(bm->pos, body + (size_t)(T - 1) * bm->nv * 3, sizeof(float) * bm->nv * 3);
-        free(gm->normal), gm->normal = NULL;
-        free(bm->normal), bm->normal = NULL;
-        cr_render_def rd = cr_render_default_def();
-        rd.width = rd.height = 512;
-        cr_render_object objs[2] = {{.mesh = bm, .color = {0.78f, 0.72f, 0.66f}},
-                                    {.mesh = gm, .color = {0.25f, 0.45f, 0.80f}}};
-        snprintf(path, sizeof path, "%s/last.png", o->out);
-        st = cr_render_to_png(&rd, objs, 2, path, err);
-    }
-    cr_mesh_destroy(gm);
-    cr_mesh_destroy(bm);
-    return st;
-}
-
 static int cmd_run(int argc, char **argv) {
-    run_opts o = {
-        .body = "normal", .frames = 120, .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
+    cr_swingar_run_def d = cr_swingar_run_default_def();
+    run_opts o = {.frames = 120, .fps = 30.0f, .mf = cli_motion_file_default(1.0f)};
     int npos = 0;
     const cli_opt opts[] = {
-        CLI_STR("--model", &o.model),
-        CLI_STR("--garment", &o.garment),
-        CLI_STR("--motion", &o.motion),
-        CLI_STR("--body", &o.body),
+        CLI_STR("--model", &d.model),
+        CLI_STR("--garment", &d.garment),
+        CLI_STR("--motion", &d.motion),
+        CLI_STR("--body", &d.body),
         CLI_INT("--frames", &o.frames, 1, 1000000),
         CLI_FLOAT("--fps", &o.fps, 1e-3, 1000),
-        CLI_FLAG("--skinned", &o.skinned),
-        CLI_FLAG("--raw", &o.raw),
+        CLI_FLAG("--skinned", &d.skinned),
+        CLI_FLAG("--raw", &d.raw),
         CLI_MOTION_FILE_OPTS(&o.mf),
-        CLI_OUTPUT(&o.out),
+        CLI_OUTPUT(&d.out_dir),
         CLI_FLAG("--json", &o.json),
         CLI_END,
     };
     int rc = cli_parse("swingar run", argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
-    if (!o.model && !o.skinned) return cli_usage("swingar run", "missing --model MODEL");
-    if (!o.garment) return cli_usage("swingar run", "missing --garment G.obj");
-    if (!o.motion) return cli_usage("swingar run", "missing --motion M");
-    if (!o.out) return cli_usage("swingar run", "missing -o OUT");
+    if (!d.model && !d.skinned) return cli_usage("swingar run", "missing --model MODEL");
+    if (!d.garment) return cli_usage("swingar run", "missing --garment G.obj");
+    if (!d.motion) return cli_usage("swingar run", "missing --motion M");
+    if (!d.out_dir) return cli_usage("swingar run", "missing -o OUT");
+    o.mf.fps = o.fps;
+    d.motion_def = cli_motion_resolve_def(&o.mf, NULL);
+    d.motion_def.clip_frames = o.frames;
     cr_error err = {0};
-    cr_swingar *m = NULL;
-    cr_body_model *b = NULL;
-    cr_garment *g = NULL;
-    cr_motion *mo = NULL;
-    float *pred = NULL, *body = NULL;
-    cr_status st = o.model ? cr_swingar_load(o.model, &m, &err) : CR_OK;
-    if (st == CR_OK) st = cr_body_resolve(o.body, &b, &err);
-    if (st == CR_OK) {
-        cr_garment_user_def ud = cr_garment_user_default_def();
-        st = cr_garment_load_user(o.garment, &ud, b, &g, &err);
-    }
-    if (st == CR_OK) st = load_motion(&o, b, &mo, &err);
-    if (st == CR_OK) st = cr_body_pose_motion(b, mo, &body, &err);
-    const int32_t T = mo ? mo->nframes : 0, V = g ? g->mesh->nv : 0;
-    if (st == CR_OK && !(pred = malloc(sizeof(float) * (size_t)T * V * 3)))
-        st = CR_FAIL(&err, CR_ERR_MEMORY, "swingar run: out of memory");
-    double t0 = cr_time_now();
-    if (st == CR_OK && o.skinned) {
-        for (int32_t t = 0; st == CR_OK && t < T; t++)
-            st = cr_garment_pose(g, b, mo->poses + (size_t)t * CR_NJOINTS * 3, mo->trans + 3 * t,
-                                 pred + (size_t)t * V * 3, &err);
-    } else if (st == CR_OK) {
-        st = cr_swingar_animate(m, g, o.garment, b, mo, 0, pred, &err);
-    }
-    cr_swingar_removal_stats rs = {0};
-    if (st == CR_OK && !o.skinned && !o.raw) {
-        st = cr_swingar_remove_collisions_exact(g->mesh, b->rest, body, T, 0.001f, pred, &rs, &err);
-        if (st == CR_OK)
-            fprintf(stderr,
-                    "swingar run: collision removal (exact): at most %.3f %% of the garment "
-                    "inside the body on a frame before, %.3f %% after (%.2f s)\n",
-                    100 * rs.inside_before, 100 * rs.inside_after, rs.seconds);
-    }
-    double seconds = cr_time_now() - t0;
-    if (st == CR_OK) st = write_outputs(&o, g, b, pred, body, T, &err);
-    if (st == CR_OK && o.json) {
+    cr_swingar_run_report r;
+    if (cr_swingar_run(&d, &r, &err) != CR_OK) return cli_fail(&err);
+    const cr_swingar_removal_stats *rs = &r.removal;
+    if (r.removed)
+        fprintf(stderr,
+                "swingar run: collision removal (exact): at most %.3f %% of the garment "
+                "inside the body on a frame before, %.3f %% after (%.2f s)\n",
+                100 * rs->inside_before, 100 * rs->inside_after, rs->seconds);
+    if (o.json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar run");
-        cJSON_AddStringToObject(j, "out", o.out);
-        cJSON_AddStringToObject(j, "mode", o.skinned ? "skinned" : "model");
-        cJSON_AddNumberToObject(j, "vertices", V);
-        cJSON_AddNumberToObject(j, "frames", T);
-        cJSON_AddNumberToObject(j, "seconds", seconds);
-        cJSON_AddNumberToObject(j, "fps", seconds > 0 ? T / seconds : 0);
-        if (!o.skinned && !o.raw) {
-            cJSON_AddNumberToObject(j, "inside_before", rs.inside_before);
-            cJSON_AddNumberToObject(j, "inside_after", rs.inside_after);
+        cJSON_AddStringToObject(j, "out", d.out_dir);
+        cJSON_AddStringToObject(j, "mode", d.skinned ? "skinned" : "model");
+        cJSON_AddNumberToObject(j, "vertices", r.vertices);
+        cJSON_AddNumberToObject(j, "frames", r.frames);
+        cJSON_AddNumberToObject(j, "seconds", r.seconds);
+        cJSON_AddNumberToObject(j, "fps", r.seconds > 0 ? r.frames / r.seconds : 0);
+        if (r.removed) {
+            cJSON_AddNumberToObject(j, "inside_before", rs->inside_before);
+            cJSON_AddNumberToObject(j, "inside_after", rs->inside_after);
         }
         cli_json_print(j);
     }
-    free(pred);
-    free(body);
-    cr_motion_destroy(mo);
-    cr_garment_destroy(g);
-    cr_body_model_destroy(b);
-    cr_swingar_destroy(m);
-    return st == CR_OK ? CLI_OK : cli_fail(&err);
+    return CLI_OK;
 }
 
 int cmd_swingar(int argc, char **argv) {
