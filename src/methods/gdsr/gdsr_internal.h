@@ -142,6 +142,31 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                         float eps, int iters, float *sd, float *nrm, float *d, float *dn,
                         uint8_t *moved);
 
+/* cr_gdsr_features with the vertex normals' scratch nrm (Vl,3) given (NULL:
+ * zero normals), so that a runtime step allocates nothing. */
+void cr_gdsr_features_(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
+                       float sigma_b, float *nrm, float *node, float *edge0, float *edge1);
+
+/* One frame's features for model md on d (the roll-out's, the runtime's
+ * and training's): cr_gdsr_features_ and, with layer edges in the model and
+ * two layers or more, this frame's layer edges (set 2 of g, found at in->c)
+ * and their features into *e2, grown (realloc) past *e2cap when needed. */
+cr_status cr_gdsr_frame_features_(const cr_gdsr_data *d, const cr_gdsr_model_def *md,
+                                  cr_gdsr_graph *g, const cr_gdsr_frame_in *in, float *nrm,
+                                  float *node, float *e0, float *e1, float **e2, int64_t *e2cap,
+                                  cr_error *err);
+
+/* runtime.c: one step (cr_gdsr_runtime_step) with what a roll-out reports
+ * of it: the stages' wall seconds (cr_gdsr_stage_names: the body's refit
+ * and closest points, the features, the networks, the handling; 0 for a
+ * frame before the networks run) and Eq. 27's pushes. */
+typedef struct gdsr_step_stats {
+    double seconds[4];
+    int64_t layer_pushed, layer_pushed_high;
+} gdsr_step_stats;
+cr_status cr_gdsr_runtime_step_(cr_gdsr_runtime *rt, const float *low, const float *body,
+                                float *out, gdsr_step_stats *stats, cr_error *err);
+
 /* Validation (train.c): the sums of the vertex distances (m) of the model's
  * raw roll-out and of upsampling to the reference over clips first.. of d,
  * frames 2.. (the model's), and their count, added to s, su, n. */
