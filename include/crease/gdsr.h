@@ -493,6 +493,15 @@ const cr_mesh *cr_gdsr_runtime_rest(const cr_gdsr_runtime *rt);
  * (the same as the step's with handling off). */
 const float *cr_gdsr_runtime_raw(const cr_gdsr_runtime *rt);
 size_t cr_gdsr_runtime_arena_bytes(const cr_gdsr_runtime *rt);
+/* What the last step did: its stages' wall seconds (cr_gdsr_stage_names:
+ * the body's refit and closest points, the features, the networks, the
+ * handling; all 0 for the first two frames, which run no networks) and
+ * Eq. 27's pushes (coarse and high vertices). */
+typedef struct cr_gdsr_runtime_stats {
+    double seconds[4];
+    int64_t layer_pushed, layer_pushed_high;
+} cr_gdsr_runtime_stats;
+cr_gdsr_runtime_stats cr_gdsr_runtime_last_stats(const cr_gdsr_runtime *rt);
 
 /* ---------------------------------------------------------- outputs -- */
 

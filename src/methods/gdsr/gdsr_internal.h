@@ -156,17 +156,6 @@ cr_status cr_gdsr_frame_features_(const cr_gdsr_data *d, const cr_gdsr_model_def
                                   float *node, float *e0, float *e1, float **e2, int64_t *e2cap,
                                   cr_error *err);
 
-/* runtime.c: one step (cr_gdsr_runtime_step) with what a roll-out reports
- * of it: the stages' wall seconds (cr_gdsr_stage_names: the body's refit
- * and closest points, the features, the networks, the handling; 0 for a
- * frame before the networks run) and Eq. 27's pushes. */
-typedef struct gdsr_step_stats {
-    double seconds[4];
-    int64_t layer_pushed, layer_pushed_high;
-} gdsr_step_stats;
-cr_status cr_gdsr_runtime_step_(cr_gdsr_runtime *rt, const float *low, const float *body,
-                                float *out, gdsr_step_stats *stats, cr_error *err);
-
 /* Validation (train.c): the sums of the vertex distances (m) of the model's
  * raw roll-out and of upsampling to the reference over clips first.. of d,
  * frames 2.. (the model's), and their count, added to s, su, n. */

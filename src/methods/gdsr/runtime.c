@@ -48,12 +48,13 @@ struct cr_gdsr_runtime {
     float *node, *e0, *e1; /* (Vl,19), (E0,8), (E1,8) features */
     float *e2;             /* (e2cap,8) the layer edges' features */
     int64_t e2cap;
-    float *raw;           /* (Vh,3) the last output before the handling */
-    float *lpush, *hpush; /* (Vl,3), (Vh,3) the coarse push and its upsampling */
-    float *sd, *nrm, *rd; /* (Vmax), (Vmax,3), (2,Vh,3) the handling's scratch */
-    uint8_t *moved;       /* (Vh) */
-    int64_t frames;       /* stepped since create or reset */
-    int have;             /* frames of the network's own output in the history */
+    float *raw;                 /* (Vh,3) the last output before the handling */
+    float *lpush, *hpush;       /* (Vl,3), (Vh,3) the coarse push and its upsampling */
+    float *sd, *nrm, *rd;       /* (Vmax), (Vmax,3), (2,Vh,3) the handling's scratch */
+    uint8_t *moved;             /* (Vh) */
+    int64_t frames;             /* stepped since create or reset */
+    int have;                   /* frames of the network's own output in the history */
+    cr_gdsr_runtime_stats last; /* the last step's */
     cr_gdsr_data *owned_data;
     int owns_model;
 };
@@ -122,7 +123,7 @@ static cr_status networks(cr_gdsr_runtime *rt, const float *low, double *dt, cr_
 /* Eq. 26-27 on the frame: C^ (rt->chat) and out (Vh,3), from rt->raw. The
  * first frames' upsampled input has no C^ push: its high vertices are
  * pushed, relaxed and pushed again (the roll-out's order). */
-static cr_status handle(cr_gdsr_runtime *rt, int networks, float *out, gdsr_step_stats *s,
+static cr_status handle(cr_gdsr_runtime *rt, int networks, float *out, cr_gdsr_runtime_stats *s,
                         cr_error *err) {
     const cr_gdsr_data *d = rt->d;
     const cr_gdsr_runtime_def *def = &rt->def;
@@ -148,9 +149,11 @@ static cr_status handle(cr_gdsr_runtime *rt, int networks, float *out, gdsr_step
     return CR_OK;
 }
 
-cr_status cr_gdsr_runtime_step_(cr_gdsr_runtime *rt, const float *low, const float *body,
-                                float *out, gdsr_step_stats *stats, cr_error *err) {
-    gdsr_step_stats s = {{0, 0, 0, 0}, 0, 0};
+cr_status cr_gdsr_runtime_step(cr_gdsr_runtime *rt, const float *low, const float *body, float *out,
+                               cr_error *err) {
+    if (!rt || !low || !body || !out)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr runtime step: NULL argument");
+    cr_gdsr_runtime_stats s = {{0, 0, 0, 0}, 0, 0};
     const cr_gdsr_data *d = rt->d;
     const int32_t Vh = d->high->nv;
     const int nets = rt->frames >= 2;
@@ -175,15 +178,8 @@ cr_status cr_gdsr_runtime_step_(cr_gdsr_runtime *rt, const float *low, const flo
             return CR_FAIL(err, CR_ERR_DIVERGED, "gdsr runtime: non-finite output at frame %lld",
                            (long long)rt->frames);
     keep_input(rt, low);
-    if (stats) *stats = s;
+    rt->last = s;
     return CR_OK;
-}
-
-cr_status cr_gdsr_runtime_step(cr_gdsr_runtime *rt, const float *low, const float *body, float *out,
-                               cr_error *err) {
-    if (!rt || !low || !body || !out)
-        return CR_FAIL(err, CR_ERR_INVALID, "gdsr runtime step: NULL argument");
-    return cr_gdsr_runtime_step_(rt, low, body, out, NULL, err);
 }
 
 cr_status cr_gdsr_runtime_step_batch(cr_gdsr_runtime *const *rts, int32_t n,
@@ -213,7 +209,7 @@ static cr_status try_frames(cr_gdsr_runtime *rt, cr_error *err) {
     if (!frame) return err ? err->status : CR_ERR_MEMORY;
     cr_status st = CR_OK;
     for (int k = 0; k < TRIAL_FRAMES && st == CR_OK; k++)
-        st = cr_gdsr_runtime_step_(rt, rt->d->low->pos, rt->d->body->pos, frame, NULL, err);
+        st = cr_gdsr_runtime_step(rt, rt->d->low->pos, rt->d->body->pos, frame, err);
     free(frame);
     cr_gdsr_runtime_reset(rt);
     return st;
@@ -357,6 +353,11 @@ const cr_mesh *cr_gdsr_runtime_rest(const cr_gdsr_runtime *rt) {
 
 const float *cr_gdsr_runtime_raw(const cr_gdsr_runtime *rt) {
     return rt ? rt->raw : NULL;
+}
+
+cr_gdsr_runtime_stats cr_gdsr_runtime_last_stats(const cr_gdsr_runtime *rt) {
+    cr_gdsr_runtime_stats s = {{0, 0, 0, 0}, 0, 0};
+    return rt ? rt->last : s;
 }
 
 size_t cr_gdsr_runtime_arena_bytes(const cr_gdsr_runtime *rt) {

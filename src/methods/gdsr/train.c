@@ -674,9 +674,9 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
         const float *ct = cl->low + t * nl3;
         cr_gdsr_upsample(d, ct, out->upsampled + t * nh3);
         clock_t c0 = clock();
-        gdsr_step_stats s;
-        st = cr_gdsr_runtime_step_(rt, ct, cl->body + t * nb3, out->gdsr + t * nh3, &s, err);
+        st = cr_gdsr_runtime_step(rt, ct, cl->body + t * nb3, out->gdsr + t * nh3, err);
         if (st != CR_OK) break;
+        const cr_gdsr_runtime_stats s = cr_gdsr_runtime_last_stats(rt);
         const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
         memcpy(out->gdsr_raw + t * nh3, cr_gdsr_runtime_raw(rt), (size_t)nh3 * sizeof(float));
         out->layer_pushed += s.layer_pushed, out->layer_pushed_high += s.layer_pushed_high;
