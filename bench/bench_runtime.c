@@ -12,8 +12,8 @@
  * (cotton, 30 fps) simulate `sim_frames` frames of the same walk on each
  * case's garment, from rest.
  *
- * gdsr: a t-shirt template instantiated at `gdsr_vertices` (the output) and
- * a quarter of that (the input: the dataset's 2,000 / 8,000 ratio), an
+ * gdsr: a t-shirt template instantiated at `gdsr_vertices` HIGH (the output)
+ * and LOW (the input; default HIGH / 8, docs/gdsr.md's speed runs), an
  * untrained model at each named size (default, paper). Newton simulates the
  * low garment over the walk (timed: the low simulation), then the runtime
  * steps its frames with the posed body, the handling on (`gdsr run`'s),
@@ -35,7 +35,7 @@
  *                 [gdsr_vertices] [gdsr_sizes]
  *   defaults: 30 frames, sizes tiny,paper (a comma list of tiny, cpu, paper;
  *   "none" skips swingar), 2000 epnet vertices (0 skips epnet), 4 simulated
- *   frames (0 skips the simulators), batch 1, 10000 gdsr output vertices
+ *   frames (0 skips the simulators), batch 1, gdsr at 10000/1250 vertices
  *   (0 skips gdsr), gdsr sizes default (a comma list of default, paper).
  */
 #include "crease/body.h"
@@ -316,18 +316,18 @@ static int bench_gdsr_size(const char *size, const cr_gdsr_data *d, const float 
     return rc;
 }
 
-/* gdsr at hv output vertices from a quarter as many: the low Newton
+/* gdsr at hv output vertices from lv: the low Newton
  * simulation over frames + 2 frames, each size stepped over it, then both
  * resolutions simulated by both solvers, and the ratios. */
-static int bench_gdsr(int32_t hv, const char *sizes_in, const cr_body_model *body,
+static int bench_gdsr(int32_t hv, int32_t lv, const char *sizes_in, const cr_body_model *body,
                       const cr_motion *mo, int frames, int sim_frames, double peak_sgemm) {
     cr_error err = {0};
     cr_garment_def gd = cr_garment_default_def(CR_GARMENT_TSHIRT);
-    gd.target_vertices = hv / 4;
+    gd.target_vertices = lv;
     cr_garment_template *tp = NULL;
     cr_garment *low = NULL, *high = NULL;
     if (cr_garment_template_create(&gd, body, &tp, &err) != CR_OK ||
-        cr_garment_template_instantiate(tp, hv / 4, body, &low, &err) != CR_OK ||
+        cr_garment_template_instantiate(tp, lv, body, &low, &err) != CR_OK ||
         cr_garment_template_instantiate(tp, hv, body, &high, &err) != CR_OK)
         return fail("gdsr garment", &err);
     cr_garment_template_destroy(tp);
@@ -378,13 +378,14 @@ int main(int argc, char **argv) {
     snprintf(sizes, sizeof sizes, "%s", argc > 2 ? argv[2] : "tiny,paper");
     int ev = argc > 3 ? atoi(argv[3]) : 2000, sim_frames = argc > 4 ? atoi(argv[4]) : 4;
     int B = argc > 5 ? atoi(argv[5]) : 1;
-    int gv = argc > 6 ? atoi(argv[6]) : 10000;
+    int gv = 10000, glv = 1250; /* HIGH[/LOW]: docs/gdsr.md's ratio of 8 by default */
+    if (argc > 6 && sscanf(argv[6], "%d/%d", &gv, &glv) == 1) glv = gv / 8;
     const char *gsizes = argc > 7 ? argv[7] : "default";
     if (frames < 1 || frames > 10000 || ev < 0 || sim_frames < 0 || B < 1 || B > MAX_BATCH ||
-        (gv != 0 && (gv < 2000 || gv > 100000)) || argc > 8) {
+        (gv != 0 && (gv < 2000 || gv > 100000 || glv < 500 || glv > gv)) || argc > 8) {
         fprintf(stderr,
                 "usage: bench_runtime [frames 1..10000] [tiny,cpu,paper|none] [epnet_vertices] "
-                "[sim_frames] [batch 1..%d] [gdsr_vertices 0|2000..100000] [default,paper]\n",
+                "[sim_frames] [batch 1..%d] [gdsr_vertices 0|HIGH[/LOW]] [default,paper]\n",
                 MAX_BATCH);
         return 2;
     }
@@ -434,7 +435,7 @@ int main(int argc, char **argv) {
         }
         cr_epnet_destroy(m);
     }
-    if (gv > 0) rc |= bench_gdsr(gv, gsizes, body, mo, frames, sim_frames, peak);
+    if (gv > 0) rc |= bench_gdsr(gv, glv, gsizes, body, mo, frames, sim_frames, peak);
     cr_motion_destroy(mo);
     cr_body_model_destroy(body);
     return rc;

@@ -233,7 +233,9 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
 
 /* Hyper-net A alone (Eq. 10-11): per-vertex hyper features h (Vl, hyper_features),
  * for M query points their low face and barycentric (b1, b2) -> (M,3), the
- * WIRE field of each face's generated network. */
+ * WIRE field of each face's generated network. With ctx's gradient off the
+ * fields are evaluated point by point without the tape (the runtime's path;
+ * the same values to float rounding, test_gdsr_runtime.c). */
 cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
                          int64_t npoints, const int32_t *face, const float *bary);
 
