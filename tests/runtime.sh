@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # runtime.sh: the methods' frame-by-frame runtimes from outside the tool. examples/runtime_loop.c
-# streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
+# streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs, and through a low
+# simulation and gdsr's. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
 # numpy, and gives what `crease swingar run --raw` writes for the same model, garment and clip (the
 # batch tool goes through the same runtime): within 1e-5 m on every frame. Also: a batch of two
 # characters equals each alone, reset starts over, a missing model raises crease.Error naming
@@ -44,6 +45,9 @@ check "gdsr train" "$crease" gdsr train --dataset "$tmp/gdata" --motions walk --
   --epochs 1 --quiet -o "$tmp/gm"
 check "gdsr run" "$crease" gdsr run --dataset "$tmp/gdata" --motion walk \
   --model "$tmp/gm/model.safetensors" --quiet -o "$tmp/grun"
+check "runtime_loop gdsr" bash -c "'$bin/example_runtime_loop' gdsr '$tmp/gm/model.safetensors' \
+  '$tmp/gdata' '$tmp/walk.bvh' '$tmp/loop_gd.glb' > '$tmp/loop_gd.out' && [[ \$(head -c 4 '$tmp/loop_gd.glb') == glTF ]]"
+cat "$tmp/loop_gd.out"
 if PYTHONPATH=$src/python "$py" - "$tmp" "$g" >"$tmp/py.out" 2>&1 <<'EOF_PY'
 import json
 import sys

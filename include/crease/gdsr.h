@@ -491,6 +491,9 @@ int32_t cr_gdsr_runtime_low_vertices(const cr_gdsr_runtime *rt);  /* Vl */
 int32_t cr_gdsr_runtime_body_vertices(const cr_gdsr_runtime *rt); /* Vb */
 /* The high rest mesh (its triangles are the output's). */
 const cr_mesh *cr_gdsr_runtime_rest(const cr_gdsr_runtime *rt);
+/* The low rest mesh (what a simulator steps for the input) and the rest body. */
+const cr_mesh *cr_gdsr_runtime_low_rest(const cr_gdsr_runtime *rt);
+const cr_mesh *cr_gdsr_runtime_body_rest(const cr_gdsr_runtime *rt);
 /* The last step's output before the handling, (Vh,3), owned by the runtime
  * (the same as the step's with handling off). */
 const float *cr_gdsr_runtime_raw(const cr_gdsr_runtime *rt);

@@ -351,6 +351,14 @@ const cr_mesh *cr_gdsr_runtime_rest(const cr_gdsr_runtime *rt) {
     return rt ? rt->d->high : NULL;
 }
 
+const cr_mesh *cr_gdsr_runtime_low_rest(const cr_gdsr_runtime *rt) {
+    return rt ? rt->d->low : NULL;
+}
+
+const cr_mesh *cr_gdsr_runtime_body_rest(const cr_gdsr_runtime *rt) {
+    return rt ? rt->d->body : NULL;
+}
+
 const float *cr_gdsr_runtime_raw(const cr_gdsr_runtime *rt) {
     return rt ? rt->raw : NULL;
 }
