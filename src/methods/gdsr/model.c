@@ -293,6 +293,31 @@ static void wire_act(const wire_points *j, float *re, float *im, int n) {
     }
 }
 
+/* (yr + j yi) = sum_k (re_k + j im_k)(wr_k + j wi_k) + (br + j bi) over n,
+ * summed in WIRE_LANES lanes (so the compiler's SLP pass vectorises the
+ * block) and then across them. */
+enum { WIRE_LANES = 8 };
+
+static void complex_dot(const float *re, const float *im, const float *wr, const float *wi, int n,
+                        float *yr, float *yi, float br, float bi) {
+    float pr[WIRE_LANES] = {0}, pi[WIRE_LANES] = {0};
+    int k = 0;
+    for (; k + WIRE_LANES <= n; k += WIRE_LANES)
+        for (int l = 0; l < WIRE_LANES; l++) {
+            const float a = re[k + l], b = im[k + l], c = wr[k + l], d = wi[k + l];
+            pr[l] += a * c - b * d;
+            pi[l] += a * d + b * c;
+        }
+    for (int l = 0; k < n; k++, l++) {
+        pr[l] += re[k] * wr[k] - im[k] * wi[k];
+        pi[l] += re[k] * wi[k] + im[k] * wr[k];
+    }
+    float sr = br, si = bi;
+    for (int l = 0; l < WIRE_LANES; l++)
+        sr += pr[l], si += pi[l];
+    *yr = sr, *yi = si;
+}
+
 static void wire_points_range(void *arg, int64_t begin, int64_t end) {
     const wire_points *j = arg;
     const int w = j->w;
@@ -308,15 +333,8 @@ static void wire_points_range(void *arg, int64_t begin, int64_t end) {
         for (int l = 1; l < j->layers; l++) {
             const int no = l == j->layers - 1 ? 3 : w, last = l == j->layers - 1;
             const float *Wr = t, *Wi = Wr + no * w, *br = Wi + no * w, *bi = br + no;
-            for (int o = 0; o < no; o++) {
-                float sr = 0, si = 0, ar = 0, ai = 0;
-                for (int k = 0; k < w; k++) {
-                    sr += re[k] * Wr[o * w + k], si += im[k] * Wi[o * w + k];
-                    ar += re[k] * Wi[o * w + k], ai += im[k] * Wr[o * w + k];
-                }
-                yr[o] = sr - si + br[o];
-                yi[o] = ar + ai + bi[o];
-            }
+            for (int o = 0; o < no; o++)
+                complex_dot(re, im, Wr + o * w, Wi + o * w, w, &yr[o], &yi[o], br[o], bi[o]);
             t += 2 * (int64_t)no * w + 2 * no;
             if (last) {
                 for (int k = 0; k < 3; k++)
