@@ -136,7 +136,8 @@ int64_t cr_gdsr_push_out(const cr_bvh *b, float *x, int64_t n, float eps, float 
 /* Push x (V,3), the mesh of t, out to eps, spread its displacement from
  * raw by `iters` Jacobi steps of the uniform Laplacian on the moved
  * vertices and their one-ring, each followed by a push out, then push out
- * once more (0 iterations: the per-vertex push, twice). Scratch: sd (V), nrm, d, dn (V,3),
+ * once more the vertices that moved (0 iterations: the per-vertex push,
+ * twice). Scratch: sd (V), nrm, d, dn (V,3),
  * moved (V). */
 void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw, float *x,
                         float eps, int iters, float *sd, float *nrm, float *d, float *dn,
