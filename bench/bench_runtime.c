@@ -12,6 +12,16 @@
  * (cotton, 30 fps) simulate `sim_frames` frames of the same walk on each
  * case's garment, from rest.
  *
+ * gdsr: a t-shirt template instantiated at `gdsr_vertices` HIGH (the output)
+ * and LOW (the input; default HIGH / 8, docs/gdsr.md's speed runs), an
+ * untrained model at each named size (default, paper). Newton simulates the
+ * low garment over the walk (timed: the low simulation), then the runtime
+ * steps its frames with the posed body, the handling on (`gdsr run`'s),
+ * timed from the third frame (the first two have no history and are only
+ * upsampled). Then Newton and VBD simulate `sim_frames` frames of both
+ * resolutions, and each "low simulation + gdsr" is set against the same
+ * solver's high simulation.
+ *
  * Printed per case: frames per second, the GEMM work of a frame (2MNK of
  * every product, cr_nn_gemm_flops: element-wise passes are not counted), the
  * GFLOP/s that makes, its share of the machine's cblas_sgemm rate measured
@@ -22,13 +32,16 @@
  * the engine's SIMD level).
  *
  *   bench_runtime [frames] [sizes] [epnet_vertices] [sim_frames] [batch]
+ *                 [gdsr_vertices] [gdsr_sizes]
  *   defaults: 30 frames, sizes tiny,paper (a comma list of tiny, cpu, paper;
  *   "none" skips swingar), 2000 epnet vertices (0 skips epnet), 4 simulated
- *   frames (0 skips the simulators), batch 1.
+ *   frames (0 skips the simulators), batch 1, gdsr at 10000/1250 vertices
+ *   (0 skips gdsr), gdsr sizes default (a comma list of default, paper).
  */
 #include "crease/body.h"
 #include "crease/epnet.h"
 #include "crease/garment.h"
+#include "crease/gdsr.h"
 #include "crease/motion.h"
 #include "crease/nn.h"
 #include "crease/scene.h"
@@ -200,9 +213,24 @@ static int bench_epnet(int32_t vertices, const cr_motion *mo, int frames, double
     return rc;
 }
 
-/* The reference simulator on the garment mesh `mesh` over the motion. */
+typedef struct sim_record {
+    float *frames; /* (frames + 1, V,3): the rest, then each finished frame */
+    int32_t nv;
+} sim_record;
+
+static cr_status record_frame(void *ctx, const cr_sim *sim, const cr_sim_report *rep,
+                              const cr_scene_run_stats *so_far, cr_error *err) {
+    (void)so_far, (void)err;
+    sim_record *r = ctx;
+    cr_sim_positions_f(sim, r->frames + (size_t)rep->frame * r->nv * 3);
+    return CR_OK;
+}
+
+/* The reference simulator on the garment mesh `mesh` over the motion; with
+ * record (may be NULL) its frames kept; *spf (may be NULL) its seconds a
+ * frame. */
 static int bench_sim(const cr_mesh *mesh, const cr_body_model *body, const cr_motion *mo,
-                     cr_sim_solver solver, int frames) {
+                     cr_sim_solver solver, int frames, float *record, double *spf) {
     cr_error err = {0};
     float *posed = NULL;
     if (cr_body_pose_motion(body, mo, &posed, &err) != CR_OK) return fail("pose", &err);
@@ -215,8 +243,10 @@ static int bench_sim(const cr_mesh *mesh, const cr_body_model *body, const cr_mo
     sd.collider_nframes = mo->nframes;
     cr_sim *sim = NULL;
     if (cr_sim_create(&sd, mesh, &sim, &err) != CR_OK) return fail("sim", &err);
+    sim_record rec = {record, mesh->nv};
+    if (record) memcpy(record, mesh->pos, sizeof(float) * 3 * (size_t)mesh->nv);
     cr_scene_run_stats rs;
-    cr_status st = cr_scene_run(sim, frames, NULL, NULL, NULL, &rs, &err);
+    cr_status st = cr_scene_run(sim, frames, NULL, record ? record_frame : NULL, &rec, &rs, &err);
     if (st != CR_OK) printf("sim %s: stopped: %s\n", cr_sim_solver_name(solver), err.msg);
     printf("sim %s V=%d: %.3f fps (%.2f s/frame over %d frames, %.1f Newton iterations a frame, "
            "%s); peak RSS %.2f GiB\n",
@@ -225,9 +255,120 @@ static int bench_sim(const cr_mesh *mesh, const cr_body_model *body, const cr_mo
            rs.newton_iterations / (rs.frames ? rs.frames : 1.0),
            rs.diverged ? "DIVERGED" : "no divergence", maxrss_gib());
     fflush(stdout);
+    if (spf) *spf = rs.seconds / (rs.frames ? rs.frames : 1);
     cr_sim_destroy(sim);
     free(posed);
     return st != CR_OK;
+}
+
+/* One gdsr size stepped over the low simulation's frames (lowsim, (T,Vl,3))
+ * with the posed body; *spf its seconds a frame. */
+static int bench_gdsr_size(const char *size, const cr_gdsr_data *d, const float *lowsim,
+                           const float *posed, int frames, double peak_sgemm, double *spf) {
+    cr_error err = {0};
+    cr_gdsr_model_def md;
+    if (strcmp(size, "default") == 0)
+        md = cr_gdsr_model_default_def();
+    else if (strcmp(size, "paper") == 0)
+        md = cr_gdsr_model_paper_def();
+    else
+        return fprintf(stderr, "bench_runtime: gdsr size %s (default, paper)\n", size), 1;
+    cr_gdsr_model *m = NULL;
+    if (cr_gdsr_model_create(&md, &m, &err) != CR_OK) return fail("gdsr model", &err);
+    cr_gdsr_runtime *rt = NULL;
+    double t0 = cr_time_now();
+    if (cr_gdsr_runtime_create(m, d, NULL, &rt, &err) != CR_OK) {
+        cr_gdsr_model_destroy(m);
+        return fail("gdsr runtime", &err);
+    }
+    const double create_s = cr_time_now() - t0;
+    const int64_t Vl = d->low->nv, Vh = d->high->nv, Vb = d->body->nv;
+    float *out = malloc(sizeof(float) * 3 * (size_t)Vh);
+    int rc = out ? 0 : 1;
+    uint64_t f0 = 0;
+    double stage[4] = {0, 0, 0, 0};
+    for (int t = 0; t < frames + 2 && !rc; t++) {
+        if (t == 2) f0 = cr_nn_gemm_flops(), t0 = cr_time_now(); /* the first two: no networks */
+        if (cr_gdsr_runtime_step(rt, lowsim + (size_t)t * Vl * 3, posed + (size_t)t * Vb * 3, out,
+                                 &err) != CR_OK)
+            rc = fail("gdsr step", &err);
+        cr_gdsr_runtime_stats st = cr_gdsr_runtime_last_stats(rt);
+        for (int k = 0; k < 4; k++)
+            stage[k] += st.seconds[k];
+    }
+    const double s = cr_time_now() - t0;
+    char what[160];
+    snprintf(what, sizeof what, "gdsr %s (%lld parameters, from %lld low vertices)", size,
+             (long long)cr_nn_params_numel(cr_gdsr_model_params(m)), (long long)Vl);
+    if (!rc)
+        report(what, Vh, frames, s, cr_nn_gemm_flops() - f0, create_s,
+               cr_gdsr_runtime_arena_bytes(rt) / 1073741824.0, peak_sgemm);
+    if (!rc) {
+        printf("  its stages, ms a frame:");
+        for (int k = 0; k < 4; k++)
+            printf(" %s %.2f%s", cr_gdsr_stage_names[k], 1e3 * stage[k] / frames, k < 3 ? "," : "");
+        printf(" (without the handling: %.2f fps)\n", frames / (s - stage[3]));
+    }
+    *spf = s / frames;
+    free(out);
+    cr_gdsr_runtime_destroy(rt);
+    cr_gdsr_model_destroy(m);
+    return rc;
+}
+
+/* gdsr at hv output vertices from lv: the low Newton
+ * simulation over frames + 2 frames, each size stepped over it, then both
+ * resolutions simulated by both solvers, and the ratios. */
+static int bench_gdsr(int32_t hv, int32_t lv, const char *sizes_in, const cr_body_model *body,
+                      const cr_motion *mo, int frames, int sim_frames, double peak_sgemm) {
+    cr_error err = {0};
+    cr_garment_def gd = cr_garment_default_def(CR_GARMENT_TSHIRT);
+    gd.target_vertices = lv;
+    cr_garment_template *tp = NULL;
+    cr_garment *low = NULL, *high = NULL;
+    if (cr_garment_template_create(&gd, body, &tp, &err) != CR_OK ||
+        cr_garment_template_instantiate(tp, lv, body, &low, &err) != CR_OK ||
+        cr_garment_template_instantiate(tp, hv, body, &high, &err) != CR_OK)
+        return fail("gdsr garment", &err);
+    cr_garment_template_destroy(tp);
+    cr_gdsr_data d;
+    if (cr_gdsr_data_from_arrays(low->mesh, high->mesh, body->rest, 1, low->mesh->pos,
+                                 high->mesh->pos, body->rest->pos, &d, &err) != CR_OK)
+        return fail("gdsr data", &err);
+    printf("t-shirt pair V=%d / %d\n", low->mesh->nv, high->mesh->nv);
+    const int T = frames + 2; /* the runtime's two frames without networks, then `frames` */
+    float *lowsim = malloc(sizeof(float) * 3 * (size_t)(T + 1) * low->mesh->nv), *posed = NULL;
+    if (!lowsim) return 1;
+    if (cr_body_pose_motion(body, mo, &posed, &err) != CR_OK) return fail("pose", &err);
+    double low_newton = 0, low_vbd = 0, high_newton = 0, high_vbd = 0;
+    int rc = bench_sim(low->mesh, body, mo, CR_SIM_SOLVER_NEWTON, T, lowsim, &low_newton);
+    char sizes[64];
+    snprintf(sizes, sizeof sizes, "%s", sizes_in);
+    double gdsr_spf[4] = {0};
+    const char *names[4] = {NULL};
+    int n = 0;
+    for (char *s = strtok(sizes, ","); s && n < 4 && !rc; s = strtok(NULL, ","), n++) {
+        names[n] = s;
+        rc |= bench_gdsr_size(s, &d, lowsim, posed, frames, peak_sgemm, &gdsr_spf[n]);
+    }
+    if (sim_frames > 0 && !rc) {
+        rc |= bench_sim(low->mesh, body, mo, CR_SIM_SOLVER_VBD, sim_frames, NULL, &low_vbd);
+        rc |= bench_sim(high->mesh, body, mo, CR_SIM_SOLVER_NEWTON, sim_frames, NULL, &high_newton);
+        rc |= bench_sim(high->mesh, body, mo, CR_SIM_SOLVER_VBD, sim_frames, NULL, &high_vbd);
+        for (int k = 0; k < n && !rc; k++)
+            printf("low simulation + gdsr %s V=%d: Newton %.3f fps (%.2f x Newton at V=%d), VBD "
+                   "%.3f fps (%.2f x VBD at V=%d)\n",
+                   names[k], high->mesh->nv, 1.0 / (low_newton + gdsr_spf[k]),
+                   high_newton / (low_newton + gdsr_spf[k]), high->mesh->nv,
+                   1.0 / (low_vbd + gdsr_spf[k]), high_vbd / (low_vbd + gdsr_spf[k]),
+                   high->mesh->nv);
+    }
+    free(lowsim);
+    free(posed);
+    cr_gdsr_data_free(&d);
+    cr_garment_destroy(low);
+    cr_garment_destroy(high);
+    return rc;
 }
 
 int main(int argc, char **argv) {
@@ -237,11 +378,14 @@ int main(int argc, char **argv) {
     snprintf(sizes, sizeof sizes, "%s", argc > 2 ? argv[2] : "tiny,paper");
     int ev = argc > 3 ? atoi(argv[3]) : 2000, sim_frames = argc > 4 ? atoi(argv[4]) : 4;
     int B = argc > 5 ? atoi(argv[5]) : 1;
+    int gv = 10000, glv = 1250; /* HIGH[/LOW]: docs/gdsr.md's ratio of 8 by default */
+    if (argc > 6 && sscanf(argv[6], "%d/%d", &gv, &glv) == 1) glv = gv / 8;
+    const char *gsizes = argc > 7 ? argv[7] : "default";
     if (frames < 1 || frames > 10000 || ev < 0 || sim_frames < 0 || B < 1 || B > MAX_BATCH ||
-        argc > 6) {
+        (gv != 0 && (gv < 2000 || gv > 100000 || glv < 500 || glv > gv)) || argc > 8) {
         fprintf(stderr,
                 "usage: bench_runtime [frames 1..10000] [tiny,cpu,paper|none] [epnet_vertices] "
-                "[sim_frames] [batch 1..%d]\n",
+                "[sim_frames] [batch 1..%d] [gdsr_vertices 0|HIGH[/LOW]] [default,paper]\n",
                 MAX_BATCH);
         return 2;
     }
@@ -257,7 +401,7 @@ int main(int argc, char **argv) {
     if (cr_mannequin_create(&md, &body, &err) != CR_OK) return fail("mannequin", &err);
     cr_motion_clip_def cd = cr_motion_clip_default_def();
     cd.name = "walk";
-    cd.nframes = frames > sim_frames ? frames : sim_frames;
+    cd.nframes = (frames > sim_frames ? frames : sim_frames) + 3; /* gdsr's two, and its rest */
     cr_motion *mo = NULL;
     if (cr_motion_clip_make(&cd, &mo, &err) != CR_OK) return fail("walk", &err);
     int rc = 0;
@@ -275,8 +419,8 @@ int main(int argc, char **argv) {
         for (char *s = strtok(sizes, ","); s; s = strtok(NULL, ","))
             rc |= bench_swingar(s, g, body, desc, mo, frames, B, peak);
         if (sim_frames > 0) {
-            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_NEWTON, sim_frames);
-            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_VBD, sim_frames);
+            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_NEWTON, sim_frames, NULL, NULL);
+            rc |= bench_sim(g->mesh, body, mo, CR_SIM_SOLVER_VBD, sim_frames, NULL, NULL);
         }
         cr_garment_destroy(g);
     }
@@ -284,11 +428,14 @@ int main(int argc, char **argv) {
         cr_epnet *m = NULL;
         rc |= bench_epnet(ev, mo, frames, peak, &m);
         if (m && sim_frames > 0) {
-            rc |= bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_NEWTON, sim_frames);
-            rc |= bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_VBD, sim_frames);
+            rc |= bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_NEWTON, sim_frames, NULL,
+                            NULL);
+            rc |=
+                bench_sim(cr_epnet_garment(m), body, mo, CR_SIM_SOLVER_VBD, sim_frames, NULL, NULL);
         }
         cr_epnet_destroy(m);
     }
+    if (gv > 0) rc |= bench_gdsr(gv, glv, gsizes, body, mo, frames, sim_frames, peak);
     cr_motion_destroy(mo);
     cr_body_model_destroy(body);
     return rc;

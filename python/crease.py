@@ -7,6 +7,9 @@
             verts = rt.step(pose, root)              # (V,3) float32 world positions, m
     faces = rt.triangles                            # (F,3) int32, the garment's rest triangles
 
+    with crease.GdsrRuntime("model.safetensors", "dataset", garment="tshirt") as rt:
+        high = rt.step(low, body)      # (Vl,3) low simulation, (Vb,3) posed body -> (Vh,3)
+
 The library is libcrease_runtime.so (built beside libcrease.a; `make build` puts it in
 build/release). It is looked up in $CREASE_LIBRARY, then in ../build/release beside this file,
 then by the system's loader. Errors raise crease.Error with the library's message, which
@@ -19,7 +22,7 @@ import os
 
 import numpy as np
 
-__all__ = ["Error", "EpnetRuntime", "SwingarRuntime", "library"]
+__all__ = ["Error", "EpnetRuntime", "GdsrRuntime", "SwingarRuntime", "library"]
 
 NJOINTS = 22
 
@@ -80,10 +83,13 @@ def library():
     P = ctypes.POINTER
     vp = ctypes.c_void_p
     err = P(_CrError)
-    for method in ("swingar", "epnet"):
+    for method in ("swingar", "epnet", "gdsr"):
         fn = lambda name: getattr(lib, "cr_%s_runtime_%s" % (method, name))
         fn("step").argtypes = [vp, P(f), P(f), P(f), err]
-        fn("step_batch").argtypes = [P(vp), ctypes.c_int32, P(f), P(f), P(P(f)), err]
+        if method == "gdsr":
+            fn("step_batch").argtypes = [P(vp), ctypes.c_int32, P(P(f)), P(P(f)), P(P(f)), err]
+        else:
+            fn("step_batch").argtypes = [P(vp), ctypes.c_int32, P(f), P(f), P(P(f)), err]
         for name, res in (("reset", None), ("destroy", None), ("vertices", ctypes.c_int32),
                           ("rest", P(_CrMesh))):
             fn(name).argtypes = [vp]
@@ -97,6 +103,15 @@ def library():
     lib.cr_epnet_runtime_rb.restype = P(f)
     lib.cr_epnet_runtime_hinges.argtypes = [vp]
     lib.cr_epnet_runtime_hinges.restype = ctypes.c_int32
+    lib.cr_gdsr_runtime_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
+                                         ctypes.c_char_p, vp, P(vp), err]
+    for name in ("low_vertices", "body_vertices"):
+        getattr(lib, "cr_gdsr_runtime_" + name).argtypes = [vp]
+        getattr(lib, "cr_gdsr_runtime_" + name).restype = ctypes.c_int32
+    lib.cr_gdsr_runtime_raw.argtypes = [vp]
+    lib.cr_gdsr_runtime_raw.restype = P(f)
+    lib.cr_gdsr_runtime_arena_bytes.argtypes = [vp]
+    lib.cr_gdsr_runtime_arena_bytes.restype = ctypes.c_size_t
     _lib = lib
     return lib
 
@@ -232,3 +247,73 @@ class EpnetRuntime(_Runtime):
     def rb(self):
         p = self._lib.cr_epnet_runtime_rb(self._rt)
         return np.ctypeslib.as_array(p, shape=(self.hinges,)).copy()
+
+
+class GdsrRuntime(_Runtime):
+    """gdsr frame by frame (crease/gdsr.h, cr_gdsr_runtime_*): a low-resolution garment
+    simulation and the posed body in, the high-resolution garment out.
+
+    model: a model file from `crease gdsr train`; dataset: a `crease dataset` folder with the
+    low and high `garment` on `body` (`--res low,high`), whose pair and rest body the model
+    runs on. step(low, body) takes the frame's low garment (Vl,3) and posed body (Vb,3), m, and
+    returns (V,3) float32 (V the high garment's), after the collision handling of `gdsr run`;
+    raw() is the last frame's output before it. All memory is taken here."""
+
+    _method = "gdsr"
+
+    def __init__(self, model, dataset, garment="tshirt", body="normal"):
+        lib = library()
+        rt = ctypes.c_void_p()
+        err = _CrError()
+        _check(lib.cr_gdsr_runtime_open(os.fsencode(model), os.fsencode(dataset),
+                                        garment.encode() if garment else None,
+                                        body.encode() if body else None, None,
+                                        ctypes.byref(rt), ctypes.byref(err)), err)
+        self._opened(lib, rt)
+        self.low_vertices = lib.cr_gdsr_runtime_low_vertices(rt)
+        self.body_vertices = lib.cr_gdsr_runtime_body_vertices(rt)
+        self.arena_bytes = lib.cr_gdsr_runtime_arena_bytes(rt)
+
+    def step(self, low, body, out=None):
+        """One frame: low (Vl,3) the low garment, body (Vb,3) the posed body, m. Returns (V,3)
+        float32 positions of the high garment, m."""
+        if not self._rt:
+            raise Error("crease: the runtime is closed")
+        low = _floats(low, (self.low_vertices, 3), "low")
+        body = _floats(body, (self.body_vertices, 3), "body")
+        if out is None:
+            out = np.empty((self.vertices, 3), dtype=np.float32)
+        elif out.dtype != np.float32 or out.shape != (self.vertices, 3) or \
+                not out.flags.c_contiguous:
+            raise Error("crease: out must be a C-contiguous float32 array of shape (%d, 3)"
+                        % self.vertices)
+        err = _CrError()
+        _check(self._fn("step")(self._rt, _fptr(low), _fptr(body), _fptr(out),
+                                ctypes.byref(err)), err)
+        return out
+
+    def raw(self):
+        """The last frame's output before the collision handling, (V,3) float32."""
+        p = self._lib.cr_gdsr_runtime_raw(self._rt)
+        return np.ctypeslib.as_array(p, shape=(self.vertices, 3)).copy()
+
+    @classmethod
+    def step_batch(cls, runtimes, lows, bodies):
+        """One frame of several characters in one call: lows[i] (Vl_i,3), bodies[i] (Vb_i,3).
+        Returns a list of (V_i,3) arrays."""
+        n = len(runtimes)
+        if n == 0:
+            return []
+        if any(not isinstance(r, cls) for r in runtimes) or len(lows) != n or len(bodies) != n:
+            raise Error("crease: step_batch takes gdsr runtimes and one low and body each")
+        lows = [_floats(a, (r.low_vertices, 3), "low") for r, a in zip(runtimes, lows)]
+        bodies = [_floats(a, (r.body_vertices, 3), "body") for r, a in zip(runtimes, bodies)]
+        outs = [np.empty((r.vertices, 3), dtype=np.float32) for r in runtimes]
+        FP = ctypes.POINTER(ctypes.c_float)
+        handles = (ctypes.c_void_p * n)(*[r._rt.value for r in runtimes])
+        lp = (FP * n)(*[_fptr(a) for a in lows])
+        bp = (FP * n)(*[_fptr(a) for a in bodies])
+        op = (FP * n)(*[_fptr(o) for o in outs])
+        err = _CrError()
+        _check(runtimes[0]._fn("step_batch")(handles, n, lp, bp, op, ctypes.byref(err)), err)
+        return outs

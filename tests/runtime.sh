@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # runtime.sh: the methods' frame-by-frame runtimes from outside the tool. examples/runtime_loop.c
-# streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
+# streams a CMU-style BVH through SwinGar's and EPNet's into animated glbs, and through a low
+# simulation and gdsr's. python/crease.py drives SwinGar's runtime frame by frame through ctypes and
 # numpy, and gives what `crease swingar run --raw` writes for the same model, garment and clip (the
 # batch tool goes through the same runtime): within 1e-5 m on every frame. Also: a batch of two
 # characters equals each alone, reset starts over, a missing model raises crease.Error naming
-# the file, a wrong pose shape is refused. Debian's python3 with python3-numpy (scripts/deps.sh).
+# the file, a wrong pose shape is refused. gdsr's runtime, stepped from Python over a dataset's
+# low simulation and posed body, gives `gdsr run`'s gdsr.pc2 and gdsr_raw.pc2 within 1e-5 m, one
+# character or two in a batch call. Debian's python3 with python3-numpy (scripts/deps.sh).
 # Usage: runtime.sh PATH_TO_CREASE PATH_TO_LIBCREASE_RUNTIME_SO (the examples beside the tool)
 source "$(dirname "$0")/lib_cli.sh" "$1"
 export CREASE_LIBRARY=${2:?usage: runtime.sh CREASE LIBCREASE_RUNTIME_SO}
@@ -36,7 +39,17 @@ check "runtime_loop glbs" bash -c "[[ \$(head -c 4 '$tmp/loop.glb') == glTF && \
 cat "$tmp/loop.out"
 check "epnet run" "$crease" epnet run --model "$tmp/ep" --motion squat --frames 12 -o "$tmp/eprun"
 check "epnet motion" "$crease" motion --clip squat --frames 12 --fps "$(grep -o '"fps": *[0-9.]*' "$tmp/ep/model.json" | grep -o '[0-9.]*$')" -o "$tmp/squat.npz"
+check "gdsr dataset" "$crease" dataset --garments tshirt --motions walk --res low,high \
+  --low-vertices 500 --high-vertices 1000 --frames 6 --quiet -o "$tmp/gdata"
+check "gdsr train" "$crease" gdsr train --dataset "$tmp/gdata" --motions walk --latent 16 --steps 1 \
+  --epochs 1 --quiet -o "$tmp/gm"
+check "gdsr run" "$crease" gdsr run --dataset "$tmp/gdata" --motion walk \
+  --model "$tmp/gm/model.safetensors" --quiet -o "$tmp/grun"
+check "runtime_loop gdsr" bash -c "'$bin/example_runtime_loop' gdsr '$tmp/gm/model.safetensors' \
+  '$tmp/gdata' '$tmp/walk.bvh' '$tmp/loop_gd.glb' > '$tmp/loop_gd.out' && [[ \$(head -c 4 '$tmp/loop_gd.glb') == glTF ]]"
+cat "$tmp/loop_gd.out"
 if PYTHONPATH=$src/python "$py" - "$tmp" "$g" >"$tmp/py.out" 2>&1 <<'EOF_PY'
+import json
 import sys
 import numpy as np
 import crease
@@ -87,6 +100,35 @@ with crease.EpnetRuntime(tmp + "/ep") as ep:
     print("epnet runtime vs epnet run: max %.2e m over %d frames, %d vertices, max |RB| %.3f rad"
           % (d, nframes, nv, np.abs(ep.rb()).max()))
     assert d < 1e-5, d
+
+
+def pc2(path):
+    with open(path, "rb") as f:
+        head = f.read(32)
+        nv, nframes = np.frombuffer(head[16:20], "<i4")[0], np.frombuffer(head[28:32], "<i4")[0]
+        return np.frombuffer(f.read(), "<f4").reshape(nframes, nv, 3)
+
+
+man = json.load(open(tmp + "/gdata/manifest.json"))
+seq = [q for q in man["sequences"] if q["res"] == "low" and q["motion"] == "walk"][0]
+low = pc2(tmp + "/gdata/" + seq["garment_pc2"])
+body = pc2(tmp + "/grun/body.pc2")
+ref, ref_raw = pc2(tmp + "/grun/gdsr.pc2"), pc2(tmp + "/grun/gdsr_raw.pc2")
+with crease.GdsrRuntime(tmp + "/gm/model.safetensors", tmp + "/gdata") as gd, \
+        crease.GdsrRuntime(tmp + "/gm/model.safetensors", tmp + "/gdata") as gd2:
+    assert gd.vertices == ref.shape[1] and gd.low_vertices == low.shape[1]
+    d = dr = db = 0.0
+    for t in range(len(low)):
+        d = max(d, np.abs(gd.step(low[t], body[t]) - ref[t]).max())
+        dr = max(dr, np.abs(gd.raw() - ref_raw[t]).max())
+    gd.reset()
+    for t in range(len(low)):
+        a, b = crease.GdsrRuntime.step_batch([gd, gd2], [low[t]] * 2, [body[t]] * 2)
+        db = max(db, np.abs(a - ref[t]).max(), np.abs(b - ref[t]).max())
+    print("gdsr runtime vs gdsr run: max %.2e m (raw %.2e m, a batch of two after a reset "
+          "%.2e m) over %d frames, %d -> %d vertices, arena %d bytes"
+          % (d, dr, db, len(low), gd.low_vertices, gd.vertices, gd.arena_bytes))
+    assert d < 1e-5 and dr < 1e-5 and db < 1e-5, (d, dr, db)
 print("ok")
 EOF_PY
 then

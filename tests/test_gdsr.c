@@ -8,6 +8,7 @@
 #include "crease/mesh_io.h"
 #include "crease/nn_optim.h"
 #include "crease/primitives.h"
+#include "gdsr_fixture.h"
 #include "methods/gdsr/gdsr_internal.h"
 #include "nn_gradcheck.h"
 #include "test.h"
@@ -72,23 +73,11 @@ CR_TEST(gdsr, graph_and_features_on_a_hand_made_quad) {
     cr_mesh_destroy(m);
 }
 
-static cr_gdsr_model_def tiny_def(void) {
-    cr_gdsr_model_def d = cr_gdsr_model_default_def();
-    d.latent = 16;
-    d.steps = 2;
-    d.decoder_features = 8;
-    d.hyper_features = 8;
-    d.gen_hidden = 16;
-    d.wire_width = 8;
-    d.wire_layers = 3;
-    return d;
-}
-
 CR_TEST(gdsr, decoder_is_rotation_equivariant) {
     cr_error err = {0};
     cr_mesh *m = NULL;
     CR_REQUIRE(cr_prim_plane(4, 4, 1, 1, &m, &err) == CR_OK);
-    cr_gdsr_model_def def = tiny_def();
+    cr_gdsr_model_def def = gdsr_tiny_def();
     cr_gdsr_model *mo = NULL;
     CR_REQUIRE(cr_gdsr_model_create(&def, &mo, &err) == CR_OK);
     cr_rng rng = cr_rng_make(3, 0);
@@ -151,7 +140,7 @@ CR_TEST(gdsr, hyper_wire_field_reproduces_a_per_triangle_function) {
     cr_error err = {0};
     cr_mesh *m = NULL;
     CR_REQUIRE(cr_prim_plane(3, 3, 1, 1, &m, &err) == CR_OK); /* 8 triangles */
-    cr_gdsr_model_def def = tiny_def();
+    cr_gdsr_model_def def = gdsr_tiny_def();
     def.wire_layers = 3;
     cr_gdsr_model *mo = NULL;
     CR_REQUIRE(cr_gdsr_model_create(&def, &mo, &err) == CR_OK);
@@ -211,52 +200,12 @@ CR_TEST(gdsr, hyper_wire_field_reproduces_a_per_triangle_function) {
     cr_mesh_destroy(m);
 }
 
-/* A tiny pair: a 5x5 and a 9x9 sheet sharing UVs, waving; the high one has
- * a ripple the low one cannot hold. The body is a small sphere below. */
-static int tiny_data(cr_gdsr_data *d) {
-    cr_error err = {0};
-    cr_mesh *lo = NULL, *hi = NULL, *body = NULL;
-    if (cr_prim_plane(5, 5, 0.4f, 0.4f, &lo, &err) != CR_OK) return 0;
-    if (cr_prim_plane(9, 9, 0.4f, 0.4f, &hi, &err) != CR_OK) return 0;
-    if (cr_prim_icosphere(0.05f, 1, &body, &err) != CR_OK) return 0;
-    int T = 8;
-    float *L = malloc((size_t)T * lo->nv * 12), *H = malloc((size_t)T * hi->nv * 12);
-    float *B = malloc((size_t)T * body->nv * 12);
-    for (int t = 0; t < T; t++) {
-        float ph = 0.4f * t;
-        for (int i = 0; i < lo->nv; i++) {
-            const float *p = lo->pos + 3 * i;
-            float *o = L + ((size_t)t * lo->nv + i) * 3;
-            o[0] = p[0], o[2] = p[2], o[1] = 0.03f * sinf(6 * p[0] + ph);
-        }
-        for (int i = 0; i < hi->nv; i++) {
-            const float *p = hi->pos + 3 * i;
-            float *o = H + ((size_t)t * hi->nv + i) * 3;
-            o[0] = p[0], o[2] = p[2];
-            o[1] = 0.03f * sinf(6 * p[0] + ph) + 0.004f * sinf(40 * p[2]) * cosf(ph);
-        }
-        for (int i = 0; i < body->nv; i++) {
-            float *o = B + ((size_t)t * body->nv + i) * 3;
-            o[0] = body->pos[3 * i], o[1] = body->pos[3 * i + 1] - 0.2f,
-            o[2] = body->pos[3 * i + 2];
-        }
-    }
-    cr_status st = cr_gdsr_data_from_arrays(lo, hi, body, T, L, H, B, d, &err);
-    free(L);
-    free(H);
-    free(B);
-    cr_mesh_destroy(lo);
-    cr_mesh_destroy(hi);
-    cr_mesh_destroy(body);
-    return st == CR_OK;
-}
-
 CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
-    def.model = tiny_def();
+    def.model = gdsr_tiny_def();
     def.model.out_scale = 1.0f; /* 48 steps: the unscaled outputs' fast pace */
     def.epochs = 8;
     def.lr = 3e-3f;
@@ -302,10 +251,10 @@ static int files_equal(const char *a, const char *b) {
 
 CR_TEST(gdsr, resume_is_bit_exact) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
-    def.model = tiny_def();
+    def.model = gdsr_tiny_def();
     def.lr = 3e-3f;
     def.quiet = 1;
     def.checkpoint_every = 1;
@@ -331,10 +280,10 @@ CR_TEST(gdsr, resume_is_bit_exact) {
 
 CR_TEST(gdsr, untrained_model_is_upsampling) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     cr_gdsr_model *m = NULL;
-    cr_gdsr_model_def def = tiny_def();
+    cr_gdsr_model_def def = gdsr_tiny_def();
     CR_CHECK_OK(cr_gdsr_model_create(&def, &m, &err), &err);
     cr_gdsr_rollout_result r;
     CR_CHECK_OK(cr_gdsr_rollout(m, &d, 0, 0.002f, CR_GDSR_RELAX_DEFAULT, 0, &r, &err), &err);
@@ -347,11 +296,11 @@ CR_TEST(gdsr, untrained_model_is_upsampling) {
     cr_gdsr_data_free(&d);
 }
 
-/* The 9x9 sheet of tiny_data, deformed: stretched, sheared and waved. */
-/* tiny_data and the regularisers on its high mesh (on_low: its low one). */
+/* The 9x9 sheet of gdsr_tiny_data, deformed: stretched, sheared and waved. */
+/* gdsr_tiny_data and the regularisers on its high mesh (on_low: its low one). */
 static int tiny_reg(cr_gdsr_data *d, int on_low, gdsr_reg *reg) {
     cr_error err = {0};
-    if (!tiny_data(d)) return 0;
+    if (!gdsr_tiny_data(d)) return 0;
     if (cr_gdsr_reg_create(on_low ? d->low : d->high, reg, &err) == CR_OK) return 1;
     cr_gdsr_data_free(d);
     return 0;
@@ -663,7 +612,7 @@ static void wrinkle_gradcheck(const char *name, wrinkle_check *c, float *x, int3
  * differences. */
 CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     const cr_mesh *hi = d.high;
     gdsr_wrinkle w;
@@ -713,7 +662,7 @@ CR_TEST(gdsr, wrinkle_loss_sees_ripples_and_its_gradient_matches_fd) {
  * against central differences. */
 CR_TEST(gdsr, wrinkle_energy_ignores_where_the_crests_lie) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     const cr_mesh *hi = d.high;
     gdsr_wrinkle w;
@@ -894,7 +843,7 @@ static int png_width(const char *path) {
  * side-by-side pictures (four panels with a reference, three without). */
 CR_TEST(gdsr, glb_and_pictures_of_a_rollout) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     const cr_gdsr_clip *cl = &d.clip[0];
     int32_t T = cl->nframes, nh = d.high->nv;
@@ -1028,55 +977,13 @@ CR_TEST(gdsr, layer_edges_match_brute_force) {
     cr_gdsr_graph_free(&g);
 }
 
-/* Two 40 cm sheets 1 cm apart (their UVs side by side), rippling: an outfit
- * of two layers. */
-static int two_layer_data(cr_gdsr_data *d) {
-    cr_error err = {0};
-    cr_mesh *lo = NULL, *hi = NULL, *lo2 = NULL, *hi2 = NULL, *body = NULL;
-    if (cr_prim_plane(5, 5, 0.4f, 0.4f, &lo, &err) != CR_OK) return 0;
-    if (cr_prim_plane(9, 9, 0.4f, 0.4f, &hi, &err) != CR_OK) return 0;
-    if (cr_mesh_clone(lo, &lo2, &err) != CR_OK || cr_mesh_clone(hi, &hi2, &err) != CR_OK) return 0;
-    cr_mesh *two[2][2] = {{lo, lo2}, {hi, hi2}};
-    for (int r = 0; r < 2; r++) {
-        cr_mesh *b = two[r][1];
-        for (int32_t i = 0; i < b->nv; i++)
-            b->pos[3 * i + 1] += 0.01f;
-        for (int32_t i = 0; i < b->nuv; i++)
-            b->uv[2 * i] += 2.0f;
-        if (cr_mesh_append(two[r][0], b, &err) != CR_OK) return 0;
-    }
-    if (cr_prim_icosphere(0.05f, 1, &body, &err) != CR_OK) return 0;
-    int T = 6;
-    float *L = malloc((size_t)T * lo->nv * 12), *H = malloc((size_t)T * hi->nv * 12);
-    float *B = malloc((size_t)T * body->nv * 12);
-    for (int t = 0; t < T; t++) {
-        float ph = 0.4f * t;
-        const cr_mesh *ms[2] = {lo, hi};
-        float *out[2] = {L, H};
-        for (int r = 0; r < 2; r++)
-            for (int32_t i = 0; i < ms[r]->nv; i++) {
-                const float *p = ms[r]->pos + 3 * i;
-                float *o = out[r] + ((size_t)t * ms[r]->nv + i) * 3;
-                o[0] = p[0], o[2] = p[2];
-                o[1] = p[1] + 0.02f * sinf(6 * p[0] + ph) + (r ? 0.003f * sinf(40 * p[2]) : 0);
-            }
-        for (int32_t i = 0; i < body->nv * 3; i++)
-            B[(size_t)t * body->nv * 3 + i] = body->pos[i] - (i % 3 == 1 ? 0.3f : 0);
-    }
-    cr_status st = cr_gdsr_data_from_arrays(lo, hi, body, T, L, H, B, d, &err);
-    free(L), free(H), free(B);
-    cr_mesh_destroy(lo), cr_mesh_destroy(hi), cr_mesh_destroy(lo2), cr_mesh_destroy(hi2);
-    cr_mesh_destroy(body);
-    return st == CR_OK;
-}
-
 /* compare.png's panels colour an outfit by layer: the two sheets of
- * two_layer_data seen from above show the upper one's tan and, where it does
+ * gdsr_two_layer_data seen from above show the upper one's tan and, where it does
  * not cover the lower one (they are offset 1 cm in height only, so seen at
  * an angle the lower sheet's edge shows), blue; a single sheet is all blue. */
 CR_TEST(gdsr, compare_pictures_colour_each_layer) {
     cr_gdsr_data d;
-    CR_REQUIRE(two_layer_data(&d));
+    CR_REQUIRE(gdsr_two_layer_data(&d));
     cr_error err = {0};
     cr_render_def rd = cr_render_default_def();
     rd.width = rd.height = 96;
@@ -1111,7 +1018,7 @@ CR_TEST(gdsr, compare_pictures_colour_each_layer) {
  * (beyond gamma) it is not a collision. */
 static void layer_collisions_push_the_outer_layer_out_by(int surface) {
     cr_gdsr_data d;
-    CR_REQUIRE(two_layer_data(&d));
+    CR_REQUIRE(gdsr_two_layer_data(&d));
     const int32_t nl = d.low->nv, nh = d.high->nv;
     float *c = malloc(sizeof(float) * 3 * (size_t)nl), *x = malloc(sizeof(float) * 3 * (size_t)nh);
     float *c0 = malloc(sizeof(float) * 3 * (size_t)nl);
@@ -1181,7 +1088,7 @@ CR_TEST(gdsr, layer_collisions_push_the_outer_layer_out) {
  * point for it lies on that open edge, leaves it. */
 CR_TEST(gdsr, layer_surface_rule_skips_past_the_open_edge) {
     cr_gdsr_data d;
-    CR_REQUIRE(two_layer_data(&d));
+    CR_REQUIRE(gdsr_two_layer_data(&d));
     const int32_t nl = d.low->nv, nh = d.high->nv;
     float *c = malloc(sizeof(float) * 3 * (size_t)nl), *x = malloc(sizeof(float) * 3 * (size_t)nh);
     CR_REQUIRE(c && x);
@@ -1231,11 +1138,11 @@ CR_TEST(gdsr, layer_surface_rule_skips_past_the_open_edge) {
  * off, the same model is smaller. */
 CR_TEST(gdsr, two_layer_outfit_trains_with_layer_edges) {
     cr_gdsr_data d;
-    CR_REQUIRE(two_layer_data(&d));
+    CR_REQUIRE(gdsr_two_layer_data(&d));
     CR_CHECK(d.nlayers == 2);
     cr_error err = {0};
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
-    def.model = tiny_def();
+    def.model = gdsr_tiny_def();
     def.model.out_scale = 1.0f;
     def.epochs = 2;
     def.lr = 3e-3f;
@@ -1310,7 +1217,7 @@ CR_TEST(gdsr, two_layer_outfit_trains_with_layer_edges) {
  * central differences. */
 CR_TEST(gdsr, wrinkle_patches_crop_the_map) {
     cr_gdsr_data d;
-    CR_REQUIRE(tiny_data(&d));
+    CR_REQUIRE(gdsr_tiny_data(&d));
     cr_error err = {0};
     const cr_mesh *hi = d.high;
     gdsr_wrinkle w;
@@ -1382,11 +1289,11 @@ static void rollout_distances(cr_gdsr_model *m, const cr_gdsr_data *d, double *m
  * both. */
 CR_TEST(gdsr, one_model_trains_on_two_garments) {
     cr_gdsr_data a, b;
-    CR_REQUIRE(tiny_data(&a));
-    CR_REQUIRE(two_layer_data(&b));
+    CR_REQUIRE(gdsr_tiny_data(&a));
+    CR_REQUIRE(gdsr_two_layer_data(&b));
     cr_error err = {0};
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
-    def.model = tiny_def();
+    def.model = gdsr_tiny_def();
     def.epochs = CR_TEST_SIZE(30, 3);
     def.w_stretch = def.w_shear = 1.0f;
     def.lr = 3e-3f;

@@ -8,6 +8,7 @@
  *   the model: Mesh-Graph-Net H, decoder E, Mesh-Hyper-Net A       cr_gdsr_model_*
  *   training (Eq. 13-25 subset), resumable checkpoints             cr_gdsr_train
  *   roll-out on a clip, collision handling (Eq. 26-27), baselines  cr_gdsr_rollout
+ *   frame by frame for a game loop or a renderer                   cr_gdsr_runtime_*
  *
  * Pipeline per frame t (docs/gdsr.md):
  *   H:  node features (Eq. 4) and edge features (Eq. 5) on the low mesh
@@ -63,8 +64,9 @@ typedef struct cr_gdsr_data {
  * and high garment of the label `garment` on `body`, their correspondence
  * (high_from_low), the body's rest mesh and, per motion, the low sequence,
  * the high one when it is finished (else clip.high is NULL: a low-only
- * input) and the posed body. CR_ERR_IO naming the manifest and what it
- * lacks; the readers' errors naming a file. */
+ * input) and the posed body. nmotions 0: the pair and the body alone, no
+ * clips (what a runtime needs, cr_gdsr_runtime_open). CR_ERR_IO naming the
+ * manifest and what it lacks; the readers' errors naming a file. */
 cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *body,
                             const char *const *motions, int nmotions, cr_gdsr_data *out,
                             cr_error *err);
@@ -231,7 +233,9 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
 
 /* Hyper-net A alone (Eq. 10-11): per-vertex hyper features h (Vl, hyper_features),
  * for M query points their low face and barycentric (b1, b2) -> (M,3), the
- * WIRE field of each face's generated network. */
+ * WIRE field of each face's generated network. With ctx's gradient off the
+ * fields are evaluated point by point without the tape (the runtime's path;
+ * the same values to float rounding, test_gdsr_runtime.c). */
 cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
                          int64_t npoints, const int32_t *face, const float *bary);
 
@@ -415,6 +419,95 @@ enum { CR_GDSR_RELAX_DEFAULT = 4 }; /* `relax` of cr_gdsr_rollout in `gdsr run` 
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           int layer_surface, cr_gdsr_rollout_result *out, cr_error *err);
 void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
+
+/* ---------------------------------------------------------- runtime -- */
+
+/* Frame by frame, for a game loop or a renderer (src/methods/gdsr/runtime.c):
+ *
+ *   cr_gdsr_runtime *rt = NULL;
+ *   CR_TRY(cr_gdsr_runtime_open("model.safetensors", "data", "tshirt", "normal", NULL, &rt, err));
+ *   float *high = malloc(sizeof(float) * 3 * cr_gdsr_runtime_vertices(rt));
+ *   for each frame: cr_gdsr_runtime_step(rt, low, body, high, err);  // (Vl,3), (Vb,3) -> (Vh,3)
+ *   cr_gdsr_runtime_destroy(rt);
+ *
+ * A step takes the frame's low-resolution garment C_t (Vl,3) (the low
+ * simulation's, in the low rest mesh's vertex order) and the posed body
+ * (Vb,3) (the rest body's vertex order), m, and writes the high-resolution
+ * garment (Vh,3), m, into the caller's buffer: the frame cr_gdsr_rollout
+ * gives for the same inputs (which steps a runtime over the clip). The
+ * runtime keeps what the features read of earlier frames (C_{t-1}, C_{t-2},
+ * its own C^_{t-1}, C^_{t-2} and d_{t-1}); the first two frames after
+ * create or reset have no history and give the upsampled input. With
+ * `handling` on (the default), Eq. 26-27 follow the networks as in the
+ * roll-out's gdsr.pc2; off, the network's output (gdsr_raw.pc2).
+ *
+ * Memory: everything is allocated at create, the arena sized by trial
+ * frames at rest; a step allocates nothing on a single-layer garment (but
+ * for the engine's blocked GEMM's packing buffers, docs/runtime.md). On an
+ * outfit (two layers or more) the layer edges (Eq. 7) and Eq. 27 take their
+ * scratch from the heap each frame, and the arena stays the trial's
+ * generous reservation (touched only as used): a frame's layer edges are
+ * not bounded by the trial's. Threads: instances are independent; several
+ * may share one model and data (only read), each stepping on its own
+ * thread. */
+typedef struct cr_gdsr_runtime_def {
+    int handling;       /* 1: Eq. 26-27 after the networks (default); 0: the raw output */
+    float eps;          /* the handling's margin, m (default 0.002, `gdsr run`'s) */
+    int relax;          /* its relaxation rounds (default CR_GDSR_RELAX_DEFAULT) */
+    int layer_surface;  /* Eq. 27's rule: 0 the nearest vertex (default), 1 the surface */
+    size_t arena_bytes; /* 0 (default): sized by trial frames at create */
+    uint32_t cookie;
+} cr_gdsr_runtime_def;
+
+cr_gdsr_runtime_def cr_gdsr_runtime_default_def(void);
+
+typedef struct cr_gdsr_runtime cr_gdsr_runtime;
+
+/* m and d are borrowed and must outlive the runtime; of d only the pair,
+ * its correspondence, the layers and the rest body are read (no clips
+ * needed). def NULL: the defaults. */
+cr_status cr_gdsr_runtime_create(cr_gdsr_model *m, const cr_gdsr_data *d,
+                                 const cr_gdsr_runtime_def *def, cr_gdsr_runtime **out,
+                                 cr_error *err);
+/* From files, owning what it loads: a model (cr_gdsr_model_load) and the
+ * low/high pair of `garment` on `body` in a `crease dataset` folder
+ * (cr_gdsr_data_load with no motions; NULL garment "tshirt", body "normal"). */
+cr_status cr_gdsr_runtime_open(const char *model_path, const char *dataset, const char *garment,
+                               const char *body, const cr_gdsr_runtime_def *def,
+                               cr_gdsr_runtime **out, cr_error *err);
+void cr_gdsr_runtime_destroy(cr_gdsr_runtime *rt); /* NULL is a no-op */
+/* Back to before the first frame (the history cleared). */
+void cr_gdsr_runtime_reset(cr_gdsr_runtime *rt);
+/* low (Vl,3), body (Vb,3) -> out (Vh,3). CR_ERR_NAN for a non-finite body
+ * (the BVH's refit), CR_ERR_DIVERGED for a non-finite output. */
+cr_status cr_gdsr_runtime_step(cr_gdsr_runtime *rt, const float *low, const float *body, float *out,
+                               cr_error *err);
+/* n characters, one frame each, one after another: low[i] (Vl_i,3),
+ * body[i] (Vb_i,3), out[i] (Vh_i,3). */
+cr_status cr_gdsr_runtime_step_batch(cr_gdsr_runtime *const *rts, int32_t n,
+                                     const float *const *low, const float *const *body,
+                                     float *const *out, cr_error *err);
+int32_t cr_gdsr_runtime_vertices(const cr_gdsr_runtime *rt);      /* Vh */
+int32_t cr_gdsr_runtime_low_vertices(const cr_gdsr_runtime *rt);  /* Vl */
+int32_t cr_gdsr_runtime_body_vertices(const cr_gdsr_runtime *rt); /* Vb */
+/* The high rest mesh (its triangles are the output's). */
+const cr_mesh *cr_gdsr_runtime_rest(const cr_gdsr_runtime *rt);
+/* The low rest mesh (what a simulator steps for the input) and the rest body. */
+const cr_mesh *cr_gdsr_runtime_low_rest(const cr_gdsr_runtime *rt);
+const cr_mesh *cr_gdsr_runtime_body_rest(const cr_gdsr_runtime *rt);
+/* The last step's output before the handling, (Vh,3), owned by the runtime
+ * (the same as the step's with handling off). */
+const float *cr_gdsr_runtime_raw(const cr_gdsr_runtime *rt);
+size_t cr_gdsr_runtime_arena_bytes(const cr_gdsr_runtime *rt);
+/* What the last step did: its stages' wall seconds (cr_gdsr_stage_names:
+ * the body's refit and closest points, the features, the networks, the
+ * handling; all 0 for the first two frames, which run no networks) and
+ * Eq. 27's pushes (coarse and high vertices). */
+typedef struct cr_gdsr_runtime_stats {
+    double seconds[4];
+    int64_t layer_pushed, layer_pushed_high;
+} cr_gdsr_runtime_stats;
+cr_gdsr_runtime_stats cr_gdsr_runtime_last_stats(const cr_gdsr_runtime *rt);
 
 /* ---------------------------------------------------------- outputs -- */
 

@@ -96,7 +96,19 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
                 c++;
             }
     }
-    cr_gdsr_push_out(b, x, n, eps, sd, nrm, NULL); /* concave spots: once more */
+    /* concave spots: once more, on the vertices that moved; one that did not
+     * is where the first push found it at eps or more (the same point, the
+     * same body), so a pass over all would leave it too */
+    int64_t c = 0;
+    for (int32_t i = 0; i < n; i++) {
+        const float *p = x + 3 * (int64_t)i, *q = raw + 3 * (int64_t)i;
+        moved[i] = p[0] != q[0] || p[1] != q[1] || p[2] != q[2];
+        if (moved[i]) memcpy(&d[3 * c++], p, 3 * sizeof(float));
+    }
+    cr_gdsr_push_out(b, d, c, eps, sd, nrm, NULL);
+    c = 0;
+    for (int32_t i = 0; i < n; i++)
+        if (moved[i]) memcpy(&x[3 * (int64_t)i], &d[3 * c++], 3 * sizeof(float));
 }
 
 /* The surface rule's partners: for each outer coarse vertex o, the closest

@@ -138,8 +138,8 @@ cr_status cr_gdsr_data_load(const char *dir, const char *garment, const char *bo
                             const char *const *motions, int nmotions, cr_gdsr_data *out,
                             cr_error *err) {
     memset(out, 0, sizeof *out);
-    if (nmotions < 1 || nmotions > CR_GDSR_MAX_CLIPS)
-        return CR_FAIL(err, CR_ERR_INVALID, "gdsr: %d motions, need 1..%d", nmotions,
+    if (nmotions < 0 || nmotions > CR_GDSR_MAX_CLIPS)
+        return CR_FAIL(err, CR_ERR_INVALID, "gdsr: %d motions, need 0..%d", nmotions,
                        CR_GDSR_MAX_CLIPS);
     cr_dataset_manifest man;
     CR_TRY(cr_dataset_read(dir, &man, err));
@@ -393,9 +393,15 @@ static void vertex_normals(const cr_mesh *m, const float *pos, float *n) {
 
 void cr_gdsr_features(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
                       float sigma_b, float *node, float *edge0, float *edge1) {
+    float *nrm = malloc((size_t)low->nv * 3 * sizeof(float));
+    cr_gdsr_features_(low, g, in, sigma_b, nrm, node, edge0, edge1);
+    free(nrm);
+}
+
+void cr_gdsr_features_(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
+                       float sigma_b, float *nrm, float *node, float *edge0, float *edge1) {
     int32_t nv = low->nv;
     const int F = CR_GDSR_NODE_FEATURES;
-    float *nrm = malloc((size_t)nv * 3 * sizeof(float));
     if (nrm) vertex_normals(low, in->c, nrm);
     for (int32_t i = 0; i < nv; i++) {
         float *o = node + (int64_t)F * i;
@@ -419,7 +425,6 @@ void cr_gdsr_features(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_
             o[16 + k] = 100.0f * (h1[k] - h2[k]);
         }
     }
-    free(nrm);
     float *edges[2] = {edge0, edge1};
     for (int s = 0; s < 2; s++) {
         if (!edges[s]) continue;
@@ -592,4 +597,21 @@ void cr_gdsr_layer_edge_features(const cr_gdsr_graph *g, const float *c, float s
         o[3] = 10.0f * sigma_l;
         o[7] = sqrtf(c2);
     }
+}
+
+cr_status cr_gdsr_frame_features_(const cr_gdsr_data *d, const cr_gdsr_model_def *md,
+                                  cr_gdsr_graph *g, const cr_gdsr_frame_in *in, float *nrm,
+                                  float *node, float *e0, float *e1, float **e2, int64_t *e2cap,
+                                  cr_error *err) {
+    cr_gdsr_features_(d->low, g, in, md->sigma_b, nrm, node, e0, e1);
+    g->ne[2] = 0;
+    if (!md->layer_edges || d->nlayers < 2) return CR_OK;
+    CR_TRY(cr_gdsr_layer_edges(g, d->layer, in->c, md->sigma_l, err));
+    if (g->ne[2] > *e2cap) {
+        float *p = realloc(*e2, (size_t)g->ne[2] * CR_GDSR_EDGE_FEATURES * sizeof(float));
+        if (!p) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (layer edges)");
+        *e2 = p, *e2cap = g->ne[2];
+    }
+    cr_gdsr_layer_edge_features(g, in->c, md->sigma_l, *e2);
+    return CR_OK;
 }

@@ -136,11 +136,26 @@ int64_t cr_gdsr_push_out(const cr_bvh *b, float *x, int64_t n, float eps, float 
 /* Push x (V,3), the mesh of t, out to eps, spread its displacement from
  * raw by `iters` Jacobi steps of the uniform Laplacian on the moved
  * vertices and their one-ring, each followed by a push out, then push out
- * once more (0 iterations: the per-vertex push, twice). Scratch: sd (V), nrm, d, dn (V,3),
+ * once more the vertices that moved (0 iterations: the per-vertex push,
+ * twice). Scratch: sd (V), nrm, d, dn (V,3),
  * moved (V). */
 void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw, float *x,
                         float eps, int iters, float *sd, float *nrm, float *d, float *dn,
                         uint8_t *moved);
+
+/* cr_gdsr_features with the vertex normals' scratch nrm (Vl,3) given (NULL:
+ * zero normals), so that a runtime step allocates nothing. */
+void cr_gdsr_features_(const cr_mesh *low, const cr_gdsr_graph *g, const cr_gdsr_frame_in *in,
+                       float sigma_b, float *nrm, float *node, float *edge0, float *edge1);
+
+/* One frame's features for model md on d (the roll-out's, the runtime's
+ * and training's): cr_gdsr_features_ and, with layer edges in the model and
+ * two layers or more, this frame's layer edges (set 2 of g, found at in->c)
+ * and their features into *e2, grown (realloc) past *e2cap when needed. */
+cr_status cr_gdsr_frame_features_(const cr_gdsr_data *d, const cr_gdsr_model_def *md,
+                                  cr_gdsr_graph *g, const cr_gdsr_frame_in *in, float *nrm,
+                                  float *node, float *e0, float *e1, float **e2, int64_t *e2cap,
+                                  cr_error *err);
 
 /* Validation (train.c): the sums of the vertex distances (m) of the model's
  * raw roll-out and of upsampling to the reference over clips first.. of d,

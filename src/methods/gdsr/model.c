@@ -169,25 +169,34 @@ int32_t *cr_gdsr_tri_column(const cr_mesh *m, int k) {
     return c;
 }
 
+/* Column k of low's triangles, (F), in the step arena (NULL with the
+ * context error set when it is full). */
+static int32_t *tri_column(cr_nn_ctx *ctx, const cr_mesh *low, int k) {
+    int32_t *c = cr_nn_scratch(ctx, "gdsr", (size_t)(low->nf > 0 ? low->nf : 1) * sizeof(int32_t));
+    if (c)
+        for (int32_t f = 0; f < low->nf; f++)
+            c[f] = low->tri[3 * f + k];
+    return c;
+}
+
 /* Per-face frames (F,3) e1, e2, n of positions x (V,3) (a tensor, so the
- * frame of C^ carries gradients). */
+ * frame of C^ carries gradients). The index arrays of this and the
+ * functions below live in the step arena, so a forward allocates nothing
+ * on the heap (the runtime's rule). */
 static void face_frames(cr_nn_ctx *ctx, cr_tensor *x, const cr_mesh *low, cr_tensor **e1,
                         cr_tensor **e2, cr_tensor **n) {
-    int32_t *t0 = cr_gdsr_tri_column(low, 0), *t1 = cr_gdsr_tri_column(low, 1),
-            *t2 = cr_gdsr_tri_column(low, 2);
+    int32_t *t0 = tri_column(ctx, low, 0), *t1 = tri_column(ctx, low, 1),
+            *t2 = tri_column(ctx, low, 2);
     if (!t0 || !t1 || !t2) {
         *e1 = *e2 = *n = NULL;
-    } else {
-        cr_tensor *p0 = cr_nn_gather_rows(ctx, x, t0, low->nf);
-        cr_tensor *u = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t1, low->nf), p0);
-        cr_tensor *v = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t2, low->nf), p0);
-        *e1 = cr_nn_normalize(ctx, u, 1e-12f);
-        *n = cr_nn_normalize(ctx, cr_nn_cross(ctx, u, v), 1e-12f);
-        *e2 = cr_nn_cross(ctx, *n, *e1);
+        return;
     }
-    free(t0);
-    free(t1);
-    free(t2);
+    cr_tensor *p0 = cr_nn_gather_rows(ctx, x, t0, low->nf);
+    cr_tensor *u = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t1, low->nf), p0);
+    cr_tensor *v = cr_nn_sub(ctx, cr_nn_gather_rows(ctx, x, t2, low->nf), p0);
+    *e1 = cr_nn_normalize(ctx, u, 1e-12f);
+    *n = cr_nn_normalize(ctx, cr_nn_cross(ctx, u, v), 1e-12f);
+    *e2 = cr_nn_cross(ctx, *n, *e1);
 }
 
 /* Per-triangle concatenation of its corners' features: f (V,D) -> (F,3D). */
@@ -212,10 +221,12 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
     local = cr_nn_reshape(ctx, local, 2, (int64_t[]){3 * F, 3});
     /* R per corner: rows e1, e2, n of its face */
     cr_tensor *R = cr_nn_concat(ctx, 3, (cr_tensor *[]){e1, e2, n}, 1); /* (F,9) */
-    int32_t *rep = malloc((size_t)(3 * F > 0 ? 3 * F : 1) * sizeof(int32_t));
-    float *inv = malloc((size_t)(V > 0 ? V : 1) * sizeof(float));
+    int32_t *rep =
+        cr_nn_scratch(ctx, "gdsr decode", (size_t)(3 * F > 0 ? 3 * F : 1) * sizeof(int32_t));
+    cr_tensor *invt = cr_nn_new(ctx, 2, (int64_t[]){V, 1});
     cr_tensor *out = NULL;
-    if (rep && inv) {
+    if (rep && invt) {
+        float *inv = invt->data;
         for (int64_t k = 0; k < 3 * F; k++)
             rep[k] = (int32_t)(k / 3);
         cr_tensor *Rc =
@@ -230,10 +241,8 @@ cr_tensor *cr_gdsr_decode(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, 
             inv[low->tri[k]] += 1.0f;
         for (int64_t i = 0; i < V; i++)
             inv[i] = inv[i] > 0 ? 1.0f / inv[i] : 0.0f;
-        out = cr_nn_mul(ctx, sum, cr_nn_from(ctx, 2, (int64_t[]){V, 1}, inv));
+        out = cr_nn_mul(ctx, sum, invt);
     }
-    free(rep);
-    free(inv);
     return out;
 }
 
@@ -254,19 +263,110 @@ static cr_tensor *theta_b(cr_nn_ctx *ctx, cr_tensor *theta, int64_t *off, int64_
     return cr_nn_gather_rows(ctx, s, group, M);
 }
 
+/* The WIRE fields without the tape (the gradient off: a runtime's step):
+ * each point evaluates its face's network from theta's row directly, the
+ * layers of the tape path below in the same order (layer 0 real 2 -> w,
+ * complex w -> w layers, the real part of the last w -> 3), each followed by
+ * the WIRE activation of layer_wire.c, exp(-w0 b - s0^2 (a^2 + b^2)) (cos w0 a
+ * + j sin w0 a). The tape path slices theta into (F,o,w) copies, gathers
+ * each bias to the points and sorts the points by face for every grouped
+ * product: at 10k points on 5k faces (two points a face) that was 115 ms of
+ * a 10k-vertex frame, this about a tenth. */
+typedef struct wire_points {
+    const float *theta; /* (F,P) */
+    int64_t P;
+    const int32_t *face;
+    const float *bary; /* (M,3) */
+    int w, layers;
+    float omega0, s2;
+    float *y; /* (M,3) */
+} wire_points;
+
+enum { WIRE_MAX_WIDTH = 256 }; /* cr_gdsr_model_def_validate's bound */
+
+static void wire_act(const wire_points *j, float *re, float *im, int n) {
+    for (int k = 0; k < n; k++) {
+        const float a = re[k], b = im[k];
+        const float e = expf(-j->omega0 * b - j->s2 * (a * a + b * b));
+        re[k] = e * cosf(j->omega0 * a);
+        im[k] = e * sinf(j->omega0 * a);
+    }
+}
+
+/* (yr + j yi) = sum_k (re_k + j im_k)(wr_k + j wi_k) + (br + j bi) over n,
+ * summed in WIRE_LANES lanes (so the compiler's SLP pass vectorises the
+ * block) and then across them. */
+enum { WIRE_LANES = 8 };
+
+static void complex_dot(const float *re, const float *im, const float *wr, const float *wi, int n,
+                        float *yr, float *yi, float br, float bi) {
+    float pr[WIRE_LANES] = {0}, pi[WIRE_LANES] = {0};
+    int k = 0;
+    for (; k + WIRE_LANES <= n; k += WIRE_LANES)
+        for (int l = 0; l < WIRE_LANES; l++) {
+            const float a = re[k + l], b = im[k + l], c = wr[k + l], d = wi[k + l];
+            pr[l] += a * c - b * d;
+            pi[l] += a * d + b * c;
+        }
+    for (int l = 0; k < n; k++, l++) {
+        pr[l] += re[k] * wr[k] - im[k] * wi[k];
+        pi[l] += re[k] * wi[k] + im[k] * wr[k];
+    }
+    float sr = br, si = bi;
+    for (int l = 0; l < WIRE_LANES; l++)
+        sr += pr[l], si += pi[l];
+    *yr = sr, *yi = si;
+}
+
+static void wire_points_range(void *arg, int64_t begin, int64_t end) {
+    const wire_points *j = arg;
+    const int w = j->w;
+    float re[WIRE_MAX_WIDTH], im[WIRE_MAX_WIDTH], yr[WIRE_MAX_WIDTH], yi[WIRE_MAX_WIDTH];
+    for (int64_t i = begin; i < end; i++) {
+        const float *t = j->theta + (int64_t)j->face[i] * j->P;
+        const float u = j->bary[3 * i + 1], v = j->bary[3 * i + 2];
+        const float *W0 = t, *b0 = t + 2 * w;
+        for (int o = 0; o < w; o++)
+            re[o] = u * W0[2 * o] + v * W0[2 * o + 1] + b0[o], im[o] = 0.0f;
+        wire_act(j, re, im, w);
+        t += 3 * w;
+        for (int l = 1; l < j->layers; l++) {
+            const int no = l == j->layers - 1 ? 3 : w, last = l == j->layers - 1;
+            const float *Wr = t, *Wi = Wr + no * w, *br = Wi + no * w, *bi = br + no;
+            for (int o = 0; o < no; o++)
+                complex_dot(re, im, Wr + o * w, Wi + o * w, w, &yr[o], &yi[o], br[o], bi[o]);
+            t += 2 * (int64_t)no * w + 2 * no;
+            if (last) {
+                for (int k = 0; k < 3; k++)
+                    j->y[3 * i + k] = yr[k];
+                break;
+            }
+            memcpy(re, yr, sizeof(float) * (size_t)w);
+            memcpy(im, yi, sizeof(float) * (size_t)w);
+            wire_act(j, re, im, w);
+        }
+    }
+}
+
 cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
                          int64_t M, const int32_t *face, const float *bary) {
     const cr_gdsr_model_def *d = &m->def;
     int64_t w = d->wire_width;
     cr_tensor *theta = cr_mlp_forward(ctx, m->gen, corner_concat(ctx, h, low)); /* (F,P) */
-    float *uv = malloc((size_t)(M > 0 ? M : 1) * 2 * sizeof(float));
-    if (!uv) return NULL;
-    for (int64_t k = 0; k < M; k++) {
-        uv[2 * k] = bary[3 * k + 1];
-        uv[2 * k + 1] = bary[3 * k + 2];
+    if (!cr_nn_ctx_grad_enabled(ctx)) {
+        cr_tensor *y = theta ? cr_nn_new(ctx, 2, (int64_t[]){M, 3}) : NULL;
+        if (!y) return NULL;
+        wire_points j = {theta->data,    m->nparams, face,          bary,   d->wire_width,
+                         d->wire_layers, d->omega0,  d->s0 * d->s0, y->data};
+        cr_parallel_for(M, 256, wire_points_range, &j);
+        return y;
     }
-    cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){M, 2}, uv);
-    free(uv);
+    cr_tensor *x = cr_nn_new(ctx, 2, (int64_t[]){M, 2});
+    if (!x) return NULL;
+    for (int64_t k = 0; k < M; k++) {
+        x->data[2 * k] = bary[3 * k + 1];
+        x->data[2 * k + 1] = bary[3 * k + 2];
+    }
     int64_t off = 0;
     cr_tensor *W0 = theta_w(ctx, theta, &off, w, 2);
     cr_tensor *b0 = theta_b(ctx, theta, &off, w, face, M);
@@ -325,39 +425,34 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
     /* S[C^]: barycentric upsampling through Eq. 1, then the residual of A in
      * the frame of C^'s face (Eq. 12) */
     int32_t *corner[3];
-    float *bw[3];
+    cr_tensor *bw[3];
+    int ok = 1;
     for (int k = 0; k < 3; k++) {
-        corner[k] = malloc((size_t)Vh * sizeof(int32_t));
-        bw[k] = malloc((size_t)Vh * sizeof(float));
+        corner[k] = cr_nn_scratch(ctx, "gdsr forward", (size_t)(Vh > 0 ? Vh : 1) * sizeof(int32_t));
+        bw[k] = cr_nn_new(ctx, 2, (int64_t[]){Vh, 1});
+        ok = ok && corner[k] && bw[k];
     }
-    cr_tensor *out = NULL;
-    if (corner[0] && corner[1] && corner[2] && bw[0] && bw[1] && bw[2]) {
-        for (int64_t i = 0; i < Vh; i++)
-            for (int k = 0; k < 3; k++) {
-                corner[k][i] = low->tri[3 * d->face[i] + k];
-                bw[k][i] = d->bary[3 * i + k];
-            }
-        cr_tensor *s = NULL;
+    if (!ok) return NULL;
+    for (int64_t i = 0; i < Vh; i++)
         for (int k = 0; k < 3; k++) {
-            cr_tensor *t = cr_nn_mul(ctx, cr_nn_gather_rows(ctx, chat, corner[k], Vh),
-                                     cr_nn_from(ctx, 2, (int64_t[]){Vh, 1}, bw[k]));
-            s = k == 0 ? t : cr_nn_add(ctx, s, t);
+            corner[k][i] = low->tri[3 * d->face[i] + k];
+            bw[k]->data[i] = d->bary[3 * i + k];
         }
-        cr_tensor *r = cr_nn_mul_scalar(ctx, cr_gdsr_hyper(ctx, m, low, hf, Vh, d->face, d->bary),
-                                        m->def.out_scale); /* (Vh,3) */
-        cr_tensor *e1, *e2, *n;
-        face_frames(ctx, chat, low, &e1, &e2, &n);
-        cr_tensor *fr[3] = {e1, e2, n};
-        out = s;
-        for (int k = 0; k < 3; k++)
-            out = cr_nn_add(ctx, out,
-                            cr_nn_mul(ctx, cr_nn_slice(ctx, r, 1, k, 1),
-                                      cr_nn_gather_rows(ctx, fr[k], d->face, Vh)));
-    }
+    cr_tensor *s = NULL;
     for (int k = 0; k < 3; k++) {
-        free(corner[k]);
-        free(bw[k]);
+        cr_tensor *t = cr_nn_mul(ctx, cr_nn_gather_rows(ctx, chat, corner[k], Vh), bw[k]);
+        s = k == 0 ? t : cr_nn_add(ctx, s, t);
     }
+    cr_tensor *r = cr_nn_mul_scalar(ctx, cr_gdsr_hyper(ctx, m, low, hf, Vh, d->face, d->bary),
+                                    m->def.out_scale); /* (Vh,3) */
+    cr_tensor *e1, *e2, *n;
+    face_frames(ctx, chat, low, &e1, &e2, &n);
+    cr_tensor *fr[3] = {e1, e2, n};
+    cr_tensor *out = s;
+    for (int k = 0; k < 3; k++)
+        out = cr_nn_add(ctx, out,
+                        cr_nn_mul(ctx, cr_nn_slice(ctx, r, 1, k, 1),
+                                  cr_nn_gather_rows(ctx, fr[k], d->face, Vh)));
     return out;
 }
 

@@ -113,17 +113,11 @@ static cr_status frame_features(const cr_gdsr_data *d, const cr_gdsr_model_def *
                            .chat_prev = fs->have >= 2 ? fs->chat1 : NULL,
                            .chat_prev2 = fs->have >= 2 ? fs->chat2 : NULL,
                            .body_point = bp};
-    cr_gdsr_features(d->low, g, &in, md->sigma_b, node, e0, e1);
-    g->ne[2] = 0;
-    if (!md->layer_edges || d->nlayers < 2) return CR_OK;
-    CR_TRY(cr_gdsr_layer_edges(g, d->layer, cin, md->sigma_l, err));
-    if (g->ne[2] > fs->e2cap) {
-        float *e2 = realloc(fs->e2, (size_t)g->ne[2] * CR_GDSR_EDGE_FEATURES * sizeof(float));
-        if (!e2) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory (layer edges)");
-        fs->e2 = e2, fs->e2cap = g->ne[2];
-    }
-    cr_gdsr_layer_edge_features(g, cin, md->sigma_l, fs->e2);
-    return CR_OK;
+    float *nrm = malloc((size_t)nl3 * sizeof(float));
+    cr_status st =
+        cr_gdsr_frame_features_(d, md, g, &in, nrm, node, e0, e1, &fs->e2, &fs->e2cap, err);
+    free(nrm);
+    return st;
 }
 
 static void state_push(frame_state *fs, const float *chat, const float *c, int64_t n3) {
@@ -624,207 +618,85 @@ void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r) {
     memset(r, 0, sizeof *r);
 }
 
-/* Eq. 27 on one frame, counted into out. */
-static cr_status layer_push(const cr_gdsr_data *d, float *chat, float *fin, int surface,
-                            cr_gdsr_rollout_result *out, cr_error *err) {
-    int64_t fine = 0;
-    int64_t n = cr_gdsr_layer_push(d, chat, fin, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA, surface,
-                                   &fine, err);
-    if (n < 0) return err ? err->status : CR_ERR_MEMORY;
-    out->layer_pushed += n, out->layer_pushed_high += fine;
-    return CR_OK;
-}
-
-/* A roll-out's buffers and tools, released together. */
-typedef struct rollout_run {
-    cr_gdsr_graph g;
-    cr_nn_ctx *ctx;
-    cr_bvh *bv; /* the body, refitted to each frame */
-    cr_topology *htopo;
-    frame_state fs;
-    float *bp, *node, *e0, *e1;             /* (T,Vl,3) body points; features */
-    float *chat, *lpush, *hpush, *sd, *nrm; /* C^ and the handling's scratch */
-    float *rd;                              /* (2,Vh,3) relax scratch: d, dn */
-    uint8_t *moved;
-} rollout_run;
-
-static void rollout_run_free(rollout_run *r) {
-    free(r->bp), free(r->node), free(r->e0), free(r->e1);
-    free(r->fs.chat1), free(r->fs.chat2), free(r->fs.dprev), free(r->fs.e2);
-    free(r->chat), free(r->lpush), free(r->hpush), free(r->sd), free(r->nrm), free(r->rd);
-    free(r->moved);
-    cr_topology_destroy(r->htopo);
-    cr_bvh_destroy(r->bv);
-    cr_nn_ctx_destroy(r->ctx);
-    cr_gdsr_graph_free(&r->g);
-}
-
-static cr_status rollout_run_init(rollout_run *r, const cr_gdsr_data *d, int32_t T, cr_error *err) {
-    const cr_mesh *low = d->low;
-    const int32_t Vh = d->high->nv, Vmax = Vh > low->nv ? Vh : low->nv;
-    const int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
-    r->bp = malloc((size_t)T * nl3 * sizeof(float));
-    r->node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
-    r->fs.chat1 = malloc((size_t)nl3 * sizeof(float));
-    r->fs.chat2 = malloc((size_t)nl3 * sizeof(float));
-    r->fs.dprev = malloc((size_t)nl3 * sizeof(float));
-    r->chat = malloc((size_t)nl3 * sizeof(float));
-    r->lpush = malloc((size_t)nl3 * sizeof(float));
-    r->hpush = malloc((size_t)nh3 * sizeof(float));
-    r->sd = malloc((size_t)Vmax * sizeof(float));
-    r->nrm = malloc((size_t)Vmax * 3 * sizeof(float));
-    r->rd = malloc((size_t)nh3 * 2 * sizeof(float));
-    r->moved = malloc((size_t)Vh + 1);
-    if (!r->bp || !r->node || !r->fs.chat1 || !r->fs.chat2 || !r->fs.dprev || !r->chat ||
-        !r->lpush || !r->hpush || !r->sd || !r->nrm || !r->rd || !r->moved)
-        return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-    CR_TRY(cr_gdsr_graph_build(low, &r->g, err));
-    CR_TRY(cr_topology_build(d->high, &r->htopo, err));
-    r->e0 = malloc((size_t)r->g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    r->e1 = malloc((size_t)(r->g.ne[1] + 1) * CR_GDSR_EDGE_FEATURES * sizeof(float));
-    if (!r->e0 || !r->e1) return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-    return CR_OK;
-}
-
-/* Frame t >= 2 of clip cl: features, the networks, then the handling
- * (Eq. 26-27); dt[4] the stages' wall seconds (the body's refit left to the
- * caller). raw, fin (Vh,3) out. */
-static cr_status rollout_frame(rollout_run *r, cr_gdsr_model *m, const cr_gdsr_data *d,
-                               const cr_gdsr_clip *cl, int32_t t, float eps, int relax,
-                               int layer_surface, float *raw, float *fin,
-                               cr_gdsr_rollout_result *out, double *dt, cr_error *err) {
-    const cr_mesh *low = d->low;
-    const int32_t Vh = d->high->nv;
-    const int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
-    const float *ct = cl->low + t * nl3;
-    double t1 = cr_time_now();
-    CR_TRY(frame_features(d, &m->def, &r->g, cl->low, t, ct, r->bp + t * nl3, &r->fs, r->node,
-                          r->e0, r->e1, err));
-    double t2 = cr_time_now();
-    cr_nn_ctx_reset(r->ctx);
-    cr_tensor *ch = NULL;
-    cr_tensor *X = cr_gdsr_forward(r->ctx, m, d, &r->g, r->node, r->e0, r->e1, r->fs.e2, ct, &ch);
-    CR_TRY(cr_nn_ctx_error(r->ctx, err));
-    if (!X || !ch)
-        return CR_FAIL(err, CR_ERR_INVALID, "gdsr rollout: forward failed at frame %d", t);
-    memcpy(raw, X->data, (size_t)nh3 * sizeof(float));
-    memcpy(r->chat, ch->data, (size_t)nl3 * sizeof(float));
-    state_push(&r->fs, r->chat, ct, nl3);
-    double t3 = cr_time_now();
-    /* Eq. 26-27: push C^ out of the body, carry the push to the high
-     * vertices through Eq. 1, then any high vertex still inside */
-    memcpy(fin, raw, (size_t)nh3 * sizeof(float));
-    cr_gdsr_push_out(r->bv, r->chat, low->nv, eps, r->sd, r->nrm, r->lpush);
-    cr_gdsr_upsample(d, r->lpush, r->hpush);
-    for (int64_t i = 0; i < nh3; i++)
-        fin[i] += r->hpush[i];
-    /* the high vertices still inside, the pushes spread so that they
-     * do not strain (collide.c) */
-    cr_gdsr_relax_push(r->bv, r->htopo, raw, fin, 0.5f * eps, relax, r->sd, r->nrm, r->rd,
-                       r->rd + nh3, r->moved);
-    /* then the layers (Eq. 27), after the body */
-    CR_TRY(layer_push(d, r->chat, fin, layer_surface, out, err));
-    double t4 = cr_time_now();
-    dt[1] = t2 - t1, dt[2] = t3 - t2, dt[3] = t4 - t3;
-    for (int64_t i = 0; i < nh3; i++)
-        if (!isfinite(fin[i]))
-            return CR_FAIL(err, CR_ERR_DIVERGED, "gdsr rollout: non-finite output at frame %d", t);
-    return CR_OK;
-}
-
 /* The largest share of high vertices inside the body over the clip, before
  * and after the handling. */
-static cr_status inside_shares(rollout_run *r, const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+static cr_status inside_shares(const cr_gdsr_data *d, const cr_gdsr_clip *cl,
                                cr_gdsr_rollout_result *out, cr_error *err) {
     const int32_t Vh = d->high->nv;
     const int64_t nh3 = (int64_t)Vh * 3;
-    for (int32_t t = 0; t < cl->nframes; t++) {
-        CR_TRY(cr_bvh_refit(r->bv, cl->body + (int64_t)t * d->body->nv * 3, err));
+    cr_bvh *bv = NULL;
+    CR_TRY(cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &bv, err));
+    float *sd = malloc((size_t)Vh * sizeof(float) + 1);
+    cr_status st = sd ? CR_OK : CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
+    for (int32_t t = 0; t < cl->nframes && st == CR_OK; t++) {
+        if ((st = cr_bvh_refit(bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK) break;
         for (int pass = 0; pass < 2; pass++) {
             const float *x = (pass ? out->gdsr : out->gdsr_raw) + t * nh3;
-            cr_bvh_signed_distance_batch(r->bv, x, Vh, 0.2f, r->sd, NULL, NULL);
+            cr_bvh_signed_distance_batch(bv, x, Vh, 0.2f, sd, NULL, NULL);
             int64_t in = 0;
             for (int32_t i = 0; i < Vh; i++)
-                in += r->sd[i] < 0;
+                in += sd[i] < 0;
             double share = (double)in / Vh;
             double *dst = pass ? &out->inside_after : &out->inside_before;
             if (share > *dst) *dst = share;
         }
     }
-    return CR_OK;
+    free(sd);
+    cr_bvh_destroy(bv);
+    return st;
 }
 
+/* A runtime (runtime.c) stepped over the clip: its output is gdsr, its raw
+ * output gdsr_raw; the timings are the steps'. */
 cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, float eps, int relax,
                           int layer_surface, cr_gdsr_rollout_result *out, cr_error *err) {
     memset(out, 0, sizeof *out);
     if (clip < 0 || clip >= d->nclips)
         return CR_FAIL(err, CR_ERR_RANGE, "gdsr rollout: clip %d of %d", clip, d->nclips);
     const cr_gdsr_clip *cl = &d->clip[clip];
-    const cr_mesh *low = d->low;
-    int32_t T = cl->nframes, Vh = d->high->nv;
-    int64_t nl3 = (int64_t)low->nv * 3, nh3 = (int64_t)Vh * 3;
+    const int32_t T = cl->nframes, Vh = d->high->nv;
+    const int64_t nl3 = (int64_t)d->low->nv * 3, nh3 = (int64_t)Vh * 3,
+                  nb3 = (int64_t)d->body->nv * 3;
     out->nframes = T;
     out->nv_high = Vh;
     out->gdsr = malloc((size_t)T * nh3 * sizeof(float));
     out->gdsr_raw = malloc((size_t)T * nh3 * sizeof(float));
     out->upsampled = malloc((size_t)T * nh3 * sizeof(float));
-    rollout_run r = {0};
+    cr_gdsr_runtime_def rd = cr_gdsr_runtime_default_def();
+    rd.eps = eps, rd.relax = relax, rd.layer_surface = layer_surface;
+    cr_gdsr_runtime *rt = NULL;
     cr_status st = out->gdsr && out->gdsr_raw && out->upsampled
-                       ? rollout_run_init(&r, d, T, err)
+                       ? cr_gdsr_runtime_create(m, d, &rd, &rt, err)
                        : CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
-    /* the node features' closest body points, all frames at once: their
-     * time is shared out over the frames in the per-frame figure below */
-    double bp_t0 = cr_time_now();
-    clock_t bp_c0 = clock();
-    if (st == CR_OK) st = body_points(d, cl, cl->low, r.bp, err);
-    const double bp_wall = (cr_time_now() - bp_t0) / T;
-    const double bp_cpu = (double)(clock() - bp_c0) / CLOCKS_PER_SEC / T;
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = (size_t)512 << 20;
-    if (st == CR_OK) st = cr_nn_ctx_create(&cd, &r.ctx, err);
-    if (st == CR_OK) cr_nn_ctx_set_grad_enabled(r.ctx, 0);
-    if (st == CR_OK)
-        st = cr_bvh_build(cl->body, d->body->nv, d->body->tri, d->body->nf, &r.bv, err);
     double csum = 0, stage[4] = {0};
     int tcount = 0;
     for (int32_t t = 0; t < T && st == CR_OK; t++) {
         const float *ct = cl->low + t * nl3;
-        float *up = out->upsampled + t * nh3, *raw = out->gdsr_raw + t * nh3,
-              *fin = out->gdsr + t * nh3;
-        cr_gdsr_upsample(d, ct, up);
-        double t0 = cr_time_now();
+        cr_gdsr_upsample(d, ct, out->upsampled + t * nh3);
         clock_t c0 = clock();
-        if ((st = cr_bvh_refit(r.bv, cl->body + (int64_t)t * d->body->nv * 3, err)) != CR_OK) break;
-        double dt[4] = {cr_time_now() - t0 + bp_wall, 0, 0, 0};
-        if (t < 2) { /* no history yet: the upsampled input */
-            memcpy(raw, up, (size_t)nh3 * sizeof(float));
-            memcpy(fin, up, (size_t)nh3 * sizeof(float));
-            cr_gdsr_push_out(r.bv, fin, Vh, 0.5f * eps, r.sd, r.nrm, NULL);
-            cr_gdsr_relax_push(r.bv, r.htopo, up, fin, 0.5f * eps, relax, r.sd, r.nrm, r.rd,
-                               r.rd + nh3, r.moved);
-            cr_gdsr_push_out(r.bv, fin, Vh, 0.5f * eps, r.sd, r.nrm, NULL);
-            memcpy(r.chat, ct, (size_t)nl3 * sizeof(float));
-            st = layer_push(d, r.chat, fin, layer_surface, out, err);
-            continue;
-        }
-        st = rollout_frame(&r, m, d, cl, t, eps, relax, layer_surface, raw, fin, out, dt, err);
+        st = cr_gdsr_runtime_step(rt, ct, cl->body + t * nb3, out->gdsr + t * nh3, err);
         if (st != CR_OK) break;
+        const cr_gdsr_runtime_stats s = cr_gdsr_runtime_last_stats(rt);
+        const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+        memcpy(out->gdsr_raw + t * nh3, cr_gdsr_runtime_raw(rt), (size_t)nh3 * sizeof(float));
+        out->layer_pushed += s.layer_pushed, out->layer_pushed_high += s.layer_pushed_high;
+        if (t < 2) continue; /* no networks yet */
         if (t == 2 && T > 3) {
-            out->first_frame_seconds = dt[0] + dt[1] + dt[2] + dt[3];
+            out->first_frame_seconds = s.seconds[0] + s.seconds[1] + s.seconds[2] + s.seconds[3];
         } else {
             for (int k = 0; k < 4; k++)
-                stage[k] += dt[k];
-            csum += (double)(clock() - c0) / CLOCKS_PER_SEC + bp_cpu;
+                stage[k] += s.seconds[k];
+            csum += cpu;
             tcount++;
         }
     }
-    if (st == CR_OK) st = inside_shares(&r, d, cl, out, err);
+    cr_gdsr_runtime_destroy(rt);
+    if (st == CR_OK) st = inside_shares(d, cl, out, err);
     out->cpu_seconds_per_frame = tcount ? csum / tcount : 0;
     for (int k = 0; k < 4; k++) {
         out->stage_seconds[k] = tcount ? stage[k] / tcount : 0;
         out->seconds_per_frame += out->stage_seconds[k]; /* out was zeroed on entry */
     }
-    rollout_run_free(&r);
     if (st != CR_OK) cr_gdsr_rollout_free(out);
     return st;
 }
