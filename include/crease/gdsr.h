@@ -442,8 +442,8 @@ void cr_gdsr_rollout_free(cr_gdsr_rollout_result *r);
  * roll-out's gdsr.pc2; off, the network's output (gdsr_raw.pc2).
  *
  * Memory: everything is allocated at create, the arena sized by trial
- * frames at rest; a step allocates nothing on a single-layer garment (but
- * for the engine's blocked GEMM's packing buffers, docs/runtime.md). On an
+ * frames at rest; a step allocates nothing on a single-layer garment (the
+ * engine's GEMM keeps its buffers per thread, docs/runtime.md). On an
  * outfit (two layers or more) the layer edges (Eq. 7) and Eq. 27 take their
  * scratch from the heap each frame, and the arena stays the trial's
  * generous reservation (touched only as used): a frame's layer edges are

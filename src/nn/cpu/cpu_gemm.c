@@ -209,9 +209,30 @@ static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begi
         }
 }
 
-static void *alloc_floats(int64_t n) {
-    size_t bytes = ((size_t)n * sizeof(float) + 63) & ~(size_t)63;
-    return aligned_alloc(64, bytes);
+/* The packing and partial buffers, one per thread and purpose, grown when a
+ * product needs more and kept for the thread's life: once a runtime's first
+ * frames have sized them, its steps call the heap no more (issue 51; they
+ * malloc'd and freed about 3,000 times a gdsr frame). A purpose is never
+ * used twice at once on one thread: a split-k chunk's blocked product, run
+ * inside the split's region, takes the other purposes. */
+enum { BUF_A, BUF_B, BUF_BLOCKS, BUF_BT, BUF_PARTIAL, NBUF };
+static _Thread_local struct {
+    void *p;
+    size_t cap;
+} thread_buf[NBUF];
+
+static void *thread_buffer(int which, size_t bytes) {
+    bytes = (bytes + 63) & ~(size_t)63;
+    if (bytes > thread_buf[which].cap) {
+        free(thread_buf[which].p);
+        thread_buf[which].p = aligned_alloc(64, bytes);
+        thread_buf[which].cap = thread_buf[which].p ? bytes : 0;
+    }
+    return thread_buf[which].p;
+}
+
+static float *thread_floats(int which, int64_t n) {
+    return thread_buffer(which, (size_t)n * sizeof(float));
 }
 
 /* MC blocks [begin, end) of C's rows against every B block of the region,
@@ -225,7 +246,7 @@ static void *alloc_floats(int64_t n) {
 static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
     gemm_block *g = vctx;
     int mr = g->kern.mr, nr = g->kern.nr;
-    float *Ap = alloc_floats((int64_t)mr * GEMM_KC);
+    float *Ap = thread_floats(BUF_A, (int64_t)mr * GEMM_KC);
     const int64_t rsa = g->ta ? 1 : g->lda, csa = g->ta ? g->lda : 1;
     for (int64_t b = 0; b < g->nblocks; b++) {
         const b_block *bb = &g->blocks[b];
@@ -259,7 +280,6 @@ static void gemm_rows(void *vctx, int64_t begin, int64_t end) {
             }
         }
     }
-    free(Ap);
 }
 
 /* Items per parallel chunk when each costs `per` multiply-adds. */
@@ -353,11 +373,10 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
         gemm_split g = {.level = level, .ta = ta, .tb = tb, .M = M, .N = N, .K = K,
                         .chunks = chunks, .A = A, .B = B, .lda = lda, .ldb = ldb,
                         .alpha = alpha, .beta = beta, .C = C, .ldc = ldc};
-        g.partial = alloc_floats(chunks * M * N);
+        g.partial = thread_floats(BUF_PARTIAL, chunks * M * N);
         if (g.partial) {
             cr_parallel_for(chunks, 1, split_k_range, &g);
             if (!g.failed) cr_parallel_for(M, chunk_grain(N * chunks), split_k_sum, &g);
-            free(g.partial);
             return g.failed ? -1 : 0;
         }
     }
@@ -377,7 +396,7 @@ static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t
          * ran serially and M = 6 left one thread for the whole product. */
         float *Bt = NULL;
         if (!tb) {
-            Bt = alloc_floats(N * K);
+            Bt = thread_floats(BUF_BT, N * K);
             if (!Bt) return -1;
             for (int64_t k = 0; k < K; k++)
                 for (int64_t j = 0; j < N; j++)
@@ -385,7 +404,6 @@ static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t
         }
         gemm_dot g = {kern.dot, N, K, alpha, A, lda, Bt ? Bt : B, Bt ? K : ldb, beta, C, ldc};
         cr_parallel_for(M, chunk_grain(N * K), dot_rows, &g);
-        free(Bt);
         return 0;
     }
     if (N * 4 <= kern.nr && M > N) {
@@ -418,12 +436,9 @@ static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t
     int64_t group = GEMM_PACK_BUDGET / per_b;
     if (group < 1) group = 1;
     if (group > nj * np) group = nj * np;
-    float *Bp = alloc_floats(group * per_b);
-    b_block *bbs = malloc((size_t)group * sizeof *bbs);
-    if (!Bp || !bbs) {
-        free(Bp), free(bbs);
-        return -1;
-    }
+    float *Bp = thread_floats(BUF_B, group * per_b);
+    b_block *bbs = thread_buffer(BUF_BLOCKS, (size_t)group * sizeof *bbs);
+    if (!Bp || !bbs) return -1;
     gemm_block g = {.kern = kern,
                     .ta = ta,
                     .tb = tb,
@@ -456,7 +471,5 @@ static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t
         g.nblocks = n;
         cr_parallel_for(blocks, grain, gemm_rows, &g);
     }
-    free(bbs);
-    free(Bp);
     return 0;
 }
