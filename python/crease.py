@@ -148,13 +148,8 @@ class _Runtime:
         self.triangles = np.ctypeslib.as_array(mesh.tri, shape=(mesh.nf, 3)).copy()
         self.rest = np.ctypeslib.as_array(mesh.pos, shape=(mesh.nv, 3)).copy()
 
-    def step(self, pose, root, out=None):
-        """One frame: pose (22,3) axis-angles (rad, SMPL's joint order, relative to the rest
-        pose; 66 floats also do), root (3,) translation, m. Returns (V,3) float32 positions."""
-        if not self._rt:
-            raise Error("crease: the runtime is closed")
-        pose = _floats(pose, (NJOINTS, 3), "pose")
-        root = _floats(root, (3,), "root")
+    def _step(self, a, b, out):
+        """The method's step on two float32 arrays into out ((V,3), made when None)."""
         if out is None:
             out = np.empty((self.vertices, 3), dtype=np.float32)
         elif out.dtype != np.float32 or out.shape != (self.vertices, 3) or \
@@ -162,9 +157,16 @@ class _Runtime:
             raise Error("crease: out must be a C-contiguous float32 array of shape (%d, 3)"
                         % self.vertices)
         err = _CrError()
-        _check(self._fn("step")(self._rt, _fptr(pose), _fptr(root), _fptr(out),
-                                ctypes.byref(err)), err)
+        _check(self._fn("step")(self._rt, _fptr(a), _fptr(b), _fptr(out), ctypes.byref(err)),
+               err)
         return out
+
+    def step(self, pose, root, out=None):
+        """One frame: pose (22,3) axis-angles (rad, SMPL's joint order, relative to the rest
+        pose; 66 floats also do), root (3,) translation, m. Returns (V,3) float32 positions."""
+        if not self._rt:
+            raise Error("crease: the runtime is closed")
+        return self._step(_floats(pose, (NJOINTS, 3), "pose"), _floats(root, (3,), "root"), out)
 
     def reset(self):
         """Back to before the first frame."""
@@ -279,18 +281,8 @@ class GdsrRuntime(_Runtime):
         float32 positions of the high garment, m."""
         if not self._rt:
             raise Error("crease: the runtime is closed")
-        low = _floats(low, (self.low_vertices, 3), "low")
-        body = _floats(body, (self.body_vertices, 3), "body")
-        if out is None:
-            out = np.empty((self.vertices, 3), dtype=np.float32)
-        elif out.dtype != np.float32 or out.shape != (self.vertices, 3) or \
-                not out.flags.c_contiguous:
-            raise Error("crease: out must be a C-contiguous float32 array of shape (%d, 3)"
-                        % self.vertices)
-        err = _CrError()
-        _check(self._fn("step")(self._rt, _fptr(low), _fptr(body), _fptr(out),
-                                ctypes.byref(err)), err)
-        return out
+        return self._step(_floats(low, (self.low_vertices, 3), "low"),
+                          _floats(body, (self.body_vertices, 3), "body"), out)
 
     def raw(self):
         """The last frame's output before the collision handling, (V,3) float32."""

@@ -175,6 +175,17 @@ static double bone_scale(int j) {
  * joints named by `names` (NULL: Mixamo's), bones scaled by bone_scale when
  * `scaled` (the mesh keeps its shape), plus an end joint 0.15 m above the
  * head that no name table knows. */
+/* Meaningless joint names, "bone00" to "bone21" in SMPL's order. */
+static const char *const *bone_names(void) {
+    static const char *bone[CR_NJOINTS];
+    static char storage[CR_NJOINTS][16];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        snprintf(storage[j], sizeof storage[j], "bone%02d", j);
+        bone[j] = storage[j];
+    }
+    return bone;
+}
+
 static void write_character(const cr_body_model *b, const char *path, const char *const *names,
                             int scaled) {
     enum { J = CR_NJOINTS + 1 };
@@ -408,12 +419,7 @@ CR_TEST(retarget, joint_map_file_drives_meaningless_names_and_bad_lines_are_refu
     cr_body_model *b = NULL;
     CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
     CR_REQUIRE(b);
-    static const char *bone[CR_NJOINTS];
-    static char storage[CR_NJOINTS][16];
-    for (int j = 0; j < CR_NJOINTS; j++) {
-        snprintf(storage[j], sizeof storage[j], "bone%02d", j);
-        bone[j] = storage[j];
-    }
+    const char *const *bone = bone_names();
     const char *glb = tmp("bones.glb");
     write_character(b, glb, bone, 0);
     cr_glb_character *c = NULL;
@@ -693,12 +699,7 @@ CR_TEST(retarget, character_as_a_body_comes_back_as_the_mannequin) {
     cr_body_model_destroy(cb);
     cb = NULL;
     /* meaningless names: refused without a map, mapped to SMPL's names with one */
-    static const char *bone[CR_NJOINTS];
-    static char storage[CR_NJOINTS][16];
-    for (int j = 0; j < CR_NJOINTS; j++) {
-        snprintf(storage[j], sizeof storage[j], "bone%02d", j);
-        bone[j] = storage[j];
-    }
+    const char *const *bone = bone_names();
     const char *bones = tmp("bones_body.glb");
     write_character(b, bones, bone, 0);
     CR_CHECK(cr_body_from_character(bones, NULL, &cb, &err) == CR_ERR_UNSUPPORTED && !cb);

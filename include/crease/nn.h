@@ -186,6 +186,16 @@ cr_nn_ctx_def cr_nn_ctx_default_def(void);
 /* Allocates the arena once (the only allocation the context makes). */
 cr_status cr_nn_ctx_create(const cr_nn_ctx_def *def, cr_nn_ctx **out, cr_error *err);
 void cr_nn_ctx_destroy(cr_nn_ctx *ctx); /* NULL is a no-op */
+/* A gradient-off context sized for a runtime's steps (the runtimes'
+ * create): *ctx (destroyed first when it holds one) made with an arena of
+ * arena_bytes, or (0) a generous reservation, touched only as used and
+ * halved while the system refuses it; trial(user) run in it (the runtime
+ * reads the context through *ctx); then, unless arena_bytes was given or
+ * keep is set, the context made again at the trial's high-water mark plus an
+ * eighth and 1 MiB. *peak (may be NULL) gets that high-water mark. */
+cr_status cr_nn_ctx_fit(cr_nn_ctx **ctx, size_t arena_bytes, int keep,
+                        cr_status (*trial)(void *user, cr_error *err), void *user, size_t *peak,
+                        cr_error *err);
 /* Free every tensor, grad and tape node of the step, clear the error. O(1). */
 void cr_nn_ctx_reset(cr_nn_ctx *ctx);
 /* CR_OK, or the first error an op recorded (copied into err). */

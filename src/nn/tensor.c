@@ -57,6 +57,34 @@ void cr_nn_ctx_destroy(cr_nn_ctx *ctx) {
     free(ctx);
 }
 
+/* *ctx made again, gradient off, with an arena of `bytes`. */
+static cr_status remake(cr_nn_ctx **ctx, size_t bytes, cr_error *err) {
+    cr_nn_ctx_destroy(*ctx);
+    *ctx = NULL;
+    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
+    cd.arena_bytes = bytes;
+    CR_TRY(cr_nn_ctx_create(&cd, ctx, err));
+    cr_nn_ctx_set_grad_enabled(*ctx, 0);
+    return CR_OK;
+}
+
+cr_status cr_nn_ctx_fit(cr_nn_ctx **ctx, size_t arena_bytes, int keep,
+                        cr_status (*trial)(void *user, cr_error *err), void *user, size_t *peak,
+                        cr_error *err) {
+    enum { RESERVE_GIB = 8, FLOOR_MIB = 64, SLACK_MIB = 1 };
+    size_t bytes = arena_bytes ? arena_bytes : (size_t)RESERVE_GIB << 30;
+    cr_status st;
+    while ((st = remake(ctx, bytes, err)) != CR_OK && !arena_bytes &&
+           bytes > ((size_t)FLOOR_MIB << 20))
+        bytes /= 2;
+    if (st == CR_OK) st = trial(user, err);
+    if (st != CR_OK) return st;
+    const size_t high = cr_nn_ctx_arena_peak(*ctx);
+    if (peak) *peak = high;
+    if (arena_bytes || keep) return CR_OK;
+    return remake(ctx, high + high / 8 + ((size_t)SLACK_MIB << 20), err);
+}
+
 void cr_nn_ctx_reset(cr_nn_ctx *ctx) {
     cr_arena_reset(&ctx->arena);
     ctx->tail = NULL;

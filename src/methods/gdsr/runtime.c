@@ -193,18 +193,10 @@ cr_status cr_gdsr_runtime_step_batch(cr_gdsr_runtime *const *rts, int32_t n,
     return CR_OK;
 }
 
-static cr_status make_ctx(cr_gdsr_runtime *rt, size_t bytes, cr_error *err) {
-    cr_nn_ctx_destroy(rt->ctx);
-    rt->ctx = NULL;
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = bytes;
-    CR_TRY(cr_nn_ctx_create(&cd, &rt->ctx, err));
-    cr_nn_ctx_set_grad_enabled(rt->ctx, 0);
-    return CR_OK;
-}
-
-/* TRIAL_FRAMES steps of the rest garment on the rest body, then a reset. */
-static cr_status try_frames(cr_gdsr_runtime *rt, cr_error *err) {
+/* TRIAL_FRAMES steps of the rest garment on the rest body, then a reset:
+ * the arena's trial (cr_nn_ctx_fit). */
+static cr_status try_frames(void *user, cr_error *err) {
+    cr_gdsr_runtime *rt = user;
     float *frame = cr_malloc(sizeof(float) * 3 * (size_t)rt->d->high->nv, err);
     if (!frame) return err ? err->status : CR_ERR_MEMORY;
     cr_status st = CR_OK;
@@ -215,20 +207,11 @@ static cr_status try_frames(cr_gdsr_runtime *rt, cr_error *err) {
     return st;
 }
 
-/* The trial in arena_bytes or (0) in a generous reservation (halved while
- * the system refuses it), then, unless the garment's layer edges can grow
- * past the trial's, the arena made again at its high-water mark plus an
- * eighth. */
+/* The trial in def.arena_bytes or a generous reservation, then the arena
+ * at its high-water mark plus an eighth, unless the garment's layer edges
+ * can grow past the trial's. */
 static cr_status size_arena(cr_gdsr_runtime *rt, cr_error *err) {
-    const size_t want = rt->def.arena_bytes;
-    size_t bytes = want ? want : (size_t)8 << 30;
-    cr_status st;
-    while ((st = make_ctx(rt, bytes, err)) != CR_OK && !want && bytes > ((size_t)64 << 20))
-        bytes /= 2;
-    if (st == CR_OK) st = try_frames(rt, err);
-    if (st != CR_OK || want || rt->layer_edges) return st;
-    const size_t peak = cr_nn_ctx_arena_peak(rt->ctx);
-    return make_ctx(rt, peak + peak / 8 + ((size_t)1 << 20), err);
+    return cr_nn_ctx_fit(&rt->ctx, rt->def.arena_bytes, rt->layer_edges, try_frames, rt, NULL, err);
 }
 
 static cr_status check_def(const cr_gdsr_runtime_def *d, cr_error *err) {

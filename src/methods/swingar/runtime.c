@@ -84,16 +84,6 @@ void cr_swingar_runtime_reset(cr_swingar_runtime *rt) {
     rt->frames = 0;
 }
 
-static cr_status make_ctx(cr_swingar_runtime *rt, size_t bytes, cr_error *err) {
-    cr_nn_ctx_destroy(rt->ctx);
-    rt->ctx = NULL;
-    cr_nn_ctx_def cd = cr_nn_ctx_default_def();
-    cd.arena_bytes = bytes;
-    CR_TRY(cr_nn_ctx_create(&cd, &rt->ctx, err));
-    cr_nn_ctx_set_grad_enabled(rt->ctx, 0);
-    return CR_OK;
-}
-
 /* The garment's encoding into rt->enc, kept on the host for every step. */
 static cr_status encode(cr_swingar_runtime *rt, cr_error *err) {
     const cr_swingar_def *d = &rt->model->def;
@@ -126,20 +116,17 @@ static cr_status try_frames(cr_swingar_runtime *rt, cr_error *err) {
     return st;
 }
 
-/* The garment encoded and the frames tried in arena_bytes, or (0) in a
- * generous reservation (touched only as used; halved while the system
- * refuses it), then the arena made again at the encoding's and the trial's
- * high-water mark plus an eighth: the encoding stays on the host. */
+/* The garment encoded and two frames tried: the arena's trial (cr_nn_ctx_fit). */
+static cr_status trial(void *user, cr_error *err) {
+    cr_swingar_runtime *rt = user;
+    CR_TRY(encode(rt, err));
+    return try_frames(rt, err);
+}
+
+/* The arena at the encoding's and the trial's high-water mark plus an eighth,
+ * or arena_bytes: the encoding stays on the host. */
 static cr_status size_arena(cr_swingar_runtime *rt, size_t arena_bytes, cr_error *err) {
-    size_t bytes = arena_bytes ? arena_bytes : (size_t)8 << 30;
-    cr_status st;
-    while ((st = make_ctx(rt, bytes, err)) != CR_OK && !arena_bytes && bytes > ((size_t)64 << 20))
-        bytes /= 2;
-    if (st == CR_OK) st = encode(rt, err);
-    if (st == CR_OK) st = try_frames(rt, err);
-    if (st != CR_OK) return st;
-    const size_t peak = rt->trial_peak = cr_nn_ctx_arena_peak(rt->ctx);
-    return arena_bytes ? CR_OK : make_ctx(rt, peak + peak / 8 + ((size_t)1 << 20), err);
+    return cr_nn_ctx_fit(&rt->ctx, arena_bytes, 0, trial, rt, &rt->trial_peak, err);
 }
 
 cr_status cr_swingar_runtime_create(cr_swingar *m, const cr_swingar_garment *g,

@@ -15,6 +15,15 @@
 #include <math.h>
 #include <string.h>
 
+/* NN_CPU_X86: the AVX2 and AVX-512 paths are built (x86 intrinsics, compiled
+ * per function with target attributes); elsewhere the portable ones only. */
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define NN_CPU_X86 1
+#else
+#define NN_CPU_X86 0
+#endif
+
 enum { NN_CPU_GRAIN = 16384 }; /* elements per parallel chunk, at least */
 
 /* Rows per chunk so that a chunk holds about NN_CPU_GRAIN elements. */

@@ -24,13 +24,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-#define NN_CPU_X86 1
-#else
-#define NN_CPU_X86 0
-#endif
-
 enum {
     SUM_COLS = 256, /* columns one backward unit owns: whole rows up to 256 wide, so the pass
                        streams through memory */

@@ -34,13 +34,6 @@
 #include <math.h>
 #include <string.h>
 
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-#define NN_CPU_X86 1
-#else
-#define NN_CPU_X86 0
-#endif
-
 /* layer_gat.c's floors (see there). */
 static const float ROW_TINY = 1e-24f;
 static const float DEN_TINY = 1e-12f;

@@ -29,13 +29,6 @@
 #include <math.h>
 #include <string.h>
 
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-#define NN_CPU_X86 1
-#else
-#define NN_CPU_X86 0
-#endif
-
 enum {
     TILE = 32,       /* rows whose activations stay in L1 (32 x 256 floats x 2: 64 KiB) */
     ROW_GRAIN = 256, /* rows worth a thread */
