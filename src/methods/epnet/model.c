@@ -220,9 +220,10 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     if (st == CR_OK) st = cr_bending_create(m->garment->mesh, m->topo, mat, 1, &m->bending, err);
     if (st == CR_OK)
         st = cr_gravity_create(m->garment->mesh, mat, (double[]){0, -9.81, 0}, &m->gravity, err);
-    const cr_mesh *bm = m->body->rest;
-    if (st == CR_OK)
+    if (st == CR_OK) {
+        const cr_mesh *bm = m->body->rest;
         st = cr_loss_collider_create(bm->pos, bm->nv, bm->tri, bm->nf, &m->collider, err);
+    }
     if (st == CR_OK) {
         m->theta_bar = cr_malloc(sizeof(float) * (size_t)(m->nh > 0 ? m->nh : 1), err);
         if (!m->theta_bar)

@@ -18,6 +18,7 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <threads.h>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -27,14 +28,14 @@
 #endif
 
 enum {
-    GEMM_KC = 256,              /* k per packed block: an A panel and a B panel stay in L1 */
-    GEMM_MC = 240,              /* rows per thread block at most: packed A in L2 */
-    GEMM_NC = 2048,             /* columns per packed B block */
-    GEMM_PACK_BUDGET = 1 << 22, /* floats of packed B per parallel region, at most (16 MB) */
-    GEMM_GRAIN = 1 << 18,       /* multiply-adds a chunk is worth a thread from, about */
-    GEMM_SPLIT_K_MIN = 2048,    /* k from which a product with a small C splits k */
-    GEMM_SPLIT_K_ROWS = 512,    /* k per chunk, about */
-    GEMM_SPLIT_K_CHUNKS = 16,   /* chunks at most */
+    GEMM_KC = 256,                 /* k per packed block: an A panel and a B panel stay in L1 */
+    GEMM_MC = 240,                 /* rows per thread block at most: packed A in L2 */
+    GEMM_NC = 2048,                /* columns per packed B block */
+    GEMM_PACK_BUDGET = 1 << 22,    /* floats of packed B per parallel region, at most (16 MB) */
+    GEMM_GRAIN = 1 << 18,          /* multiply-adds a chunk is worth a thread from, about */
+    GEMM_SPLIT_K_MIN = 2048,       /* k from which a product with a small C splits k */
+    GEMM_SPLIT_K_ROWS = 512,       /* k per chunk, about */
+    GEMM_SPLIT_K_CHUNKS = 16,      /* chunks at most */
     GEMM_SPLIT_K_FLOATS = 1 << 22, /* the partial products together at most (16 MB) */
     SCALAR_MR = 4,
     SCALAR_NR = 8,
@@ -209,26 +210,52 @@ static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begi
         }
 }
 
-/* The packing and partial buffers, one per thread and purpose, grown when a
- * product needs more and kept for the thread's life: once a runtime's first
- * frames have sized them, its steps call the heap no more (issue 51; they
- * malloc'd and freed about 3,000 times a gdsr frame). A purpose is never
- * used twice at once on one thread: a split-k chunk's blocked product, run
- * inside the split's region, takes the other purposes. */
+/* The packing and partial buffers, one set per thread (C11 thread-specific
+ * storage, freed when the thread ends), one per purpose, grown when a
+ * product needs more and kept: once a runtime's first frames have sized
+ * them, its steps call the heap no more (issue 51; they malloc'd and freed
+ * about 3,000 times a gdsr frame). A purpose is never used twice at once on
+ * one thread: a split-k chunk's blocked product, run inside the split's
+ * region, takes the other purposes. */
 enum { BUF_A, BUF_B, BUF_BLOCKS, BUF_BT, BUF_PARTIAL, NBUF };
-static _Thread_local struct {
-    void *p;
-    size_t cap;
-} thread_buf[NBUF];
+typedef struct thread_buffers {
+    void *p[NBUF];
+    size_t cap[NBUF];
+} thread_buffers;
+
+static tss_t buffers_key;
+static once_flag buffers_once = ONCE_FLAG_INIT;
+static int buffers_ok;
+
+static void buffers_free(void *v) {
+    thread_buffers *b = v;
+    for (int i = 0; i < NBUF; i++)
+        free(b->p[i]);
+    free(b);
+}
+
+static void buffers_key_make(void) {
+    buffers_ok = tss_create(&buffers_key, buffers_free) == thrd_success;
+}
 
 static void *thread_buffer(int which, size_t bytes) {
-    bytes = (bytes + 63) & ~(size_t)63;
-    if (bytes > thread_buf[which].cap) {
-        free(thread_buf[which].p);
-        thread_buf[which].p = aligned_alloc(64, bytes);
-        thread_buf[which].cap = thread_buf[which].p ? bytes : 0;
+    call_once(&buffers_once, buffers_key_make);
+    if (!buffers_ok) return NULL; /* the caller falls back (OpenBLAS, unpacked rows) */
+    thread_buffers *b = tss_get(buffers_key);
+    if (!b) {
+        if (!(b = calloc(1, sizeof *b))) return NULL;
+        if (tss_set(buffers_key, b) != thrd_success) {
+            free(b);
+            return NULL;
+        }
     }
-    return thread_buf[which].p;
+    bytes = (bytes + 63) & ~(size_t)63;
+    if (bytes > b->cap[which]) {
+        free(b->p[which]);
+        b->p[which] = aligned_alloc(64, bytes);
+        b->cap[which] = b->p[which] ? bytes : 0;
+    }
+    return b->p[which];
 }
 
 static float *thread_floats(int which, int64_t n) {
@@ -370,9 +397,21 @@ int cr_nn_cpu_gemm_own(int level, int ta, int tb, int64_t M, int64_t N, int64_t 
      * on one. */
     const int64_t chunks = split_k_chunks(M, N, K);
     if (chunks > 0) {
-        gemm_split g = {.level = level, .ta = ta, .tb = tb, .M = M, .N = N, .K = K,
-                        .chunks = chunks, .A = A, .B = B, .lda = lda, .ldb = ldb,
-                        .alpha = alpha, .beta = beta, .C = C, .ldc = ldc};
+        gemm_split g = {.level = level,
+                        .ta = ta,
+                        .tb = tb,
+                        .M = M,
+                        .N = N,
+                        .K = K,
+                        .chunks = chunks,
+                        .A = A,
+                        .B = B,
+                        .lda = lda,
+                        .ldb = ldb,
+                        .alpha = alpha,
+                        .beta = beta,
+                        .C = C,
+                        .ldc = ldc};
         g.partial = thread_floats(BUF_PARTIAL, chunks * M * N);
         if (g.partial) {
             cr_parallel_for(chunks, 1, split_k_range, &g);
