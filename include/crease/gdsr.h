@@ -355,6 +355,36 @@ enum { CR_GDSR_MAX_GARMENTS = 8 };
 cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *const *d,
                              int ngarments, cr_gdsr_train_result *out, cr_error *err);
 
+/* `crease gdsr train` as one call (train.c): each garment's low/high pairs
+ * of a `crease dataset` folder loaded, then cr_gdsr_train_many. */
+typedef struct cr_gdsr_train_dataset_def {
+    const char *dataset;         /* the folder (required) */
+    const char *const *garments; /* (ngarments) 1 to CR_GDSR_MAX_GARMENTS types */
+    int ngarments;
+    const char *body;           /* default "normal" */
+    const char *const *motions; /* (nmotions) training clips; 0: every motion of the
+                                   dataset with both sequences of the first garment
+                                   but the validation clips */
+    int nmotions;
+    const char *const *val_motions; /* (nval) held-out clips, rolled out each epoch */
+    int nval;
+} cr_gdsr_train_dataset_def;
+
+typedef struct cr_gdsr_train_dataset_result {
+    cr_gdsr_train_result train;
+    int32_t low_vertices[CR_GDSR_MAX_GARMENTS], high_vertices[CR_GDSR_MAX_GARMENTS];
+    char motions[CR_GDSR_MAX_CLIPS][64]; /* the training clips taken (nmotions) */
+    int nmotions;
+    char *summary_json; /* `gdsr train --json`'s object: sizes, every garment's, the last
+                           epoch's terms, the held-out MED (heap; ..._result_free) */
+} cr_gdsr_train_dataset_result;
+
+/* def's val_clips is set from the validation clips. Fails naming the
+ * dataset, a garment or a clip it cannot load. */
+cr_status cr_gdsr_train_dataset(const cr_gdsr_train_def *def, const cr_gdsr_train_dataset_def *data,
+                                cr_gdsr_train_dataset_result *out, cr_error *err);
+void cr_gdsr_train_dataset_result_free(cr_gdsr_train_dataset_result *r); /* NULL: no-op */
+
 /* Load model.safetensors (or a checkpoint) written by cr_gdsr_train. */
 cr_status cr_gdsr_model_load(const char *path, cr_gdsr_model **out, cr_error *err);
 

@@ -194,96 +194,44 @@ static int cmd_train(int argc, char **argv) {
         return CLI_USAGE;
     }
     cr_error err = {0};
-    char buf[1024], vbuf[1024], found[CR_GDSR_MAX_CLIPS][64];
+    char buf[1024], vbuf[1024];
     const char *ms[CR_GDSR_MAX_CLIPS], *vs[CR_GDSR_MAX_CLIPS];
-    int nv = 0, nm = 0;
+    cr_gdsr_train_dataset_def dd = {.dataset = dataset,
+                                    .garments = gs,
+                                    .ngarments = ng,
+                                    .body = body,
+                                    .motions = ms,
+                                    .val_motions = vs};
     if (val) {
         snprintf(vbuf, sizeof vbuf, "%s", val);
-        nv = split(vbuf, vs, CR_GDSR_MAX_CLIPS);
+        dd.nval = split(vbuf, vs, CR_GDSR_MAX_CLIPS);
     }
     if (motions) {
         snprintf(buf, sizeof buf, "%s", motions);
-        nm = split(buf, ms, CR_GDSR_MAX_CLIPS);
-    } else { /* the dataset's motions of the (first) garment, but the validation clips */
-        nm = cr_gdsr_dataset_motions(dataset, gs[0], body, vs, nv, found, CR_GDSR_MAX_CLIPS - nv,
-                                     &err);
-        if (nm < 0) return cli_fail(&err);
-        for (int k = 0; k < nm; k++)
-            ms[k] = found[k];
+        dd.nmotions = split(buf, ms, CR_GDSR_MAX_CLIPS);
+    }
+    cr_gdsr_train_dataset_result tr;
+    if (cr_gdsr_train_dataset(&def, &dd, &tr, &err) != CR_OK) return cli_fail(&err);
+    if (!motions) {
         fprintf(stderr, "gdsr train: the dataset's motions:");
-        for (int k = 0; k < nm; k++)
-            fprintf(stderr, " %s", ms[k]);
+        for (int k = 0; k < tr.nmotions; k++)
+            fprintf(stderr, " %s", tr.motions[k]);
         fprintf(stderr, "\n");
     }
-    /* validation clips go last: cr_gdsr_train leaves them out of training */
-    def.val_clips = 0;
-    for (int k = 0; k < nv && nm < CR_GDSR_MAX_CLIPS; k++)
-        ms[nm++] = vs[k], def.val_clips++;
-    cr_gdsr_data ds[CR_GDSR_MAX_GARMENTS];
-    const cr_gdsr_data *dp[CR_GDSR_MAX_GARMENTS];
-    int vl[CR_GDSR_MAX_GARMENTS], vh[CR_GDSR_MAX_GARMENTS];
-    memset(ds, 0, sizeof ds);
-    cr_status st = CR_OK;
-    for (int k = 0; k < ng && st == CR_OK; k++) {
-        st = cr_gdsr_data_load(dataset, gs[k], body, ms, nm, &ds[k], &err);
-        dp[k] = &ds[k];
-    }
-    cr_gdsr_train_result r;
-    if (st == CR_OK) st = cr_gdsr_train_many(&def, dp, ng, &r, &err);
-    for (int k = 0; k < ng; k++) {
-        vl[k] = ds[k].low ? ds[k].low->nv : 0, vh[k] = ds[k].high ? ds[k].high->nv : 0;
-        cr_gdsr_data_free(&ds[k]);
-    }
-    if (st != CR_OK) return cli_fail(&err);
+    const cr_gdsr_train_result r = tr.train;
     fprintf(stderr,
             "gdsr train: %lld parameters, %d garment%s (%d -> %d vertices%s), epochs %d..%d, "
             "loss %.4g -> %.4g (coarse %.3g m, fine %.3g m, normal %.3g, stretch %.3g, shear "
             "%.3g, bend %.3g, laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
-            (long long)r.params, ng, ng > 1 ? "s" : "", vl[0], vh[0], ng > 1 ? " the first" : "",
-            r.resumed_from, r.epochs, r.first_loss, r.last_loss, r.last_coarse, r.last_fine,
-            r.last_normal, r.last_stretch, r.last_shear, r.last_bend, r.last_laplacian, r.seconds,
-            def.out_dir);
-    if (def.val_clips > 0)
+            (long long)r.params, ng, ng > 1 ? "s" : "", tr.low_vertices[0], tr.high_vertices[0],
+            ng > 1 ? " the first" : "", r.resumed_from, r.epochs, r.first_loss, r.last_loss,
+            r.last_coarse, r.last_fine, r.last_normal, r.last_stretch, r.last_shear, r.last_bend,
+            r.last_laplacian, r.seconds, def.out_dir);
+    if (dd.nval > 0)
         fprintf(stderr, "  held-out MED %.5f m, upsampling's %.5f m\n", r.last_val_med,
                 r.val_upsampled_med);
-    if (json) {
-        cJSON *j = cJSON_CreateObject();
-        cJSON_AddStringToObject(j, "command", "gdsr train");
-        cJSON_AddNumberToObject(j, "params", (double)r.params);
-        cJSON_AddNumberToObject(j, "low_vertices", vl[0]); /* the first garment's */
-        cJSON_AddNumberToObject(j, "high_vertices", vh[0]);
-        cJSON *ga = cJSON_AddArrayToObject(j, "garments");
-        for (int k = 0; k < ng; k++) {
-            cJSON *o = cJSON_CreateObject();
-            cJSON_AddStringToObject(o, "garment", gs[k]);
-            cJSON_AddNumberToObject(o, "low_vertices", vl[k]);
-            cJSON_AddNumberToObject(o, "high_vertices", vh[k]);
-            cJSON_AddItemToArray(ga, o);
-        }
-        cJSON_AddNumberToObject(j, "epochs", r.epochs);
-        cJSON_AddNumberToObject(j, "resumed_from", r.resumed_from);
-        cJSON_AddNumberToObject(j, "first_loss", r.first_loss);
-        cJSON_AddNumberToObject(j, "loss", r.last_loss);
-        cJSON_AddNumberToObject(j, "coarse_l1_m", r.last_coarse);
-        cJSON_AddNumberToObject(j, "fine_l1_m", r.last_fine);
-        cJSON_AddNumberToObject(j, "normal_l1", r.last_normal);
-        cJSON_AddNumberToObject(j, "stretch", r.last_stretch);
-        cJSON_AddNumberToObject(j, "shear", r.last_shear);
-        cJSON_AddNumberToObject(j, "bend", r.last_bend);
-        cJSON_AddNumberToObject(j, "laplacian_l1_m", r.last_laplacian);
-        cJSON_AddNumberToObject(j, "strain_l1", r.last_strain_l1);
-        cJSON_AddNumberToObject(j, "wrinkle", r.last_wrinkle);
-        cJSON_AddNumberToObject(j, "coarse_normal_l1", r.last_coarse_normal);
-        cJSON_AddNumberToObject(j, "coarse_smooth", r.last_coarse_smooth);
-        cJSON_AddNumberToObject(j, "coarse_bend", r.last_coarse_bend);
-        cJSON_AddNumberToObject(j, "coarse_strain_l1", r.last_coarse_strain);
-        if (def.val_clips > 0) {
-            cJSON_AddNumberToObject(j, "val_med_m", r.last_val_med);
-            cJSON_AddNumberToObject(j, "val_upsampled_med_m", r.val_upsampled_med);
-        }
-        cJSON_AddNumberToObject(j, "seconds", r.seconds);
-        cli_json_print(j);
-    }
+    if (json) cli_json_print(cJSON_Parse(tr.summary_json));
+    cr_gdsr_train_dataset_result_free(&tr);
     return CLI_OK;
 }
 

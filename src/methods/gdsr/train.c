@@ -10,6 +10,7 @@
 #include "crease/nn_checkpoint.h"
 #include "crease/nn_optim.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -699,4 +700,107 @@ cr_status cr_gdsr_rollout(cr_gdsr_model *m, const cr_gdsr_data *d, int clip, flo
     }
     if (st != CR_OK) cr_gdsr_rollout_free(out);
     return st;
+}
+
+/* The summary `gdsr train --json` prints (heap text, NULL without memory). */
+static char *train_summary(const cr_gdsr_train_dataset_def *data,
+                           const cr_gdsr_train_dataset_result *t) {
+    const cr_gdsr_train_result *r = &t->train;
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "command", "gdsr train");
+    cJSON_AddNumberToObject(j, "params", (double)r->params);
+    cJSON_AddNumberToObject(j, "low_vertices", t->low_vertices[0]); /* the first garment's */
+    cJSON_AddNumberToObject(j, "high_vertices", t->high_vertices[0]);
+    cJSON *ga = cJSON_AddArrayToObject(j, "garments");
+    for (int k = 0; k < data->ngarments; k++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "garment", data->garments[k]);
+        cJSON_AddNumberToObject(o, "low_vertices", t->low_vertices[k]);
+        cJSON_AddNumberToObject(o, "high_vertices", t->high_vertices[k]);
+        cJSON_AddItemToArray(ga, o);
+    }
+    const struct {
+        const char *key;
+        double value;
+    } rows[] = {{"epochs", r->epochs},
+                {"resumed_from", r->resumed_from},
+                {"first_loss", r->first_loss},
+                {"loss", r->last_loss},
+                {"coarse_l1_m", r->last_coarse},
+                {"fine_l1_m", r->last_fine},
+                {"normal_l1", r->last_normal},
+                {"stretch", r->last_stretch},
+                {"shear", r->last_shear},
+                {"bend", r->last_bend},
+                {"laplacian_l1_m", r->last_laplacian},
+                {"strain_l1", r->last_strain_l1},
+                {"wrinkle", r->last_wrinkle},
+                {"coarse_normal_l1", r->last_coarse_normal},
+                {"coarse_smooth", r->last_coarse_smooth},
+                {"coarse_bend", r->last_coarse_bend},
+                {"coarse_strain_l1", r->last_coarse_strain}};
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++)
+        cJSON_AddNumberToObject(j, rows[i].key, rows[i].value);
+    if (data->nval > 0) {
+        cJSON_AddNumberToObject(j, "val_med_m", r->last_val_med);
+        cJSON_AddNumberToObject(j, "val_upsampled_med_m", r->val_upsampled_med);
+    }
+    cJSON_AddNumberToObject(j, "seconds", r->seconds);
+    char *s = cJSON_PrintUnformatted(j);
+    cJSON_Delete(j);
+    return s;
+}
+
+cr_status cr_gdsr_train_dataset(const cr_gdsr_train_def *def, const cr_gdsr_train_dataset_def *data,
+                                cr_gdsr_train_dataset_result *out, cr_error *err) {
+    const int ng = data->ngarments, nv = data->nval;
+    if (!data->dataset || ng < 1 || ng > CR_GDSR_MAX_GARMENTS || nv < 0 || nv > CR_GDSR_MAX_CLIPS ||
+        data->nmotions < 0 || data->nmotions + nv > CR_GDSR_MAX_CLIPS)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr train: a dataset, 1 to %d garments and up to %d clips with the "
+                       "held-out ones",
+                       CR_GDSR_MAX_GARMENTS, CR_GDSR_MAX_CLIPS);
+    memset(out, 0, sizeof *out);
+    const char *body = data->body ? data->body : "normal";
+    int nm = data->nmotions;
+    if (nm > 0) {
+        for (int k = 0; k < nm; k++)
+            snprintf(out->motions[k], sizeof out->motions[k], "%s", data->motions[k]);
+    } else { /* the dataset's motions of the first garment, but the validation clips */
+        nm = cr_gdsr_dataset_motions(data->dataset, data->garments[0], body, data->val_motions, nv,
+                                     out->motions, CR_GDSR_MAX_CLIPS - nv, err);
+        if (nm < 0) return err ? err->status : CR_ERR_INVALID;
+    }
+    out->nmotions = nm;
+    /* validation clips go last: cr_gdsr_train leaves them out of training */
+    const char *ms[CR_GDSR_MAX_CLIPS];
+    for (int k = 0; k < nm; k++)
+        ms[k] = out->motions[k];
+    for (int k = 0; k < nv; k++)
+        ms[nm + k] = data->val_motions[k];
+    cr_gdsr_train_def d = *def;
+    d.val_clips = nv;
+    cr_gdsr_data ds[CR_GDSR_MAX_GARMENTS];
+    const cr_gdsr_data *dp[CR_GDSR_MAX_GARMENTS];
+    memset(ds, 0, sizeof ds);
+    cr_status st = CR_OK;
+    for (int k = 0; k < ng && st == CR_OK; k++) {
+        st = cr_gdsr_data_load(data->dataset, data->garments[k], body, ms, nm + nv, &ds[k], err);
+        dp[k] = &ds[k];
+    }
+    if (st == CR_OK) st = cr_gdsr_train_many(&d, dp, ng, &out->train, err);
+    for (int k = 0; k < ng; k++) {
+        out->low_vertices[k] = ds[k].low ? ds[k].low->nv : 0;
+        out->high_vertices[k] = ds[k].high ? ds[k].high->nv : 0;
+        cr_gdsr_data_free(&ds[k]);
+    }
+    if (st == CR_OK && !(out->summary_json = train_summary(data, out)))
+        st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr train: out of memory for the summary");
+    return st;
+}
+
+void cr_gdsr_train_dataset_result_free(cr_gdsr_train_dataset_result *r) {
+    if (!r) return;
+    free(r->summary_json);
+    r->summary_json = NULL;
 }
