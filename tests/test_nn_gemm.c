@@ -5,9 +5,9 @@
  * transposition cases the layers use (y = x W^T, dx = dy W, dW = dy^T x) and
  * plain NN, leading dimensions wider than the rows, alpha and beta
  * (overwrite with NaN in C, accumulate), the narrow forward's dot-product
- * path, a long k split into chunks (weights gradients), more B blocks than one parallel region packs, the same bits whatever
- * the thread count, and the dispatch through cr_nn_cpu_gemm with CREASE_NN_GEMM's
- * choice forced either way.
+ * path, a long k split into chunks (weights gradients), more B blocks than one parallel region
+ * packs, the same bits whatever the thread count, and the dispatch through cr_nn_cpu_gemm with
+ * CREASE_NN_GEMM's choice forced either way.
  */
 #include "crease/nn.h"
 #include "nn/cpu/cpu.h"
@@ -98,6 +98,11 @@ CR_TEST(nn_gemm, layer_shapes_past_the_blocks_with_alpha_and_beta) {
         CR_CHECK(gemm_error(level, 0, 1, 4100, 3, 64, 1.0f, 0.0f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 1, 300, 8, 300, 0.5f, 1.0f, &rng) < 8.0);
         CR_CHECK(gemm_error(level, 0, 1, 97, 1, 13, 1.0f, 0.0f, &rng) < 8.0);
+        /* a few rows against a wide weight (M <= 8, B = W transposed: one or
+         * two frames through epnet's decoder): C^T = W x^T by dot products
+         * over W's rows, K with and without a tail, alpha and beta */
+        CR_CHECK(gemm_error(level, 0, 1, 2, 6171, 256, 1.0f, 0.0f, &rng) < 8.0);
+        CR_CHECK(gemm_error(level, 0, 1, 1, 500, 131, 0.5f, 1.0f, &rng) < 8.0);
         /* the same path with B not transposed (dx of a 6-wide input layer,
          * W copied to N x K first), with beta 0 and accumulating */
         CR_CHECK(gemm_error(level, 0, 0, 6144, 6, 64, 1.0f, 0.0f, &rng) < 8.0);

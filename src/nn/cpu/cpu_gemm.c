@@ -217,7 +217,7 @@ static void rows_unpacked(const gemm_block *g, const b_block *bb, int64_t i_begi
  * about 3,000 times a gdsr frame). A purpose is never used twice at once on
  * one thread: a split-k chunk's blocked product, run inside the split's
  * region, takes the other purposes. */
-enum { BUF_A, BUF_B, BUF_BLOCKS, BUF_BT, BUF_PARTIAL, NBUF };
+enum { BUF_A, BUF_B, BUF_BLOCKS, BUF_BT, BUF_CT, BUF_PARTIAL, NBUF };
 typedef struct thread_buffers {
     void *p[NBUF];
     size_t cap[NBUF];
@@ -443,6 +443,22 @@ static int gemm_blocked(int level, int ta, int tb, int64_t M, int64_t N, int64_t
         }
         gemm_dot g = {kern.dot, N, K, alpha, A, lda, Bt ? Bt : B, Bt ? K : ldb, beta, C, ldc};
         cr_parallel_for(M, chunk_grain(N * K), dot_rows, &g);
+        return 0;
+    }
+    if (!ta && tb && M * 4 <= kern.nr && M <= 8 && N > M) {
+        /* A few rows against a weight read along its rows (y = x W^T for
+         * one or two frames: epnet's decoder, 6,171 x 256 a pass): C^T =
+         * W x^T by the dot products above, parallel over W's rows, into a
+         * small buffer, then C. The tiled path packed all of W each call. */
+        float *Ct = thread_floats(BUF_CT, N * M);
+        if (!Ct) return -1;
+        gemm_dot g = {kern.dot, M, K, 1.0f, B, ldb, A, lda, 0.0f, Ct, M};
+        cr_parallel_for(N, chunk_grain(M * K), dot_rows, &g);
+        for (int64_t i = 0; i < M; i++)
+            for (int64_t j = 0; j < N; j++) {
+                float *c = C + i * ldc + j;
+                *c = beta == 0.0f ? alpha * Ct[j * M + i] : alpha * Ct[j * M + i] + beta * *c;
+            }
         return 0;
     }
     if (N * 4 <= kern.nr && M > N) {
