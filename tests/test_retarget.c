@@ -342,14 +342,23 @@ static void write_text(const char *path, const char *text) {
     fclose(fp);
 }
 
-/* ------------------------------------------------------------ tests -- */
-
-CR_TEST(retarget, renamed_rescaled_character_follows_the_mannequins_bone_directions) {
+/* The default mannequin at a coarse grid (48 cells over the height): what
+ * every test here writes as a character. NULL (the failure reported) when
+ * it cannot be built. */
+static cr_body_model *small_mannequin(void) {
     cr_error err = {0};
     cr_mannequin_def md = cr_mannequin_default_def();
     md.resolution = 48;
     cr_body_model *b = NULL;
     CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    return b;
+}
+
+/* ------------------------------------------------------------ tests -- */
+
+CR_TEST(retarget, renamed_rescaled_character_follows_the_mannequins_bone_directions) {
+    cr_error err = {0};
+    cr_body_model *b = small_mannequin();
     CR_REQUIRE(b);
     /* the mannequin's rest joints, as the BVH loader's target has them */
     const char *glb = tmp("mixamo.glb");
@@ -414,10 +423,7 @@ CR_TEST(retarget, renamed_rescaled_character_follows_the_mannequins_bone_directi
 
 CR_TEST(retarget, joint_map_file_drives_meaningless_names_and_bad_lines_are_refused) {
     cr_error err = {0};
-    cr_mannequin_def md = cr_mannequin_default_def();
-    md.resolution = 48;
-    cr_body_model *b = NULL;
-    CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    cr_body_model *b = small_mannequin();
     CR_REQUIRE(b);
     const char *const *bone = bone_names();
     const char *glb = tmp("bones.glb");
@@ -542,10 +548,7 @@ CR_TEST(retarget, joint_map_file_drives_meaningless_names_and_bad_lines_are_refu
  * recentred heading. */
 CR_TEST(retarget, root_joint_above_the_pelvis_unreal_names) {
     cr_error err = {0};
-    cr_mannequin_def md = cr_mannequin_default_def();
-    md.resolution = 48;
-    cr_body_model *b = NULL;
-    CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    cr_body_model *b = small_mannequin();
     CR_REQUIRE(b);
     const char *glb = tmp("unreal.glb");
     write_rooted_character(b, glb);
@@ -669,10 +672,7 @@ static void role_weights(const cr_body_model *b, int64_t v, double w[CR_NJOINTS]
  * back in the mannequin's A-pose. */
 CR_TEST(retarget, character_as_a_body_comes_back_as_the_mannequin) {
     cr_error err = {0};
-    cr_mannequin_def md = cr_mannequin_default_def();
-    md.resolution = 48;
-    cr_body_model *b = NULL, *cb = NULL;
-    CR_CHECK_OK(cr_mannequin_create(&md, &b, &err), &err);
+    cr_body_model *b = small_mannequin(), *cb = NULL;
     CR_REQUIRE(b);
     const char *glb = tmp("unreal_body.glb");
     write_rooted_character(b, glb);

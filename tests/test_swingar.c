@@ -71,6 +71,18 @@ static cr_swingar_def tiny_def(void) {
     return d;
 }
 
+/* A tiny model with random heads (zero_last off: its output differs from the
+ * skinned prior), seeded; NULL (the failure reported) when it cannot be
+ * made. */
+static cr_swingar *random_tiny_model(uint64_t seed) {
+    cr_swingar_def def = tiny_def();
+    def.zero_last = 0;
+    cr_error err = {0};
+    cr_swingar *m = NULL;
+    CR_CHECK_OK(cr_swingar_create(&def, seed, &m, &err), &err);
+    return m;
+}
+
 static cr_swingar_motion seq_motion(const cr_swingar_data *d, int i) {
     const cr_swingar_sequence *s = &d->sequences[i];
     cr_swingar_motion mo = {s->nframes, d->bodies[s->body_index].model->joints, s->poses, s->trans};
@@ -89,11 +101,8 @@ static cr_nn_ctx *test_ctx(size_t mib) {
 CR_TEST(swingar, skinning_weights_sum_to_one) {
     const cr_swingar_data *d = tiny_data();
     CR_REQUIRE(d);
-    cr_swingar_def def = tiny_def();
-    def.zero_last = 0; /* random heads: the weights differ from the prior */
     cr_error err = {0};
-    cr_swingar *m = NULL;
-    CR_CHECK_OK(cr_swingar_create(&def, 3, &m, &err), &err);
+    cr_swingar *m = random_tiny_model(3);
     CR_REQUIRE(m);
     cr_nn_ctx *ctx = test_ctx(128);
     CR_REQUIRE(ctx);
@@ -196,11 +205,8 @@ CR_TEST(swingar, predict_and_batch_agree) {
      * corrective shape depends on the frame triple) */
     const cr_swingar_data *d = tiny_data();
     CR_REQUIRE(d && d->nsequences >= 2);
-    cr_swingar_def def = tiny_def();
-    def.zero_last = 0;
     cr_error err = {0};
-    cr_swingar *m = NULL;
-    CR_CHECK_OK(cr_swingar_create(&def, 5, &m, &err), &err);
+    cr_swingar *m = random_tiny_model(5);
     CR_REQUIRE(m);
     const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
     CR_REQUIRE(d->sequences[1].garment_index == d->sequences[0].garment_index);
@@ -238,11 +244,8 @@ CR_TEST(swingar, inference_matches_the_tape_forward) {
      * heads, so every layer reaches the output) */
     const cr_swingar_data *d = tiny_data();
     CR_REQUIRE(d);
-    cr_swingar_def def = tiny_def();
-    def.zero_last = 0;
     cr_error err = {0};
-    cr_swingar *m = NULL;
-    CR_CHECK_OK(cr_swingar_create(&def, 7, &m, &err), &err);
+    cr_swingar *m = random_tiny_model(7);
     CR_REQUIRE(m);
     const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
     cr_swingar_motion mo = seq_motion(d, 0);
@@ -304,15 +307,12 @@ CR_TEST(swingar, runtime_steps_equal_the_whole_motion) {
      * threads sharing one model: each equals one forward over the motion */
     const cr_swingar_data *d = tiny_data();
     CR_REQUIRE(d && d->nsequences >= 2);
-    cr_swingar_def def = tiny_def();
-    def.zero_last = 0;
     cr_error err = {0};
-    cr_swingar *m = NULL;
-    CR_CHECK_OK(cr_swingar_create(&def, 5, &m, &err), &err);
+    cr_swingar *m = random_tiny_model(5);
     CR_REQUIRE(m);
     const cr_swingar_garment *g = d->garments[d->sequences[0].garment_index];
     cr_swingar_motion mo[2] = {seq_motion(d, 0), seq_motion(d, 1)};
-    CR_REQUIRE(mo[0].nframes > def.motion_window + 1);
+    CR_REQUIRE(mo[0].nframes > cr_swingar_get_def(m)->motion_window + 1);
     const int64_t V = g->rest->nv;
     float *ref[2] = {one_forward(m, g, &mo[0]), one_forward(m, g, &mo[1])};
     int64_t n[2] = {mo[0].nframes * V * 3, mo[1].nframes * V * 3};

@@ -115,19 +115,6 @@ ALWAYS float hsum(v16 *v) {
     return u[0];
 }
 
-/* y += a over n floats */
-ALWAYS void vadd_to(float *y, const float *a, int64_t n) {
-    int64_t i = 0;
-    for (; i + 16 <= n; i += 16) {
-        v16 u, v;
-        V_LD(u, y + i), V_LD(v, a + i);
-        u += v;
-        V_ST(y + i, u);
-    }
-    for (; i < n; i++)
-        y[i] += a[i];
-}
-
 /* y = a + b over n floats (y may be a) */
 ALWAYS void vadd3(float *y, const float *a, const float *b, int64_t n) {
     int64_t i = 0;
@@ -139,6 +126,11 @@ ALWAYS void vadd3(float *y, const float *a, const float *b, int64_t n) {
     }
     for (; i < n; i++)
         y[i] = a[i] + b[i];
+}
+
+/* y += a over n floats */
+ALWAYS void vadd_to(float *y, const float *a, int64_t n) {
+    vadd3(y, y, a, n);
 }
 
 /* sum of (a - c)^2 (sq) or of a (!sq) over n floats */
