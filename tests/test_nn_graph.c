@@ -790,7 +790,8 @@ CR_TEST(nn_graph, mpnn_matches_loop_reference) {
 
 /* The forward-only path (gradient off: every block in cpu_mpnn.c) against
  * the tape's ops on every SIMD path: latents 6 (no whole vector), 16
- * (epnet's P-Net) and 40 (two vectors and a tail); without LayerNorm, and
+ * (epnet's P-Net), 40 (two vectors and a tail) and 80 (a 64-column block
+ * and a vector, gdsr's 64); without LayerNorm, and
  * with it after no hidden layer (not centred in the weights: the gathered
  * rows add to the one layer), one and two; two edge sets: infer_graph (a
  * long segment, an empty one, a self loop) and a set given sorted by
@@ -808,8 +809,8 @@ CR_TEST(nn_graph, mpnn_inference_matches_tape) {
     double worst = 0.0;
     for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
         cr_nn_cpu_set_simd(level);
-        for (int m = 0; m < 4; m++) {
-            const int latents[4] = {6, 16, 40, 16}, hidden[4] = {1, 1, 2, 0};
+        for (int m = 0; m < 5; m++) {
+            const int latents[5] = {6, 16, 40, 16, 80}, hidden[5] = {1, 1, 2, 0, 1};
             const cr_act acts[4] = {CR_ACT_TANH, CR_ACT_RELU, CR_ACT_SOFTPLUS, CR_ACT_LEAKY_RELU};
             cr_nn_params *P = NULL;
             cr_error err = {0};

@@ -10,6 +10,7 @@
  * paper's Table 1 models (sec. 4.1).
  */
 #include "crease/nn_layers.h"
+#include "nn/cpu/cpu.h"
 #include "nn_gradcheck.h"
 #include "test.h"
 
@@ -852,6 +853,87 @@ CR_TEST(nn_layers, wire_activation_values_and_gradcheck) {
         CR_CHECK(nn_gradcheck(&gd, cases[c].real_input ? 1 : 2, in, NULL, build_wire, &cases[c],
                               NULL) == 0);
     }
+}
+
+/* cr_wire_hyper_infer (cpu_wire.c) against the networks computed in double
+ * with complex arithmetic, on every SIMD level the machine has: widths 16
+ * (AVX-512's register path), 5 and 20 (the portable one, with and without
+ * whole vectors), 2 to 5 layers, one and three outputs, points sharing rows.
+ * Arguments past the vector sincos's range (omega0 1e5, on real inputs, where
+ * the activation's modulus is at most 1) give outputs within the bound. */
+static double complex wire_ref(double complex z, double omega0, double s0) {
+    double sz = cabs(s0 * z);
+    return cexp(I * omega0 * z) * exp(-sz * sz);
+}
+
+CR_TEST(nn_layers, wire_hyper_infer_matches_a_double_reference) {
+    const struct {
+        int width, layers, out;
+        float omega0;
+    } cases[] = {{16, 5, 3, 5.0f}, {16, 2, 1, 20.0f}, {5, 4, 3, 5.0f},
+                 {20, 3, 3, 5.0f}, {16, 2, 3, 1e5f},  {5, 2, 3, 1e5f}};
+    enum { G = 7, M = 40 };
+    const int prev = cr_nn_cpu_simd();
+    double worst = 0;
+    for (int level = NN_SIMD_SCALAR; level <= cr_nn_cpu_simd_max(); level++) {
+        cr_nn_cpu_set_simd(level);
+        for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+            const int w = cases[c].width, L = cases[c].layers, out = cases[c].out;
+            const float omega0 = cases[c].omega0, s0 = 10.0f;
+            const int64_t P = 3 * w + (L - 2) * (2 * w * w + 2 * w) + 2 * out * w + 2 * out + 1;
+            cr_rng rng = cr_rng_make(41 + (uint64_t)c, 0);
+            float *theta = malloc(sizeof(float) * (size_t)(G * P)), x[3 * M], y[3 * M];
+            int32_t group[M];
+            CR_REQUIRE(theta);
+            fill_rand(theta, G * P, &rng, -0.2f, 0.2f);
+            fill_rand(x, 3 * M, &rng, 0.0f, 1.0f);
+            for (int m = 0; m < M; m++)
+                group[m] = (int32_t)((m / 2) % G);
+            cr_nn_ctx *ctx = make_ctx();
+            cr_error err = {0};
+            CR_CHECK_OK(cr_wire_hyper_infer(ctx, theta, G, P, group, x + 1, 3, M, w, L, out, omega0,
+                                            s0, y, &err),
+                        &err);
+            for (int m = 0; m < M; m++) {
+                const float *t = theta + group[m] * P;
+                const double u = x[3 * m + 1], v = x[3 * m + 2];
+                double complex z[32], yz[32];
+                double bound[32]; /* |y_o| at most its weights' and bias's moduli summed */
+                for (int o = 0; o < w; o++)
+                    z[o] = wire_ref(t[2 * o] * u + t[2 * o + 1] * v + t[2 * w + o], omega0, s0);
+                t += 3 * w;
+                for (int l = 1; l < L; l++) {
+                    const int no = l == L - 1 ? out : w;
+                    const float *Wr = t, *Wi = t + no * w, *br = Wi + no * w, *bi = br + no;
+                    for (int o = 0; o < no; o++) {
+                        yz[o] = br[o] + I * bi[o];
+                        bound[o] = fabs(br[o]);
+                        for (int k = 0; k < w; k++) {
+                            yz[o] += z[k] * (Wr[o * w + k] + I * Wi[o * w + k]);
+                            bound[o] += fabs(Wr[o * w + k]) + fabs(Wi[o * w + k]);
+                        }
+                    }
+                    for (int o = 0; o < no; o++)
+                        z[o] = l == L - 1 ? yz[o] : wire_ref(yz[o], omega0, s0);
+                    t += 2 * no * w + 2 * no;
+                }
+                for (int o = 0; o < out; o++) {
+                    if (omega0 > 1e4f) {
+                        CR_CHECK(isfinite(y[m * out + o]) &&
+                                 fabs(y[m * out + o]) <= bound[o] + 1e-5);
+                        continue;
+                    }
+                    double d = fabs(y[m * out + o] - creal(z[o]));
+                    worst = fmax(worst, d);
+                    CR_CHECK(d < 2e-6 + 1e-5 * fabs(creal(z[o])));
+                }
+            }
+            cr_nn_ctx_destroy(ctx);
+            free(theta);
+        }
+    }
+    cr_nn_cpu_set_simd(prev);
+    printf("  worst difference %.3g over %d SIMD levels\n", worst, cr_nn_cpu_simd_max() + 1);
 }
 
 static cr_tensor *build_complex_linear(cr_nn_ctx *ctx, cr_tensor *const *in, void *user) {

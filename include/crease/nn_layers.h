@@ -261,6 +261,23 @@ cr_tensor *cr_complex_linear(cr_nn_ctx *ctx, cr_tensor *x_re, cr_tensor *x_im, c
                              cr_tensor *w_im, cr_tensor *b_re, cr_tensor *b_im, cr_tensor **y_re,
                              cr_tensor **y_im);
 
+/* WIRE networks whose parameters are rows of theta (G,P), as a hyper-network
+ * makes them (gdsr's fields), evaluated point by point with the context's
+ * gradient off: point m runs row group[m]'s network at its two inputs
+ * x[m ldx], x[m ldx + 1] and writes the real part of the last layer to
+ * y (M,out). A row holds, in order: the real first layer's weight (width,2)
+ * row-major and bias (width); then for each later layer the weight's real
+ * and imaginary parts (o,width) row-major and the bias's (o), o = width but
+ * `out` for the last; WIRE after every layer but the last. So P is at least
+ * 3 width + (layers - 2)(2 width^2 + 2 width) + 2 out width + 2 out. layers
+ * 2..CR_MLP_MAX_LAYERS, width 1..256, out >= 1. One fused kernel a point;
+ * 16-wide networks in registers on AVX-512 (cpu_wire.c). Returns
+ * CR_ERR_INVALID on a bad size or a group outside [0,G). */
+cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int64_t P,
+                              const int32_t *group, const float *x, int64_t ldx, int64_t M,
+                              int width, int layers, int out, float omega0, float s0, float *y,
+                              cr_error *err);
+
 /* A WIRE network as in the WIRE reference code: a real first linear layer,
  * WIRE after every hidden layer, complex later layers, and the real part of
  * the last (complex, unactivated) layer as the output. */

@@ -102,6 +102,19 @@ typedef struct nn_mpnn_block_args {
     float *scratch;     /* mpnn_block_scratch(a) floats */
 } nn_mpnn_block_args;
 
+/* WIRE networks from a hyper-network's rows, one per point
+ * (cr_wire_hyper_infer, nn_layers.h). */
+typedef struct nn_wire_points_args {
+    const float *theta; /* (G,P) */
+    int64_t P;
+    const int32_t *group; /* (M) rows of theta */
+    const float *x;       /* point m's inputs at x[m ldx] and x[m ldx + 1] */
+    int64_t ldx, M;
+    int width, layers, out;
+    float omega0, s2; /* s2 = s0^2 */
+    float *y;         /* (M,out) */
+} nn_wire_points_args;
+
 typedef struct cr_nn_backend {
     const char *name;
 
@@ -191,6 +204,7 @@ typedef struct cr_nn_backend {
     void (*lstm_gates_forward)(const nn_lstm_gates_args *a);
     size_t (*mpnn_block_scratch)(const nn_mpnn_block_args *a); /* floats; a without scratch */
     void (*mpnn_block_forward)(const nn_mpnn_block_args *a);
+    void (*wire_points_forward)(const nn_wire_points_args *a);
 
     /* ---- row-wise vector ops over rows of C floats */
     /* mean, rstd: (R) saved for backward; w, b may be NULL. */

@@ -119,6 +119,44 @@ cr_tensor *cr_wire_activation(cr_nn_ctx *ctx, cr_tensor *re, cr_tensor *im, floa
     return y;
 }
 
+cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int64_t P,
+                              const int32_t *group, const float *x, int64_t ldx, int64_t M,
+                              int width, int layers, int out, float omega0, float s0, float *y,
+                              cr_error *err) {
+    if (!ctx || !theta || !group || !x || !y || M < 0)
+        return CR_FAIL(err, CR_ERR_INVALID, "wire hyper: NULL argument");
+    if (layers < 2 || layers > CR_MLP_MAX_LAYERS || width < 1 || width > 256 || out < 1 || ldx < 2)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "wire hyper: layers %d (2..%d), width %d (1..256), out %d, ldx %lld", layers,
+                       CR_MLP_MAX_LAYERS, width, out, (long long)ldx);
+    const int64_t need = 3 * (int64_t)width +
+                         (layers - 2) * (2 * (int64_t)width * width + 2 * width) +
+                         2 * (int64_t)out * width + 2 * out;
+    if (P < need)
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "wire hyper: rows of %lld floats, the network needs %lld", (long long)P,
+                       (long long)need);
+    for (int64_t m = 0; m < M; m++)
+        if (group[m] < 0 || group[m] >= G)
+            return CR_FAIL(err, CR_ERR_INVALID,
+                           "wire hyper: point %lld's group %d is outside [0,%lld)", (long long)m,
+                           group[m], (long long)G);
+    nn_wire_points_args a = {.theta = theta,
+                             .P = P,
+                             .group = group,
+                             .x = x,
+                             .ldx = ldx,
+                             .M = M,
+                             .width = width,
+                             .layers = layers,
+                             .out = out,
+                             .omega0 = omega0,
+                             .s2 = s0 * s0,
+                             .y = y};
+    ctx->be->wire_points_forward(&a);
+    return CR_OK;
+}
+
 cr_tensor *cr_complex_linear(cr_nn_ctx *ctx, cr_tensor *x_re, cr_tensor *x_im, cr_tensor *w_re,
                              cr_tensor *w_im, cr_tensor *b_re, cr_tensor *b_im, cr_tensor **y_re,
                              cr_tensor **y_im) {

@@ -55,11 +55,44 @@ int64_t cr_gdsr_push_out(const cr_bvh *b, float *x, int64_t n, float eps, float 
     return inside;
 }
 
+/* A vertex whose distance to the body after the first push was lb, and that
+ * has since moved m, is at least lb - m from it (the distance is 1-Lipschitz):
+ * with lb - m >= eps (plus a micrometre against rounding) a query would find
+ * no push to make, and is skipped. */
+#define RELAX_BOUND_MARGIN 1e-6f
+
+/* Pushes out the listed vertices of x (idx[0..c)) that the bound leaves in
+ * doubt, gathered into s->d. */
+static void push_listed(const cr_bvh *b, float *x, int32_t *idx, int64_t c, float eps,
+                        const cr_gdsr_relax_scratch *s) {
+    int64_t q = 0;
+    for (int64_t k = 0; k < c; k++) {
+        const int32_t i = idx[k];
+        const float *p = x + 3 * (int64_t)i;
+        if (s->lb) {
+            const float *p0 = s->x0 + 3 * (int64_t)i;
+            const float dx = p[0] - p0[0], dy = p[1] - p0[1], dz = p[2] - p0[2];
+            if (s->lb[i] - sqrtf(dx * dx + dy * dy + dz * dz) >= eps + RELAX_BOUND_MARGIN) continue;
+        }
+        idx[q] = i;
+        memcpy(&s->d[3 * q++], p, 3 * sizeof(float));
+    }
+    cr_gdsr_push_out(b, s->d, q, eps, s->sd, s->nrm, NULL);
+    for (int64_t k = 0; k < q; k++)
+        memcpy(&x[3 * (int64_t)idx[k]], &s->d[3 * k], 3 * sizeof(float));
+}
+
 void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw, float *x,
-                        float eps, int iters, float *sd, float *nrm, float *d, float *dn,
-                        uint8_t *moved) {
+                        float eps, int iters, const cr_gdsr_relax_scratch *s) {
     int32_t n = t->nv;
-    cr_gdsr_push_out(b, x, n, eps, sd, nrm, NULL);
+    float *d = s->d, *dn = s->dn;
+    uint8_t *moved = s->moved;
+    cr_gdsr_push_out(b, x, n, eps, s->sd, s->nrm, NULL);
+    if (s->lb) {
+        memcpy(s->x0, x, sizeof(float) * 3 * (size_t)n);
+        for (int32_t i = 0; i < n; i++) /* a pushed vertex's new distance is not known */
+            s->lb[i] = s->sd[i] >= eps ? s->sd[i] : -INFINITY;
+    }
     for (int it = 0; it < iters; it++) {
         for (int64_t i = 0; i < 3 * (int64_t)n; i++)
             d[i] = x[i] - raw[i];
@@ -72,29 +105,23 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
             for (int32_t e = b0; !near && e < b1; e++)
                 near = moved[t->vv[e]] & 1;
             if (!near || b1 == b0) continue;
-            float s[3] = {0, 0, 0};
+            float sum[3] = {0, 0, 0};
             for (int32_t e = b0; e < b1; e++)
                 for (int k = 0; k < 3; k++)
-                    s[k] += d[3 * (int64_t)t->vv[e] + k];
+                    sum[k] += d[3 * (int64_t)t->vv[e] + k];
             for (int k = 0; k < 3; k++)
-                dn[3 * (int64_t)i + k] = 0.5f * d[3 * (int64_t)i + k] + 0.5f * s[k] / (b1 - b0);
+                dn[3 * (int64_t)i + k] = 0.5f * d[3 * (int64_t)i + k] + 0.5f * sum[k] / (b1 - b0);
             moved[i] |= 2;
         }
-        /* only the smoothed vertices moved: push those (gathered into d) */
+        /* only the smoothed vertices moved: push those */
         int64_t c = 0;
         for (int32_t i = 0; i < n; i++)
             if (moved[i] & 2) {
                 for (int k = 0; k < 3; k++)
-                    d[3 * c + k] = raw[3 * (int64_t)i + k] + dn[3 * (int64_t)i + k];
-                c++;
+                    x[3 * (int64_t)i + k] = raw[3 * (int64_t)i + k] + dn[3 * (int64_t)i + k];
+                s->idx[c++] = i;
             }
-        cr_gdsr_push_out(b, d, c, eps, sd, nrm, NULL);
-        c = 0;
-        for (int32_t i = 0; i < n; i++)
-            if (moved[i] & 2) {
-                memcpy(&x[3 * (int64_t)i], &d[3 * c], 3 * sizeof(float));
-                c++;
-            }
+        push_listed(b, x, s->idx, c, eps, s);
     }
     /* concave spots: once more, on the vertices that moved; one that did not
      * is where the first push found it at eps or more (the same point, the
@@ -102,13 +129,9 @@ void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw,
     int64_t c = 0;
     for (int32_t i = 0; i < n; i++) {
         const float *p = x + 3 * (int64_t)i, *q = raw + 3 * (int64_t)i;
-        moved[i] = p[0] != q[0] || p[1] != q[1] || p[2] != q[2];
-        if (moved[i]) memcpy(&d[3 * c++], p, 3 * sizeof(float));
+        if (p[0] != q[0] || p[1] != q[1] || p[2] != q[2]) s->idx[c++] = i;
     }
-    cr_gdsr_push_out(b, d, c, eps, sd, nrm, NULL);
-    c = 0;
-    for (int32_t i = 0; i < n; i++)
-        if (moved[i]) memcpy(&x[3 * (int64_t)i], &d[3 * c++], 3 * sizeof(float));
+    push_listed(b, x, s->idx, c, eps, s);
 }
 
 /* The surface rule's partners: for each outer coarse vertex o, the closest

@@ -133,15 +133,25 @@ const char *cr_gdsr_model_def_differ(const cr_gdsr_model_def *a, const cr_gdsr_m
  * (n,3) scratch. */
 int64_t cr_gdsr_push_out(const cr_bvh *b, float *x, int64_t n, float eps, float *sd, float *nrm,
                          float *push);
+/* Scratch of cr_gdsr_relax_push over V vertices. */
+typedef struct cr_gdsr_relax_scratch {
+    float *sd, *nrm; /* (V), (V,3) */
+    float *d, *dn;   /* (V,3) each */
+    float *x0, *lb;  /* (V,3), (V): the positions and distances after the first push;
+                        lb NULL: every vertex in doubt is queried (x0 unused) */
+    int32_t *idx;    /* (V) */
+    uint8_t *moved;  /* (V) */
+} cr_gdsr_relax_scratch;
+
 /* Push x (V,3), the mesh of t, out to eps, spread its displacement from
  * raw by `iters` Jacobi steps of the uniform Laplacian on the moved
  * vertices and their one-ring, each followed by a push out, then push out
  * once more the vertices that moved (0 iterations: the per-vertex push,
- * twice). Scratch: sd (V), nrm, d, dn (V,3),
- * moved (V). */
+ * twice). After the first push every vertex's distance bounds where it can
+ * be later in the call, so the later pushes query only vertices that may
+ * lie within eps of the body (the same result as querying them all). */
 void cr_gdsr_relax_push(const cr_bvh *b, const cr_topology *t, const float *raw, float *x,
-                        float eps, int iters, float *sd, float *nrm, float *d, float *dn,
-                        uint8_t *moved);
+                        float eps, int iters, const cr_gdsr_relax_scratch *s);
 
 /* cr_gdsr_features with the vertex normals' scratch nrm (Vl,3) given (NULL:
  * zero normals), so that a runtime step allocates nothing. */

@@ -263,102 +263,22 @@ static cr_tensor *theta_b(cr_nn_ctx *ctx, cr_tensor *theta, int64_t *off, int64_
     return cr_nn_gather_rows(ctx, s, group, M);
 }
 
-/* The WIRE fields without the tape (the gradient off: a runtime's step):
- * each point evaluates its face's network from theta's row directly, the
- * layers of the tape path below in the same order (layer 0 real 2 -> w,
- * complex w -> w layers, the real part of the last w -> 3), each followed by
- * the WIRE activation of layer_wire.c, exp(-w0 b - s0^2 (a^2 + b^2)) (cos w0 a
- * + j sin w0 a). The tape path slices theta into (F,o,w) copies, gathers
- * each bias to the points and sorts the points by face for every grouped
- * product: at 10k points on 5k faces (two points a face) that was 115 ms of
- * a 10k-vertex frame, this about a tenth. */
-typedef struct wire_points {
-    const float *theta; /* (F,P) */
-    int64_t P;
-    const int32_t *face;
-    const float *bary; /* (M,3) */
-    int w, layers;
-    float omega0, s2;
-    float *y; /* (M,3) */
-} wire_points;
-
-enum { WIRE_MAX_WIDTH = 256 }; /* cr_gdsr_model_def_validate's bound */
-
-static void wire_act(const wire_points *j, float *re, float *im, int n) {
-    for (int k = 0; k < n; k++) {
-        const float a = re[k], b = im[k];
-        const float e = expf(-j->omega0 * b - j->s2 * (a * a + b * b));
-        re[k] = e * cosf(j->omega0 * a);
-        im[k] = e * sinf(j->omega0 * a);
-    }
-}
-
-/* (yr + j yi) = sum_k (re_k + j im_k)(wr_k + j wi_k) + (br + j bi) over n,
- * summed in WIRE_LANES lanes (so the compiler's SLP pass vectorises the
- * block) and then across them. */
-enum { WIRE_LANES = 8 };
-
-static void complex_dot(const float *re, const float *im, const float *wr, const float *wi, int n,
-                        float *yr, float *yi, float br, float bi) {
-    float pr[WIRE_LANES] = {0}, pi[WIRE_LANES] = {0};
-    int k = 0;
-    for (; k + WIRE_LANES <= n; k += WIRE_LANES)
-        for (int l = 0; l < WIRE_LANES; l++) {
-            const float a = re[k + l], b = im[k + l], c = wr[k + l], d = wi[k + l];
-            pr[l] += a * c - b * d;
-            pi[l] += a * d + b * c;
-        }
-    for (int l = 0; k < n; k++, l++) {
-        pr[l] += re[k] * wr[k] - im[k] * wi[k];
-        pi[l] += re[k] * wi[k] + im[k] * wr[k];
-    }
-    float sr = br, si = bi;
-    for (int l = 0; l < WIRE_LANES; l++)
-        sr += pr[l], si += pi[l];
-    *yr = sr, *yi = si;
-}
-
-static void wire_points_range(void *arg, int64_t begin, int64_t end) {
-    const wire_points *j = arg;
-    const int w = j->w;
-    float re[WIRE_MAX_WIDTH], im[WIRE_MAX_WIDTH], yr[WIRE_MAX_WIDTH], yi[WIRE_MAX_WIDTH];
-    for (int64_t i = begin; i < end; i++) {
-        const float *t = j->theta + (int64_t)j->face[i] * j->P;
-        const float u = j->bary[3 * i + 1], v = j->bary[3 * i + 2];
-        const float *W0 = t, *b0 = t + 2 * w;
-        for (int o = 0; o < w; o++)
-            re[o] = u * W0[2 * o] + v * W0[2 * o + 1] + b0[o], im[o] = 0.0f;
-        wire_act(j, re, im, w);
-        t += 3 * w;
-        for (int l = 1; l < j->layers; l++) {
-            const int no = l == j->layers - 1 ? 3 : w, last = l == j->layers - 1;
-            const float *Wr = t, *Wi = Wr + no * w, *br = Wi + no * w, *bi = br + no;
-            for (int o = 0; o < no; o++)
-                complex_dot(re, im, Wr + o * w, Wi + o * w, w, &yr[o], &yi[o], br[o], bi[o]);
-            t += 2 * (int64_t)no * w + 2 * no;
-            if (last) {
-                for (int k = 0; k < 3; k++)
-                    j->y[3 * i + k] = yr[k];
-                break;
-            }
-            memcpy(re, yr, sizeof(float) * (size_t)w);
-            memcpy(im, yi, sizeof(float) * (size_t)w);
-            wire_act(j, re, im, w);
-        }
-    }
-}
-
 cr_tensor *cr_gdsr_hyper(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_mesh *low, cr_tensor *h,
                          int64_t M, const int32_t *face, const float *bary) {
     const cr_gdsr_model_def *d = &m->def;
     int64_t w = d->wire_width;
     cr_tensor *theta = cr_mlp_forward(ctx, m->gen, corner_concat(ctx, h, low)); /* (F,P) */
     if (!cr_nn_ctx_grad_enabled(ctx)) {
+        /* each point evaluates its face's network from theta's row directly
+         * (the tape path below slices theta into (F,o,w) copies, gathers each
+         * bias to the points and sorts the points by face for every grouped
+         * product: at 10k points on 5k faces that was 115 ms of a 10k-vertex
+         * frame) */
         cr_tensor *y = theta ? cr_nn_new(ctx, 2, (int64_t[]){M, 3}) : NULL;
-        if (!y) return NULL;
-        wire_points j = {theta->data,    m->nparams, face,          bary,   d->wire_width,
-                         d->wire_layers, d->omega0,  d->s0 * d->s0, y->data};
-        cr_parallel_for(M, 256, wire_points_range, &j);
+        if (!y || cr_wire_hyper_infer(ctx, theta->data, theta->shape[0], m->nparams, face, bary + 1,
+                                      3, M, (int)w, d->wire_layers, 3, d->omega0, d->s0, y->data,
+                                      NULL) != CR_OK)
+            return NULL;
         return y;
     }
     cr_tensor *x = cr_nn_new(ctx, 2, (int64_t[]){M, 2});

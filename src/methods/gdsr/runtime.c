@@ -50,7 +50,9 @@ struct cr_gdsr_runtime {
     int64_t e2cap;
     float *raw;                 /* (Vh,3) the last output before the handling */
     float *lpush, *hpush;       /* (Vl,3), (Vh,3) the coarse push and its upsampling */
-    float *sd, *nrm, *rd;       /* (Vmax), (Vmax,3), (2,Vh,3) the handling's scratch */
+    float *sd, *nrm, *rd;       /* (Vmax), (Vmax,3), (3,Vh,3) the handling's scratch */
+    float *lb;                  /* (Vh) */
+    int32_t *idx;               /* (Vh) */
     uint8_t *moved;             /* (Vh) */
     int64_t frames;             /* stepped since create or reset */
     int have;                   /* frames of the network's own output in the history */
@@ -138,8 +140,15 @@ static cr_status handle(cr_gdsr_runtime *rt, int networks, float *out, cr_gdsr_r
     } else {
         cr_gdsr_push_out(rt->bv, out, Vh, 0.5f * def->eps, rt->sd, rt->nrm, NULL);
     }
-    cr_gdsr_relax_push(rt->bv, rt->htopo, rt->raw, out, 0.5f * def->eps, def->relax, rt->sd,
-                       rt->nrm, rt->rd, rt->rd + nh3, rt->moved);
+    const cr_gdsr_relax_scratch rs = {.sd = rt->sd,
+                                      .nrm = rt->nrm,
+                                      .d = rt->rd,
+                                      .dn = rt->rd + nh3,
+                                      .x0 = rt->rd + 2 * nh3,
+                                      .lb = rt->lb,
+                                      .idx = rt->idx,
+                                      .moved = rt->moved};
+    cr_gdsr_relax_push(rt->bv, rt->htopo, rt->raw, out, 0.5f * def->eps, def->relax, &rs);
     if (!networks) cr_gdsr_push_out(rt->bv, out, Vh, 0.5f * def->eps, rt->sd, rt->nrm, NULL);
     int64_t fine = 0;
     int64_t n = cr_gdsr_layer_push(d, rt->chat, out, CR_GDSR_LAYER_SIGMA, CR_GDSR_LAYER_GAMMA,
@@ -258,10 +267,12 @@ cr_status cr_gdsr_runtime_create(cr_gdsr_model *m, const cr_gdsr_data *d,
         rt->hpush = malloc(sizeof(float) * 3 * Vh);
         rt->sd = malloc(sizeof(float) * Vmax);
         rt->nrm = malloc(sizeof(float) * 3 * Vmax);
-        rt->rd = malloc(sizeof(float) * 6 * Vh);
+        rt->rd = malloc(sizeof(float) * 9 * Vh);
+        rt->lb = malloc(sizeof(float) * Vh);
+        rt->idx = malloc(sizeof(int32_t) * Vh);
         rt->moved = malloc(Vh + 1);
         int ok = rt->node && rt->e0 && rt->e1 && rt->raw && rt->hpush && rt->sd && rt->nrm &&
-                 rt->rd && rt->moved;
+                 rt->rd && rt->lb && rt->idx && rt->moved;
         for (size_t k = 0; k < sizeof vl / sizeof vl[0]; k++)
             ok = ok && *vl[k];
         if (!ok) st = CR_FAIL(err, CR_ERR_MEMORY, "gdsr runtime: out of memory");
@@ -309,7 +320,8 @@ void cr_gdsr_runtime_destroy(cr_gdsr_runtime *rt) {
     free(rt->c1), free(rt->c2), free(rt->chat1), free(rt->chat2), free(rt->dprev);
     free(rt->chat), free(rt->bp), free(rt->lnrm), free(rt->lpush);
     free(rt->node), free(rt->e0), free(rt->e1), free(rt->e2);
-    free(rt->raw), free(rt->hpush), free(rt->sd), free(rt->nrm), free(rt->rd), free(rt->moved);
+    free(rt->raw), free(rt->hpush), free(rt->sd), free(rt->nrm), free(rt->rd), free(rt->lb),
+        free(rt->idx), free(rt->moved);
     if (rt->owned_data) {
         cr_gdsr_data_free(rt->owned_data);
         free(rt->owned_data);

@@ -213,6 +213,8 @@ void cr_nn_cpu_lstm_gates_forward(const nn_lstm_gates_args *a);
 /* cpu_mpnn.c */
 size_t cr_nn_cpu_mpnn_block_scratch(const nn_mpnn_block_args *a);
 void cr_nn_cpu_mpnn_block_forward(const nn_mpnn_block_args *a);
+/* cpu_wire.c */
+void cr_nn_cpu_wire_points_forward(const nn_wire_points_args *a);
 
 /* cpu_vector.c */
 void cr_nn_cpu_layer_norm_forward(const float *x, int64_t R, int64_t C, const float *w,

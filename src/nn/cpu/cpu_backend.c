@@ -32,6 +32,7 @@ static const cr_nn_backend cpu_backend = {
     .lstm_gates_forward = cr_nn_cpu_lstm_gates_forward,
     .mpnn_block_scratch = cr_nn_cpu_mpnn_block_scratch,
     .mpnn_block_forward = cr_nn_cpu_mpnn_block_forward,
+    .wire_points_forward = cr_nn_cpu_wire_points_forward,
     .layer_norm_forward = cr_nn_cpu_layer_norm_forward,
     .layer_norm_backward = cr_nn_cpu_layer_norm_backward,
     .cross_forward = cr_nn_cpu_cross_forward,

@@ -193,6 +193,65 @@ static __attribute__((target("avx512f"), noinline)) int64_t
 rows_matmul_avx512(float *y, int64_t ldy, const float *const *x, int64_t in, const float *wt,
                    int64_t out, int64_t R) {
     int64_t j = 0;
+    /* 64 columns over 4 rows: 16 independent chains of multiply-adds, enough
+     * to hide the FMA's latency (4 x 16 had 4: latency-bound) */
+    for (; j + 64 <= out; j += 64) {
+        int64_t r = 0;
+        for (; r + 4 <= R; r += 4) {
+            /* named accumulators: an array of them was kept in memory */
+#define ROW4_LOAD(i)                                                                               \
+    __m512 a##i##0 = _mm512_loadu_ps(y + (r + i) * ldy + j),                                       \
+           a##i##1 = _mm512_loadu_ps(y + (r + i) * ldy + j + 16),                                  \
+           a##i##2 = _mm512_loadu_ps(y + (r + i) * ldy + j + 32),                                  \
+           a##i##3 = _mm512_loadu_ps(y + (r + i) * ldy + j + 48)
+#define ROW4_FMA(i)                                                                                \
+    do {                                                                                           \
+        const __m512 b = _mm512_set1_ps(x[r + i][k]);                                              \
+        a##i##0 = _mm512_fmadd_ps(b, w0, a##i##0), a##i##1 = _mm512_fmadd_ps(b, w1, a##i##1);      \
+        a##i##2 = _mm512_fmadd_ps(b, w2, a##i##2), a##i##3 = _mm512_fmadd_ps(b, w3, a##i##3);      \
+    } while (0)
+#define ROW4_STORE(i)                                                                              \
+    _mm512_storeu_ps(y + (r + i) * ldy + j, a##i##0),                                              \
+        _mm512_storeu_ps(y + (r + i) * ldy + j + 16, a##i##1),                                     \
+        _mm512_storeu_ps(y + (r + i) * ldy + j + 32, a##i##2),                                     \
+        _mm512_storeu_ps(y + (r + i) * ldy + j + 48, a##i##3)
+            ROW4_LOAD(0);
+            ROW4_LOAD(1);
+            ROW4_LOAD(2);
+            ROW4_LOAD(3);
+            for (int64_t k = 0; k < in; k++) {
+                const float *wk = wt + k * out + j;
+                const __m512 w0 = _mm512_loadu_ps(wk), w1 = _mm512_loadu_ps(wk + 16);
+                const __m512 w2 = _mm512_loadu_ps(wk + 32), w3 = _mm512_loadu_ps(wk + 48);
+                ROW4_FMA(0);
+                ROW4_FMA(1);
+                ROW4_FMA(2);
+                ROW4_FMA(3);
+            }
+            ROW4_STORE(0);
+            ROW4_STORE(1);
+            ROW4_STORE(2);
+            ROW4_STORE(3);
+#undef ROW4_LOAD
+#undef ROW4_FMA
+#undef ROW4_STORE
+        }
+        for (; r < R; r++) {
+            float *y0 = y + r * ldy + j;
+            __m512 a0 = _mm512_loadu_ps(y0), a1 = _mm512_loadu_ps(y0 + 16);
+            __m512 a2 = _mm512_loadu_ps(y0 + 32), a3 = _mm512_loadu_ps(y0 + 48);
+            for (int64_t k = 0; k < in; k++) {
+                const float *wk = wt + k * out + j;
+                const __m512 b = _mm512_set1_ps(x[r][k]);
+                a0 = _mm512_fmadd_ps(b, _mm512_loadu_ps(wk), a0);
+                a1 = _mm512_fmadd_ps(b, _mm512_loadu_ps(wk + 16), a1);
+                a2 = _mm512_fmadd_ps(b, _mm512_loadu_ps(wk + 32), a2);
+                a3 = _mm512_fmadd_ps(b, _mm512_loadu_ps(wk + 48), a3);
+            }
+            _mm512_storeu_ps(y0, a0), _mm512_storeu_ps(y0 + 16, a1);
+            _mm512_storeu_ps(y0 + 32, a2), _mm512_storeu_ps(y0 + 48, a3);
+        }
+    }
     for (; j + 16 <= out; j += 16) {
         int64_t r = 0;
         for (; r + 4 <= R; r += 4) {

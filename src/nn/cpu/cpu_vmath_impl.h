@@ -16,6 +16,10 @@
  *             + f^3 P(f), f = m - 1; subnormal x scaled by 2^23 first;
  *             log(0) = -inf, log(inf) = inf, log(x < 0) = NaN.
  *   tanh(x) = x + x^3 P(x^2) for |x| < 0.625, else sign(x) (1 - 2 / (exp(2|x|) + 1)).
+ *   sin, cos: z = |x| - n pi/2, n = round(|x| 2/pi) (pi/2 in three parts, so
+ *             z is exact to about 1e-7 absolute for |x| < V(SINCOS_MAX)), the
+ *             polynomials of Cephes' sinf and cosf on [-pi/4, pi/4], the
+ *             quadrant's swap and signs; callers send larger |x| to libm.
  * NaN inputs give NaN everywhere, as on the scalar path. Rounding to the
  * nearest integer uses the 1.5 * 2^23 shift, so it assumes the default
  * rounding mode, as the rest of the engine does.
@@ -64,6 +68,41 @@ static inline VT V(vf) V(exp)(V(vf) x) {
     V(vi) n1 = ni >> 1, n2 = ni - n1;
     y = y * (V(vf))((n1 + 127) << 23) * (V(vf))((n2 + 127) << 23);
     return V(sel)(x != x, x, y);
+}
+
+#define SINCOS_MAX 8192.0f
+
+/* sin and cos of x for |x| <= SINCOS_MAX (NaN stays NaN). */
+static inline VT void V(sincos)(V(vf) x, V(vf) * s, V(vf) * c) {
+    V(vf) ax = V(abs)(x);
+    V(vf) shift = V(splat)(12582912.0f); /* 1.5 * 2^23 */
+    V(vf) n = VFMA(ax, V(splat)(0.636619772367581343f), shift) - shift;
+    V(vf) z = VFMA(n, V(splat)(-1.5703125f), ax);
+    z = VFMA(n, V(splat)(-4.837512969970703125e-4f), z);
+    z = VFMA(n, V(splat)(-7.54978995489188216e-8f), z);
+    V(vf) zz = z * z;
+    V(vf) ps = VFMA(V(splat)(-1.9515295891e-4f), zz, V(splat)(8.3321608736e-3f));
+    ps = VFMA(ps, zz, V(splat)(-1.6666654611e-1f));
+    V(vf) sp = VFMA(ps * zz, z, z);
+    V(vf) pc = VFMA(V(splat)(2.443315711809948e-5f), zz, V(splat)(-1.388731625493765e-3f));
+    pc = VFMA(pc, zz, V(splat)(4.166664568298827e-2f));
+    V(vf) cp = VFMA(pc * zz, zz, VFMA(zz, V(splat)(-0.5f), V(splat)(1.0f)));
+    V(vi) q = __builtin_convertvector(n, V(vi));
+    V(vi) odd = (q & 1) != 0;
+    V(vf) s0 = V(sel)(odd, cp, sp), c0 = V(sel)(odd, sp, cp);
+    /* sin's sign: quadrants 2 and 3, flipped for x < 0; cos's: 1 and 2 */
+    V(vi) sneg = ((q & 2) != 0) ^ (x < 0.0f), cneg = ((q + 1) & 2) != 0;
+    *s = V(sel)(sneg, -s0, s0);
+    *c = V(sel)(cneg, -c0, c0);
+}
+
+/* WIRE's activation (nn_layers.h) on (re, im) in place:
+ * exp(-omega0 im - s2 (re^2 + im^2)) (cos omega0 re + j sin omega0 re). */
+static inline VT void V(wire)(V(vf) * re, V(vf) * im, float omega0, float s2) {
+    V(vf) a = *re, b = *im, s, c;
+    V(vf) e = V(exp)(-omega0 * b - s2 * (a * a + b * b));
+    V(sincos)(omega0 * a, &s, &c);
+    *re = e * c, *im = e * s;
 }
 
 /* log(x) for positive, normal, finite x. */
@@ -195,8 +234,8 @@ static inline VT __attribute__((always_inline)) int64_t V(span_fn)(nn_vec_fn fn,
     return i;
 }
 
-static VT int64_t V(span)(nn_vec_fn fn, float p, const float *x, const float *b, const float *mul,
-                          float *out, int acc, int64_t n) {
+static inline VT int64_t V(span)(nn_vec_fn fn, float p, const float *x, const float *b,
+                                 const float *mul, float *out, int acc, int64_t n) {
     switch (fn) {
     case NN_VEC_EXP:
         return V(span_fn)(NN_VEC_EXP, p, x, b, mul, out, acc, n);
