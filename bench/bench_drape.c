@@ -42,7 +42,7 @@ static const char *const USAGE =
     "usage: bench_drape [--only throughput|table2|fidelity] [--scenes ball,torus,prism]\n"
     "                   [--cap N] [--samples N] [--fidelity-epochs N] [--refs DIR]\n"
     "                   [--ref-res N] [--seed S] [--seeds N] [--pdf-collision W]\n"
-    "                   [--grid-interp I] [--variants V,...]\n"
+    "                   [--grid-interp I] [--variants V,...] [--measure OBJ,...]\n"
     "  throughput  epochs/s and structures/s of the default model on the ball\n"
     "  table2      epochs to convergence, uniform vs adaptive sampling (the paper's Table 2),\n"
     "              each run to the cap: the stopping criterion's epoch, the epochs to 2 % and\n"
@@ -50,7 +50,8 @@ static const char *const USAGE =
     "              --seeds N: seeds S .. S + N - 1, with means, spread and wins;\n"
     "              --pdf-collision W: the adaptive PDF's collision weight (default 1)\n"
     "  fidelity    each variant against the physics reference's quasi-static drape, and\n"
-    "              the output's grid facets (cr_drape_facet_ratio); --variants: only these\n"
+    "              the output's grid facets (cr_drape_facet_ratio); --variants: only these;\n"
+    "              --measure: these drapes (crease drape's drape.obj) instead of new runs\n"
     "--grid-interp I: the grid encoding's interpolation in every run (default: drape's)\n"
     "defaults: all parts, cap 6000, 1024 structures, 2500 fidelity epochs,\n"
     "refs drape_references, ref-res 256, seed 1, 1 seed\n";
@@ -66,6 +67,7 @@ typedef struct bench_opts {
     double pdf_collision;    /* table2: cr_drape_def.pdf_collision */
     const char *grid_interp; /* every run's cr_drape_def.grid_interp by name; NULL: default */
     const char *variants;    /* fidelity: comma-separated variant names; NULL: all four */
+    const char *measure;     /* fidelity: comma-separated drape OBJs measured instead of runs */
 } bench_opts;
 
 /* Is `name` one of the comma-separated items of `list`? */
@@ -341,8 +343,12 @@ static void print_fidelity(const char *name, const cr_drape_fidelity *f) {
 
 static void fidelity(const bench_opts *o) {
     const cr_drape_scene scenes[3] = {CR_DRAPE_BALL, CR_DRAPE_TORUS, CR_DRAPE_PRISM};
-    printf("== fidelity against the reference drape (%d epochs each, reference %dx%d)\n",
-           o->fidelity_epochs, o->ref_res, o->ref_res);
+    if (o->measure)
+        printf("== fidelity of the given drapes against the reference drape (%dx%d)\n", o->ref_res,
+               o->ref_res);
+    else
+        printf("== fidelity against the reference drape (%d epochs each, reference %dx%d)\n",
+               o->fidelity_epochs, o->ref_res, o->ref_res);
     for (int s = 0; s < 3; s++) {
         if (!scene_listed(o, scenes[s])) continue;
         char dir[1024], path[1200];
@@ -374,7 +380,21 @@ static void fidelity(const bench_opts *o) {
         cr_drape_fidelity f;
         if (cr_drape_fidelity_measure(ref, NULL, object, &f, &err) != CR_OK) fail(&err);
         print_fidelity("reference", &f);
-        for (int v = 0; v < CR_DRAPE_VARIANT_COUNT; v++) {
+        for (const char *m = o->measure; m && *m;) { /* drapes made before, by their files */
+            const char *end = strchr(m, ',');
+            size_t len = end ? (size_t)(end - m) : strlen(m);
+            char file[1024];
+            snprintf(file, sizeof file, "%.*s", (int)len, m);
+            cr_mesh *surface = NULL;
+            if (cr_mesh_read(file, &surface, &err) != CR_OK ||
+                cr_drape_fidelity_measure(surface, ref, object, &f, &err) != CR_OK)
+                fail(&err);
+            printf("%s\n", file);
+            print_fidelity("", &f);
+            cr_mesh_destroy(surface);
+            m = end ? end + 1 : m + len;
+        }
+        for (int v = 0; v < CR_DRAPE_VARIANT_COUNT && !o->measure; v++) {
             const char *vn = cr_drape_variant_name((cr_drape_variant)v);
             if (o->variants && !in_list(o->variants, vn)) continue;
             cr_drape_def d = bench_def(o, scenes[s]);
@@ -438,6 +458,8 @@ int main(int argc, char **argv) {
             o.seed = (uint64_t)atoll(v);
         else if (strcmp(a, "--seeds") == 0)
             o.seeds = atoi(v);
+        else if (strcmp(a, "--measure") == 0)
+            o.measure = v;
         else if (strcmp(a, "--pdf-collision") == 0)
             o.pdf_collision = atof(v);
         else if (strcmp(a, "--grid-interp") == 0)
