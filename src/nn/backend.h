@@ -107,8 +107,11 @@ typedef struct nn_mpnn_block_args {
 typedef struct nn_wire_points_args {
     const float *theta; /* (G,P) */
     int64_t P;
-    const int32_t *group; /* (M) rows of theta */
-    const float *x;       /* point m's inputs at x[m ldx] and x[m ldx + 1] */
+    const int32_t *group; /* (M) rows of theta, in [0,G) */
+    int64_t G;
+    const int64_t *off;  /* (G+1) and perm (M): the points by group (csr_build), so that */
+    const int32_t *perm; /* a row's points run one after another while it is in cache */
+    const float *x;      /* point m's inputs at x[m ldx] and x[m ldx + 1] */
     int64_t ldx, M;
     int width, layers, out;
     float omega0, s2; /* s2 = s0^2 */

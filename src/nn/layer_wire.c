@@ -141,9 +141,17 @@ cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int
             return CR_FAIL(err, CR_ERR_INVALID,
                            "wire hyper: point %lld's group %d is outside [0,%lld)", (long long)m,
                            group[m], (long long)G);
+    int64_t *off = cr_nn_scratch(ctx, "wire hyper",
+                                 sizeof(int64_t) * (size_t)(G + 1) + sizeof(int32_t) * (size_t)M);
+    if (!off) return CR_FAIL(err, CR_ERR_MEMORY, "wire hyper: the context's arena is full");
+    int32_t *perm = (int32_t *)(off + G + 1);
+    ctx->be->csr_build(group, M, G, off, perm);
     nn_wire_points_args a = {.theta = theta,
                              .P = P,
                              .group = group,
+                             .G = G,
+                             .off = off,
+                             .perm = perm,
                              .x = x,
                              .ldx = ldx,
                              .M = M,
