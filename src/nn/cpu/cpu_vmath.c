@@ -14,29 +14,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-
-#define VW 8
-#define VT __attribute__((target("avx2,fma")))
-#define V(name) name##_avx2
-#define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
-#include "nn/cpu/cpu_vmath_impl.h"
-#undef VW
-#undef VT
-#undef V
-#undef VFMA
-
-#define VW 16
-#define VT __attribute__((target("avx512f")))
-#define V(name) name##_avx512
-#define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
-#include "nn/cpu/cpu_vmath_impl.h"
-#undef VW
-#undef VT
-#undef V
-#undef VFMA
-#endif
+#include "nn/cpu/cpu_vmath_levels.h"
 
 int64_t cr_nn_cpu_vec_span(int level, nn_vec_fn fn, float p, const float *x, const float *b,
                            const float *mul, float *out, int acc, int64_t n) {

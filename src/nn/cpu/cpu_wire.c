@@ -21,29 +21,7 @@
 #include <math.h>
 #include <string.h>
 
-#if defined(__x86_64__) || defined(__i386__)
-#include <immintrin.h>
-
-#define VW 8
-#define VT __attribute__((target("avx2,fma")))
-#define V(name) name##_avx2
-#define VFMA(a, b, c) _mm256_fmadd_ps(a, b, c)
-#include "nn/cpu/cpu_vmath_impl.h"
-#undef VW
-#undef VT
-#undef V
-#undef VFMA
-
-#define VW 16
-#define VT __attribute__((target("avx512f")))
-#define V(name) name##_avx512
-#define VFMA(a, b, c) _mm512_fmadd_ps(a, b, c)
-#include "nn/cpu/cpu_vmath_impl.h"
-#undef VW
-#undef VT
-#undef V
-#undef VFMA
-#endif
+#include "nn/cpu/cpu_vmath_levels.h"
 
 enum { WIRE_MAX_WIDTH = 256, WIRE_LANES = 8 };
 
