@@ -2,12 +2,16 @@
  * allocation after create"), counted by wrapping malloc, calloc, realloc and
  * aligned_alloc at link time (CMakeLists.txt: -Wl,--wrap=...): calls from
  * the library's code are counted, the C library's and OpenMP's own are not.
- * An epnet runtime (2,000 garment vertices, untrained) and a swingar tiny
- * runtime (a 2,000-vertex dress) each step 10 frames of the walk to size
- * themselves, then 20 counted ones; 0 calls is the pass. Exit 1 otherwise. */
+ * An epnet runtime (2,000 garment vertices, untrained), a swingar tiny
+ * runtime (a 2,000-vertex dress) and a gdsr runtime (an untrained default
+ * model, a t-shirt pair of about 500 -> 2,000 vertices, the low one held at
+ * rest while the walking body moves through it, so the handling pushes) each
+ * step 10 frames of the walk to size themselves, then 20 counted ones; 0
+ * calls is the pass. Exit 1 otherwise. */
 #include "crease/body.h"
 #include "crease/epnet.h"
 #include "crease/garment.h"
+#include "crease/gdsr.h"
 #include "crease/motion.h"
 #include "crease/swingar.h"
 
@@ -87,6 +91,18 @@ static cr_status swingar_step(void *vctx, int t, cr_error *err) {
                                    c->mo->trans + 3 * t, c->x, err);
 }
 
+typedef struct gdsr_ctx {
+    cr_gdsr_runtime *rt;
+    const float *low, *posed; /* (Vl,3) every frame; (T,Vb,3) */
+    int32_t Vb;
+    float *x;
+} gdsr_ctx;
+
+static cr_status gdsr_step(void *vctx, int t, cr_error *err) {
+    gdsr_ctx *c = vctx;
+    return cr_gdsr_runtime_step(c->rt, c->low, c->posed + (size_t)t * c->Vb * 3, c->x, err);
+}
+
 int main(void) {
     cr_error err = {0};
     cr_motion *mo = NULL;
@@ -137,6 +153,38 @@ int main(void) {
            COUNTED);
     rc |= n != 0;
     free(sc.x);
+    /* gdsr on a t-shirt pair */
+    cr_garment_def td = cr_garment_default_def(CR_GARMENT_TSHIRT);
+    td.target_vertices = 500;
+    cr_garment_template *tp = NULL;
+    cr_garment *low = NULL, *high = NULL;
+    cr_gdsr_data gdata = {0};
+    cr_gdsr_model_def gmd = cr_gdsr_model_default_def();
+    cr_gdsr_model *gm = NULL;
+    gdsr_ctx gc = {.Vb = body->rest->nv};
+    float *posed = NULL;
+    if (cr_garment_template_create(&td, body, &tp, &err) != CR_OK ||
+        cr_garment_template_instantiate(tp, 500, body, &low, &err) != CR_OK ||
+        cr_garment_template_instantiate(tp, 2000, body, &high, &err) != CR_OK ||
+        cr_gdsr_data_from_arrays(low->mesh, high->mesh, body->rest, 1, low->mesh->pos,
+                                 high->mesh->pos, body->rest->pos, &gdata, &err) != CR_OK ||
+        cr_gdsr_model_create(&gmd, &gm, &err) != CR_OK ||
+        cr_gdsr_runtime_create(gm, &gdata, NULL, &gc.rt, &err) != CR_OK ||
+        cr_body_pose_motion(body, mo, &posed, &err) != CR_OK)
+        return fail("gdsr", &err);
+    gc.low = low->mesh->pos, gc.posed = posed;
+    gc.x = malloc(sizeof(float) * 3 * (size_t)high->mesh->nv);
+    n = gc.x ? steps(gdsr_step, &gc, &err) : -1;
+    if (n < 0) return fail("gdsr step", &err);
+    printf("runtime_heap: gdsr (%d -> %d vertices): %ld heap calls in %d steps\n", low->mesh->nv,
+           high->mesh->nv, n, COUNTED);
+    rc |= n != 0;
+    free(gc.x), free(posed);
+    cr_gdsr_runtime_destroy(gc.rt);
+    cr_gdsr_model_destroy(gm);
+    cr_gdsr_data_free(&gdata);
+    cr_garment_destroy(low), cr_garment_destroy(high);
+    cr_garment_template_destroy(tp);
     cr_swingar_runtime_destroy(sc.rt);
     cr_swingar_garment_destroy(sg);
     cr_swingar_destroy(sm);
