@@ -270,9 +270,10 @@ cr_tensor *cr_complex_linear(cr_nn_ctx *ctx, cr_tensor *x_re, cr_tensor *x_im, c
  * and imaginary parts (o,width) row-major and the bias's (o), o = width but
  * `out` for the last; WIRE after every layer but the last. So P is at least
  * 3 width + (layers - 2)(2 width^2 + 2 width) + 2 out width + 2 out. layers
- * 2..CR_MLP_MAX_LAYERS, width 1..256, out >= 1. One fused kernel a point;
+ * 2..CR_MLP_MAX_LAYERS, width 1..CR_WIRE_MAX_WIDTH, out >= 1. One fused kernel a point;
  * 16-wide networks in registers on AVX-512 (cpu_wire.c). Returns
  * CR_ERR_INVALID on a bad size or a group outside [0,G). */
+enum { CR_WIRE_MAX_WIDTH = 256 }; /* cr_wire_hyper_infer's widest network */
 cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int64_t P,
                               const int32_t *group, const float *x, int64_t ldx, int64_t M,
                               int width, int layers, int out, float omega0, float s0, float *y,

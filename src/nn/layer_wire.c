@@ -125,10 +125,11 @@ cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int
                               cr_error *err) {
     if (!ctx || !theta || !group || !x || !y || M < 0)
         return CR_FAIL(err, CR_ERR_INVALID, "wire hyper: NULL argument");
-    if (layers < 2 || layers > CR_MLP_MAX_LAYERS || width < 1 || width > 256 || out < 1 || ldx < 2)
+    if (layers < 2 || layers > CR_MLP_MAX_LAYERS || width < 1 || width > CR_WIRE_MAX_WIDTH ||
+        out < 1 || ldx < 2)
         return CR_FAIL(err, CR_ERR_INVALID,
-                       "wire hyper: layers %d (2..%d), width %d (1..256), out %d, ldx %lld", layers,
-                       CR_MLP_MAX_LAYERS, width, out, (long long)ldx);
+                       "wire hyper: layers %d (2..%d), width %d (1..%d), out %d, ldx %lld", layers,
+                       CR_MLP_MAX_LAYERS, width, CR_WIRE_MAX_WIDTH, out, (long long)ldx);
     const int64_t need = 3 * (int64_t)width +
                          (layers - 2) * (2 * (int64_t)width * width + 2 * width) +
                          2 * (int64_t)out * width + 2 * out;
@@ -136,11 +137,10 @@ cr_status cr_wire_hyper_infer(cr_nn_ctx *ctx, const float *theta, int64_t G, int
         return CR_FAIL(err, CR_ERR_INVALID,
                        "wire hyper: rows of %lld floats, the network needs %lld", (long long)P,
                        (long long)need);
-    for (int64_t m = 0; m < M; m++)
-        if (group[m] < 0 || group[m] >= G)
-            return CR_FAIL(err, CR_ERR_INVALID,
-                           "wire hyper: point %lld's group %d is outside [0,%lld)", (long long)m,
-                           group[m], (long long)G);
+    const int64_t bad = ctx->be->index_check(group, M, G);
+    if (bad >= 0)
+        return CR_FAIL(err, CR_ERR_INVALID, "wire hyper: point %lld's group %d is outside [0,%lld)",
+                       (long long)bad, group[bad], (long long)G);
     int64_t *off = cr_nn_scratch(ctx, "wire hyper",
                                  sizeof(int64_t) * (size_t)(G + 1) + sizeof(int32_t) * (size_t)M);
     if (!off) return CR_FAIL(err, CR_ERR_MEMORY, "wire hyper: the context's arena is full");

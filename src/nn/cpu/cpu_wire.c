@@ -16,6 +16,7 @@
  * and cos), all within float rounding: sums in another order, the vector
  * functions' last bit (tests compare on every SIMD level).
  */
+#include "crease/nn_layers.h"
 #include "nn/cpu/cpu.h"
 
 #include <math.h>
@@ -23,7 +24,7 @@
 
 #include "nn/cpu/cpu_vmath_levels.h"
 
-enum { WIRE_MAX_WIDTH = 256, WIRE_LANES = 8 };
+enum { WIRE_LANES = 8 };
 
 static void wire_scalar(float *re, float *im, int64_t n, float omega0, float s2) {
     for (int64_t k = 0; k < n; k++) {
@@ -101,7 +102,8 @@ static void complex_dot(const float *re, const float *im, const float *wr, const
 static void point_portable(const nn_wire_points_args *a, int level, const float *t, float u,
                            float v, float *y) {
     const int w = a->width;
-    float re[WIRE_MAX_WIDTH], im[WIRE_MAX_WIDTH], yr[WIRE_MAX_WIDTH], yi[WIRE_MAX_WIDTH];
+    float re[CR_WIRE_MAX_WIDTH], im[CR_WIRE_MAX_WIDTH], yr[CR_WIRE_MAX_WIDTH],
+        yi[CR_WIRE_MAX_WIDTH];
     const float *W0 = t, *b0 = t + 2 * w;
     for (int o = 0; o < w; o++)
         re[o] = u * W0[2 * o] + v * W0[2 * o + 1] + b0[o], im[o] = 0.0f;
