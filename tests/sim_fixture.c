@@ -40,3 +40,19 @@ double fixture_deepest_inside(const cr_mesh *collider, const double *x, int32_t 
     free(p), free(d);
     return deepest;
 }
+
+double fixture_deepest_centroid_inside(const cr_mesh *collider, const cr_mesh *cloth,
+                                       const double *x) {
+    double *c = malloc((size_t)(cloth->nf > 0 ? cloth->nf : 1) * 3 * sizeof(double));
+    if (!c) return INFINITY;
+    for (int32_t f = 0; f < cloth->nf; f++)
+        for (int d = 0; d < 3; d++) {
+            double s = 0.0;
+            for (int k = 0; k < 3; k++)
+                s += x[3 * (int64_t)cloth->tri[3 * (int64_t)f + k] + d];
+            c[3 * (int64_t)f + d] = s / 3.0;
+        }
+    const double deepest = fixture_deepest_inside(collider, c, cloth->nf);
+    free(c);
+    return deepest;
+}

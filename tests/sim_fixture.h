@@ -13,5 +13,8 @@ cr_sim_def fixture_cotton_def(void);
 /* Deepest vertex of x (nv, 3) inside the collider mesh, m (0 when none), by
  * an independent unbounded BVH query; INFINITY when the BVH cannot be built. */
 double fixture_deepest_inside(const cr_mesh *collider, const double *x, int32_t nv);
+/* The same of the centroids of cloth's faces at positions x (nv, 3). */
+double fixture_deepest_centroid_inside(const cr_mesh *collider, const cr_mesh *cloth,
+                                       const double *x);
 
 #endif

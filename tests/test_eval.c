@@ -242,6 +242,42 @@ CR_TEST(eval, cloth_inside_sphere) {
     cr_mesh_destroy(body);
 }
 
+/* A coarse sphere just outside a fine one: every vertex outside, every face's
+ * centroid inside by its chord's sag: R - |centroid|, less the fine sphere's
+ * own sag under the point (its faces are 2 cm across: under 0.5 mm). */
+CR_TEST(eval, coarse_faces_inside_a_sphere) {
+    cr_error err = {0};
+    cr_mesh *body = NULL, *g = NULL;
+    const float R = 0.3f;
+    CR_REQUIRE(cr_prim_icosphere(R, 4, &body, &err) == CR_OK);
+    CR_REQUIRE(cr_prim_icosphere(R + 0.001f, 1, &g, &err) == CR_OK);
+    double want = 0.0;
+    for (int32_t f = 0; f < g->nf; f++) {
+        double c[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++)
+                c[d] += g->pos[3 * g->tri[3 * f + k] + d] / 3.0;
+        const double depth = R - sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        if (depth > want) want = depth;
+    }
+    CR_REQUIRE(want > 0.01);
+    float *seq = repeat(g, 2), *bseq = repeat(body, 2);
+    cr_eval_def def = cr_eval_default_def();
+    def.ssim_side = 32;
+    cr_eval_input in = input(g, 2, seq, seq);
+    in.body_mesh = body, in.body = bseq, in.body_nframes = 2;
+    cr_eval_result r = {0};
+    CR_CHECK_OK(cr_eval_run(&def, &in, &r, &err), &err);
+    CR_REQUIRE(r.frames != NULL);
+    CR_CHECK_NEAR(r.summary[CR_EVAL_COL_MAX].max, 0.0, 1e-12);
+    CR_CHECK(r.summary[CR_EVAL_COL_FACE_MAX].max <= want);
+    CR_CHECK(r.summary[CR_EVAL_COL_FACE_MAX].max > want - 5e-4);
+    cr_eval_result_free(&r);
+    free(seq), free(bseq);
+    cr_mesh_destroy(g);
+    cr_mesh_destroy(body);
+}
+
 CR_TEST(eval, inertia_constant_acceleration) {
     cr_error err = {0};
     cr_mesh *g = NULL;

@@ -724,6 +724,83 @@ CR_TEST(phys_energy, collision) {
     cr_collision_destroy(c);
 }
 
+/* The chord sag over a sphere of radius R: the centroid of an equilateral
+ * triangle of side L whose corners lie on it sits L^2 / (6 R) below the
+ * surface to leading order; a concave pair and a pair more than 60 degrees
+ * apart sag by nothing. Each vertex's threshold is eps plus its largest. */
+CR_TEST(phys_energy, collision_chord_sag) {
+    const double R = 0.3, L = 0.03;
+    /* Corners of the triangle, on the sphere about the point (0, R, 0). */
+    double x[9], n[9];
+    const double r_c = L / sqrt(3.0);
+    for (int k = 0; k < 3; k++) {
+        const double a = 2.0 * 3.14159265358979323846 * k / 3.0;
+        const double p[3] = {r_c * cos(a), sqrt(R * R - r_c * r_c), r_c * sin(a)};
+        for (int d = 0; d < 3; d++)
+            x[3 * k + d] = p[d], n[3 * k + d] = p[d] / R;
+    }
+    const double exact = R - sqrt(R * R - r_c * r_c); /* the centroid's depth */
+    for (int k = 0; k < 3; k++) {
+        const int j = (k + 1) % 3;
+        const double sag = cr_collision_chord_sag(x + 3 * k, n + 3 * k, x + 3 * j, n + 3 * j);
+        CR_CHECK_NEAR(sag, L * L / (6.0 * R), 1e-9);
+        CR_CHECK_NEAR(sag, exact, 0.01 * exact);
+    }
+    /* Inside a sphere's shell (concave): the normals point inward. */
+    const double ni[3] = {-n[0], -n[1], -n[2]}, nj[3] = {-n[3], -n[4], -n[5]};
+    CR_CHECK(cr_collision_chord_sag(x, ni, x + 3, nj) == 0.0);
+    /* A flat surface. */
+    const double up[3] = {0, 1, 0};
+    CR_CHECK(cr_collision_chord_sag(x, up, x + 3, up) == 0.0);
+    /* Normals 90 degrees apart: two parts of a body, not one curve. */
+    const double xa[3] = {0.1, 0, 0}, na[3] = {1, 0, 0}, xb[3] = {0, 0.1, 0}, nb[3] = {0, 1, 0};
+    CR_CHECK(cr_collision_chord_sag(xa, na, xb, nb) == 0.0);
+    /* 53 degrees (cos 0.6): half the sag, fading from 46 to 60 degrees. */
+    const double nh[3] = {0.6, 0.8, 0}, xh[3] = {0.06, 0.08, 0};
+    CR_CHECK_NEAR(cr_collision_chord_sag(xa, na, xh, nh), 0.5 * (0.4 * 0.04 + 0.8 * 0.08) / 6.0,
+                  1e-12);
+
+    cr_error err;
+    cr_material mat = material("cotton", CR_MEMBRANE_STVK);
+    const double eps = mat.collision_thickness;
+    cr_collision *c = NULL;
+    CR_CHECK_OK(cr_collision_create(4, &mat, &c, &err), &err);
+    CR_REQUIRE(c);
+    const int32_t edge[8] = {0, 1, 1, 2, 0, 2, 2, 3};
+    const int32_t bad[2] = {0, 4};
+    CR_CHECK(cr_collision_set_edges(c, bad, 1, &err) == CR_ERR_INVALID);
+    CR_CHECK(strstr(err.msg, "vertex 4") != NULL);
+    CR_CHECK_OK(cr_collision_set_edges(c, edge, 4, &err), &err);
+    /* Vertex 3 unreached by the query: its edge sags by nothing. */
+    double x4[12], dist_d[4] = {0.001, 0.001, 0.001, INFINITY};
+    float dist[4], normal[12];
+    memcpy(x4, x, sizeof x);
+    for (int d = 0; d < 3; d++)
+        x4[9 + d] = 1.0, normal[9 + d] = 0.0f;
+    for (int k = 0; k < 9; k++)
+        normal[k] = (float)n[k];
+    for (int k = 0; k < 4; k++)
+        dist[k] = (float)dist_d[k];
+    cr_collision_update(c, x4, dist, normal);
+    CR_CHECK(cr_collision_margin(c, 0) == eps); /* before the margins are set */
+    /* The sag fades out near the query's reach: gone at 1 mm, half at 1.5 mm. */
+    cr_collision_update_margins(c, normal, 0.001);
+    CR_CHECK(cr_collision_max_margin(c) == eps);
+    cr_collision_update_margins(c, normal, 0.0015);
+    CR_CHECK_NEAR(cr_collision_margin(c, 0), eps + 0.5 * L * L / (6.0 * R), 1e-6);
+    cr_collision_update_margins(c, normal, 0.05);
+    for (int k = 0; k < 3; k++)
+        CR_CHECK_NEAR(cr_collision_margin(c, k), eps + L * L / (6.0 * R), 1e-6);
+    CR_CHECK(cr_collision_margin(c, 3) == eps);
+    CR_CHECK_NEAR(cr_collision_max_margin(c), eps + L * L / (6.0 * R), 1e-6);
+    /* The penalty starts at the threshold: vertex 0, 1 mm out, is inside it. */
+    double nrm[3], force;
+    CR_CHECK(cr_collision_contact(c, 0, nrm, &force));
+    CR_CHECK_NEAR(force, 3 * mat.collision_stiffness * pow(cr_collision_margin(c, 0) - 0.001, 2),
+                  1e-5 * force);
+    cr_collision_destroy(c);
+}
+
 CR_TEST(phys_energy, friction) {
     cr_error err;
     cr_material mat = material("cotton", CR_MEMBRANE_STVK);

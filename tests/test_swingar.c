@@ -573,7 +573,7 @@ CR_TEST(swingar, tiny_model_lowers_its_loss) {
     cr_swingar_train_def t = tiny_train();
     t.stall_epochs = 1000; /* vertex loss only: one objective from start to end */
     t.lr = 3e-3f;
-    t.epochs = CR_TEST_SIZE(8, 2);
+    t.epochs = CR_TEST_SIZE(16, 2);
     cr_error err = {0};
     cr_swingar *m = NULL;
     cr_swingar_train_result r;

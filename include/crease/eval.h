@@ -31,6 +31,9 @@
  *   ie_j                epnet      sum m_i/(2h^2) |P_t - 2P_{t-1} + P_{t-2}|^2, J (h = 1/fps)
  *   col_m, col_max_m    epnet      mean_i max(0, -sd_body(P_i)); the deepest, m
  *   collision_ratio     swingar    share of P's vertices inside the body (sd < 0)
+ *   col_face_max_m      crease     the deepest face centroid of P inside the body, m: what a
+ *                                  renderer shows as skin through the cloth where every
+ *                                  vertex is outside (coarse faces over a curved body)
  *   e_u, e_v, e_uv      gdsr B     mean over triangles (|w_u|-1)^2, (|w_v|-1)^2, (w_u.w_v)^2
  *   ssim                gdsr C     SSIM of P's and R's normal maps rendered over UV
  *   normal_angle_deg    gdsr       mean angle between P's and R's vertex normals, degrees
@@ -100,6 +103,7 @@ typedef enum cr_eval_metric {
     CR_EVAL_COL,
     CR_EVAL_COL_MAX,
     CR_EVAL_COLLISION_RATIO,
+    CR_EVAL_COL_FACE_MAX,
     CR_EVAL_E_U,
     CR_EVAL_E_V,
     CR_EVAL_E_UV,

@@ -12,7 +12,7 @@
  * _bw.c bending    hinge     k_e/2 (theta - theta_rest)^2, k_e = k_b l^2/(4(A1+A2)) bending.c
  *   gravity    vertex    -m_i g . x_i                                         gravity.c
  *   inertia    vertex    m_i/(2 h^2) |x_i - xpred_i|^2                        inertia.c
- *   collision  vertex    k max(eps - d_i(x), 0)^3, d linearised per iterate   collision.c
+ *   collision  vertex    k max(m_i - d_i(x), 0)^3, d linearised per iterate   collision.c
  *   friction   contact   mu lambda_i f0(|T_i^T (x_i - anchor_i)|), lagged      friction.c
  *   pin        vertex    k/2 |x_i - target_i|^2 over the pinned vertices          pin.c
  *   self_contact pair    -k eps (d-eps)^2 ln(d/eps) for d < eps, d = n . sum w_k x_k self_contact.c
@@ -136,14 +136,38 @@ void cr_inertia_term(const cr_inertia *in, cr_energy_term *out);
 
 /* ----------------------------------------------------------- collision -- */
 
-/* Penalty against a collider, per cloth vertex: E_i = k max(eps - d_i(x), 0)^3
+/* Penalty against a collider, per cloth vertex: E_i = k max(m_i - d_i(x), 0)^3
  * (HOOD/SNUG's cubic), with d_i linearised around the iterate last given to
  * cr_collision_update: d_i(x) = dist_i + n_i . (x - x_i). Gradient
- * -3 k (eps - d)^2 n_i, Hessian 6 k (eps - d) n_i n_i^T (PSD). */
+ * -3 k (m_i - d)^2 n_i, Hessian 6 k (m_i - d) n_i n_i^T (PSD). The threshold
+ * m_i is the thickness eps, plus, once the cloth's edges are given, the
+ * largest chord sag of vertex i's edges when cr_collision_update_margins
+ * last ran, so that the thickness holds at the faces' centroids and not only
+ * at their corners. */
 typedef struct cr_collision cr_collision;
 cr_status cr_collision_create(int32_t nv, const cr_material *mat, cr_collision **out,
                               cr_error *err);
 void cr_collision_destroy(cr_collision *c);
+/* The cloth's edges (E,2), copied, for cr_collision_update_margins. Refuses
+ * a vertex out of range. */
+cr_status cr_collision_set_edges(cr_collision *c, const int32_t *edge, int32_t ne, cr_error *err);
+/* Each vertex's threshold m_i = eps + the largest chord sag of its edges
+ * (eps without edges), held until the next call: from the positions and
+ * distances of the last update and normal (V,3), the collider's smooth unit
+ * normal (vertex normals interpolated) at each vertex's closest point, zero
+ * where the query reached nothing. An edge's sag fades to zero over the last
+ * millimetre before `reach` (m, the query's radius) at its farther end. */
+void cr_collision_update_margins(cr_collision *c, const float *normal, double reach);
+/* How far the middle of a face sags below its corners toward a curved
+ * collider, m, from one edge's ends x_a, x_b and the collider's unit outward
+ * normals n_a, n_b at their closest points: (n_b - n_a) . (x_b - x_a) / 6,
+ * exact at the centroid of an equilateral triangle over a sphere (edge
+ * length L, radius R: L^2 / (6 R)); 0 where the surface is flat or concave
+ * between them, faded out as the normals part from 46 to 60 degrees (the
+ * edge then spans two parts of the collider, not one curved surface; the
+ * fade keeps the sag continuous). */
+double cr_collision_chord_sag(const double xa[3], const double na[3], const double xb[3],
+                              const double nb[3]);
 /* Per Newton iterate: x (V,3) the cloth positions, m; dist (V) the signed
  * distance to the collider at x, m, negative inside; normal (V,3) the unit
  * outward normal at the closest point. A vertex the query did not reach may
@@ -159,6 +183,10 @@ void cr_collision_term(const cr_collision *c, cr_energy_term *out);
 void cr_collision_set_stiffness(cr_collision *c, double k);
 /* max(0, -min_i dist_i) at the last update, m. */
 double cr_collision_max_penetration(const cr_collision *c);
+/* Vertex i's threshold m_i, m (eps before the first margins update). */
+double cr_collision_margin(const cr_collision *c, int32_t i);
+/* The largest threshold (eps before the first margins update), m. */
+double cr_collision_max_margin(const cr_collision *c);
 /* The penalty of one vertex at signed distance d (m) from the collider whose
  * distance gradient (the outward unit normal) is n: k max(eps - d, 0)^3, J,
  * with k (J/m^3) and eps (m) from the material; g (3) gets its gradient
@@ -167,9 +195,9 @@ double cr_collision_max_penetration(const cr_collision *c);
  * distances (the losses). */
 double cr_collision_penalty(double k, double eps, double d, const double n[3], double *g,
                             double *H);
-/* 1 when vertex i lay within the thickness (dist_i < eps) at the last update;
+/* 1 when vertex i lay within its threshold (dist_i < m_i) at the last update;
  * then normal (3) gets n_i and *force the penalty's normal force magnitude
- * 3 k (eps - dist_i)^2, N. Else 0 and nothing is written. */
+ * 3 k (m_i - dist_i)^2, N. Else 0 and nothing is written. */
 int cr_collision_contact(const cr_collision *c, int32_t i, double normal[3], double *force);
 
 /* -------------------------------------------------------- self-contact -- */

@@ -52,6 +52,7 @@ static const struct {
     [CR_EVAL_COL] = {"col_m", "epnet"},
     [CR_EVAL_COL_MAX] = {"col_max_m", "epnet"},
     [CR_EVAL_COLLISION_RATIO] = {"collision_ratio", "swingar"},
+    [CR_EVAL_COL_FACE_MAX] = {"col_face_max_m", "crease"},
     [CR_EVAL_E_U] = {"e_u", "gdsr"},
     [CR_EVAL_E_V] = {"e_v", "gdsr"},
     [CR_EVAL_E_UV] = {"e_uv", "gdsr"},
@@ -256,6 +257,7 @@ typedef struct eval_ctx {
     double *dminv;                      /* (F,2,2) inverse rest edge matrix of each triangle */
     float *np, *nr, *fnp, *fnr, *farea; /* (V,3), (V,3), (F,3), (F,3), (F) */
     float *dist, *dist2;                /* (V) scratch */
+    float *centroid, *fdist;            /* (F,3), (F) scratch */
     /* normal maps */
     int S;
     int32_t *pix_face;    /* (S*S) face under the pixel, -1 outside the chart */
@@ -277,7 +279,8 @@ static void ctx_free(eval_ctx *c) {
         free(c->bend_r);
     free(c->rb_p), free(c->rb_r), free(c->zero), free(c->sort_scratch);
     free(c->dminv), free(c->np), free(c->nr), free(c->fnp), free(c->fnr);
-    free(c->farea), free(c->dist), free(c->dist2), free(c->pix_face), free(c->pix_bary);
+    free(c->farea), free(c->dist), free(c->dist2), free(c->centroid), free(c->fdist),
+        free(c->pix_face), free(c->pix_bary);
     free(c->mask), free(c->img_p), free(c->img_r);
 }
 
@@ -444,8 +447,11 @@ static cr_status ctx_create(eval_ctx *c, cr_error *err) {
     c->farea = cr_malloc((size_t)c->F * sizeof(float), err);
     c->dist = cr_malloc((size_t)c->V * sizeof(float), err);
     c->dist2 = cr_malloc((size_t)c->V * sizeof(float), err);
+    c->centroid = cr_malloc((size_t)c->F * 3 * sizeof(float), err);
+    c->fdist = cr_malloc((size_t)c->F * sizeof(float), err);
     if (!c->xp || !c->xpred || !c->theta_p || !c->theta_r || !c->rest_mesh || !c->bed || !c->np ||
-        !c->nr || !c->fnp || !c->fnr || !c->farea || !c->dist || !c->dist2)
+        !c->nr || !c->fnp || !c->fnr || !c->farea || !c->dist || !c->dist2 || !c->centroid ||
+        !c->fdist)
         return CR_ERR_MEMORY;
     memcpy(c->rest_mesh, cr_bending_rest_angles(c->bending), (size_t)c->H * sizeof(double));
     CR_TRY(cr_mesh_clone(g, &c->mp, err));
@@ -641,6 +647,17 @@ static cr_status eval_frame(eval_ctx *c, int32_t t, double *m, cr_error *err) {
         m[CR_EVAL_COL] = pen / V;
         m[CR_EVAL_COL_MAX] = deepest;
         m[CR_EVAL_COLLISION_RATIO] = (double)inside / V;
+        for (int32_t f = 0; f < F; f++) {
+            const int32_t *tri = &g->tri[3 * (int64_t)f];
+            for (int d = 0; d < 3; d++)
+                c->centroid[3 * (int64_t)f + d] =
+                    (P[3 * tri[0] + d] + P[3 * tri[1] + d] + P[3 * tri[2] + d]) / 3.0f;
+        }
+        cr_bvh_signed_distance_batch(c->body, c->centroid, F, BODY_QUERY_M, c->fdist, NULL, NULL);
+        double face_deepest = 0.0;
+        for (int32_t f = 0; f < F; f++)
+            if (-c->fdist[f] > face_deepest) face_deepest = -c->fdist[f];
+        m[CR_EVAL_COL_FACE_MAX] = face_deepest;
     }
 
     /* w_u, w_v of every triangle (gdsr App. B) */

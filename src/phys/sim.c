@@ -4,17 +4,19 @@
  *   1. the collider's positions are interpolated at t0 and t1 (implicit
  *      Euler evaluates the collider at the end);
  *   2. x_pred = x + h v goes to the inertia term, x_t to the drag term;
- *   3. the collider is queried at x_t within a radius R = eps + (penetration
- *      left by the last substep) + (collider motion over the substep) +
- *      2 (h max|v| + h^2 |g|) + 1 mm, which covers every vertex that can reach
- *      the thickness during the step; the collision term is linearised there
- *      (d(x) = d_i + n_i . (x - x_i)). A moving collider is queried in its
+ *   3. the collider is queried at x_t within a radius R = m (the collision
+ *      term's largest threshold at the last query: the thickness eps plus
+ *      the chord sag of coarse faces over a curved collider, collision.c) +
+ *      (penetration left by the last substep) + (collider motion over the
+ *      substep) + 2 (h max|v| + h^2 |g|) + 1 mm, which covers every vertex
+ *      that can reach its threshold during the step; the collision term is
+ *      linearised there (d(x) = d_i + n_i . (x - x_i)). A moving collider is queried in its
  *      pose at t0 and each closest point is carried to t1 with its face
  *      (track_collider); then the BVH is refitted to t1. The lagged friction
  *      freezes the contacts (normal force, tangent frame, and an anchor moved
  *      with the collider surface under the vertex);
  *   4. Newton starts from x_pred, with every vertex that the prediction puts
- *      deeper than half the thickness (by the linearisation) moved back to it;
+ *      deeper than half its threshold (by the linearisation) moved back to it;
  *   5. Newton: assemble, factorise with CHOLMOD (shifted if not positive
  *      definite), solve, backtracking Armijo line search on the incremental
  *      potential; every later iterate queries the collider again (R grows by
@@ -222,7 +224,7 @@ void cr_sim_query_collider(cr_sim *s, const double *x, double radius) {
 void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double move_tol) {
     if (!s->bvh) return;
     double t = cr_time_now();
-    const double band = s->def.material.collision_thickness;
+    const double band = cr_collision_max_margin(s->collision);
     int32_t m = 0;
     for (int32_t i = 0; i < s->nv; i++) {
         const double *xi = x + 3 * (int64_t)i, *qi = s->qx + 3 * (int64_t)i;
@@ -251,6 +253,56 @@ void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double m
     s->rep->seconds_collision += cr_time_now() - t;
 }
 
+/* The collider's smooth normal at a closest point: its vertex normals vn
+ * interpolated by the hit's barycentric weights, normalised; zero without a
+ * hit. The collision term's thresholds take it (collision.c says why). */
+static void smooth_normal(const cr_bvh *b, const float *vn, const cr_bvh_hit *hit, float out[3]) {
+    out[0] = out[1] = out[2] = 0.0f;
+    if (hit->face < 0) return;
+    const int32_t *f = cr_bvh_triangles(b) + 3 * (int64_t)hit->face;
+    double m[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            m[j] += (double)hit->bary[k] * vn[3 * (int64_t)f[k] + j];
+    const double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    if (len > 1e-12)
+        for (int j = 0; j < 3; j++)
+            out[j] = (float)(m[j] / len);
+}
+
+typedef struct start_ctx {
+    cr_sim *s;
+    const float *vn;
+    float radius;
+} start_ctx;
+
+/* Per vertex of s->xf: signed distance, pseudo-normal and smooth normal. */
+static void start_range(void *vctx, int64_t begin, int64_t end) {
+    const start_ctx *c = vctx;
+    cr_sim *s = c->s;
+    for (int64_t i = begin; i < end; i++) {
+        cr_bvh_hit hit;
+        if (!cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i],
+                                    s->normal + 3 * i, &hit))
+            hit.face = -1;
+        smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
+    }
+}
+
+/* The step-start query of a static collider: cr_sim_query_collider's, and
+ * the collision term's thresholds from the smooth normals. */
+static void query_start(cr_sim *s, const double *x, double radius) {
+    double t = cr_time_now();
+    for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
+        s->xf[k] = (float)x[k];
+    start_ctx c = {s, cr_bvh_vertex_normals(s->bvh), (float)radius};
+    cr_parallel_for(s->nv, 512, start_range, &c);
+    cr_collision_update(s->collision, x, s->dist, s->normal);
+    cr_collision_update_margins(s->collision, s->smooth, radius);
+    remember_queries(s, x, 0.0);
+    s->rep->seconds_collision += cr_time_now() - t;
+}
+
 /* (b - a) x (c - a) of face f at positions pos, normalised (zero when degenerate). */
 static void face_normal(const float *pos, const int32_t *f, double n[3]) {
     const float *a = pos + 3 * (int64_t)f[0], *b = pos + 3 * (int64_t)f[1],
@@ -268,13 +320,14 @@ static void face_normal(const float *pos, const int32_t *f, double n[3]) {
 
 typedef struct track_ctx {
     cr_sim *s;
+    const float *vn; /* the collider's vertex normals at t0 */
     float radius;
 } track_ctx;
 
 /* Per vertex of s->xf: the closest point on the collider at t0 (the BVH's
  * pose), carried to t1 with its face. Writes the linearisation at x_start
- * into s->dist / s->normal (the distance still at t0) and the surface's
- * displacement into s->disp. */
+ * into s->dist / s->normal (the distance still at t0), the smooth normal at
+ * t0 into s->smooth and the surface's displacement into s->disp. */
 static void track_range(void *vctx, int64_t begin, int64_t end) {
     const track_ctx *c = vctx;
     cr_sim *s = c->s;
@@ -284,8 +337,11 @@ static void track_range(void *vctx, int64_t begin, int64_t end) {
         double *di = s->disp + 3 * i;
         di[0] = di[1] = di[2] = 0.0;
         cr_bvh_hit hit;
-        if (!cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i], n, &hit))
-            continue;
+        const int reached =
+            cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i], n, &hit);
+        if (!reached) hit.face = -1;
+        smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
+        if (!reached) continue;
         const int32_t *f = tri + 3 * (int64_t)hit.face;
         for (int k = 0; k < 3; k++)
             for (int j = 0; j < 3; j++)
@@ -330,9 +386,10 @@ static cr_status track_collider(cr_sim *s, const double *x_start, double radius,
     double t = cr_time_now();
     for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
         s->xf[k] = (float)x_start[k];
-    track_ctx c = {s, (float)radius};
+    track_ctx c = {s, cr_bvh_vertex_normals(s->bvh), (float)radius};
     cr_parallel_for(s->nv, 512, track_range, &c);
     cr_collision_update(s->collision, x_start, s->dist, s->normal);
+    cr_collision_update_margins(s->collision, s->smooth, radius);
     s->rep->seconds_collision += cr_time_now() - t;
     update_friction(s, x_start);
     t = cr_time_now();
@@ -413,14 +470,14 @@ static int all_finite(const double *a, int64_t n) {
 }
 
 /* Newton's first guess: x_pred, except that a vertex whose linearised
- * distance there falls below half the thickness is moved out to it along the
- * normal. Starting deep inside the penalty (a falling cloth predicted
- * centimetres into the body) costs many damped iterations; starting on its
+ * distance there falls below half its threshold (the thickness and its
+ * edges' chord sag) is moved out to it along the normal. Starting deep inside the penalty (a
+ * falling cloth predicted centimetres into the body) costs many damped iterations; starting on its
  * rim with no curvature lets the first step overshoot; at half the thickness
  * the penalty's curvature is there and the step is short. */
 static void clamp_guess(cr_sim *s) {
-    const double target = 0.5 * s->def.material.collision_thickness;
     for (int32_t i = 0; i < s->nv; i++) {
+        const double target = 0.5 * cr_collision_margin(s->collision, i);
         const float *n = s->normal + 3 * (int64_t)i;
         if (s->pinned[i] || (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f)) continue;
         double *x = s->x + 3 * (int64_t)i;
@@ -601,8 +658,9 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     o.rtol = dynamic ? d->newton_rtol : 0.0;
     o.max_step = dynamic ? INFINITY : d->static_max_step;
     /* Radius of the collider query (see the file comment). */
-    o.base_radius = d->material.collision_thickness + s->pen_start + motion +
-                    2.0 * (h * vmax + h * h * g) + 1e-3;
+    const double margin =
+        s->collision ? cr_collision_max_margin(s->collision) : d->material.collision_thickness;
+    o.base_radius = margin + s->pen_start + motion + 2.0 * (h * vmax + h * h * g) + 1e-3;
     /* VBD's sweeps take the collider's penalty vbd_collision_scale times
      * stiffer (crease/phys_sim.h says why), friction's normal force with it;
      * Newton's solves, static ones of a VBD simulator included, the material's. */
@@ -610,12 +668,12 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
         cr_collision_set_stiffness(s->collision, d->material.collision_stiffness *
                                                      (vbd ? d->vbd_collision_scale : 1.0));
     /* Linearise the collider at the step's start (friction freezes its
-     * contacts there too), then start Newton from x_pred with every vertex the
-     * prediction would push into the thickness put back to half of it. */
+     * contacts there too, the collision term its thresholds), then start Newton from x_pred with
+     * every vertex the prediction would push into the thickness put back to half of it. */
     if (s->bvh && s->def.collider_frames)
         CR_TRY(track_collider(s, s->x_start, o.base_radius, motion, err));
     else {
-        cr_sim_query_collider(s, s->x_start, o.base_radius);
+        if (s->bvh) query_start(s, s->x_start, o.base_radius);
         update_friction(s, s->x_start);
     }
     CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
@@ -653,7 +711,7 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     int32_t contacts = 0;
     if (s->bvh)
         for (int32_t i = 0; i < s->nv; i++) {
-            if (s->dist[i] < d->material.collision_thickness) contacts++;
+            if (s->dist[i] < cr_collision_margin(s->collision, i)) contacts++;
             if (!(s->dist[i] < 0.0) || s->pinned[i]) continue;
             const float *n = s->normal + 3 * (int64_t)i;
             double *x = s->x + 3 * (int64_t)i, *v = s->v + 3 * (int64_t)i;

@@ -100,6 +100,7 @@ struct cr_sim {
     double *disp;                              /* (V,3) collider motion under contacts, m */
     double *theta;                             /* (H) rad */
     float *xf, *dist, *normal;                 /* (V,3), (V), (V,3) */
+    float *smooth; /* (V,3) collider's interpolated normal, step start */
     /* Each vertex's last collider query (cr_sim_requery_collider): where,
      * and a lower bound on its signed distance then, m; the selection and
      * its results, compact. */

@@ -53,7 +53,7 @@ void cr_sim_destroy(cr_sim *s) {
     free(s->x), free(s->v), free(s->x_frame), free(s->v_frame), free(s->rest_frame);
     free(s->a_prev), free(s->a_frame);
     free(s->x_start), free(s->x_pred), free(s->grad), free(s->dx), free(s->xt), free(s->disp);
-    free(s->theta), free(s->xf), free(s->dist), free(s->normal);
+    free(s->theta), free(s->xf), free(s->dist), free(s->normal), free(s->smooth);
     free(s->qx), free(s->qlow), free(s->qsel), free(s->qdist), free(s->qnormal);
     free(s->collider_rest), free(s->cpos), free(s->cpos_prev);
     free(s);
@@ -159,6 +159,7 @@ static cr_status setup_collider(cr_sim *s, cr_error *err) {
     memcpy(s->collider_rest, d->collider_frames ? d->collider_frames : c->pos, n3 * sizeof(float));
     CR_TRY(cr_bvh_build(s->collider_rest, c->nv, c->tri, c->nf, &s->bvh, err));
     CR_TRY(cr_collision_create(s->nv, &d->material, &s->collision, err));
+    CR_TRY(cr_collision_set_edges(s->collision, s->topo->edge, s->topo->ne, err));
     if (d->material.friction > 0.0)
         CR_TRY(cr_friction_create(s->nv, &d->material, d->friction_eps, &s->friction, err));
     return CR_OK;
@@ -178,8 +179,9 @@ static cr_status allocate_buffers(cr_sim *s, cr_error *err) {
     s->xf = cr_calloc(n3, sizeof(float), err);
     s->dist = cr_calloc((size_t)s->nv, sizeof(float), err);
     s->normal = cr_calloc(n3, sizeof(float), err);
+    s->smooth = cr_calloc(n3, sizeof(float), err);
     s->pinned = cr_calloc((size_t)s->nv, 1, err);
-    if (!s->rest_frame || !s->theta || !s->xf || !s->dist || !s->normal || !s->pinned)
+    if (!s->rest_frame || !s->theta || !s->xf || !s->dist || !s->normal || !s->smooth || !s->pinned)
         return err ? err->status : CR_ERR_MEMORY;
     s->qx = cr_calloc(n3, sizeof(double), err);
     s->qlow = cr_calloc((size_t)s->nv, sizeof(double), err);
