@@ -21,11 +21,15 @@
 
 /* The mannequin as an SMPL-style .npz: v_template its rest, shapedirs one
  * direction moving every vertex away from the vertical axis by 10 % per
- * unit, J_regressor each joint the mean of the 12 vertices nearest its rest
- * position, weights its own, kintree SMPL's (hands as children of the
- * wrists, unweighted), f its faces. */
-static int write_model(const char *path, const cr_body_model *b) {
-    enum { J = 24, K = 12 };
+ * unit, J_regressor each joint at its rest position from the K vertices
+ * nearest it (the minimum-norm weights summing to 1: w = (1 + (p - m)^T C^-1
+ * (joint - m)) / K with m, C their mean and covariance, as
+ * scripts/smpl_style_body.py; their plain mean sits on the skin's near side
+ * and the t-shirt's neckline then closed over the head), weights its own,
+ * kintree SMPL's (hands as children of the wrists, unweighted), f its faces.
+ * Not exact: each joint the plain mean of the 12 nearest. */
+static int write_model(const char *path, const cr_body_model *b, int exact) {
+    enum { J = 24, K = 48 };
     const int64_t V = b->rest->nv, F = b->rest->nf;
     double *tmpl = calloc((size_t)V * 3, sizeof(double));
     double *dirs = calloc((size_t)V * 3, sizeof(double));
@@ -50,12 +54,40 @@ static int write_model(const char *path, const cr_body_model *b) {
             d2[v] = (p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
                     (p[2] - c[2]) * (p[2] - c[2]);
         }
+        int64_t near[K];
         for (int k = 0; k < K; k++) { /* the K nearest, by repeated selection */
             int64_t best = 0;
             for (int64_t v = 1; v < V; v++)
                 if (d2[v] < d2[best]) best = v;
-            reg[j * V + best] = 1.0 / K;
+            near[k] = best;
             d2[best] = INFINITY;
+        }
+        double m[3] = {0, 0, 0}, C[9] = {0}, Ci[9];
+        for (int k = 0; k < K; k++)
+            for (int a = 0; a < 3; a++)
+                m[a] += b->rest->pos[3 * near[k] + a] / (double)K;
+        for (int k = 0; k < K; k++)
+            for (int a = 0; a < 3; a++)
+                for (int c2 = 0; c2 < 3; c2++)
+                    C[3 * a + c2] += (b->rest->pos[3 * near[k] + a] - m[a]) *
+                                     (b->rest->pos[3 * near[k] + c2] - m[c2]) / K;
+        const double det = C[0] * (C[4] * C[8] - C[5] * C[7]) - C[1] * (C[3] * C[8] - C[5] * C[6]) +
+                           C[2] * (C[3] * C[7] - C[4] * C[6]);
+        for (int a = 0; a < 3; a++) /* the inverse by cofactors (C is symmetric) */
+            for (int c2 = 0; c2 < 3; c2++) {
+                const int r0 = (c2 + 1) % 3, r1 = (c2 + 2) % 3, q0 = (a + 1) % 3, q1 = (a + 2) % 3;
+                Ci[3 * a + c2] =
+                    (C[3 * r0 + q0] * C[3 * r1 + q1] - C[3 * r0 + q1] * C[3 * r1 + q0]) / det;
+            }
+        double y[3] = {0, 0, 0};
+        for (int a = 0; a < 3; a++)
+            for (int c2 = 0; c2 < 3; c2++)
+                y[a] += Ci[3 * a + c2] * (c[c2] - m[c2]);
+        for (int k = 0; k < K; k++) {
+            double dot = 0.0;
+            for (int a = 0; a < 3; a++)
+                dot += (b->rest->pos[3 * near[k] + a] - m[a]) * y[a];
+            reg[j * V + near[k]] = exact ? (1.0 + dot) / K : k < 12 ? 1.0 / 12 : 0.0;
         }
         kt[0][j] = j == 0 ? 4294967295.0 : j < CR_NJOINTS ? cr_joint_parent[j] : 20 + (j - 22);
         kt[1][j] = j;
@@ -92,7 +124,7 @@ CR_TEST(body_resolve, presets_and_model_files) {
     CR_REQUIRE(normal);
     char path[512], spec[600];
     snprintf(path, sizeof path, "%s/mannequin_smpl.npz", cr_test_tmpdir());
-    CR_REQUIRE(write_model(path, normal));
+    CR_REQUIRE(write_model(path, normal, 1));
     CR_CHECK_OK(cr_body_resolve(path, &plain, &err), &err);
     snprintf(spec, sizeof spec, "%s:1.5", path);
     CR_CHECK_OK(cr_body_resolve(spec, &wide, &err), &err);
@@ -125,7 +157,7 @@ CR_TEST(body_resolve, epnet_on_a_model_file) {
     CR_REQUIRE(normal);
     char path[512], spec[600];
     snprintf(path, sizeof path, "%s/mannequin_smpl2.npz", cr_test_tmpdir());
-    CR_REQUIRE(write_model(path, normal));
+    CR_REQUIRE(write_model(path, normal, 1));
     snprintf(spec, sizeof spec, "%s:1.0", path);
     cr_epnet_def d = cr_epnet_default_def();
     d.body = spec;
@@ -169,6 +201,29 @@ CR_TEST(body_resolve, epnet_on_a_model_file) {
  * without UVs). Every sequence is simulated; the body's files are named by
  * its label; the garment keeps its file's vertex count on each body, has no
  * UVs, and less than 0.5 % of it is inside a body on any frame. */
+/* A model whose joints are the plain means of the vertices nearest them (on
+ * the skin's near side): the t-shirt's neckline misses the neck and the
+ * garment would close over the head, so it is refused, saying so. */
+CR_TEST(body_resolve, a_neckline_that_cannot_open_is_refused) {
+    cr_error err = {0};
+    cr_body_model *normal = NULL, *model = NULL;
+    CR_CHECK_OK(cr_body_resolve("normal", &normal, &err), &err);
+    CR_REQUIRE(normal);
+    char path[512];
+    snprintf(path, sizeof path, "%s/mannequin_smpl_mean12.npz", cr_test_tmpdir());
+    CR_REQUIRE(write_model(path, normal, 0));
+    CR_CHECK_OK(cr_body_resolve(path, &model, &err), &err);
+    CR_REQUIRE(model);
+    cr_garment_def d = cr_garment_default_def(CR_GARMENT_TSHIRT);
+    d.target_vertices = 500;
+    cr_garment *g = NULL;
+    CR_CHECK(cr_garment_create(&d, model, &g, &err) == CR_ERR_TOPOLOGY && !g);
+    printf("    %s\n", err.msg);
+    CR_CHECK(strstr(err.msg, "neckline did not open") && strstr(err.msg, "head joint"));
+    cr_garment_destroy(g);
+    cr_body_model_destroy(model), cr_body_model_destroy(normal);
+}
+
 CR_TEST(body_resolve, dataset_with_a_model_file_and_a_garment_file) {
     cr_error err = {0};
     cr_body_model *normal = NULL;
@@ -176,7 +231,7 @@ CR_TEST(body_resolve, dataset_with_a_model_file_and_a_garment_file) {
     CR_REQUIRE(normal);
     char model[512], spec[600], obj[512], dir[512];
     snprintf(model, sizeof model, "%s/mannequin_smpl3.npz", cr_test_tmpdir());
-    CR_REQUIRE(write_model(model, normal));
+    CR_REQUIRE(write_model(model, normal, 1));
     snprintf(spec, sizeof spec, "%s:0.5", model);
     /* the garment as another tool exports it: positions and faces only */
     cr_garment_def gd = cr_garment_default_def(CR_GARMENT_SKIRT);

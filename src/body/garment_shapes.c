@@ -608,6 +608,24 @@ static cr_status cut_surface(const gbody *b, const gspec *sp, const gfield *f, g
         if (st == CR_OK) cr_gcut_remove_negative(cm, k);
     }
     if (st == CR_OK) st = cr_gcut_keep_largest(cm, err);
+    /* The head falls away at the neckline; a garment still above the head
+     * joint (the skull's base) closed over it: met on an SMPL-style body
+     * whose joints were the means of the vertices nearest them (on the
+     * skin's near side), where the neckline's sphere missed the neck. */
+    const float head_y = joint(b, CR_JOINT_HEAD)[1];
+    float top = -INFINITY;
+    for (int32_t v = 0; st == CR_OK && v < cm->nv; v++)
+        top = fmaxf(top, cm->pos[3 * (size_t)v + 1]);
+    if (st == CR_OK && top > head_y) {
+        cr_bvh_hit hit;
+        cr_bvh_closest(b->bvh, joint(b, CR_JOINT_NECK), INFINITY, &hit);
+        st = CR_FAIL(err, CR_ERR_TOPOLOGY,
+                     "garment: the neckline did not open on this body: the garment reaches "
+                     "%.0f mm above the head joint (the neckline is a sphere 55 mm above the "
+                     "neck joint, sized by the joint's %.1f mm to the skin: are the neck and "
+                     "head joints inside the neck and at the skull's base?)",
+                     1e3 * (top - head_y), 1e3 * hit.distance);
+    }
     for (int k = 0; st == CR_OK && k < sp->nseam; k++)
         st = cr_gcut_split(cm, sp->ncut + k, eps, err);
     if (st == CR_OK && cm->nf == 0)
