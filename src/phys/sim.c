@@ -270,39 +270,6 @@ static void smooth_normal(const cr_bvh *b, const float *vn, const cr_bvh_hit *hi
             out[j] = (float)(m[j] / len);
 }
 
-typedef struct start_ctx {
-    cr_sim *s;
-    const float *vn;
-    float radius;
-} start_ctx;
-
-/* Per vertex of s->xf: signed distance, pseudo-normal and smooth normal. */
-static void start_range(void *vctx, int64_t begin, int64_t end) {
-    const start_ctx *c = vctx;
-    cr_sim *s = c->s;
-    for (int64_t i = begin; i < end; i++) {
-        cr_bvh_hit hit;
-        if (!cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i],
-                                    s->normal + 3 * i, &hit))
-            hit.face = -1;
-        smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
-    }
-}
-
-/* The step-start query of a static collider: cr_sim_query_collider's, and
- * the collision term's thresholds from the smooth normals. */
-static void query_start(cr_sim *s, const double *x, double radius) {
-    double t = cr_time_now();
-    for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
-        s->xf[k] = (float)x[k];
-    start_ctx c = {s, cr_bvh_vertex_normals(s->bvh), (float)radius};
-    cr_parallel_for(s->nv, 512, start_range, &c);
-    cr_collision_update(s->collision, x, s->dist, s->normal);
-    cr_collision_update_margins(s->collision, s->smooth, radius);
-    remember_queries(s, x, 0.0);
-    s->rep->seconds_collision += cr_time_now() - t;
-}
-
 /* (b - a) x (c - a) of face f at positions pos, normalised (zero when degenerate). */
 static void face_normal(const float *pos, const int32_t *f, double n[3]) {
     const float *a = pos + 3 * (int64_t)f[0], *b = pos + 3 * (int64_t)f[1],
@@ -318,29 +285,32 @@ static void face_normal(const float *pos, const int32_t *f, double n[3]) {
         n[k] = len > 0.0 ? n[k] / len : 0.0;
 }
 
-typedef struct track_ctx {
+typedef struct start_ctx {
     cr_sim *s;
     const float *vn; /* the collider's vertex normals at t0 */
     float radius;
-} track_ctx;
+    int carry; /* a moving collider: carry each closest point to t1 */
+} start_ctx;
 
-/* Per vertex of s->xf: the closest point on the collider at t0 (the BVH's
- * pose), carried to t1 with its face. Writes the linearisation at x_start
- * into s->dist / s->normal (the distance still at t0), the smooth normal at
- * t0 into s->smooth and the surface's displacement into s->disp. */
-static void track_range(void *vctx, int64_t begin, int64_t end) {
-    const track_ctx *c = vctx;
+/* Per vertex of s->xf, the step-start query: the signed distance and
+ * pseudo-normal on the collider at t0 (the BVH's pose) into s->dist /
+ * s->normal and the smooth normal there into s->smooth; with `carry`, the
+ * closest point carried to t1 with its face: the surface's displacement into
+ * s->disp and the normal turned with the face. */
+static void start_range(void *vctx, int64_t begin, int64_t end) {
+    const start_ctx *c = vctx;
     cr_sim *s = c->s;
     const int32_t *tri = cr_bvh_triangles(s->bvh);
     for (int64_t i = begin; i < end; i++) {
         float *n = s->normal + 3 * i;
-        double *di = s->disp + 3 * i;
-        di[0] = di[1] = di[2] = 0.0;
         cr_bvh_hit hit;
         const int reached =
             cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i], n, &hit);
         if (!reached) hit.face = -1;
         smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
+        if (!c->carry) continue;
+        double *di = s->disp + 3 * i;
+        di[0] = di[1] = di[2] = 0.0;
         if (!reached) continue;
         const int32_t *f = tri + 3 * (int64_t)hit.face;
         for (int k = 0; k < 3; k++)
@@ -358,6 +328,17 @@ static void track_range(void *vctx, int64_t begin, int64_t end) {
             for (int k = 0; k < 3; k++)
                 n[k] = (float)(m[k] / len);
     }
+}
+
+/* The step-start query at x (start_range), the collision term linearised
+ * there and its thresholds set. */
+static void query_start(cr_sim *s, const double *x, double radius, int carry) {
+    for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
+        s->xf[k] = (float)x[k];
+    start_ctx c = {s, cr_bvh_vertex_normals(s->bvh), (float)radius, carry};
+    cr_parallel_for(s->nv, 512, start_range, &c);
+    cr_collision_update(s->collision, x, s->dist, s->normal);
+    cr_collision_update_margins(s->collision, s->smooth, radius);
 }
 
 static void update_friction(cr_sim *s, const double *x_start) {
@@ -384,12 +365,7 @@ static void update_friction(cr_sim *s, const double *x_start) {
 static cr_status track_collider(cr_sim *s, const double *x_start, double radius, double motion,
                                 cr_error *err) {
     double t = cr_time_now();
-    for (int64_t k = 0; k < 3 * (int64_t)s->nv; k++)
-        s->xf[k] = (float)x_start[k];
-    track_ctx c = {s, cr_bvh_vertex_normals(s->bvh), (float)radius};
-    cr_parallel_for(s->nv, 512, track_range, &c);
-    cr_collision_update(s->collision, x_start, s->dist, s->normal);
-    cr_collision_update_margins(s->collision, s->smooth, radius);
+    query_start(s, x_start, radius, 1);
     s->rep->seconds_collision += cr_time_now() - t;
     update_friction(s, x_start);
     t = cr_time_now();
@@ -673,7 +649,12 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
     if (s->bvh && s->def.collider_frames)
         CR_TRY(track_collider(s, s->x_start, o.base_radius, motion, err));
     else {
-        if (s->bvh) query_start(s, s->x_start, o.base_radius);
+        if (s->bvh) {
+            double t = cr_time_now();
+            query_start(s, s->x_start, o.base_radius, 0);
+            remember_queries(s, s->x_start, 0.0);
+            s->rep->seconds_collision += cr_time_now() - t;
+        }
         update_friction(s, s->x_start);
     }
     CR_TRY(cr_sim_detect_self(s, s->x_start, !vbd, err));
