@@ -143,7 +143,10 @@ CR_TEST(epnet, tiny_enet_lowers_its_physics_loss) {
         if (!cr_test_quick()) {
             CR_CHECK(el < 0.2 * el0);
             CR_CHECK(l.total < l0.total);
-            CR_CHECK(l.term[4] < 0.01 * el0); /* and it stays (nearly) outside the body */
+            /* and it stays (nearly) outside the body: the penalty starts at eps + the
+             * chord sag of each vertex's edges (losses.h), 1.6-1.9 % of el0 here (0.2 %
+             * when it started at eps) */
+            CR_CHECK(l.term[4] < 0.03 * el0);
         }
         cr_epnet_seq_destroy(s);
         cr_epnet_destroy(m);

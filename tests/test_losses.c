@@ -586,6 +586,87 @@ CR_TEST(losses, gradient_collision_per_item_body) {
     cloth_destroy(&c);
 }
 
+/* With the cloth's edges the penalty starts at eps + the chord sag: a coarse
+ * sphere (42 vertices) 1 mm outside a fine one. The value is k max(m_i - d_i,
+ * 0)^3 summed, m_i = eps + the largest sag of vertex i's edges with the exact
+ * sphere's normals (the fine sphere's smooth normals are within its facets'
+ * error of them: 1 %); without edges, k (eps - 1 mm)^3 per vertex. The
+ * gradient pushes every vertex outward, as the true distance's sign says
+ * (the sag put a vertex's taken distance below 0 while it lay outside, and
+ * a sign from that pulled it in). A garment of another vertex count is
+ * refused. */
+CR_TEST(losses, collision_with_edges_holds_the_faces) {
+    cr_error err;
+    const float R = 0.3f;
+    cr_mesh *body = NULL, *g = NULL;
+    CR_CHECK_OK(cr_prim_icosphere(R, 4, &body, &err), &err);
+    CR_CHECK_OK(cr_prim_icosphere(R + 0.001f, 1, &g, &err), &err);
+    CR_REQUIRE(body && g);
+    cr_topology *topo = NULL;
+    CR_CHECK_OK(cr_topology_build(g, &topo, &err), &err);
+    CR_REQUIRE(topo);
+    cr_material mat;
+    CR_CHECK_OK(cr_material_preset("cotton", &mat, &err), &err);
+    const double k = mat.collision_stiffness, eps = mat.collision_thickness;
+    const int32_t V = g->nv;
+    double want_plain = 0.0, want = 0.0;
+    double *m = malloc(sizeof(double) * (size_t)V);
+    for (int32_t i = 0; i < V; i++)
+        m[i] = eps;
+    for (int32_t e = 0; e < topo->ne; e++) {
+        const int32_t a = topo->edge[2 * e], b = topo->edge[2 * e + 1];
+        double xa[3], xb[3], na[3], nb[3];
+        for (int d = 0; d < 3; d++)
+            xa[d] = g->pos[3 * a + d], xb[d] = g->pos[3 * b + d];
+        for (int d = 0; d < 3; d++)
+            na[d] = xa[d] / (R + 0.001), nb[d] = xb[d] / (R + 0.001);
+        const double sag = cr_collision_chord_sag(xa, na, xb, nb);
+        m[a] = fmax(m[a], eps + sag), m[b] = fmax(m[b], eps + sag);
+    }
+    cr_bvh *bvh = NULL;
+    CR_CHECK_OK(cr_bvh_build(body->pos, body->nv, body->tri, body->nf, &bvh, &err), &err);
+    CR_REQUIRE(bvh);
+    for (int32_t i = 0; i < V; i++) {
+        float d;
+        cr_bvh_signed_distance(bvh, g->pos + 3 * i, INFINITY, &d, NULL, NULL);
+        want_plain += k * pow(fmax(eps - d, 0.0), 3);
+        want += k * pow(fmax(m[i] - d, 0.0), 3);
+    }
+    cr_bvh_destroy(bvh);
+    cr_loss_collider *col = NULL;
+    CR_CHECK_OK(cr_loss_collider_create(body->pos, body->nv, body->tri, body->nf, &col, &err),
+                &err);
+    CR_REQUIRE(col);
+    cr_nn_ctx *ctx = nn_gradcheck_ctx((size_t)16 << 20);
+    cr_tensor *x = cr_nn_from(ctx, 2, (int64_t[]){V, 3}, g->pos);
+    cr_tensor *plain = cr_loss_collision(ctx, col, &mat, 1.0, x, NULL);
+    CR_CHECK_OK(cr_loss_collider_set_edges(col, topo->edge, topo->ne, V, &err), &err);
+    x->requires_grad = 1;
+    cr_tensor *held = cr_loss_collision(ctx, col, &mat, 1.0, x, NULL);
+    CR_CHECK_OK(cr_nn_backward(ctx, held, &err), &err);
+    CR_REQUIRE(plain && held && x->grad);
+    printf("    42 vertices 1 mm out: penalty %.4g J without the edges (want %.4g), %.4g J with "
+           "them (want %.4g)\n",
+           (double)plain->data[0], want_plain, (double)held->data[0], want);
+    CR_CHECK(fabs(plain->data[0] - want_plain) <= 1e-4 * want_plain);
+    CR_CHECK(fabs(held->data[0] - want) <= 0.01 * want);
+    CR_CHECK(want > 100.0 * want_plain);
+    int outward = 1;
+    for (int32_t i = 0; i < V; i++) {
+        const float *gi = x->grad + 3 * i, *p = g->pos + 3 * i;
+        outward &= gi[0] * p[0] + gi[1] * p[1] + gi[2] * p[2] < 0.0f;
+    }
+    CR_CHECK(outward);
+    cr_tensor *x2 = cr_nn_from(ctx, 2, (int64_t[]){V - 1, 3}, g->pos);
+    CR_CHECK(cr_loss_collision(ctx, col, &mat, 1.0, x2, NULL) == NULL);
+    CR_CHECK(cr_nn_ctx_error(ctx, &err) == CR_ERR_SHAPE && strstr(err.msg, "edges are over 42"));
+    cr_nn_ctx_destroy(ctx);
+    cr_loss_collider_destroy(col);
+    free(m);
+    cr_topology_destroy(topo);
+    cr_mesh_destroy(g), cr_mesh_destroy(body);
+}
+
 /* Per-item values against the simulator's terms set up for each item. */
 CR_TEST(losses, per_item_values_equal_assembly) {
     cr_error err;

@@ -93,6 +93,12 @@ const float *cr_bvh_face_normals(const cr_bvh *b); /* (F,3) unit; zero for degen
  * (the queries do not need it): make that call before sharing the array with
  * other threads. */
 const float *cr_bvh_vertex_normals(const cr_bvh *b);
+/* The surface's smooth normal at a hit: the vertex normals vn (from
+ * cr_bvh_vertex_normals(b), fetched before the threads share it) of the hit's
+ * face interpolated by its barycentric weights, normalised; zero when
+ * hit->face < 0. Unlike the pseudo-normal it turns continuously across the
+ * faces' edges. */
+void cr_bvh_smooth_normal(const cr_bvh *b, const float *vn, const cr_bvh_hit *hit, float out[3]);
 
 /* Exact closest point on the mesh (Ericson, Real-Time Collision Detection,
  * 5.1.5, in double), visiting nodes nearest first and pruning by box

@@ -440,3 +440,17 @@ const float *cr_bvh_vertex_normals(const cr_bvh *b) {
     if (b->vnormal_stale) update_vertex_normals((cr_bvh *)b);
     return b->vnormal;
 }
+
+void cr_bvh_smooth_normal(const cr_bvh *b, const float *vn, const cr_bvh_hit *hit, float out[3]) {
+    out[0] = out[1] = out[2] = 0.0f;
+    if (hit->face < 0) return;
+    const int32_t *f = b->tri + 3 * (int64_t)hit->face;
+    double m[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            m[j] += (double)hit->bary[k] * vn[3 * (int64_t)f[k] + j];
+    const double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    if (len > 1e-12)
+        for (int j = 0; j < 3; j++)
+            out[j] = (float)(m[j] / len);
+}

@@ -253,23 +253,6 @@ void cr_sim_requery_collider(cr_sim *s, const double *x, double radius, double m
     s->rep->seconds_collision += cr_time_now() - t;
 }
 
-/* The collider's smooth normal at a closest point: its vertex normals vn
- * interpolated by the hit's barycentric weights, normalised; zero without a
- * hit. The collision term's thresholds take it (collision.c says why). */
-static void smooth_normal(const cr_bvh *b, const float *vn, const cr_bvh_hit *hit, float out[3]) {
-    out[0] = out[1] = out[2] = 0.0f;
-    if (hit->face < 0) return;
-    const int32_t *f = cr_bvh_triangles(b) + 3 * (int64_t)hit->face;
-    double m[3] = {0.0, 0.0, 0.0};
-    for (int k = 0; k < 3; k++)
-        for (int j = 0; j < 3; j++)
-            m[j] += (double)hit->bary[k] * vn[3 * (int64_t)f[k] + j];
-    const double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
-    if (len > 1e-12)
-        for (int j = 0; j < 3; j++)
-            out[j] = (float)(m[j] / len);
-}
-
 /* (b - a) x (c - a) of face f at positions pos, normalised (zero when degenerate). */
 static void face_normal(const float *pos, const int32_t *f, double n[3]) {
     const float *a = pos + 3 * (int64_t)f[0], *b = pos + 3 * (int64_t)f[1],
@@ -307,7 +290,7 @@ static void start_range(void *vctx, int64_t begin, int64_t end) {
         const int reached =
             cr_bvh_signed_distance(s->bvh, s->xf + 3 * i, c->radius, &s->dist[i], n, &hit);
         if (!reached) hit.face = -1;
-        smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
+        cr_bvh_smooth_normal(s->bvh, c->vn, &hit, s->smooth + 3 * i);
         if (!c->carry) continue;
         double *di = s->disp + 3 * i;
         di[0] = di[1] = di[2] = 0.0;

@@ -156,6 +156,11 @@ cr_tensor *cr_loss_inertia(cr_nn_ctx *ctx, const double *masses, int32_t nv, dou
 struct cr_loss_collider {
     cr_bvh *bvh;
     int32_t nv, nf;
+    /* With the cloth's edges: its thresholds, by the simulator's own code
+     * (cr_collision_update_margins), and a material's eps they are above. */
+    cr_collision *cloth;
+    int32_t cloth_nv;
+    double cloth_eps; /* m */
 };
 
 cr_status cr_loss_collider_create(const float *pos, int32_t nv, const int32_t *tri, int32_t nf,
@@ -177,7 +182,25 @@ cr_status cr_loss_collider_create(const float *pos, int32_t nv, const int32_t *t
 void cr_loss_collider_destroy(cr_loss_collider *c) {
     if (!c) return;
     cr_bvh_destroy(c->bvh);
+    cr_collision_destroy(c->cloth);
     free(c);
+}
+
+cr_status cr_loss_collider_set_edges(cr_loss_collider *c, const int32_t *edge, int32_t ne,
+                                     int32_t cloth_nv, cr_error *err) {
+    CR_ASSERT(c && (edge || ne == 0) && cloth_nv >= 0);
+    cr_material mat;
+    CR_TRY(cr_material_preset("cotton", &mat, err));
+    cr_collision *cloth = NULL;
+    CR_TRY(cr_collision_create(cloth_nv, &mat, &cloth, err));
+    const cr_status st = cr_collision_set_edges(cloth, edge, ne, err);
+    if (st != CR_OK) {
+        cr_collision_destroy(cloth);
+        return st;
+    }
+    cr_collision_destroy(c->cloth);
+    c->cloth = cloth, c->cloth_nv = cloth_nv, c->cloth_eps = mat.collision_thickness;
+    return CR_OK;
 }
 
 typedef struct collision_data {
@@ -187,7 +210,26 @@ typedef struct collision_data {
     float *dist;           /* (V) scratch of one item's query, m */
     float *normal;         /* (V,3) */
     float *point;          /* (V,3) closest points, m */
+    float *smooth;         /* (V,3) the body's smooth normals there (with the cloth's edges) */
+    double *xd;            /* (V,3) the item's positions in double (with the cloth's edges) */
+    const float *x;        /* (V,3) the item's positions, during the query */
+    const float *vn;       /* the body's vertex normals, during the query */
 } collision_data;
+
+/* Per vertex: signed distance, pseudo-normal, closest point and, with the
+ * cloth's edges, the smooth normal there. */
+static void collision_query(void *ctx, int64_t begin, int64_t end) {
+    collision_data *d = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        cr_bvh_hit hit;
+        if (!cr_bvh_signed_distance(d->c->bvh, d->x + 3 * i, INFINITY, &d->dist[i],
+                                    d->normal + 3 * i, &hit))
+            hit.face = -1;
+        for (int k = 0; k < 3; k++)
+            d->point[3 * i + k] = hit.face >= 0 ? hit.point[k] : 0.0f;
+        if (d->vn) cr_bvh_smooth_normal(d->c->bvh, d->vn, &hit, d->smooth + 3 * i);
+    }
+}
 
 /* Lengths below this (m) have no direction: the vertex is on the surface and
  * the pseudo-normal stands in for the distance gradient. */
@@ -229,7 +271,24 @@ static cr_status collision_prepare(loss_spec *s, int64_t b, const float *x_b, cr
             return CR_FAIL(err, CR_ERR_NAN,
                            "loss_energy(collision): vertex %lld of item %lld is not finite",
                            (long long)(i / 3), (long long)b);
-    cr_bvh_signed_distance_batch(d->c->bvh, x_b, V, INFINITY, d->dist, d->normal, d->point);
+    cr_collision *cloth = d->c->cloth;
+    if (cloth && V != d->c->cloth_nv)
+        return CR_FAIL(err, CR_ERR_SHAPE,
+                       "loss_energy(collision): %lld garment vertices, the collider's edges are "
+                       "over %d",
+                       (long long)V, d->c->cloth_nv);
+    d->x = x_b;
+    d->vn = cloth ? cr_bvh_vertex_normals(d->c->bvh) : NULL;
+    cr_parallel_for(V, 256, collision_query, d);
+    /* The cloth's thresholds (docs/physics.md, "Collision"): below, a
+     * vertex's distance is taken as its chord sag nearer (its direction from
+     * the true one's sign), so that the penalty starts at eps + sag. */
+    if (cloth) {
+        for (int64_t k = 0; k < 3 * V; k++)
+            d->xd[k] = x_b[k];
+        cr_collision_update(cloth, d->xd, d->dist, d->normal);
+        cr_collision_update_margins(cloth, d->smooth, INFINITY);
+    }
     float *item = s->item + 4 * V * b;
     for (int64_t i = 0; i < V; i++) {
         const double q[3] = {(double)x_b[3 * i] - d->point[3 * i],
@@ -237,7 +296,8 @@ static cr_status collision_prepare(loss_spec *s, int64_t b, const float *x_b, cr
                              (double)x_b[3 * i + 2] - d->point[3 * i + 2]};
         const double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         const double sgn = d->dist[i] < 0.0f ? -1.0 : 1.0;
-        item[4 * i] = d->dist[i];
+        const double sag = cloth ? cr_collision_margin(cloth, (int32_t)i) - d->c->cloth_eps : 0.0;
+        item[4 * i] = (float)(d->dist[i] - sag);
         for (int c = 0; c < 3; c++)
             item[4 * i + 1 + c] =
                 len > ON_SURFACE_M ? (float)(sgn * q[c] / len) : d->normal[3 * i + c];
@@ -262,15 +322,20 @@ cr_tensor *cr_loss_collision(cr_nn_ctx *ctx, cr_loss_collider *c, const cr_mater
     loss_spec *s = cr_loss_spec_new(ctx);
     collision_data *d = cr_nn_scratch(ctx, "loss_energy(collision)", sizeof *d);
     float *f = cr_nn_scratch(ctx, "loss_energy(collision)",
-                             sizeof(float) * (size_t)(7 * V + 4 * V * B) + 1);
-    if (!s || !d || !f) return NULL;
+                             sizeof(float) * (size_t)(10 * V + 4 * V * B) + 1);
+    double *xd = c->cloth ? cr_nn_scratch(ctx, "loss_energy(collision)",
+                                          sizeof(double) * (size_t)(3 * V) + 1)
+                          : NULL;
+    if (!s || !d || !f || (c->cloth && !xd)) return NULL;
     *d = (collision_data){.c = c,
                           .body = body,
                           .k = mat->collision_stiffness,
                           .eps = mat->collision_thickness,
                           .dist = f,
                           .normal = f + V,
-                          .point = f + 4 * V};
+                          .point = f + 4 * V,
+                          .smooth = f + 7 * V,
+                          .xd = xd};
     s->term = "collision";
     s->nelem = (int32_t)V;
     s->nvert = 1;
@@ -278,7 +343,7 @@ cr_tensor *cr_loss_collision(cr_nn_ctx *ctx, cr_loss_collider *c, const cr_mater
     s->kernel = collision_kernel;
     s->prepare = collision_prepare;
     s->data = d;
-    s->item = f + 7 * V;
+    s->item = f + 10 * V;
     s->item_count = B;
     return cr_loss_spec_run(ctx, s, &x);
 }

@@ -223,6 +223,9 @@ cr_status cr_epnet_create(const cr_epnet_def *def, cr_epnet **out, cr_error *err
     if (st == CR_OK) {
         const cr_mesh *bm = m->body->rest;
         st = cr_loss_collider_create(bm->pos, bm->nv, bm->tri, bm->nf, &m->collider, err);
+        /* the thickness held over the faces, as the simulator holds it */
+        if (st == CR_OK)
+            st = cr_loss_collider_set_edges(m->collider, m->topo->edge, m->topo->ne, m->nv, err);
     }
     if (st == CR_OK) {
         m->theta_bar = cr_malloc(sizeof(float) * (size_t)(m->nh > 0 ? m->nh : 1), err);
