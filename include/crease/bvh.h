@@ -155,6 +155,11 @@ void cr_bvh_closest_batch(const cr_bvh *b, const float *pts, int64_t n, float ma
 void cr_bvh_signed_distance_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
                                   float *dist /* (N) */, float *normal /* (N,3) */,
                                   float *point /* (N,3) */);
+/* The same, and smooth (N,3): the surface's smooth normal at each closest
+ * point (cr_bvh_smooth_normal; zero where none was found). */
+void cr_bvh_signed_distance_smooth_batch(const cr_bvh *b, const float *pts, int64_t n,
+                                         float max_dist, float *dist, float *normal, float *point,
+                                         float *smooth /* (N,3) */);
 void cr_bvh_nearest_vertex_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
                                  int32_t *vertex /* (N) */, float *dist /* (N) */);
 void cr_bvh_raycast_batch(const cr_bvh *b, const float *origins /* (N,3) */,

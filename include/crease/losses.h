@@ -90,13 +90,14 @@ cr_status cr_loss_collider_set_edges(cr_loss_collider *c, const int32_t *edge, i
                                      int32_t cloth_nv, cr_error *err);
 
 /* Collision penalty of each garment vertex against the body of its item:
- * E_i = k max(eps - d_i, 0)^3 (eps + sag_i with the collider's edges) with k =
- * mat->collision_stiffness and eps = mat->collision_thickness as the simulator's (collision.c), d_i
- * the signed distance to the body (negative inside, bvh.h). body (B,V_b,3) or (V_b,3) for every
- * item, m (wrap a host array with cr_nn_wrap); NULL: the collider's current positions. Its data is
- * read in forward; no gradient flows to it. The gradient to x is -3 k (eps - d)^2 grad d, with grad
- * d the unit direction from the closest point (the pseudo-normal where the vertex lies on the
- * surface). */
+ * E_i = k max(eps - d_i, 0)^3 (eps + sag_i with the collider's edges) with
+ * k = mat->collision_stiffness and eps = mat->collision_thickness as the
+ * simulator's (collision.c), d_i the signed distance to the body (negative
+ * inside, bvh.h). body (B,V_b,3) or (V_b,3) for every item, m (wrap a host
+ * array with cr_nn_wrap); NULL: the collider's current positions. Its data
+ * is read in forward; no gradient flows to it. The gradient to x is
+ * -3 k (eps - d)^2 grad d, with grad d the unit direction from the closest
+ * point (the pseudo-normal where the vertex lies on the surface). */
 cr_tensor *cr_loss_collision(cr_nn_ctx *ctx, cr_loss_collider *c, const cr_material *mat,
                              double weight, cr_tensor *x, cr_tensor *body);
 

@@ -414,6 +414,8 @@ typedef struct batch_ctx {
     float limit; /* max_dist or t_max */
     int32_t *index;
     float *point, *bary, *dist, *normal;
+    const float *vn; /* the vertex normals, for smooth */
+    float *smooth;
 } batch_ctx;
 
 enum { BATCH_GRAIN = 64 };
@@ -448,20 +450,35 @@ void cr_bvh_closest_batch(const cr_bvh *b, const float *pts, int64_t n, float ma
 
 static void signed_range(void *ctx, int64_t begin, int64_t end) {
     const batch_ctx *c = ctx;
+    const int hits = c->point || c->smooth;
     for (int64_t i = begin; i < end; i++) {
         cr_bvh_hit h;
         float d, nrm[3];
-        cr_bvh_signed_distance(c->b, &c->pts[3 * i], c->limit, &d, nrm, c->point ? &h : NULL);
+        if (!cr_bvh_signed_distance(c->b, &c->pts[3 * i], c->limit, &d, nrm, hits ? &h : NULL))
+            h.face = -1;
         if (c->dist) c->dist[i] = d;
         put3(c->normal, i, nrm);
         if (c->point) put3(c->point, i, h.point);
+        if (c->smooth) cr_bvh_smooth_normal(c->b, c->vn, &h, &c->smooth[3 * i]);
     }
 }
 
 void cr_bvh_signed_distance_batch(const cr_bvh *b, const float *pts, int64_t n, float max_dist,
                                   float *dist, float *normal, float *point) {
-    batch_ctx c = {
-        .b = b, .pts = pts, .limit = max_dist, .dist = dist, .normal = normal, .point = point};
+    cr_bvh_signed_distance_smooth_batch(b, pts, n, max_dist, dist, normal, point, NULL);
+}
+
+void cr_bvh_signed_distance_smooth_batch(const cr_bvh *b, const float *pts, int64_t n,
+                                         float max_dist, float *dist, float *normal, float *point,
+                                         float *smooth) {
+    batch_ctx c = {.b = b,
+                   .pts = pts,
+                   .limit = max_dist,
+                   .dist = dist,
+                   .normal = normal,
+                   .point = point,
+                   .vn = smooth ? cr_bvh_vertex_normals(b) : NULL,
+                   .smooth = smooth};
     cr_parallel_for(n, BATCH_GRAIN, signed_range, &c);
 }
 

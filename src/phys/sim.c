@@ -10,9 +10,9 @@
  *      (penetration left by the last substep) + (collider motion over the
  *      substep) + 2 (h max|v| + h^2 |g|) + 1 mm, which covers every vertex
  *      that can reach its threshold during the step; the collision term is
- *      linearised there (d(x) = d_i + n_i . (x - x_i)). A moving collider is queried in its
- *      pose at t0 and each closest point is carried to t1 with its face
- *      (track_collider); then the BVH is refitted to t1. The lagged friction
+ *      linearised there (d(x) = d_i + n_i . (x - x_i)). A moving collider is
+ *      queried in its pose at t0 and each closest point is carried to t1 with
+ *      its face (track_collider); then the BVH is refitted to t1. The lagged friction
  *      freezes the contacts (normal force, tangent frame, and an anchor moved
  *      with the collider surface under the vertex);
  *   4. Newton starts from x_pred, with every vertex that the prediction puts
@@ -430,10 +430,11 @@ static int all_finite(const double *a, int64_t n) {
 
 /* Newton's first guess: x_pred, except that a vertex whose linearised
  * distance there falls below half its threshold (the thickness and its
- * edges' chord sag) is moved out to it along the normal. Starting deep inside the penalty (a
- * falling cloth predicted centimetres into the body) costs many damped iterations; starting on its
- * rim with no curvature lets the first step overshoot; at half the thickness
- * the penalty's curvature is there and the step is short. */
+ * edges' chord sag) is moved out to it along the normal. Starting deep
+ * inside the penalty (a falling cloth predicted centimetres into the body)
+ * costs many damped iterations; starting on its rim with no curvature lets
+ * the first step overshoot; at half the threshold the penalty's curvature is
+ * there and the step is short. */
 static void clamp_guess(cr_sim *s) {
     for (int32_t i = 0; i < s->nv; i++) {
         const double target = 0.5 * cr_collision_margin(s->collision, i);
@@ -627,8 +628,9 @@ static cr_status substep(cr_sim *s, double h, double t0, double t1, int dynamic,
         cr_collision_set_stiffness(s->collision, d->material.collision_stiffness *
                                                      (vbd ? d->vbd_collision_scale : 1.0));
     /* Linearise the collider at the step's start (friction freezes its
-     * contacts there too, the collision term its thresholds), then start Newton from x_pred with
-     * every vertex the prediction would push into the thickness put back to half of it. */
+     * contacts there too, the collision term its thresholds), then start
+     * Newton from x_pred with every vertex the prediction would push into its
+     * threshold put back to half of it. */
     if (s->bvh && s->def.collider_frames)
         CR_TRY(track_collider(s, s->x_start, o.base_radius, motion, err));
     else {

@@ -156,11 +156,11 @@ cr_tensor *cr_loss_inertia(cr_nn_ctx *ctx, const double *masses, int32_t nv, dou
 struct cr_loss_collider {
     cr_bvh *bvh;
     int32_t nv, nf;
-    /* With the cloth's edges: its thresholds, by the simulator's own code
-     * (cr_collision_update_margins), and a material's eps they are above. */
+    /* With the cloth's edges: its chord sags, by the simulator's own code
+     * (cr_collision_update_margins) with a thickness of 0, so that each
+     * vertex's threshold is its sag alone. */
     cr_collision *cloth;
     int32_t cloth_nv;
-    double cloth_eps; /* m */
 };
 
 cr_status cr_loss_collider_create(const float *pos, int32_t nv, const int32_t *tri, int32_t nf,
@@ -191,6 +191,7 @@ cr_status cr_loss_collider_set_edges(cr_loss_collider *c, const int32_t *edge, i
     CR_ASSERT(c && (edge || ne == 0) && cloth_nv >= 0);
     cr_material mat;
     CR_TRY(cr_material_preset("cotton", &mat, err));
+    mat.collision_thickness = 0.0;
     cr_collision *cloth = NULL;
     CR_TRY(cr_collision_create(cloth_nv, &mat, &cloth, err));
     const cr_status st = cr_collision_set_edges(cloth, edge, ne, err);
@@ -199,7 +200,7 @@ cr_status cr_loss_collider_set_edges(cr_loss_collider *c, const int32_t *edge, i
         return st;
     }
     cr_collision_destroy(c->cloth);
-    c->cloth = cloth, c->cloth_nv = cloth_nv, c->cloth_eps = mat.collision_thickness;
+    c->cloth = cloth, c->cloth_nv = cloth_nv;
     return CR_OK;
 }
 
@@ -212,24 +213,7 @@ typedef struct collision_data {
     float *point;          /* (V,3) closest points, m */
     float *smooth;         /* (V,3) the body's smooth normals there (with the cloth's edges) */
     double *xd;            /* (V,3) the item's positions in double (with the cloth's edges) */
-    const float *x;        /* (V,3) the item's positions, during the query */
-    const float *vn;       /* the body's vertex normals, during the query */
 } collision_data;
-
-/* Per vertex: signed distance, pseudo-normal, closest point and, with the
- * cloth's edges, the smooth normal there. */
-static void collision_query(void *ctx, int64_t begin, int64_t end) {
-    collision_data *d = ctx;
-    for (int64_t i = begin; i < end; i++) {
-        cr_bvh_hit hit;
-        if (!cr_bvh_signed_distance(d->c->bvh, d->x + 3 * i, INFINITY, &d->dist[i],
-                                    d->normal + 3 * i, &hit))
-            hit.face = -1;
-        for (int k = 0; k < 3; k++)
-            d->point[3 * i + k] = hit.face >= 0 ? hit.point[k] : 0.0f;
-        if (d->vn) cr_bvh_smooth_normal(d->c->bvh, d->vn, &hit, d->smooth + 3 * i);
-    }
-}
 
 /* Lengths below this (m) have no direction: the vertex is on the surface and
  * the pseudo-normal stands in for the distance gradient. */
@@ -277,9 +261,8 @@ static cr_status collision_prepare(loss_spec *s, int64_t b, const float *x_b, cr
                        "loss_energy(collision): %lld garment vertices, the collider's edges are "
                        "over %d",
                        (long long)V, d->c->cloth_nv);
-    d->x = x_b;
-    d->vn = cloth ? cr_bvh_vertex_normals(d->c->bvh) : NULL;
-    cr_parallel_for(V, 256, collision_query, d);
+    cr_bvh_signed_distance_smooth_batch(d->c->bvh, x_b, V, INFINITY, d->dist, d->normal, d->point,
+                                        cloth ? d->smooth : NULL);
     /* The cloth's thresholds (docs/physics.md, "Collision"): below, a
      * vertex's distance is taken as its chord sag nearer (its direction from
      * the true one's sign), so that the penalty starts at eps + sag. */
@@ -296,7 +279,7 @@ static cr_status collision_prepare(loss_spec *s, int64_t b, const float *x_b, cr
                              (double)x_b[3 * i + 2] - d->point[3 * i + 2]};
         const double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         const double sgn = d->dist[i] < 0.0f ? -1.0 : 1.0;
-        const double sag = cloth ? cr_collision_margin(cloth, (int32_t)i) - d->c->cloth_eps : 0.0;
+        const double sag = cloth ? cr_collision_margin(cloth, (int32_t)i) : 0.0;
         item[4 * i] = (float)(d->dist[i] - sag);
         for (int c = 0; c < 3; c++)
             item[4 * i + 1 + c] =
