@@ -61,32 +61,7 @@ done
 echo "| body | method | deepest vertex, mm | deepest face centroid, mm | collar drop, mm | picture (frame $shot) |"
 echo "| --- | --- | --- | --- | --- | --- |"
 for body in normal smpl; do
-  g="$out/garment_$body.obj"
-  bm="$out/sim_$body/body.obj"
   for run in sim epnet_run swingar_run; do
-    d="$out/${run}_$body"
-    # simulate's body starts at the rest pose (its frame t is body sample t); epnet and swingar
-    # run the clip from its first frame, and swingar writes that body
-    bp="$out/swingar_run_$body/body.pc2"
-    [[ $run == sim ]] && bp="$out/sim_$body/body.pc2"
-    pc2="$d/garment.pc2"
-    [[ -e "$d/sim.pc2" ]] && pc2="$d/sim.pc2"
-    "$crease" eval --pred "$pc2" --ref "$pc2" --garment "$g" --body "$bp" --body-mesh "$bm" \
-      -o "$d/eval" >/dev/null 2>&1
-    "$crease" render "$g" --pc2 "$pc2" "$bm" --pc2 "$bp" --frame $shot --size 640 \
-      -o "$d/frame$shot.png" >/dev/null
-    "$py" - "$d/eval/frames.jsonl" "$pc2" "$body" "${run%_run}" "$d/frame$shot.png" <<'PY'
-import json, sys
-import numpy as np
-rows = [json.loads(l) for l in open(sys.argv[1])]
-late = [r for r in rows if r["frame"] >= 30]
-v = max(r["col_max_m"] or 0 for r in late) * 1e3
-f = max(r["col_face_max_m"] or 0 for r in late) * 1e3
-raw = open(sys.argv[2], "rb").read()
-n, t = np.frombuffer(raw[16:20], "<i4")[0], np.frombuffer(raw[28:32], "<i4")[0]
-x = np.frombuffer(raw[32:], "<f4").reshape(t, n, 3)
-drop = (x[0, :, 1].max() - x[-1, :, 1].max()) * 1e3  # the collar's fall over the run
-print(f"| {sys.argv[3]} | {sys.argv[4]} | {v:.2f} | {f:.2f} | {drop:.1f} | {sys.argv[5]} |")
-PY
+    bash "$(dirname "$0")/depth_row.sh" "$crease" "$out" $run "$body" "$out/garment_$body.obj" $shot
   done
 done

@@ -145,6 +145,36 @@ check "meaningless names with a map naming SMPL's joints" bash -c "'$crease' epn
   --pnet-epochs 1 --cycles 1 -o '$tmp/ep2' 2> '$tmp/ep2.err'"
 check "found by the map" grep -q "22 of 22 body joints found (.*, a joint map)" "$tmp/ep2.err"
 
+# --- a character driven by its own animation -------------------------------------------------
+# a squat as the file's own animation, under a Blender-style armature (Z-up, centimetres,
+# scale 0.01), with a root joint and end joints no body has, other names and proportions, a
+# T-pose rest: read back as a motion it is the squat it was written with
+check "squatting mannequin glb" "$crease" pose-body --clip squat --frames 12 --res 72 \
+  -o "$tmp/squat.glb"
+check "animated character" python3 "$mk" "$tmp/squat.glb" "$tmp/own.glb" mixamo proportions \
+  tpose animated extra armature
+check "its own animation as a motion" bash -c "'$crease' motion --input '$tmp/own.glb' \
+  -o '$tmp/own.npz' 2> '$tmp/own.err'"
+check "its names" grep -q "own.glb: its own animation, 12 frames at 30 fps; 22 of 22 body joints found (Mixamo names)" \
+  "$tmp/own.err"
+check "the mannequin's as a motion" "$crease" motion --input "$tmp/squat.glb" -o "$tmp/squat.npz"
+check "the same squat" /usr/bin/python3 -c "
+import numpy as np, sys
+a, b = np.load('$tmp/own.npz'), np.load('$tmp/squat.npz')
+sys.exit(not (abs(a['poses'] - b['poses']).max() < 1e-4 and abs(a['trans'] - b['trans']).max() < 1e-4))"
+check "a t-shirt modelled on the character" "$crease" garment --type tshirt --res 800 \
+  --body "$tmp/own.glb" -o "$tmp/ot.obj"
+check "simulated on it by its own animation" bash -c "'$crease' simulate --garment '$tmp/ot.obj' \
+  --body '$tmp/own.glb' --motion '$tmp/own.glb' --frames 8 --ease-in 0.2 -o '$tmp/osim' --quiet \
+  --json > '$tmp/osim.json'"
+check "not diverged" grep -q '"diverged":false' "$tmp/osim.json"
+check "within 5 mm of the skin" json_between "$tmp/osim.json" max_penetration_m 0 0.005
+check "a joint map names its joints" bash -c "'$crease' motion \
+  --input '$tmp/bones.glb:$tmp/smpl_map.txt' -o '$tmp/bones.npz' 2> '$tmp/bones.err'"
+check "found by the map" grep -q "bones.glb: its own animation, 2 frames at 30 fps; 22 of 22 body joints found (.*, a joint map)" \
+  "$tmp/bones.err"
+expect_exit 1 "prop.glb: no animation" motion --input "$tmp/prop.glb" -o "$tmp/x.npz"
+
 # --- refusals --------------------------------------------------------------------------------
 check "plain glb" "$crease" primitive sphere -o "$tmp/plain.glb"
 expect_exit 1 "plain.glb: the mesh has no skin" simulate --garment "$tmp/t.obj" \

@@ -354,6 +354,21 @@ static cr_body_model *small_mannequin(void) {
     return b;
 }
 
+/* The mannequin T-posed: its shoulders raised 40 degrees, the mesh skinned there (a clone,
+ * NULL with the failure reported) and the joints posed into tj. */
+static cr_mesh *tposed(const cr_body_model *b, float tj[CR_NJOINTS * 3]) {
+    cr_error err = {0};
+    float pose[CR_NJOINTS * 3] = {0};
+    pose[3 * CR_JOINT_LEFT_SHOULDER + 2] = (float)(40 * M_PI / 180);
+    pose[3 * CR_JOINT_RIGHT_SHOULDER + 2] = (float)(-40 * M_PI / 180);
+    cr_mesh *tm = NULL;
+    CR_CHECK_OK(cr_mesh_clone(b->rest, &tm, &err), &err);
+    if (!tm) return NULL;
+    CR_CHECK_OK(cr_body_pose(b, pose, NULL, tm->pos, &err), &err);
+    cr_body_forward_kinematics(b->joints, pose, NULL, NULL, tj);
+    return tm;
+}
+
 /* ------------------------------------------------------------ tests -- */
 
 CR_TEST(retarget, renamed_rescaled_character_follows_the_mannequins_bone_directions) {
@@ -740,14 +755,9 @@ CR_TEST(retarget, character_as_a_body_comes_back_as_the_mannequin) {
      * mesh skinned there and written as the bind pose) comes back in the
      * A-pose: the joints where the mannequin's are, the mesh within what
      * blend skinning there and back keeps */
-    float pose[CR_NJOINTS * 3] = {0}, tj[CR_NJOINTS * 3];
-    pose[3 * CR_JOINT_LEFT_SHOULDER + 2] = (float)(40 * M_PI / 180);
-    pose[3 * CR_JOINT_RIGHT_SHOULDER + 2] = (float)(-40 * M_PI / 180);
-    cr_mesh *tm = NULL;
-    CR_CHECK_OK(cr_mesh_clone(b->rest, &tm, &err), &err);
+    float tj[CR_NJOINTS * 3];
+    cr_mesh *tm = tposed(b, tj);
     CR_REQUIRE(tm);
-    CR_CHECK_OK(cr_body_pose(b, pose, NULL, tm->pos, &err), &err);
-    cr_body_forward_kinematics(b->joints, pose, NULL, NULL, tj);
     CR_CHECK_NEAR(tj[3 * CR_JOINT_LEFT_WRIST + 1], tj[3 * CR_JOINT_LEFT_SHOULDER + 1], 0.03);
     cr_body_model tb = *b;
     tb.rest = tm;
@@ -807,4 +817,153 @@ CR_TEST(retarget, skin_motion_eases_in_from_rest_and_resamples) {
     cr_skin_motion_destroy(half);
     cr_skin_motion_destroy(p);
     cr_skin_motion_destroy(m);
+}
+
+/* ------------------------------------------- a character's own animation -- */
+
+/* Unit quaternion x, y, z, w of `deg` degrees about axis (ax, ay, az), unit. */
+static void quat_deg(double ax, double ay, double az, double deg, float *q) {
+    const double h = 0.5 * deg * M_PI / 180.0;
+    q[0] = (float)(ax * sin(h)), q[1] = (float)(ay * sin(h)), q[2] = (float)(az * sin(h));
+    q[3] = (float)cos(h);
+}
+
+/* The mannequin written with its walk as its own animation (cr_body_write_glb) comes back as
+ * that walk: the same bone directions frame by frame, the pelvis on the same path. */
+CR_TEST(retarget, own_animation_of_the_mannequin_comes_back_as_its_motion) {
+    cr_error err = {0};
+    cr_body_model *b = small_mannequin();
+    CR_REQUIRE(b);
+    cr_motion *walk = NULL, *back = NULL;
+    CR_CHECK_OK(cr_motion_clip("walk", 24, 30.0f, &walk, &err), &err);
+    CR_REQUIRE(walk);
+    const char *glb = tmp("own_walk.glb");
+    CR_CHECK_OK(cr_body_write_glb(glb, b, walk, NULL, NULL, &err), &err);
+    CR_CHECK_OK(cr_motion_import(glb, NULL, &back, &err), &err);
+    CR_REQUIRE(back);
+    CR_CHECK(back->nframes == walk->nframes && back->fps == walk->fps);
+    double worst = 0.0, moved = 0.0, path = 0.0;
+    float p0[CR_NJOINTS * 3], q0[CR_NJOINTS * 3];
+    for (int32_t f = 0; f < walk->nframes; f++) {
+        float p[CR_NJOINTS * 3], q[CR_NJOINTS * 3];
+        cr_body_forward_kinematics(b->joints, walk->poses + (size_t)f * CR_NJOINTS * 3,
+                                   walk->trans + 3 * f, NULL, p);
+        cr_body_forward_kinematics(b->joints, back->poses + (size_t)f * CR_NJOINTS * 3,
+                                   back->trans + 3 * f, NULL, q);
+        if (f == 0) memcpy(p0, p, sizeof p), memcpy(q0, q, sizeof q);
+        for (int i = 0; i < NBONES; i++) {
+            double dp[3], dq[3], d0[3];
+            for (int k = 0; k < 3; k++) {
+                dp[k] = (double)p[3 * bones[i][1] + k] - p[3 * bones[i][0] + k];
+                dq[k] = (double)q[3 * bones[i][1] + k] - q[3 * bones[i][0] + k];
+                d0[k] = (double)b->joints[3 * bones[i][1] + k] - b->joints[3 * bones[i][0] + k];
+            }
+            worst = fmax(worst, angle3(dp, dq)), moved = fmax(moved, angle3(d0, dp));
+        }
+        for (int k = 0; k < 3; k++) /* the pelvis's path from frame 0 */
+            path = fmax(path, fabs((p[k] - p0[k]) - (q[k] - q0[k])));
+    }
+    printf("    walk as the file's own animation: bones off by %.2e deg at most (they turn up to "
+           "%.0f deg from rest), pelvis path off by %.2e m\n",
+           worst * 180 / M_PI, moved * 180 / M_PI, path);
+    CR_CHECK(worst < 1e-3 && moved > 0.3 && path < 1e-4);
+    /* a character holding one key is a one-frame motion at its rest; a mesh without a skin is
+     * refused, naming the file */
+    const char *still = tmp("still_character.glb"), *plain = tmp("plain_mesh.glb");
+    write_character(b, still, NULL, 0);
+    cr_motion *one = NULL;
+    CR_CHECK_OK(cr_motion_import(still, NULL, &one, &err), &err);
+    CR_REQUIRE(one);
+    double turned = 0.0;
+    for (int i = 0; i < CR_NJOINTS * 3; i++)
+        turned = fmax(turned, fabs(one->poses[i]));
+    CR_CHECK(one->nframes == 1 && turned < 1e-4);
+    cr_motion_destroy(one), one = NULL;
+    CR_CHECK_OK(cr_glb_write(plain, b->rest, &err), &err);
+    CR_CHECK(cr_motion_import(plain, NULL, &one, &err) == CR_ERR_UNSUPPORTED && !one);
+    printf("    a mesh without a skin: %s\n", err.msg);
+    CR_CHECK(strstr(err.msg, "plain_mesh.glb") && strstr(err.msg, "no skin"));
+    cr_motion_destroy(walk), cr_motion_destroy(back), cr_body_model_destroy(b);
+}
+
+/* A T-posed character with Mixamo's names, longer legs and a shorter spine, animated in its own
+ * file (arms brought down and swinging, a knee and a hip bending, the root walking forward), as
+ * the body (cr_body_resolve) driven by its own animation (cr_motion_import of the same file):
+ * its skin where the file's own skinning puts it, frame by frame. */
+CR_TEST(retarget, a_character_driven_by_its_own_animation_moves_as_its_file) {
+    cr_error err = {0};
+    cr_body_model *b = small_mannequin(), *cb = NULL;
+    CR_REQUIRE(b);
+    float tj[CR_NJOINTS * 3];
+    cr_mesh *tm = tposed(b, tj);
+    CR_REQUIRE(tm);
+    enum { T = 12 };
+    const char *names[CR_NJOINTS];
+    int32_t parent[CR_NJOINTS];
+    float rest[CR_NJOINTS * 3], rot[T * CR_NJOINTS * 4], tr[T * 3];
+    for (int j = 0; j < CR_NJOINTS; j++) {
+        names[j] = mixamo[j], parent[j] = cr_joint_parent[j];
+        for (int k = 0; k < 3; k++) /* legs x1.15, arms x0.85, spine x1.25: bones scaled */
+            rest[3 * j + k] =
+                parent[j] < 0 ? tj[3 * j + k]
+                              : (float)(rest[3 * parent[j] + k] +
+                                        bone_scale(j) * (tj[3 * j + k] - tj[3 * parent[j] + k]));
+    }
+    for (int f = 0; f < T; f++) {
+        const double s = sin(0.5 * f);
+        float *r = rot + (size_t)f * CR_NJOINTS * 4;
+        for (int j = 0; j < CR_NJOINTS; j++)
+            quat_deg(1, 0, 0, 0, r + 4 * j);
+        quat_deg(0, 0, 1, -40 + 20 * s, r + 4 * CR_JOINT_LEFT_SHOULDER);
+        quat_deg(0, 0, 1, 40 + 20 * s, r + 4 * CR_JOINT_RIGHT_SHOULDER);
+        quat_deg(0, 1, 0, 30 + 20 * s, r + 4 * CR_JOINT_LEFT_ELBOW);
+        quat_deg(1, 0, 0, -25 * s, r + 4 * CR_JOINT_LEFT_HIP);
+        quat_deg(1, 0, 0, 25 * s, r + 4 * CR_JOINT_RIGHT_HIP);
+        quat_deg(1, 0, 0, 20 + 20 * s, r + 4 * CR_JOINT_RIGHT_KNEE);
+        quat_deg(0, 1, 0, 10 * s, r + 4 * CR_JOINT_SPINE2);
+        tr[3 * f] = 0.0f, tr[3 * f + 1] = 0.0f, tr[3 * f + 2] = 0.03f * (float)f;
+    }
+    const cr_glb_skin skin = {CR_NJOINTS, names, parent, rest, b->skin_joint, b->skin_weight};
+    const cr_glb_skin_motion anim = {T, 30.0f, rot, tr};
+    const char *glb = tmp("own_animation_character.glb");
+    CR_CHECK_OK(cr_glb_write_skinned(glb, tm, &skin, &anim, NULL, &err), &err);
+    /* the file's own frames, and the body posed by the motion read from the file */
+    cr_mesh *seq_rest = NULL;
+    float *seq = NULL, fps = 0.0f;
+    int32_t nseq = 0;
+    CR_CHECK_OK(cr_glb_read_sequence(glb, &seq_rest, &seq, &nseq, &fps, &err), &err);
+    cr_motion *m = NULL;
+    CR_CHECK_OK(cr_body_resolve(glb, &cb, &err), &err);
+    CR_CHECK_OK(cr_motion_import(glb, NULL, &m, &err), &err);
+    CR_REQUIRE(cb && m && seq && nseq == T && m->nframes == T && seq_rest->nv == cb->rest->nv);
+    const int64_t nv = cb->rest->nv;
+    float *posed = malloc((size_t)nv * 3 * sizeof(float));
+    CR_REQUIRE(posed);
+    double mean = 0.0, worst = 0.0, swing = 0.0;
+    for (int f = 0; f < T; f++) {
+        CR_CHECK_OK(
+            cr_body_pose(cb, m->poses + (size_t)f * CR_NJOINTS * 3, m->trans + 3 * f, posed, &err),
+            &err);
+        const float *ref = seq + (size_t)f * (size_t)nv * 3;
+        double ca[3] = {0}, cf[3] = {0}; /* each frame's centroid: the body stands elsewhere */
+        for (int64_t v = 0; v < nv; v++)
+            for (int k = 0; k < 3; k++)
+                ca[k] += posed[3 * v + k] / (double)nv, cf[k] += ref[3 * v + k] / (double)nv;
+        for (int64_t v = 0; v < nv; v++) {
+            double d2 = 0.0, m2 = 0.0;
+            for (int k = 0; k < 3; k++) {
+                d2 += pow((posed[3 * v + k] - ca[k]) - (ref[3 * v + k] - cf[k]), 2);
+                m2 += pow(ref[3 * v + k] - seq[3 * v + k], 2);
+            }
+            mean += sqrt(d2) / ((double)nv * T), worst = fmax(worst, sqrt(d2));
+            swing = fmax(swing, sqrt(m2));
+        }
+    }
+    printf("    T-posed Mixamo character, its own 12 frames: skin off its file's by %.2e m on "
+           "average, %.2e m at most (vertices move up to %.2f m)\n",
+           mean, worst, swing);
+    CR_CHECK(swing > 0.3 && mean < 3e-3 && worst < 0.04);
+    free(posed), free(seq);
+    cr_mesh_destroy(seq_rest), cr_mesh_destroy(tm);
+    cr_motion_destroy(m), cr_body_model_destroy(cb), cr_body_model_destroy(b);
 }

@@ -128,7 +128,8 @@ typedef struct cr_dataset_result {
 cr_status cr_dataset_generate(const cr_dataset_def *def, cr_dataset_result *out, cr_error *err);
 
 /* A motion's name in the dataset's files: the clip's name ("walk"), or a
- * file's base name without its extension ("dance" for "mocap/dance.bvh"). */
+ * file's base name without its extension ("dance" for "mocap/dance.bvh"),
+ * a character's with its joint map's as cr_dataset_body_label gives them. */
 void cr_dataset_motion_label(const char *spec, char *out, size_t size);
 
 /* A body spec's name in the dataset's files: a preset's own ("slim"), or an

@@ -186,17 +186,30 @@ cr_status cr_glb_write_skinned(const char *path, const cr_mesh *rest, const cr_g
                                const cr_glb_skin_motion *motion, const cr_glb_cloth *cloth,
                                cr_error *err);
 
-/* A rigged character read from a .glb to be posed by another motion than
- * its own (cr_motion_retarget_bvh): the skinned mesh at the rest pose its
+/* A skeleton's own animation, joint by joint in the world. */
+typedef struct cr_glb_skin_anim {
+    int32_t nframes;       /* T >= 1: the animation's time range at its key rate (1: the rest) */
+    float fps;             /* the first channel's key rate (30 without two keys) */
+    int animated;          /* 0: the file has no animation of its nodes (one frame, the rest) */
+    const float *rotation; /* (T,J,4) each joint's world rotation from its rest world rotation
+                              (R_t R_rest^-1, scale taken out), x, y, z, w, the file's frame */
+    const float *position; /* (T,J,3) each joint's world position, m, the file's frame */
+} cr_glb_skin_anim;
+
+/* A rigged character read from a .glb, to be posed by another motion than
+ * its own (cr_motion_retarget_bvh) or to drive a body by its own
+ * (cr_motion_import of the .glb): the skinned mesh at the rest pose its
  * nodes hold (their translation, rotation and scale without animation;
  * for crease's files and most exports the bind pose), welded like
  * cr_glb_read; its skeleton with the joints ordered parents first, each
  * named by its node ("joint_K" for an unnamed one), its parent the nearest
  * ancestor node that is a joint, rest_joint its world position; the skin per
- * vertex of `rest`. Owned; free with cr_glb_character_destroy. */
+ * vertex of `rest`; its joints through animations[0]. Owned; free with cr_glb_character_destroy. */
 typedef struct cr_glb_character {
     cr_mesh *rest;
     cr_glb_skin skin;
+    cr_glb_skin_anim anim; /* its own animation, animations[0], sampled as cr_glb_read_sequence
+                              samples it */
 } cr_glb_character;
 
 /* Fails naming the file when it has no skin (JOINTS_0, WEIGHTS_0 and a node

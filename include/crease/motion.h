@@ -85,10 +85,22 @@ typedef struct cr_motion_import_def {
 
 cr_motion_import_def cr_motion_import_default_def(void);
 
-/* Load by extension: .bvh, or .npz (crease's own motions and AMASS-style
- * poses/trans/mocap_framerate). def NULL means the defaults. */
+/* Load by extension: .bvh, .npz (crease's own motions and AMASS-style
+ * poses/trans/mocap_framerate), or a rigged glTF character's own animation,
+ * "CHAR.glb" or "CHAR.glb:MAP" (cr_motion_read_character). def NULL means
+ * the defaults. */
 cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr_motion **out,
                            cr_error *err);
+/* A rigged glTF character's own animation (animations[0], at its key rate)
+ * onto crease's mannequin: its joints given SMPL's 22 roles as
+ * cr_body_from_character gives them (name tables, or joint_map: lines
+ * "character_joint = smpl_joint" or a JSON object; may be NULL), then
+ * retargeted by bone directions from the rest its nodes hold, as a BVH is
+ * (frame, unit, recentring by def). So `--body CHAR.glb --motion CHAR.glb`
+ * moves the character as its file does. Fails naming the file: no skin, no
+ * animation, no joint for the hips, a bad map line. */
+cr_status cr_motion_read_character(const char *path, const char *joint_map,
+                                   const cr_motion_import_def *def, cr_motion **out, cr_error *err);
 cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err);
 /* The same from memory; `source` names the data in messages. */
 cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *source,

@@ -26,7 +26,11 @@ cr_motion_import_def cr_motion_import_default_def(void) {
 cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr_motion **out,
                            cr_error *err) {
     *out = NULL;
-    char ext[16];
+    char glb[1024], ext[16];
+    const char *map = NULL;
+    const int character = cr_character_spec_split(path, glb, sizeof glb, &map);
+    if (character < 0) return CR_FAIL(err, CR_ERR_INVALID, "motion: path too long: %s", path);
+    if (character) return cr_motion_read_character(glb, map, def, out, err);
     cr_path_ext(path, ext, sizeof ext);
     if (strcmp(ext, "bvh") == 0) {
         char *buf;
@@ -45,10 +49,13 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
     }
     if (!ext[0])
         return CR_FAIL(err, CR_ERR_UNSUPPORTED,
-                       "%s: no file extension, so no motion format (crease reads .bvh and .npz)",
+                       "%s: no file extension, so no motion format (crease reads .bvh, .npz and a "
+                       "rigged character's .glb)",
                        path);
-    return CR_FAIL(err, CR_ERR_UNSUPPORTED,
-                   "%s: unknown motion format '.%s' (crease reads .bvh and .npz)", path, ext);
+    return CR_FAIL(
+        err, CR_ERR_UNSUPPORTED,
+        "%s: unknown motion format '.%s' (crease reads .bvh, .npz and a rigged character's .glb)",
+        path, ext);
 }
 
 cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err) {

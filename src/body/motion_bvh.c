@@ -14,24 +14,19 @@
  * "mixamorig:Hips"; lower case; '_', '-', '.' and spaces removed; SMPL FBX's
  * "m_avg_" prefix dropped) and matched against per-rig tables (SMPL, Mixamo,
  * CMU, generic DAZ/Poser); the rig matching the most joints wins. Each SMPL
- * joint is retargeted by bone directions (see `retarget` below): its bone
- * points where the rig's bone points, with the rig's twist, whatever rest
- * the rig was written against. Unmapped joints between two mapped ones
- * (CMU's LHipJoint, Neck1, a DAZ chestLower) fold into the child below
- * them, and an SMPL joint the rig lacks (a collar) moves with its parent.
- * Joints below the mapped ones (fingers, toe ends) are dropped, and so are
- * translations of joints other than the pelvis.
+ * joint is retargeted by bone directions (retarget.c): its bone points
+ * where the rig's bone points, with the rig's twist, whatever rest the rig
+ * was written against. Unmapped joints between two mapped ones (CMU's
+ * LHipJoint, Neck1, a DAZ chestLower) fold into the child below them, and an
+ * SMPL joint the rig lacks (a collar) moves with its parent. Joints below the
+ * mapped ones (fingers, toe ends) are dropped, and so are translations of
+ * joints other than the pelvis.
  *
- * Frame: the rig's up axis (pelvis to head) and left axis (right to left hip)
- * are snapped to coordinate axes and the rig is turned so up is +Y and left
- * +X (the body facing +Z), which also reads Z-up exports. Lengths: with no
- * scale given, a rig whose rest height (highest minus lowest joint) is 0.8 to
- * 3 units is taken as metres, 80 to 300 as centimetres, anything else is
- * scaled to a 1.65 m joint height with a warning. The rest pelvis is taken to
- * stand with the rig's lowest rest joint on the ground, so the translation is
- * the pelvis's displacement from there; with `recenter` frame 0 is then moved
- * to x = z = 0 facing +Z. Known rigs' units come first (cgspeed's CMU
- * conversion: 0.056444 m; Mixamo: cm).
+ * Frame and lengths: the file is a source rig (its OFFSETs accumulated as
+ * the rest, each frame's world rotations and positions) of
+ * retarget_drive.c, which turns it upright, gives it its unit (known rigs'
+ * first: cgspeed's CMU conversion 0.056444 m, Mixamo cm) and drives the
+ * target.
  *
  * References: Meredith and Maddock 2001, "Motion capture file formats
  * explained" (BVH); Blender's io_anim_bvh importer (channel order and
@@ -51,7 +46,6 @@ enum { CH_XPOS, CH_YPOS, CH_ZPOS, CH_XROT, CH_YROT, CH_ZROT };
 static const char *const channel_names[6] = {"Xposition", "Yposition", "Zposition",
                                              "Xrotation", "Yrotation", "Zrotation"};
 static const double DEG = M_PI / 180.0;
-static const double JOINT_HEIGHT_M = 1.65; /* head to toe joints of a 1.75 m person, m */
 static const double FRAME_TIME_MAX = 10.0; /* s */
 
 typedef struct bvh_joint {
@@ -347,49 +341,6 @@ static void rest_positions(const bvh_file *b, double (*p)[3]) {
             p[i][k] = b->j[i].offset[k] + (b->j[i].parent >= 0 ? p[b->j[i].parent][k] : 0.0);
 }
 
-/* The turn taking the rig's up to +Y and its left to +X, from rest positions;
- * the up it found as a signed axis. */
-static cr_status rig_frame(const bvh_file *b, const int map[CR_NJOINTS], double (*p)[3],
-                           double q[4], int *up_axis, int *up_sign, cr_error *err) {
-    int la, ls;
-    if (!cr_retarget_rig_axes(map, p, up_axis, up_sign, &la, &ls))
-        return CR_FAIL(err, CR_ERR_PARSE,
-                       "%s: cannot tell the rig's up and left axes from its rest pose (pelvis "
-                       "to head, right to left hip)",
-                       b->t.source);
-    cr_retarget_axes_turn(*up_axis, *up_sign, la, ls, q);
-    return CR_OK;
-}
-
-static double rig_scale(const bvh_file *b, int rig, double (*p)[3], const double turn[4],
-                        double given) {
-    if (given > 0) return given;
-    double lo = INFINITY, hi = -INFINITY;
-    for (int i = 0; i < b->n; i++) {
-        double v[3];
-        q_rotate(turn, p[i], v);
-        lo = fmin(lo, v[1]), hi = fmax(hi, v[1]);
-    }
-    double h = hi - lo;
-    /* Known rigs first: cgspeed's CMU conversion keeps the ASF's unit (0.45
-     * inch, a joint height of about 24 units) and Mixamo writes centimetres. */
-    double unit_m, unit_lo, unit_hi;
-    cr_retarget_rig_unit(rig, &unit_m, &unit_lo, &unit_hi);
-    if (unit_m > 0 && h >= unit_lo && h <= unit_hi) {
-        cr_log(unit_m != 0.01 ? CR_LOG_INFO : CR_LOG_DEBUG,
-               "%s: %s rig, %g units high: %g m per unit", b->t.source, cr_retarget_rig_name(rig),
-               h, unit_m);
-        return unit_m;
-    }
-    if (h >= 0.8 && h <= 3.0) return 1.0;
-    if (h >= 80.0 && h <= 300.0) return 0.01;
-    double s = h > 1e-9 ? JOINT_HEIGHT_M / h : 1.0;
-    cr_log(CR_LOG_WARN,
-           "%s: rig height %g units is neither metres nor centimetres: scaled by %g to %g m",
-           b->t.source, h, s, JOINT_HEIGHT_M);
-    return s;
-}
-
 /* World rotations and positions of every joint in one frame (file units). */
 static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], double (*pos)[3]) {
     for (int i = 0; i < b->n; i++) {
@@ -418,54 +369,9 @@ static void frame_pose(const bvh_file *b, const float *row, double (*w)[4], doub
     }
 }
 
-/* Whether a skeleton at positions p stands: the legs (pelvis to the ankles,
- * or the knees) point against the spine (pelvis to head). 1 when a rig lacks
- * them (nothing to go by). A joint-oriented bind pose with every bone along
- * one axis does not. */
-static int stands(const int map[CR_NJOINTS], double (*p)[3]) {
-    static const int legs[][2] = {{CR_JOINT_LEFT_ANKLE, CR_JOINT_RIGHT_ANKLE},
-                                  {CR_JOINT_LEFT_KNEE, CR_JOINT_RIGHT_KNEE}};
-    int top = -1, l = -1;
-    for (int i = 0; i < 4 && top < 0; i++)
-        if (map[cr_retarget_up_ends[i]] >= 0) top = map[cr_retarget_up_ends[i]];
-    for (int i = 0; i < 2 && l < 0; i++)
-        if (map[legs[i][0]] >= 0 && map[legs[i][1]] >= 0) l = i;
-    if (top < 0 || l < 0) return 1;
-    double up[3], down[3];
-    for (int k = 0; k < 3; k++) {
-        up[k] = p[top][k] - p[map[0]][k];
-        down[k] = 0.5 * (p[map[legs[l][0]]][k] + p[map[legs[l][1]]][k]) - p[map[0]][k];
-    }
-    if (!cr_retarget_unit3(up, up, 1e-12) || !cr_retarget_unit3(down, down, 1e-12)) return 0;
-    return up[0] * down[0] + up[1] * down[1] + up[2] * down[2] < -0.5;
-}
-
-/* The world's up as the motion itself stands: pelvis to head in up to 64
- * frames spread over the clip, snapped to a signed axis, by vote. Where it
- * differs from the rest pose's (a joint-oriented rig whose bind skeleton lies
- * along another axis, as Maya and LAFAN1-style exports write them) the
- * frames are right and the rest pose's turn would lay the body down. Returns
- * 0 when fewer than half the frames agree on one axis (a clip spent lying or
- * tumbling: the rest pose is kept). *standing: the first of those frames that
- * stands along the winning axis (stands()), -1 when none does. */
-static int posed_up(const bvh_file *b, const int map[CR_NJOINTS], double (*w)[4], double (*pos)[3],
-                    int *up_axis, int *up_sign, int *agree, int *sampled, int32_t *standing) {
-    int votes[6] = {0}, n = b->nframes < 64 ? b->nframes : 64;
-    int32_t first[6] = {-1, -1, -1, -1, -1, -1};
-    for (int i = 0; i < n; i++) {
-        int32_t f = (int32_t)((int64_t)i * b->nframes / n);
-        int ua, us, la, ls;
-        frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-        if (!cr_retarget_rig_axes(map, pos, &ua, &us, &la, &ls)) continue;
-        votes[2 * ua + (us < 0)]++;
-        if (first[2 * ua + (us < 0)] < 0 && stands(map, pos)) first[2 * ua + (us < 0)] = f;
-    }
-    int best = 0;
-    for (int k = 1; k < 6; k++)
-        if (votes[k] > votes[best]) best = k;
-    *up_axis = best / 2, *up_sign = best % 2 ? -1 : 1, *agree = votes[best], *sampled = n;
-    *standing = first[best];
-    return 2 * votes[best] > n;
+static void source_pose(const rt_source *s, int32_t f, double (*w)[4], double (*pos)[3]) {
+    const bvh_file *b = s->ctx;
+    frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
 }
 
 /* Frames per second of the file: 0.0333333 s is 30 fps. */
@@ -474,138 +380,56 @@ static double bvh_fps(const bvh_file *b) {
     return fabs(fps - round(fps)) < 0.01 ? round(fps) : fps;
 }
 
-/* The BVH driving target tg (tg->src: BVH joints; map: the BVH's roles):
- * per frame the target joints' world rotations in crease's frame, g
- * (T,n,4), and the pelvis's displacement from its rest standing position, t
- * (T,3), m. *hip_m: the rig's rest pelvis height over its lowest joint, m.
- * def->retarget 0: each joint takes its source joint's world rotation (no
- * bone matching). */
-static cr_status bvh_drive(const bvh_file *b, const int map[CR_NJOINTS], int rig,
-                           const cr_motion_import_def *def, const rt_target *tg, double *g,
-                           double *t, double *hip_m, cr_error *err) {
-    double(*rest)[3] = cr_malloc((size_t)b->n * sizeof *rest, err);
-    double(*w)[4] = cr_malloc((size_t)b->n * sizeof *w, err);
-    double(*pos)[3] = cr_malloc((size_t)b->n * sizeof *pos, err);
-    double(*stand_pos)[3] = cr_malloc((size_t)b->n * sizeof *stand_pos, err);
-    double(*stand_w)[4] = cr_malloc((size_t)b->n * sizeof *stand_w, err);
-    cr_status st = rest && w && pos && stand_pos && stand_w ? CR_OK : CR_ERR_MEMORY;
-    motion_frame_fix fix = {.conjugate = 1, .recenter = def->recenter};
-    double rest_turn[4] = {1, 0, 0, 0}; /* the rest pose's own upright frame: its height and feet */
-    int rest_axis = 1, rest_sign = 1;   /* the file axis the rest pose calls up */
-    if (st == CR_OK) {
-        rest_positions(b, rest);
-        st = rig_frame(b, map, rest, rest_turn, &rest_axis, &rest_sign, err);
-        memcpy(fix.world, rest_turn, sizeof rest_turn);
+/* The file as a source rig: names (NULL for End Sites), parents and rest
+ * positions (its OFFSETs accumulated) into the caller's arrays of b->n. */
+static rt_source bvh_source(const bvh_file *b, const char **names, int *parent, double (*rest)[3]) {
+    for (int i = 0; i < b->n; i++) {
+        names[i] = b->j[i].end_site ? NULL : b->j[i].name;
+        parent[i] = b->j[i].parent;
     }
-    int up_axis, up_sign, agree, sampled;
-    int32_t standing = -1;
-    if (st == CR_OK && posed_up(b, map, w, pos, &up_axis, &up_sign, &agree, &sampled, &standing) &&
-        (up_axis != rest_axis || up_sign != rest_sign)) {
-        /* left: the first other axis in x, z, y order, so a Y-up file keeps its
-         * heading and a Z-up one turns as (x, y, z) -> (x, z, -y) */
-        cr_retarget_axes_turn(up_axis, up_sign, up_axis == 0 ? 2 : 0, 1, fix.world);
-        cr_log(CR_LOG_WARN,
-               "%s: the rest skeleton stands along %c%c but the motion along %c%c (%d of %d "
-               "frames): the motion's up is used",
-               b->t.source, rest_sign > 0 ? '+' : '-', "XYZ"[rest_axis], up_sign > 0 ? '+' : '-',
-               "XYZ"[up_axis], agree, sampled);
-    }
-    /* The height that gives the unit and the feet: the rest pose's, or where
-     * it does not stand, the first standing frame's */
-    double(*size_pose)[3] = rest;
-    const double *size_turn = rest_turn;
-    if (st == CR_OK && !stands(map, rest) && standing >= 0) {
-        frame_pose(b, b->values + (size_t)standing * (size_t)b->ncol, stand_w, stand_pos);
-        size_pose = stand_pos, size_turn = fix.world;
-        cr_log(CR_LOG_WARN,
-               "%s: the rest skeleton does not stand (legs along the spine): its height and "
-               "feet are read from frame %d",
-               b->t.source, (int)standing);
-    }
-    rt_state rs = {0};
-    if (st == CR_OK && def->retarget) st = cr_retarget_state_alloc(tg->n, &rs, err);
-    if (st == CR_OK) {
-        double s = rig_scale(b, rig, size_pose, size_turn, def->bvh_scale), lowest = INFINITY,
-               highest = -INFINITY, root_up[3];
-        for (int i = 0; i < b->n; i++) {
-            double v[3];
-            q_rotate(size_turn, size_pose[i], v);
-            lowest = fmin(lowest, s * v[1]), highest = fmax(highest, s * v[1]);
-        }
-        if (def->retarget)
-            cr_retarget_setup(tg, size_pose, size_pose == rest ? NULL : stand_w, fix.world,
-                              rest_turn, (highest - lowest) / s, &rs);
-        q_rotate(fix.world, rest[map[0]], fix.origin);
-        q_rotate(size_turn, size_pose[map[0]], root_up);
-        for (int k = 0; k < 3; k++)
-            fix.origin[k] *= s;
-        fix.origin[1] = s * root_up[1] - lowest; /* the root's height over the feet */
-        for (int f = 0; f < b->nframes; f++) {
-            double(*gf)[4] = (double(*)[4])(g + 4 * (size_t)f * (size_t)tg->n);
-            frame_pose(b, b->values + (size_t)f * (size_t)b->ncol, w, pos);
-            if (def->retarget) cr_retarget_frame(tg, &rs, w, pos, gf);
-            for (int j = 0; !def->retarget && j < tg->n; j++) {
-                if (tg->src[j] >= 0)
-                    memcpy(gf[j], w[tg->src[j]], sizeof gf[j]);
-                else if (tg->parent[j] >= 0)
-                    memcpy(gf[j], gf[tg->parent[j]], sizeof gf[j]);
-                else
-                    q_identity(gf[j]);
-            }
-            for (int k = 0; k < 3; k++)
-                t[(size_t)f * 3 + (size_t)k] = s * pos[map[0]][k];
-        }
-        cr_retarget_fix_world(g, tg->n, tg->pelvis, t, b->nframes, &fix);
-        *hip_m = fix.origin[1];
-    }
-    cr_retarget_state_free(&rs);
-    free(rest);
-    free(w);
-    free(pos);
-    free(stand_pos);
-    free(stand_w);
-    return st;
+    rest_positions(b, rest);
+    return (rt_source){.source = b->t.source,
+                       .n = b->n,
+                       .name = names,
+                       .parent = parent,
+                       .rest = rest,
+                       .nframes = b->nframes,
+                       .fps = bvh_fps(b),
+                       .pose = source_pose,
+                       .ctx = b};
 }
 
-/* The BVH onto crease's mannequin: the 22-joint target whose rest is the
- * mannequin's, as SMPL-style local axis-angle poses. */
+/* The source arrays bvh_source fills, allocated together. */
+typedef struct bvh_arrays {
+    const char **names;
+    int *parent;
+    double (*rest)[3];
+} bvh_arrays;
+
+static cr_status bvh_arrays_alloc(int n, bvh_arrays *a, cr_error *err) {
+    a->names = cr_malloc((size_t)n * sizeof *a->names, err);
+    a->parent = cr_malloc((size_t)n * sizeof *a->parent, err);
+    a->rest = cr_malloc((size_t)n * sizeof *a->rest, err);
+    return a->names && a->parent && a->rest ? CR_OK : CR_ERR_MEMORY;
+}
+
+static void bvh_arrays_free(bvh_arrays *a) {
+    free(a->names), free(a->parent), free(a->rest);
+}
+
+/* The BVH onto crease's mannequin. */
 static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
                               cr_error *err) {
     int map[CR_NJOINTS], rig = 0;
     CR_TRY(map_joints(b, map, &rig, err));
-    float canon[CR_NJOINTS * 3];
-    cr_mannequin_def md = cr_mannequin_default_def();
-    cr_mannequin_rest_joints(&md, canon);
-    double rest[CR_NJOINTS][3];
-    int parent[CR_NJOINTS], bone[CR_NJOINTS];
-    for (int j = 0; j < CR_NJOINTS; j++) {
-        for (int k = 0; k < 3; k++)
-            rest[j][k] = canon[3 * j + k];
-        parent[j] = cr_joint_parent[j], bone[j] = cr_retarget_bone_child_role[j];
+    bvh_arrays a;
+    cr_status st = bvh_arrays_alloc(b->n, &a, err);
+    if (st == CR_OK) {
+        const rt_source src = bvh_source(b, a.names, a.parent, a.rest);
+        st = cr_retarget_onto_mannequin(&src, map, rig, def, out, err);
     }
-    const rt_target tg = {.n = CR_NJOINTS,
-                          .parent = parent,
-                          .rest = (const double(*)[3])rest,
-                          .src = map,
-                          .bone_child = bone,
-                          .pelvis = CR_JOINT_PELVIS,
-                          .lhip = CR_JOINT_LEFT_HIP,
-                          .rhip = CR_JOINT_RIGHT_HIP};
-    const size_t T = (size_t)b->nframes;
-    cr_motion *m = NULL;
-    double *g = cr_malloc(T * CR_NJOINTS * 4 * sizeof(double), err);
-    double *t = cr_malloc(T * 3 * sizeof(double), err), hip_m;
-    cr_status st = g && t ? CR_OK : CR_ERR_MEMORY;
-    if (st == CR_OK) st = cr_motion_create(b->nframes, (float)bvh_fps(b), &m, err);
-    if (st == CR_OK) st = bvh_drive(b, map, rig, def, &tg, g, t, &hip_m, err);
-    if (st == CR_OK) motion_from_world(g, t, m); /* the mannequin's parents are SMPL's */
-    free(g), free(t);
-    if (st != CR_OK) {
-        cr_motion_destroy(m);
-        return st;
-    }
-    *out = m;
-    return CR_OK;
+    bvh_arrays_free(&a);
+    return st;
 }
 
 cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *source,
@@ -693,27 +517,26 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
                        CR_GLB_MAX_JOINTS);
     bvh_file b;
     int map[CR_NJOINTS], rig = 0;
-    const char **names = NULL;
+    bvh_arrays a = {0};
+    rt_source src = {0};
     double *g = NULL, *t = NULL, hip_m = 0.0;
     rt_character c = {0};
     cr_skin_motion *m = NULL;
     cr_status st = bvh_parse(data, len, source, &b, err);
     if (st == CR_OK) st = map_joints(&b, map, &rig, err);
-    if (st == CR_OK && !(names = cr_malloc((size_t)b.n * sizeof *names, err))) st = CR_ERR_MEMORY;
-    for (int i = 0; st == CR_OK && i < b.n; i++)
-        names[i] = b.j[i].end_site ? NULL : b.j[i].name;
+    if (st == CR_OK) st = bvh_arrays_alloc(b.n, &a, err);
+    if (st == CR_OK) src = bvh_source(&b, a.names, a.parent, a.rest);
     if (st == CR_OK)
-        st = cr_retarget_character_build(skel, skel_source, def->joint_map, b.n, names, map, source,
-                                         &c, err);
+        st = cr_retarget_character_build(skel, skel_source, def->joint_map, b.n, a.names, map,
+                                         source, &c, err);
     const size_t T = (size_t)b.nframes, n = (size_t)skel->njoints;
     if (st == CR_OK) {
         g = cr_malloc(T * n * 4 * sizeof(double), err);
         t = cr_malloc(T * 3 * sizeof(double), err);
         if (!g || !t) st = CR_ERR_MEMORY;
     }
-    if (st == CR_OK)
-        st = cr_skin_motion_create(skel->njoints, b.nframes, (float)bvh_fps(&b), &m, err);
-    if (st == CR_OK) st = bvh_drive(&b, map, rig, &def->import, &c.t, g, t, &hip_m, err);
+    if (st == CR_OK) st = cr_skin_motion_create(skel->njoints, b.nframes, (float)src.fps, &m, err);
+    if (st == CR_OK) st = cr_retarget_drive(&src, map, rig, &def->import, &c.t, g, t, &hip_m, err);
     const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0; /* the hips' heights */
     if (st == CR_OK) {
         for (size_t i = 0; i < 3 * T; i++)
@@ -734,7 +557,8 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
                scale, c.hip_m, hip_m);
     }
     cr_retarget_character_free(&c);
-    free(names), free(g), free(t);
+    bvh_arrays_free(&a);
+    free(g), free(t);
     bvh_free(&b);
     if (st != CR_OK) {
         cr_skin_motion_destroy(m);

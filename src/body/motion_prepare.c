@@ -366,8 +366,8 @@ cr_status cr_motion_resolve(const char *spec, const cr_motion_resolve_def *def, 
             snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "",
                      names[i]);
         return CR_FAIL(err, CR_ERR_INVALID,
-                       "motion '%s': neither a clip (%s) nor a motion file (.bvh, .npz)", spec,
-                       list);
+                       "motion '%s': neither a clip (%s) nor a motion file (.bvh, .npz, .glb)",
+                       spec, list);
     }
     cr_motion_prepare_def pd = def->prepare;
     pd.fps = def->fps;

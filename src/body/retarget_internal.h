@@ -98,6 +98,48 @@ void cr_retarget_frame(const rt_target *t, const rt_state *s, double (*w)[4], do
 void cr_retarget_fix_world(double *g, int n, int pelvis, double *t, int32_t T,
                            const motion_frame_fix *fix);
 
+/* ---------------------------------------------------- a source rig -- */
+
+/* A motion's source skeleton, whatever file it came from (a BVH, a rigged
+ * glTF character's own animation): its joints, their rest positions in file
+ * units and, frame by frame, their world rotations from that rest (the
+ * identity at rest, as a BVH's channels at zero) and world positions. */
+typedef struct rt_source {
+    const char *source;          /* the file, for messages */
+    int n;                       /* joints */
+    const char *const *name;     /* (n) names, NULL for an unnamed joint (a BVH End Site) */
+    const int *parent;           /* (n) parent joint, -1 for a root */
+    double (*rest)[3];           /* (n,3) rest positions, file units */
+    int32_t nframes;             /* T >= 1 */
+    double fps;                  /* > 0 */
+    /* frame f's world rotations w (n,4: w, x, y, z) and positions pos (n,3), file units */
+    void (*pose)(const struct rt_source *s, int32_t f, double (*w)[4], double (*pos)[3]);
+    const void *ctx; /* the file's own data, for pose */
+} rt_source;
+
+/* Drive target tg (tg->src: source joints; map: the source's roles; rig: the
+ * name table that matched): per frame the target joints' world rotations in
+ * crease's frame, g (T,n,4), and the pelvis's displacement from its rest
+ * standing position, t (T,3), m. *hip_m: the source's rest pelvis height
+ * over its lowest joint, m. def->retarget 0: each joint takes its source
+ * joint's world rotation (no bone matching). Reads up, left and the unit off
+ * the rest pose or, where it does not stand, off the frames (see
+ * retarget_drive.c). */
+cr_status cr_retarget_drive(const rt_source *s, const int map[CR_NJOINTS], int rig,
+                            const cr_motion_import_def *def, const rt_target *tg, double *g,
+                            double *t, double *hip_m, cr_error *err);
+
+/* The source onto crease's mannequin: the 22-joint target whose rest is the
+ * mannequin's, as SMPL-style local axis-angle poses at the source's rate. */
+cr_status cr_retarget_onto_mannequin(const rt_source *s, const int map[CR_NJOINTS], int rig,
+                                     const cr_motion_import_def *def, cr_motion **out,
+                                     cr_error *err);
+
+/* A rigged character's spec, "CHAR.glb" or "CHAR.glb:MAP": 1 with path (cap
+ * bytes) and *map (NULL or the map file's path, inside spec) when spec names
+ * a .glb, 0 otherwise; -1 when the path does not fit. */
+int cr_character_spec_split(const char *spec, char *path, size_t cap, const char **map);
+
 /* ------------------------------------------------ a character target -- */
 
 /* A skinned character's skeleton as a target: roles by name, overridden by

@@ -22,6 +22,7 @@
  * Skinned Multi-Person Linear Model" (eqs. 2-5).
  */
 #include "body/motion_internal.h"
+#include "body/retarget_internal.h"
 #include "crease/body.h"
 #include "crease/mesh.h"
 
@@ -249,22 +250,17 @@ cr_status cr_smpl_load(const char *path, const float *betas, int nbetas, cr_body
 
 cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err) {
     *out = NULL;
-    const char *glb = spec ? strstr(spec, ".glb") : NULL;
-    if (glb && (glb[4] == '\0' || glb[4] == ':')) { /* a character, and its joint map */
-        char path[1024];
-        const size_t n = (size_t)(glb + 4 - spec);
-        if (n >= sizeof path) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
-        memcpy(path, spec, n);
-        path[n] = '\0';
-        return cr_body_from_character(path, glb[4] == ':' ? glb + 5 : NULL, out, err);
-    }
+    char path[1024];
+    const char *map = NULL;
+    const int character = cr_character_spec_split(spec, path, sizeof path, &map);
+    if (character < 0) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
+    if (character) return cr_body_from_character(path, map, out, err); /* and its joint map */
     const char *npz = spec ? strstr(spec, ".npz") : NULL;
     if (!npz || (npz[4] != '\0' && npz[4] != ':')) {
         cr_mannequin_def md = cr_mannequin_default_def();
         CR_TRY(cr_mannequin_preset(spec ? spec : "normal", &md, err));
         return cr_mannequin_create(&md, out, err);
     }
-    char path[1024];
     const size_t n = (size_t)(npz + 4 - spec);
     if (n >= sizeof path) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
     memcpy(path, spec, n);

@@ -96,7 +96,7 @@ void help_gdsr(void) {
         "                       strain.csv and strain.png (E_u, E_v, E_uv over the frames)\n"
         "run --simulate (the low-resolution input made from the motion by `crease dataset`'s\n"
         "machinery into DIR/sim: garment template, posed body, simulator):\n"
-        "  --simulate           --motion is a clip name or a motion file (.bvh, .npz) to\n"
+        "  --simulate           --motion is a clip name or a motion file (.bvh, .npz, .glb) to\n"
         "                       simulate the low garment on; --dataset (optional) is then the\n"
         "                       training data whose manifest gives the vertex counts, fps and\n"
         "                       material (else 2000, 8000, 30, cotton)\n"

@@ -22,7 +22,10 @@
  * matrix, composed from the scene's roots; each vertex moved by the
  * weighted sum of its joints' world transform times their inverse bind
  * matrix. Any joint names and hierarchy are read; the frame count is capped
- * so a file cannot ask for more memory than it plausibly describes.
+ * so a file cannot ask for more memory than it plausibly describes. A
+ * character (cr_glb_read_character) gets its joints through the same
+ * frames: world positions and world rotations relative to the rest's
+ * (cr_glb_skin_anim), every node above them composed in.
  *
  * Reference: The Khronos glTF 2.0 Specification, sections 3.5 (nodes and
  * hierarchy), 3.7.3 (skins), 3.11 (animations, interpolation).
@@ -749,70 +752,101 @@ static void blend(const float *x, int64_t n, const int32_t *vj, const float *vw,
     }
 }
 
+/* animations[0]'s node channels, to be sampled frame by frame. */
+typedef struct anim_clip {
+    channel *ch;
+    int used;    /* channels read (weights channels are skipped) */
+    double t0;   /* the first key's time, s (0 without channels) */
+    double rate; /* frames a second: the first channel's key spacing (crease writes one key a
+                    frame), 30 without two keys */
+    int64_t T;   /* frames over the channels' time range; 1 without an animation */
+} anim_clip;
+
+static void anim_clip_free(anim_clip *a) {
+    for (int c = 0; a->ch && c < a->used; c++)
+        free(a->ch[c].time), free(a->ch[c].value);
+    free(a->ch);
+    memset(a, 0, sizeof *a);
+}
+
+/* Read the channels of nodes among nn; per_frame: values a frame costs (`what`: "vertices",
+ * "joints"), for the cap on what a file may ask for. */
+static cr_status anim_clip_open(const glb_in *g, int64_t nn, int64_t per_frame, const char *what,
+                                anim_clip *a, cr_error *err) {
+    memset(a, 0, sizeof *a);
+    a->rate = 30.0, a->T = 1;
+    const cJSON *anim = cr_glb_json_at(cJSON_GetObjectItemCaseSensitive(g->root, "animations"), 0);
+    const cJSON *chs = cJSON_GetObjectItemCaseSensitive(anim, "channels");
+    const int nch = cJSON_IsArray(chs) ? cJSON_GetArraySize(chs) : 0;
+    if (!(a->ch = cr_calloc((size_t)(nch > 0 ? nch : 1), sizeof *a->ch, err))) return CR_ERR_MEMORY;
+    double t0 = INFINITY, t1 = -INFINITY;
+    cr_status st = CR_OK;
+    for (int c = 0; st == CR_OK && c < nch; c++) {
+        int ok = 0;
+        st = read_channel(g, anim, cJSON_GetArrayItem(chs, c), nn, &a->ch[a->used], &ok, err);
+        if (st == CR_OK && ok)
+            t0 = fmin(t0, a->ch[a->used].time[0]),
+            t1 = fmax(t1, a->ch[a->used].time[a->ch[a->used].nkeys - 1]);
+        a->used += ok; /* what it allocated is freed by anim_clip_free either way */
+    }
+    for (int c = 0; c < a->used && st == CR_OK; c++)
+        if (a->ch[c].nkeys >= 2) {
+            a->rate = cr_glb_key_rate(a->ch[c].time[0], a->ch[c].time[1]);
+            break;
+        }
+    if (st == CR_OK && a->used > 0 && t1 > t0) {
+        const double nf = floor((t1 - t0) * a->rate + 1e-6) + 1.0;
+        if (!(nf <= MAX_SKIN_FRAMES) || nf * (double)per_frame > (double)MAX_SKIN_VALUES)
+            st = CR_FAIL(err, CR_ERR_RANGE,
+                         "%s: the animation asks for %.0f frames of %lld %s (at most %d "
+                         "frames, %lld values)",
+                         g->source, nf, (long long)per_frame, what, MAX_SKIN_FRAMES,
+                         (long long)MAX_SKIN_VALUES);
+        a->T = (int64_t)nf, a->t0 = t0;
+    }
+    if (st != CR_OK) anim_clip_free(a);
+    return st;
+}
+
+/* cur (nn) = the nodes' rest transforms with the channels' values at frame f. */
+static void anim_clip_pose(const anim_clip *a, const node_trs *rest, int64_t nn, int64_t f,
+                           node_trs *cur) {
+    const double t = a->t0 + (double)f / a->rate;
+    memcpy(cur, rest, (size_t)nn * sizeof *cur);
+    for (int c = 0; c < a->used; c++) {
+        double v[4];
+        sample(&a->ch[c], t, v);
+        node_trs *p = &cur[a->ch[c].node];
+        memcpy(a->ch[c].path == 0   ? p->t
+               : a->ch[c].path == 1 ? p->r
+                                    : p->s,
+               v, (a->ch[c].path == 1 ? 4 : 3) * sizeof(double));
+        p->has_matrix = 0; /* an animated node is TRS (glTF 3.11) */
+    }
+}
+
 cr_status cr_glb_skin_frames(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
                              float **frames, int32_t *nframes, float *fps, cr_error *err) {
     *frames = NULL, *nframes = 0;
     skin_eval e;
     CR_TRY(skin_open(g, prim, nraw, &e, err));
     const int64_t nn = e.nn;
-    const cJSON *anims = cJSON_GetObjectItemCaseSensitive(g->root, "animations");
-    const cJSON *anim = cr_glb_json_at(anims, 0);
-    const cJSON *chs = cJSON_GetObjectItemCaseSensitive(anim, "channels");
-    const int nch = cJSON_IsArray(chs) ? cJSON_GetArraySize(chs) : 0;
-    channel *ch = cr_calloc((size_t)(nch > 0 ? nch : 1), sizeof *ch, err);
+    anim_clip a;
+    cr_status st = anim_clip_open(g, nn, nraw, "vertices", &a, err);
+    const int64_t T = a.T;
     float *out = NULL;
-    int used = 0;
-    cr_status st = ch ? CR_OK : CR_ERR_MEMORY;
-    double t0 = INFINITY, t1 = -INFINITY;
-    for (int c = 0; st == CR_OK && c < nch; c++) {
-        int ok = 0;
-        st = read_channel(g, anim, cJSON_GetArrayItem(chs, c), nn, &ch[used], &ok, err);
-        if (st == CR_OK && ok)
-            t0 = fmin(t0, ch[used].time[0]), t1 = fmax(t1, ch[used].time[ch[used].nkeys - 1]);
-        used += ok; /* what it allocated is freed below either way */
-    }
-    /* Frames at the first channel's key spacing (crease writes one key a frame). */
-    double rate = 30.0;
-    for (int c = 0; c < used && st == CR_OK; c++)
-        if (ch[c].nkeys >= 2) {
-            rate = cr_glb_key_rate(ch[c].time[0], ch[c].time[1]);
-            break;
-        }
-    int64_t T = 1;
-    if (st == CR_OK && used > 0 && t1 > t0) {
-        double nf = floor((t1 - t0) * rate + 1e-6) + 1.0;
-        if (!(nf <= MAX_SKIN_FRAMES) || nf * (double)nraw > (double)MAX_SKIN_VALUES)
-            st = CR_FAIL(err, CR_ERR_RANGE,
-                         "%s: the animation asks for %.0f frames of %lld vertices (at most %d "
-                         "frames, %lld values)",
-                         g->source, nf, (long long)nraw, MAX_SKIN_FRAMES,
-                         (long long)MAX_SKIN_VALUES);
-        T = (int64_t)nf;
-    }
     if (st == CR_OK && !(out = cr_malloc((size_t)T * (size_t)nraw * 3 * sizeof(float), err)))
         st = CR_ERR_MEMORY;
     node_trs *cur = st == CR_OK ? cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof *cur, err) : NULL;
     if (st == CR_OK && !cur) st = CR_ERR_MEMORY;
     for (int64_t f = 0; st == CR_OK && f < T; f++) {
-        const double t = (used > 0 && t1 > t0 ? t0 : 0.0) + (double)f / rate;
-        memcpy(cur, e.nt, (size_t)nn * sizeof *cur);
-        for (int c = 0; c < used; c++) {
-            double v[4];
-            sample(&ch[c], t, v);
-            node_trs *p = &cur[ch[c].node];
-            memcpy(ch[c].path == 0   ? p->t
-                   : ch[c].path == 1 ? p->r
-                                     : p->s,
-                   v, (ch[c].path == 1 ? 4 : 3) * sizeof(double));
-            p->has_matrix = 0; /* an animated node is TRS (glTF 3.11) */
-        }
+        anim_clip_pose(&a, e.nt, nn, f, cur);
         skin_matrices(&e, cur);
         blend(raw, nraw, e.vj, e.vw, e.jm, out + f * nraw * 3);
     }
+    const double rate = a.rate;
     free(cur);
-    for (int c = 0; c < used; c++)
-        free(ch[c].time), free(ch[c].value);
-    free(ch);
+    anim_clip_free(&a);
     skin_eval_free(&e);
     if (st != CR_OK) {
         free(out);
@@ -834,8 +868,89 @@ void cr_glb_character_destroy(cr_glb_character *c) {
     free((void *)c->skin.joint_name), free((void *)c->skin.parent);
     free((void *)c->skin.rest_joint), free((void *)c->skin.skin_joint);
     free((void *)c->skin.skin_weight);
+    free((void *)c->anim.rotation), free((void *)c->anim.position);
     cr_mesh_destroy(c->rest);
     free(c);
+}
+
+/* The rotation of a column-major 4x4 with its columns' scale taken out (3x3 column-major). */
+static void mat_rotation(const double *m, double *r) {
+    for (int c = 0; c < 3; c++) {
+        const double n =
+            sqrt(m[4 * c] * m[4 * c] + m[4 * c + 1] * m[4 * c + 1] + m[4 * c + 2] * m[4 * c + 2]);
+        for (int k = 0; k < 3; k++)
+            r[3 * c + k] = n > 0.0 ? m[4 * c + k] / n : (double)(c == k);
+    }
+}
+
+/* The unit quaternion (x, y, z, w) of a 3x3 column-major rotation (Shepperd's method). */
+static void rotation_quat(const double *r, float *q) {
+#define R(row, col) r[3 * (col) + (row)]
+    const double tr = R(0, 0) + R(1, 1) + R(2, 2);
+    double x, y, z, w;
+    if (tr > 0.0) {
+        const double s = 2.0 * sqrt(tr + 1.0);
+        w = 0.25 * s, x = (R(2, 1) - R(1, 2)) / s, y = (R(0, 2) - R(2, 0)) / s,
+        z = (R(1, 0) - R(0, 1)) / s;
+    } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
+        const double s = 2.0 * sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2));
+        w = (R(2, 1) - R(1, 2)) / s, x = 0.25 * s, y = (R(0, 1) + R(1, 0)) / s,
+        z = (R(0, 2) + R(2, 0)) / s;
+    } else if (R(1, 1) > R(2, 2)) {
+        const double s = 2.0 * sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2));
+        w = (R(0, 2) - R(2, 0)) / s, x = (R(0, 1) + R(1, 0)) / s, y = 0.25 * s,
+        z = (R(1, 2) + R(2, 1)) / s;
+    } else {
+        const double s = 2.0 * sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1));
+        w = (R(1, 0) - R(0, 1)) / s, x = (R(0, 2) + R(2, 0)) / s, y = (R(1, 2) + R(2, 1)) / s,
+        z = 0.25 * s;
+    }
+#undef R
+    const double n = sqrt(x * x + y * y + z * z + w * w);
+    q[0] = (float)(x / n), q[1] = (float)(y / n), q[2] = (float)(z / n), q[3] = (float)(w / n);
+}
+
+/* The skeleton's own animation into c->anim: e posed at each frame of animations[0], each
+ * joint's (order: new -> skin) world position and world rotation from its rest's. */
+static cr_status joint_anim(const glb_in *g, skin_eval *e, const int32_t *order,
+                            cr_glb_character *c, cr_error *err) {
+    const int64_t J = e->J, nn = e->nn;
+    anim_clip a;
+    CR_TRY(anim_clip_open(g, nn, J, "joints", &a, err));
+    const int64_t T = a.T;
+    float *rot = cr_malloc((size_t)T * (size_t)J * 4 * sizeof(float), err);
+    float *pos = cr_malloc((size_t)T * (size_t)J * 3 * sizeof(float), err);
+    double *rest = cr_malloc((size_t)J * 9 * sizeof(double), err);
+    node_trs *cur = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof *cur, err);
+    cr_status st = rot && pos && rest && cur ? CR_OK : CR_ERR_MEMORY;
+    if (st == CR_OK) {
+        skin_matrices(e, e->nt);
+        for (int64_t i = 0; i < J; i++)
+            mat_rotation(&e->world[16 * (int64_t)e->jnode[order[i]]], &rest[9 * i]);
+    }
+    for (int64_t f = 0; st == CR_OK && f < T; f++) {
+        anim_clip_pose(&a, e->nt, nn, f, cur);
+        skin_matrices(e, cur);
+        for (int64_t i = 0; i < J; i++) {
+            const double *w = &e->world[16 * (int64_t)e->jnode[order[i]]], *b = &rest[9 * i];
+            double r[9], rel[9]; /* rel = R_f R_rest^T */
+            mat_rotation(w, r);
+            for (int col = 0; col < 3; col++)
+                for (int row = 0; row < 3; row++)
+                    rel[3 * col + row] =
+                        r[row] * b[col] + r[3 + row] * b[3 + col] + r[6 + row] * b[6 + col];
+            rotation_quat(rel, rot + 4 * (f * J + i));
+            for (int k = 0; k < 3; k++)
+                pos[3 * (f * J + i) + k] = (float)w[12 + k];
+        }
+    }
+    if (st == CR_OK)
+        c->anim = (cr_glb_skin_anim){(int32_t)T, (float)a.rate, a.used > 0, rot, pos};
+    else
+        free(rot), free(pos);
+    free(rest), free(cur);
+    anim_clip_free(&a);
+    return st;
 }
 
 cr_status cr_glb_skin_rest(const glb_in *g, const cJSON *prim, const float *raw, int64_t nraw,
@@ -924,6 +1039,7 @@ cr_status cr_glb_skin_rest(const glb_in *g, const cJSON *prim, const float *raw,
         for (int k = 0; k < 4 && st == CR_OK; k++)
             sw[4 * v + k] = (float)(sw[4 * v + k] / sum);
     }
+    if (st == CR_OK) st = joint_anim(g, &e, order, c, err);
     free(jidx), free(par), free(depth), free(order), free(inv), free(posed);
     skin_eval_free(&e);
     return st;

@@ -156,6 +156,11 @@ static cr_status check_def(const cr_dataset_def *d, dataset *ds, cr_error *err) 
 /* ------------------------------------------------------------- assets -- */
 
 void cr_dataset_motion_label(const char *spec, char *out, size_t size) {
+    const char *glb = strstr(spec, ".glb");
+    if (glb && glb[4] == ':') { /* a character's own animation, by its joint map */
+        cr_dataset_body_label(spec, out, size);
+        return;
+    }
     const char *base = strrchr(spec, '/');
     base = base ? base + 1 : spec;
     snprintf(out, size, "%s", base);

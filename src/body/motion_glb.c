@@ -1,0 +1,107 @@
+/* motion_glb.c: a rigged glTF character's own animation as a motion of
+ * crease's mannequin (issue 52), so `--motion CHAR.glb` drives every body
+ * (the character itself through `--body CHAR.glb`, or any other) as a BVH
+ * does.
+ *
+ * The character is read as cr_glb_read_character reads it (its skeleton,
+ * animations[0] sampled at its key rate over its time range); its joints
+ * are given SMPL's 22 roles exactly as cr_body_from_character gives them
+ * (the BVH retargeting's name tables, or a joint map file after a colon,
+ * "CHAR.glb:MAP"), so the body made of the character and the motion read
+ * from it agree on every joint. Each frame's joint world rotations, taken
+ * relative to the rest the nodes hold (the pose the body is built from),
+ * and world positions are the source rig of retarget_drive.c: the same
+ * frame, unit and bone-direction retargeting a BVH gets. glTF is in metres;
+ * an armature node's scale (a centimetre rig under a 0.01 scale) is in the
+ * world positions.
+ *
+ * Reference: The Khronos glTF 2.0 Specification, sections 3.5, 3.7.3, 3.11.
+ */
+#include "body/mannequin_internal.h"
+#include "body/retarget_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void glb_pose(const rt_source *s, int32_t f, double (*w)[4], double (*pos)[3]) {
+    const cr_glb_skin_anim *a = s->ctx;
+    const float *r = a->rotation + 4 * (size_t)f * (size_t)s->n;
+    const float *p = a->position + 3 * (size_t)f * (size_t)s->n;
+    for (int j = 0; j < s->n; j++) {
+        w[j][0] = r[4 * j + 3], w[j][1] = r[4 * j], w[j][2] = r[4 * j + 1];
+        w[j][3] = r[4 * j + 2];
+        for (int k = 0; k < 3; k++)
+            pos[j][k] = p[3 * j + k];
+    }
+}
+
+cr_status cr_motion_read_character(const char *path, const char *joint_map,
+                                   const cr_motion_import_def *def, cr_motion **out,
+                                   cr_error *err) {
+    *out = NULL;
+    cr_motion_import_def defaults = cr_motion_import_default_def();
+    if (!def) def = &defaults;
+    cr_glb_character *ch = NULL;
+    CR_TRY(cr_glb_read_character(path, &ch, err));
+    const cr_glb_skin *sk = &ch->skin;
+    const int n = sk->njoints;
+    if (!ch->anim.animated) {
+        cr_glb_character_destroy(ch);
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "%s: no animation (animations[0] moves none of its nodes): a character "
+                       "drives a body by its own animation only",
+                       path);
+    }
+    int self[CR_NJOINTS];
+    for (int r = 0; r < CR_NJOINTS; r++)
+        self[r] = r;
+    rt_character c;
+    cr_status st = cr_retarget_character_build(sk, path, joint_map, CR_NJOINTS, cr_joint_name, self,
+                                               "the body's 22 SMPL joints", &c, err);
+    int *parent = st == CR_OK ? cr_malloc((size_t)n * sizeof *parent, err) : NULL;
+    double(*rest)[3] = st == CR_OK ? cr_malloc((size_t)n * sizeof *rest, err) : NULL;
+    if (st == CR_OK && (!parent || !rest)) st = CR_ERR_MEMORY;
+    if (st == CR_OK) {
+        for (int j = 0; j < n; j++) {
+            parent[j] = sk->parent[j];
+            for (int k = 0; k < 3; k++)
+                rest[j][k] = sk->rest_joint[3 * j + k];
+        }
+        const rt_source src = {.source = path,
+                               .n = n,
+                               .name = sk->joint_name,
+                               .parent = parent,
+                               .rest = rest,
+                               .nframes = ch->anim.nframes,
+                               .fps = ch->anim.fps,
+                               .pose = glb_pose,
+                               .ctx = &ch->anim};
+        st = cr_retarget_onto_mannequin(&src, c.role, c.rig, def, out, err);
+        int found = 0;
+        for (int r = 0; r < CR_NJOINTS; r++)
+            found += c.role[r] >= 0;
+        if (st == CR_OK)
+            cr_log(CR_LOG_INFO,
+                   "%s: its own animation, %d frame%s at %g fps; %d of 22 body joints found (%s "
+                   "names%s)",
+                   path, (int)ch->anim.nframes, ch->anim.nframes == 1 ? "" : "s",
+                   (double)ch->anim.fps, found, cr_retarget_rig_name(c.rig),
+                   c.nuser ? ", a joint map" : "");
+        cr_retarget_character_free(&c);
+    }
+    free(parent), free(rest);
+    cr_glb_character_destroy(ch);
+    return st;
+}
+
+int cr_character_spec_split(const char *spec, char *path, size_t cap, const char **map) {
+    *map = NULL;
+    const char *glb = spec ? strstr(spec, ".glb") : NULL;
+    if (!glb || (glb[4] != '\0' && glb[4] != ':')) return 0;
+    const size_t n = (size_t)(glb + 4 - spec);
+    if (n >= cap) return -1;
+    memcpy(path, spec, n);
+    path[n] = '\0';
+    if (glb[4] == ':') *map = glb + 5;
+    return 1;
+}
