@@ -174,6 +174,13 @@ check "a joint map names its joints" bash -c "'$crease' motion \
 check "found by the map" grep -q "bones.glb: its own animation, 2 frames at 30 fps; 22 of 22 body joints found (.*, a joint map)" \
   "$tmp/bones.err"
 expect_exit 1 "prop.glb: no animation" motion --input "$tmp/prop.glb" -o "$tmp/x.npz"
+# another character's animation onto the Mixamo-named one's own skeleton
+check "simulate driven by another character's animation" bash -c "'$crease' simulate \
+  --garment '$tmp/t.obj' --body-mesh '$tmp/char.glb' --motion '$tmp/own.glb' --ease-in 0.2 \
+  --frames 4 -o '$tmp/sim_other' --quiet --json > '$tmp/other.json' 2> '$tmp/other.err'"
+check "driven by it" grep -q "char.glb: Mixamo joint names, 22 of 22 body joints found by name; 22 of 22 joints driven by .*own.glb" \
+  "$tmp/other.err"
+check "not diverged, outside" json_between "$tmp/other.json" max_penetration_m 0 0.005
 
 # --- refusals --------------------------------------------------------------------------------
 check "plain glb" "$crease" primitive sphere -o "$tmp/plain.glb"
@@ -181,7 +188,7 @@ expect_exit 1 "plain.glb: the mesh has no skin" simulate --garment "$tmp/t.obj" 
   --body-mesh "$tmp/plain.glb" --motion "$tmp/walk.bvh" --frames 1 -o "$tmp/x"
 expect_exit 2 "--joint-map needs --body-mesh" simulate --garment "$tmp/t.obj" --motion walk \
   --joint-map "$tmp/map.txt" --frames 1 -o "$tmp/x"
-expect_exit 2 "a .bvh driving a rigged .glb" simulate --garment "$tmp/t.obj" \
+expect_exit 2 "a .bvh or another character's .glb driving a rigged .glb" simulate --garment "$tmp/t.obj" \
   --body-mesh "$tmp/char.glb" --motion walk --frames 1 -o "$tmp/x"
 
 echo "cli_retarget: $passed passed, $failed failed"

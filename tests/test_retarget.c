@@ -867,6 +867,25 @@ CR_TEST(retarget, own_animation_of_the_mannequin_comes_back_as_its_motion) {
            "%.0f deg from rest), pelvis path off by %.2e m\n",
            worst * 180 / M_PI, moved * 180 / M_PI, path);
     CR_CHECK(worst < 1e-3 && moved > 0.3 && path < 1e-4);
+    /* the file's animation onto another character (Mixamo names, legs x1.15, arms x0.85, spine
+     * x1.25, an end joint): its bones follow the walk's */
+    const char *mix = tmp("own_walk_target.glb");
+    write_character(b, mix, NULL, 1);
+    cr_glb_character *c = NULL;
+    CR_CHECK_OK(cr_glb_read_character(mix, &c, &err), &err);
+    CR_REQUIRE(c);
+    int index[CR_NJOINTS];
+    for (int j = 0; j < CR_NJOINTS; j++)
+        CR_REQUIRE((index[j] = find_joint(&c->skin, mixamo[j])) >= 0);
+    cr_skin_motion *sm = NULL;
+    CR_CHECK_OK(cr_motion_retarget(glb, &c->skin, mix, NULL, &sm, &err), &err);
+    CR_REQUIRE(sm && sm->nframes == walk->nframes);
+    double onto = worst_bone_angle(b, walk, c, sm, index, &moved);
+    printf("    onto a Mixamo-named character with other proportions: bones off the walk's by "
+           "%.2e deg at most (turning up to %.0f deg)\n",
+           onto * 180 / M_PI, moved * 180 / M_PI);
+    CR_CHECK(onto < 1e-3 && moved > 0.3);
+    cr_skin_motion_destroy(sm), cr_glb_character_destroy(c);
     /* a character holding one key is a one-frame motion at its rest; a mesh without a skin is
      * refused, naming the file */
     const char *still = tmp("still_character.glb"), *plain = tmp("plain_mesh.glb");

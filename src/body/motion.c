@@ -58,6 +58,15 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
         path, ext);
 }
 
+cr_status cr_motion_retarget(const char *spec, const cr_glb_skin *skel, const char *skel_source,
+                             const cr_retarget_def *def, cr_skin_motion **out, cr_error *err) {
+    char glb[1024];
+    const char *map = NULL;
+    if (cr_character_spec_split(spec, glb, sizeof glb, &map))
+        return cr_motion_retarget_character(spec, skel, skel_source, def, out, err);
+    return cr_motion_retarget_bvh(spec, skel, skel_source, def, out, err);
+}
+
 cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err) {
     return cr_motion_import(path, NULL, out, err);
 }

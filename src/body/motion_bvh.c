@@ -450,122 +450,24 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
 
 /* ------------------------------------------------- onto any skeleton -- */
 
-#define RETARGET_COOKIE 0x72746731u
-
-cr_retarget_def cr_retarget_default_def(void) {
-    return (cr_retarget_def){.import = cr_motion_import_default_def(), .cookie = RETARGET_COOKIE};
-}
-
-/* The character's motion from its joints' world rotations g (T,n,4) and
- * pelvis displacement t (T,3), both in crease's frame: turned back into the
- * character's frame, made local, and the roots' translation chosen so the
- * pelvis lands at its rest position plus t. */
-static cr_status character_motion(const rt_character *c, const cr_glb_skin *skel, const double *g,
-                                  const double *t, cr_skin_motion *m, cr_error *err) {
-    const int n = c->t.n;
-    double inv[4];
-    q_conj(c->turn, inv);
-    double(*pos)[3] = cr_malloc((size_t)n * sizeof *pos, err);
-    double(*gw)[4] = cr_malloc((size_t)n * sizeof *gw, err);
-    if (!pos || !gw) {
-        free(pos), free(gw);
-        return CR_ERR_MEMORY;
-    }
-    for (int32_t f = 0; f < m->nframes; f++) {
-        float *rot = m->rotation + 4 * (size_t)f * (size_t)n;
-        for (int j = 0; j < n; j++) { /* G in the character's frame: C^-1 G C */
-            q_mul(inv, g + 4 * ((size_t)f * (size_t)n + (size_t)j), gw[j]);
-            q_mul(gw[j], c->turn, gw[j]);
-        }
-        for (int j = 0; j < n; j++) {
-            const int p = c->parent[j];
-            double local[4], d[3];
-            memcpy(local, gw[j], sizeof local);
-            if (p >= 0) {
-                double pinv[4];
-                q_conj(gw[p], pinv);
-                q_mul(pinv, local, local);
-            }
-            rot[4 * j] = (float)local[1], rot[4 * j + 1] = (float)local[2];
-            rot[4 * j + 2] = (float)local[3], rot[4 * j + 3] = (float)local[0];
-            for (int k = 0; k < 3; k++) /* forward kinematics with the roots at rest */
-                d[k] = skel->rest_joint[3 * j + k] - (p >= 0 ? skel->rest_joint[3 * p + k] : 0.0);
-            if (p >= 0) q_rotate(gw[p], d, d);
-            for (int k = 0; k < 3; k++)
-                pos[j][k] = (p >= 0 ? pos[p][k] : 0.0) + d[k];
-        }
-        double want[3];
-        q_rotate(inv, t + 3 * (size_t)f, want);
-        for (int k = 0; k < 3; k++)
-            m->translation[3 * f + k] =
-                (float)(skel->rest_joint[3 * c->t.pelvis + k] + want[k] - pos[c->t.pelvis][k]);
-    }
-    free(pos), free(gw);
-    return CR_OK;
-}
-
 cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *source,
                                      const cr_glb_skin *skel, const char *skel_source,
                                      const cr_retarget_def *def, cr_skin_motion **out,
                                      cr_error *err) {
     *out = NULL;
-    cr_retarget_def defaults = cr_retarget_default_def();
-    if (!def) def = &defaults;
-    CR_ASSERT(def->cookie == RETARGET_COOKIE && def->import.cookie == MOTION_IMPORT_COOKIE);
-    if (skel->njoints < 1 || skel->njoints > CR_GLB_MAX_JOINTS)
-        return CR_FAIL(err, CR_ERR_INVALID, "%s: %d joints (1 to %d)", skel_source, skel->njoints,
-                       CR_GLB_MAX_JOINTS);
     bvh_file b;
     int map[CR_NJOINTS], rig = 0;
     bvh_arrays a = {0};
-    rt_source src = {0};
-    double *g = NULL, *t = NULL, hip_m = 0.0;
-    rt_character c = {0};
-    cr_skin_motion *m = NULL;
     cr_status st = bvh_parse(data, len, source, &b, err);
     if (st == CR_OK) st = map_joints(&b, map, &rig, err);
     if (st == CR_OK) st = bvh_arrays_alloc(b.n, &a, err);
-    if (st == CR_OK) src = bvh_source(&b, a.names, a.parent, a.rest);
-    if (st == CR_OK)
-        st = cr_retarget_character_build(skel, skel_source, def->joint_map, b.n, a.names, map,
-                                         source, &c, err);
-    const size_t T = (size_t)b.nframes, n = (size_t)skel->njoints;
     if (st == CR_OK) {
-        g = cr_malloc(T * n * 4 * sizeof(double), err);
-        t = cr_malloc(T * 3 * sizeof(double), err);
-        if (!g || !t) st = CR_ERR_MEMORY;
+        const rt_source src = bvh_source(&b, a.names, a.parent, a.rest);
+        st = cr_retarget_onto_character(&src, map, rig, skel, skel_source, def, out, err);
     }
-    if (st == CR_OK) st = cr_skin_motion_create(skel->njoints, b.nframes, (float)src.fps, &m, err);
-    if (st == CR_OK) st = cr_retarget_drive(&src, map, rig, &def->import, &c.t, g, t, &hip_m, err);
-    const double scale = hip_m > 1e-6 ? c.hip_m / hip_m : 1.0; /* the hips' heights */
-    if (st == CR_OK) {
-        for (size_t i = 0; i < 3 * T; i++)
-            t[i] *= scale;
-        st = character_motion(&c, skel, g, t, m, err);
-    }
-    if (st == CR_OK) {
-        int driven = 0;
-        for (size_t j = 0; j < n; j++)
-            driven += c.src[j] >= 0;
-        cr_log(CR_LOG_INFO,
-               "%s: %s joint names, %d of 22 body joints found by name%s%s%s; %d of %d joints "
-               "driven by %s (%s rig), the rest keep their rest pose; translation scaled by "
-               "%.3f (hips %.3f m over %.3f m)",
-               skel_source, c.nroles > 0 ? cr_retarget_rig_name(c.rig) : "no known", c.nroles,
-               def->joint_map ? ", " : "", def->joint_map ? def->joint_map : "",
-               def->joint_map ? " read" : "", driven, (int)n, source, cr_retarget_rig_name(rig),
-               scale, c.hip_m, hip_m);
-    }
-    cr_retarget_character_free(&c);
     bvh_arrays_free(&a);
-    free(g), free(t);
     bvh_free(&b);
-    if (st != CR_OK) {
-        cr_skin_motion_destroy(m);
-        return st;
-    }
-    *out = m;
-    return CR_OK;
+    return st;
 }
 
 cr_status cr_motion_retarget_bvh(const char *path, const cr_glb_skin *skel, const char *skel_source,

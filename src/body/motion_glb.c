@@ -35,18 +35,31 @@ static void glb_pose(const rt_source *s, int32_t f, double (*w)[4], double (*pos
     }
 }
 
-cr_status cr_motion_read_character(const char *path, const char *joint_map,
-                                   const cr_motion_import_def *def, cr_motion **out,
-                                   cr_error *err) {
-    *out = NULL;
-    cr_motion_import_def defaults = cr_motion_import_default_def();
-    if (!def) def = &defaults;
-    cr_glb_character *ch = NULL;
-    CR_TRY(cr_glb_read_character(path, &ch, err));
-    const cr_glb_skin *sk = &ch->skin;
+/* A character opened as a source rig: its file, the roles of its joints and the arrays
+ * its rt_source points into. */
+typedef struct glb_source {
+    cr_glb_character *ch;
+    rt_character roles; /* the character's joints as the body's 22 roles' target */
+    int *parent;
+    double (*rest)[3];
+    rt_source src;
+} glb_source;
+
+static void glb_source_close(glb_source *g) {
+    cr_retarget_character_free(&g->roles);
+    free(g->parent), free(g->rest);
+    cr_glb_character_destroy(g->ch);
+    memset(g, 0, sizeof *g);
+}
+
+static cr_status glb_source_open(const char *path, const char *joint_map, glb_source *g,
+                                 cr_error *err) {
+    memset(g, 0, sizeof *g);
+    CR_TRY(cr_glb_read_character(path, &g->ch, err));
+    const cr_glb_skin *sk = &g->ch->skin;
     const int n = sk->njoints;
-    if (!ch->anim.animated) {
-        cr_glb_character_destroy(ch);
+    if (!g->ch->anim.animated) {
+        glb_source_close(g);
         return CR_FAIL(err, CR_ERR_INVALID,
                        "%s: no animation (animations[0] moves none of its nodes): a character "
                        "drives a body by its own animation only",
@@ -55,42 +68,69 @@ cr_status cr_motion_read_character(const char *path, const char *joint_map,
     int self[CR_NJOINTS];
     for (int r = 0; r < CR_NJOINTS; r++)
         self[r] = r;
-    rt_character c;
     cr_status st = cr_retarget_character_build(sk, path, joint_map, CR_NJOINTS, cr_joint_name, self,
-                                               "the body's 22 SMPL joints", &c, err);
-    int *parent = st == CR_OK ? cr_malloc((size_t)n * sizeof *parent, err) : NULL;
-    double(*rest)[3] = st == CR_OK ? cr_malloc((size_t)n * sizeof *rest, err) : NULL;
-    if (st == CR_OK && (!parent || !rest)) st = CR_ERR_MEMORY;
+                                               "the body's 22 SMPL joints", &g->roles, err);
     if (st == CR_OK) {
-        for (int j = 0; j < n; j++) {
-            parent[j] = sk->parent[j];
-            for (int k = 0; k < 3; k++)
-                rest[j][k] = sk->rest_joint[3 * j + k];
-        }
-        const rt_source src = {.source = path,
-                               .n = n,
-                               .name = sk->joint_name,
-                               .parent = parent,
-                               .rest = rest,
-                               .nframes = ch->anim.nframes,
-                               .fps = ch->anim.fps,
-                               .pose = glb_pose,
-                               .ctx = &ch->anim};
-        st = cr_retarget_onto_mannequin(&src, c.role, c.rig, def, out, err);
-        int found = 0;
-        for (int r = 0; r < CR_NJOINTS; r++)
-            found += c.role[r] >= 0;
-        if (st == CR_OK)
-            cr_log(CR_LOG_INFO,
-                   "%s: its own animation, %d frame%s at %g fps; %d of 22 body joints found (%s "
-                   "names%s)",
-                   path, (int)ch->anim.nframes, ch->anim.nframes == 1 ? "" : "s",
-                   (double)ch->anim.fps, found, cr_retarget_rig_name(c.rig),
-                   c.nuser ? ", a joint map" : "");
-        cr_retarget_character_free(&c);
+        g->parent = cr_malloc((size_t)n * sizeof *g->parent, err);
+        g->rest = cr_malloc((size_t)n * sizeof *g->rest, err);
+        if (!g->parent || !g->rest) st = CR_ERR_MEMORY;
     }
-    free(parent), free(rest);
-    cr_glb_character_destroy(ch);
+    if (st != CR_OK) {
+        glb_source_close(g);
+        return st;
+    }
+    for (int j = 0; j < n; j++) {
+        g->parent[j] = sk->parent[j];
+        for (int k = 0; k < 3; k++)
+            g->rest[j][k] = sk->rest_joint[3 * j + k];
+    }
+    g->src = (rt_source){.source = path,
+                         .n = n,
+                         .name = sk->joint_name,
+                         .parent = g->parent,
+                         .rest = g->rest,
+                         .nframes = g->ch->anim.nframes,
+                         .fps = g->ch->anim.fps,
+                         .pose = glb_pose,
+                         .ctx = &g->ch->anim};
+    int found = 0;
+    for (int r = 0; r < CR_NJOINTS; r++)
+        found += g->roles.role[r] >= 0;
+    cr_log(CR_LOG_INFO,
+           "%s: its own animation, %d frame%s at %g fps; %d of 22 body joints found (%s names%s)",
+           path, (int)g->ch->anim.nframes, g->ch->anim.nframes == 1 ? "" : "s",
+           (double)g->ch->anim.fps, found, cr_retarget_rig_name(g->roles.rig),
+           g->roles.nuser ? ", a joint map" : "");
+    return CR_OK;
+}
+
+cr_status cr_motion_read_character(const char *path, const char *joint_map,
+                                   const cr_motion_import_def *def, cr_motion **out,
+                                   cr_error *err) {
+    *out = NULL;
+    cr_motion_import_def defaults = cr_motion_import_default_def();
+    if (!def) def = &defaults;
+    glb_source g;
+    CR_TRY(glb_source_open(path, joint_map, &g, err));
+    cr_status st = cr_retarget_onto_mannequin(&g.src, g.roles.role, g.roles.rig, def, out, err);
+    glb_source_close(&g);
+    return st;
+}
+
+cr_status cr_motion_retarget_character(const char *spec, const cr_glb_skin *skel,
+                                       const char *skel_source, const cr_retarget_def *def,
+                                       cr_skin_motion **out, cr_error *err) {
+    *out = NULL;
+    char path[1024];
+    const char *map = NULL;
+    const int character = cr_character_spec_split(spec, path, sizeof path, &map);
+    if (character <= 0)
+        return CR_FAIL(err, CR_ERR_INVALID, "%s: expected a rigged CHAR.glb or CHAR.glb:MAP", spec);
+    glb_source g;
+    CR_TRY(glb_source_open(path, map, &g, err));
+    cr_status st = cr_retarget_onto_character(&g.src, g.roles.role, g.roles.rig, skel, skel_source,
+                                              def, out, err);
+    glb_source_close(&g);
     return st;
 }
 

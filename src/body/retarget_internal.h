@@ -135,6 +135,17 @@ cr_status cr_retarget_onto_mannequin(const rt_source *s, const int map[CR_NJOINT
                                      const cr_motion_import_def *def, cr_motion **out,
                                      cr_error *err);
 
+/* The source onto a skinned character's skeleton `skel` (`skel_source` in
+ * messages): its joints given roles by name or def->joint_map (right-hand
+ * sides: the source's joint names), each driven by the source joint of its
+ * role; the root translation scaled by the hips' heights (character over
+ * source). The one copy cr_motion_retarget_bvh and
+ * cr_motion_retarget_character go through. def NULL: the defaults. */
+cr_status cr_retarget_onto_character(const rt_source *s, const int map[CR_NJOINTS], int rig,
+                                     const cr_glb_skin *skel, const char *skel_source,
+                                     const cr_retarget_def *def, cr_skin_motion **out,
+                                     cr_error *err);
+
 /* A rigged character's spec, "CHAR.glb" or "CHAR.glb:MAP": 1 with path (cap
  * bytes) and *map (NULL or the map file's path, inside spec) when spec names
  * a .glb, 0 otherwise; -1 when the path does not fit. */

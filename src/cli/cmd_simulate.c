@@ -28,7 +28,8 @@ void help_simulate(void) {
         "                       box (0.4) or a mesh file; static unless --body animates it\n"
         "  --body-mesh B        body mesh: the collider's faces; a .glb character (skinned,\n"
         "                       any skeleton) or sequence moves by its own animation, or a\n"
-        "                       rigged .glb by --motion F.bvh retargeted onto its skeleton\n"
+        "                       rigged .glb by --motion F.bvh (or another rigged\n"
+        "                       OTHER.glb[:MAP]'s own animation) retargeted onto its skeleton\n"
         "                       (joints matched by name: SMPL, Mixamo, CMU, DAZ, Unreal,\n"
         "                       Rigify; eased in from its rest pose over --ease-in S, default\n"
         "                       1; --scale, --start-frame and --end-frame (the BVH's frames)\n"
@@ -169,9 +170,10 @@ static int parse(int argc, char **argv, sim_opts *o) {
     if (o->body_mesh) cr_path_ext(o->body_mesh, ext, sizeof ext);
     if (o->motion) cr_path_ext(o->motion, mext, sizeof mext);
     if (o->motion && o->body_mesh &&
-        (strcmp(ext, "glb") != 0 || strcmp(mext, "bvh") != 0 || o->body || o->object))
-        return cli_usage("simulate", "--motion with --body-mesh: a .bvh driving a rigged .glb "
-                                     "character (no --body, --object)");
+        (strcmp(ext, "glb") != 0 || (strcmp(mext, "bvh") != 0 && !strstr(o->motion, ".glb")) ||
+         o->body || o->object))
+        return cli_usage("simulate", "--motion with --body-mesh: a .bvh or another character's "
+                                     ".glb driving a rigged .glb character (no --body, --object)");
     if (o->motion && !o->body_mesh && (o->object || (o->body && strstr(o->body, ".pc2"))))
         return cli_usage("simulate", "--motion poses a body model (--body a preset, FILE.npz or "
                                      "CHAR.glb): no --object, no --body B.pc2");

@@ -114,8 +114,9 @@ static void sim_run_free(sim_run *r) {
     cr_mesh_destroy(r->garment);
 }
 
-/* A rigged .glb driven by a BVH: read, retarget, drop a calibration frame,
- * ease in from rest at the run's rate, pose; the collider is the character's rest mesh and frames.
+/* A rigged .glb driven by a BVH or another character's animation: read, retarget, drop a
+ * calibration frame, ease in from rest at the run's rate, pose; the collider is the character's
+ * rest mesh and frames.
  */
 static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error *err) {
     CR_TRY(cr_glb_read_character(o->body_mesh, &r->character, err));
@@ -123,8 +124,7 @@ static cr_status character_setup(const cr_scene_sim_def *o, sim_run *r, cr_error
     rd.joint_map = o->joint_map;
     rd.import.bvh_scale = o->body_bvh_scale;
     cr_skin_motion *raw = NULL;
-    CR_TRY(
-        cr_motion_retarget_bvh(o->body_motion, &r->character->skin, o->body_mesh, &rd, &raw, err));
+    CR_TRY(cr_motion_retarget(o->body_motion, &r->character->skin, o->body_mesh, &rd, &raw, err));
     /* the frames asked for; without a start, a calibration T-pose at frame 0 is dropped, as
      * cr_motion_prepare drops one for the mannequin: eased into and left in one frame, the
      * arms would sweep through the garment */
