@@ -4,7 +4,8 @@
 # epnet and swingar (issue 52; docs/body.md, "A character as the body"). Everything lands in
 # OUT; the last lines are a table of how deep the garment's vertices and face centroids go into
 # the character after the first second, how far its highest point (the collar) fell from the
-# first frame to the last (a garment sliding off falls), and the pictures.
+# first frame to the last against the skin under it (a garment sliding off falls;
+# scripts/depth_row.sh), and the pictures.
 #
 # - The character (tests/make_character.py): crease's mannequin dancing (`pose-body --clip
 #   dance`), made into what another tool would write: Mixamo's joint names, legs x1.12, spine
