@@ -51,7 +51,7 @@ expect_exit 1 "has latent 32, this run asks for 16" gdsr train "${small[@]}" --l
   --epochs $((epochs + 2)) --resume -o "$tmp/mk"
 # a model file whose stored settings name an unknown field (or lack one) is refused
 st_meta_sub "$tmp/m/model.safetensors" "$tmp/cfgkey.safetensors" gdsr_model '"out_scale"' '"out_scale_x"'
-expect_exit 1 "cfgkey.safetensors: unknown gdsr model field 'out_scale_x'" gdsr run \
+expect_exit 1 "cfgkey.safetensors: gdsr model definition: unknown key 'out_scale_x'" gdsr run \
   --dataset "$tmp/data" --motion dance --model "$tmp/cfgkey.safetensors" -o "$tmp/rk" --quiet
 st_meta_sub "$tmp/m/model.safetensors" "$tmp/cfgkey.safetensors" gdsr_model ',"out_scale":[^,}]*' ''
 expect_exit 1 "cfgkey.safetensors: gdsr model definition lacks 'out_scale'" gdsr run \

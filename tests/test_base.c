@@ -262,6 +262,26 @@ CR_TEST(base, config_table_writes_reads_and_diffs) {
     cJSON_AddNumberToObject(o, "n2", 1);
     CR_CHECK(cr_config_parse_object(o, "t", keys, 5, &b, &err) == CR_ERR_CONFIG &&
              strstr(err.msg, "n2"));
+    CR_CHECK(cr_config_absent(keys, 5, o) == NULL);
+    cJSON_DeleteItemFromObject(o, "y");
+    CR_CHECK(strcmp(cr_config_absent(keys, 5, o), "y") == 0);
+    CR_CHECK(cr_config_number(&keys[1], &a) == 0.5 && cr_config_number(&keys[0], &a) == 3.0);
     cJSON_free(text);
     cJSON_Delete(o);
+    /* a seed: a non-negative integer up to 2^64 */
+    typedef struct {
+        uint64_t seed;
+    } u_t;
+    static const cr_config_key ukeys[] = {{"seed", CR_CFG_U64, offsetof(u_t, seed), 0, 1, 0, NULL}};
+    u_t u = {0}, v = {0};
+    CR_CHECK_OK(cr_config_parse("{\"seed\": 4294967297}", "u", ukeys, 1, &u, &err), &err);
+    CR_CHECK(u.seed == 4294967297ull && strcmp(cr_config_diff(ukeys, 1, &u, &v), "seed") == 0);
+    CR_CHECK(cr_config_parse("{\"seed\": -1}", "u", ukeys, 1, &u, &err) == CR_ERR_CONFIG &&
+             strstr(err.msg, "non-negative integer"));
+    CR_CHECK(cr_config_parse("{\"seed\": 1.5}", "u", ukeys, 1, &u, &err) == CR_ERR_CONFIG);
+    cJSON *uo = cr_config_to_object(ukeys, 1, &u);
+    char *ut = uo ? cJSON_PrintUnformatted(uo) : NULL;
+    CR_CHECK(ut && strcmp(ut, "{\"seed\":4294967297}") == 0);
+    cJSON_free(ut);
+    cJSON_Delete(uo);
 }

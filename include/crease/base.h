@@ -206,7 +206,8 @@ typedef enum cr_config_type {
     CR_CFG_DOUBLE,
     CR_CFG_INT,
     CR_CFG_BOOL,
-    CR_CFG_STRING /* fixed char array of `size` bytes inside the struct */
+    CR_CFG_STRING, /* fixed char array of `size` bytes inside the struct */
+    CR_CFG_U64     /* uint64_t (a seed), written as a JSON number */
 } cr_config_type;
 
 typedef struct cr_config_key {
@@ -234,6 +235,11 @@ struct cJSON *cr_config_to_object(const cr_config_key *keys, int nkeys, const vo
  * describes), or NULL when they agree on every key: what a resume names when
  * its options are not the checkpoint's. */
 const char *cr_config_diff(const cr_config_key *keys, int nkeys, const void *a, const void *b);
+/* The first key the JSON object lacks, or NULL when it has every one: for
+ * files that must state every key. */
+const char *cr_config_absent(const cr_config_key *keys, int nkeys, const struct cJSON *obj);
+/* A numeric key's value in `in` as a double (0 for a string), for messages. */
+double cr_config_number(const cr_config_key *k, const void *in);
 
 /* ------------------------------------------------------------ file utils -- */
 

@@ -45,6 +45,13 @@ static cr_status set_number(const cr_config_key *k, const cJSON *item, const cha
                            k->name, v);
         *(int *)field = (int)v;
         break;
+    case CR_CFG_U64:
+        if (v != floor(v) || v < 0 || v >= 18446744073709551616.0) /* 2^64 */
+            return CR_FAIL(err, CR_ERR_CONFIG,
+                           "%s: key '%s' must be a non-negative integer, got %g", source, k->name,
+                           v);
+        *(uint64_t *)field = (uint64_t)v;
+        break;
     default:
         CR_ASSERT(0);
     }
@@ -58,6 +65,8 @@ static const char *type_name(cr_config_type t) {
         return "a number";
     case CR_CFG_INT:
         return "an integer";
+    case CR_CFG_U64:
+        return "a non-negative integer";
     case CR_CFG_BOOL:
         return "true or false";
     case CR_CFG_STRING:
@@ -73,6 +82,7 @@ static cr_status set_key(const cr_config_key *k, const cJSON *item, const char *
     case CR_CFG_FLOAT:
     case CR_CFG_DOUBLE:
     case CR_CFG_INT:
+    case CR_CFG_U64:
         if (cJSON_IsNumber(item)) return set_number(k, item, source, out, err);
         break;
     case CR_CFG_BOOL:
@@ -142,6 +152,9 @@ cJSON *cr_config_to_object(const cr_config_key *keys, int nkeys, const void *in)
         case CR_CFG_INT:
             v = cJSON_CreateNumber(*(const int *)f);
             break;
+        case CR_CFG_U64:
+            v = cJSON_CreateNumber((double)*(const uint64_t *)f);
+            break;
         case CR_CFG_BOOL:
             v = cJSON_CreateBool(*(const int *)f);
             break;
@@ -176,10 +189,37 @@ const char *cr_config_diff(const cr_config_key *keys, int nkeys, const void *a, 
         case CR_CFG_STRING:
             same = strncmp(x, y, keys[i].size) == 0;
             break;
+        case CR_CFG_U64:
+            same = *(const uint64_t *)x == *(const uint64_t *)y;
+            break;
         }
         if (!same) return keys[i].name;
     }
     return NULL;
+}
+
+const char *cr_config_absent(const cr_config_key *keys, int nkeys, const cJSON *obj) {
+    for (int i = 0; i < nkeys; i++)
+        if (!cJSON_GetObjectItemCaseSensitive(obj, keys[i].name)) return keys[i].name;
+    return NULL;
+}
+
+double cr_config_number(const cr_config_key *k, const void *in) {
+    const char *f = (const char *)in + k->offset;
+    switch (k->type) {
+    case CR_CFG_FLOAT:
+        return *(const float *)f;
+    case CR_CFG_DOUBLE:
+        return *(const double *)f;
+    case CR_CFG_INT:
+    case CR_CFG_BOOL:
+        return *(const int *)f;
+    case CR_CFG_U64:
+        return (double)*(const uint64_t *)f;
+    case CR_CFG_STRING:
+        break;
+    }
+    return 0.0;
 }
 
 cr_status cr_config_load(const char *path, const cr_config_key *keys, int nkeys, void *out,

@@ -437,80 +437,25 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 /* ---------------------------------------------------- def as JSON -- */
 
-typedef enum { FIELD_INT, FIELD_FLOAT, FIELD_U64 } field_type;
-
-/* Every stored field of the def, in the order written. */
-static const struct {
-    const char *name;
-    size_t offset;
-    field_type type;
-} def_fields[] = {
-#define F(name, type)                                                                              \
-    { #name, offsetof(cr_gdsr_model_def, name), type }
-    F(latent, FIELD_INT),         F(steps, FIELD_INT),
-    F(mlp_hidden, FIELD_INT),     F(decoder_features, FIELD_INT),
-    F(hyper_features, FIELD_INT), F(gen_hidden, FIELD_INT),
-    F(wire_layers, FIELD_INT),    F(wire_width, FIELD_INT),
-    F(omega0, FIELD_FLOAT),       F(s0, FIELD_FLOAT),
-    F(use_decoder, FIELD_INT),    F(sigma_b, FIELD_FLOAT),
-    F(layer_edges, FIELD_INT),    F(sigma_l, FIELD_FLOAT),
-    F(out_scale, FIELD_FLOAT),    F(seed, FIELD_U64),
-#undef F
+/* Every stored field of the def, in the order written (ranges: cr_gdsr_model_def_validate). */
+static const cr_config_key def_keys[] = {
+#define K(name, type)                                                                              \
+    { #name, type, offsetof(cr_gdsr_model_def, name), 0, 1, 0, NULL }
+    K(latent, CR_CFG_INT),         K(steps, CR_CFG_INT),
+    K(mlp_hidden, CR_CFG_INT),     K(decoder_features, CR_CFG_INT),
+    K(hyper_features, CR_CFG_INT), K(gen_hidden, CR_CFG_INT),
+    K(wire_layers, CR_CFG_INT),    K(wire_width, CR_CFG_INT),
+    K(omega0, CR_CFG_FLOAT),       K(s0, CR_CFG_FLOAT),
+    K(use_decoder, CR_CFG_INT),    K(sigma_b, CR_CFG_FLOAT),
+    K(layer_edges, CR_CFG_INT),    K(sigma_l, CR_CFG_FLOAT),
+    K(out_scale, CR_CFG_FLOAT),    K(seed, CR_CFG_U64),
+#undef K
 };
-enum { NDEF_FIELDS = sizeof def_fields / sizeof def_fields[0] };
-
-static int field_index(const char *name) {
-    for (int k = 0; k < NDEF_FIELDS; k++)
-        if (strcmp(def_fields[k].name, name) == 0) return k;
-    return -1;
-}
-
-static const char *const field_kind[] = {"an integer", "a number", "a non-negative integer"};
-
-/* Whether v converts to field k's type without loss or overflow. */
-static int field_fits(int k, double v) {
-    switch (def_fields[k].type) {
-    case FIELD_INT:
-        return v == floor(v) && fabs(v) <= INT_MAX;
-    case FIELD_FLOAT:
-        return fabs(v) <= FLT_MAX;
-    default:
-        return v == floor(v) && v >= 0 && v < 18446744073709551616.0; /* 2^64 */
-    }
-}
-
-static double field_get(const cr_gdsr_model_def *d, int k) {
-    const char *p = (const char *)d + def_fields[k].offset;
-    switch (def_fields[k].type) {
-    case FIELD_INT:
-        return *(const int *)p;
-    case FIELD_FLOAT:
-        return *(const float *)p;
-    default:
-        return (double)*(const uint64_t *)p;
-    }
-}
-
-static void field_set(cr_gdsr_model_def *d, int k, double v) {
-    char *p = (char *)d + def_fields[k].offset;
-    switch (def_fields[k].type) {
-    case FIELD_INT:
-        *(int *)p = (int)v;
-        break;
-    case FIELD_FLOAT:
-        *(float *)p = (float)v;
-        break;
-    default:
-        *(uint64_t *)p = (uint64_t)v;
-        break;
-    }
-}
+enum { NDEF_KEYS = sizeof def_keys / sizeof def_keys[0] };
 
 char *cr_gdsr_model_def_json(const cr_gdsr_model_def *d) {
-    cJSON *j = cJSON_CreateObject();
-    for (int k = 0; k < NDEF_FIELDS; k++)
-        cJSON_AddNumberToObject(j, def_fields[k].name, field_get(d, k));
-    char *s = cJSON_PrintUnformatted(j);
+    cJSON *j = cr_config_to_object(def_keys, NDEF_KEYS, d);
+    char *s = j ? cJSON_PrintUnformatted(j) : NULL;
     cJSON_Delete(j);
     return s;
 }
@@ -523,37 +468,30 @@ cr_status cr_gdsr_model_def_from_json(const char *json, const char *source, cr_g
         cJSON_Delete(j);
         return CR_FAIL(err, CR_ERR_PARSE, "%s: no or unreadable gdsr model definition", source);
     }
-    int seen[NDEF_FIELDS] = {0};
-    cr_status st = CR_OK;
-    for (const cJSON *v = j->child; v && st == CR_OK; v = v->next) {
-        int k = field_index(v->string);
-        if (k < 0)
-            st = CR_FAIL(err, CR_ERR_PARSE, "%s: unknown gdsr model field '%s'", source, v->string);
-        else if (!cJSON_IsNumber(v) || !field_fits(k, v->valuedouble))
-            st = CR_FAIL(err, CR_ERR_PARSE, "%s: gdsr model field '%s' is not %s", source,
-                         v->string, field_kind[def_fields[k].type]);
-        else
-            field_set(d, k, v->valuedouble), seen[k] = 1;
-    }
-    cJSON_Delete(j);
-    CR_TRY(st);
+    char where[1100];
+    snprintf(where, sizeof where, "%s: gdsr model definition", source);
+    cr_status st = cr_config_parse_object(j, where, def_keys, NDEF_KEYS, d, err);
     /* Models written before layer edges lack the pair and have two edge sets
      * (docs/gdsr.md, "Layer edges"); every other field is required. */
-    int ke = field_index("layer_edges"), ks = field_index("sigma_l");
-    if (!seen[ke] && !seen[ks]) d->layer_edges = 0, seen[ke] = seen[ks] = 1;
-    for (int k = 0; k < NDEF_FIELDS; k++)
-        if (!seen[k])
-            return CR_FAIL(err, CR_ERR_PARSE, "%s: gdsr model definition lacks '%s'", source,
-                           def_fields[k].name);
+    if (st == CR_OK && !cJSON_GetObjectItemCaseSensitive(j, "layer_edges") &&
+        !cJSON_GetObjectItemCaseSensitive(j, "sigma_l")) {
+        d->layer_edges = 0;
+        cJSON_AddNumberToObject(j, "layer_edges", 0);
+        cJSON_AddNumberToObject(j, "sigma_l", d->sigma_l);
+    }
+    const char *absent = st == CR_OK ? cr_config_absent(def_keys, NDEF_KEYS, j) : NULL;
+    if (absent)
+        st = CR_FAIL(err, CR_ERR_PARSE, "%s: gdsr model definition lacks '%s'", source, absent);
+    cJSON_Delete(j);
+    CR_TRY(st);
     return cr_gdsr_model_def_validate(d, err);
 }
 
 const char *cr_gdsr_model_def_differ(const cr_gdsr_model_def *a, const cr_gdsr_model_def *b,
                                      double *va, double *vb) {
-    for (int k = 0; k < NDEF_FIELDS; k++)
-        if (field_get(a, k) != field_get(b, k)) {
-            *va = field_get(a, k), *vb = field_get(b, k);
-            return def_fields[k].name;
-        }
-    return NULL;
+    const char *name = cr_config_diff(def_keys, NDEF_KEYS, a, b);
+    for (int k = 0; name && k < NDEF_KEYS; k++)
+        if (def_keys[k].name == name)
+            *va = cr_config_number(&def_keys[k], a), *vb = cr_config_number(&def_keys[k], b);
+    return name;
 }
