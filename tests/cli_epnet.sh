@@ -39,6 +39,16 @@ check "run outputs" test -s "$tmp/o/garment.pc2" -a -s "$tmp/o/garment.glb" -a -
 check "closed-loop run" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --closed-loop -o '$tmp/c' --json | grep -q '\"finite\":true'"
 check "proxy run with its options" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --drive 0.1 --min-delta 0.01 --warmup 5 -o '$tmp/p' --json | grep -q '\"finite\":true'"
 check "baseline run: RB 0" bash -c "'$crease' epnet run --model '$tmp/m' --motion squat --frames 12 --baseline -o '$tmp/b' --json | grep -q '\"max_abs_rb\":0'"
+# Table 1 against the reference and its twin, on a short held-out clip
+check "baseline train" "$crease" epnet train ${small[*]} --cycles 1 --baseline -o "$tmp/bl"
+check "epnet measure" bash -c "'$crease' epnet measure --models '$tmp/m' --baselines '$tmp/bl' \
+  --motions bend --bodies normal --frames 10 --hold 2 -o '$tmp/meas' > '$tmp/meas.md'"
+check "the twin row and the baseline's error removed" bash -c "grep -q '| twin' '$tmp/meas.md' && \
+  grep -q 'epnet (baseline: the first zero-RB seed)' '$tmp/meas.md'"
+check "tables as JSON, the picture" bash -c "[[ -s '$tmp/meas/table_epnet_bend_normal.json' && \
+  -s '$tmp/meas/table_baseline_bend_normal.json' && -s '$tmp/meas/side_by_side_bend.png' ]]"
+expect_exit 2 "--models, --baselines and -o are required" epnet measure --models "$tmp/m" -o "$tmp/x"
+expect_exit 1 "none/model.json" epnet measure --models "$tmp/none" --baselines "$tmp/bl" -o "$tmp/x"
 
 # a garment mesh of one's own, without UVs: trained (one short cycle) and run
 "$crease" garment --type skirt --res 600 -o "$tmp/skirt.obj" >/dev/null 2>&1
@@ -50,7 +60,7 @@ check "run it" bash -c "'$crease' epnet run --model '$tmp/mf' --motion squat --f
   grep -q '\"finite\":true'"
 
 expect_exit 2 "-o DIR is required" epnet train
-expect_exit 2 "expected train or run" epnet fly
+expect_exit 2 "expected train, run or measure" epnet fly
 expect_exit 1 "model.json" epnet run --model "$tmp/none" --motion squat -o "$tmp/x"
 # a model folder from before the RB paths were pruned: off, it loads; on, it is refused
 cp -r "$tmp/m" "$tmp/old"

@@ -335,6 +335,39 @@ typedef struct cr_epnet_run_report {
 } cr_epnet_run_report;
 cr_status cr_epnet_run(const cr_epnet_run_def *def, cr_epnet_run_report *out, cr_error *err);
 
+/* ------------------------------------------------------------- measure -- */
+
+/* epnet's Table 1 on our data (src/methods/epnet/measure.c; docs/epnet.md
+ * "Measuring it"): trained epnets (seeds of one recipe) and zero-RB baselines
+ * against the plastic reference simulator and its twin on held-out motions
+ * and bodies, through cr_eval_run and cr_eval_table: per case a row per model
+ * of the folded share at the end, s/frame and RB realised; the tables (mean
+ * and spread over the seeds, the twin row, the first baseline's error removed,
+ * the admission) on `print` and as out_dir/table_{epnet,baseline}_<motion>_
+ * <body>.json; out_dir/side_by_side_<motion>.png (reference, twin, epnet,
+ * baseline at the last frame) for the first case. */
+enum { CR_EPNET_MEASURE_MAX_SEEDS = 8 };
+typedef struct cr_epnet_measure_def {
+    const char *const *models;    /* epnet model folders, seeds of one recipe; required */
+    int nmodels;                  /* 1 to CR_EPNET_MEASURE_MAX_SEEDS */
+    const char *const *baselines; /* zero-RB folders (the first is the tables' baseline) */
+    int nbaselines;               /* 1 to CR_EPNET_MEASURE_MAX_SEEDS */
+    const char *const *motions;   /* held-out clips or files (default bend, raise_arms, dodge) */
+    int nmotions;
+    const char *const *bodies; /* body specs (default normal, slim, heavy) */
+    int nbodies;
+    int32_t frames;           /* frames of each motion (default 0: its own length) */
+    int32_t hold;             /* frames of the last pose after the motion (default 30) */
+    double friction;          /* the reference's Coulomb friction (default 0, the loss's) */
+    double twin_friction;     /* the twin's change of it (default 0.001) */
+    cr_epnet_infer_def infer; /* epnet's inference (default the proxy); baselines at zero RB */
+    const char *out_dir;      /* required */
+    FILE *print;              /* the tables as markdown (NULL: none) */
+    uint32_t cookie;
+} cr_epnet_measure_def;
+cr_epnet_measure_def cr_epnet_measure_default_def(void);
+cr_status cr_epnet_measure(const cr_epnet_measure_def *def, cr_error *err);
+
 /* ------------------------------------------------------------- runtime -- */
 
 /* Frame by frame, for a game loop or a renderer (src/methods/epnet/runtime.c):

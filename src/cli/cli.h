@@ -70,6 +70,7 @@ typedef enum cli_opt_kind {
     CLI_OPT_STRING, /* *(const char **)dst = the value (points into argv) */
     CLI_OPT_INT,    /* *(int *)dst: a decimal integer in [lo, hi] */
     CLI_OPT_FLOAT,  /* *(float *)dst: a finite number in [lo, hi] */
+    CLI_OPT_DOUBLE, /* *(double *)dst: a finite number in [lo, hi], kept in double */
     CLI_OPT_CHOICE, /* *(const char **)dst = the entry of choices (NULL-ended) equal to it */
     CLI_OPT_CUSTOM, /* fn(cmd, name, values, dst) with nvalues values (0 means 1) */
 } cli_opt_kind;
@@ -100,6 +101,11 @@ typedef struct cli_opt {
 #define CLI_FLOAT(name_, dst_, lo_, hi_)                                                           \
     {                                                                                              \
         .name = (name_), .kind = CLI_OPT_FLOAT, .dst = CLI_PTR_(float, dst_), .lo = (lo_),         \
+        .hi = (hi_)                                                                                \
+    }
+#define CLI_DOUBLE(name_, dst_, lo_, hi_)                                                          \
+    {                                                                                              \
+        .name = (name_), .kind = CLI_OPT_DOUBLE, .dst = CLI_PTR_(double, dst_), .lo = (lo_),       \
         .hi = (hi_)                                                                                \
     }
 #define CLI_CHOICE(name_, dst_, choices_)                                                          \

@@ -42,8 +42,9 @@ int cli_parse_int(const char *cmd, const char *opt, const char *s, long lo, long
     return 1;
 }
 
-int cli_parse_float(const char *cmd, const char *opt, const char *s, double lo, double hi,
-                    float *out) {
+/* A finite number in [lo, hi] into *out, or 0 after printing the usage. */
+static int parse_number(const char *cmd, const char *opt, const char *s, double lo, double hi,
+                        double *out) {
     char *end = NULL;
     errno = 0;
     double v = strtod(s, &end);
@@ -51,6 +52,14 @@ int cli_parse_float(const char *cmd, const char *opt, const char *s, double lo, 
         cli_usage(cmd, "%s expects a number in [%g, %g], got '%s'", opt, lo, hi, s);
         return 0;
     }
+    *out = v;
+    return 1;
+}
+
+int cli_parse_float(const char *cmd, const char *opt, const char *s, double lo, double hi,
+                    float *out) {
+    double v;
+    if (!parse_number(cmd, opt, s, lo, hi, &v)) return 0;
     *out = (float)v;
     return 1;
 }
@@ -99,6 +108,9 @@ static int apply_opt(const char *cmd, const cli_opt *o, const char *const *v) {
     case CLI_OPT_FLOAT:
         return cli_parse_float(cmd, o->name, v[0], o->lo, o->hi, (float *)o->dst) ? CLI_OK
                                                                                   : CLI_USAGE;
+    case CLI_OPT_DOUBLE:
+        return parse_number(cmd, o->name, v[0], o->lo, o->hi, (double *)o->dst) ? CLI_OK
+                                                                                : CLI_USAGE;
     case CLI_OPT_CHOICE:
         for (const char *const *c = o->choices; *c; c++)
             if (strcmp(*c, v[0]) == 0) {

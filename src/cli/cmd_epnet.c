@@ -9,7 +9,8 @@
 void help_epnet(void) {
     printf(
         "usage: crease epnet train -o DIR [options]\n"
-        "       crease epnet run --model DIR --motion M -o OUT [options]\n\n"
+        "       crease epnet run --model DIR --motion M -o OUT [options]\n"
+        "       crease epnet measure --models D,.. --baselines D,.. -o OUT [options]\n\n"
         "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph message\n"
         "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
         "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
@@ -63,9 +64,22 @@ void help_epnet(void) {
         "  --warmup N           frames from the rest pose to the first before it (default 0)\n"
         "  -o OUT               garment.pc2, garment.glb, garment.png, rb.png (RB colour map), "
         "rb.npy\n"
-        "  --json               a summary on stdout\n");
+        "  --json               a summary on stdout\n"
+        "measure (Table 1 against the plastic reference and its twin; docs/epnet.md):\n"
+        "  --models D,D,...     epnet model folders, seeds of one recipe (at most 8)\n"
+        "  --baselines D,D,...  zero-RB folders (`train --baseline`; the first is the tables')\n"
+        "  --motions M,M,...    held-out motions (default bend,raise_arms,dodge)\n"
+        "  --bodies B,B,...     bodies (default normal,slim,heavy)\n"
+        "  --frames N           frames of each motion (default its own)\n"
+        "  --hold N             frames of the last pose after each motion (default 30)\n"
+        "  --friction F         the reference's friction against the body (default 0)\n"
+        "  --twin-friction D    the twin's change of it (default 0.001)\n"
+        "  --closed-loop, --warmup N  epnet's inference, as in run\n"
+        "  -o OUT               table_{epnet,baseline}_<motion>_<body>.json,\n"
+        "                       side_by_side_<motion>.png; the tables on stdout\n");
 }
 
+/* Split a comma list into buf (cap bytes): its items into out (at most max). */
 static int split_motions(const char *s, char *buf, size_t cap, const char **out, int max) {
     snprintf(buf, cap, "%s", s);
     int n = 0;
@@ -215,9 +229,49 @@ static int run_run(int argc, char **argv) {
     return r.finite ? CLI_OK : CLI_BAD_INPUT;
 }
 
+static int run_measure(int argc, char **argv) {
+    cr_epnet_measure_def d = cr_epnet_measure_default_def();
+    const char *models = NULL, *baselines = NULL, *motions = NULL, *bodies = NULL, *out = NULL;
+    int frames = d.frames, hold = d.hold, closed = 0, warmup = d.infer.warmup;
+    const cli_opt opts[] = {
+        CLI_STR("--models", &models),
+        CLI_STR("--baselines", &baselines),
+        CLI_STR("--motions", &motions),
+        CLI_STR("--bodies", &bodies),
+        CLI_INT("--frames", &frames, 0, 1000000),
+        CLI_INT("--hold", &hold, 0, 100000),
+        CLI_DOUBLE("--friction", &d.friction, 0, 10),
+        CLI_DOUBLE("--twin-friction", &d.twin_friction, -1, 1),
+        CLI_FLAG("--closed-loop", &closed),
+        CLI_INT("--warmup", &warmup, 0, 100000),
+        CLI_OUTPUT(&out),
+        CLI_END,
+    };
+    int rc = cli_parse("epnet measure", argc, argv, opts, NULL, 0, NULL);
+    if (rc != CLI_OK) return rc;
+    if (!models || !baselines || !out)
+        return cli_usage("epnet measure", "--models, --baselines and -o are required");
+    char mb[2048], bb[2048], vb[1024], ob[1024];
+    const char *ml[CR_EPNET_MEASURE_MAX_SEEDS + 1], *bl[CR_EPNET_MEASURE_MAX_SEEDS + 1];
+    const char *vl[CR_EPNET_MAX_MOTIONS], *ol[16];
+    d.nmodels = split_motions(models, mb, sizeof mb, ml, CR_EPNET_MEASURE_MAX_SEEDS + 1);
+    d.nbaselines = split_motions(baselines, bb, sizeof bb, bl, CR_EPNET_MEASURE_MAX_SEEDS + 1);
+    d.models = ml, d.baselines = bl;
+    if (motions) d.nmotions = split_motions(motions, vb, sizeof vb, vl, CR_EPNET_MAX_MOTIONS);
+    if (motions) d.motions = vl;
+    if (bodies) d.nbodies = split_motions(bodies, ob, sizeof ob, ol, 16), d.bodies = ol;
+    d.frames = frames, d.hold = hold, d.out_dir = out;
+    d.infer.mode = closed ? CR_EPNET_CLOSED_LOOP : CR_EPNET_PROXY, d.infer.warmup = warmup;
+    d.print = stdout;
+    cr_error err;
+    if (cr_epnet_measure(&d, &err) != CR_OK) return cli_fail(&err);
+    return CLI_OK;
+}
+
 int cmd_epnet(int argc, char **argv) {
-    if (argc < 2) return cli_usage("epnet", "expected train or run");
+    if (argc < 2) return cli_usage("epnet", "expected train, run or measure");
     if (!strcmp(argv[1], "train")) return run_train(argc - 1, argv + 1);
     if (!strcmp(argv[1], "run")) return run_run(argc - 1, argv + 1);
-    return cli_usage("epnet", "expected train or run, got '%s'", argv[1]);
+    if (!strcmp(argv[1], "measure")) return run_measure(argc - 1, argv + 1);
+    return cli_usage("epnet", "expected train, run or measure, got '%s'", argv[1]);
 }

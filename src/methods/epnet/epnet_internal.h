@@ -11,6 +11,7 @@
 #include "crease/nn_layers.h"
 #include "crease/nn_optim.h"
 #include "crease/phys_energies.h"
+#include "crease/render.h"
 #include "crease/skeleton.h"
 
 enum { EP_STATIC_IN = 66, EP_DYN_IN = 69 };
@@ -107,5 +108,11 @@ cr_status cr_epnet_warm_up_(cr_epnet *m, const cr_epnet_seq *s, int32_t warmup, 
  * before (H). On m->ctx. */
 cr_tensor *cr_epnet_pnet_forward_(cr_epnet *m, const float *pos, const float *theta,
                                   const float *rb_prev);
+/* The garment at pos (V,3) over the body (its rest mesh's faces at positions body), size x
+ * size pixels seen from yaw_deg; scalar (V, may be NULL) colours the garment over
+ * [-0.5, 0.5] rad (run.c; `run`'s pictures and `measure`'s side by side). */
+cr_status epnet_render(const cr_epnet *m, const float *pos, const float *body,
+                       const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
+                       cr_image *img, cr_error *err);
 
 #endif
