@@ -3,8 +3,8 @@
 # mannequin, through simulate, epnet and swingar (issue 52; docs/garments.md, "User
 # garments"). Everything lands in OUT; the last lines are a table of how deep the garment's
 # vertices and face centroids go into the body after the first second, how far its highest
-# point (the collar) fell from the first frame to the last (a garment sliding off falls), and
-# the pictures.
+# point (the collar) fell from the first frame to the last against the skin under it (a
+# garment sliding off falls; scripts/depth_row.sh), and the pictures.
 #
 # - The garment: crease's long-sleeve top at about 3,000 vertices, written the way a modelling
 #   tool exports a research garment: no `vt`, no `vn`, faces of bare indices.
