@@ -72,6 +72,18 @@ check "no UVs: one piece" grep -q '"panels":1,' "$tmp/nouv.json"
 check "no UVs: clearance" json_between "$tmp/nouv.json" min_clearance_m 0.0099 0.1
 check "no UVs: simulated" "$crease" simulate --garment "$tmp/nouv_fit.obj" \
   --motion walk --frames 3 -o "$tmp/nouv_sim" --quiet
+# in two pieces (a patch pocket, not sewn on, in front of the chest): two panels, simulated and
+# skinned (a swingar model refuses it: its descriptor needs one piece, test_swingar_descriptor)
+awk -v n="$(grep -c '^v ' "$tmp/nouv.obj")" '{ print } END {
+  printf "v 0.05 1.24 0.2\nv 0.13 1.24 0.2\nv 0.13 1.33 0.2\nv 0.05 1.33 0.2\n"
+  printf "f %d %d %d\nf %d %d %d\n", n + 1, n + 2, n + 3, n + 1, n + 3, n + 4 }' \
+  "$tmp/nouv.obj" > "$tmp/pocket.obj"
+check "two pieces" bash -c "'$crease' garment --user '$tmp/pocket.obj' --body-res 72 \
+  -o '$tmp/pocket_fit.obj' --json | grep -q '\"panels\":2,'"
+check "two pieces: simulated" "$crease" simulate --garment "$tmp/pocket_fit.obj" --motion walk \
+  --frames 2 -o "$tmp/pocket_sim" --quiet
+check "two pieces: skinned by swingar run" "$crease" swingar run --skinned \
+  --garment "$tmp/pocket_fit.obj" --motion walk --frames 2 -o "$tmp/pocket_skin"
 # a skinned glb character moves the collider by its own animation
 check "character glb" "$crease" pose-body --clip walk --frames 4 --res 72 -o "$tmp/char.glb"
 check "simulated on the character" bash -c "'$crease' simulate --garment '$tmp/nouv_fit.obj' \
