@@ -916,7 +916,7 @@ static cr_status joint_anim(const glb_in *g, skin_eval *e, const int32_t *order,
                             cr_glb_character *c, cr_error *err) {
     const int64_t J = e->J, nn = e->nn;
     anim_clip a;
-    CR_TRY(anim_clip_open(g, nn, J, "joints", &a, err));
+    CR_TRY(anim_clip_open(g, nn, 7 * J, "joint values", &a, err)); /* 4 + 3 floats a joint */
     const int64_t T = a.T;
     float *rot = cr_malloc((size_t)T * (size_t)J * 4 * sizeof(float), err);
     float *pos = cr_malloc((size_t)T * (size_t)J * 3 * sizeof(float), err);

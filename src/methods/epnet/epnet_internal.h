@@ -111,8 +111,8 @@ cr_tensor *cr_epnet_pnet_forward_(cr_epnet *m, const float *pos, const float *th
 /* The garment at pos (V,3) over the body (its rest mesh's faces at positions body), size x
  * size pixels seen from yaw_deg; scalar (V, may be NULL) colours the garment over
  * [-0.5, 0.5] rad (run.c; `run`'s pictures and `measure`'s side by side). */
-cr_status epnet_render(const cr_epnet *m, const float *pos, const float *body,
-                       const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
-                       cr_image *img, cr_error *err);
+cr_status cr_epnet_render_(const cr_epnet *m, const float *pos, const float *body,
+                           const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
+                           cr_image *img, cr_error *err);
 
 #endif

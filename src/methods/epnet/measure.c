@@ -130,7 +130,7 @@ static cr_status side_by_side(const cr_epnet_measure_def *def, const cr_epnet *m
     cr_image im[4] = {0}, grid = {0};
     cr_status st = CR_OK;
     for (int q = 0; q < 4 && st == CR_OK; q++)
-        st = epnet_render(m, frames[q], body, bm, NULL, 400, 20.0f, &im[q], err);
+        st = cr_epnet_render_(m, frames[q], body, bm, NULL, 400, 20.0f, &im[q], err);
     if (st == CR_OK) st = cr_image_grid(im, 4, 4, 8, (float[]){1, 1, 1}, &grid, err);
     char path[1200];
     snprintf(path, sizeof path, "%s/side_by_side_%s.png", def->out_dir, motion);

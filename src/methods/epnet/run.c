@@ -20,9 +20,9 @@ cr_epnet_run_def cr_epnet_run_default_def(void) {
     return d;
 }
 
-cr_status epnet_render(const cr_epnet *m, const float *pos, const float *body,
-                       const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
-                       cr_image *img, cr_error *err) {
+cr_status cr_epnet_render_(const cr_epnet *m, const float *pos, const float *body,
+                           const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
+                           cr_image *img, cr_error *err) {
     cr_mesh gm = *m->garment->mesh, bm = *body_rest;
     gm.pos = (float *)pos, bm.pos = (float *)body;
     gm.normal = NULL, bm.normal = NULL;
@@ -39,8 +39,8 @@ static cr_status render_pair(const cr_epnet *m, const float *pos, const float *b
                              const cr_mesh *body_rest, const float *scalar, const char *path,
                              cr_error *err) {
     cr_image img;
-    CR_TRY(epnet_render(m, pos, body, body_rest, scalar, 512, cr_render_default_def().yaw_deg, &img,
-                        err));
+    CR_TRY(cr_epnet_render_(m, pos, body, body_rest, scalar, 512, cr_render_default_def().yaw_deg,
+                            &img, err));
     cr_status st = cr_image_write_png(&img, path, err);
     cr_image_free(&img);
     return st;
