@@ -313,15 +313,16 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
                                      const cr_glb_skin *skel, const char *skel_source,
                                      const cr_retarget_def *def, cr_skin_motion **out,
                                      cr_error *err);
-/* Another rigged character's own animation, "CHAR.glb" or "CHAR.glb:MAP"
- * (its joints' roles as cr_motion_read_character gives them), retargeted
- * onto skel as a BVH is: def->joint_map's right-hand sides name that
- * character's joints. */
-cr_status cr_motion_retarget_character(const char *spec, const cr_glb_skin *skel,
-                                       const char *skel_source, const cr_retarget_def *def,
-                                       cr_skin_motion **out, cr_error *err);
-/* By the spec: a rigged character's .glb (cr_motion_retarget_character),
- * else a BVH (cr_motion_retarget_bvh). */
+/* Another rigged character's own animation (the .glb at path; its joints'
+ * roles as cr_motion_read_character gives them, by names or joint_map, may
+ * be NULL), retargeted onto skel as a BVH is: def->joint_map's right-hand
+ * sides name that character's joints. */
+cr_status cr_motion_retarget_character(const char *path, const char *joint_map,
+                                       const cr_glb_skin *skel, const char *skel_source,
+                                       const cr_retarget_def *def, cr_skin_motion **out,
+                                       cr_error *err);
+/* By the spec: a rigged character's "CHAR.glb" or "CHAR.glb:MAP"
+ * (cr_motion_retarget_character), else a BVH (cr_motion_retarget_bvh). */
 cr_status cr_motion_retarget(const char *spec, const cr_glb_skin *skel, const char *skel_source,
                              const cr_retarget_def *def, cr_skin_motion **out, cr_error *err);
 

@@ -28,7 +28,7 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
     *out = NULL;
     char glb[1024], ext[16];
     const char *map = NULL;
-    const int character = cr_character_spec_split(path, glb, sizeof glb, &map);
+    const int character = cr_spec_split(path, ".glb", glb, sizeof glb, &map);
     if (character < 0) return CR_FAIL(err, CR_ERR_INVALID, "motion: path too long: %s", path);
     if (character) return cr_motion_read_character(glb, map, def, out, err);
     cr_path_ext(path, ext, sizeof ext);
@@ -60,11 +60,26 @@ cr_status cr_motion_import(const char *path, const cr_motion_import_def *def, cr
 
 cr_status cr_motion_retarget(const char *spec, const cr_glb_skin *skel, const char *skel_source,
                              const cr_retarget_def *def, cr_skin_motion **out, cr_error *err) {
+    *out = NULL;
     char glb[1024];
     const char *map = NULL;
-    if (cr_character_spec_split(spec, glb, sizeof glb, &map))
-        return cr_motion_retarget_character(spec, skel, skel_source, def, out, err);
+    const int character = cr_spec_split(spec, ".glb", glb, sizeof glb, &map);
+    if (character < 0) return CR_FAIL(err, CR_ERR_INVALID, "motion: path too long: %s", spec);
+    if (character) return cr_motion_retarget_character(glb, map, skel, skel_source, def, out, err);
     return cr_motion_retarget_bvh(spec, skel, skel_source, def, out, err);
+}
+
+int cr_spec_split(const char *spec, const char *ext, char *path, size_t cap, const char **tail) {
+    *tail = NULL;
+    const size_t len = strlen(ext);
+    const char *at = spec ? strstr(spec, ext) : NULL;
+    if (!at || (at[len] != '\0' && at[len] != ':')) return 0;
+    const size_t n = (size_t)(at + len - spec);
+    if (n >= cap) return -1;
+    memcpy(path, spec, n);
+    path[n] = '\0';
+    if (at[len] == ':') *tail = at + len + 1;
+    return 1;
 }
 
 cr_status cr_motion_load(const char *path, cr_motion **out, cr_error *err) {

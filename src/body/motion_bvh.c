@@ -296,13 +296,10 @@ static int is_ancestor(const bvh_file *b, int anc, int j) {
     return 0;
 }
 
-static cr_status map_joints(const bvh_file *b, int map[CR_NJOINTS], int *rig, cr_error *err) {
-    const char **names = cr_malloc((size_t)b->n * sizeof *names, err);
-    if (!names) return CR_ERR_MEMORY;
-    for (int i = 0; i < b->n; i++)
-        names[i] = b->j[i].end_site ? NULL : b->j[i].name;
+/* The roles of the joints named `names` (b->n; NULL for End Sites). */
+static cr_status map_joints(const bvh_file *b, const char *const *names, int map[CR_NJOINTS],
+                            int *rig, cr_error *err) {
     int best_score = cr_retarget_match_roles(b->n, names, map, rig);
-    free(names);
     if (best_score < MIN_MAPPED) {
         char list[240];
         int n = 0;
@@ -399,37 +396,27 @@ static rt_source bvh_source(const bvh_file *b, const char **names, int *parent, 
                        .ctx = b};
 }
 
-/* The source arrays bvh_source fills, allocated together. */
-typedef struct bvh_arrays {
+/* The file as a source rig with its roles: the arrays bvh_source fills, allocated together. */
+typedef struct bvh_rig {
     const char **names;
     int *parent;
     double (*rest)[3];
-} bvh_arrays;
+    rt_source src;
+    int map[CR_NJOINTS]; /* the joint given each SMPL role, or -1 */
+    int rig;             /* the name table that matched */
+} bvh_rig;
 
-static cr_status bvh_arrays_alloc(int n, bvh_arrays *a, cr_error *err) {
-    a->names = cr_malloc((size_t)n * sizeof *a->names, err);
-    a->parent = cr_malloc((size_t)n * sizeof *a->parent, err);
-    a->rest = cr_malloc((size_t)n * sizeof *a->rest, err);
-    return a->names && a->parent && a->rest ? CR_OK : CR_ERR_MEMORY;
+static void bvh_rig_free(bvh_rig *r) {
+    free(r->names), free(r->parent), free(r->rest);
 }
 
-static void bvh_arrays_free(bvh_arrays *a) {
-    free(a->names), free(a->parent), free(a->rest);
-}
-
-/* The BVH onto crease's mannequin. */
-static cr_status build_motion(const bvh_file *b, const cr_motion_import_def *def, cr_motion **out,
-                              cr_error *err) {
-    int map[CR_NJOINTS], rig = 0;
-    CR_TRY(map_joints(b, map, &rig, err));
-    bvh_arrays a;
-    cr_status st = bvh_arrays_alloc(b->n, &a, err);
-    if (st == CR_OK) {
-        const rt_source src = bvh_source(b, a.names, a.parent, a.rest);
-        st = cr_retarget_onto_mannequin(&src, map, rig, def, out, err);
-    }
-    bvh_arrays_free(&a);
-    return st;
+static cr_status bvh_rig_open(const bvh_file *b, bvh_rig *r, cr_error *err) {
+    r->names = cr_malloc((size_t)b->n * sizeof *r->names, err);
+    r->parent = cr_malloc((size_t)b->n * sizeof *r->parent, err);
+    r->rest = cr_malloc((size_t)b->n * sizeof *r->rest, err);
+    if (!r->names || !r->parent || !r->rest) return CR_ERR_MEMORY;
+    r->src = bvh_source(b, r->names, r->parent, r->rest);
+    return map_joints(b, r->names, r->map, &r->rig, err);
 }
 
 cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *source,
@@ -442,8 +429,11 @@ cr_status cr_motion_read_bvh_mem(const void *data, size_t len, const char *sourc
         return CR_FAIL(err, CR_ERR_INVALID, "bvh_scale %g: expected 0 (infer) or a positive scale",
                        (double)def->bvh_scale);
     bvh_file b;
+    bvh_rig r = {0};
     cr_status st = bvh_parse(data, len, source, &b, err);
-    if (st == CR_OK) st = build_motion(&b, def, out, err);
+    if (st == CR_OK) st = bvh_rig_open(&b, &r, err);
+    if (st == CR_OK) st = cr_retarget_onto_mannequin(&r.src, r.map, r.rig, def, out, err);
+    bvh_rig_free(&r);
     bvh_free(&b);
     return st;
 }
@@ -456,16 +446,12 @@ cr_status cr_motion_retarget_bvh_mem(const void *data, size_t len, const char *s
                                      cr_error *err) {
     *out = NULL;
     bvh_file b;
-    int map[CR_NJOINTS], rig = 0;
-    bvh_arrays a = {0};
+    bvh_rig r = {0};
     cr_status st = bvh_parse(data, len, source, &b, err);
-    if (st == CR_OK) st = map_joints(&b, map, &rig, err);
-    if (st == CR_OK) st = bvh_arrays_alloc(b.n, &a, err);
-    if (st == CR_OK) {
-        const rt_source src = bvh_source(&b, a.names, a.parent, a.rest);
-        st = cr_retarget_onto_character(&src, map, rig, skel, skel_source, def, out, err);
-    }
-    bvh_arrays_free(&a);
+    if (st == CR_OK) st = bvh_rig_open(&b, &r, err);
+    if (st == CR_OK)
+        st = cr_retarget_onto_character(&r.src, r.map, r.rig, skel, skel_source, def, out, err);
+    bvh_rig_free(&r);
     bvh_free(&b);
     return st;
 }

@@ -117,31 +117,15 @@ cr_status cr_motion_read_character(const char *path, const char *joint_map,
     return st;
 }
 
-cr_status cr_motion_retarget_character(const char *spec, const cr_glb_skin *skel,
-                                       const char *skel_source, const cr_retarget_def *def,
-                                       cr_skin_motion **out, cr_error *err) {
+cr_status cr_motion_retarget_character(const char *path, const char *joint_map,
+                                       const cr_glb_skin *skel, const char *skel_source,
+                                       const cr_retarget_def *def, cr_skin_motion **out,
+                                       cr_error *err) {
     *out = NULL;
-    char path[1024];
-    const char *map = NULL;
-    const int character = cr_character_spec_split(spec, path, sizeof path, &map);
-    if (character <= 0)
-        return CR_FAIL(err, CR_ERR_INVALID, "%s: expected a rigged CHAR.glb or CHAR.glb:MAP", spec);
     glb_source g;
-    CR_TRY(glb_source_open(path, map, &g, err));
+    CR_TRY(glb_source_open(path, joint_map, &g, err));
     cr_status st = cr_retarget_onto_character(&g.src, g.roles.role, g.roles.rig, skel, skel_source,
                                               def, out, err);
     glb_source_close(&g);
     return st;
-}
-
-int cr_character_spec_split(const char *spec, char *path, size_t cap, const char **map) {
-    *map = NULL;
-    const char *glb = spec ? strstr(spec, ".glb") : NULL;
-    if (!glb || (glb[4] != '\0' && glb[4] != ':')) return 0;
-    const size_t n = (size_t)(glb + 4 - spec);
-    if (n >= cap) return -1;
-    memcpy(path, spec, n);
-    path[n] = '\0';
-    if (glb[4] == ':') *map = glb + 5;
-    return 1;
 }

@@ -186,4 +186,10 @@ cr_status cr_body_top_weights_(const float *w, int64_t J, const int *merged, int
  * lowest vertex (pos, (V,3)) on y = 0, its pelvis over x = z = 0. */
 void cr_body_stand_shift_(const double *pos, int64_t V, const double pelvis[3], double shift[3]);
 
+/* A file spec with an optional tail after a colon, "FILE.ext" or "FILE.ext:TAIL" (a
+ * character's joint map, a body model's betas): 1 with path (cap bytes) and *tail (NULL or
+ * what follows the colon, inside spec) when spec names a ".ext" file (ext with its dot), 0
+ * otherwise (spec may be NULL); -1 when the path does not fit. */
+int cr_spec_split(const char *spec, const char *ext, char *path, size_t cap, const char **tail);
+
 #endif

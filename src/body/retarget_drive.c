@@ -209,8 +209,6 @@ cr_status cr_retarget_onto_mannequin(const rt_source *s, const int map[CR_NJOINT
                                      const cr_motion_import_def *def, cr_motion **out,
                                      cr_error *err) {
     *out = NULL;
-    int src[CR_NJOINTS];
-    memcpy(src, map, sizeof src);
     float canon[CR_NJOINTS * 3];
     cr_mannequin_def md = cr_mannequin_default_def();
     cr_mannequin_rest_joints(&md, canon);
@@ -224,7 +222,7 @@ cr_status cr_retarget_onto_mannequin(const rt_source *s, const int map[CR_NJOINT
     const rt_target tg = {.n = CR_NJOINTS,
                           .parent = parent,
                           .rest = (const double(*)[3])rest,
-                          .src = src,
+                          .src = map,
                           .bone_child = bone,
                           .pelvis = CR_JOINT_PELVIS,
                           .lhip = CR_JOINT_LEFT_HIP,

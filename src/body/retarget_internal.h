@@ -105,13 +105,13 @@ void cr_retarget_fix_world(double *g, int n, int pelvis, double *t, int32_t T,
  * units and, frame by frame, their world rotations from that rest (the
  * identity at rest, as a BVH's channels at zero) and world positions. */
 typedef struct rt_source {
-    const char *source;          /* the file, for messages */
-    int n;                       /* joints */
-    const char *const *name;     /* (n) names, NULL for an unnamed joint (a BVH End Site) */
-    const int *parent;           /* (n) parent joint, -1 for a root */
-    double (*rest)[3];           /* (n,3) rest positions, file units */
-    int32_t nframes;             /* T >= 1 */
-    double fps;                  /* > 0 */
+    const char *source;      /* the file, for messages */
+    int n;                   /* joints */
+    const char *const *name; /* (n) names, NULL for an unnamed joint (a BVH End Site) */
+    const int *parent;       /* (n) parent joint, -1 for a root */
+    double (*rest)[3];       /* (n,3) rest positions, file units */
+    int32_t nframes;         /* T >= 1 */
+    double fps;              /* > 0 */
     /* frame f's world rotations w (n,4: w, x, y, z) and positions pos (n,3), file units */
     void (*pose)(const struct rt_source *s, int32_t f, double (*w)[4], double (*pos)[3]);
     const void *ctx; /* the file's own data, for pose */
@@ -145,11 +145,6 @@ cr_status cr_retarget_onto_character(const rt_source *s, const int map[CR_NJOINT
                                      const cr_glb_skin *skel, const char *skel_source,
                                      const cr_retarget_def *def, cr_skin_motion **out,
                                      cr_error *err);
-
-/* A rigged character's spec, "CHAR.glb" or "CHAR.glb:MAP": 1 with path (cap
- * bytes) and *map (NULL or the map file's path, inside spec) when spec names
- * a .glb, 0 otherwise; -1 when the path does not fit. */
-int cr_character_spec_split(const char *spec, char *path, size_t cap, const char **map);
 
 /* ------------------------------------------------ a character target -- */
 

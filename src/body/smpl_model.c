@@ -22,7 +22,6 @@
  * Skinned Multi-Person Linear Model" (eqs. 2-5).
  */
 #include "body/motion_internal.h"
-#include "body/retarget_internal.h"
 #include "crease/body.h"
 #include "crease/mesh.h"
 
@@ -251,23 +250,19 @@ cr_status cr_smpl_load(const char *path, const float *betas, int nbetas, cr_body
 cr_status cr_body_resolve(const char *spec, cr_body_model **out, cr_error *err) {
     *out = NULL;
     char path[1024];
-    const char *map = NULL;
-    const int character = cr_character_spec_split(spec, path, sizeof path, &map);
-    if (character < 0) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
-    if (character) return cr_body_from_character(path, map, out, err); /* and its joint map */
-    const char *npz = spec ? strstr(spec, ".npz") : NULL;
-    if (!npz || (npz[4] != '\0' && npz[4] != ':')) {
+    const char *tail = NULL;
+    int file = cr_spec_split(spec, ".glb", path, sizeof path, &tail);
+    if (file > 0) return cr_body_from_character(path, tail, out, err); /* tail: its joint map */
+    if (file == 0) file = cr_spec_split(spec, ".npz", path, sizeof path, &tail);
+    if (file < 0) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
+    if (file == 0) {
         cr_mannequin_def md = cr_mannequin_default_def();
         CR_TRY(cr_mannequin_preset(spec ? spec : "normal", &md, err));
         return cr_mannequin_create(&md, out, err);
     }
-    const size_t n = (size_t)(npz + 4 - spec);
-    if (n >= sizeof path) return CR_FAIL(err, CR_ERR_INVALID, "body: path too long: %s", spec);
-    memcpy(path, spec, n);
-    path[n] = '\0';
     float betas[CR_BODY_MAX_BETAS];
     int nbetas = 0;
-    for (const char *p = npz[4] == ':' ? npz + 5 : NULL; p && *p; nbetas++) {
+    for (const char *p = tail; p && *p; nbetas++) {
         char *end = NULL;
         double v = strtod(p, &end);
         if (end == p || !isfinite(v) || nbetas == CR_BODY_MAX_BETAS ||

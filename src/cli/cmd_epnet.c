@@ -80,7 +80,7 @@ void help_epnet(void) {
 }
 
 /* Split a comma list into buf (cap bytes): its items into out (at most max). */
-static int split_motions(const char *s, char *buf, size_t cap, const char **out, int max) {
+static int split_list(const char *s, char *buf, size_t cap, const char **out, int max) {
     snprintf(buf, cap, "%s", s);
     int n = 0;
     for (char *tok = strtok(buf, ","); tok && n < max; tok = strtok(NULL, ","))
@@ -127,7 +127,7 @@ static int run_train(int argc, char **argv) {
     char buf[1024];
     const char *list[CR_EPNET_MAX_MOTIONS];
     if (motions) {
-        d.nmotions = split_motions(motions, buf, sizeof buf, list, CR_EPNET_MAX_MOTIONS);
+        d.nmotions = split_list(motions, buf, sizeof buf, list, CR_EPNET_MAX_MOTIONS);
         d.motions = list;
     }
     d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
@@ -254,12 +254,12 @@ static int run_measure(int argc, char **argv) {
     char mb[2048], bb[2048], vb[1024], ob[1024];
     const char *ml[CR_EPNET_MEASURE_MAX_SEEDS + 1], *bl[CR_EPNET_MEASURE_MAX_SEEDS + 1];
     const char *vl[CR_EPNET_MAX_MOTIONS], *ol[16];
-    d.nmodels = split_motions(models, mb, sizeof mb, ml, CR_EPNET_MEASURE_MAX_SEEDS + 1);
-    d.nbaselines = split_motions(baselines, bb, sizeof bb, bl, CR_EPNET_MEASURE_MAX_SEEDS + 1);
+    d.nmodels = split_list(models, mb, sizeof mb, ml, CR_EPNET_MEASURE_MAX_SEEDS + 1);
+    d.nbaselines = split_list(baselines, bb, sizeof bb, bl, CR_EPNET_MEASURE_MAX_SEEDS + 1);
     d.models = ml, d.baselines = bl;
-    if (motions) d.nmotions = split_motions(motions, vb, sizeof vb, vl, CR_EPNET_MAX_MOTIONS);
+    if (motions) d.nmotions = split_list(motions, vb, sizeof vb, vl, CR_EPNET_MAX_MOTIONS);
     if (motions) d.motions = vl;
-    if (bodies) d.nbodies = split_motions(bodies, ob, sizeof ob, ol, 16), d.bodies = ol;
+    if (bodies) d.nbodies = split_list(bodies, ob, sizeof ob, ol, 16), d.bodies = ol;
     d.frames = frames, d.hold = hold, d.out_dir = out;
     d.infer.mode = closed ? CR_EPNET_CLOSED_LOOP : CR_EPNET_PROXY, d.infer.warmup = warmup;
     d.print = stdout;

@@ -713,9 +713,8 @@ static cr_status skin_open(const glb_in *g, const cJSON *prim, int64_t nraw, ski
     return st;
 }
 
-/* World matrices of every node posed by cur (nn), parents first, and the
- * skin's matrices: each joint's world times its inverse bind matrix. */
-static void skin_matrices(skin_eval *e, const node_trs *cur) {
+/* World matrices of every node posed by cur (nn), parents first. */
+static void node_worlds(skin_eval *e, const node_trs *cur) {
     for (int64_t k = 0; k < e->nn; k++) { /* world = parent's world x local, parents first */
         const int64_t i = e->order[k];
         double *w = &e->world[16 * i];
@@ -725,6 +724,11 @@ static void skin_matrices(skin_eval *e, const node_trs *cur) {
             trs_matrix(cur[i].t, cur[i].r, cur[i].s, w);
         if (cur[i].parent >= 0) mat_mul(&e->world[16 * (int64_t)cur[i].parent], w, w);
     }
+}
+
+/* node_worlds, and the skin's matrices: each joint's world times its inverse bind matrix. */
+static void skin_matrices(skin_eval *e, const node_trs *cur) {
+    node_worlds(e, cur);
     for (int64_t j = 0; j < e->J; j++) {
         double b[16];
         for (int k = 0; k < 16; k++)
@@ -924,13 +928,13 @@ static cr_status joint_anim(const glb_in *g, skin_eval *e, const int32_t *order,
     node_trs *cur = cr_malloc((size_t)(nn > 0 ? nn : 1) * sizeof *cur, err);
     cr_status st = rot && pos && rest && cur ? CR_OK : CR_ERR_MEMORY;
     if (st == CR_OK) {
-        skin_matrices(e, e->nt);
+        node_worlds(e, e->nt);
         for (int64_t i = 0; i < J; i++)
             mat_rotation(&e->world[16 * (int64_t)e->jnode[order[i]]], &rest[9 * i]);
     }
     for (int64_t f = 0; st == CR_OK && f < T; f++) {
         anim_clip_pose(&a, e->nt, nn, f, cur);
-        skin_matrices(e, cur);
+        node_worlds(e, cur);
         for (int64_t i = 0; i < J; i++) {
             const double *w = &e->world[16 * (int64_t)e->jnode[order[i]]], *b = &rest[9 * i];
             double r[9], rel[9]; /* rel = R_f R_rest^T */
