@@ -116,5 +116,9 @@ check "docs/cli.md lists every option of every command" bash -c '
     done
   done
   exit $bad' _ "$crease" "$(dirname "$0")/../docs/cli.md"
+# the generated blocks of docs/cli.md (a documented command's --help, from its option table)
+# are what the commands print
+check "docs/cli.md's generated option lists equal the commands' --help" \
+  python3 "$(dirname "$0")/../scripts/cli_reference.py" "$crease" --check
 echo "cli: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

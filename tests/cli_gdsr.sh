@@ -112,15 +112,19 @@ check "simulated: 7 samples" grep -q '"frames":7,' "$tmp/s.json"
 expect_exit 2 "need --simulate" gdsr run --model "$tmp/m/model.safetensors" --dataset "$tmp/data" \
   --motion dance --reference -o "$tmp/s2"
 expect_exit 2 "w-stretch" gdsr train --dataset "$tmp/data" --motions walk --w-stretch -1 -o "$tmp/m2"
-# the strain L1 and the wrinkle loss on, one epoch, under the paper's first lambdas: their
-# terms are logged and above zero
-positive() { awk -v v="$(vals "$1" "$2")" 'BEGIN { exit !(v + 0 > 0) }'; }
-check "gdsr train with strain L1 and wrinkle" bash -c "'$crease' gdsr train ${small[*]} --epochs 1 \
-  --w-strain-l1 0.01 --w-wrinkle 0.01 --wrinkle-side 64 --lambda-c0 1.9 --lambda-w0 0.1 \
-  -o '$tmp/m3' --json > '$tmp/t3.json'"
+# options from the train def's key table: its ranges, a seed a whole number
+expect_exit 2 "--epochs expects an integer in \\[1, 100000\\], got '0'" gdsr train --dataset "$tmp/data" \
+  --epochs 0 -o "$tmp/m2"
+expect_exit 2 "--seed expects a whole number, got '1.5'" gdsr train --dataset "$tmp/data" \
+  --seed 1.5 -o "$tmp/m2"
+check "gdsr train --help gives the def's defaults" bash -c "'$crease' gdsr train --help | \
+  grep -q -- '--halve-every N      epochs between halvings (default 50)'"
+# one epoch under the paper's first lambdas (Eq. 25): they are logged; the strain L1 and the
+# wrinkle loss were measured and not adopted and have no flags (docs/gdsr.md)
+check "gdsr train under the paper's lambdas" bash -c "'$crease' gdsr train ${small[*]} --epochs 1 \
+  --lambda-c0 1.9 --lambda-w0 0.1 -o '$tmp/m3' --json > '$tmp/t3.json'"
 check "lambdas logged" grep -q '"lambda_c":1.9,"lambda_w":0.1,' "$tmp/m3/log.jsonl"
-check "strain_l1 above 0 ($(vals "$tmp/t3.json" strain_l1))" positive "$tmp/t3.json" strain_l1
-check "wrinkle above 0 ($(vals "$tmp/t3.json" wrinkle))" positive "$tmp/t3.json" wrinkle
+expect_exit 2 "unknown option '--w-wrinkle'" gdsr train ${small[*]} --w-wrinkle 0.01 -o "$tmp/m3"
 
 # one model on several garments: a garment the dataset lacks is named; the same garment
 # twice goes through the many-garment path (two data sets, one model) and lists both

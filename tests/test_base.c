@@ -123,10 +123,10 @@ typedef struct {
 } demo_config;
 
 static const cr_config_key demo_keys[] = {
-    {"stiffness", CR_CFG_FLOAT, offsetof(demo_config, stiffness), 0, 0, 1e6, "N/m"},
-    {"steps", CR_CFG_INT, offsetof(demo_config, steps), 0, 1, 1000, "count"},
-    {"plastic", CR_CFG_BOOL, offsetof(demo_config, plastic), 0, 1, 0, ""},
-    {"name", CR_CFG_STRING, offsetof(demo_config, name), 16, 1, 0, ""},
+    {"stiffness", CR_CFG_FLOAT, offsetof(demo_config, stiffness), 0, 0, 1e6, "N/m", NULL, NULL},
+    {"steps", CR_CFG_INT, offsetof(demo_config, steps), 0, 1, 1000, "count", NULL, NULL},
+    {"plastic", CR_CFG_BOOL, offsetof(demo_config, plastic), 0, 1, 0, "", NULL, NULL},
+    {"name", CR_CFG_STRING, offsetof(demo_config, name), 16, 1, 0, "", NULL, NULL},
 };
 
 CR_TEST(base, config_fills_and_rejects_by_key) {
@@ -241,11 +241,11 @@ CR_TEST(base, config_table_writes_reads_and_diffs) {
         char name[8];
     } s_t;
     static const cr_config_key keys[] = {
-        {"n", CR_CFG_INT, offsetof(s_t, n), 0, 0, 10, NULL},
-        {"x", CR_CFG_FLOAT, offsetof(s_t, x), 0, 1, 0, NULL},
-        {"y", CR_CFG_DOUBLE, offsetof(s_t, y), 0, 1, 0, NULL},
-        {"flag", CR_CFG_BOOL, offsetof(s_t, flag), 0, 1, 0, NULL},
-        {"name", CR_CFG_STRING, offsetof(s_t, name), 8, 1, 0, NULL},
+        {"n", CR_CFG_INT, offsetof(s_t, n), 0, 0, 10, NULL, NULL, NULL},
+        {"x", CR_CFG_FLOAT, offsetof(s_t, x), 0, 1, 0, NULL, NULL, NULL},
+        {"y", CR_CFG_DOUBLE, offsetof(s_t, y), 0, 1, 0, NULL, NULL, NULL},
+        {"flag", CR_CFG_BOOL, offsetof(s_t, flag), 0, 1, 0, NULL, NULL, NULL},
+        {"name", CR_CFG_STRING, offsetof(s_t, name), 8, 1, 0, NULL, NULL, NULL},
     };
     s_t a = {3, 0.5f, -2.25, 1, "abc"}, b = {0, 0, 0, 0, ""};
     cJSON *o = cr_config_to_object(keys, 5, &a);
@@ -272,7 +272,8 @@ CR_TEST(base, config_table_writes_reads_and_diffs) {
     typedef struct {
         uint64_t seed;
     } u_t;
-    static const cr_config_key ukeys[] = {{"seed", CR_CFG_U64, offsetof(u_t, seed), 0, 1, 0, NULL}};
+    static const cr_config_key ukeys[] = {
+        {"seed", CR_CFG_U64, offsetof(u_t, seed), 0, 1, 0, NULL, NULL, NULL}};
     u_t u = {0}, v = {0};
     CR_CHECK_OK(cr_config_parse("{\"seed\": 4294967297}", "u", ukeys, 1, &u, &err), &err);
     CR_CHECK(u.seed == 4294967297ull && strcmp(cr_config_diff(ukeys, 1, &u, &v), "seed") == 0);
@@ -284,4 +285,19 @@ CR_TEST(base, config_table_writes_reads_and_diffs) {
     CR_CHECK(ut && strcmp(ut, "{\"seed\":4294967297}") == 0);
     cJSON_free(ut);
     cJSON_Delete(uo);
+}
+
+/* cr_config_check: the ranges a def's library checks it with, the table's own */
+CR_TEST(base, config_check_holds_each_key_to_its_range) {
+    cr_error err = {0};
+    demo_config c = {.stiffness = 250, .steps = 10};
+    CR_CHECK_OK(cr_config_check(demo_keys, 4, &c, "demo def", &err), &err);
+    c.steps = 1001; /* steps in [1, 1000] */
+    CR_CHECK(cr_config_check(demo_keys, 4, &c, "demo def", &err) == CR_ERR_INVALID &&
+             strcmp(err.msg, "demo def: steps 1001 outside [1, 1000]") == 0);
+    c.steps = 1, c.stiffness = NAN; /* NaN is outside every range */
+    CR_CHECK(cr_config_check(demo_keys, 4, &c, "demo def", &err) == CR_ERR_INVALID &&
+             strstr(err.msg, "stiffness"));
+    c.stiffness = 0, c.plastic = 7; /* bools and strings and unchecked keys are not ranged */
+    CR_CHECK_OK(cr_config_check(demo_keys, 4, &c, "demo def", &err), &err);
 }

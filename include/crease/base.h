@@ -217,6 +217,12 @@ typedef struct cr_config_key {
     size_t size;     /* CR_CFG_STRING: capacity of the char array */
     double min, max; /* numeric range, inclusive; min > max means unchecked */
     const char *help;
+    /* The command-line spelling ("--epochs") where the key is an option of a command, and
+     * its value's name in the help ("N"); NULL where the key is not on a command line. A
+     * command lists such a table as one row (CLI_KEYS, src/cli/cli.h): the option, its
+     * range, its help and its default (the def's value) all come from here. */
+    const char *flag;
+    const char *arg;
 } cr_config_key;
 
 /* Parse `json_text` (from `source`, a file name used in messages) into `out`. */
@@ -240,6 +246,11 @@ const char *cr_config_diff(const cr_config_key *keys, int nkeys, const void *a, 
 const char *cr_config_absent(const cr_config_key *keys, int nkeys, const struct cJSON *obj);
 /* A numeric key's value in `in` as a double (0 for a string), for messages. */
 double cr_config_number(const cr_config_key *k, const void *in);
+/* Every numeric key of `in` within its range (NaN is outside): else CR_ERR_INVALID,
+ * "<what>: <key> <value> outside [min, max]". What a library checks a def with, from the
+ * same table its command line takes the ranges from. */
+cr_status cr_config_check(const cr_config_key *keys, int nkeys, const void *in, const char *what,
+                          cr_error *err);
 
 /* ------------------------------------------------------------ file utils -- */
 

@@ -269,18 +269,6 @@ typedef struct cr_gdsr_train_def {
      * membrane and bending through the loss op (losses.h); rest shape the
      * rest high mesh laid flat (crease eval's default). */
     float w_stretch, w_shear, w_bend, w_laplacian;
-    /* w_strain_l1  Eq. 16-18 / 21-23: mean over triangles of ||w_u(X)| - |w_u(X_ref)|| +
-     *              ||w_v(X)| - |w_v(X_ref)|| + |w_u.w_v(X) - w_u.w_v(X_ref)| (default 0)
-     * w_wrinkle    Eq. 20's feature term, a fixed filter bank for VGG: L1 of oriented
-     *              first and second differences (steps 1, 2, 4 texels) of X's and
-     *              X_ref's normal maps over the UV chart, summed over steps (default 0)
-     * wrinkle_side the normal map's side in texels (default 128)
-     * wrinkle_patches  Eq. 24's random square patches of the map a step, the loss
-     *              their mean (default 8, the paper's; 0: the whole chart as one patch)
-     * wrinkle_patch_side  their side in texels (default 32, a quarter of the default
-     *              map's), each around a chart texel drawn uniformly */
-    float w_strain_l1, w_wrinkle;
-    int wrinkle_side, wrinkle_patches, wrinkle_patch_side;
     /* Kept without CLI flags: measured and not adopted (docs/notes/gdsr_rounds.md,
      * "Coarse terms"), kept for the paper's equations and the phase-free fold
      * statistics a fold branch can be trained by. */
@@ -302,6 +290,19 @@ typedef struct cr_gdsr_train_def {
          * patch (how strong the folds are there, not where their crests lie)
          * instead of the responses texel by texel (default 0) */
         int wrinkle_energy;
+        /* measured and not adopted (docs/gdsr.md, "Options"): no CLI flags
+         * w_strain_l1  Eq. 16-18 / 21-23: mean over triangles of ||w_u(X)| - |w_u(X_ref)|| +
+         *              ||w_v(X)| - |w_v(X_ref)|| + |w_u.w_v(X) - w_u.w_v(X_ref)| (default 0)
+         * w_wrinkle    Eq. 20's feature term, a fixed filter bank for VGG: L1 of oriented
+         *              first and second differences (steps 1, 2, 4 texels) of X's and
+         *              X_ref's normal maps over the UV chart, summed over steps (default 0)
+         * wrinkle_side the normal map's side in texels (default 128)
+         * wrinkle_patches  Eq. 24's random square patches of the map a step, the loss
+         *              their mean (default 8, the paper's; 0: the whole chart as one patch)
+         * wrinkle_patch_side  their side in texels (default 32, a quarter of the default
+         *              map's), each around a chart texel drawn uniformly */
+        float w_strain_l1, w_wrinkle;
+        int wrinkle_side, wrinkle_patches, wrinkle_patch_side;
     } experimental;
     /* Eq. 25's schedule: lambda_c (coarse term) starts at lambda_c0 and lambda_w
      * (every fine-garment term) at lambda_w0; every lambda_every epochs each moves
@@ -319,6 +320,9 @@ typedef struct cr_gdsr_train_def {
 } cr_gdsr_train_def;
 
 cr_gdsr_train_def cr_gdsr_train_default_def(void);
+/* The train def's fields as a table (their ranges, and the options of `crease gdsr train`
+ * with their help, docs/cli.md); n gets its length. */
+const cr_config_key *cr_gdsr_train_def_keys(int *n);
 /* lambda_c and lambda_w of Eq. 25 at epoch ep (0-based) under def's schedule. */
 void cr_gdsr_lambdas(const cr_gdsr_train_def *def, int ep, float *lambda_c, float *lambda_w);
 

@@ -222,6 +222,19 @@ double cr_config_number(const cr_config_key *k, const void *in) {
     return 0.0;
 }
 
+cr_status cr_config_check(const cr_config_key *keys, int nkeys, const void *in, const char *what,
+                          cr_error *err) {
+    for (int i = 0; i < nkeys; i++) {
+        const cr_config_key *k = &keys[i];
+        if (k->type == CR_CFG_STRING || k->type == CR_CFG_BOOL || k->min > k->max) continue;
+        double v = cr_config_number(k, in);
+        if (!(v >= k->min && v <= k->max))
+            return CR_FAIL(err, CR_ERR_INVALID, "%s: %s %g outside [%g, %g]", what, k->name, v,
+                           k->min, k->max);
+    }
+    return CR_OK;
+}
+
 cr_status cr_config_load(const char *path, const cr_config_key *keys, int nkeys, void *out,
                          cr_error *err) {
     char *text = NULL;

@@ -10,13 +10,17 @@
 
 #include <cjson/cJSON.h>
 
-enum { CLI_OK = 0, CLI_BAD_INPUT = 1, CLI_USAGE = 2 };
+/* CLI_HELP: cli_parse_documented printed the help; main exits 0 for it. */
+enum { CLI_OK = 0, CLI_BAD_INPUT = 1, CLI_USAGE = 2, CLI_HELP = 3 };
 
 typedef struct cli_command {
     const char *name;
     const char *summary;
     int (*run)(int argc, char **argv); /* argv[0] is the command name */
     void (*help)(void);
+    /* Subcommands whose help is their option table (cli_parse_documented): `--help` after
+     * one of these reaches the command instead of help(); NULL-ended, or NULL. */
+    const char *const *documented;
 } cli_command;
 
 /* Report a library failure: "crease: <msg>" on stderr; returns CLI_BAD_INPUT. */
@@ -57,7 +61,10 @@ int cli_usage(const char *cmd, const char *fmt, ...) __attribute__((format(print
  *         crease simulate: option --frames needs a value
  *         crease drape: --collision expects vertex or sdf, got 'box'
  *   - `--help` / `-h` anywhere: main.c prints the command's help_<cmd>() before the
- *     command runs. Help texts are written per command; keep them in step with the table.
+ *     command runs, or, for a command parsed by cli_parse_documented, the help is the
+ *     table's: each row's value name, help and default (the value its dst holds before
+ *     parsing), so the help cannot drift from the parser; docs/cli.md holds the same
+ *     text (scripts/cli_reference.py, checked by tests/cli.sh).
  *
  * Checks across options (required ones, exclusive pairs) stay in the command, after
  * cli_parse, with cli_usage. A row's optional `seen` is set to 1 when the option was given,
@@ -66,13 +73,16 @@ int cli_usage(const char *cmd, const char *fmt, ...) __attribute__((format(print
  *     {.name = "--height", .kind = CLI_OPT_FLOAT, .dst = &h, .lo = 1, .hi = 2.5, .seen = &set}
  */
 typedef enum cli_opt_kind {
-    CLI_OPT_FLAG,   /* no value: *(int *)dst = 1 */
-    CLI_OPT_STRING, /* *(const char **)dst = the value (points into argv) */
-    CLI_OPT_INT,    /* *(int *)dst: a decimal integer in [lo, hi] */
-    CLI_OPT_FLOAT,  /* *(float *)dst: a finite number in [lo, hi] */
-    CLI_OPT_DOUBLE, /* *(double *)dst: a finite number in [lo, hi], kept in double */
-    CLI_OPT_CHOICE, /* *(const char **)dst = the entry of choices (NULL-ended) equal to it */
-    CLI_OPT_CUSTOM, /* fn(cmd, name, values, dst) with nvalues values (0 means 1) */
+    CLI_OPT_FLAG,    /* no value: *(int *)dst = 1 */
+    CLI_OPT_STRING,  /* *(const char **)dst = the value (points into argv) */
+    CLI_OPT_INT,     /* *(int *)dst: a decimal integer in [lo, hi] */
+    CLI_OPT_FLOAT,   /* *(float *)dst: a finite number in [lo, hi] */
+    CLI_OPT_DOUBLE,  /* *(double *)dst: a finite number in [lo, hi], kept in double */
+    CLI_OPT_U64,     /* *(uint64_t *)dst: a whole number in [lo, hi] (a seed) */
+    CLI_OPT_CHOICE,  /* *(const char **)dst = the entry of choices (NULL-ended) equal to it */
+    CLI_OPT_CUSTOM,  /* fn(cmd, name, values, dst) with nvalues values (0 means 1) */
+    CLI_OPT_KEYS,    /* the keys with a flag of a def's cr_config_key table; dst: the def */
+    CLI_OPT_HEADING, /* no option: `help` heads the rows after it in the help */
 } cli_opt_kind;
 
 /* A custom value parser: returns CLI_OK, or CLI_USAGE after printing with cli_usage. `opt`
@@ -89,32 +99,50 @@ typedef struct cli_opt {
     cli_opt_fn fn;              /* CUSTOM: the parser */
     int nvalues;                /* CUSTOM: values it takes, 0 (meaning 1) to 4 */
     int *seen;                  /* optional: set to 1 when the option is given */
+    const char *arg;            /* the value's name in the help ("N"), NULL for a flag */
+    const char *help;           /* the help; "(default V)" is added from dst unless it says */
+    const cr_config_key *keys;  /* KEYS: the table and its length */
+    int nkeys;
 } cli_opt;
 
-/* Table rows. The dst pointer's type is checked against the kind at compile time. */
+/* Table rows. The dst pointer's type is checked against the kind at compile time. Each
+ * CLI_X(...) is { CLI_ROW_X(...) }; a documented row adds its value name and help:
+ *     {CLI_ROW_INT("--frames", &frames, 1, 100000), .arg = "N", .help = "frames to run"} */
+#define CLI_ROW_FLAG(name_, dst_) .name = (name_), .kind = CLI_OPT_FLAG, .dst = CLI_PTR_(int, dst_)
+#define CLI_ROW_STR(name_, dst_)                                                                   \
+    .name = (name_), .kind = CLI_OPT_STRING, .dst = CLI_PTR_(const char *, dst_)
+#define CLI_ROW_INT(name_, dst_, lo_, hi_)                                                         \
+    .name = (name_), .kind = CLI_OPT_INT, .dst = CLI_PTR_(int, dst_), .lo = (lo_), .hi = (hi_)
+#define CLI_ROW_FLOAT(name_, dst_, lo_, hi_)                                                       \
+    .name = (name_), .kind = CLI_OPT_FLOAT, .dst = CLI_PTR_(float, dst_), .lo = (lo_), .hi = (hi_)
+#define CLI_ROW_DOUBLE(name_, dst_, lo_, hi_)                                                      \
+    .name = (name_), .kind = CLI_OPT_DOUBLE, .dst = CLI_PTR_(double, dst_), .lo = (lo_), .hi = (hi_)
+#define CLI_ROW_CHOICE(name_, dst_, choices_)                                                      \
+    .name = (name_), .kind = CLI_OPT_CHOICE, .dst = CLI_PTR_(const char *, dst_),                  \
+    .choices = (choices_)
+#define CLI_ROW_CUSTOM(name_, fn_, dst_, nvalues_)                                                 \
+    .name = (name_), .kind = CLI_OPT_CUSTOM, .fn = (fn_), .dst = (dst_), .nvalues = (nvalues_)
 #define CLI_FLAG(name_, dst_)                                                                      \
-    { .name = (name_), .kind = CLI_OPT_FLAG, .dst = CLI_PTR_(int, dst_) }
+    { CLI_ROW_FLAG(name_, dst_) }
 #define CLI_STR(name_, dst_)                                                                       \
-    { .name = (name_), .kind = CLI_OPT_STRING, .dst = CLI_PTR_(const char *, dst_) }
+    { CLI_ROW_STR(name_, dst_) }
 #define CLI_INT(name_, dst_, lo_, hi_)                                                             \
-    { .name = (name_), .kind = CLI_OPT_INT, .dst = CLI_PTR_(int, dst_), .lo = (lo_), .hi = (hi_) }
+    { CLI_ROW_INT(name_, dst_, lo_, hi_) }
 #define CLI_FLOAT(name_, dst_, lo_, hi_)                                                           \
-    {                                                                                              \
-        .name = (name_), .kind = CLI_OPT_FLOAT, .dst = CLI_PTR_(float, dst_), .lo = (lo_),         \
-        .hi = (hi_)                                                                                \
-    }
+    { CLI_ROW_FLOAT(name_, dst_, lo_, hi_) }
 #define CLI_DOUBLE(name_, dst_, lo_, hi_)                                                          \
-    {                                                                                              \
-        .name = (name_), .kind = CLI_OPT_DOUBLE, .dst = CLI_PTR_(double, dst_), .lo = (lo_),       \
-        .hi = (hi_)                                                                                \
-    }
+    { CLI_ROW_DOUBLE(name_, dst_, lo_, hi_) }
 #define CLI_CHOICE(name_, dst_, choices_)                                                          \
-    {                                                                                              \
-        .name = (name_), .kind = CLI_OPT_CHOICE, .dst = CLI_PTR_(const char *, dst_),              \
-        .choices = (choices_)                                                                      \
-    }
+    { CLI_ROW_CHOICE(name_, dst_, choices_) }
 #define CLI_CUSTOM(name_, fn_, dst_, nvalues_)                                                     \
-    { .name = (name_), .kind = CLI_OPT_CUSTOM, .fn = (fn_), .dst = (dst_), .nvalues = (nvalues_) }
+    { CLI_ROW_CUSTOM(name_, fn_, dst_, nvalues_) }
+/* A heading over the rows that follow it in a documented command's help ("training"). */
+#define CLI_HEADING(text_)                                                                         \
+    { .name = "", .kind = CLI_OPT_HEADING, .help = (text_) }
+/* Every key of `keys_` (n_ of them) that has a flag, as an option writing into the def at
+ * base_: its range, value name and help from the key. */
+#define CLI_KEYS(keys_, n_, base_)                                                                 \
+    { .name = "", .kind = CLI_OPT_KEYS, .keys = (keys_), .nkeys = (n_), .dst = (base_) }
 /* -o FILE / --output FILE, the output of every command. */
 #define CLI_OUTPUT(dst_)                                                                           \
     {                                                                                              \
@@ -144,6 +172,20 @@ int cli_self_contact(const char *choice);
  * CLI_OK, or CLI_USAGE after one message on stderr. */
 int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const char **pos,
               int max_pos, int *npos);
+
+/* A command whose help is its table: "usage: <usage>", the about text, the options (each
+ * row's name, value name, help and default) and the closing text. */
+typedef struct cli_doc {
+    const char *usage; /* "crease gdsr train --dataset DIR -o OUT [options]" */
+    const char *about; /* a paragraph, lines ending in '\n' */
+    const char *after; /* text after the options (outputs, notes), or NULL */
+} cli_doc;
+/* cli_parse, but `--help` or `-h` anywhere (before `--`) prints doc with opts on stdout
+ * and returns CLI_HELP, before any other argument is looked at. */
+int cli_parse_documented(const char *cmd, const cli_doc *doc, int argc, char **argv,
+                         const cli_opt *opts, const char **pos, int max_pos, int *npos);
+/* The options part of that help. */
+void cli_print_options(FILE *fp, const cli_opt *opts);
 
 /* Typed value checks for custom parsers; both print the usage message and return 0 on a
  * bad value, 1 when *out was set. */

@@ -4,6 +4,8 @@
 #include "crease/scene.h"
 
 #include <errno.h>
+#include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,9 +70,45 @@ int cli_is_help(const char *s) {
     return strcmp(s, "--help") == 0 || strcmp(s, "-h") == 0;
 }
 
-/* The row whose name or alias is `name` (the first len characters), or NULL. */
-static const cli_opt *find_opt(const cli_opt *opts, const char *name, size_t len) {
+/* The option key k of a KEYS row stands for: its flag, range, help, and the field. */
+static void key_row(const cli_opt *r, const cr_config_key *k, cli_opt *out) {
+    static const double wide[] = {-FLT_MAX, FLT_MAX, -DBL_MAX, DBL_MAX, INT_MIN, INT_MAX};
+    *out = (cli_opt){.name = k->flag, .arg = k->arg, .help = k->help};
+    out->dst = (char *)r->dst + k->offset;
+    int w = k->type == CR_CFG_FLOAT ? 0 : k->type == CR_CFG_DOUBLE ? 2 : 4;
+    out->lo = k->min <= k->max ? k->min : wide[w];
+    out->hi = k->min <= k->max ? k->max : wide[w + 1];
+    out->kind = k->type == CR_CFG_FLOAT    ? CLI_OPT_FLOAT
+                : k->type == CR_CFG_DOUBLE ? CLI_OPT_DOUBLE
+                : k->type == CR_CFG_INT    ? CLI_OPT_INT
+                : k->type == CR_CFG_BOOL   ? CLI_OPT_FLAG
+                : k->type == CR_CFG_U64    ? CLI_OPT_U64
+                                           : CLI_OPT_KEYS; /* a string key: refused */
+    if (k->type == CR_CFG_U64 && k->min > k->max) out->lo = 0, out->hi = 9007199254740992.0;
+}
+
+/* Option i of the table (KEYS rows expanded into their keys with a flag), in *scratch when
+ * it is a key's; NULL past the end. */
+static const cli_opt *nth_opt(const cli_opt *opts, int i, cli_opt *scratch) {
     for (const cli_opt *o = opts; o->name; o++) {
+        if (o->kind != CLI_OPT_KEYS) {
+            if (i-- == 0) return o;
+            continue;
+        }
+        for (int k = 0; k < o->nkeys; k++)
+            if (o->keys[k].flag && i-- == 0) {
+                key_row(o, &o->keys[k], scratch);
+                return scratch;
+            }
+    }
+    return NULL;
+}
+
+/* The row whose name or alias is `name` (the first len characters), or NULL. */
+static const cli_opt *find_opt(const cli_opt *opts, const char *name, size_t len,
+                               cli_opt *scratch) {
+    const cli_opt *o;
+    for (int i = 0; (o = nth_opt(opts, i, scratch)) != NULL; i++) {
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0) return o;
         if (o->alias && strlen(o->alias) == len && strncmp(o->alias, name, len) == 0) return o;
     }
@@ -111,6 +149,14 @@ static int apply_opt(const char *cmd, const cli_opt *o, const char *const *v) {
     case CLI_OPT_DOUBLE:
         return parse_number(cmd, o->name, v[0], o->lo, o->hi, (double *)o->dst) ? CLI_OK
                                                                                 : CLI_USAGE;
+    case CLI_OPT_U64: {
+        double x;
+        if (!parse_number(cmd, o->name, v[0], o->lo, o->hi, &x)) return CLI_USAGE;
+        if (x != floor(x))
+            return cli_usage(cmd, "%s expects a whole number, got '%s'", o->name, v[0]);
+        *(uint64_t *)o->dst = (uint64_t)x;
+        return CLI_OK;
+    }
     case CLI_OPT_CHOICE:
         for (const char *const *c = o->choices; *c; c++)
             if (strcmp(*c, v[0]) == 0) {
@@ -122,6 +168,9 @@ static int apply_opt(const char *cmd, const cli_opt *o, const char *const *v) {
         return cli_usage(cmd, "%s expects %s, got '%s'", o->name, list, v[0]);
     case CLI_OPT_CUSTOM:
         return o->fn(cmd, o->name, v, o->dst);
+    case CLI_OPT_KEYS:
+    case CLI_OPT_HEADING:
+        break;
     }
     return cli_usage(cmd, "%s: bad option table", o->name);
 }
@@ -147,7 +196,8 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const
         /* --name=value: the value is glued on. */
         const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
         size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
-        const cli_opt *o = find_opt(opts, arg, len);
+        cli_opt scratch;
+        const cli_opt *o = find_opt(opts, arg, len, &scratch);
         if (!o) return cli_usage(cmd, "unknown option '%.*s'", (int)len, arg);
         int want = o->kind == CLI_OPT_FLAG                       ? 0
                    : o->kind == CLI_OPT_CUSTOM && o->nvalues > 1 ? o->nvalues
@@ -169,6 +219,94 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const
         if (o->seen) *o->seen = 1;
     }
     return CLI_OK;
+}
+
+/* A row's default: the value its field holds before parsing ("" when it has none to show). */
+static void default_text(const cli_opt *o, char *buf, size_t cap) {
+    buf[0] = '\0';
+    switch (o->kind) {
+    case CLI_OPT_INT:
+        snprintf(buf, cap, "%d", *(const int *)o->dst);
+        break;
+    case CLI_OPT_FLOAT:
+        snprintf(buf, cap, "%g", (double)*(const float *)o->dst);
+        break;
+    case CLI_OPT_DOUBLE:
+        snprintf(buf, cap, "%g", *(const double *)o->dst);
+        break;
+    case CLI_OPT_U64:
+        snprintf(buf, cap, "%llu", (unsigned long long)*(const uint64_t *)o->dst);
+        break;
+    case CLI_OPT_STRING:
+    case CLI_OPT_CHOICE:
+        if (*(const char *const *)o->dst) snprintf(buf, cap, "%s", *(const char *const *)o->dst);
+        break;
+    default:
+        break;
+    }
+}
+
+/* `text` from column `indent`, wrapped at spaces before column `width`; `col` is where the
+ * line already is. Newlines in text are kept. */
+static void print_wrapped(FILE *fp, const char *text, int col, int indent, int width) {
+    const char *p = text;
+    while (*p) {
+        if (*p == '\n') {
+            fputc('\n', fp), p++;
+            col = 0;
+            continue;
+        }
+        if (*p == ' ' && col > indent) {
+            p++;
+            continue;
+        }
+        size_t word = strcspn(p, " \n");
+        if (col > indent && col + 1 + (int)word > width) fprintf(fp, "\n"), col = 0;
+        if (col < indent)
+            fprintf(fp, "%*s", indent - col, ""), col = indent;
+        else if (col > indent)
+            fputc(' ', fp), col++;
+        fwrite(p, 1, word, fp);
+        col += (int)word, p += word;
+    }
+    fputc('\n', fp);
+}
+
+void cli_print_options(FILE *fp, const cli_opt *opts) {
+    enum { INDENT = 23, WIDTH = 92 };
+    cli_opt scratch;
+    const cli_opt *o;
+    for (int i = 0; (o = nth_opt(opts, i, &scratch)) != NULL; i++) {
+        if (!o->help) continue;
+        if (o->kind == CLI_OPT_HEADING) {
+            fprintf(fp, "%s:\n", o->help);
+            continue;
+        }
+        char head[160], def[64], text[1024];
+        int n = snprintf(head, sizeof head, "  %s%s%s%s%s", o->name, o->alias ? ", " : "",
+                         o->alias ? o->alias : "", o->arg ? " " : "", o->arg ? o->arg : "");
+        default_text(o, def, sizeof def);
+        int say = def[0] && !strstr(o->help, "default"); /* unless the help says it */
+        snprintf(text, sizeof text, "%s%s%s%s", o->help, say ? " (default " : "", say ? def : "",
+                 say ? ")" : "");
+        fputs(head, fp);
+        int col = n;
+        if (col >= INDENT - 1) fputc('\n', fp), col = 0;
+        print_wrapped(fp, text, col, INDENT, WIDTH);
+    }
+}
+
+int cli_parse_documented(const char *cmd, const cli_doc *doc, int argc, char **argv,
+                         const cli_opt *opts, const char **pos, int max_pos, int *npos) {
+    for (int i = 1; i < argc && strcmp(argv[i], "--") != 0; i++)
+        if (cli_is_help(argv[i])) {
+            printf("usage: %s\n\n%s\n%s", doc->usage, doc->about,
+                   opts[0].kind == CLI_OPT_HEADING ? "" : "options:\n");
+            cli_print_options(stdout, opts);
+            if (doc->after) printf("\n%s", doc->after);
+            return CLI_HELP;
+        }
+    return cli_parse(cmd, argc, argv, opts, pos, max_pos, npos);
 }
 
 void cli_json_print(cJSON *obj) {

@@ -7,83 +7,22 @@
 #include <math.h>
 #include <string.h>
 
-void help_drape(void) {
-    printf(
-        "usage: crease drape [--scene S | --object F] [--variant V] -o DIR [options]\n\n"
+static const cli_doc drape_doc = {
+    .usage = "crease drape [--scene S | --object F] [--variant V] -o DIR [options]",
+    .about =
         "Drape a square cloth, laid flat above an object, by minimising strain, bend,\n"
         "gravity and collision losses over an implicit neural surface p = p0(u,v) + MLP(GE(u,v))\n"
         "(Shu et al., docs/drape.md). The losses are computed on local structures (a triangle\n"
         "and its three edge neighbours, side 0.001 in UV, randomly rotated) at points drawn from\n"
-        "an adaptive PDF of the loss, or on a mesh for the mesh variants.\n\n"
-        "scene:\n"
-        "  --scene S            ball (default), torus, prism or table (Table 4 weights)\n"
-        "  --object F           drape over this mesh instead (OBJ, PLY, glb; metres, Y up)\n"
-        "  --cloth F            rest cloth mesh with UVs in [0,1]^2, used where it is (metres)\n"
-        "  --cloth-size S       side of the square cloth, m (default: 1 on the built-in scenes,\n"
-        "                       5/3 of the object's larger horizontal extent with --object)\n"
-        "  --drop-height H      its height above the object's top, m (default 5 %% of its side;\n"
-        "                       --gap is the same option)\n"
-        "  --variant V          inr-adaptive (default), inr-uniform, inr-mesh or mesh\n"
-        "  --compare            run all four variants into DIR/<variant>/ and write\n"
-        "                       DIR/compare.png with their renders side by side\n"
-        "training:\n"
-        "  --epochs N           cap on epochs (default 15000; the default run stops at\n"
-        "                       convergence, see --stop)\n"
-        "  --samples N          local structures per epoch (default 1024)\n"
-        "  --lr R               Adam learning rate (default 0.0005)\n"
-        "  --lr-final R         anneal to R by the last epoch (cosine; default: none)\n"
-        "  --settle N           without --lr-final: N epochs at lr/10 after convergence (or\n"
-        "                       the last N before the cap), so contacts settle (default 250;\n"
-        "                       0: constant lr)\n"
-        "  --beta2 B            Adam's second-moment decay (default 0.999)\n"
-        "  --clip C             clip the gradient norm at C times its running mean (default 3;\n"
-        "                       0: off)\n"
-        "  --seed S             initialisation, sampling and rotations (default 1)\n"
-        "  --resume             continue from DIR/checkpoint.safetensors\n"
-        "  --checkpoint-every N epochs between checkpoints (default 250; 0: at the end)\n"
-        "losses:\n"
-        "  --w-strain W --w-bend W --w-gravity W --w-collision W\n"
-        "                       weights (Table 4: 0.005, 0.0005, 2, 1e7; 1e6 for torus, prism)\n"
-        "  --point-mass M       kg per structure or vertex in the gravity loss (default 1e-4)\n"
-        "  --eps E              collision threshold, m (default 0.002)\n"
-        "  --collision C        vertex (eq. 26, nearest object vertex; default) or sdf\n"
-        "  --side S             structure side in UV (default 0.001)\n"
-        "  --pin W              hold the cloth centre's horizontal position with weight W per\n"
-        "                       structure (default 1; 0: free to slide off the object)\n"
-        "model:\n"
-        "  --grid-levels L --grid-res R --grid-features F\n"
-        "                       grid encoding (default 2 levels, 100 cells, 3 features)\n"
-        "  --grid-interp I      between the grid's nodes: bspline (default; C2, no grid\n"
-        "                       facets) or bilinear (the paper's, C0: its cells show as\n"
-        "                       facets)\n"
-        "  --hidden W --layers N   MLP width and linear layers (default 64, 4)\n"
-        "  --softplus B         hidden activation softplus with beta B (default 10); 0: ReLU\n"
-        "  --mesh-res N         vertices per side of the mesh variants' grid (default 128)\n"
-        "sampler:\n"
-        "  --pdf-grid G         PDF cells per side (default 32)\n"
-        "  --gamma G            eq. 7 blend (default 0.9)\n"
-        "  --mu M               adaptive share of the samples (default 0.5)\n"
-        "  --lloyd N            Lloyd iterations (default 2)\n"
-        "  --pdf-every N        epochs between PDF updates (default 5)\n"
-        "  --pdf-collision W    the collision term's weight in the PDF, times its training\n"
-        "                       weight (default 1; gravity is always left out)\n"
-        "convergence (the same for every variant):\n"
-        "  --eval-res N         fixed evaluation structures per side (default 128)\n"
-        "  --eval-every N       epochs between evaluations (default 50)\n"
-        "  --window N           converged when the energy fell by less than --tol times its\n"
-        "  --tol T              total decrease over the last N epochs (default 2000, 0.01)\n"
-        "  --stop               stop at convergence, after --settle epochs (the default)\n"
-        "  --no-stop            train to --epochs whatever the convergence\n"
-        "outputs:\n"
-        "  -o DIR               drape.obj, drape.glb, drape.png, loss.png, loss.jsonl,\n"
-        "                       sampler.png, checkpoint.safetensors\n"
-        "  --res N              output surface vertices per side (default 256)\n"
-        "  --render-size N      PNG side in pixels (default 1024)\n"
-        "  --quiet              no progress bar\n"
-        "  --json               end with a JSON summary on stdout\n\n"
-        "The default ball run stops at convergence (epoch 8,150 of seed 1): about 1.5 "
-        "CPU-minutes,\n"
-        "3-4 minutes on a loaded 2-core machine (docs/drape.md).\n");
+        "an adaptive PDF of the loss, or on a mesh for the mesh variants.\n",
+    .after = "The default ball run stops at convergence (epoch 8,150 of seed 1): about 1.5\n"
+             "CPU-minutes, 3-4 minutes on a loaded 2-core machine (docs/drape.md).\n"};
+
+/* the help is the option table's (cli_parse_documented) */
+void help_drape(void) {
+    static char name[] = "drape", help[] = "--help";
+    char *argv[] = {name, help, NULL};
+    cmd_drape(2, argv);
 }
 
 static cJSON *terms_object(const cr_drape_terms *t) {
@@ -174,61 +113,113 @@ int cmd_drape(int argc, char **argv) {
     int json = 0, compare = 0, seed = 1, npos = 0, no_stop = 0;
     float w[4] = {NAN, NAN, NAN, NAN}; /* NAN: the scene's Table 4 value */
     const cli_opt opts[] = {
-        CLI_STR("--scene", &scene),
-        CLI_STR("--object", &def.object_path),
-        CLI_STR("--cloth", &def.cloth_path),
-        CLI_STR("--variant", &variant),
-        CLI_CHOICE("--collision", &collision, collisions),
-        CLI_CHOICE("--grid-interp", &interp, interps),
-        CLI_OUTPUT(&def.out_dir),
-        CLI_FLAG("--compare", &compare),
-        CLI_FLAG("--stop", &def.stop_at_converged),
-        CLI_FLAG("--no-stop", &no_stop),
-        CLI_FLAG("--resume", &def.resume),
-        CLI_FLAG("--quiet", &def.quiet),
-        CLI_FLAG("--json", &json),
-        CLI_INT("--epochs", &def.epochs, 1, 100000000),
-        CLI_INT("--samples", &def.samples, 1, 1 << 22),
-        CLI_INT("--seed", &seed, 0, 2147483647),
-        CLI_INT("--res", &def.out_res, 2, 4096),
-        CLI_INT("--render-size", &def.render_size, 16, 8192),
-        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000000),
-        CLI_INT("--grid-levels", &def.grid_levels, 1, 8),
-        CLI_INT("--grid-res", &def.grid_resolution, 1, 4096),
-        CLI_INT("--grid-features", &def.grid_features, 1, 64),
-        CLI_INT("--hidden", &def.mlp_hidden, 1, 4096),
-        CLI_INT("--layers", &def.mlp_layers, 1, 16),
-        CLI_INT("--mesh-res", &def.mesh_res, 2, 2048),
-        CLI_INT("--pdf-grid", &def.pdf_grid, 2, 1024),
-        CLI_INT("--lloyd", &def.lloyd_iterations, 0, 1000),
-        CLI_INT("--pdf-every", &def.pdf_every, 1, 1000000),
-        CLI_INT("--eval-res", &def.eval_res, 2, 1024),
-        CLI_INT("--eval-every", &def.eval_every, 1, 1000000),
-        CLI_INT("--window", &def.converge_window, 1, 100000000),
-        CLI_INT("--settle", &def.settle_epochs, 0, 100000000),
-        CLI_FLOAT("--lr", &def.lr, 1e-12, 10.0),
-        CLI_FLOAT("--lr-final", &def.lr_final, 0.0, 10.0),
-        CLI_FLOAT("--beta2", &def.beta2, 0.0, 0.999999),
-        CLI_FLOAT("--clip", &def.clip, 0.0, 1e6),
-        CLI_FLOAT("--w-strain", &w[0], 0.0, 1e12),
-        CLI_FLOAT("--w-bend", &w[1], 0.0, 1e12),
-        CLI_FLOAT("--w-gravity", &w[2], 0.0, 1e12),
-        CLI_FLOAT("--w-collision", &w[3], 0.0, 1e15),
-        CLI_FLOAT("--point-mass", &def.point_mass, 0.0, 1e6),
-        CLI_FLOAT("--eps", &def.collision_eps, 0.0, 1.0),
-        CLI_FLOAT("--side", &def.side, 1e-6, 0.1),
-        CLI_FLOAT("--softplus", &def.softplus_beta, 0.0, 1e3),
-        CLI_FLOAT("--pin", &def.pin, 0.0, 1e12),
-        CLI_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0),
-        CLI_FLOAT("--mu", &def.mu, 0.0, 1.0),
-        CLI_FLOAT("--pdf-collision", &def.pdf_collision, 0.0, 1e6),
-        CLI_FLOAT("--tol", &def.converge_tol, 0.0, 1.0),
-        CLI_FLOAT("--drop-height", &def.gap, 0.0, 1e3),
-        CLI_FLOAT("--gap", &def.gap, 0.0, 1e3),
-        CLI_FLOAT("--cloth-size", &def.cloth_size, 1e-3, 1e3),
+        CLI_HEADING("scene"),
+        {CLI_ROW_STR("--scene", &scene), .arg = "S",
+         .help = "ball (default), torus, prism or table (Table 4 weights)"},
+        {CLI_ROW_STR("--object", &def.object_path), .arg = "F",
+         .help = "drape over this mesh instead (OBJ, PLY, glb; metres, Y up)"},
+        {CLI_ROW_STR("--cloth", &def.cloth_path), .arg = "F",
+         .help = "rest cloth mesh with UVs in [0,1]^2, used where it is (metres)"},
+        {CLI_ROW_FLOAT("--cloth-size", &def.cloth_size, 1e-3, 1e3), .arg = "S",
+         .help = "side of the square cloth, m (default: 1 on the built-in scenes, 5/3 of the "
+                 "object's larger horizontal extent with --object)"},
+        {CLI_ROW_FLOAT("--drop-height", &def.gap, 0.0, 1e3), .alias = "--gap", .arg = "H",
+         .help = "its height above the object's top, m (default 5 % of its side)"},
+        {CLI_ROW_STR("--variant", &variant), .arg = "V",
+         .help = "inr-adaptive (default), inr-uniform, inr-mesh or mesh"},
+        {CLI_ROW_FLAG("--compare", &compare),
+         .help = "run all four variants into DIR/<variant>/ and write DIR/compare.png with "
+                 "their renders side by side"},
+        CLI_HEADING("training"),
+        {CLI_ROW_INT("--epochs", &def.epochs, 1, 100000000), .arg = "N",
+         .help = "cap on epochs (the default run stops at convergence, see --stop)"},
+        {CLI_ROW_INT("--samples", &def.samples, 1, 1 << 22), .arg = "N",
+         .help = "local structures per epoch"},
+        {CLI_ROW_FLOAT("--lr", &def.lr, 1e-12, 10.0), .arg = "R", .help = "Adam learning rate"},
+        {CLI_ROW_FLOAT("--lr-final", &def.lr_final, 0.0, 10.0), .arg = "R",
+         .help = "anneal to R by the last epoch (cosine; default: none)"},
+        {CLI_ROW_INT("--settle", &def.settle_epochs, 0, 100000000), .arg = "N",
+         .help = "without --lr-final: N epochs at lr/10 after convergence (or the last N "
+                 "before the cap), so contacts settle (0: constant lr)"},
+        {CLI_ROW_FLOAT("--beta2", &def.beta2, 0.0, 0.999999), .arg = "B",
+         .help = "Adam's second-moment decay"},
+        {CLI_ROW_FLOAT("--clip", &def.clip, 0.0, 1e6), .arg = "C",
+         .help = "clip the gradient norm at C times its running mean (0: off)"},
+        {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "S",
+         .help = "initialisation, sampling and rotations"},
+        {CLI_ROW_FLAG("--resume", &def.resume), .help = "continue from DIR/checkpoint.safetensors"},
+        {CLI_ROW_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000000), .arg = "N",
+         .help = "epochs between checkpoints (0: at the end)"},
+        CLI_HEADING("losses (weights: the scene's Table 4 values, 0.005, 0.0005, 2, 1e7; 1e6 "
+                    "for torus and prism)"),
+        {CLI_ROW_FLOAT("--w-strain", &w[0], 0.0, 1e12), .arg = "W", .help = "strain weight"},
+        {CLI_ROW_FLOAT("--w-bend", &w[1], 0.0, 1e12), .arg = "W", .help = "bend weight"},
+        {CLI_ROW_FLOAT("--w-gravity", &w[2], 0.0, 1e12), .arg = "W", .help = "gravity weight"},
+        {CLI_ROW_FLOAT("--w-collision", &w[3], 0.0, 1e15), .arg = "W", .help = "collision weight"},
+        {CLI_ROW_FLOAT("--point-mass", &def.point_mass, 0.0, 1e6), .arg = "M",
+         .help = "kg per structure or vertex in the gravity loss"},
+        {CLI_ROW_FLOAT("--eps", &def.collision_eps, 0.0, 1.0), .arg = "E",
+         .help = "collision threshold, m"},
+        {CLI_ROW_CHOICE("--collision", &collision, collisions), .arg = "C",
+         .help = "vertex (eq. 26, nearest object vertex; default) or sdf"},
+        {CLI_ROW_FLOAT("--side", &def.side, 1e-6, 0.1), .arg = "S", .help = "structure side in UV"},
+        {CLI_ROW_FLOAT("--pin", &def.pin, 0.0, 1e12), .arg = "W",
+         .help = "hold the cloth centre's horizontal position with weight W per structure (0: "
+                 "free to slide off the object)"},
+        CLI_HEADING("model"),
+        {CLI_ROW_INT("--grid-levels", &def.grid_levels, 1, 8), .arg = "L",
+         .help = "grid encoding levels"},
+        {CLI_ROW_INT("--grid-res", &def.grid_resolution, 1, 4096), .arg = "R",
+         .help = "cells per side of the finest level"},
+        {CLI_ROW_INT("--grid-features", &def.grid_features, 1, 64), .arg = "F",
+         .help = "features per grid node"},
+        {CLI_ROW_CHOICE("--grid-interp", &interp, interps), .arg = "I",
+         .help = "between the grid's nodes: bspline (default; C2, no grid facets) or bilinear "
+                 "(the paper's, C0: its cells show as facets)"},
+        {CLI_ROW_INT("--hidden", &def.mlp_hidden, 1, 4096), .arg = "W", .help = "MLP width"},
+        {CLI_ROW_INT("--layers", &def.mlp_layers, 1, 16), .arg = "N", .help = "MLP linear layers"},
+        {CLI_ROW_FLOAT("--softplus", &def.softplus_beta, 0.0, 1e3), .arg = "B",
+         .help = "hidden activation softplus with beta B; 0: ReLU"},
+        {CLI_ROW_INT("--mesh-res", &def.mesh_res, 2, 2048), .arg = "N",
+         .help = "vertices per side of the mesh variants' grid"},
+        CLI_HEADING("sampler"),
+        {CLI_ROW_INT("--pdf-grid", &def.pdf_grid, 2, 1024), .arg = "G",
+         .help = "PDF cells per side"},
+        {CLI_ROW_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0), .arg = "G", .help = "eq. 7 blend"},
+        {CLI_ROW_FLOAT("--mu", &def.mu, 0.0, 1.0), .arg = "M",
+         .help = "adaptive share of the samples"},
+        {CLI_ROW_INT("--lloyd", &def.lloyd_iterations, 0, 1000), .arg = "N",
+         .help = "Lloyd iterations"},
+        {CLI_ROW_INT("--pdf-every", &def.pdf_every, 1, 1000000), .arg = "N",
+         .help = "epochs between PDF updates"},
+        {CLI_ROW_FLOAT("--pdf-collision", &def.pdf_collision, 0.0, 1e6), .arg = "W",
+         .help = "the collision term's weight in the PDF, times its training weight (gravity "
+                 "is always left out)"},
+        CLI_HEADING("convergence (the same for every variant)"),
+        {CLI_ROW_INT("--eval-res", &def.eval_res, 2, 1024), .arg = "N",
+         .help = "fixed evaluation structures per side"},
+        {CLI_ROW_INT("--eval-every", &def.eval_every, 1, 1000000), .arg = "N",
+         .help = "epochs between evaluations"},
+        {CLI_ROW_INT("--window", &def.converge_window, 1, 100000000), .arg = "N",
+         .help = "converged when the energy fell by less than --tol times its total decrease "
+                 "over the last N epochs"},
+        {CLI_ROW_FLOAT("--tol", &def.converge_tol, 0.0, 1.0), .arg = "T", .help = "that share"},
+        {CLI_ROW_FLAG("--stop", &def.stop_at_converged),
+         .help = "stop at convergence, after --settle epochs (the default)"},
+        {CLI_ROW_FLAG("--no-stop", &no_stop), .help = "train to --epochs whatever the convergence"},
+        CLI_HEADING("outputs"),
+        {CLI_ROW_STR("-o", &def.out_dir), .alias = "--output", .arg = "DIR",
+         .help = "drape.obj, drape.glb, drape.png, loss.png, loss.jsonl, sampler.png, "
+                 "checkpoint.safetensors"},
+        {CLI_ROW_INT("--res", &def.out_res, 2, 4096), .arg = "N",
+         .help = "output surface vertices per side"},
+        {CLI_ROW_INT("--render-size", &def.render_size, 16, 8192), .arg = "N",
+         .help = "PNG side in pixels"},
+        {CLI_ROW_FLAG("--quiet", &def.quiet), .help = "no progress bar"},
+        {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };
-    int rc = cli_parse("drape", argc, argv, opts, NULL, 0, &npos);
+    int rc = cli_parse_documented("drape", &drape_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (scene && def.object_path)
         return cli_usage("drape", "--scene and --object exclude each other");

@@ -15,37 +15,7 @@ void help_epnet(void) {
         "passing -> rest bending) with physics energies only, alternating for --cycles cycles\n"
         "(paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on stderr and in\n"
         "DIR/progress.jsonl; a checkpoint after every epoch.\n\n"
-        "train:\n"
-        "  --garment G          tshirt (default), dress, skirt, ... (garment.h types), or a\n"
-        "                       garment mesh file (.obj, .ply, .glb; UVs not needed) fitted to\n"
-        "                       the body\n"
-        "  --vertices N         garment vertex count (default 600)\n"
-        "  --body B             slim, normal (default), heavy, an SMPL-family model\n"
-        "                       FILE.npz[:beta,beta,...], or a rigged CHAR.glb[:MAP]\n"
-        "  --motions M,M,...    training clips or files (default walk,squat,twist,dance,jump,\n"
-        "                       reach,lean,stretch)\n"
-        "  --frames N           frames per clip (default 60)\n"
-        "  --yield Y            yield angle, rad (default 0.52)\n"
-        "  --cycles N           curriculum cycles (default 4)\n"
-        "  --epochs N           E-Net epochs per cycle (default 40)\n"
-        "  --pnet-epochs N      P-Net epochs per cycle (default 20)\n"
-        "  --baseline           RB fixed at zero, no P-Net (PBNS/SNUG/NCS)\n"
-
-        "  --zero-rest-weight W the paired zero-rest consistency term (default 2, the\n"
-        "                       authors'; 0: off)\n"
-        "  --rest-response-weight W  the paired rest-response term (default 5, the authors';\n"
-        "                       0: off)\n"
-        "  --pin-top M          pin the vertices within M m of the garment's top to the\n"
-        "                       skinning (default 0.01 for skirt and trousers, else 0)\n"
-        "  --pnet-noise R       P-Net's teacher-forced RB noise, rad (default 0.05)\n"
-        "  --pnet-val M         P-Net's validation clip for early stopping (default run;\n"
-        "                       none: all --pnet-epochs)\n"
-        "  --paper-sizes        the authors' layer widths (static 64-128-256-512, GRU 512,\n"
-        "                       decoder 3x512, P-Net latent 128 with 2 hidden layers)\n"
-        "  --lr R               E-Net Adam learning rate (default 0.001)\n"
-        "  --seed S             (default 1)\n"
-        "  --resume             continue from DIR's checkpoints\n"
-        "  --json               a summary on stdout\n"
+        "`crease epnet train --help` lists the training options.\n\n"
         "run:\n"
         "  --model DIR          a trained model\n"
         "  --motion M           clip name or motion file (.bvh, .npz, or a rigged\n"
@@ -88,6 +58,13 @@ static int split_list(const char *s, char *buf, size_t cap, const char **out, in
     return n;
 }
 
+static const cli_doc train_doc = {
+    .usage = "crease epnet train -o DIR [options]",
+    .about = "Train E-Net (pose + motion + rest bending -> garment) and P-Net (hinge-graph\n"
+             "message passing -> rest bending) with physics energies only, alternating for\n"
+             "--cycles cycles (paper 004, Algorithm 1; docs/epnet.md). Progress per epoch on\n"
+             "stderr and in DIR/progress.jsonl; a checkpoint after every epoch.\n"};
+
 static int run_train(int argc, char **argv) {
     cr_epnet_def d = cr_epnet_default_def();
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
@@ -98,30 +75,52 @@ static int run_train(int argc, char **argv) {
     float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
           wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response, pnoise = (float)d.pnet_rb_noise;
     const cli_opt opts[] = {
-        CLI_STR("--garment", &garment),
-        CLI_INT("--vertices", &vertices, 100, 100000),
-        CLI_STR("--body", &body),
-        CLI_STR("--motions", &motions),
-        CLI_INT("--frames", &frames, 3, 10000),
-        CLI_FLOAT("--yield", &yield, 0, 3.2),
-        CLI_INT("--cycles", &cycles, 1, 100),
-        CLI_INT("--epochs", &epochs, 0, 100000),
-        CLI_INT("--pnet-epochs", &pepochs, 0, 100000),
-        CLI_FLAG("--baseline", &baseline),
-        CLI_FLOAT("--pin-top", &pin_top, 0, 10),
-        CLI_FLOAT("--zero-rest-weight", &wz, 0, 1e6),
-        CLI_FLOAT("--rest-response-weight", &wr, 0, 1e6),
-        CLI_FLOAT("--pnet-noise", &pnoise, 0, 3.2),
-        CLI_STR("--pnet-val", &pval),
-        CLI_FLAG("--paper-sizes", &paper),
-        CLI_INT("--seed", &seed, 0, 1000000000),
-        CLI_FLAG("--resume", &resume),
-        CLI_FLOAT("--lr", &lr, 1e-7, 1),
-        CLI_FLAG("--json", &json),
-        CLI_OUTPUT(&out),
+        {CLI_ROW_STR("--garment", &garment), .arg = "G",
+         .help = "tshirt, dress, skirt, ... (garment.h types), or a garment mesh file (.obj, "
+                 ".ply, .glb; UVs not needed) fitted to the body, --vertices unused"},
+        {CLI_ROW_INT("--vertices", &vertices, 100, 100000), .arg = "N",
+         .help = "garment vertex count"},
+        {CLI_ROW_STR("--body", &body), .arg = "B",
+         .help = "slim, normal, heavy, an SMPL-family model FILE.npz[:beta,beta,...], or a "
+                 "rigged CHAR.glb[:MAP] (docs/body.md)"},
+        {CLI_ROW_STR("--motions", &motions), .arg = "M,M,...",
+         .help = "training clips or motion files, at most 16 (default walk,squat,twist,dance,"
+                 "jump,reach,lean,stretch)"},
+        {CLI_ROW_INT("--frames", &frames, 3, 10000), .arg = "N", .help = "frames per clip"},
+        {CLI_ROW_FLOAT("--yield", &yield, 0, 3.2), .arg = "Y", .help = "yield angle, rad"},
+        {CLI_ROW_INT("--cycles", &cycles, 1, 100), .arg = "N", .help = "curriculum cycles"},
+        {CLI_ROW_INT("--epochs", &epochs, 0, 100000), .arg = "N", .help = "E-Net epochs per cycle"},
+        {CLI_ROW_INT("--pnet-epochs", &pepochs, 0, 100000), .arg = "N",
+         .help = "P-Net epochs per cycle"},
+        {CLI_ROW_FLAG("--baseline", &baseline),
+         .help = "RB fixed at zero, no P-Net (PBNS/SNUG/NCS)"},
+        {CLI_ROW_FLOAT("--zero-rest-weight", &wz, 0, 1e6), .arg = "W",
+         .help = "the paired zero-rest consistency term: E-Net at RB = 0 stays near the "
+                 "rest angles on the last frame (the authors'; 0: off)"},
+        {CLI_ROW_FLOAT("--rest-response-weight", &wr, 0, 1e6), .arg = "W",
+         .help = "the paired rest-response term: given RB, E-Net's angles move by RB from "
+                 "its own at RB = 0 on the last frame (the authors'; 0: off)"},
+        {CLI_ROW_FLOAT("--pin-top", &pin_top, 0, 10), .arg = "M",
+         .help = "pin the vertices within M m of the garment's top to the skinning (default "
+                 "0.01 for skirt and trousers, else 0)"},
+        {CLI_ROW_FLOAT("--pnet-noise", &pnoise, 0, 3.2), .arg = "R",
+         .help = "P-Net's teacher-forced RB noise, rad"},
+        {CLI_ROW_STR("--pnet-val", &pval), .arg = "M",
+         .help = "P-Net's validation clip: its phase stops after 5 epochs without a better "
+                 "validation loss and keeps its best weights (none: all --pnet-epochs)"},
+        {CLI_ROW_FLAG("--paper-sizes", &paper),
+         .help = "the authors' layer widths (static 64-128-256-512, GRU 512, decoder 3x512, "
+                 "P-Net latent 128 with 2 hidden layers)"},
+        {CLI_ROW_FLOAT("--lr", &lr, 1e-7, 1), .arg = "R", .help = "E-Net Adam learning rate"},
+        {CLI_ROW_INT("--seed", &seed, 0, 1000000000), .arg = "S",
+         .help = "initial weights and shuffles"},
+        {CLI_ROW_FLAG("--resume", &resume), .help = "continue from DIR's checkpoints"},
+        {CLI_ROW_STR("-o", &out), .alias = "--output", .arg = "DIR",
+         .help = "the model folder: model.json, the weights, progress.jsonl, checkpoints"},
+        {CLI_ROW_FLAG("--json", &json), .help = "a summary on stdout"},
         CLI_END,
     };
-    int rc = cli_parse("epnet train", argc, argv, opts, NULL, 0, NULL);
+    int rc = cli_parse_documented("epnet train", &train_doc, argc, argv, opts, NULL, 0, NULL);
     if (rc != CLI_OK) return rc;
     if (!out) return cli_usage("epnet train", "-o DIR is required");
     char buf[1024];

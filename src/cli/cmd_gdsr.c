@@ -20,58 +20,15 @@ void help_gdsr(void) {
         "                       [--garment G] [--dataset DIR] [--frames N] -o DIR\n\n"
         "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
         "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
-        "common:\n"
+        "`crease gdsr train --help` lists the training options.\n\n"
+        "run:\n"
         "  --dataset DIR        a `crease dataset` folder with --res low,high\n"
         "  --garment G          garment type (default tshirt; with --simulate also a variant\n"
-        "                       spec, as in `crease dataset`); train: G1,G2,... trains one\n"
-        "                       model on several garments of the dataset (up to 8)\n"
+        "                       spec, as in `crease dataset`)\n"
         "  --body B             body preset (default normal)\n"
         "  --quiet              no progress\n"
         "  --json               end with a JSON summary on stdout\n"
-        "train:\n"
-        "  --motions LIST       training clips (default: every motion of the dataset with a\n"
-        "                       finished low and high sequence of the garment, but\n"
-        "                       --val-motions)\n"
-        "  --epochs N           (default 20)\n"
-        "  --lr R               AdamW base rate (default 1e-4, the paper's), halved every\n"
-        "  --halve-every N      N epochs (default 50)\n"
-        "  --noise M            input noise on C, m (default 0.003)\n"
-        "  --w-coarse W --w-fine W --w-normal W   loss weights (default 1, 1, 0.01)\n"
-        "  --w-stretch W --w-shear W   Baraff-Witkin stretch and shear of the output, area\n"
-        "                       means of (|w_u|-1)^2+(|w_v|-1)^2 and (w_u.w_v)^2 (default 30, 30)\n"
-        "  --w-bend W           dihedral angles toward the reference's, mean k_e/2 dtheta^2\n"
-        "                       (default 0.1)\n"
-        "  --w-laplacian W      L1 of the uniform Laplacian of the error, m (default 1)\n"
-        "  --w-strain-l1 W      L1 of |w_u|, |w_v|, w_u.w_v against the reference's, mean\n"
-        "                       over triangles (Eq. 16-18, 21-23; default 0)\n"
-        "  --w-wrinkle W        L1 of a filter bank's responses to the output's and the\n"
-        "                       reference's UV normal maps (Eq. 20 without VGG; default 0)\n"
-        "  --wrinkle-side N     that normal map's side in texels (default 128)\n"
-        "  --wrinkle-patches N  Eq. 24: the loss is the mean over N random square patches of\n"
-        "                       the map a step (default 8, the paper's; 0: the whole chart)\n"
-        "  --wrinkle-patch-side N  their side in texels (default 32), each around a chart\n"
-        "                       texel drawn uniformly\n"
-        "  --lambda-c0 L --lambda-w0 L   Eq. 25's weights of the coarse and the fine terms\n"
-        "                       at the start (default 1, 1; the paper's 1.9, 0.1), moved\n"
-        "  --lambda-step S --lambda-every N   S toward 1 every N epochs (default 0.2, 10)\n"
-        "  --out-scale S        E's and A's outputs times S m (default 0.01; small = a gentle\n"
-        "                       start from upsampling)\n"
-        "  --val-motions LIST   held-out clips rolled out each epoch: log.jsonl's val_med_m\n"
-        "                       against val_upsampled_med_m\n"
-        "  --no-decoder         GDSR(-d): no decoder E, C^ = C\n"
-        "  --layer-edges auto|on|off  edges between low vertices of different garment layers\n"
-        "                       (connected components) closer than sigma_l, a third edge set\n"
-        "                       of H (default auto: on when the garment has two layers)\n"
-        "  --sigma-l M          their radius, m (default 0.02)\n"
-        "  --paper-sizes        latent 128, 6 steps, 128/512 features (default 64, 4, 32/32)\n"
-        "  --latent N --steps N --wire-width N   model sizes\n"
-        "  --seed S             (default 1)\n"
-        "  --resume             continue from OUT/checkpoint.safetensors; the model settings\n"
-        "                       (sizes, --out-scale, --seed, ...) must be the ones it was\n"
-        "                       trained with\n"
-        "  --checkpoint-every N epochs (default 5)\n"
-        "  -o OUT               model.safetensors, checkpoint.safetensors, log.jsonl\n"
-        "run:\n"
+
         "  --model F            a model.safetensors from gdsr train\n"
         "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
         "  --twin DIR           a twin dataset (crease dataset --twin, the same def): its high\n"
@@ -116,72 +73,59 @@ static int split(char *s, const char **out, int cap) {
     return n;
 }
 
+static const cli_doc train_doc = {
+    .usage = "crease gdsr train --dataset DIR [--motions M1,M2] -o OUT [options]",
+    .about = "Train gdsr (docs/gdsr.md) on the low/high pairs of a `crease dataset` folder: each\n"
+             "clip rolled out in frame order on the model's own corrections, AdamW, resumable.\n",
+    .after = "OUT gets model.safetensors, checkpoint.safetensors and log.jsonl (a line an epoch:\n"
+             "the loss and its terms, and with --val-motions val_med_m, val_upsampled_med_m).\n"};
+
 static int cmd_train(int argc, char **argv) {
     const char *dataset = NULL, *garment = "tshirt", *body = "normal", *motions = NULL;
-    const char *val = NULL, *layer_edges = NULL;
+    const char *val = NULL, *layer_edges = "auto";
     static const char *const layer_choices[] = {"auto", "on", "off", NULL};
-    float out_scale = 0, sigma_l = 0;
-    int quiet = 0, json = 0, nodec = 0, paper = 0, latent = 0, steps = -1, wirew = 0, seed = 1;
+    int quiet = 0, json = 0, nodec = 0, paper = 0, ntrain_keys = 0;
     cr_gdsr_train_def def = cr_gdsr_train_default_def();
+    /* --paper-sizes sets the sizes that --latent, --steps and --wire-width then change,
+     * wherever it stands */
+    for (int i = 1; i < argc && strcmp(argv[i], "--") != 0; i++)
+        if (strcmp(argv[i], "--paper-sizes") == 0) def.model = cr_gdsr_model_paper_def();
+    const cr_config_key *train_keys = cr_gdsr_train_def_keys(&ntrain_keys);
     const cli_opt opts[] = {
-        CLI_STR("--dataset", &dataset),
-        CLI_STR("--garment", &garment),
-        CLI_STR("--body", &body),
-        CLI_STR("--motions", &motions),
-        CLI_INT("--epochs", &def.epochs, 1, 100000),
-        CLI_FLOAT("--lr", &def.lr, 1e-8, 1),
-        CLI_INT("--halve-every", &def.lr_halve_every, 1, 100000),
-        CLI_FLOAT("--noise", &def.noise_m, 0, 0.1),
-        CLI_FLOAT("--w-coarse", &def.w_coarse, 0, 1e6),
-        CLI_FLOAT("--w-fine", &def.w_fine, 0, 1e6),
-        CLI_FLOAT("--w-normal", &def.w_normal, 0, 1e6),
-        CLI_FLOAT("--w-stretch", &def.w_stretch, 0, 1e6),
-        CLI_FLOAT("--w-shear", &def.w_shear, 0, 1e6),
-        CLI_FLOAT("--w-bend", &def.w_bend, 0, 1e6),
-        CLI_FLOAT("--w-laplacian", &def.w_laplacian, 0, 1e6),
-        CLI_FLOAT("--w-strain-l1", &def.w_strain_l1, 0, 1e6),
-        CLI_FLOAT("--w-wrinkle", &def.w_wrinkle, 0, 1e6),
-        CLI_INT("--wrinkle-side", &def.wrinkle_side, 8, 2048),
-        CLI_INT("--wrinkle-patches", &def.wrinkle_patches, 0, 1024),
-        CLI_INT("--wrinkle-patch-side", &def.wrinkle_patch_side, 1, 2048),
-        CLI_FLOAT("--lambda-c0", &def.lambda_c0, 1e-3, 100),
-        CLI_FLOAT("--lambda-w0", &def.lambda_w0, 1e-3, 100),
-        CLI_FLOAT("--lambda-step", &def.lambda_step, 0, 100),
-        CLI_INT("--lambda-every", &def.lambda_every, 1, 100000),
-        CLI_FLOAT("--out-scale", &out_scale, 1e-6, 10),
-        CLI_STR("--val-motions", &val),
-        CLI_FLAG("--no-decoder", &nodec),
-        CLI_CHOICE("--layer-edges", &layer_edges, layer_choices),
-        CLI_FLOAT("--sigma-l", &sigma_l, 1e-4, 1),
-        CLI_FLAG("--paper-sizes", &paper),
-        CLI_INT("--latent", &latent, 4, 1024),
-        CLI_INT("--steps", &steps, 0, 32),
-        CLI_INT("--wire-width", &wirew, 2, 256),
-        CLI_INT("--seed", &seed, 0, 1000000000),
-        CLI_FLAG("--resume", &def.resume),
-        CLI_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000),
-        CLI_OUTPUT(&def.out_dir),
-        CLI_FLAG("--quiet", &quiet),
-        CLI_FLAG("--json", &json),
+        {CLI_ROW_STR("--dataset", &dataset), .arg = "DIR",
+         .help = "a `crease dataset` folder made with --res low,high"},
+        {CLI_ROW_STR("--garment", &garment), .arg = "G",
+         .help = "garment type; G1,G2,... trains one model on several garments of the dataset "
+                 "(up to 8)"},
+        {CLI_ROW_STR("--body", &body), .arg = "B", .help = "body preset"},
+        {CLI_ROW_STR("--motions", &motions), .arg = "LIST",
+         .help = "training clips (default: every motion of the dataset with a finished low and "
+                 "high sequence of the garment, but --val-motions)"},
+        {CLI_ROW_STR("--val-motions", &val), .arg = "LIST",
+         .help = "held-out clips rolled out each epoch: log.jsonl's val_med_m against "
+                 "val_upsampled_med_m"},
+        CLI_KEYS(train_keys, ntrain_keys, &def),
+        {CLI_ROW_FLAG("--paper-sizes", &paper),
+         .help = "the paper's sizes: latent 128, 6 steps, 128/512 features (default 64, 4, "
+                 "32/32)"},
+        {CLI_ROW_FLAG("--no-decoder", &nodec), .help = "GDSR(-d): no decoder E, C^ = C"},
+        {CLI_ROW_CHOICE("--layer-edges", &layer_edges, layer_choices), .arg = "auto|on|off",
+         .help = "edges between low vertices of different garment layers (connected "
+                 "components) closer than --sigma-l, a third edge set of H (auto: on when the "
+                 "garment has two layers)"},
+        {CLI_ROW_STR("-o", &def.out_dir), .alias = "--output", .arg = "OUT",
+         .help = "the model folder"},
+        {CLI_ROW_FLAG("--quiet", &quiet), .help = "no progress"},
+        {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };
     int npos = 0;
-    int rc = cli_parse("gdsr train", argc, argv, opts, NULL, 0, &npos);
+    int rc = cli_parse_documented("gdsr train", &train_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!dataset) return cli_usage("gdsr train", "missing --dataset DIR");
     if (!def.out_dir) return cli_usage("gdsr train", "missing -o OUT");
-    if (paper) def.model = cr_gdsr_model_paper_def();
-    if (latent) def.model.latent = latent;
-    if (steps >= 0) def.model.steps = steps;
-    if (wirew) def.model.wire_width = wirew;
     def.model.use_decoder = !nodec;
-    if (layer_edges)
-        def.model.layer_edges = !strcmp(layer_edges, "on")    ? 1
-                                : !strcmp(layer_edges, "off") ? 0
-                                                              : -1;
-    if (sigma_l > 0) def.model.sigma_l = sigma_l;
-    def.model.seed = (uint64_t)seed;
-    if (out_scale > 0) def.model.out_scale = out_scale;
+    def.model.layer_edges = !strcmp(layer_edges, "on") ? 1 : !strcmp(layer_edges, "off") ? 0 : -1;
     def.quiet = quiet;
     /* --garment A,B,...: one model for several garments (cr_gdsr_train_many) */
     char gbuf[1024];

@@ -20,31 +20,7 @@ void help_swingar(void) {
            "SwinGar (paper 002): one network that animates loose garments it has never seen,\n"
            "from a spectral descriptor of the garment and the body's motion "
            "(docs/swingar_model.md).\n\n"
-           "train:\n"
-           "  --dataset DIR          a dataset written by `crease dataset`\n"
-           "  --epochs N             epochs (default 10)\n"
-           "  -o MODEL               the model, a resumable checkpoint written every epoch\n"
-           "  --resume MODEL         continue a checkpoint (its widths are used)\n"
-           "  --size S               paper (the paper's widths and heads, default), cpu (heads\n"
-           "                         4 / 4 / 3 / 8 for a 2-core machine) or tiny (for tests)\n"
-           "  --window K             frames predicted per sample (default 8)\n"
-           "  --batch B              samples per Adam step (default 4)\n"
-           "  --lr X                 Adam's rate, cosine-annealed to 0 (default 1e-3)\n"
-           "  --stall-epochs N       vertex loss alone until the vertex error improves by less\n"
-           "  --stall-rel X          than X over N epochs (default 0.02 over a tenth of the\n"
-           "                         epochs, at least 2, and at the latest after half of them;\n"
-           "                         the paper's 50 are a sliver of its run)\n"
-           "  --test-garments A,B    held out: garment types, motions and bodies; a sequence is\n"
-           "  --test-motions A,B     test when all its given axes are held out, train when none\n"
-           "  --test-bodies A,B      is, unused otherwise\n"
-           "  --no-descriptor        E_a sees zeros (the ablation without the global descriptor)\n"
-           "  --affinity A           geodesic (default, the paper's) or euclidean (ablation)\n"
-           "  --descriptor-z Z       furthest-point samples of the descriptor, and so its length\n"
-           "                         (default: the size's, paper and cpu 256, tiny 16; the\n"
-           "                         paper compares 128, 256 and 512)\n"
-           "  --seed N               initialisation and shuffling (default 1)\n"
-           "  --quiet                no progress bar\n"
-           "  --arena-mb N           per-step memory, MiB (default 1024)\n\n"
+           "`crease swingar train --help` lists the training options.\n\n"
            "run:\n"
            "  --model MODEL          a model written by `swingar train`\n"
            "  --garment G.obj        any garment mesh (UVs not needed), fitted to the body first\n"
@@ -70,6 +46,12 @@ void help_swingar(void) {
 static const char *const sizes[] = {"paper", "cpu", "tiny", NULL};
 static const char *const affinities[] = {"geodesic", "euclidean", NULL};
 
+static const cli_doc train_doc = {
+    .usage = "crease swingar train --dataset DIR [--epochs N] -o MODEL [options]",
+    .about = "Train SwinGar (paper 002; docs/swingar_model.md): one network that animates loose\n"
+             "garments it has never seen, from a spectral descriptor of the garment and the\n"
+             "body's motion.\n"};
+
 static int cmd_train(int argc, char **argv) {
     static cli_list held[3];
     for (int i = 0; i < 3; i++)
@@ -79,29 +61,50 @@ static int cmd_train(int argc, char **argv) {
     const char *affinity = "geodesic";
     int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024, desc_z = 0;
     const cli_opt opts[] = {
-        CLI_STR("--dataset", &dataset),
-        CLI_OUTPUT(&out),
-        CLI_STR("--resume", &resume),
-        CLI_INT("--epochs", &t.epochs, 1, 1000000),
-        CLI_CHOICE("--size", &size, sizes),
-        CLI_INT("--window", &t.window, 1, 60),
-        CLI_INT("--batch", &t.batch, 1, 100000),
-        CLI_FLOAT("--lr", &t.lr, 1e-8, 1),
-        CLI_INT("--stall-epochs", &t.stall_epochs, 0, 1000000),
-        CLI_FLOAT("--stall-rel", &t.stall_rel, 0, 1),
-        CLI_CUSTOM("--test-garments", cli_parse_list, &held[0], 1),
-        CLI_CUSTOM("--test-motions", cli_parse_list, &held[1], 1),
-        CLI_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1),
-        CLI_FLAG("--no-descriptor", &no_desc),
-        CLI_CHOICE("--affinity", &affinity, affinities),
-        CLI_INT("--descriptor-z", &desc_z, 2, 4096),
-        CLI_INT("--seed", &seed, 0, 2147483647),
-        CLI_FLAG("--quiet", &t.quiet),
-        CLI_INT("--arena-mb", &arena_mb, 16, 1 << 20),
-        CLI_FLAG("--json", &json),
+        {CLI_ROW_STR("--dataset", &dataset), .arg = "DIR",
+         .help = "a dataset written by `crease dataset`"},
+        {CLI_ROW_STR("-o", &out), .alias = "--output", .arg = "MODEL",
+         .help = "the model, a resumable checkpoint written every epoch"},
+        {CLI_ROW_STR("--resume", &resume), .arg = "MODEL",
+         .help = "continue a checkpoint (its widths and descriptor are used)"},
+        {CLI_ROW_INT("--epochs", &t.epochs, 1, 1000000), .arg = "N", .help = "epochs"},
+        {CLI_ROW_CHOICE("--size", &size, sizes), .arg = "S",
+         .help = "paper (the paper's widths and heads), cpu (heads 4 / 4 / 3 / 8 for a 2-core "
+                 "machine) or tiny (for tests)"},
+        {CLI_ROW_INT("--window", &t.window, 1, 60), .arg = "K",
+         .help = "frames predicted per sample"},
+        {CLI_ROW_INT("--batch", &t.batch, 1, 100000), .arg = "B", .help = "samples per Adam step"},
+        {CLI_ROW_FLOAT("--lr", &t.lr, 1e-8, 1), .arg = "X",
+         .help = "Adam's rate, cosine-annealed to 0"},
+        {CLI_ROW_INT("--stall-epochs", &t.stall_epochs, 0, 1000000), .arg = "N",
+         .help = "vertex loss alone until the vertex error improves by less than --stall-rel "
+                 "over N epochs (default a tenth of the epochs, at least 2, and at the latest "
+                 "after half of them; the paper's 50 are a sliver of its run)"},
+        {CLI_ROW_FLOAT("--stall-rel", &t.stall_rel, 0, 1), .arg = "X",
+         .help = "that relative improvement"},
+        {CLI_ROW_CUSTOM("--test-garments", cli_parse_list, &held[0], 1), .arg = "A,B",
+         .help = "held out: garment types, motions and bodies; a sequence is test when all its "
+                 "given axes are held out, train when none is, unused otherwise"},
+        {CLI_ROW_CUSTOM("--test-motions", cli_parse_list, &held[1], 1), .arg = "A,B",
+         .help = "held-out motions"},
+        {CLI_ROW_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1), .arg = "A,B",
+         .help = "held-out bodies"},
+        {CLI_ROW_FLAG("--no-descriptor", &no_desc),
+         .help = "E_a sees zeros (the ablation without the global descriptor)"},
+        {CLI_ROW_CHOICE("--affinity", &affinity, affinities), .arg = "A",
+         .help = "geodesic (the paper's) or euclidean (ablation)"},
+        {CLI_ROW_INT("--descriptor-z", &desc_z, 2, 4096), .arg = "Z",
+         .help = "furthest-point samples of the descriptor, and so its length (default: the "
+                 "size's, paper and cpu 256, tiny 16; the paper compares 128, 256 and 512)"},
+        {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "N",
+         .help = "initialisation and shuffling"},
+        {CLI_ROW_FLAG("--quiet", &t.quiet), .help = "no progress bar"},
+        {CLI_ROW_INT("--arena-mb", &arena_mb, 16, 1 << 20), .arg = "N",
+         .help = "per-step memory, MiB"},
+        {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };
-    int rc = cli_parse("swingar train", argc, argv, opts, NULL, 0, &npos);
+    int rc = cli_parse_documented("swingar train", &train_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!dataset) return cli_usage("swingar train", "missing --dataset DIR");
     if (!out) return cli_usage("swingar train", "missing -o MODEL");

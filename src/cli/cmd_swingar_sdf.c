@@ -16,26 +16,7 @@ void help_swingar_sdf(void) {
            "BVH's exact signed distance; `measure` compares it with the exact distance on\n"
            "frames between the training ones, and runs eq. 10 collision removal with both on a\n"
            "garment skinned to each frame. S < 0 inside the body (see docs/swingar_sdf.md).\n\n"
-           "train options:\n"
-           "  -o FILE              model and resumable checkpoint (safetensors)\n"
-           "  --motions LIST       clips or motion files, comma-separated (default walk)\n"
-           "  --shapes LIST        mannequin presets, comma-separated (default normal)\n"
-           "  --width W            layer width (default 512)\n"
-           "  --articulated N      0: the paper's position input (default); joint-frame inputs\n"
-           "                       (not the paper's): 1 all 22 frames, 2 weighted by bone\n"
-           "                       nearness (docs/swingar_sdf.md)\n"
-           "  --tau T              bone-weight temperature of --articulated 2 (default 0.1)\n"
-           "  --steps N            Adam steps, cosine schedule length (default 2000)\n"
-           "  --stop-at N          stop after N steps (resume later; default: run all)\n"
-           "  --batch B            points per step (default 2048)\n"
-           "  --lr R               peak learning rate (default 1e-3)\n"
-           "  --frames N           frames per procedural clip (default 90)\n"
-           "  --stride K           train on every K-th frame (default 6)\n"
-           "  --surface N, --near N, --space N   samples per pose (default 4000, 4000, 1000)\n"
-           "  --resolution N       mannequin resolution (default 110)\n"
-           "  --checkpoint-every N steps (default 200)\n"
-           "  --resume             continue from -o FILE when it exists\n"
-           "  --seed S             initialisation, samples and batches (default 1)\n\n"
+           "`crease swingar-sdf train --help` lists the training options.\n\n"
            "measure options:\n"
            "  --model FILE         a trained model (required)\n"
            "  --motions LIST       test motions (default walk)\n"
@@ -56,35 +37,58 @@ void help_swingar_sdf(void) {
            "both: --quiet, --json (a summary on stdout)\n");
 }
 
+static const cli_doc train_doc = {
+    .usage = "crease swingar-sdf train -o SDF.safetensors [options]",
+    .about = "Train SwinGar's body SDF network (eight 512-wide Softplus layers, position and\n"
+             "body branches, eq. 8-9 loss with mu_e 0.15) on posed mannequins against the BVH's\n"
+             "exact signed distance (docs/swingar_sdf.md). S < 0 inside the body.\n"};
+
 static int train(int argc, char **argv) {
     cr_swingar_sdf_train_def d = cr_swingar_sdf_train_default_def();
     int json = 0, width = d.model.width, steps = (int)d.steps, stop = 0, seed = 1, every = 200;
     int npos = 0;
     const cli_opt opts[] = {
-        CLI_OUTPUT(&d.checkpoint),
-        CLI_STR("--motions", &d.motions),
-        CLI_STR("--shapes", &d.shapes),
-        CLI_INT("--width", &width, 2, 4096),
-        CLI_INT("--steps", &steps, 1, 100000000),
-        CLI_INT("--stop-at", &stop, 0, 100000000),
-        CLI_INT("--batch", &d.batch, 1, 1 << 20),
-        CLI_FLOAT("--lr", &d.lr, 1e-9, 10),
-        CLI_INT("--frames", &d.clip_frames, 1, 100000),
-        CLI_INT("--stride", &d.frame_stride, 1, 100000),
-        CLI_INT("--surface", &d.samples_surface, 0, 10000000),
-        CLI_INT("--near", &d.samples_near, 0, 10000000),
-        CLI_INT("--space", &d.samples_space, 0, 10000000),
-        CLI_INT("--resolution", &d.body_resolution, 32, 512),
-        CLI_INT("--checkpoint-every", &every, 0, 100000000),
-        CLI_INT("--seed", &seed, 0, 2147483647),
-        CLI_INT("--articulated", &d.model.articulated, 0, 2),
-        CLI_FLOAT("--tau", &d.model.tau, 1e-4, 10),
-        CLI_FLAG("--resume", &d.resume),
-        CLI_FLAG("--quiet", &d.quiet),
-        CLI_FLAG("--json", &json),
+        {CLI_ROW_STR("-o", &d.checkpoint), .alias = "--output", .arg = "FILE",
+         .help = "model and resumable checkpoint (safetensors)"},
+        {CLI_ROW_STR("--motions", &d.motions), .arg = "LIST",
+         .help = "clips or motion files, comma-separated"},
+        {CLI_ROW_STR("--shapes", &d.shapes), .arg = "LIST",
+         .help = "mannequin presets, comma-separated"},
+        {CLI_ROW_INT("--width", &width, 2, 4096), .arg = "W", .help = "layer width"},
+        {CLI_ROW_INT("--articulated", &d.model.articulated, 0, 2), .arg = "N",
+         .help = "0: the paper's position input; joint-frame inputs (not the paper's): 1 all 22 "
+                 "frames, 2 weighted by bone nearness (docs/swingar_sdf.md)"},
+        {CLI_ROW_FLOAT("--tau", &d.model.tau, 1e-4, 10), .arg = "T",
+         .help = "bone-weight temperature of --articulated 2"},
+        {CLI_ROW_INT("--steps", &steps, 1, 100000000), .arg = "N",
+         .help = "Adam steps, cosine schedule length"},
+        {CLI_ROW_INT("--stop-at", &stop, 0, 100000000), .arg = "N",
+         .help = "stop after N steps (resume later; default: run all)"},
+        {CLI_ROW_INT("--batch", &d.batch, 1, 1 << 20), .arg = "B", .help = "points per step"},
+        {CLI_ROW_FLOAT("--lr", &d.lr, 1e-9, 10), .arg = "R", .help = "peak learning rate"},
+        {CLI_ROW_INT("--frames", &d.clip_frames, 1, 100000), .arg = "N",
+         .help = "frames per procedural clip"},
+        {CLI_ROW_INT("--stride", &d.frame_stride, 1, 100000), .arg = "K",
+         .help = "train on every K-th frame"},
+        {CLI_ROW_INT("--surface", &d.samples_surface, 0, 10000000), .arg = "N",
+         .help = "samples per pose on the surface"},
+        {CLI_ROW_INT("--near", &d.samples_near, 0, 10000000), .arg = "N",
+         .help = "samples per pose near it"},
+        {CLI_ROW_INT("--space", &d.samples_space, 0, 10000000), .arg = "N",
+         .help = "samples per pose in the box around the body"},
+        {CLI_ROW_INT("--resolution", &d.body_resolution, 32, 512), .arg = "N",
+         .help = "mannequin resolution"},
+        {CLI_ROW_INT("--checkpoint-every", &every, 0, 100000000), .arg = "N",
+         .help = "steps between checkpoints"},
+        {CLI_ROW_FLAG("--resume", &d.resume), .help = "continue from -o FILE when it exists"},
+        {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "S",
+         .help = "initialisation, samples and batches"},
+        {CLI_ROW_FLAG("--quiet", &d.quiet), .help = "no progress"},
+        {CLI_ROW_FLAG("--json", &json), .help = "a summary on stdout"},
         CLI_END,
     };
-    int rc = cli_parse("swingar-sdf train", argc, argv, opts, NULL, 0, &npos);
+    int rc =
+        cli_parse_documented("swingar-sdf train", &train_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!d.checkpoint) return cli_usage("swingar-sdf train", "missing -o FILE");
     d.model.width = width;

@@ -103,13 +103,13 @@ typedef struct material_json {
 } material_json;
 
 #define KEY_D(field, lo, hi, help)                                                                 \
-    { #field, CR_CFG_DOUBLE, offsetof(material_json, m.field), 0, lo, hi, help }
+    { #field, CR_CFG_DOUBLE, offsetof(material_json, m.field), 0, lo, hi, help, NULL, NULL }
 
 static const cr_config_key KEYS[] = {
     {"name", CR_CFG_STRING, offsetof(material_json, m.name), sizeof(((cr_material *)0)->name), 1, 0,
-     "label"},
+     "label", NULL, NULL},
     {"membrane", CR_CFG_STRING, offsetof(material_json, membrane),
-     sizeof(((material_json *)0)->membrane), 1, 0, "stvk | baraff_witkin"},
+     sizeof(((material_json *)0)->membrane), 1, 0, "stvk | baraff_witkin", NULL, NULL},
     KEY_D(density, 0.0, 1e3, "kg/m^2"),
     KEY_D(lame_mu, 0.0, 1e12, "Pa*m"),
     KEY_D(lame_lambda, 0.0, 1e12, "Pa*m"),

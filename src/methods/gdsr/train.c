@@ -12,6 +12,7 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,9 +36,9 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .w_shear = 30.0f,
                            .w_bend = 0.1f,
                            .w_laplacian = 1.0f,
-                           .wrinkle_side = 128,
-                           .wrinkle_patches = 8,
-                           .wrinkle_patch_side = 32,
+                           .experimental.wrinkle_side = 128,
+                           .experimental.wrinkle_patches = 8,
+                           .experimental.wrinkle_patch_side = 32,
                            .lambda_c0 = 1.0f,
                            .lambda_w0 = 1.0f,
                            .lambda_step = 0.2f,
@@ -45,6 +46,70 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
                            .checkpoint_every = 5,
                            .cookie = CR_GDSR_COOKIE};
     return d;
+}
+
+/* The train def's fields: their ranges (checked by check_train), and the options of
+ * `crease gdsr train` with their help (CLI_KEYS). The model's sizes and seed are here as
+ * options; model.c's table is what a model file stores. */
+#define TK(field, type, lo, hi, flag, arg, help)                                                   \
+    { #field, type, offsetof(cr_gdsr_train_def, field), 0, lo, hi, help, flag, arg }
+static const cr_config_key train_keys[] = {
+    TK(epochs, CR_CFG_INT, 1, 100000, "--epochs", "N", "passes over every training frame"),
+    TK(lr, CR_CFG_FLOAT, 1e-8, 1, "--lr", "R",
+       "AdamW base rate (the paper's), halved every --halve-every epochs"),
+    TK(lr_halve_every, CR_CFG_INT, 1, 100000, "--halve-every", "N", "epochs between halvings"),
+    TK(weight_decay, CR_CFG_FLOAT, 0, 1, NULL, NULL, NULL),
+    TK(noise_m, CR_CFG_FLOAT, 0, 0.1, "--noise", "M", "Gaussian noise on the coarse input C, m"),
+    TK(w_coarse, CR_CFG_FLOAT, 0, 1e6, "--w-coarse", "W", "weight of the L1 of C^ against C*"),
+    TK(w_fine, CR_CFG_FLOAT, 0, 1e6, "--w-fine", "W",
+       "weight of the L1 of the high garment against the reference"),
+    TK(w_normal, CR_CFG_FLOAT, 0, 1e6, "--w-normal", "W",
+       "weight of the L1 of the high garment's face normals"),
+    TK(w_stretch, CR_CFG_FLOAT, 0, 1e6, "--w-stretch", "W",
+       "Baraff-Witkin stretch of the output, area mean of (|w_u|-1)^2+(|w_v|-1)^2"),
+    TK(w_shear, CR_CFG_FLOAT, 0, 1e6, "--w-shear", "W",
+       "Baraff-Witkin shear of the output, area mean of (w_u.w_v)^2"),
+    TK(w_bend, CR_CFG_FLOAT, 0, 1e6, "--w-bend", "W",
+       "dihedral angles toward the reference's, mean k_e/2 dtheta^2"),
+    TK(w_laplacian, CR_CFG_FLOAT, 0, 1e6, "--w-laplacian", "W",
+       "L1 of the uniform Laplacian of the error, m"),
+    TK(experimental.w_strain_l1, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(experimental.w_wrinkle, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(experimental.wrinkle_side, CR_CFG_INT, 8, 2048, NULL, NULL, NULL),
+    TK(experimental.wrinkle_patches, CR_CFG_INT, 0, 1024, NULL, NULL, NULL),
+    TK(experimental.wrinkle_patch_side, CR_CFG_INT, 1, 2048, NULL, NULL, NULL),
+    TK(experimental.w_coarse_normal, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(experimental.w_coarse_smooth, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(experimental.w_coarse_bend, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(experimental.w_coarse_strain, CR_CFG_FLOAT, 0, 1e6, NULL, NULL, NULL),
+    TK(lambda_c0, CR_CFG_FLOAT, 1e-3, 100, "--lambda-c0", "L",
+       "Eq. 25's weight of the coarse term at the start (the paper's 1.9)"),
+    TK(lambda_w0, CR_CFG_FLOAT, 1e-3, 100, "--lambda-w0", "L",
+       "Eq. 25's weight of the fine terms at the start (the paper's 0.1)"),
+    TK(lambda_step, CR_CFG_FLOAT, 0, 100, "--lambda-step", "S",
+       "both move S toward 1 every --lambda-every epochs"),
+    TK(lambda_every, CR_CFG_INT, 1, 100000, "--lambda-every", "N", "epochs between those steps"),
+    TK(model.latent, CR_CFG_INT, 4, 1024, "--latent", "N", "model size: the latent width"),
+    TK(model.steps, CR_CFG_INT, 0, 32, "--steps", "N", "model size: message-passing steps of H"),
+    TK(model.wire_width, CR_CFG_INT, 2, CR_WIRE_MAX_WIDTH, "--wire-width", "N",
+       "model size: WIRE's width"),
+    TK(model.out_scale, CR_CFG_FLOAT, 1e-6, 10, "--out-scale", "S",
+       "E's and A's outputs times S m (small: a gentle start from upsampling)"),
+    TK(model.sigma_l, CR_CFG_FLOAT, 1e-4, 1, "--sigma-l", "M", "the layer edges' radius, m"),
+    TK(model.seed, CR_CFG_U64, 0, 9007199254740992.0, "--seed", "S",
+       "initial weights, noise and shuffles"),
+    TK(checkpoint_every, CR_CFG_INT, 0, 100000, "--checkpoint-every", "N",
+       "epochs between checkpoints (0: at the end)"),
+    TK(resume, CR_CFG_BOOL, 0, 1, "--resume", NULL,
+       "continue from OUT/checkpoint.safetensors; the model settings (sizes, --out-scale, "
+       "--seed, ...) must be the ones it was trained with"),
+};
+#undef TK
+enum { NTRAIN_KEYS = sizeof train_keys / sizeof train_keys[0] };
+
+const cr_config_key *cr_gdsr_train_def_keys(int *n) {
+    *n = NTRAIN_KEYS;
+    return train_keys;
 }
 
 static float toward_one(float v0, float step, int k) {
@@ -254,8 +319,8 @@ static cr_status garment_train_init(garment_train *gt, const cr_gdsr_data *d,
          def->experimental.w_coarse_strain > 0) &&
         (st = cr_gdsr_reg_create(low, &gt->creg, err)) != CR_OK)
         goto fail;
-    if (def->w_wrinkle > 0 &&
-        (st = cr_gdsr_wrinkle_create(high, def->wrinkle_side, &gt->wr, err)) != CR_OK)
+    if (def->experimental.w_wrinkle > 0 &&
+        (st = cr_gdsr_wrinkle_create(high, def->experimental.wrinkle_side, &gt->wr, err)) != CR_OK)
         goto fail;
     gt->node = malloc((size_t)low->nv * CR_GDSR_NODE_FEATURES * sizeof(float));
     gt->e0 = malloc((size_t)gt->g.ne[0] * CR_GDSR_EDGE_FEATURES * sizeof(float));
@@ -303,28 +368,7 @@ static cr_status check_train(const cr_gdsr_train_def *def, const cr_gdsr_data *c
     if (ngarments < 1 || ngarments > CR_GDSR_MAX_GARMENTS)
         return CR_FAIL(err, CR_ERR_INVALID, "gdsr train: %d garments (1..%d)", ngarments,
                        CR_GDSR_MAX_GARMENTS);
-    if (def->epochs < 1 || !(def->lr > 0) || def->lr_halve_every < 1 || !(def->noise_m >= 0))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: epochs >= 1, lr > 0, lr_halve_every >= 1, noise_m >= 0");
-    if (!(def->w_stretch >= 0 && def->w_shear >= 0 && def->w_bend >= 0 && def->w_laplacian >= 0 &&
-          def->w_strain_l1 >= 0 && def->w_wrinkle >= 0))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: w_stretch, w_shear, w_bend, w_laplacian, w_strain_l1, "
-                       "w_wrinkle must be >= 0");
-    if (!(def->experimental.w_coarse_normal >= 0 && def->experimental.w_coarse_smooth >= 0 &&
-          def->experimental.w_coarse_bend >= 0 && def->experimental.w_coarse_strain >= 0))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: w_coarse_normal, w_coarse_smooth, w_coarse_bend, "
-                       "w_coarse_strain must be >= 0");
-    if (def->wrinkle_patches < 0 || def->wrinkle_patches > 1024 || def->wrinkle_patch_side < 1)
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: wrinkle_patches %d (0..1024), wrinkle_patch_side %d (>= 1)",
-                       def->wrinkle_patches, def->wrinkle_patch_side);
-    if (!(def->lambda_c0 > 0 && def->lambda_w0 > 0 && def->lambda_step >= 0 &&
-          def->lambda_every >= 1))
-        return CR_FAIL(err, CR_ERR_INVALID,
-                       "gdsr train def: lambda_c0, lambda_w0 > 0, lambda_step >= 0, "
-                       "lambda_every >= 1");
+    CR_TRY(cr_config_check(train_keys, NTRAIN_KEYS, def, "gdsr train def", err));
     *steps_per_epoch = 0, *any_layers = 0;
     for (int k = 0; k < ngarments; k++) {
         const cr_gdsr_data *d = data[k];
@@ -396,17 +440,17 @@ static cr_status train_frame(train_run *r, garment_train *gt, int c, int32_t t, 
     all[1] = cr_nn_mean(ctx, cr_nn_abs(ctx, cr_nn_sub(ctx, X, Hs)));
     all[2] = normal_l1(ctx, X, Hs, high, gt->hcols);
     cr_gdsr_reg_terms(ctx, &gt->reg, X, ht, &all[3], &all[4], &all[5], &all[6]);
-    if (def->w_strain_l1 > 0) all[7] = cr_gdsr_reg_strain_l1(ctx, &gt->reg, X, ht);
-    if (def->w_wrinkle > 0) {
+    if (def->experimental.w_strain_l1 > 0) all[7] = cr_gdsr_reg_strain_l1(ctx, &gt->reg, X, ht);
+    if (def->experimental.w_wrinkle > 0) {
         /* Eq. 24's random patches, drawn from their own counter-based stream
            per step (a pure function of seed and step: resume stays exact) */
         cr_rng prng = cr_rng_make(def->model.seed ^ 0x7061746368ull,
                                   (uint64_t)(ep * r->steps_per_epoch + r->n));
         if (r->patches)
-            cr_gdsr_wrinkle_draw_patches(&gt->wr, def->wrinkle_patches, def->wrinkle_patch_side,
-                                         &prng, r->patches);
+            cr_gdsr_wrinkle_draw_patches(&gt->wr, def->experimental.wrinkle_patches,
+                                         def->experimental.wrinkle_patch_side, &prng, r->patches);
         all[8] = cr_gdsr_wrinkle_loss(ctx, &gt->wr, X, ht, r->patches,
-                                      r->patches ? def->wrinkle_patches : 0,
+                                      r->patches ? def->experimental.wrinkle_patches : 0,
                                       def->experimental.wrinkle_energy);
     }
     /* Eq. 13 and 15-18 on C^ against C* */
@@ -424,8 +468,8 @@ static cr_status train_frame(train_run *r, garment_train *gt, int c, int32_t t, 
                                 lam_w * def->w_shear,
                                 lam_w * def->w_bend,
                                 lam_w * def->w_laplacian,
-                                lam_w * def->w_strain_l1,
-                                lam_w * def->w_wrinkle,
+                                lam_w * def->experimental.w_strain_l1,
+                                lam_w * def->experimental.w_wrinkle,
                                 lam_c * def->experimental.w_coarse_normal,
                                 lam_c * def->experimental.w_coarse_smooth,
                                 lam_c * def->experimental.w_coarse_bend,
@@ -500,8 +544,8 @@ static cr_status start_run(train_run *r, const cr_gdsr_data *const *data, int ng
     CR_TRY(cr_nn_ctx_create(&cd, &r->ctx, err));
     for (int k = 0; k < ngarments; k++)
         CR_TRY(garment_train_init(&r->gts[k], data[k], def, err));
-    if (def->w_wrinkle > 0 && def->wrinkle_patches > 0 &&
-        !(r->patches = malloc((size_t)def->wrinkle_patches * sizeof *r->patches)))
+    if (def->experimental.w_wrinkle > 0 && def->experimental.wrinkle_patches > 0 &&
+        !(r->patches = malloc((size_t)def->experimental.wrinkle_patches * sizeof *r->patches)))
         return CR_FAIL(err, CR_ERR_MEMORY, "gdsr: out of memory");
     *epoch0 = 0;
     r->rng = cr_rng_make(def->model.seed, 7);

@@ -23,9 +23,9 @@
  * config holds, read back with unknown keys refused by name; ranges are
  * cr_swingar_def_validate's. The norm enum is stored as its int value. */
 #define DK_I(f, n)                                                                                 \
-    { n, CR_CFG_INT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL }
+    { n, CR_CFG_INT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL, NULL, NULL }
 #define DK_F(f)                                                                                    \
-    { #f, CR_CFG_FLOAT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL }
+    { #f, CR_CFG_FLOAT, offsetof(cr_swingar_def, f), 0, 1, 0, NULL, NULL, NULL }
 static const cr_config_key def_keys[] = {
     DK_I(descriptor_len, "descriptor_len"),
     DK_I(garment_width[0], "garment_width0"),
