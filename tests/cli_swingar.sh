@@ -26,7 +26,8 @@ check "train fields" json_has "$tmp/t.json" params epochs first_loss last_loss t
 check "one train, one test sequence" grep -q '"train_sequences":1,"test_sequences":1' "$tmp/t.json"
 check "resume" bash -c "'$crease' swingar train --dataset '$tmp/data' --epochs $last --window 4 \
   --batch 2 --lr 1e-2 --stall-epochs 1000 --test-motions twist --resume '$tmp/m.safetensors' \
-  -o '$tmp/m.safetensors' --quiet --json | grep -q '\"epochs\":$last,'"
+  -o '$tmp/m.safetensors' --quiet --json > '$tmp/t2.json'"
+check "resumed to $last epochs" grep -q "\"epochs\":$last," "$tmp/t2.json"
 # an edited checkpoint, its error history as numbers (strings are written): refused by key
 st_meta_sub "$tmp/m.safetensors" "$tmp/hist.safetensors" config '"([0-9][-0-9.e+]*)"' '\1'
 expect_exit 1 "hist.safetensors: training state 'vert_err_history' entry 0" swingar train \
@@ -58,6 +59,33 @@ echo "cli_swingar: E_dist on the training clip: model $model cm, skinned $skinne
 check "E_dist measured" test -n "$model" -a -n "$skinned"
 [[ $quick == 0 ]] && check "model closer to the simulation than skinning" \
   awk -v a="$model" -v b="$skinned" 'BEGIN { exit !(a != "" && b != "" && a < b) }'
+# swingar measure on the dataset's own garment, weights and motion: raw, on the test clip,
+# the E_dist training reports (test_vert_m, m); the skinned baseline near swingar run
+# --skinned + crease eval's, which fits the garment to the body again (its own skinning
+# weights: within 15 %); the twin (the walk re-simulated from a start moved 0.1 mm) far below
+# the baseline; the share of skinning's error removed 1 - ratio
+check "twin dataset" "$crease" dataset --garments dress --motions walk --low-vertices 500 \
+  --frames 12 --twin -o "$tmp/twin" --quiet
+check "measure" bash -c "'$crease' swingar measure --models '$tmp/m.safetensors' --dataset \
+  '$tmp/data' --twin '$tmp/twin' --test-motions walk -o '$tmp/meas' --json > '$tmp/m.json'"
+check "measure fields" json_has "$tmp/m.json" e_dist_cm skinned_e_dist_cm removed twin_e_dist_cm \
+  inside_after
+check "measure table" test -s "$tmp/meas/table_dress_low_normal_walk.json"
+mval() { grep -o "\"$2\":[-0-9.eE+]*" "$1" | tail -n 1 | cut -d: -f2; }
+near() { awk -v a="$1" -v b="$2" -v r="$3" 'BEGIN { exit !(a != "" && b != "" && (a - b) ^ 2 < (r * b) ^ 2) }'; }
+check "measure --raw" bash -c "'$crease' swingar measure --models '$tmp/m.safetensors' --dataset \
+  '$tmp/data' --test-motions twist --raw -o '$tmp/measr' --json > '$tmp/mr.json'"
+check "measure --raw: $(mval "$tmp/mr.json" e_dist_cm) cm, training's test E_dist" \
+  near "$(mval "$tmp/mr.json" e_dist_cm)" "$(awk -v v="$(mval "$tmp/t2.json" test_vert_m)" 'BEGIN { print 100 * v }')" 1e-4
+check "measure: skinned $(mval "$tmp/m.json" skinned_e_dist_cm) cm near run + eval's $skinned" \
+  near "$(mval "$tmp/m.json" skinned_e_dist_cm)" "$skinned" 0.15
+check "measure: the twin below half the skinned garment" awk -v t="$(mval "$tmp/m.json" twin_e_dist_cm)" \
+  -v s="$(mval "$tmp/m.json" skinned_e_dist_cm)" 'BEGIN { exit !(t != "" && t < 0.5 * s) }'
+check "measure: removed is 1 - model/skinned" awk -v r="$(mval "$tmp/m.json" removed)" \
+  -v a="$(mval "$tmp/m.json" e_dist_cm)" -v b="$(mval "$tmp/m.json" skinned_e_dist_cm)" \
+  'BEGIN { d = r - (1 - a / b); exit !(d * d < 1e-12) }'
+expect_exit 1 "no twin of sequence dress_low_normal_twist" swingar measure --models \
+  "$tmp/m.safetensors" --dataset "$tmp/data" --twin "$tmp/twin" -o "$tmp/meas2"
 check "descriptor z" bash -c "'$crease' swingar train --dataset '$tmp/data' --size tiny --epochs 1 \
   --window 4 --batch 2 --test-motions twist --descriptor-z 32 -o '$tmp/z.safetensors' --quiet \
   --json | grep -q '\"descriptor_z\":32,'"
@@ -68,7 +96,7 @@ expect_exit 1 "samples = 4000" swingar train --dataset "$tmp/data" --size tiny -
 expect_exit 1 "Is a directory" swingar run --model "$tmp" --garment "$g" --motion walk \
   -o "$tmp/bad"
 expect_exit 2 "missing --dataset" swingar train -o "$tmp/x.safetensors"
-expect_exit 2 "train or run" swingar fly
+expect_exit 2 "train, run or measure" swingar fly
 expect_exit 1 "nothere" swingar train --dataset "$tmp/nothere" -o "$tmp/x.safetensors"
 expect_exit 1 "dress_low.obj" swingar run --model "$g" --garment "$g" --motion walk -o "$tmp/bad"
 expect_exit 2 "unknown option" swingar run --model "$tmp/m.safetensors" --garment "$g" \

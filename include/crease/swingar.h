@@ -323,6 +323,43 @@ typedef struct cr_swingar_run_report {
  * be NULL. */
 cr_status cr_swingar_run(const cr_swingar_run_def *def, cr_swingar_run_report *out, cr_error *err);
 
+/* `crease swingar measure` (src/methods/swingar/measure.c): trained models, one file
+ * per seed of one recipe, on the sequences of a test dataset against its simulated
+ * reference through crease eval (every metric; E_dist the paper's), beside the garment
+ * skinned by its own weights (the baseline; the share of its error removed) and the twin
+ * (a `crease dataset --twin` of the same def: the floor). The prediction is `swingar
+ * run`'s: collisions removed (exact distance) unless raw. def->print gets a table per
+ * sequence and the summary; out_dir gets table_<sequence>.json (cr_eval_table_json) and
+ * summary.json. */
+enum { CR_SWINGAR_MEASURE_MAX_SEEDS = 8 };
+typedef struct cr_swingar_measure_def {
+    const char *const *models; /* model files; 1 to CR_SWINGAR_MEASURE_MAX_SEEDS */
+    int nmodels;
+    const char *dataset; /* the test dataset (a `crease dataset` folder); required */
+    const char *twin;    /* its twin dataset, or NULL */
+    /* held-out axes as cr_swingar_split: the sequences measured are the test ones; all
+     * empty (default): every sequence of the dataset */
+    const char *const *garments, *const *motions, *const *bodies;
+    int ngarments, nmotions, nbodies;
+    int raw;             /* 1: the network's output as it is (no collision removal) */
+    const char *out_dir; /* required */
+    FILE *print;         /* the tables as markdown (NULL: none) */
+    uint32_t cookie;
+} cr_swingar_measure_def;
+cr_swingar_measure_def cr_swingar_measure_default_def(void);
+typedef struct cr_swingar_measure_report {
+    int32_t sequences;
+    double model_cm, model_cm_spread; /* E_dist over the sequences: mean, spread over seeds */
+    double skinned_cm;                /* the baseline's */
+    double removed, removed_spread;   /* share of the baseline's E_dist removed */
+    double twin_cm;                   /* NAN without a twin */
+    double inside_after;              /* largest share of vertices inside on a frame after the
+                                         removal (NAN when raw) */
+} cr_swingar_measure_report;
+/* rep may be NULL. Fails naming a model, the dataset or a sequence without its twin. */
+cr_status cr_swingar_measure(const cr_swingar_measure_def *def, cr_swingar_measure_report *rep,
+                             cr_error *err);
+
 /* What a batched prediction measured. */
 typedef struct cr_swingar_predict_stats {
     double encode_seconds;   /* the runtime's creation: the garment's encoding (E_g, E_a, the

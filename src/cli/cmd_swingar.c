@@ -16,11 +16,13 @@
 
 void help_swingar(void) {
     printf("usage: crease swingar train --dataset DIR [--epochs N] -o MODEL [options]\n"
-           "       crease swingar run --model MODEL --garment G.obj --motion M -o OUT [options]\n\n"
+           "       crease swingar run --model MODEL --garment G.obj --motion M -o OUT [options]\n"
+           "       crease swingar measure --models M1,M2,... --dataset TEST -o OUT [options]\n\n"
            "SwinGar (paper 002): one network that animates loose garments it has never seen,\n"
            "from a spectral descriptor of the garment and the body's motion "
            "(docs/swingar_model.md).\n\n"
-           "`crease swingar train --help` lists the training options.\n\n"
+           "`crease swingar train --help` and `crease swingar measure --help` list their\n"
+           "options.\n\n"
            "run:\n"
            "  --model MODEL          a model written by `swingar train`\n"
            "  --garment G.obj        any garment mesh (UVs not needed), fitted to the body first\n"
@@ -230,9 +232,66 @@ static int cmd_run(int argc, char **argv) {
     return CLI_OK;
 }
 
+static const cli_doc measure_doc = {
+    .usage = "crease swingar measure --models M1,M2,... --dataset TEST -o OUT [options]",
+    .about = "SwinGar's table on a test dataset (docs/swingar.md): each model (a seed of one\n"
+             "recipe) on every sequence against the simulated reference, by crease eval's\n"
+             "metrics, beside the garment skinned by its own weights (the share of its error\n"
+             "removed) and a twin dataset (the floor); mean and spread over the seeds.\n",
+    .after = "OUT gets table_<sequence>.json (every metric, as crease eval's table.json) and\n"
+             "summary.json; the tables go to stdout.\n"};
+
+static int cmd_measure(int argc, char **argv) {
+    cr_swingar_measure_def d = cr_swingar_measure_default_def();
+    static cli_list models, held[3];
+    int json = 0;
+    const cli_opt opts[] = {
+        {CLI_ROW_CUSTOM("--models", cli_parse_list, &models, 1), .arg = "M1,M2,...",
+         .help = "model files, seeds of one recipe (at most 8)"},
+        {CLI_ROW_STR("--dataset", &d.dataset), .arg = "DIR", .help = "the test dataset"},
+        {CLI_ROW_STR("--twin", &d.twin), .arg = "DIR",
+         .help = "its twin (`crease dataset --twin`, the same def): the floor"},
+        {CLI_ROW_CUSTOM("--test-garments", cli_parse_list, &held[0], 1), .arg = "A,B",
+         .help = "measure only the sequences held out on the given axes, as in train (default: "
+                 "every sequence)"},
+        {CLI_ROW_CUSTOM("--test-motions", cli_parse_list, &held[1], 1), .arg = "A,B",
+         .help = "held-out motions"},
+        {CLI_ROW_CUSTOM("--test-bodies", cli_parse_list, &held[2], 1), .arg = "A,B",
+         .help = "held-out bodies"},
+        {CLI_ROW_FLAG("--raw", &d.raw),
+         .help = "the network's output as it is (by default collisions are removed, as `swingar "
+                 "run` does)"},
+        {CLI_ROW_STR("-o", &d.out_dir), .alias = "--output", .arg = "OUT", .help = "tables"},
+        {CLI_ROW_FLAG("--json", &json), .help = "end with the summary on stdout"},
+        CLI_END,
+    };
+    int rc = cli_parse_documented("swingar measure", &measure_doc, argc, argv, opts, NULL, 0, NULL);
+    if (rc != CLI_OK) return rc;
+    if (models.n < 1 || !d.dataset || !d.out_dir)
+        return cli_usage("swingar measure", "needs --models, --dataset and -o");
+    d.models = models.items, d.nmodels = models.n, d.print = stdout;
+    d.garments = held[0].items, d.ngarments = held[0].n, d.motions = held[1].items;
+    d.nmotions = held[1].n, d.bodies = held[2].items, d.nbodies = held[2].n;
+    cr_error err = {0};
+    cr_swingar_measure_report r;
+    if (cr_swingar_measure(&d, &r, &err) != CR_OK) return cli_fail(&err);
+    fprintf(stderr,
+            "swingar measure: E_dist %.3f cm (spread %.3f) on %d sequences, skinned %.3f: "
+            "%.1f %% of its error removed\n  %s/summary.json\n",
+            r.model_cm, r.model_cm_spread, r.sequences, r.skinned_cm, 100 * r.removed, d.out_dir);
+    if (json) {
+        char path[1100], *text = NULL;
+        snprintf(path, sizeof path, "%s/summary.json", d.out_dir);
+        if (cr_file_read_all(path, &text, NULL, &err) != CR_OK) return cli_fail(&err);
+        printf("%s", text), free(text);
+    }
+    return CLI_OK;
+}
+
 int cmd_swingar(int argc, char **argv) {
-    if (argc < 2) return cli_usage("swingar", "expected 'train' or 'run'");
+    if (argc < 2) return cli_usage("swingar", "expected 'train', 'run' or 'measure'");
     if (strcmp(argv[1], "train") == 0) return cmd_train(argc - 1, argv + 1);
     if (strcmp(argv[1], "run") == 0) return cmd_run(argc - 1, argv + 1);
-    return cli_usage("swingar", "unknown subcommand '%s' (train or run)", argv[1]);
+    if (strcmp(argv[1], "measure") == 0) return cmd_measure(argc - 1, argv + 1);
+    return cli_usage("swingar", "unknown subcommand '%s' (train, run or measure)", argv[1]);
 }

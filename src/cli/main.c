@@ -42,7 +42,7 @@ static const cli_command commands[] = {
     {"view", "write an offline HTML page that plays sequences side by side (or --serve it)",
      cmd_view, help_view, NULL},
     {"swingar", "train SwinGar's one-model-for-many-garments estimator, or animate a garment",
-     cmd_swingar, help_swingar, (const char *const[]){"train", NULL}},
+     cmd_swingar, help_swingar, (const char *const[]){"train", "measure", NULL}},
     {"swingar-sdf", "train or measure SwinGar's body SDF", cmd_swingar_sdf, help_swingar_sdf,
      (const char *const[]){"train", NULL}},
 };

@@ -7,7 +7,7 @@
 #include "crease/garment.h"
 #include "crease/mesh_io.h"
 #include "crease/render.h"
-#include "crease/swingar.h"
+#include "swingar_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,7 +16,6 @@
 enum { RUN_COOKIE = 0x53525231u, /* "SRR1" */ PICTURE_SIZE = 512, PATH_CAP = 1200 };
 
 /* Vertices inside the posed body are moved out this far beyond its surface, m. */
-static const float REMOVAL_MARGIN = 0.001f;
 
 cr_swingar_run_def cr_swingar_run_default_def(void) {
     cr_swingar_run_def d;
@@ -100,8 +99,8 @@ cr_status cr_swingar_run(const cr_swingar_run_def *d, cr_swingar_run_report *out
                              pred + (size_t)t * V * 3, err);
     if (st == CR_OK && !d->skinned) st = cr_swingar_animate(m, g, d->garment, b, mo, 0, pred, err);
     if (st == CR_OK && !d->skinned && !d->raw) {
-        st = cr_swingar_remove_collisions_exact(g->mesh, b->rest, body, T, REMOVAL_MARGIN, pred,
-                                                &rep.removal, err);
+        st = cr_swingar_remove_collisions_exact(
+            g->mesh, b->rest, body, T, CR_SWINGAR_REMOVAL_MARGIN_M, pred, &rep.removal, err);
         rep.removed = st == CR_OK;
     }
     rep.seconds = cr_time_now() - t0;

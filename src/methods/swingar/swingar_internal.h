@@ -1,4 +1,4 @@
-/* swingar_internal.h: what model.c, loss.c, data.c and train.c share. */
+/* swingar_internal.h: what model.c, loss.c, data.c, train.c, run.c and measure.c share. */
 #ifndef CREASE_SWINGAR_INTERNAL_H
 #define CREASE_SWINGAR_INTERNAL_H
 
@@ -18,6 +18,9 @@ enum {
 /* The root's move per frame is scaled to the order of the angles (a few cm
  * a frame -> a few tenths). */
 #define SWG_TRANS_SCALE 10.0f
+/* `swingar run` and `swingar measure` move a vertex inside the posed body out to this
+ * beyond the surface, m (eq. 10 on the exact distance). */
+#define CR_SWINGAR_REMOVAL_MARGIN_M 0.001f
 /* log(w + floor) keeps joints a garment vertex is not bound to reachable. */
 #define SWG_SKIN_FLOOR 1e-4f
 
