@@ -204,6 +204,21 @@ typedef struct cr_drape_def {
     uint32_t cookie; /* set by cr_drape_default_def */
 } cr_drape_def;
 
+/* The def's fields by group, as cr_config_key tables: their ranges (what
+ * cr_drape_def_validate checks, with the few a field's meaning narrows) and the
+ * options of `crease drape` with their help; n gets the group's length. */
+typedef enum cr_drape_key_group {
+    CR_DRAPE_KEYS_SCENE,
+    CR_DRAPE_KEYS_TRAINING,
+    CR_DRAPE_KEYS_LOSSES,
+    CR_DRAPE_KEYS_MODEL,
+    CR_DRAPE_KEYS_SAMPLER,
+    CR_DRAPE_KEYS_CONVERGENCE,
+    CR_DRAPE_KEYS_OUTPUTS,
+    CR_DRAPE_KEY_GROUPS
+} cr_drape_key_group;
+const cr_config_key *cr_drape_def_keys(cr_drape_key_group g, int *n);
+
 /* Defaults for `scene` with Table 4's weights (collision 1e6 for torus and
  * prism, 1e7 otherwise) and variant inr-adaptive. */
 cr_drape_def cr_drape_default_def(cr_drape_scene scene);

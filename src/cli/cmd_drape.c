@@ -110,8 +110,12 @@ int cmd_drape(int argc, char **argv) {
     static const char *const interps[] = {"bilinear", "bspline", NULL};
     cr_drape_def def = cr_drape_default_def(CR_DRAPE_BALL);
     const char *scene = NULL, *variant = NULL, *collision = NULL, *interp = NULL;
-    int json = 0, compare = 0, seed = 1, npos = 0, no_stop = 0;
+    int json = 0, compare = 0, npos = 0, no_stop = 0;
     float w[4] = {NAN, NAN, NAN, NAN}; /* NAN: the scene's Table 4 value */
+    int n[CR_DRAPE_KEY_GROUPS];
+    const cr_config_key *k[CR_DRAPE_KEY_GROUPS];
+    for (int g = 0; g < CR_DRAPE_KEY_GROUPS; g++)
+        k[g] = cr_drape_def_keys((cr_drape_key_group)g, &n[g]);
     const cli_opt opts[] = {
         CLI_HEADING("scene"),
         {CLI_ROW_STR("--scene", &scene), .arg = "S",
@@ -120,9 +124,7 @@ int cmd_drape(int argc, char **argv) {
          .help = "drape over this mesh instead (OBJ, PLY, glb; metres, Y up)"},
         {CLI_ROW_STR("--cloth", &def.cloth_path), .arg = "F",
          .help = "rest cloth mesh with UVs in [0,1]^2, used where it is (metres)"},
-        {CLI_ROW_FLOAT("--cloth-size", &def.cloth_size, 1e-3, 1e3), .arg = "S",
-         .help = "side of the square cloth, m (default: 1 on the built-in scenes, 5/3 of the "
-                 "object's larger horizontal extent with --object)"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_SCENE], n[CR_DRAPE_KEYS_SCENE], &def),
         {CLI_ROW_FLOAT("--drop-height", &def.gap, 0.0, 1e3), .alias = "--gap", .arg = "H",
          .help = "its height above the object's top, m (default 5 % of its side)"},
         {CLI_ROW_STR("--variant", &variant), .arg = "V",
@@ -131,91 +133,31 @@ int cmd_drape(int argc, char **argv) {
          .help = "run all four variants into DIR/<variant>/ and write DIR/compare.png with "
                  "their renders side by side"},
         CLI_HEADING("training"),
-        {CLI_ROW_INT("--epochs", &def.epochs, 1, 100000000), .arg = "N",
-         .help = "cap on epochs (the default run stops at convergence, see --stop)"},
-        {CLI_ROW_INT("--samples", &def.samples, 1, 1 << 22), .arg = "N",
-         .help = "local structures per epoch"},
-        {CLI_ROW_FLOAT("--lr", &def.lr, 1e-12, 10.0), .arg = "R", .help = "Adam learning rate"},
-        {CLI_ROW_FLOAT("--lr-final", &def.lr_final, 0.0, 10.0), .arg = "R",
-         .help = "anneal to R by the last epoch (cosine; default: none)"},
-        {CLI_ROW_INT("--settle", &def.settle_epochs, 0, 100000000), .arg = "N",
-         .help = "without --lr-final: N epochs at lr/10 after convergence (or the last N "
-                 "before the cap), so contacts settle (0: constant lr)"},
-        {CLI_ROW_FLOAT("--beta2", &def.beta2, 0.0, 0.999999), .arg = "B",
-         .help = "Adam's second-moment decay"},
-        {CLI_ROW_FLOAT("--clip", &def.clip, 0.0, 1e6), .arg = "C",
-         .help = "clip the gradient norm at C times its running mean (0: off)"},
-        {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "S",
-         .help = "initialisation, sampling and rotations"},
-        {CLI_ROW_FLAG("--resume", &def.resume), .help = "continue from DIR/checkpoint.safetensors"},
-        {CLI_ROW_INT("--checkpoint-every", &def.checkpoint_every, 0, 100000000), .arg = "N",
-         .help = "epochs between checkpoints (0: at the end)"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_TRAINING], n[CR_DRAPE_KEYS_TRAINING], &def),
         CLI_HEADING("losses (weights: the scene's Table 4 values, 0.005, 0.0005, 2, 1e7; 1e6 "
                     "for torus and prism)"),
         {CLI_ROW_FLOAT("--w-strain", &w[0], 0.0, 1e12), .arg = "W", .help = "strain weight"},
         {CLI_ROW_FLOAT("--w-bend", &w[1], 0.0, 1e12), .arg = "W", .help = "bend weight"},
         {CLI_ROW_FLOAT("--w-gravity", &w[2], 0.0, 1e12), .arg = "W", .help = "gravity weight"},
         {CLI_ROW_FLOAT("--w-collision", &w[3], 0.0, 1e15), .arg = "W", .help = "collision weight"},
-        {CLI_ROW_FLOAT("--point-mass", &def.point_mass, 0.0, 1e6), .arg = "M",
-         .help = "kg per structure or vertex in the gravity loss"},
-        {CLI_ROW_FLOAT("--eps", &def.collision_eps, 0.0, 1.0), .arg = "E",
-         .help = "collision threshold, m"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_LOSSES], n[CR_DRAPE_KEYS_LOSSES], &def),
         {CLI_ROW_CHOICE("--collision", &collision, collisions), .arg = "C",
          .help = "vertex (eq. 26, nearest object vertex; default) or sdf"},
-        {CLI_ROW_FLOAT("--side", &def.side, 1e-6, 0.1), .arg = "S", .help = "structure side in UV"},
-        {CLI_ROW_FLOAT("--pin", &def.pin, 0.0, 1e12), .arg = "W",
-         .help = "hold the cloth centre's horizontal position with weight W per structure (0: "
-                 "free to slide off the object)"},
         CLI_HEADING("model"),
-        {CLI_ROW_INT("--grid-levels", &def.grid_levels, 1, 8), .arg = "L",
-         .help = "grid encoding levels"},
-        {CLI_ROW_INT("--grid-res", &def.grid_resolution, 1, 4096), .arg = "R",
-         .help = "cells per side of the finest level"},
-        {CLI_ROW_INT("--grid-features", &def.grid_features, 1, 64), .arg = "F",
-         .help = "features per grid node"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_MODEL], n[CR_DRAPE_KEYS_MODEL], &def),
         {CLI_ROW_CHOICE("--grid-interp", &interp, interps), .arg = "I",
          .help = "between the grid's nodes: bspline (default; C2, no grid facets) or bilinear "
                  "(the paper's, C0: its cells show as facets)"},
-        {CLI_ROW_INT("--hidden", &def.mlp_hidden, 1, 4096), .arg = "W", .help = "MLP width"},
-        {CLI_ROW_INT("--layers", &def.mlp_layers, 1, 16), .arg = "N", .help = "MLP linear layers"},
-        {CLI_ROW_FLOAT("--softplus", &def.softplus_beta, 0.0, 1e3), .arg = "B",
-         .help = "hidden activation softplus with beta B; 0: ReLU"},
-        {CLI_ROW_INT("--mesh-res", &def.mesh_res, 2, 2048), .arg = "N",
-         .help = "vertices per side of the mesh variants' grid"},
         CLI_HEADING("sampler"),
-        {CLI_ROW_INT("--pdf-grid", &def.pdf_grid, 2, 1024), .arg = "G",
-         .help = "PDF cells per side"},
-        {CLI_ROW_FLOAT("--gamma", &def.pdf_gamma, 0.0, 1.0), .arg = "G", .help = "eq. 7 blend"},
-        {CLI_ROW_FLOAT("--mu", &def.mu, 0.0, 1.0), .arg = "M",
-         .help = "adaptive share of the samples"},
-        {CLI_ROW_INT("--lloyd", &def.lloyd_iterations, 0, 1000), .arg = "N",
-         .help = "Lloyd iterations"},
-        {CLI_ROW_INT("--pdf-every", &def.pdf_every, 1, 1000000), .arg = "N",
-         .help = "epochs between PDF updates"},
-        {CLI_ROW_FLOAT("--pdf-collision", &def.pdf_collision, 0.0, 1e6), .arg = "W",
-         .help = "the collision term's weight in the PDF, times its training weight (gravity "
-                 "is always left out)"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_SAMPLER], n[CR_DRAPE_KEYS_SAMPLER], &def),
         CLI_HEADING("convergence (the same for every variant)"),
-        {CLI_ROW_INT("--eval-res", &def.eval_res, 2, 1024), .arg = "N",
-         .help = "fixed evaluation structures per side"},
-        {CLI_ROW_INT("--eval-every", &def.eval_every, 1, 1000000), .arg = "N",
-         .help = "epochs between evaluations"},
-        {CLI_ROW_INT("--window", &def.converge_window, 1, 100000000), .arg = "N",
-         .help = "converged when the energy fell by less than --tol times its total decrease "
-                 "over the last N epochs"},
-        {CLI_ROW_FLOAT("--tol", &def.converge_tol, 0.0, 1.0), .arg = "T", .help = "that share"},
-        {CLI_ROW_FLAG("--stop", &def.stop_at_converged),
-         .help = "stop at convergence, after --settle epochs (the default)"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_CONVERGENCE], n[CR_DRAPE_KEYS_CONVERGENCE], &def),
         {CLI_ROW_FLAG("--no-stop", &no_stop), .help = "train to --epochs whatever the convergence"},
         CLI_HEADING("outputs"),
         {CLI_ROW_STR("-o", &def.out_dir), .alias = "--output", .arg = "DIR",
          .help = "drape.obj, drape.glb, drape.png, loss.png, loss.jsonl, sampler.png, "
                  "checkpoint.safetensors"},
-        {CLI_ROW_INT("--res", &def.out_res, 2, 4096), .arg = "N",
-         .help = "output surface vertices per side"},
-        {CLI_ROW_INT("--render-size", &def.render_size, 16, 8192), .arg = "N",
-         .help = "PNG side in pixels"},
-        {CLI_ROW_FLAG("--quiet", &def.quiet), .help = "no progress bar"},
+        CLI_KEYS(k[CR_DRAPE_KEYS_OUTPUTS], n[CR_DRAPE_KEYS_OUTPUTS], &def),
         {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };
@@ -244,7 +186,6 @@ int cmd_drape(int argc, char **argv) {
     float *wf[4] = {&def.w.strain, &def.w.bend, &def.w.gravity, &def.w.collision};
     for (int k = 0; k < 4; k++)
         if (!isnan(w[k])) *wf[k] = w[k];
-    def.seed = (uint64_t)seed;
     if (no_stop) def.stop_at_converged = 0;
     if (cr_drape_def_validate(&def, &err) != CR_OK) return cli_usage("drape", "%s", err.msg);
 

@@ -1,7 +1,7 @@
 /* surface.c: measures of one surface or two: the symmetric Chamfer distance
  * between two surfaces, the signed mean curvature, its RMS and its spectrum
  * over the UV chart (the drape paper's fidelity measures, moved here from
- * methods/drape/compare.c so every method and crease eval share them).
+ * methods/drape/measure.c so every method and crease eval share them).
  *
  * The spectrum answers "how much fine wrinkle detail": a fold of wavelength
  * lambda puts mean curvature at that wavelength, so the share of the

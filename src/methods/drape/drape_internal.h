@@ -149,4 +149,49 @@ typedef struct drape_log_row {
  * the potential (strain + bend + gravity) on a linear axis below. */
 cr_status cr_drape_plot_losses(const drape_log_row *rows, int n, const char *path, cr_error *err);
 
+/* ------------------------------------------------------------ training -- */
+
+struct cr_drape_sampler;
+struct cr_optim;
+/* A training run's state (train.c), what run.c writes the outputs from. */
+typedef struct drape_run {
+    const cr_drape_def *def;
+    drape_scene scene;
+    cr_drape_model *model;
+    struct cr_optim *opt;
+    cr_nn_ctx *ctx;
+    cr_rng rng;
+    drape_loss_ctx lc;
+    int structures; /* 1: local-structure variants */
+    int drawn;      /* 1 once centre holds this run's samples */
+    struct cr_drape_sampler *sampler;
+    drape_batch train, cells;
+    drape_batch *eval; /* (ceil(M / EVAL_BATCH)) the fixed structures, built once */
+    int neval_batches, eval_built;
+    float *centre, *theta;           /* (N,2), (N) this epoch's samples */
+    float *cell_loss;                /* (G*G) */
+    float *cell_theta;               /* (G*G) */
+    float *eval_centre, *eval_theta; /* (M,2), (M) fixed */
+    int64_t neval;
+    float *x;             /* (6 max(N, G*G, EVAL_BATCH), 3) host positions */
+    float *per_structure; /* (max(N, G*G, EVAL_BATCH)) */
+    drape_mesh_losses ml;
+    drape_log_row *rows;
+    int nrows, caprows;
+    cr_drape_terms train_terms; /* last epoch's, mean per structure (per vertex for meshes) */
+    double grad_mean;           /* running mean of the clipped gradient norm; 0 before the first */
+    int pinned;                 /* 1: the chart centre is held horizontally */
+    float pin_uv[2], pin_p0[3]; /* the pinned UV point and its rest position */
+    char ckpt_path[1024], log_path[1024];
+} drape_run;
+
+/* Set up (or resume from def->out_dir's checkpoint) and train to convergence or the cap;
+ * res gets the epochs, timings, convergence and the first evaluation. r holds the trained
+ * state either way: free it with cr_drape_train_free_. */
+cr_status cr_drape_train_(const cr_drape_def *def, drape_run *r, cr_drape_result *res,
+                          cr_error *err);
+/* The checkpoint with res's figures (out_dir/checkpoint.safetensors). */
+cr_status cr_drape_checkpoint_(drape_run *r, const cr_drape_result *res, cr_error *err);
+void cr_drape_train_free_(drape_run *r);
+
 #endif

@@ -1,6 +1,6 @@
 /* train.c: the drape method's training loop (Algorithm 1 of the paper) for
- * all four variants, the convergence criterion, resumable checkpoints, the
- * loss log and the run's outputs.
+ * all four variants, the convergence criterion, resumable checkpoints and the
+ * loss log (cr_drape_train_; run.c turns the trained surface into outputs).
  *
  * One epoch:
  *   structure variants: (adaptive, every pdf_every epochs) score local
@@ -46,37 +46,6 @@ enum { EVAL_BATCH = 4096 /* structures per evaluation chunk */ };
 static const uint64_t EVAL_SEED = 0x65766131u; /* fixed rotations, the same for every run */
 #define TWO_PI_3 (2.0 * M_PI / 3.0)
 #define CLIP_RATE 0.05 /* running mean over about 20 epochs */
-
-typedef struct drape_run {
-    const cr_drape_def *def;
-    drape_scene scene;
-    cr_drape_model *model;
-    cr_optim *opt;
-    cr_nn_ctx *ctx;
-    cr_rng rng;
-    drape_loss_ctx lc;
-    int structures; /* 1: local-structure variants */
-    int drawn;      /* 1 once centre holds this run's samples */
-    cr_drape_sampler *sampler;
-    drape_batch train, cells;
-    drape_batch *eval; /* (ceil(M / EVAL_BATCH)) the fixed structures, built once */
-    int neval_batches, eval_built;
-    float *centre, *theta;           /* (N,2), (N) this epoch's samples */
-    float *cell_loss;                /* (G*G) */
-    float *cell_theta;               /* (G*G) */
-    float *eval_centre, *eval_theta; /* (M,2), (M) fixed */
-    int64_t neval;
-    float *x;             /* (6 max(N, G*G, EVAL_BATCH), 3) host positions */
-    float *per_structure; /* (max(N, G*G, EVAL_BATCH)) */
-    drape_mesh_losses ml;
-    drape_log_row *rows;
-    int nrows, caprows;
-    cr_drape_terms train_terms; /* last epoch's, mean per structure (per vertex for meshes) */
-    double grad_mean;           /* running mean of the clipped gradient norm; 0 before the first */
-    int pinned;                 /* 1: the chart centre is held horizontally */
-    float pin_uv[2], pin_p0[3]; /* the pinned UV point and its rest position */
-    char ckpt_path[1024], log_path[1024];
-} drape_run;
 
 /* ------------------------------------------------------------ set-up -- */
 
@@ -667,70 +636,29 @@ static cr_status train(drape_run *r, cr_drape_result *res, cr_error *err) {
     return st;
 }
 
-/* ---------------------------------------------------------- outputs -- */
+/* ------------------------------------------------------------- entry -- */
 
-static cr_status write_outputs(drape_run *r, cr_drape_result *res, const cr_mesh *surface,
-                               cr_error *err) {
-    const char *dir = r->def->out_dir;
-    snprintf(res->obj_path, sizeof res->obj_path, "%s/drape.obj", dir);
-    snprintf(res->glb_path, sizeof res->glb_path, "%s/drape.glb", dir);
-    snprintf(res->png_path, sizeof res->png_path, "%s/drape.png", dir);
-    snprintf(res->loss_png, sizeof res->loss_png, "%s/loss.png", dir);
-    memcpy(res->log_path, r->log_path, sizeof res->log_path);
-    memcpy(res->checkpoint_path, r->ckpt_path, sizeof res->checkpoint_path);
-    CR_TRY(cr_mesh_write(res->obj_path, surface, err));
-    CR_TRY(cr_mesh_write(res->glb_path, surface, err));
-    cr_image img = {0};
-    CR_TRY(cr_drape_render(surface, r->scene.object, r->def->render_size, &img, err));
-    cr_status st = cr_image_write_png(&img, res->png_path, err);
-    cr_image_free(&img);
-    CR_TRY(st);
-    CR_TRY(cr_drape_plot_losses(r->rows, r->nrows, res->loss_png, err));
-    if (r->sampler) {
-        snprintf(res->sampler_png, sizeof res->sampler_png, "%s/sampler.png", dir);
-        CR_TRY(cr_drape_sampler_write_png(r->sampler, r->centre, r->drawn ? r->def->samples : 0,
-                                          res->sampler_png, 512, err));
-    }
-    return CR_OK;
-}
-
-cr_status cr_drape_run(const cr_drape_def *def, cr_drape_result *res, cr_mesh **surface,
-                       cr_error *err) {
-    if (surface) *surface = NULL;
-    CR_TRY(cr_drape_def_validate(def, err));
-    memset(res, 0, sizeof *res);
-    res->converged_epoch = -1;
-    res->converged_seconds = -1.0;
-    drape_run r = {.def = def};
-    cr_status st = setup(&r, err);
-    if (st == CR_OK) res->params = cr_drape_model_param_count(r.model);
-    if (st == CR_OK && def->resume) st = resume(&r, res, err);
+cr_status cr_drape_train_(const cr_drape_def *def, drape_run *r, cr_drape_result *res,
+                          cr_error *err) {
+    *r = (drape_run){.def = def};
+    cr_status st = setup(r, err);
+    if (st == CR_OK) res->params = cr_drape_model_param_count(r->model);
+    if (st == CR_OK && def->resume) st = resume(r, res, err);
     if (st == CR_OK) {
         if (res->resumed_from > 0)
-            rewrite_log(&r);
+            rewrite_log(r);
         else
-            append_log(&r, NULL, 1);
+            append_log(r, NULL, 1);
     }
-    if (st == CR_OK) st = train(&r, res, err);
-    if (st == CR_OK && r.nrows > 0) res->initial = r.rows[0].eval;
-    cr_mesh *out = NULL;
-    if (st == CR_OK) st = cr_drape_surface_mesh(r.ctx, r.model, &r.scene, def->out_res, &out, err);
-    if (st == CR_OK)
-        res->max_penetration_m =
-            r.scene.open_edges ? NAN : cr_drape_max_penetration(r.scene.bvh, out);
-    /* the square cloth's output is cr_prim_plane's grid, rows of out_res vertices along u */
-    res->facet_ratio = NAN;
-    if (st == CR_OK && r.scene.square)
-        res->facet_ratio = cr_drape_facet_ratio(
-            out->pos, def->out_res, def->out_res,
-            def->variant == CR_DRAPE_MESH ? def->mesh_res - 1 : def->grid_resolution);
-    res->cloth_size_m = r.scene.cloth_size, res->drop_height_m = r.scene.drop_height;
-    if (st == CR_OK && def->out_dir) st = save_checkpoint(&r, res, err);
-    if (st == CR_OK && def->out_dir) st = write_outputs(&r, res, out, err);
-    if (st == CR_OK && surface)
-        *surface = out;
-    else
-        cr_mesh_destroy(out);
-    run_free(&r);
+    if (st == CR_OK) st = train(r, res, err);
+    if (st == CR_OK && r->nrows > 0) res->initial = r->rows[0].eval;
     return st;
+}
+
+cr_status cr_drape_checkpoint_(drape_run *r, const cr_drape_result *res, cr_error *err) {
+    return save_checkpoint(r, res, err);
+}
+
+void cr_drape_train_free_(drape_run *r) {
+    run_free(r);
 }

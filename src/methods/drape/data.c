@@ -1,6 +1,6 @@
-/* scenes.c: the drape method's scenes (Table 4 of the paper) and options:
- * names, defaults, validation, the objects, the rest cloth, and the mesh
- * variants' elements and rescaled weights.
+/* data.c: the drape method's inputs: the scenes' objects (Table 4 of the paper), a
+ * user's object, the rest cloth and its placement, and the mesh variants' elements and
+ * rescaled weights.
  *
  * Objects have the sizes of the physics scenes (scene.h), so a drape is
  * comparable with `crease drape-static`, but a finer tessellation: eq. 26
@@ -26,8 +26,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const uint32_t DRAPE_DEF_COOKIE = 0x44525045u; /* "DRPE" */
-
 /* Object sizes, m: those of scene.h's sphere, torus, prism and box. */
 #define BALL_RADIUS 0.3f
 #define TORUS_MAJOR 0.3f
@@ -36,165 +34,6 @@ static const uint32_t DRAPE_DEF_COOKIE = 0x44525045u; /* "DRPE" */
 #define PRISM_LENGTH 0.8f
 #define TABLE_EDGE 0.4f
 enum { PRISM_SUBDIVISIONS = 6 /* 16,386 vertices, about 1 cm apart */ };
-
-static const char *const variant_names[CR_DRAPE_VARIANT_COUNT] = {"mesh", "inr-mesh", "inr-uniform",
-                                                                  "inr-adaptive"};
-static const char *const scene_names[CR_DRAPE_SCENE_COUNT] = {"ball", "torus", "prism", "table",
-                                                              "object"};
-
-const char *cr_drape_variant_name(cr_drape_variant v) {
-    return (int)v >= 0 && v < CR_DRAPE_VARIANT_COUNT ? variant_names[v] : "?";
-}
-
-cr_status cr_drape_variant_parse(const char *name, cr_drape_variant *out, cr_error *err) {
-    for (int i = 0; i < CR_DRAPE_VARIANT_COUNT; i++)
-        if (strcmp(name, variant_names[i]) == 0) {
-            *out = (cr_drape_variant)i;
-            return CR_OK;
-        }
-    return CR_FAIL(err, CR_ERR_INVALID,
-                   "--variant: unknown variant '%s' (expected mesh, inr-mesh, inr-uniform or "
-                   "inr-adaptive)",
-                   name);
-}
-
-const char *cr_drape_scene_name(cr_drape_scene s) {
-    return (int)s >= 0 && s < CR_DRAPE_SCENE_COUNT ? scene_names[s] : "?";
-}
-
-cr_status cr_drape_scene_parse(const char *name, cr_drape_scene *out, cr_error *err) {
-    for (int i = 0; i < CR_DRAPE_OBJECT; i++)
-        if (strcmp(name, scene_names[i]) == 0) {
-            *out = (cr_drape_scene)i;
-            return CR_OK;
-        }
-    return CR_FAIL(err, CR_ERR_INVALID,
-                   "--scene: unknown scene '%s' (expected ball, torus, prism or table; "
-                   "--object FILE for a mesh)",
-                   name);
-}
-
-cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
-    int soft = scene == CR_DRAPE_TORUS || scene == CR_DRAPE_PRISM;
-    cr_drape_def d = {
-        .scene = scene,
-        .variant = CR_DRAPE_INR_ADAPTIVE,
-        .cloth_size = 0.0f, /* from the object */
-        .gap = -1.0f,       /* from the cloth's size */
-        .mesh_res = 128,
-        .w = {.strain = 0.005f, .bend = 0.0005f, .gravity = 2.0f, .collision = soft ? 1e6f : 1e7f},
-        .point_mass = 1e-4f,
-        .gravity = 9.81f,
-        .collision_eps = 0.002f,
-        .collision = CR_DRAPE_COLLIDE_VERTEX,
-        .side = 0.001f,
-        .pin = 1.0f,
-        .grid_levels = 2,
-        .grid_resolution = 100,
-        .grid_features = 3,
-        .grid_interp = CR_GRID_BSPLINE, /* C2: no grid facets (docs/drape.md) */
-        .mlp_hidden = 64,
-        .mlp_layers = 4,
-        .softplus_beta = 10.0f,
-        .lr = 0.0005f,
-        .lr_final = -1.0f,
-        .settle_epochs = 250,
-        .beta2 = 0.999f,
-        .clip = 3.0f,
-        .epochs = 15000,
-        .samples = 1024,
-        .pdf_grid = 32,
-        .pdf_gamma = 0.9f,
-        .mu = 0.5f,
-        .lloyd_iterations = 2,
-        .pdf_every = 5,
-        .pdf_collision = 1.0f,
-        .eval_res = 128,
-        .eval_every = 50,
-        .converge_window = 2000,
-        .converge_tol = 0.01f,
-        .stop_at_converged = 1,
-        .seed = 1,
-        .out_res = 256,
-        .render_size = 1024,
-        .checkpoint_every = 250,
-        .cookie = DRAPE_DEF_COOKIE,
-    };
-    return d;
-}
-
-/* CR_ERR_INVALID naming `name` unless lo <= v <= hi (NaN fails). */
-static cr_status check_f(const char *name, double v, double lo, double hi, cr_error *err) {
-    if (!(v >= lo && v <= hi) || !isfinite(v))
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: %s must lie in [%g, %g], got %g", name, lo, hi,
-                       v);
-    return CR_OK;
-}
-
-static cr_status check_i(const char *name, long v, long lo, long hi, cr_error *err) {
-    if (v < lo || v > hi)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: %s must lie in [%ld, %ld], got %ld", name, lo,
-                       hi, v);
-    return CR_OK;
-}
-
-cr_status cr_drape_def_validate(const cr_drape_def *d, cr_error *err) {
-    CR_ASSERT(d && d->cookie == DRAPE_DEF_COOKIE);
-    if ((int)d->scene < 0 || d->scene >= CR_DRAPE_SCENE_COUNT)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: scene %d out of range", (int)d->scene);
-    if ((int)d->variant < 0 || d->variant >= CR_DRAPE_VARIANT_COUNT)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: variant %d out of range", (int)d->variant);
-    if (d->scene == CR_DRAPE_OBJECT && !d->object_path)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: the object scene needs an object mesh file");
-    if (d->cloth_size != 0.0f) CR_TRY(check_f("cloth_size", d->cloth_size, 1e-3, 1e3, err));
-    if (!(d->gap < 0.0f)) CR_TRY(check_f("gap", d->gap, 0.0, 1e3, err));
-    CR_TRY(check_i("mesh_res", d->mesh_res, 2, 2048, err));
-    CR_TRY(check_f("w_strain", d->w.strain, 0.0, 1e12, err));
-    CR_TRY(check_f("w_bend", d->w.bend, 0.0, 1e12, err));
-    CR_TRY(check_f("w_gravity", d->w.gravity, 0.0, 1e12, err));
-    CR_TRY(check_f("w_collision", d->w.collision, 0.0, 1e15, err));
-    CR_TRY(check_f("point_mass", d->point_mass, 0.0, 1e6, err));
-    CR_TRY(check_f("gravity", d->gravity, -1e3, 1e3, err));
-    CR_TRY(check_f("collision_eps", d->collision_eps, 0.0, 1.0, err));
-    if (d->collision != CR_DRAPE_COLLIDE_VERTEX && d->collision != CR_DRAPE_COLLIDE_SDF)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: collision mode %d out of range",
-                       (int)d->collision);
-    CR_TRY(check_f("side", d->side, 1e-6, 0.1, err));
-    CR_TRY(check_f("pin", d->pin, 0.0, 1e12, err));
-    CR_TRY(check_i("grid_levels", d->grid_levels, 1, 8, err));
-    CR_TRY(check_i("grid_resolution", d->grid_resolution, 1 << (d->grid_levels - 1), 4096, err));
-    CR_TRY(check_i("grid_features", d->grid_features, 1, 64, err));
-    CR_TRY(check_i("grid_interp", d->grid_interp, 0, CR_GRID_INTERP_COUNT - 1, err));
-    CR_TRY(check_i("mlp_hidden", d->mlp_hidden, 1, 4096, err));
-    CR_TRY(check_i("mlp_layers", d->mlp_layers, 1, 16, err));
-    CR_TRY(check_f("softplus_beta", d->softplus_beta, 0.0, 1e3, err));
-    CR_TRY(check_f("lr", d->lr, 1e-12, 10.0, err));
-    if (d->lr_final >= 0.0f || isnan(d->lr_final))
-        CR_TRY(check_f("lr_final", d->lr_final, 0.0, d->lr, err));
-    CR_TRY(check_f("beta2", d->beta2, 0.0, 0.999999, err));
-    CR_TRY(check_i("settle_epochs", d->settle_epochs, 0, 100000000, err));
-    CR_TRY(check_f("clip", d->clip, 0.0, 1e6, err));
-    CR_TRY(check_i("epochs", d->epochs, 1, 100000000, err));
-    CR_TRY(check_i("samples", d->samples, 1, 1 << 22, err));
-    CR_TRY(check_i("pdf_grid", d->pdf_grid, 2, 1024, err));
-    CR_TRY(check_f("pdf_gamma", d->pdf_gamma, 0.0, 1.0, err));
-    CR_TRY(check_f("mu", d->mu, 0.0, 1.0, err));
-    CR_TRY(check_i("lloyd_iterations", d->lloyd_iterations, 0, 1000, err));
-    CR_TRY(check_i("pdf_every", d->pdf_every, 1, 1000000, err));
-    CR_TRY(check_f("pdf_collision", d->pdf_collision, 0.0, 1e6, err));
-    CR_TRY(check_i("eval_res", d->eval_res, 2, 1024, err));
-    CR_TRY(check_i("eval_every", d->eval_every, 1, 1000000, err));
-    CR_TRY(check_i("converge_window", d->converge_window, 1, 100000000, err));
-    CR_TRY(check_f("converge_tol", d->converge_tol, 0.0, 1.0, err));
-    CR_TRY(check_i("out_res", d->out_res, 2, 4096, err));
-    CR_TRY(check_i("render_size", d->render_size, 16, 8192, err));
-    CR_TRY(check_i("checkpoint_every", d->checkpoint_every, 0, 100000000, err));
-    if (d->out_dir && strlen(d->out_dir) > 900)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: output directory name longer than 900 bytes");
-    if (d->resume && !d->out_dir)
-        return CR_FAIL(err, CR_ERR_INVALID, "drape: resuming needs an output directory");
-    return CR_OK;
-}
 
 /* ----------------------------------------------------------- objects -- */
 

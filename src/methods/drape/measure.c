@@ -1,4 +1,4 @@
-/* compare.c: the drape method's fidelity report against a reference drape
+/* measure.c: the drape method's fidelity report against a reference drape
  * (Chamfer distance, penetration, mean-curvature spectrum: the measures
  * themselves live in eval/surface.c, shared with crease eval) and the
  * side-by-side run of all four variants (the paper's Fig. 1 and 8-10).
