@@ -163,6 +163,9 @@ typedef struct cr_epnet_def {
 } cr_epnet_def;
 
 cr_epnet_def cr_epnet_default_def(void);
+/* The def's whole-number and rate fields as a table: their ranges (checked when a model
+ * is made or opened) and the options of `crease epnet train`; n gets its length. */
+const cr_config_key *cr_epnet_def_keys(int *n);
 /* The material above ("epnet"), derived from the cotton preset. */
 void cr_epnet_material(cr_material *out);
 

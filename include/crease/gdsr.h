@@ -596,6 +596,8 @@ typedef struct cr_gdsr_run_def {
     uint32_t cookie;
 } cr_gdsr_run_def;
 cr_gdsr_run_def cr_gdsr_run_default_def(void);
+/* Its numeric fields as a table: their ranges and the options of `crease gdsr run`. */
+const cr_config_key *cr_gdsr_run_def_keys(int *n);
 
 typedef struct cr_gdsr_run_report {
     int32_t frames, low_vertices, high_vertices;

@@ -243,6 +243,9 @@ typedef struct cr_swingar_train_def {
 } cr_swingar_train_def;
 
 cr_swingar_train_def cr_swingar_train_default_def(void);
+/* Its numeric fields as a table: the options of `crease swingar train` with their ranges
+ * and help; n gets its length. */
+const cr_config_key *cr_swingar_train_def_keys(int *n);
 
 typedef struct cr_swingar_train_result {
     int epochs_done;                 /* total, resumed ones included */

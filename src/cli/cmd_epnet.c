@@ -69,31 +69,22 @@ static int run_train(int argc, char **argv) {
     cr_epnet_def d = cr_epnet_default_def();
     const char *garment = "tshirt", *body = "normal", *motions = NULL, *out = NULL;
     const char *pval = d.pnet_val_motion;
-    int vertices = d.garment_vertices, frames = d.frames, cycles = d.cycles;
-    int epochs = d.enet_epochs, pepochs = d.pnet_epochs, baseline = 0, paper = 0, resume = 0;
-    int json = 0, seed = 1;
-    float yield = (float)d.material.yield_angle, lr = d.enet_lr, pin_top = -1,
-          wz = (float)d.w_zero_rest, wr = (float)d.w_rest_response, pnoise = (float)d.pnet_rb_noise;
+    int paper = 0, json = 0, nkeys = 0;
+    const cr_config_key *keys = cr_epnet_def_keys(&nkeys);
+    float yield = (float)d.material.yield_angle, pin_top = -1, wz = (float)d.w_zero_rest,
+          wr = (float)d.w_rest_response, pnoise = (float)d.pnet_rb_noise;
     const cli_opt opts[] = {
         {CLI_ROW_STR("--garment", &garment), .arg = "G",
          .help = "tshirt, dress, skirt, ... (garment.h types), or a garment mesh file (.obj, "
                  ".ply, .glb; UVs not needed) fitted to the body, --vertices unused"},
-        {CLI_ROW_INT("--vertices", &vertices, 100, 100000), .arg = "N",
-         .help = "garment vertex count"},
         {CLI_ROW_STR("--body", &body), .arg = "B",
          .help = "slim, normal, heavy, an SMPL-family model FILE.npz[:beta,beta,...], or a "
                  "rigged CHAR.glb[:MAP] (docs/body.md)"},
         {CLI_ROW_STR("--motions", &motions), .arg = "M,M,...",
          .help = "training clips or motion files, at most 16 (default walk,squat,twist,dance,"
                  "jump,reach,lean,stretch)"},
-        {CLI_ROW_INT("--frames", &frames, 3, 10000), .arg = "N", .help = "frames per clip"},
         {CLI_ROW_FLOAT("--yield", &yield, 0, 3.2), .arg = "Y", .help = "yield angle, rad"},
-        {CLI_ROW_INT("--cycles", &cycles, 1, 100), .arg = "N", .help = "curriculum cycles"},
-        {CLI_ROW_INT("--epochs", &epochs, 0, 100000), .arg = "N", .help = "E-Net epochs per cycle"},
-        {CLI_ROW_INT("--pnet-epochs", &pepochs, 0, 100000), .arg = "N",
-         .help = "P-Net epochs per cycle"},
-        {CLI_ROW_FLAG("--baseline", &baseline),
-         .help = "RB fixed at zero, no P-Net (PBNS/SNUG/NCS)"},
+        CLI_KEYS(keys, nkeys, &d),
         {CLI_ROW_FLOAT("--zero-rest-weight", &wz, 0, 1e6), .arg = "W",
          .help = "the paired zero-rest consistency term: E-Net at RB = 0 stays near the "
                  "rest angles on the last frame (the authors'; 0: off)"},
@@ -111,10 +102,6 @@ static int run_train(int argc, char **argv) {
         {CLI_ROW_FLAG("--paper-sizes", &paper),
          .help = "the authors' layer widths (static 64-128-256-512, GRU 512, decoder 3x512, "
                  "P-Net latent 128 with 2 hidden layers)"},
-        {CLI_ROW_FLOAT("--lr", &lr, 1e-7, 1), .arg = "R", .help = "E-Net Adam learning rate"},
-        {CLI_ROW_INT("--seed", &seed, 0, 1000000000), .arg = "S",
-         .help = "initial weights and shuffles"},
-        {CLI_ROW_FLAG("--resume", &resume), .help = "continue from DIR's checkpoints"},
         {CLI_ROW_STR("-o", &out), .alias = "--output", .arg = "DIR",
          .help = "the model folder: model.json, the weights, progress.jsonl, checkpoints"},
         {CLI_ROW_FLAG("--json", &json), .help = "a summary on stdout"},
@@ -129,10 +116,7 @@ static int run_train(int argc, char **argv) {
         d.nmotions = split_list(motions, buf, sizeof buf, list, CR_EPNET_MAX_MOTIONS);
         d.motions = list;
     }
-    d.garment = garment, d.body = body, d.garment_vertices = vertices, d.frames = frames;
-    d.material.yield_angle = yield, d.cycles = cycles, d.enet_epochs = epochs;
-    d.pnet_epochs = pepochs, d.baseline = baseline, d.seed = (uint64_t)seed, d.resume = resume;
-    d.out_dir = out, d.enet_lr = lr;
+    d.garment = garment, d.body = body, d.material.yield_angle = yield, d.out_dir = out;
     /* a waistband is held up by friction, which the loss has not */
     if (pin_top < 0)
         pin_top = !strcmp(garment, "skirt") || !strcmp(garment, "trousers") ? 0.01f : 0;

@@ -13,58 +13,30 @@
 #include <string.h>
 
 void help_gdsr(void) {
-    printf(
-        "usage: crease gdsr train --dataset DIR [--motions M1,M2] -o OUT [options]\n"
-        "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n"
-        "       crease gdsr run --model F --simulate --motion CLIP|FILE.bvh|FILE.npz [--body B]\n"
-        "                       [--garment G] [--dataset DIR] [--frames N] -o DIR\n\n"
-        "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
-        "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
-        "`crease gdsr train --help` lists the training options.\n\n"
-        "run:\n"
-        "  --dataset DIR        a `crease dataset` folder with --res low,high\n"
-        "  --garment G          garment type (default tshirt; with --simulate also a variant\n"
-        "                       spec, as in `crease dataset`)\n"
-        "  --body B             body preset (default normal)\n"
-        "  --quiet              no progress\n"
-        "  --json               end with a JSON summary on stdout\n"
-
-        "  --model F            a model.safetensors from gdsr train\n"
-        "  --baseline-model F   a GDSR(-d) model measured in the same table\n"
-        "  --twin DIR           a twin dataset (crease dataset --twin, the same def): its high\n"
-        "                       clip measured in the same table, the floor\n"
-        "  --motion M           the clip to super-resolve\n"
-        "  --eps E              collision margin, m (default 0.002)\n"
-        "  --relax N            smoothing steps that spread the collision pushes (default 4)\n"
-        "  --layer-test vertex|surface  Eq. 27 on an outfit: the nearest inner vertex and its\n"
-        "                       normal (default, the paper's) or the closest point on the\n"
-        "                       inner layer's triangles, none past its open edges\n"
-        "  --frames N           only the clip's first N frames (with --simulate: frames to\n"
-        "                       simulate, default 60)\n"
-        "  --png-frame F        the frame of compare.png (default -1: the last)\n"
-        "  --png-size N         pixels per panel (default 512)\n"
-        "  --glb-max-frames N   gdsr.glb animates up to N frames (default 300), else it holds\n"
-        "                       the last frame alone\n"
-        "  --fps F              gdsr.glb's playback rate (default 30)\n"
-        "  -o DIR               gdsr.pc2, gdsr_raw.pc2, upsampled.pc2, reference.pc2,\n"
-        "                       high.obj, gdsr.glb (morph-target animation), compare.png\n"
-        "                       (low input, gdsr, upsampling, reference side by side) and\n"
-        "                       compare_normals.png (their UV normal maps), summary.json,\n"
-        "                       strain.csv and strain.png (E_u, E_v, E_uv over the frames)\n"
-        "run --simulate (the low-resolution input made from the motion by `crease dataset`'s\n"
-        "machinery into DIR/sim: garment template, posed body, simulator):\n"
-        "  --simulate           --motion is a clip name or a motion file (.bvh, .npz, .glb) to\n"
-        "                       simulate the low garment on; --dataset (optional) is then the\n"
-        "                       training data whose manifest gives the vertex counts, fps and\n"
-        "                       material (else 2000, 8000, 30, cotton)\n"
-        "  --reference          simulate the high resolution too: a reference and the\n"
-        "                       metrics table (slow: the high simulation)\n"
-        "  --low-vertices N --high-vertices N   the garment pair's target vertex counts\n"
-        "  --scale S --start-frame N --end-frame N --ease-in S --ground G   a motion file's\n"
-        "                       preparation, as in `crease dataset` (docs/motions.md)\n"
-        "A motion without a high sequence in the dataset is rolled out without a reference\n"
-        "(no metrics table; the strain over frames and collisions are still measured).\n");
+    printf("usage: crease gdsr train --dataset DIR [--motions M1,M2] -o OUT [options]\n"
+           "       crease gdsr run --model OUT/model.safetensors --dataset DIR --motion M -o DIR\n"
+           "       crease gdsr run --model F --simulate --motion CLIP|FILE [--body B]\n"
+           "                       [--garment G] [--dataset DIR] [--frames N] -o DIR\n\n"
+           "Garment dynamic super-resolution (docs/gdsr.md): a low-resolution simulation and\n"
+           "the body in, a high-resolution garment with wrinkles out, frame after frame.\n\n"
+           "`crease gdsr train --help` and `crease gdsr run --help` list their options.\n");
 }
+
+static const cli_doc run_doc = {
+    .usage = "crease gdsr run --model F (--dataset DIR | --simulate) --motion M -o DIR [options]",
+    .about = "Roll a trained gdsr model out on a clip's low-resolution sequence (of a dataset, or\n"
+             "simulated from a motion with --simulate into DIR/sim by `crease dataset`'s\n"
+             "machinery) and measure it against the high reference when there is one, beside\n"
+             "barycentric upsampling, a GDSR(-d) baseline and the twin (docs/gdsr.md).\n",
+    .after =
+        "A motion file's preparation: --scale S, --start-frame N, --end-frame N, --ease-in S,\n"
+        "--ground G, as in `crease dataset` (docs/motions.md). DIR gets gdsr.pc2,\n"
+        "gdsr_raw.pc2, upsampled.pc2, reference.pc2, high.obj, gdsr.glb (morph-target\n"
+        "animation), compare.png (low input, gdsr, upsampling, reference side by side),\n"
+        "compare_normals.png (their UV normal maps), summary.json, strain.csv and\n"
+        "strain.png (E_u, E_v, E_uv over the frames). A motion without a high sequence in\n"
+        "the dataset is rolled out without a reference (no metrics table; the strain over\n"
+        "frames and collisions are still measured).\n"};
 
 static int split(char *s, const char **out, int cap) {
     int n = 0;
@@ -185,34 +157,34 @@ static int cmd_run(int argc, char **argv) {
     static const char *const layer_tests[] = {"vertex", "surface", NULL};
     int json = 0;
     cli_motion_file mf = cli_motion_file_default(1.0f);
+    int nkeys = 0;
+    const cr_config_key *keys = cr_gdsr_run_def_keys(&nkeys);
     const cli_opt opts[] = {
-        CLI_STR("--dataset", &d.dataset),
-        CLI_STR("--garment", &d.garment),
-        CLI_STR("--body", &d.body),
-        CLI_STR("--motion", &d.motion),
-        CLI_STR("--model", &d.model),
-        CLI_STR("--baseline-model", &d.baseline),
-        CLI_STR("--twin", &d.twin),
-        CLI_FLOAT("--eps", &d.eps, 0, 0.05),
-        CLI_INT("--relax", &d.relax, 0, 1000),
-        CLI_CHOICE("--layer-test", &layer_test, layer_tests),
-        CLI_INT("--frames", &d.frames, 3, 1000000),
-        CLI_FLAG("--simulate", &d.simulate),
-        CLI_FLAG("--reference", &d.reference),
-        CLI_INT("--low-vertices", &d.low_vertices, 500, 100000),
-        CLI_INT("--high-vertices", &d.high_vertices, 500, 100000),
+        {CLI_ROW_STR("--model", &d.model), .arg = "F",
+         .help = "a model.safetensors from gdsr train"},
+        {CLI_ROW_STR("--dataset", &d.dataset), .arg = "DIR",
+         .help = "a `crease dataset` folder with --res low,high"},
+        {CLI_ROW_STR("--motion", &d.motion), .arg = "M", .help = "the clip to super-resolve"},
+        {CLI_ROW_STR("--garment", &d.garment), .arg = "G",
+         .help = "garment type (with --simulate also a variant spec, as in `crease dataset`)"},
+        {CLI_ROW_STR("--body", &d.body), .arg = "B", .help = "body preset"},
+        {CLI_ROW_STR("--baseline-model", &d.baseline), .arg = "F",
+         .help = "a GDSR(-d) model measured in the same table"},
+        {CLI_ROW_STR("--twin", &d.twin), .arg = "DIR",
+         .help = "a twin dataset (crease dataset --twin, the same def): its high clip measured "
+                 "in the same table, the floor"},
+        {CLI_ROW_CHOICE("--layer-test", &layer_test, layer_tests), .arg = "vertex|surface",
+         .help = "Eq. 27 on an outfit: the nearest inner vertex and its normal (default, the "
+                 "paper's) or the closest point on the inner layer's triangles, none past its "
+                 "open edges"},
+        CLI_KEYS(keys, nkeys, &d),
         CLI_MOTION_FILE_OPTS(&mf),
-        CLI_INT("--png-frame", &d.png_frame, -1, 1000000),
-        CLI_INT("--png-size", &d.png_size, 16, 4096),
-        CLI_INT("--glb-max-frames", &d.glb_max_frames, 0, 100000),
-        CLI_FLOAT("--fps", &d.fps, 0.01, 1000),
-        CLI_OUTPUT(&d.out_dir),
-        CLI_FLAG("--quiet", &d.quiet),
-        CLI_FLAG("--json", &json),
+        {CLI_ROW_STR("-o", &d.out_dir), .alias = "--output", .arg = "DIR", .help = "the outputs"},
+        {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };
     int npos = 0;
-    int rc = cli_parse("gdsr run", argc, argv, opts, NULL, 0, &npos);
+    int rc = cli_parse_documented("gdsr run", &run_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!d.motion || !d.model || !d.out_dir || (!d.dataset && !d.simulate))
         return cli_usage("gdsr run", "needs --motion, --model, -o and --dataset or --simulate");

@@ -61,7 +61,8 @@ static int cmd_train(int argc, char **argv) {
     cr_swingar_train_def t = cr_swingar_train_default_def();
     const char *dataset = NULL, *out = NULL, *resume = NULL, *size = "paper";
     const char *affinity = "geodesic";
-    int json = 0, no_desc = 0, seed = 1, npos = 0, arena_mb = 1024, desc_z = 0;
+    int json = 0, no_desc = 0, npos = 0, arena_mb = 1024, desc_z = 0, nkeys = 0;
+    const cr_config_key *keys = cr_swingar_train_def_keys(&nkeys);
     const cli_opt opts[] = {
         {CLI_ROW_STR("--dataset", &dataset), .arg = "DIR",
          .help = "a dataset written by `crease dataset`"},
@@ -69,21 +70,10 @@ static int cmd_train(int argc, char **argv) {
          .help = "the model, a resumable checkpoint written every epoch"},
         {CLI_ROW_STR("--resume", &resume), .arg = "MODEL",
          .help = "continue a checkpoint (its widths and descriptor are used)"},
-        {CLI_ROW_INT("--epochs", &t.epochs, 1, 1000000), .arg = "N", .help = "epochs"},
+        CLI_KEYS(keys, nkeys, &t),
         {CLI_ROW_CHOICE("--size", &size, sizes), .arg = "S",
          .help = "paper (the paper's widths and heads), cpu (heads 4 / 4 / 3 / 8 for a 2-core "
                  "machine) or tiny (for tests)"},
-        {CLI_ROW_INT("--window", &t.window, 1, 60), .arg = "K",
-         .help = "frames predicted per sample"},
-        {CLI_ROW_INT("--batch", &t.batch, 1, 100000), .arg = "B", .help = "samples per Adam step"},
-        {CLI_ROW_FLOAT("--lr", &t.lr, 1e-8, 1), .arg = "X",
-         .help = "Adam's rate, cosine-annealed to 0"},
-        {CLI_ROW_INT("--stall-epochs", &t.stall_epochs, 0, 1000000), .arg = "N",
-         .help = "vertex loss alone until the vertex error improves by less than --stall-rel "
-                 "over N epochs (default a tenth of the epochs, at least 2, and at the latest "
-                 "after half of them; the paper's 50 are a sliver of its run)"},
-        {CLI_ROW_FLOAT("--stall-rel", &t.stall_rel, 0, 1), .arg = "X",
-         .help = "that relative improvement"},
         {CLI_ROW_CUSTOM("--test-garments", cli_parse_list, &held[0], 1), .arg = "A,B",
          .help = "held out: garment types, motions and bodies; a sequence is test when all its "
                  "given axes are held out, train when none is, unused otherwise"},
@@ -98,9 +88,6 @@ static int cmd_train(int argc, char **argv) {
         {CLI_ROW_INT("--descriptor-z", &desc_z, 2, 4096), .arg = "Z",
          .help = "furthest-point samples of the descriptor, and so its length (default: the "
                  "size's, paper and cpu 256, tiny 16; the paper compares 128, 256 and 512)"},
-        {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "N",
-         .help = "initialisation and shuffling"},
-        {CLI_ROW_FLAG("--quiet", &t.quiet), .help = "no progress bar"},
         {CLI_ROW_INT("--arena-mb", &arena_mb, 16, 1 << 20), .arg = "N",
          .help = "per-step memory, MiB"},
         {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
@@ -114,7 +101,6 @@ static int cmd_train(int argc, char **argv) {
     if (cr_swingar_size_def(size, &t.model, &serr) != CR_OK) return cli_fail(&serr);
     t.model.use_descriptor = !no_desc;
     if (desc_z) t.model.descriptor_len = desc_z;
-    t.seed = (uint64_t)seed;
     t.arena_bytes = (size_t)arena_mb << 20;
     t.checkpoint = out;
     t.resume = resume;

@@ -45,8 +45,8 @@ static const cli_doc train_doc = {
 
 static int train(int argc, char **argv) {
     cr_swingar_sdf_train_def d = cr_swingar_sdf_train_default_def();
-    int json = 0, width = d.model.width, steps = (int)d.steps, stop = 0, seed = 1, every = 200;
-    int npos = 0;
+    int json = 0, steps = (int)d.steps, stop = 0, seed = 1, every = 200, npos = 0, nkeys = 0;
+    const cr_config_key *keys = cr_swingar_sdf_train_def_keys(&nkeys);
     const cli_opt opts[] = {
         {CLI_ROW_STR("-o", &d.checkpoint), .alias = "--output", .arg = "FILE",
          .help = "model and resumable checkpoint (safetensors)"},
@@ -54,36 +54,15 @@ static int train(int argc, char **argv) {
          .help = "clips or motion files, comma-separated"},
         {CLI_ROW_STR("--shapes", &d.shapes), .arg = "LIST",
          .help = "mannequin presets, comma-separated"},
-        {CLI_ROW_INT("--width", &width, 2, 4096), .arg = "W", .help = "layer width"},
-        {CLI_ROW_INT("--articulated", &d.model.articulated, 0, 2), .arg = "N",
-         .help = "0: the paper's position input; joint-frame inputs (not the paper's): 1 all 22 "
-                 "frames, 2 weighted by bone nearness (docs/swingar_sdf.md)"},
-        {CLI_ROW_FLOAT("--tau", &d.model.tau, 1e-4, 10), .arg = "T",
-         .help = "bone-weight temperature of --articulated 2"},
+        CLI_KEYS(keys, nkeys, &d),
         {CLI_ROW_INT("--steps", &steps, 1, 100000000), .arg = "N",
          .help = "Adam steps, cosine schedule length"},
         {CLI_ROW_INT("--stop-at", &stop, 0, 100000000), .arg = "N",
          .help = "stop after N steps (resume later; default: run all)"},
-        {CLI_ROW_INT("--batch", &d.batch, 1, 1 << 20), .arg = "B", .help = "points per step"},
-        {CLI_ROW_FLOAT("--lr", &d.lr, 1e-9, 10), .arg = "R", .help = "peak learning rate"},
-        {CLI_ROW_INT("--frames", &d.clip_frames, 1, 100000), .arg = "N",
-         .help = "frames per procedural clip"},
-        {CLI_ROW_INT("--stride", &d.frame_stride, 1, 100000), .arg = "K",
-         .help = "train on every K-th frame"},
-        {CLI_ROW_INT("--surface", &d.samples_surface, 0, 10000000), .arg = "N",
-         .help = "samples per pose on the surface"},
-        {CLI_ROW_INT("--near", &d.samples_near, 0, 10000000), .arg = "N",
-         .help = "samples per pose near it"},
-        {CLI_ROW_INT("--space", &d.samples_space, 0, 10000000), .arg = "N",
-         .help = "samples per pose in the box around the body"},
-        {CLI_ROW_INT("--resolution", &d.body_resolution, 32, 512), .arg = "N",
-         .help = "mannequin resolution"},
         {CLI_ROW_INT("--checkpoint-every", &every, 0, 100000000), .arg = "N",
          .help = "steps between checkpoints"},
-        {CLI_ROW_FLAG("--resume", &d.resume), .help = "continue from -o FILE when it exists"},
         {CLI_ROW_INT("--seed", &seed, 0, 2147483647), .arg = "S",
          .help = "initialisation, samples and batches"},
-        {CLI_ROW_FLAG("--quiet", &d.quiet), .help = "no progress"},
         {CLI_ROW_FLAG("--json", &json), .help = "a summary on stdout"},
         CLI_END,
     };
@@ -91,7 +70,6 @@ static int train(int argc, char **argv) {
         cli_parse_documented("swingar-sdf train", &train_doc, argc, argv, opts, NULL, 0, &npos);
     if (rc != CLI_OK) return rc;
     if (!d.checkpoint) return cli_usage("swingar-sdf train", "missing -o FILE");
-    d.model.width = width;
     d.steps = steps;
     d.stop_at = stop;
     d.checkpoint_every = every;
@@ -110,7 +88,7 @@ static int train(int argc, char **argv) {
     if (json) {
         cJSON *j = cJSON_CreateObject();
         cJSON_AddStringToObject(j, "command", "swingar-sdf train");
-        cJSON_AddNumberToObject(j, "width", width);
+        cJSON_AddNumberToObject(j, "width", d.model.width);
         cJSON_AddNumberToObject(j, "articulated", d.model.articulated);
         cJSON_AddNumberToObject(j, "poses", (double)r.poses);
         cJSON_AddNumberToObject(j, "samples", (double)r.samples);

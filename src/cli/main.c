@@ -32,7 +32,7 @@ static const cli_command commands[] = {
      cmd_drape, help_drape, NULL},
     {"gdsr",
      "garment dynamic super-resolution: train on low/high pairs, run on a clip (gdsr paper)",
-     cmd_gdsr, help_gdsr, (const char *const[]){"train", NULL}},
+     cmd_gdsr, help_gdsr, (const char *const[]){"train", "run", NULL}},
     {"epnet", "self-supervised garment dynamics with persistent wrinkles (epnet paper)", cmd_epnet,
      help_epnet, (const char *const[]){"train", NULL}},
     {"garment", "build a garment fitted to the mannequin (tshirt, dress, ...) or fit a user's",

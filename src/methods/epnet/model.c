@@ -27,6 +27,7 @@
 #include "crease/phys_sim.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,6 +106,31 @@ cr_epnet_def cr_epnet_default_def(void) {
     return d;
 }
 
+/* The def's whole-number and rate fields: their ranges (check_def) and the options of
+ * `crease epnet train` with their help (CLI_KEYS). The double-valued weights stay the
+ * command's own rows: parsed as floats they are what model.json holds, which a resume
+ * compares key by key. */
+#define EK(field, type, lo, hi, flag, arg, help)                                                   \
+    { #field, type, offsetof(cr_epnet_def, field), 0, lo, hi, help, flag, arg }
+static const cr_config_key def_keys[] = {
+    EK(garment_vertices, CR_CFG_INT, 100, 100000, "--vertices", "N", "garment vertex count"),
+    EK(frames, CR_CFG_INT, 3, 10000, "--frames", "N", "frames per clip"),
+    EK(cycles, CR_CFG_INT, 1, 100, "--cycles", "N", "curriculum cycles"),
+    EK(enet_epochs, CR_CFG_INT, 0, 100000, "--epochs", "N", "E-Net epochs per cycle"),
+    EK(pnet_epochs, CR_CFG_INT, 0, 100000, "--pnet-epochs", "N", "P-Net epochs per cycle"),
+    EK(baseline, CR_CFG_BOOL, 0, 1, "--baseline", NULL,
+       "RB fixed at zero, no P-Net (PBNS/SNUG/NCS)"),
+    EK(enet_lr, CR_CFG_FLOAT, 1e-7, 1, "--lr", "R", "E-Net Adam learning rate"),
+    EK(seed, CR_CFG_U64, 0, 1e9, "--seed", "S", "initial weights and shuffles"),
+    EK(resume, CR_CFG_BOOL, 0, 1, "--resume", NULL, "continue from DIR's checkpoints"),
+};
+#undef EK
+
+const cr_config_key *cr_epnet_def_keys(int *n) {
+    *n = (int)(sizeof def_keys / sizeof def_keys[0]);
+    return def_keys;
+}
+
 /* ------------------------------------------------------------ create -- */
 
 static cr_status make_mlp(cr_nn_params *P, const char *name, int in, const int *w, int nw, int out,
@@ -130,7 +156,7 @@ static cr_status check_def(const cr_epnet_def *d, cr_error *err) {
     if (d->decoder_layers < 1 || d->decoder_layers > CR_EPNET_MAX_LAYERS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: decoder_layers %d not in 1..%d",
                        d->decoder_layers, CR_EPNET_MAX_LAYERS);
-    if (d->frames < 3) return CR_FAIL(err, CR_ERR_INVALID, "epnet: frames %d < 3", d->frames);
+    CR_TRY(cr_config_check(def_keys, (int)(sizeof def_keys / sizeof def_keys[0]), d, "epnet", err));
     if (d->nmotions < 1 || d->nmotions > CR_EPNET_MAX_MOTIONS)
         return CR_FAIL(err, CR_ERR_INVALID, "epnet: %d motions, expected 1..%d", d->nmotions,
                        CR_EPNET_MAX_MOTIONS);

@@ -12,6 +12,7 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,6 +32,48 @@ cr_gdsr_run_def cr_gdsr_run_default_def(void) {
     d.fps = 30.0f;
     d.cookie = RUN_COOKIE;
     return d;
+}
+
+/* The run def's numeric fields: their ranges (checked by cr_gdsr_run) and the options of
+ * `crease gdsr run` with their help (CLI_KEYS). 0 keeps its meaning where a field has one
+ * (frames: the whole clip; the vertex counts: the dataset's); the rest of those ranges is
+ * checked by hand. */
+#define RK(field, type, lo, hi, flag, arg, help)                                                   \
+    { #field, type, offsetof(cr_gdsr_run_def, field), 0, lo, hi, help, flag, arg }
+static const cr_config_key run_keys[] = {
+    RK(eps, CR_CFG_FLOAT, 0, 0.05, "--eps", "E", "collision margin, m"),
+    RK(relax, CR_CFG_INT, 0, 1000, "--relax", "N",
+       "smoothing steps that spread the collision pushes"),
+    RK(frames, CR_CFG_INT, 0, 1000000, "--frames", "N",
+       "only the clip's first N frames, at least 3 (with --simulate: frames to simulate, "
+       "default 60; 0: the whole clip)"),
+    RK(simulate, CR_CFG_BOOL, 0, 1, "--simulate", NULL,
+       "--motion is a clip name or a motion file (.bvh, .npz, .glb) to simulate the low "
+       "garment on; --dataset (optional) is then the training data whose manifest gives the "
+       "vertex counts, fps and material (else 2000, 8000, 30, cotton)"),
+    RK(reference, CR_CFG_BOOL, 0, 1, "--reference", NULL,
+       "simulate the high resolution too: a reference and the metrics table (slow: the high "
+       "simulation)"),
+    RK(low_vertices, CR_CFG_INT, 0, 100000, "--low-vertices", "N",
+       "with --simulate: the low garment's target vertex count, at least 500 (default 0: the "
+       "dataset's, else 2000)"),
+    RK(high_vertices, CR_CFG_INT, 0, 100000, "--high-vertices", "N",
+       "with --simulate: the high garment's, at least 500 (default 0: the dataset's, else "
+       "8000)"),
+    RK(png_frame, CR_CFG_INT, -1, 1000000, "--png-frame", "F",
+       "the frame of compare.png (default -1: the last)"),
+    RK(png_size, CR_CFG_INT, 16, 4096, "--png-size", "N", "pixels per panel"),
+    RK(glb_max_frames, CR_CFG_INT, 0, 100000, "--glb-max-frames", "N",
+       "gdsr.glb animates up to N frames, else it holds the last frame alone"),
+    RK(fps, CR_CFG_FLOAT, 0.01, 1000, "--fps", "F", "gdsr.glb's playback rate"),
+    RK(quiet, CR_CFG_BOOL, 0, 1, "--quiet", NULL, "no progress"),
+};
+#undef RK
+enum { NRUN_KEYS = sizeof run_keys / sizeof run_keys[0] };
+
+const cr_config_key *cr_gdsr_run_def_keys(int *n) {
+    *n = NRUN_KEYS;
+    return run_keys;
 }
 
 void cr_gdsr_run_report_free(cr_gdsr_run_report *r) {
@@ -358,6 +401,13 @@ cr_status cr_gdsr_run(const cr_gdsr_run_def *def_in, cr_gdsr_run_report *out, cr
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr run: a twin measures a dataset's clip, not a "
                        "simulated one");
+    CR_TRY(cr_config_check(run_keys, NRUN_KEYS, &def, "gdsr run", err));
+    if ((def.frames > 0 && def.frames < 3) || (def.low_vertices > 0 && def.low_vertices < 500) ||
+        (def.high_vertices > 0 && def.high_vertices < 500))
+        return CR_FAIL(err, CR_ERR_INVALID,
+                       "gdsr run: frames %d (0 or at least 3), vertex counts %d, %d (0 or at "
+                       "least 500)",
+                       def.frames, def.low_vertices, def.high_vertices);
     if (!def.simulate && (def.reference || def.low_vertices || def.high_vertices))
         return CR_FAIL(err, CR_ERR_INVALID,
                        "gdsr run: reference, low_vertices and high_vertices need simulate");

@@ -190,6 +190,9 @@ typedef struct cr_swingar_sdf_train_def {
 } cr_swingar_sdf_train_def;
 
 cr_swingar_sdf_train_def cr_swingar_sdf_train_default_def(void);
+/* Its whole-number and rate fields as a table: the options of `crease swingar-sdf train`
+ * with their ranges and help; n gets its length. */
+const cr_config_key *cr_swingar_sdf_train_def_keys(int *n);
 
 typedef struct cr_swingar_sdf_train_result {
     int64_t steps;                      /* steps done in total (resumed ones included) */

@@ -24,6 +24,7 @@
 #include "crease/nn_optim.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -52,6 +53,37 @@ cr_swingar_sdf_train_def cr_swingar_sdf_train_default_def(void) {
                                       .seed = 1,
                                       .checkpoint_every = 200,
                                       .cookie = TRAIN_DEF_COOKIE};
+}
+
+/* The train def's whole-number and rate fields: the options of `crease swingar-sdf train`
+ * with their ranges and help (CLI_KEYS). */
+#define TK(field, type, lo, hi, flag, arg, help)                                                   \
+    { #field, type, offsetof(cr_swingar_sdf_train_def, field), 0, lo, hi, help, flag, arg }
+static const cr_config_key train_keys[] = {
+    TK(model.width, CR_CFG_INT, 2, 4096, "--width", "W", "layer width"),
+    TK(model.articulated, CR_CFG_INT, 0, 2, "--articulated", "N",
+       "0: the paper's position input; joint-frame inputs (not the paper's): 1 all 22 frames, "
+       "2 weighted by bone nearness (docs/swingar_sdf.md)"),
+    TK(model.tau, CR_CFG_FLOAT, 1e-4, 10, "--tau", "T",
+       "bone-weight temperature of --articulated 2"),
+    TK(batch, CR_CFG_INT, 1, 1 << 20, "--batch", "B", "points per step"),
+    TK(lr, CR_CFG_FLOAT, 1e-9, 10, "--lr", "R", "peak learning rate"),
+    TK(clip_frames, CR_CFG_INT, 1, 100000, "--frames", "N", "frames per procedural clip"),
+    TK(frame_stride, CR_CFG_INT, 1, 100000, "--stride", "K", "train on every K-th frame"),
+    TK(samples_surface, CR_CFG_INT, 0, 10000000, "--surface", "N",
+       "samples per pose on the surface"),
+    TK(samples_near, CR_CFG_INT, 0, 10000000, "--near", "N", "samples per pose near it"),
+    TK(samples_space, CR_CFG_INT, 0, 10000000, "--space", "N",
+       "samples per pose in the box around the body"),
+    TK(body_resolution, CR_CFG_INT, 32, 512, "--resolution", "N", "mannequin resolution"),
+    TK(resume, CR_CFG_BOOL, 0, 1, "--resume", NULL, "continue from -o FILE when it exists"),
+    TK(quiet, CR_CFG_BOOL, 0, 1, "--quiet", NULL, "no progress"),
+};
+#undef TK
+
+const cr_config_key *cr_swingar_sdf_train_def_keys(int *n) {
+    *n = (int)(sizeof train_keys / sizeof train_keys[0]);
+    return train_keys;
 }
 
 /* The training points: pos (M,3) body frame, m; row (M) pose index; s (M);

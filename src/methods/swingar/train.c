@@ -174,6 +174,30 @@ cr_swingar_train_def cr_swingar_train_default_def(void) {
     return d;
 }
 
+/* The train def's numeric fields: the options of `crease swingar train` with their
+ * ranges and help (CLI_KEYS). */
+#define TK(field, type, lo, hi, flag, arg, help)                                                   \
+    { #field, type, offsetof(cr_swingar_train_def, field), 0, lo, hi, help, flag, arg }
+static const cr_config_key train_keys[] = {
+    TK(epochs, CR_CFG_INT, 1, 1000000, "--epochs", "N", "epochs"),
+    TK(window, CR_CFG_INT, 1, SWG_MAX_WINDOW, "--window", "K", "frames predicted per sample"),
+    TK(batch, CR_CFG_INT, 1, 100000, "--batch", "B", "samples per Adam step"),
+    TK(lr, CR_CFG_FLOAT, 1e-8, 1, "--lr", "X", "Adam's rate, cosine-annealed to 0"),
+    TK(stall_epochs, CR_CFG_INT, 0, 1000000, "--stall-epochs", "N",
+       "vertex loss alone until the vertex error improves by less than --stall-rel over N "
+       "epochs (default a tenth of the epochs, at least 2, and at the latest after half of "
+       "them; the paper's 50 are a sliver of its run)"),
+    TK(stall_rel, CR_CFG_FLOAT, 0, 1, "--stall-rel", "X", "that relative improvement"),
+    TK(seed, CR_CFG_U64, 0, 2147483647, "--seed", "N", "initialisation and shuffling"),
+    TK(quiet, CR_CFG_BOOL, 0, 1, "--quiet", NULL, "no progress bar"),
+};
+#undef TK
+
+const cr_config_key *cr_swingar_train_def_keys(int *n) {
+    *n = (int)(sizeof train_keys / sizeof train_keys[0]);
+    return train_keys;
+}
+
 typedef struct window {
     int32_t seq, t0, K;
 } window;
