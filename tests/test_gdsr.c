@@ -221,8 +221,9 @@ CR_TEST(gdsr, tiny_model_lowers_its_loss) {
     CR_CHECK_OK(cr_gdsr_train(&def, &d, &r, &err), &err);
     CR_CHECK(r.epochs == 8);
     CR_CHECK(r.last_loss < 0.7 * r.first_loss);
-    CR_CHECK(r.last_coarse_normal > 0 && r.last_coarse_bend > 0 && r.last_coarse_strain > 0 &&
-             r.last_coarse_smooth > 0);
+    CR_CHECK(
+        r.last_term[CR_GDSR_TERM_COARSE_NORMAL] > 0 && r.last_term[CR_GDSR_TERM_COARSE_BEND] > 0 &&
+        r.last_term[CR_GDSR_TERM_COARSE_STRAIN] > 0 && r.last_term[CR_GDSR_TERM_COARSE_SMOOTH] > 0);
     /* the model file loads and rolls out; outside the body after handling */
     char path[1100];
     snprintf(path, sizeof path, "%s/model.safetensors", dir);

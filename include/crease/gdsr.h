@@ -326,16 +326,34 @@ const cr_config_key *cr_gdsr_train_def_keys(int *n);
 /* lambda_c and lambda_w of Eq. 25 at epoch ep (0-based) under def's schedule. */
 void cr_gdsr_lambdas(const cr_gdsr_train_def *def, int ep, float *lambda_c, float *lambda_w);
 
+/* The loss terms of a training step, by name: the coarse L1 (Eq. 13), the fine garment's
+ * L1, normals and regularisers, the experimental ones, and the experimental coarse terms
+ * on C^. Their names are log.jsonl's and --json's keys. */
+typedef enum cr_gdsr_term {
+    CR_GDSR_TERM_COARSE,
+    CR_GDSR_TERM_FINE,
+    CR_GDSR_TERM_NORMAL,
+    CR_GDSR_TERM_STRETCH,
+    CR_GDSR_TERM_SHEAR,
+    CR_GDSR_TERM_BEND,
+    CR_GDSR_TERM_LAPLACIAN,
+    CR_GDSR_TERM_STRAIN_L1,
+    CR_GDSR_TERM_WRINKLE,
+    CR_GDSR_TERM_COARSE_NORMAL,
+    CR_GDSR_TERM_COARSE_SMOOTH,
+    CR_GDSR_TERM_COARSE_BEND,
+    CR_GDSR_TERM_COARSE_STRAIN,
+    CR_GDSR_NTERMS
+} cr_gdsr_term;
+extern const char *const cr_gdsr_term_names[CR_GDSR_NTERMS];
+
 typedef struct cr_gdsr_train_result {
-    int epochs;        /* completed (including resumed ones) */
-    int resumed_from;  /* epoch the run resumed at (0: fresh) */
-    double first_loss; /* mean loss of the first epoch this call ran */
-    double last_loss;  /* of the last */
-    double last_coarse, last_fine, last_normal;
-    double last_stretch, last_shear, last_bend, last_laplacian; /* unweighted means */
-    double last_strain_l1, last_wrinkle;                        /* (0 when their weight is) */
-    double last_coarse_normal, last_coarse_smooth, last_coarse_bend,
-        last_coarse_strain; /* the coarse terms on C^, unweighted (0 when their weight is) */
+    int epochs;                       /* completed (including resumed ones) */
+    int resumed_from;                 /* epoch the run resumed at (0: fresh) */
+    double first_loss;                /* mean loss of the first epoch this call ran */
+    double last_loss;                 /* of the last */
+    double last_term[CR_GDSR_NTERMS]; /* the last epoch's mean of each term, unweighted (0 when
+                                         its weight is) */
     double last_val_med, val_upsampled_med; /* m, over the validation clips (NAN: none) */
     double seconds;
     int64_t params;

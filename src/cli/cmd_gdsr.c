@@ -141,8 +141,10 @@ static int cmd_train(int argc, char **argv) {
             "%.3g, bend %.3g, laplacian %.3g m), %.1f s\n  %s/model.safetensors\n",
             (long long)r.params, ng, ng > 1 ? "s" : "", tr.low_vertices[0], tr.high_vertices[0],
             ng > 1 ? " the first" : "", r.resumed_from, r.epochs, r.first_loss, r.last_loss,
-            r.last_coarse, r.last_fine, r.last_normal, r.last_stretch, r.last_shear, r.last_bend,
-            r.last_laplacian, r.seconds, def.out_dir);
+            r.last_term[CR_GDSR_TERM_COARSE], r.last_term[CR_GDSR_TERM_FINE],
+            r.last_term[CR_GDSR_TERM_NORMAL], r.last_term[CR_GDSR_TERM_STRETCH],
+            r.last_term[CR_GDSR_TERM_SHEAR], r.last_term[CR_GDSR_TERM_BEND],
+            r.last_term[CR_GDSR_TERM_LAPLACIAN], r.seconds, def.out_dir);
     if (dd.nval > 0)
         fprintf(stderr, "  held-out MED %.5f m, upsampling's %.5f m\n", r.last_val_med,
                 r.val_upsampled_med);

@@ -115,4 +115,7 @@ cr_status cr_epnet_render_(const cr_epnet *m, const float *pos, const float *bod
                            const cr_mesh *body_rest, const float *scalar, int size, float yaw_deg,
                            cr_image *img, cr_error *err);
 
+/* data.c: the garment's skinned positions (V,3) of frame t of s: A_t[v] p[v] + b_t[v]. */
+void cr_epnet_skinned_frame_(const cr_epnet *m, const cr_epnet_seq *s, int32_t t, float *out);
+
 #endif

@@ -186,4 +186,21 @@ cr_status cr_gdsr_validate(cr_gdsr_model *m, const cr_gdsr_data *d, int first, d
 int64_t cr_gdsr_layer_push(const cr_gdsr_data *d, float *chat, float *x, float sigma, float gamma,
                            int surface, int64_t *fine_pushed, cr_error *err);
 
+/* measure.c: one row of gdsr run's table, the prediction pred (T,Vh,3) of clip cl against
+ * its high reference from frame 2 on, into table[name] (and its log line); with an outfit
+ * the layer crossings too. */
+struct cJSON;
+void cr_gdsr_measure_header_(void); /* the table's header line, logged */
+cr_status cr_gdsr_measure_row_(const cr_gdsr_data *d, const cr_gdsr_clip *cl, const float *pred,
+                               const char *name, struct cJSON *table, cr_error *err);
+/* The edge-face crossings between the layers of frames 2.. of x (T,Vh,3): their mean and
+ * largest count a frame and the frames with any, into o. */
+cr_status cr_gdsr_measure_crossings_(const cr_gdsr_data *d, const float *x, int32_t T,
+                                     struct cJSON *o, const char *name, cr_error *err);
+/* E_u, E_v, E_uv of every frame of gdsr and of upsampling: out/strain.csv, out/strain.png
+ * and j's "strain" (the last frame against frame 2's: the drift). */
+cr_status cr_gdsr_measure_strain_(const cr_gdsr_data *d, const cr_gdsr_clip *cl,
+                                  const cr_gdsr_rollout_result *r, const char *out, struct cJSON *j,
+                                  cr_error *err);
+
 #endif

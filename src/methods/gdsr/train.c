@@ -396,7 +396,11 @@ static cr_status check_train(const cr_gdsr_train_def *def, const cr_gdsr_data *c
 /* The loss terms, in the order of the log and the result: the coarse L1,
  * the fine L1, the normal term, the fine garment's six regularisers, C^'s
  * four. */
-enum { NTERMS = 13 };
+enum { NTERMS = CR_GDSR_NTERMS };
+const char *const cr_gdsr_term_names[CR_GDSR_NTERMS] = {
+    "coarse_l1_m",   "fine_l1_m",      "normal_l1",       "stretch", "shear",
+    "bend",          "laplacian_l1_m", "strain_l1",       "wrinkle", "coarse_normal_l1",
+    "coarse_smooth", "coarse_bend",    "coarse_strain_l1"};
 
 /* What a training run holds, released together. */
 typedef struct train_run {
@@ -498,27 +502,15 @@ static void end_epoch(const train_run *r, int ep, float lam_c, float lam_w, doub
     const double n = (double)r->n;
     out->epochs = ep + 1;
     out->last_loss = r->sum[0] / n;
-    double *last[NTERMS] = {
-        &out->last_coarse,        &out->last_fine,          &out->last_normal,
-        &out->last_stretch,       &out->last_shear,         &out->last_bend,
-        &out->last_laplacian,     &out->last_strain_l1,     &out->last_wrinkle,
-        &out->last_coarse_normal, &out->last_coarse_smooth, &out->last_coarse_bend,
-        &out->last_coarse_strain};
-    for (int q = 0; q < NTERMS; q++)
-        *last[q] = r->sum[1 + q] / n;
+    fprintf(log, "{\"epoch\":%d,\"loss\":%.9g,", ep + 1, out->last_loss);
+    for (int q = 0; q < NTERMS; q++) {
+        out->last_term[q] = r->sum[1 + q] / n;
+        fprintf(log, "\"%s\":%.9g,", cr_gdsr_term_names[q], out->last_term[q]);
+    }
     fprintf(log,
-            "{\"epoch\":%d,\"loss\":%.9g,\"coarse_l1_m\":%.9g,\"fine_l1_m\":%.9g,"
-            "\"normal_l1\":%.9g,\"stretch\":%.9g,\"shear\":%.9g,\"bend\":%.9g,"
-            "\"laplacian_l1_m\":%.9g,\"strain_l1\":%.9g,\"wrinkle\":%.9g,"
-            "\"coarse_normal_l1\":%.9g,\"coarse_smooth\":%.9g,\"coarse_bend\":%.9g,"
-            "\"coarse_strain_l1\":%.9g,"
             "\"lambda_c\":%.3g,\"lambda_w\":%.3g,\"val_med_m\":%.9g,"
             "\"val_upsampled_med_m\":%.9g,\"lr\":%.6g,\"seconds\":%.3f}\n",
-            ep + 1, out->last_loss, out->last_coarse, out->last_fine, out->last_normal,
-            out->last_stretch, out->last_shear, out->last_bend, out->last_laplacian,
-            out->last_strain_l1, out->last_wrinkle, out->last_coarse_normal,
-            out->last_coarse_smooth, out->last_coarse_bend, out->last_coarse_strain, (double)lam_c,
-            (double)lam_w, isnan(out->last_val_med) ? -1.0 : out->last_val_med,
+            (double)lam_c, (double)lam_w, isnan(out->last_val_med) ? -1.0 : out->last_val_med,
             isnan(out->val_upsampled_med) ? -1.0 : out->val_upsampled_med,
             (double)cr_optim_lr(r->opt), seconds);
     fflush(log);
@@ -632,8 +624,8 @@ cr_status cr_gdsr_train_many(const cr_gdsr_train_def *def, const cr_gdsr_data *c
                 stderr,
                 "\rgdsr train: epoch %d/%d loss %.4g (coarse %.3g m, fine %.3g m, val MED %.4g m "
                 "vs upsampling %.4g m)",
-                ep + 1, def->epochs, out->last_loss, out->last_coarse, out->last_fine,
-                out->last_val_med, out->val_upsampled_med);
+                ep + 1, def->epochs, out->last_loss, out->last_term[CR_GDSR_TERM_COARSE],
+                out->last_term[CR_GDSR_TERM_FINE], out->last_val_med, out->val_upsampled_med);
         int every = def->checkpoint_every;
         if ((every > 0 && (ep + 1) % every == 0) || ep + 1 == def->epochs)
             st = save_checkpoint(&r, ckpt, ep + 1, (float)out->last_loss, err);
@@ -766,25 +758,16 @@ static char *train_summary(const cr_gdsr_train_dataset_def *data,
     const struct {
         const char *key;
         double value;
-    } rows[] = {{"epochs", r->epochs},
-                {"resumed_from", r->resumed_from},
-                {"first_loss", r->first_loss},
-                {"loss", r->last_loss},
-                {"coarse_l1_m", r->last_coarse},
-                {"fine_l1_m", r->last_fine},
-                {"normal_l1", r->last_normal},
-                {"stretch", r->last_stretch},
-                {"shear", r->last_shear},
-                {"bend", r->last_bend},
-                {"laplacian_l1_m", r->last_laplacian},
-                {"strain_l1", r->last_strain_l1},
-                {"wrinkle", r->last_wrinkle},
-                {"coarse_normal_l1", r->last_coarse_normal},
-                {"coarse_smooth", r->last_coarse_smooth},
-                {"coarse_bend", r->last_coarse_bend},
-                {"coarse_strain_l1", r->last_coarse_strain}};
+    } rows[] = {
+        {"epochs", r->epochs},
+        {"resumed_from", r->resumed_from},
+        {"first_loss", r->first_loss},
+        {"loss", r->last_loss},
+    };
     for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++)
         cJSON_AddNumberToObject(j, rows[i].key, rows[i].value);
+    for (int q = 0; q < NTERMS; q++)
+        cJSON_AddNumberToObject(j, cr_gdsr_term_names[q], r->last_term[q]);
     if (data->nval > 0) {
         cJSON_AddNumberToObject(j, "val_med_m", r->last_val_med);
         cJSON_AddNumberToObject(j, "val_upsampled_med_m", r->val_upsampled_med);
