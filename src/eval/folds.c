@@ -1,5 +1,5 @@
 /* folds.c: fold measures a chaotic reference can be held to, and the hem's
- * swing (docs/eval.md, "Folds" and "Hem swing").
+ * swing (docs/eval.md, "Folds", its `hem` row).
  *
  * A garment's folds are chosen chaotically in its first frames: the same
  * simulation from a start moved 0.1 mm folds one hinge over
