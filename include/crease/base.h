@@ -225,6 +225,11 @@ typedef struct cr_config_key {
     const char *arg;
 } cr_config_key;
 
+/* A key of a table describing struct `type_`, named as its field: the one place the
+ * key's layout is spelt. flag_ and arg_ NULL: not on a command line. */
+#define CR_CONFIG_KEY(type_, field_, cfg_type_, min_, max_, flag_, arg_, help_)                    \
+    { #field_, cfg_type_, offsetof(type_, field_), 0, min_, max_, help_, flag_, arg_ }
+
 /* Parse `json_text` (from `source`, a file name used in messages) into `out`. */
 cr_status cr_config_parse(const char *json_text, const char *source, const cr_config_key *keys,
                           int nkeys, void *out, cr_error *err);

@@ -311,6 +311,10 @@ typedef struct cr_eval_table {
     const cr_eval_admission *admission; /* may be NULL */
 } cr_eval_table;
 
+/* The mean and spread (sample standard deviation, NAN for fewer than two) of v[0..n),
+ * non-finite values skipped: what the table reports over seeds. */
+void cr_eval_mean_spread(const double *v, int n, double *mean, double *spread);
+
 /* The table as JSON (text, caller frees with free()): "seeds": {n, "metrics":
  * {key: {mean, spread, min, max}}} over the predictions (spread: the sample
  * standard deviation, null for one seed), "retention" and "hem_amplitude_m" and

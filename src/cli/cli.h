@@ -144,11 +144,10 @@ typedef struct cli_opt {
 #define CLI_KEYS(keys_, n_, base_)                                                                 \
     { .name = "", .kind = CLI_OPT_KEYS, .keys = (keys_), .nkeys = (n_), .dst = (base_) }
 /* -o FILE / --output FILE, the output of every command. */
+#define CLI_ROW_OUTPUT(dst_)                                                                       \
+    .name = "-o", .alias = "--output", .kind = CLI_OPT_STRING, .dst = CLI_PTR_(const char *, dst_)
 #define CLI_OUTPUT(dst_)                                                                           \
-    {                                                                                              \
-        .name = "-o", .alias = "--output", .kind = CLI_OPT_STRING,                                 \
-        .dst = CLI_PTR_(const char *, dst_)                                                        \
-    }
+    { CLI_ROW_OUTPUT(dst_) }
 /* --solver's values (cli_common.c): "newton", "vbd", NULL; parse with cr_sim_solver_parse. */
 extern const char *const cli_solvers[];
 /* --self-contact on|off and --self-contact-thickness M (simulate, drape-static, dataset):

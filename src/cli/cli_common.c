@@ -87,28 +87,35 @@ static void key_row(const cli_opt *r, const cr_config_key *k, cli_opt *out) {
     if (k->type == CR_CFG_U64 && k->min > k->max) out->lo = 0, out->hi = 9007199254740992.0;
 }
 
-/* Option i of the table (KEYS rows expanded into their keys with a flag), in *scratch when
- * it is a key's; NULL past the end. */
-static const cli_opt *nth_opt(const cli_opt *opts, int i, cli_opt *scratch) {
-    for (const cli_opt *o = opts; o->name; o++) {
-        if (o->kind != CLI_OPT_KEYS) {
-            if (i-- == 0) return o;
+/* The options of a table in order, KEYS rows expanded into their keys with a flag. */
+typedef struct opt_iter {
+    const cli_opt *row; /* the current row */
+    int key;            /* within a KEYS row: the next key to look at */
+    cli_opt scratch;    /* the option a key stands for */
+} opt_iter;
+
+/* The next option (in it->scratch when it is a key's), or NULL past the end. */
+static const cli_opt *opt_next(opt_iter *it) {
+    for (; it->row->name; it->row++, it->key = 0) {
+        if (it->row->kind != CLI_OPT_KEYS) {
+            if (it->key++ == 0) return it->row;
             continue;
         }
-        for (int k = 0; k < o->nkeys; k++)
-            if (o->keys[k].flag && i-- == 0) {
-                key_row(o, &o->keys[k], scratch);
-                return scratch;
-            }
+        while (it->key < it->row->nkeys) {
+            const cr_config_key *k = &it->row->keys[it->key++];
+            if (!k->flag) continue;
+            key_row(it->row, k, &it->scratch);
+            return &it->scratch;
+        }
     }
     return NULL;
 }
 
-/* The row whose name or alias is `name` (the first len characters), or NULL. */
-static const cli_opt *find_opt(const cli_opt *opts, const char *name, size_t len,
-                               cli_opt *scratch) {
-    const cli_opt *o;
-    for (int i = 0; (o = nth_opt(opts, i, scratch)) != NULL; i++) {
+/* The option whose name or alias is `name` (the first len characters), in it->scratch
+ * when it is a key's, or NULL. */
+static const cli_opt *find_opt(const cli_opt *opts, const char *name, size_t len, opt_iter *it) {
+    *it = (opt_iter){.row = opts};
+    for (const cli_opt *o; (o = opt_next(it)) != NULL;) {
         if (strlen(o->name) == len && strncmp(o->name, name, len) == 0) return o;
         if (o->alias && strlen(o->alias) == len && strncmp(o->alias, name, len) == 0) return o;
     }
@@ -196,8 +203,8 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_opt *opts, const
         /* --name=value: the value is glued on. */
         const char *eq = arg[1] == '-' ? strchr(arg, '=') : NULL;
         size_t len = eq ? (size_t)(eq - arg) : strlen(arg);
-        cli_opt scratch;
-        const cli_opt *o = find_opt(opts, arg, len, &scratch);
+        opt_iter it;
+        const cli_opt *o = find_opt(opts, arg, len, &it);
         if (!o) return cli_usage(cmd, "unknown option '%.*s'", (int)len, arg);
         int want = o->kind == CLI_OPT_FLAG                       ? 0
                    : o->kind == CLI_OPT_CUSTOM && o->nvalues > 1 ? o->nvalues
@@ -274,9 +281,8 @@ static void print_wrapped(FILE *fp, const char *text, int col, int indent, int w
 
 void cli_print_options(FILE *fp, const cli_opt *opts) {
     enum { INDENT = 23, WIDTH = 92 };
-    cli_opt scratch;
-    const cli_opt *o;
-    for (int i = 0; (o = nth_opt(opts, i, &scratch)) != NULL; i++) {
+    opt_iter it = {.row = opts};
+    for (const cli_opt *o; (o = opt_next(&it)) != NULL;) {
         if (!o->help) continue;
         if (o->kind == CLI_OPT_HEADING) {
             fprintf(fp, "%s:\n", o->help);

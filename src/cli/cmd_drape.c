@@ -154,7 +154,7 @@ int cmd_drape(int argc, char **argv) {
         CLI_KEYS(k[CR_DRAPE_KEYS_CONVERGENCE], n[CR_DRAPE_KEYS_CONVERGENCE], &def),
         {CLI_ROW_FLAG("--no-stop", &no_stop), .help = "train to --epochs whatever the convergence"},
         CLI_HEADING("outputs"),
-        {CLI_ROW_STR("-o", &def.out_dir), .alias = "--output", .arg = "DIR",
+        {CLI_ROW_OUTPUT(&def.out_dir), .arg = "DIR",
          .help = "drape.obj, drape.glb, drape.png, loss.png, loss.jsonl, sampler.png, "
                  "checkpoint.safetensors"},
         CLI_KEYS(k[CR_DRAPE_KEYS_OUTPUTS], n[CR_DRAPE_KEYS_OUTPUTS], &def),

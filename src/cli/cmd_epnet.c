@@ -102,7 +102,7 @@ static int run_train(int argc, char **argv) {
         {CLI_ROW_FLAG("--paper-sizes", &paper),
          .help = "the authors' layer widths (static 64-128-256-512, GRU 512, decoder 3x512, "
                  "P-Net latent 128 with 2 hidden layers)"},
-        {CLI_ROW_STR("-o", &out), .alias = "--output", .arg = "DIR",
+        {CLI_ROW_OUTPUT(&out), .arg = "DIR",
          .help = "the model folder: model.json, the weights, progress.jsonl, checkpoints"},
         {CLI_ROW_FLAG("--json", &json), .help = "a summary on stdout"},
         CLI_END,

@@ -85,8 +85,7 @@ static int cmd_train(int argc, char **argv) {
          .help = "edges between low vertices of different garment layers (connected "
                  "components) closer than --sigma-l, a third edge set of H (auto: on when the "
                  "garment has two layers)"},
-        {CLI_ROW_STR("-o", &def.out_dir), .alias = "--output", .arg = "OUT",
-         .help = "the model folder"},
+        {CLI_ROW_OUTPUT(&def.out_dir), .arg = "OUT", .help = "the model folder"},
         {CLI_ROW_FLAG("--quiet", &quiet), .help = "no progress"},
         {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
@@ -181,7 +180,7 @@ static int cmd_run(int argc, char **argv) {
                  "open edges"},
         CLI_KEYS(keys, nkeys, &d),
         CLI_MOTION_FILE_OPTS(&mf),
-        {CLI_ROW_STR("-o", &d.out_dir), .alias = "--output", .arg = "DIR", .help = "the outputs"},
+        {CLI_ROW_OUTPUT(&d.out_dir), .arg = "DIR", .help = "the outputs"},
         {CLI_ROW_FLAG("--json", &json), .help = "end with a JSON summary on stdout"},
         CLI_END,
     };

@@ -66,7 +66,7 @@ static int cmd_train(int argc, char **argv) {
     const cli_opt opts[] = {
         {CLI_ROW_STR("--dataset", &dataset), .arg = "DIR",
          .help = "a dataset written by `crease dataset`"},
-        {CLI_ROW_STR("-o", &out), .alias = "--output", .arg = "MODEL",
+        {CLI_ROW_OUTPUT(&out), .arg = "MODEL",
          .help = "the model, a resumable checkpoint written every epoch"},
         {CLI_ROW_STR("--resume", &resume), .arg = "MODEL",
          .help = "continue a checkpoint (its widths and descriptor are used)"},
@@ -247,7 +247,7 @@ static int cmd_measure(int argc, char **argv) {
         {CLI_ROW_FLAG("--raw", &d.raw),
          .help = "the network's output as it is (by default collisions are removed, as `swingar "
                  "run` does)"},
-        {CLI_ROW_STR("-o", &d.out_dir), .alias = "--output", .arg = "OUT", .help = "tables"},
+        {CLI_ROW_OUTPUT(&d.out_dir), .arg = "OUT", .help = "tables"},
         {CLI_ROW_FLAG("--json", &json), .help = "end with the summary on stdout"},
         CLI_END,
     };

@@ -48,7 +48,7 @@ static int train(int argc, char **argv) {
     int json = 0, steps = (int)d.steps, stop = 0, seed = 1, every = 200, npos = 0, nkeys = 0;
     const cr_config_key *keys = cr_swingar_sdf_train_def_keys(&nkeys);
     const cli_opt opts[] = {
-        {CLI_ROW_STR("-o", &d.checkpoint), .alias = "--output", .arg = "FILE",
+        {CLI_ROW_OUTPUT(&d.checkpoint), .arg = "FILE",
          .help = "model and resumable checkpoint (safetensors)"},
         {CLI_ROW_STR("--motions", &d.motions), .arg = "LIST",
          .help = "clips or motion files, comma-separated"},

@@ -55,6 +55,11 @@ static stats stats_of(const double *v, int n) {
     return s;
 }
 
+void cr_eval_mean_spread(const double *v, int n, double *mean, double *spread) {
+    stats s = stats_of(v, n);
+    *mean = s.mean, *spread = s.spread;
+}
+
 /* What one row shows of a result: a metric's mean, or a summary-level figure. */
 enum { FIG_RETENTION = -1, FIG_HEM = -2, FIG_BAND0 = -100 };
 

@@ -104,8 +104,7 @@ cr_drape_def cr_drape_default_def(cr_drape_scene scene) {
  * `crease drape` with their help (CLI_KEYS). Ranges a field's meaning narrows further
  * (grid_resolution by grid_levels, lr_final by lr, the auto values of cloth_size and
  * lr_final) are checked by hand below. */
-#define DK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_drape_def, field), 0, lo, hi, help, flag, arg }
+#define DK(...) CR_CONFIG_KEY(cr_drape_def, __VA_ARGS__)
 #define WEIGHT(name, field, hi)                                                                    \
     { name, CR_CFG_FLOAT, offsetof(cr_drape_def, w.field), 0, 0, hi, NULL, NULL, NULL }
 static const cr_config_key scene_keys[] = {

@@ -111,8 +111,7 @@ cr_epnet_def cr_epnet_default_def(void) {
  * `crease epnet train` with their help (CLI_KEYS). The double-valued weights stay the
  * command's own rows: parsed as floats they are what model.json holds, which a resume
  * compares key by key. */
-#define EK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_epnet_def, field), 0, lo, hi, help, flag, arg }
+#define EK(...) CR_CONFIG_KEY(cr_epnet_def, __VA_ARGS__)
 static const cr_config_key def_keys[] = {
     EK(garment_vertices, CR_CFG_INT, 100, 100000, "--vertices", "N", "garment vertex count"),
     EK(frames, CR_CFG_INT, 3, 10000, "--frames", "N", "frames per clip"),

@@ -439,8 +439,7 @@ cr_tensor *cr_gdsr_forward(cr_nn_ctx *ctx, cr_gdsr_model *m, const cr_gdsr_data 
 
 /* Every stored field of the def, in the order written (ranges: cr_gdsr_model_def_validate). */
 static const cr_config_key def_keys[] = {
-#define K(name, type)                                                                              \
-    { #name, type, offsetof(cr_gdsr_model_def, name), 0, 1, 0, NULL, NULL, NULL }
+#define K(name, type) CR_CONFIG_KEY(cr_gdsr_model_def, name, type, 1, 0, NULL, NULL, NULL)
     K(latent, CR_CFG_INT),         K(steps, CR_CFG_INT),
     K(mlp_hidden, CR_CFG_INT),     K(decoder_features, CR_CFG_INT),
     K(hyper_features, CR_CFG_INT), K(gen_hidden, CR_CFG_INT),

@@ -38,8 +38,7 @@ cr_gdsr_run_def cr_gdsr_run_default_def(void) {
  * `crease gdsr run` with their help (CLI_KEYS). 0 keeps its meaning where a field has one
  * (frames: the whole clip; the vertex counts: the dataset's); the rest of those ranges is
  * checked by hand. */
-#define RK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_gdsr_run_def, field), 0, lo, hi, help, flag, arg }
+#define RK(...) CR_CONFIG_KEY(cr_gdsr_run_def, __VA_ARGS__)
 static const cr_config_key run_keys[] = {
     RK(eps, CR_CFG_FLOAT, 0, 0.05, "--eps", "E", "collision margin, m"),
     RK(relax, CR_CFG_INT, 0, 1000, "--relax", "N",

@@ -51,8 +51,7 @@ cr_gdsr_train_def cr_gdsr_train_default_def(void) {
 /* The train def's fields: their ranges (checked by check_train), and the options of
  * `crease gdsr train` with their help (CLI_KEYS). The model's sizes and seed are here as
  * options; model.c's table is what a model file stores. */
-#define TK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_gdsr_train_def, field), 0, lo, hi, help, flag, arg }
+#define TK(...) CR_CONFIG_KEY(cr_gdsr_train_def, __VA_ARGS__)
 static const cr_config_key train_keys[] = {
     TK(epochs, CR_CFG_INT, 1, 100000, "--epochs", "N", "passes over every training frame"),
     TK(lr, CR_CFG_FLOAT, 1e-8, 1, "--lr", "R",

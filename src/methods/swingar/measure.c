@@ -194,17 +194,6 @@ static cr_status measure_sequence(const cr_swingar_measure_def *def, const measu
     return st;
 }
 
-/* Mean and sample standard deviation of x[0..n) (spread NAN for one value). */
-static void mean_spread(const double *x, int n, double *mean, double *spread) {
-    double s = 0, q = 0;
-    for (int i = 0; i < n; i++)
-        s += x[i];
-    *mean = s / n;
-    for (int i = 0; i < n; i++)
-        q += (x[i] - *mean) * (x[i] - *mean);
-    *spread = n > 1 ? sqrt(q / (n - 1)) : NAN;
-}
-
 static cJSON *num(double v) {
     return isfinite(v) ? cJSON_CreateNumber(v) : cJSON_CreateNull();
 }
@@ -227,8 +216,8 @@ static cr_status summarise(const cr_swingar_measure_def *def, const row *rows,
     memset(rep, 0, sizeof *rep);
     rep->sequences = n, rep->skinned_cm = sk, rep->twin_cm = def->twin ? tw : NAN;
     rep->inside_after = def->raw ? NAN : inside;
-    mean_spread(seed_cm, def->nmodels, &rep->model_cm, &rep->model_cm_spread);
-    mean_spread(removed, def->nmodels, &rep->removed, &rep->removed_spread);
+    cr_eval_mean_spread(seed_cm, def->nmodels, &rep->model_cm, &rep->model_cm_spread);
+    cr_eval_mean_spread(removed, def->nmodels, &rep->removed, &rep->removed_spread);
     if (def->print) {
         fprintf(def->print, "\nE_dist, cm, over %d sequence%s (%d seed%s, %s):\n\n", n,
                 n == 1 ? "" : "s", def->nmodels, def->nmodels == 1 ? "" : "s",
@@ -237,7 +226,7 @@ static cr_status summarise(const cr_swingar_measure_def *def, const row *rows,
                             "|---|---|---|---|---|---|\n");
         for (int i = 0; i < n; i++) {
             double m, sp;
-            mean_spread(rows[i].seed_cm, def->nmodels, &m, &sp);
+            cr_eval_mean_spread(rows[i].seed_cm, def->nmodels, &m, &sp);
             fprintf(def->print, "| %s | %.3f | %.3f | %.3f | %.1f %% | %.3f |\n", ids[i], m, sp,
                     rows[i].skinned_cm, 100 * (1 - m / rows[i].skinned_cm), rows[i].twin_cm);
         }

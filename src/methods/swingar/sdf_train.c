@@ -57,8 +57,7 @@ cr_swingar_sdf_train_def cr_swingar_sdf_train_default_def(void) {
 
 /* The train def's whole-number and rate fields: the options of `crease swingar-sdf train`
  * with their ranges and help (CLI_KEYS). */
-#define TK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_swingar_sdf_train_def, field), 0, lo, hi, help, flag, arg }
+#define TK(...) CR_CONFIG_KEY(cr_swingar_sdf_train_def, __VA_ARGS__)
 static const cr_config_key train_keys[] = {
     TK(model.width, CR_CFG_INT, 2, 4096, "--width", "W", "layer width"),
     TK(model.articulated, CR_CFG_INT, 0, 2, "--articulated", "N",

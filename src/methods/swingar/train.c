@@ -176,8 +176,7 @@ cr_swingar_train_def cr_swingar_train_default_def(void) {
 
 /* The train def's numeric fields: the options of `crease swingar train` with their
  * ranges and help (CLI_KEYS). */
-#define TK(field, type, lo, hi, flag, arg, help)                                                   \
-    { #field, type, offsetof(cr_swingar_train_def, field), 0, lo, hi, help, flag, arg }
+#define TK(...) CR_CONFIG_KEY(cr_swingar_train_def, __VA_ARGS__)
 static const cr_config_key train_keys[] = {
     TK(epochs, CR_CFG_INT, 1, 1000000, "--epochs", "N", "epochs"),
     TK(window, CR_CFG_INT, 1, SWG_MAX_WINDOW, "--window", "K", "frames predicted per sample"),
